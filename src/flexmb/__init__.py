@@ -1,0 +1,28 @@
+"""flexmb: dynamics of large constrained flexible multibody structures.
+
+Kane's equations with partial velocity arrays, closed loops eliminated by
+orthogonal complement arrays (Amirouche & Huston 1988).
+"""
+
+from .bodies import Body, Ground, Marker, RigidBody
+from .complements import COMPLEMENTS, ComplementStrategy, EigenComplement, SVDComplement, get_complement
+from .drivers import Driver
+from .errors import AssemblyError, FlexmbError, ModelError, SimulationError
+from .forces import BodyTorque, ForceElement, Gravity, JointSpringDamper, Loads, PointForce, SpringDamper
+from .joints import Cylindrical, Fixed, Free, Joint, PlanarRevolute, Prismatic, Revolute, Spherical, Universal
+from .model import Model
+from .result import Result
+from .simulate import INTEGRATORS, initial_state, simulate
+from .system import System
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "Body", "Ground", "Marker", "RigidBody",
+    "COMPLEMENTS", "ComplementStrategy", "EigenComplement", "SVDComplement", "get_complement",
+    "Driver",
+    "AssemblyError", "FlexmbError", "ModelError", "SimulationError",
+    "BodyTorque", "ForceElement", "Gravity", "JointSpringDamper", "Loads", "PointForce", "SpringDamper",
+    "Cylindrical", "Fixed", "Free", "Joint", "PlanarRevolute", "Prismatic", "Revolute", "Spherical", "Universal",
+    "Model", "Result", "INTEGRATORS", "initial_state", "simulate", "System",
+]

@@ -1,0 +1,80 @@
+"""Converters and validators shared by the frozen definition classes.
+
+Messages name the element (``RigidBody 'crank': mass must be > 0, got -1``),
+so an error in a large model points at the offending part.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .errors import ModelError
+
+__all__ = ["as_array", "label", "vector3", "matrix33", "positive", "finite_array", "name_check"]
+
+
+def as_array(value) -> np.ndarray:
+    """Copy ``value`` to a read-only float array."""
+    try:
+        arr = np.array(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ModelError(f"expected numbers, got {value!r}") from exc
+    arr.setflags(write=False)
+    return arr
+
+
+def label(instance) -> str:
+    """Return ``Kind 'name'`` for messages."""
+    return f"{type(instance).__name__} {getattr(instance, 'name', '?')!r}"
+
+
+def name_check(instance, attribute, value):
+    """Names are non-empty strings."""
+    if not isinstance(value, str) or not value.strip():
+        raise ModelError(f"{type(instance).__name__}: name must be a non-empty string, got {value!r}")
+
+
+def finite_array(instance, attribute, value):
+    """All entries finite."""
+    if not np.all(np.isfinite(value)):
+        raise ModelError(f"{label(instance)}: {attribute.name} must be finite, got {np.asarray(value).tolist()}")
+
+
+def vector3(instance, attribute, value):
+    """A finite 3-vector."""
+    if value.shape != (3,):
+        raise ModelError(f"{label(instance)}: {attribute.name} must have shape (3,), got {value.shape}")
+    finite_array(instance, attribute, value)
+
+
+def matrix33(instance, attribute, value):
+    """A finite 3x3 matrix."""
+    if value.shape != (3, 3):
+        raise ModelError(f"{label(instance)}: {attribute.name} must have shape (3, 3), got {value.shape}")
+    finite_array(instance, attribute, value)
+
+
+def positive(instance, attribute, value):
+    """A finite number > 0."""
+    if not np.isfinite(value) or not value > 0:
+        raise ModelError(f"{label(instance)}: {attribute.name} must be > 0, got {value!r}")
+
+
+def optional_vector3(instance, attribute, value):
+    """None or a finite 3-vector."""
+    if value is not None:
+        vector3(instance, attribute, value)
+
+
+def rotation_matrix(instance, attribute, value):
+    """None or a proper orthonormal 3x3 matrix."""
+    if value is None:
+        return
+    matrix33(instance, attribute, value)
+    if not np.allclose(value.T @ value, np.eye(3), atol=1e-9) or np.linalg.det(value) < 0:
+        raise ModelError(f"{label(instance)}: {attribute.name} must be a rotation matrix (orthonormal, det +1)")
+
+
+def optional_array(value):
+    """Convert unless None."""
+    return None if value is None else as_array(value)

@@ -1,0 +1,189 @@
+"""Bodies: the ground, rigid bodies, and markers (points and frames on bodies).
+
+A body carries its mass data in its own body frame. Where that frame sits in
+space is decided by the joints: in the reference configuration (all joint
+coordinates zero) each joint's child frame coincides with its parent frame.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from attrs import field, frozen
+
+from ._validate import as_array, label, matrix33, name_check, positive, vector3
+from .errors import ModelError
+
+__all__ = ["Body", "Ground", "RigidBody", "Marker"]
+
+
+@frozen(eq=False)
+class Body:
+    """Base class of everything joints and forces attach to.
+
+    Subclasses must:
+
+    1. give a ``name``;
+    2. provide ``mass`` (kg), ``inertia`` (central inertia tensor in the body
+       frame, kg m^2, shape (3, 3)) and ``com`` (mass centre in the body
+       frame, m, shape (3,)).
+    """
+
+    name: str = field(validator=name_check)
+
+    def marker(self, position=(0.0, 0.0, 0.0), frame=None) -> "Marker":
+        """Return a marker fixed on this body.
+
+        Parameters
+        ----------
+        position : array_like, shape (3,)
+            Position in the body frame, m.
+        frame : array_like, shape (3, 3), optional
+            Orientation in the body frame (columns: marker axes).
+
+        Returns
+        -------
+        Marker
+            The marker.
+        """
+        return Marker(self, position, np.eye(3) if frame is None else frame)
+
+
+@frozen(eq=False)
+class Ground(Body):
+    """The inertial frame. Every model has exactly one, ``model.ground``."""
+
+    name: str = field(default="ground", validator=name_check)
+    mass: float = 0.0
+    inertia: np.ndarray = field(factory=lambda: as_array(np.zeros((3, 3))))
+    com: np.ndarray = field(factory=lambda: as_array(np.zeros(3)))
+
+
+def _check_inertia(instance, attribute, value):
+    matrix33(instance, attribute, value)
+    scale = max(np.abs(value).max(), np.finfo(float).tiny)
+    if not np.allclose(value, value.T, rtol=0, atol=1e-12 * scale):
+        raise ModelError(f"{label(instance)}: inertia must be symmetric, got {value.tolist()}")
+    ev = np.linalg.eigvalsh(value)
+    if ev[0] < -1e-12 * scale:
+        raise ModelError(
+            f"{label(instance)}: inertia must be positive (semi-)definite, "
+            f"principal moments {ev.tolist()}"
+        )
+    if ev[2] > ev[0] + ev[1] + 1e-9 * scale:
+        raise ModelError(
+            f"{label(instance)}: inertia breaks the triangle inequality "
+            f"(largest principal moment {ev[2]:.6g} > sum of the others {ev[0] + ev[1]:.6g}); "
+            "no mass distribution has it"
+        )
+
+
+@frozen(eq=False)
+class RigidBody(Body):
+    """A rigid body.
+
+    Parameters
+    ----------
+    name : str
+        Unique name.
+    mass : float
+        Mass, kg (> 0).
+    inertia : array_like, shape (3, 3) or (3,)
+        Central inertia tensor in the body frame, kg m^2; a 3-vector is taken
+        as the diagonal. Symmetric, positive semi-definite, and obeying the
+        triangle inequality.
+    com : array_like, shape (3,)
+        Mass-centre location in the body frame, m.
+
+    Examples
+    --------
+    >>> import flexmb as fm
+    >>> bar = fm.RigidBody.slender_bar("bar", mass=0.3, length=0.3)
+    >>> float(bar.inertia[2, 2])
+    0.00225
+    """
+
+    mass: float = field(default=1.0, converter=float, validator=positive)
+    inertia: np.ndarray = field(
+        default=(1.0, 1.0, 1.0),
+        converter=lambda v: as_array(np.diag(v) if np.ndim(v) == 1 else v),
+        validator=_check_inertia,
+    )
+    com: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
+
+    @classmethod
+    def slender_bar(cls, name: str, mass: float, length: float, axis: int = 0, centred: bool = False):
+        """A uniform slender bar along a body axis.
+
+        Parameters
+        ----------
+        name : str
+            Body name.
+        mass : float
+            Mass, kg.
+        length : float
+            Length, m.
+        axis : {0, 1, 2}
+            Body axis along the bar.
+        centred : bool
+            If True the body frame sits at the mass centre, else at one end
+            (the bar runs from 0 to ``length`` along ``axis``).
+
+        Returns
+        -------
+        RigidBody
+            Central inertia ``m l^2 / 12`` about the two transverse axes.
+        """
+        moments = np.full(3, mass * length**2 / 12.0)
+        moments[axis] = 0.0
+        com = np.zeros(3)
+        if not centred:
+            com[axis] = length / 2
+        return cls(name, mass, moments, com)
+
+    @classmethod
+    def box(cls, name: str, mass: float, size, com=(0.0, 0.0, 0.0)):
+        """A uniform solid block.
+
+        Parameters
+        ----------
+        name : str
+            Body name.
+        mass : float
+            Mass, kg.
+        size : array_like, shape (3,)
+            Edge lengths along the body axes, m.
+        com : array_like, shape (3,)
+            Mass-centre location in the body frame, m.
+
+        Returns
+        -------
+        RigidBody
+            Central inertia ``m (b^2 + c^2) / 12`` etc.
+        """
+        a, b, c = np.asarray(size, dtype=float)
+        moments = mass / 12.0 * np.array([b * b + c * c, a * a + c * c, a * a + b * b])
+        return cls(name, mass, moments, com)
+
+
+@frozen(eq=False)
+class Marker:
+    """A point and frame fixed on a body.
+
+    Parameters
+    ----------
+    body : Body
+        The body it is fixed on.
+    position : array_like, shape (3,)
+        Position in the body frame, m.
+    frame : array_like, shape (3, 3)
+        Orientation in the body frame (columns: the marker's axes).
+    """
+
+    body: Body
+    position: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
+    frame: np.ndarray = field(factory=lambda: np.eye(3), converter=as_array, validator=matrix33)
+
+    @property
+    def name(self) -> str:
+        """Name for messages."""
+        return f"{self.body.name}@{self.position.tolist()}"

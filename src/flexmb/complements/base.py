@@ -1,0 +1,116 @@
+"""The orthogonal complement strategy interface (eqs. 30-39)."""
+
+from __future__ import annotations
+
+import numpy as np
+from attrs import define, field, frozen
+
+from ..errors import AssemblyError
+
+__all__ = ["Complement", "ComplementStrategy"]
+
+
+@define
+class Complement:
+    """An orthogonal complement of psi and a particular solver.
+
+    Attributes
+    ----------
+    T : ndarray, shape (n, p)
+        Orthonormal basis of the null space of psi: ``psi T = 0``,
+        ``T^T T = I``.
+    rank : int
+        Numerical rank of psi.
+    basis : ndarray, shape (n, rank)
+        Orthonormal basis of the row space of psi.
+    scale : ndarray, shape (rank,)
+        Singular values of psi on ``basis`` (``psi basis = U diag(scale)``).
+    left : ndarray, shape (m, rank)
+        Left singular vectors ``U``.
+    """
+
+    T: np.ndarray
+    rank: int
+    basis: np.ndarray
+    scale: np.ndarray
+    left: np.ndarray
+
+    @property
+    def p(self) -> int:
+        """Number of independent speeds."""
+        return self.T.shape[1]
+
+    def particular(self, rhs: np.ndarray) -> np.ndarray:
+        """Minimum-norm solution x of ``psi x = rhs`` (least squares if inconsistent).
+
+        Parameters
+        ----------
+        rhs : ndarray, shape (m,)
+            Right-hand side (b for speeds, gamma for accelerations).
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            ``x = psi^+ rhs``.
+        """
+        return self.basis @ ((self.left.T @ rhs) / self.scale)
+
+
+@frozen(eq=False)
+class ComplementStrategy:
+    """Base class of ways to build the orthogonal complement T of psi.
+
+    Subclasses must:
+
+    1. implement ``_complement_impl(psi)`` returning a :class:`Complement`
+       (T with orthonormal columns spanning the null space of psi, the
+       rank, and the row-space data for particular solutions);
+    2. treat a rank-deficient psi (redundant constraints) correctly, using
+       a zero tolerance relative to the largest eigen/singular value;
+    3. set a class attribute ``name``.
+
+    The public :meth:`complement` handles the empty case and checks.
+
+    Parameters
+    ----------
+    rtol : float, optional
+        Relative zero tolerance; default per strategy.
+    """
+
+    name = "base"
+    default_rtol = 1e-10
+
+    rtol: float | None = None
+
+    @property
+    def tol(self) -> float:
+        """The relative zero tolerance in use."""
+        return self.default_rtol if self.rtol is None else self.rtol
+
+    def complement(self, psi: np.ndarray) -> Complement:
+        """Return the orthogonal complement of ``psi``.
+
+        Parameters
+        ----------
+        psi : ndarray, shape (m, n)
+            Constraint Jacobian (eq. 29).
+
+        Returns
+        -------
+        Complement
+            T (n x p) with ``psi T = 0`` and ``T^T T = I``, p = n - rank(psi).
+
+        Raises
+        ------
+        AssemblyError
+            If psi contains non-finite entries.
+        """
+        m, n = psi.shape
+        if m == 0 or not np.any(psi):
+            return Complement(np.eye(n), 0, np.zeros((n, 0)), np.zeros(0), np.zeros((m, 0)))
+        if not np.all(np.isfinite(psi)):
+            raise AssemblyError("constraint Jacobian psi is not finite")
+        return self._complement_impl(psi)
+
+    def _complement_impl(self, psi: np.ndarray) -> Complement:
+        raise NotImplementedError

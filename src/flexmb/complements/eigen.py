@@ -1,0 +1,39 @@
+"""Zero-eigenvalue theorem (Walton & Steeves; Kamman & Huston), eqs. 30-37."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .base import Complement, ComplementStrategy
+
+__all__ = ["EigenComplement"]
+
+
+class EigenComplement(ComplementStrategy):
+    """Eigenvectors of ``S = psi^T psi`` with zero eigenvalues.
+
+    S is symmetric positive semi-definite; its eigenvectors for eigenvalues
+    below ``rtol * lambda_max`` (default ``rtol = 1e-13``, i.e. singular
+    values below about 3e-7 of the largest, as squaring halves the digits)
+    span the null space of psi (eqs. 30-37).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from flexmb.complements import EigenComplement
+    >>> c = EigenComplement().complement(np.array([[1.0, 1.0, 0.0]]))
+    >>> c.p
+    2
+    """
+
+    name = "eigen"
+    default_rtol = 1e-13
+
+    def _complement_impl(self, psi):
+        lam, vec = np.linalg.eigh(psi.T @ psi)
+        lam, vec = lam[::-1], vec[:, ::-1]
+        r = int(np.sum(lam > self.tol * lam[0]))
+        basis = vec[:, :r]
+        s = np.sqrt(lam[:r])
+        left = (psi @ basis) / s
+        return Complement(vec[:, r:].copy(), r, basis, s, left)

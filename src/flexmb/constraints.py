@@ -1,0 +1,158 @@
+"""Constraint equations phi(x, t) = 0, psi and b (eqs. 28-29).
+
+Cut joints contribute rows of three kinds (see :mod:`flexmb.joints`), and
+drivers contribute ``q_c - theta(t) = 0``. For each row this module gives
+the residual ``phi``, the row of ``psi = dphi/dx``, ``b = -dphi/dt`` and the
+acceleration right-hand side ``gamma`` of ``psi xdd = gamma``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .rotations import cross
+
+__all__ = ["Constraints"]
+
+
+def _dot(a, b):
+    return np.einsum("mi,mi->m", a, b)
+
+
+class Constraints:
+    """Compiled constraint rows of a model.
+
+    Parameters
+    ----------
+    topology : Topology
+        The model's tree.
+    drivers : list of Driver
+        Prescribed motions.
+
+    Attributes
+    ----------
+    labels : list of str
+        One label per row, e.g. ``"loop C.point.x"`` or ``"driver motor"``.
+    n_rows : int
+        Number of constraint rows m.
+    """
+
+    def __init__(self, topology, drivers):
+        self.topology = topology
+        idx = topology.index
+        pts, dirs, perps, labels = [], [], [], []
+        for j in topology.cut_joints:
+            fp, fc = j.frames()
+            bi, bj = idx[j.parent], idx[j.child]
+            if j.cut_point:
+                pts.append((bi, j.parent_point, bj, j.child_point))
+                labels += [f"{j.name}.point.{c}" for c in "xyz"]
+            for a in j.cut_directions:
+                dirs.append((bi, j.parent_point, fp[:, a], bj, j.child_point))
+                labels.append(f"{j.name}.slide.{'xyz'[a]}")
+            for a, b in j.cut_perpendicular:
+                perps.append((bi, fp[:, a], bj, fc[:, b]))
+                labels.append(f"{j.name}.perp.{'xyz'[a]}{'xyz'[b]}")
+
+        def arr(rows, i, shape=None):
+            out = np.array([r[i] for r in rows])
+            return out.astype(int) if shape is None else out.reshape(shape)
+
+        self.pt = (arr(pts, 0), arr(pts, 1, (-1, 3)), arr(pts, 2), arr(pts, 3, (-1, 3)))
+        self.dr = (arr(dirs, 0), arr(dirs, 1, (-1, 3)), arr(dirs, 2, (-1, 3)), arr(dirs, 3), arr(dirs, 4, (-1, 3)))
+        self.pp = (arr(perps, 0), arr(perps, 1, (-1, 3)), arr(perps, 2), arr(perps, 3, (-1, 3)))
+        self.drivers = list(drivers)
+        self.driver_cols = np.array(
+            [topology.coordinate_slice(d.joint).start + d.coordinate for d in self.drivers], dtype=int
+        )
+        labels += [f"driver {d.name}" for d in self.drivers]
+        self.labels = labels
+        self.n_rows = len(labels)
+
+    def evaluate(self, kin, level: int = 2):
+        """Residuals and their derivatives.
+
+        Parameters
+        ----------
+        kin : Kinematics
+            The kinematic state.
+        level : {0, 1, 2}
+            0: only phi; 1: also psi and b; 2: also gamma.
+
+        Returns
+        -------
+        phi : ndarray, shape (m,)
+            Position residuals (eq. 28), m or rad.
+        psi : ndarray, shape (m, n_coords)
+            Constraint Jacobian (eq. 29). Only for level >= 1.
+        b : ndarray, shape (m,)
+            Right-hand side of ``psi xd = b``. Only for level >= 1.
+        gamma : ndarray, shape (m,)
+            Right-hand side of ``psi xdd = gamma``. Only for level 2.
+        """
+        n = kin.x.shape[0]
+        phis, psis, bs, gammas = [], [], [], []
+        ri, pi, rj, pj = self.pt
+        if len(ri):
+            Pi = kin.point_position(ri, pi)
+            Pj = kin.point_position(rj, pj)
+            phis.append((Pi - Pj).ravel())
+            if level >= 1:
+                psis.append((kin.point_partials(ri, Pi) - kin.point_partials(rj, Pj)).reshape(-1, n))
+                bs.append(np.zeros(3 * len(ri)))
+            if level >= 2:
+                gammas.append(-(kin.point_bias_acceleration(ri, Pi) - kin.point_bias_acceleration(rj, Pj)).ravel())
+        ri, pi, ai, rj, pj = self.dr
+        if len(ri):
+            Pi = kin.point_position(ri, pi)
+            Pj = kin.point_position(rj, pj)
+            dvec = np.einsum("mij,mj->mi", kin.R[ri], ai)
+            e = Pj - Pi
+            phis.append(_dot(dvec, e))
+            if level >= 1:
+                de = cross(dvec, e)
+                Ve = kin.point_partials(rj, Pj) - kin.point_partials(ri, Pi)
+                psis.append(np.einsum("mi,min->mn", de, kin.W[ri]) + np.einsum("mi,min->mn", dvec, Ve))
+                bs.append(np.zeros(len(ri)))
+            if level >= 2:
+                wi = kin.omega[ri]
+                edot = kin.point_velocity(rj, Pj) - kin.point_velocity(ri, Pi)
+                ebias = kin.point_bias_acceleration(rj, Pj) - kin.point_bias_acceleration(ri, Pi)
+                wd = cross(wi, dvec)
+                bias = (_dot(kin.alpha_bias[ri], de) + _dot(wi, cross(wd, e) + cross(dvec, edot))
+                        + _dot(wd, edot) + _dot(dvec, ebias))
+                gammas.append(-bias)
+        ri, ai, rj, bj = self.pp
+        if len(ri):
+            a = np.einsum("mij,mj->mi", kin.R[ri], ai)
+            b = np.einsum("mij,mj->mi", kin.R[rj], bj)
+            phis.append(_dot(a, b))
+            if level >= 1:
+                ab = cross(a, b)
+                psis.append(np.einsum("mi,min->mn", ab, kin.W[ri] - kin.W[rj]))
+                bs.append(np.zeros(len(ri)))
+            if level >= 2:
+                wi, wj = kin.omega[ri], kin.omega[rj]
+                bias = (_dot(ab, kin.alpha_bias[ri] - kin.alpha_bias[rj])
+                        + _dot(cross(cross(wi, a), b) + cross(a, cross(wj, b)), wi - wj))
+                gammas.append(-bias)
+        if self.drivers:
+            t = kin.t
+            cols = self.driver_cols
+            phis.append(kin.x[cols] - np.array([d.position(t) for d in self.drivers], dtype=float))
+            if level >= 1:
+                rows = np.zeros((len(cols), n))
+                rows[np.arange(len(cols)), cols] = 1.0
+                psis.append(rows)
+                bs.append(np.array([d.velocity(t) for d in self.drivers], dtype=float))
+            if level >= 2:
+                gammas.append(np.array([d.acceleration(t) for d in self.drivers], dtype=float))
+        cat = (lambda parts, shape: np.concatenate(parts) if parts else np.zeros(shape))
+        phi = cat(phis, (0,))
+        if level == 0:
+            return phi
+        psi = np.vstack(psis) if psis else np.zeros((0, n))
+        b = cat(bs, (0,))
+        if level == 1:
+            return phi, psi, b
+        return phi, psi, b, cat(gammas, (0,))

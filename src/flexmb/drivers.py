@@ -1,0 +1,140 @@
+"""Prescribed motions (drivers) of joint coordinates.
+
+A driver adds the rheonomic constraint ``phi = q_c - theta(t) = 0`` (eq. 28),
+whose speed form ``psi xdot = b`` has ``b = -dphi/dt = theta'(t)`` (eq. 29).
+The effort the driver supplies (torque or force) is the constraint reaction
+recovered after the accelerations.
+"""
+
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+from attrs import field, frozen
+
+from ._validate import label, name_check
+from .errors import ModelError
+from .joints import Joint
+
+__all__ = ["Driver"]
+
+
+def _callable(instance, attribute, value):
+    if not callable(value):
+        raise ModelError(f"{label(instance)}: {attribute.name} must be callable, got {value!r}")
+
+
+@frozen(eq=False)
+class Driver:
+    """Prescribe one coordinate of a joint as a function of time.
+
+    Parameters
+    ----------
+    name : str
+        Unique name.
+    joint : Joint
+        The driven joint (a tree joint).
+    position, velocity, acceleration : callable
+        ``theta(t)``, ``theta'(t)`` and ``theta''(t)`` (rad or m, and their
+        rates); they must be consistent derivatives.
+    coordinate : int
+        Which coordinate of the joint (0 for a revolute).
+
+    Examples
+    --------
+    >>> import flexmb as fm
+    >>> m = fm.Model()
+    >>> crank = fm.RigidBody.slender_bar("crank", 0.1, 0.1)
+    >>> pin = fm.Revolute("pin", m.ground, crank)
+    >>> d = fm.Driver.constant_speed("motor", pin, speed=2 * 3.141592653589793)
+    >>> float(d.position(0.5))
+    3.141592653589793
+    """
+
+    name: str = field(validator=name_check)
+    joint: Joint = field()
+    position: Callable[[float], float] = field(validator=_callable)
+    velocity: Callable[[float], float] = field(validator=_callable)
+    acceleration: Callable[[float], float] = field(validator=_callable)
+    coordinate: int = field(default=0, converter=int)
+
+    @joint.validator
+    def _check_joint(self, attribute, value):
+        if not isinstance(value, Joint):
+            raise ModelError(f"{label(self)}: joint must be a Joint, got {type(value).__name__}")
+
+    def __attrs_post_init__(self):
+        if not 0 <= self.coordinate < self.joint.n_coords:
+            raise ModelError(
+                f"{label(self)}: coordinate {self.coordinate} out of range for joint "
+                f"{self.joint.name!r} with {self.joint.n_coords} coordinate(s)"
+            )
+
+    @classmethod
+    def constant_speed(cls, name: str, joint: Joint, speed: float, start: float = 0.0, coordinate: int = 0):
+        """``theta(t) = start + speed * t``.
+
+        Parameters
+        ----------
+        name : str
+            Driver name.
+        joint : Joint
+            Driven joint.
+        speed : float
+            Rate, rad/s or m/s.
+        start : float
+            Value at t = 0.
+        coordinate : int
+            Coordinate index in the joint.
+
+        Returns
+        -------
+        Driver
+            The driver.
+        """
+        speed, start = float(speed), float(start)
+        return cls(
+            name,
+            joint,
+            position=lambda t: start + speed * t,
+            velocity=lambda t: speed,
+            acceleration=lambda t: 0.0,
+            coordinate=coordinate,
+        )
+
+    @classmethod
+    def harmonic(cls, name: str, joint: Joint, amplitude: float, frequency: float,
+                 offset: float = 0.0, coordinate: int = 0):
+        """``theta(t) = offset + amplitude * sin(2 pi frequency t)``.
+
+        Parameters
+        ----------
+        name : str
+            Driver name.
+        joint : Joint
+            Driven joint.
+        amplitude : float
+            Amplitude, rad or m.
+        frequency : float
+            Frequency, Hz.
+        offset : float
+            Mean value.
+        coordinate : int
+            Coordinate index in the joint.
+
+        Returns
+        -------
+        Driver
+            The driver.
+        """
+        w = 2 * np.pi * float(frequency)
+        a, o = float(amplitude), float(offset)
+        return cls(
+            name,
+            joint,
+            position=lambda t: o + a * np.sin(w * t),
+            velocity=lambda t: a * w * np.cos(w * t),
+            acceleration=lambda t: -a * w * w * np.sin(w * t),
+            coordinate=coordinate,
+        )

@@ -1,0 +1,52 @@
+"""Exceptions raised by flexmb.
+
+Every error flexmb raises on purpose derives from :class:`FlexmbError`, so a
+caller can catch them all at once; the subclasses tell where it happened.
+"""
+
+from __future__ import annotations
+
+__all__ = ["FlexmbError", "ModelError", "AssemblyError", "SimulationError"]
+
+
+class FlexmbError(Exception):
+    """Base class of all errors raised by flexmb."""
+
+
+class ModelError(FlexmbError, ValueError):
+    """A model definition is invalid (raised at build time).
+
+    Parameters
+    ----------
+    message : str
+        What is wrong, naming the element.
+    problems : list of str, optional
+        All problems found, when several were collected at once.
+    """
+
+    def __init__(self, message: str, problems: list[str] | None = None):
+        super().__init__(message)
+        self.problems = list(problems) if problems else [message]
+
+
+class AssemblyError(FlexmbError):
+    """The constraints cannot be satisfied or the equations cannot be solved."""
+
+
+class SimulationError(FlexmbError):
+    """A simulation failed; the states computed so far are kept.
+
+    Parameters
+    ----------
+    message : str
+        The cause, with the time of failure.
+    t : float
+        Time at which the failure was detected, in s.
+    result : Result or None
+        The partial result up to the failure.
+    """
+
+    def __init__(self, message: str, t: float = float("nan"), result=None):
+        super().__init__(message)
+        self.t = t
+        self.result = result

@@ -1,0 +1,125 @@
+"""Force elements: the generalized active force F (eq. 5).
+
+A force element adds forces at points, torques on bodies, or generalized
+forces on coordinates to a :class:`Loads` accumulator. The assembler turns
+them into ``F_l = sum_k V_kl . force_k + W_kl . torque_k`` (eq. 5), so
+gravity, springs, dampers, contact and friction all enter only through F.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from attrs import field, frozen
+
+from .._validate import name_check
+from ..rotations import cross
+
+__all__ = ["ForceElement", "Loads", "Gravity", "SpringDamper", "JointSpringDamper", "PointForce", "BodyTorque"]
+
+
+class Loads:
+    """Accumulator of the loads applied in one evaluation.
+
+    Parameters
+    ----------
+    state : object
+        The kinematic state (:class:`flexmb.kinematics.Kinematics`).
+
+    Attributes
+    ----------
+    force : ndarray, shape (n_bodies + 1, 3)
+        Resultant force on each body at its mass centre, N (the last row is
+        the ground and is discarded).
+    torque : ndarray, shape (n_bodies + 1, 3)
+        Resultant torque on each body about its mass centre, N m.
+    generalized : ndarray, shape (n_coords,)
+        Generalized forces acting directly on coordinates (joint springs).
+    """
+
+    def __init__(self, state):
+        self.state = state
+        nb1 = state.R.shape[0]
+        self.force = np.zeros((nb1, 3))
+        self.torque = np.zeros((nb1, 3))
+        self.generalized = np.zeros(state.x.shape[0])
+
+    def add_point_force(self, body_index, point, force) -> None:
+        """Add forces applied at inertial points.
+
+        Parameters
+        ----------
+        body_index : int or ndarray of int, shape (m,)
+            Bodies the forces act on (-1 is the ground).
+        point : ndarray, shape (m, 3)
+            Points of application, inertial, m.
+        force : ndarray, shape (m, 3)
+            Forces, inertial, N.
+        """
+        body_index = np.atleast_1d(body_index)
+        point = np.reshape(point, (-1, 3))
+        force = np.reshape(force, (-1, 3))
+        np.add.at(self.force, body_index, force)
+        lever = point - self.state.r[body_index]
+        np.add.at(self.torque, body_index, cross(lever, force))
+
+    def add_torque(self, body_index, torque) -> None:
+        """Add torques (inertial components, N m) to bodies."""
+        np.add.at(self.torque, np.atleast_1d(body_index), np.reshape(torque, (-1, 3)))
+
+
+@frozen(eq=False)
+class ForceElement:
+    """Base class of force elements.
+
+    Subclasses must:
+
+    1. have a ``name`` and the element's data as attrs fields;
+    2. implement ``apply(state, loads)``: add this element's loads;
+    3. if conservative, implement ``potential(state)`` (J), so that energy
+       checks see it; dissipative elements keep the default 0.
+
+    For speed, a built-in overrides the class method ``apply_all`` to treat
+    all elements of its class in one vectorised call; the default loops.
+
+    The ``state`` gives ``t``, ``x``, ``xd``, ``R`` (rotations), ``r`` (mass
+    centres), ``v``, ``omega``, and ``index(body)``, ``point_position``,
+    ``point_velocity`` and ``coordinate_slice(joint)``.
+    """
+
+    name: str = field(validator=name_check)
+
+    def apply(self, state, loads: Loads) -> None:
+        """Add this element's loads.
+
+        Parameters
+        ----------
+        state : Kinematics
+            The current kinematic state.
+        loads : Loads
+            Accumulator to add to.
+        """
+        raise NotImplementedError(f"{type(self).__name__} must implement apply(state, loads)")
+
+    def potential(self, state) -> float:
+        """Potential energy of the element, J (0 if not conservative)."""
+        return 0.0
+
+    def check(self, model) -> list[str]:
+        """Problems with this element in ``model`` (empty if none)."""
+        return []
+
+    @classmethod
+    def apply_all(cls, elements, state, loads: Loads) -> None:
+        """Apply all elements of this class (default: one at a time)."""
+        for e in elements:
+            e.apply(state, loads)
+
+    @classmethod
+    def potential_all(cls, elements, state) -> float:
+        """Summed potential energy of all elements of this class."""
+        return float(sum(e.potential(state) for e in elements))
+
+
+from .gravity import Gravity  # noqa: E402
+from .loads import BodyTorque, PointForce  # noqa: E402
+from .springs import JointSpringDamper, SpringDamper  # noqa: E402

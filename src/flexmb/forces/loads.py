@@ -1,0 +1,103 @@
+"""Applied forces and torques: constant or given by a function of time."""
+
+from __future__ import annotations
+
+import inspect
+from typing import Any
+
+import numpy as np
+from attrs import field, frozen
+
+from .._validate import as_array, label, name_check, vector3
+from ..bodies import Body
+from ..errors import ModelError
+from . import ForceElement
+
+__all__ = ["PointForce", "BodyTorque"]
+
+
+def _vector_or_callable(value):
+    return value if callable(value) else as_array(value)
+
+
+def _check_value(instance, attribute, value):
+    if callable(value):
+        n = len(inspect.signature(value).parameters)
+        if n not in (1, 2):
+            raise ModelError(f"{label(instance)}: {attribute.name} must take (t) or (t, state), takes {n} arguments")
+    else:
+        vector3(instance, attribute, value)
+
+
+def _check_frame(instance, attribute, value):
+    if value not in ("ground", "body"):
+        raise ModelError(f"{label(instance)}: frame must be 'ground' or 'body', got {value!r}")
+
+
+def _evaluate(value, state) -> np.ndarray:
+    if not callable(value):
+        return value
+    if len(inspect.signature(value).parameters) == 1:
+        return np.asarray(value(state.t), dtype=float)
+    return np.asarray(value(state.t, state), dtype=float)
+
+
+@frozen(eq=False)
+class PointForce(ForceElement):
+    """A force at a point of a body.
+
+    Parameters
+    ----------
+    name : str
+        Unique name.
+    body : Body
+        Body the force acts on.
+    force : array_like, shape (3,), or callable
+        Force, N: a constant vector, or ``f(t)`` / ``f(t, state)`` returning one.
+    point : array_like, shape (3,)
+        Point of application in the body frame, m.
+    frame : {'ground', 'body'}
+        Frame of the force components.
+    """
+
+    body: Body = field()
+    force: Any = field(converter=_vector_or_callable, validator=_check_value)
+    point: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
+    frame: str = field(default="ground", validator=_check_frame)
+
+    def apply(self, state, loads) -> None:
+        """Add the force at its point."""
+        k = state.index(self.body)
+        f = _evaluate(self.force, state)
+        if self.frame == "body":
+            f = state.R[k] @ f
+        loads.add_point_force(k, state.point_position(k, self.point), f)
+
+
+@frozen(eq=False)
+class BodyTorque(ForceElement):
+    """A pure torque on a body.
+
+    Parameters
+    ----------
+    name : str
+        Unique name.
+    body : Body
+        Body the torque acts on.
+    torque : array_like, shape (3,), or callable
+        Torque, N m: a constant vector, or ``f(t)`` / ``f(t, state)``.
+    frame : {'ground', 'body'}
+        Frame of the torque components.
+    """
+
+    body: Body = field()
+    torque: Any = field(converter=_vector_or_callable, validator=_check_value)
+    frame: str = field(default="ground", validator=_check_frame)
+
+    def apply(self, state, loads) -> None:
+        """Add the torque."""
+        k = state.index(self.body)
+        tq = _evaluate(self.torque, state)
+        if self.frame == "body":
+            tq = state.R[k] @ tq
+        loads.add_torque(k, tq)

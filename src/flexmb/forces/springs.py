@@ -1,0 +1,134 @@
+"""Spring-dampers: point to point, and on joint coordinates."""
+
+from __future__ import annotations
+
+import numpy as np
+from attrs import field, frozen
+
+from .._validate import as_array, label, name_check, vector3
+from ..bodies import Body
+from ..joints import Joint
+from . import ForceElement
+
+__all__ = ["SpringDamper", "JointSpringDamper"]
+
+
+def _non_negative(instance, attribute, value):
+    from ..errors import ModelError
+
+    v = np.asarray(value)
+    if not np.all(np.isfinite(v)) or np.any(v < 0):
+        raise ModelError(f"{label(instance)}: {attribute.name} must be finite and >= 0, got {v.tolist()}")
+
+
+@frozen(eq=False)
+class SpringDamper(ForceElement):
+    """A linear spring-damper between two points.
+
+    Parameters
+    ----------
+    name : str
+        Unique name.
+    body1, body2 : Body
+        The two bodies (either may be the ground).
+    point1, point2 : array_like, shape (3,)
+        Attachment points in the body frames, m.
+    stiffness : float
+        k, N/m.
+    damping : float
+        c, N s/m.
+    rest_length : float
+        l0, m.
+
+    Notes
+    -----
+    The force on point 2 is ``-(k (l - l0) + c dl/dt) e``, with ``e`` the unit
+    vector from point 1 to point 2; point 1 gets the opposite. Potential
+    energy ``k (l - l0)^2 / 2``. With ``l0 = 0`` the spring acts as the
+    vector ``-k (p2 - p1)``, smooth through ``l = 0``.
+    """
+
+    body1: Body = field()
+    point1: np.ndarray = field(converter=as_array, validator=vector3)
+    body2: Body = field()
+    point2: np.ndarray = field(converter=as_array, validator=vector3)
+    stiffness: float = field(converter=float, validator=_non_negative)
+    damping: float = field(default=0.0, converter=float, validator=_non_negative)
+    rest_length: float = field(default=0.0, converter=float, validator=_non_negative)
+
+    def _geometry(self, state):
+        i, j = state.index(self.body1), state.index(self.body2)
+        p1 = state.point_position(i, self.point1)
+        p2 = state.point_position(j, self.point2)
+        return i, j, p1, p2
+
+    def apply(self, state, loads) -> None:
+        """Add the spring and damper force pair."""
+        i, j, p1, p2 = self._geometry(state)
+        dp = p2 - p1
+        dv = state.point_velocity(j, p2) - state.point_velocity(i, p1)
+        length = np.linalg.norm(dp)
+        if self.rest_length == 0.0:
+            f2 = -self.stiffness * dp
+        else:
+            f2 = -self.stiffness * (length - self.rest_length) * dp / max(length, 1e-300)
+        if self.damping and length > 1e-12:
+            e = dp / length
+            f2 = f2 - self.damping * (e @ dv) * e
+        loads.add_point_force(np.array([i, j]), np.array([p1, p2]), np.array([-f2, f2]))
+
+    def potential(self, state) -> float:
+        """``k (l - l0)^2 / 2``, J."""
+        _, _, p1, p2 = self._geometry(state)
+        return 0.5 * self.stiffness * (np.linalg.norm(p2 - p1) - self.rest_length) ** 2
+
+
+@frozen(eq=False)
+class JointSpringDamper(ForceElement):
+    """Linear springs and dampers acting on a joint's coordinates.
+
+    Parameters
+    ----------
+    name : str
+        Unique name.
+    joint : Joint
+        A tree joint with coordinates.
+    stiffness : float or array_like, shape (n_coords,)
+        N m/rad on angles, N/m on slides.
+    damping : float or array_like, shape (n_coords,)
+        N m s/rad or N s/m.
+    rest : float or array_like, shape (n_coords,)
+        Coordinate values where the spring is relaxed.
+
+    Notes
+    -----
+    Generalized force ``-k (q - q0) - c qdot`` on the joint's coordinates
+    (eq. 5: ``F^s - F^d``); potential ``k (q - q0)^2 / 2``.
+    """
+
+    joint: Joint = field()
+    stiffness: np.ndarray = field(converter=as_array, validator=_non_negative)
+    damping: np.ndarray = field(default=0.0, converter=as_array, validator=_non_negative)
+    rest: np.ndarray = field(default=0.0, converter=as_array)
+
+    def check(self, model) -> list[str]:
+        """The joint must have coordinates matching the parameter sizes."""
+        n = self.joint.n_coords
+        out = []
+        for name in ("stiffness", "damping", "rest"):
+            v = getattr(self, name)
+            if v.ndim > 1 or (v.ndim == 1 and v.shape[0] != n):
+                out.append(f"{label(self)}: {name} must be a scalar or have {n} entries, got shape {v.shape}")
+        if n == 0:
+            out.append(f"{label(self)}: joint {self.joint.name!r} has no coordinates")
+        return out
+
+    def apply(self, state, loads) -> None:
+        """Add ``-k (q - q0) - c qdot``."""
+        s = state.coordinate_slice(self.joint)
+        loads.generalized[s] -= self.stiffness * (state.x[s] - self.rest) + self.damping * state.xd[s]
+
+    def potential(self, state) -> float:
+        """``sum k (q - q0)^2 / 2``, J."""
+        s = state.coordinate_slice(self.joint)
+        return float(0.5 * np.sum(self.stiffness * (state.x[s] - self.rest) ** 2))

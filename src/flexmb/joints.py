@@ -1,0 +1,296 @@
+"""Joints: how a child body moves relative to its parent.
+
+A joint joins a marker on the parent body (``parent_point``, ``parent_frame``)
+to a marker on the child body (``child_point``, ``child_frame``). With all its
+coordinates zero the two markers coincide. A joint contributes exactly the
+coordinates of its own freedoms: first translations along fixed axes of the
+parent marker frame, then successive rotations about moving axes.
+
+A joint in the spanning tree supplies coordinates; a joint that closes a
+loop (a *cut joint*) supplies constraint equations instead (eq. 28), built
+from three primitives declared as class data:
+
+* ``cut_point``: the two marker points coincide (3 rows);
+* ``cut_directions``: the child point stays on the plane/line of the parent
+  marker axes not listed (one row per listed parent axis);
+* ``cut_perpendicular``: pairs ``(i, j)`` with parent axis i perpendicular to
+  child axis j (one row each).
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+import numpy as np
+from attrs import field, frozen
+
+from ._validate import as_array, label, name_check, optional_array, rotation_matrix, vector3
+from .bodies import Body
+from .errors import ModelError
+from .rotations import frame_from_axis, rotation_chain
+
+__all__ = [
+    "Joint",
+    "Revolute",
+    "PlanarRevolute",
+    "Prismatic",
+    "Cylindrical",
+    "Universal",
+    "Spherical",
+    "Fixed",
+    "Free",
+]
+
+
+def _axis(instance, attribute, value):
+    vector3(instance, attribute, value)
+    if np.linalg.norm(value) < 1e-12:
+        raise ModelError(f"{label(instance)}: {attribute.name} must not be a zero-length vector")
+
+
+@frozen(eq=False)
+class Joint:
+    """Base class of joints.
+
+    Subclasses must:
+
+    1. set the class data ``translation_axes`` and ``rotation_axes`` (indices
+       of parent-marker axes: translations along fixed axes come first in the
+       joint's coordinates, then rotations about successive moving axes),
+       and ``coordinate_names``;
+    2. set ``cut_point``, ``cut_directions`` and ``cut_perpendicular`` to say
+       which constraints the joint imposes when it closes a loop;
+    3. optionally override ``_default_frame()`` (the parent marker
+       orientation when ``parent_frame`` is not given) or ``motion()`` for a
+       motion that is not a translation/rotation sequence.
+
+    Parameters
+    ----------
+    name : str
+        Unique name.
+    parent, child : Body
+        The bodies joined; the tree is grown from the ground along
+        parent -> child.
+    parent_point : array_like, shape (3,)
+        Joint point in the parent body frame, m.
+    child_point : array_like, shape (3,)
+        Joint point in the child body frame, m.
+    parent_frame : array_like, shape (3, 3), optional
+        Joint frame orientation in the parent body frame (columns = axes).
+    child_frame : array_like, shape (3, 3), optional
+        Joint frame orientation in the child body frame; defaults to
+        ``parent_frame`` (right when both body frames are parallel in the
+        reference configuration).
+    cut : bool
+        Force this joint to be a cut joint (closing a loop).
+    """
+
+    translation_axes: ClassVar[tuple[int, ...]] = ()
+    rotation_axes: ClassVar[tuple[int, ...]] = ()
+    coordinate_names: ClassVar[tuple[str, ...]] = ()
+    cut_point: ClassVar[bool] = True
+    cut_directions: ClassVar[tuple[int, ...]] = ()
+    cut_perpendicular: ClassVar[tuple[tuple[int, int], ...]] = ()
+
+    name: str = field(validator=name_check)
+    parent: Body = field()
+    child: Body = field()
+    parent_point: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
+    child_point: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
+    parent_frame: np.ndarray | None = field(default=None, converter=optional_array, validator=rotation_matrix)
+    child_frame: np.ndarray | None = field(default=None, converter=optional_array, validator=rotation_matrix)
+    cut: bool = field(default=False, converter=bool)
+
+    @parent.validator
+    @child.validator
+    def _check_body(self, attribute, value):
+        if not isinstance(value, Body):
+            raise ModelError(f"{label(self)}: {attribute.name} must be a Body, got {type(value).__name__}")
+
+    def __attrs_post_init__(self):
+        if self.parent is self.child:
+            raise ModelError(f"{label(self)}: parent and child are the same body {self.parent.name!r}")
+
+    @property
+    def n_coords(self) -> int:
+        """Number of coordinates the joint contributes."""
+        return len(self.translation_axes) + len(self.rotation_axes)
+
+    def _default_frame(self) -> np.ndarray:
+        return np.eye(3)
+
+    def frames(self) -> tuple[np.ndarray, np.ndarray]:
+        """Return the joint frame in the parent and in the child body frame.
+
+        Returns
+        -------
+        parent_frame, child_frame : ndarray, shape (3, 3)
+            Orientation matrices (columns = joint axes).
+        """
+        fp = self.parent_frame if self.parent_frame is not None else self._default_frame()
+        fc = self.child_frame if self.child_frame is not None else fp
+        return np.asarray(fp), np.asarray(fc)
+
+    @classmethod
+    def motion(cls, q: np.ndarray, qd: np.ndarray):
+        """Relative motion of the child marker in the parent marker frame.
+
+        Parameters
+        ----------
+        q, qd : ndarray, shape (m, n_coords)
+            Coordinates and their rates for m joints of this class.
+
+        Returns
+        -------
+        R : ndarray, shape (m, 3, 3)
+            Rotation of the child marker frame.
+        d : ndarray, shape (m, 3)
+            Position of the child marker point.
+        Hw, Hv : ndarray, shape (m, 3, n_coords)
+            Partial angular velocities and partial velocities of the child
+            marker (at its point), in the parent marker frame.
+        aw, av : ndarray, shape (m, 3)
+            Velocity-dependent angular and linear acceleration terms
+            (``Hdot @ qd``), in the parent marker frame.
+        """
+        m = q.shape[0]
+        nt = len(cls.translation_axes)
+        nq = nt + len(cls.rotation_axes)
+        Hw = np.zeros((m, 3, nq))
+        Hv = np.zeros((m, 3, nq))
+        d = np.zeros((m, 3))
+        for i, ax in enumerate(cls.translation_axes):
+            d[:, ax] += q[:, i]
+            Hv[:, ax, i] = 1.0
+        R, Hw[:, :, nt:], aw = rotation_chain(cls.rotation_axes, q[:, nt:], qd[:, nt:])
+        return R, d, Hw, Hv, aw, np.zeros((m, 3))
+
+
+@frozen(eq=False)
+class _AxisJoint(Joint):
+    axis: np.ndarray = field(default=(0.0, 0.0, 1.0), converter=as_array, validator=_axis)
+
+    def _default_frame(self) -> np.ndarray:
+        return frame_from_axis(self.axis)
+
+
+@frozen(eq=False)
+class Revolute(_AxisJoint):
+    """One rotation about ``axis`` (coordinate: angle, rad).
+
+    Parameters
+    ----------
+    axis : array_like, shape (3,)
+        Rotation axis in the parent body frame (the joint frame's z).
+
+    Examples
+    --------
+    >>> import flexmb as fm
+    >>> m = fm.Model()
+    >>> bar = fm.RigidBody.slender_bar("bar", 1.0, 1.0)
+    >>> j = fm.Revolute("pin", m.ground, bar, axis=(0, 0, 1))
+    >>> j.n_coords
+    1
+    """
+
+    rotation_axes = (2,)
+    coordinate_names = ("angle",)
+    cut_perpendicular = ((2, 0), (2, 1))
+
+
+@frozen(eq=False)
+class PlanarRevolute(Revolute):
+    """A revolute joint that, as a cut joint, imposes only the two in-plane rows.
+
+    In the tree it is a :class:`Revolute`. Closing a planar loop it keeps
+    the joint points together in the plane normal to ``axis`` (2 rows),
+    where a spatial revolute writes 5 rows, 3 of them redundant.
+    """
+
+    cut_point = False
+    cut_directions = (0, 1)
+    cut_perpendicular = ()
+
+
+@frozen(eq=False)
+class Prismatic(_AxisJoint):
+    """One translation along ``axis`` (coordinate: slide, m)."""
+
+    translation_axes = (2,)
+    coordinate_names = ("slide",)
+    cut_point = False
+    cut_directions = (0, 1)
+    cut_perpendicular = ((0, 1), (1, 2), (2, 0))
+
+
+@frozen(eq=False)
+class Cylindrical(_AxisJoint):
+    """Translation along and rotation about ``axis`` (coordinates: slide m, angle rad)."""
+
+    translation_axes = (2,)
+    rotation_axes = (2,)
+    coordinate_names = ("slide", "angle")
+    cut_point = False
+    cut_directions = (0, 1)
+    cut_perpendicular = ((2, 0), (2, 1))
+
+
+@frozen(eq=False)
+class Universal(Joint):
+    """Rotation about ``axis`` (fixed in the parent), then about ``axis2`` (fixed in the child).
+
+    Parameters
+    ----------
+    axis : array_like, shape (3,)
+        First axis, in the parent body frame (joint frame x).
+    axis2 : array_like, shape (3,)
+        Second axis, in the child body frame, perpendicular to ``axis`` in
+        the reference configuration (joint frame y).
+    """
+
+    rotation_axes = (0, 1)
+    coordinate_names = ("angle1", "angle2")
+    cut_perpendicular = ((0, 1),)
+
+    axis: np.ndarray = field(default=(1.0, 0.0, 0.0), converter=as_array, validator=_axis)
+    axis2: np.ndarray = field(default=(0.0, 1.0, 0.0), converter=as_array, validator=_axis)
+
+    def __attrs_post_init__(self):
+        super().__attrs_post_init__()
+        c = abs(self.axis @ self.axis2) / np.linalg.norm(self.axis) / np.linalg.norm(self.axis2)
+        if c > 1e-9:
+            raise ModelError(f"{label(self)}: axis and axis2 must be perpendicular (cos = {c:.3g})")
+
+    def _default_frame(self) -> np.ndarray:
+        z = np.cross(self.axis, self.axis2)
+        f = frame_from_axis(z, second=self.axis)
+        return f
+
+
+@frozen(eq=False)
+class Spherical(Joint):
+    """Three rotations Rx Ry Rz (Bryant angles, rad) about the joint frame axes.
+
+    The angles are singular where the second one reaches +-90 deg; as a cut
+    joint (three point rows) it has no such limit.
+    """
+
+    rotation_axes = (0, 1, 2)
+    coordinate_names = ("rx", "ry", "rz")
+
+
+@frozen(eq=False)
+class Fixed(Joint):
+    """No relative motion (no coordinates); welds the child to the parent."""
+
+    cut_perpendicular = ((0, 1), (1, 2), (2, 0))
+
+
+@frozen(eq=False)
+class Free(Joint):
+    """Six freedoms: translations x, y, z (m) then Bryant angles rx, ry, rz (rad)."""
+
+    translation_axes = (0, 1, 2)
+    rotation_axes = (0, 1, 2)
+    coordinate_names = ("x", "y", "z", "rx", "ry", "rz")
+    cut_point = False

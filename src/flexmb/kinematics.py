@@ -1,0 +1,201 @@
+"""Stacked kinematics of all bodies: rotations, positions, V and W (eqs. 6-18).
+
+Everything is computed for all bodies at once. Sums along the path from
+the ground are products with the 0/1 ancestor matrix; the chained rotations
+use pointer jumping (log2(depth) batched matrix products), so there is no
+Python loop over bodies.
+
+Notation (per tree joint j joining body k to its parent P):
+
+* ``R_M = R_P F_p``: the parent marker frame in inertial axes;
+* ``o'_k``: the joint point on the child side (inertial);
+* ``s_k = o'_k - o'_P``: vector from the parent's joint point to this one.
+
+For a coordinate c of joint j, its inertial partial angular velocity is
+``G_w[:, c] = R_M h_w[:, c]`` and the partial velocity of a point P of any
+body downstream of j is ``G_v[:, c] + G_w[:, c] x (r_P - o'_j)`` (eqs. 7,
+17).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .rotations import cross, skew
+
+__all__ = ["Kinematics"]
+
+
+class Kinematics:
+    """Positions, velocities, partial velocities and bias accelerations.
+
+    Parameters
+    ----------
+    topology : Topology
+        The model's tree.
+    t : float
+        Time, s.
+    x, xd : ndarray, shape (n_coords,)
+        Generalized coordinates and speeds.
+
+    Attributes
+    ----------
+    R : ndarray, shape (n_bodies + 1, 3, 3)
+        Body rotations (body -> inertial); last row the ground.
+    r : ndarray, shape (n_bodies + 1, 3)
+        Mass-centre positions, m.
+    origin : ndarray, shape (n_bodies + 1, 3)
+        Body-frame origins, m.
+    omega, v : ndarray, shape (n_bodies + 1, 3)
+        Angular velocities (rad/s) and mass-centre velocities (m/s).
+    alpha_bias, a_bias : ndarray, shape (n_bodies + 1, 3)
+        Angular and mass-centre accelerations at zero ``xdd``
+        (``Wdot xd`` and ``Vdot xd`` of eq. 3).
+    W, V : ndarray, shape (n_bodies + 1, 3, n_coords)
+        Partial angular velocities and partial velocities of the mass
+        centres (eqs. 7, 17).
+    """
+
+    def __init__(self, topology, t: float, x: np.ndarray, xd: np.ndarray):
+        topo = topology
+        self.topology = topo
+        self.t = float(t)
+        self.x = x
+        self.xd = xd
+        nb, n = topo.n_bodies, topo.n_coords
+        self.mass = topo.mass
+        parent = topo.parent
+
+        # joint motions, batched per joint class
+        Rj = np.empty((nb, 3, 3))
+        d = np.empty((nb, 3))
+        aw = np.empty((nb, 3))
+        av = np.empty((nb, 3))
+        hw = np.zeros((3, n))
+        hv = np.zeros((3, n))
+        for cls, ks, cols in topo.groups:
+            R_, d_, Hw, Hv, aw_, av_ = cls.motion(x[cols], xd[cols])
+            Rj[ks], d[ks], aw[ks], av[ks] = R_, d_, aw_, av_
+            if cols.shape[1]:
+                hw[:, cols] = Hw.transpose(1, 0, 2)
+                hv[:, cols] = Hv.transpose(1, 0, 2)
+
+        # global rotations by pointer jumping: R_k = R_P F_p Rj F_c^T
+        R = np.empty((nb + 1, 3, 3))
+        R[:nb] = topo.parent_frame @ Rj @ topo.child_frame.transpose(0, 2, 1)
+        R[nb] = np.eye(3)
+        ptr = np.append(np.where(parent < 0, nb, parent), nb)
+        while np.any(ptr[:nb] != nb):
+            R[:nb] = R[ptr[:nb]] @ R[:nb]
+            ptr = ptr[ptr]
+        self.R = R
+
+        RP = R[parent]
+        RM = RP @ topo.parent_frame
+        s = np.einsum("kij,kj->ki", RP, topo.parent_point - topo.parent_joint_point)
+        s += np.einsum("kij,kj->ki", RM, d)
+        anc = topo.ancestors
+        jp = anc @ s
+        origin = np.zeros((nb + 1, 3))
+        origin[:nb] = jp - np.einsum("kij,kj->ki", R[:nb], topo.child_point)
+        r = origin.copy()
+        r[:nb] += np.einsum("kij,kj->ki", R[:nb], topo.com)
+        self.origin, self.r, self.joint_point = origin, r, jp
+
+        # partial velocities (eqs. 7, 17)
+        cb = topo.coord_body
+        Gw = np.einsum("cij,jc->ci", RM[cb], hw)  # (n, 3)
+        Gv = np.einsum("cij,jc->ci", RM[cb], hv)
+        lever = r[:nb, None, :] - jp[cb][None, :, :]  # (nb, n, 3)
+        ancc = topo.coord_ancestors[:, :, None]
+        V = np.zeros((nb + 1, 3, n))
+        W = np.zeros((nb + 1, 3, n))
+        V[:nb] = (ancc * (Gv[None] + cross(Gw[None], lever))).transpose(0, 2, 1)
+        W[:nb] = (ancc * Gw[None]).transpose(0, 2, 1)
+        self.V, self.W = V, W
+        self.Gw, self.Gv = Gw, Gv
+
+        omega = W @ xd
+        v = V @ xd
+        self.omega, self.v = omega, v
+
+        # velocity-dependent accelerations (eqs. 13, 18 at xdd = 0)
+        wP = omega[parent]
+        w_rel = omega[:nb] - wP
+        v_rel = np.zeros((nb, 3))
+        np.add.at(v_rel, cb, Gv * xd[:, None])
+        beta = cross(wP, w_rel) + np.einsum("kij,kj->ki", RM, aw)
+        alpha = np.zeros((nb + 1, 3))
+        alpha[:nb] = anc @ beta
+        aP = alpha[parent]
+        gamma = (cross(aP, s) + cross(wP, cross(wP, s)) + 2.0 * cross(wP, v_rel)
+                 + np.einsum("kij,kj->ki", RM, av))
+        a_jp = anc @ gamma
+        u = r[:nb] - jp
+        acc = np.zeros((nb + 1, 3))
+        acc[:nb] = a_jp + cross(alpha[:nb], u) + cross(omega[:nb], cross(omega[:nb], u))
+        self.alpha_bias, self.a_bias = alpha, acc
+
+    # -- lookups used by force elements and constraints
+    def index(self, body) -> int:
+        """Row of ``body`` in the per-body arrays (-1 for the ground)."""
+        return self.topology.index[body]
+
+    def coordinate_slice(self, joint) -> slice:
+        """Slice of ``x`` holding a tree joint's coordinates."""
+        return self.topology.coordinate_slice(joint)
+
+    def inertia_world(self) -> np.ndarray:
+        """Central inertia tensors in inertial axes, shape (n_bodies, 3, 3)."""
+        R = self.R[:-1]
+        return R @ self.topology.inertia @ R.transpose(0, 2, 1)
+
+    def point_position(self, k, local) -> np.ndarray:
+        """Inertial position of body-fixed points.
+
+        Parameters
+        ----------
+        k : int or ndarray of int
+            Body index (or indices, shape (m,)).
+        local : array_like, shape (3,) or (m, 3)
+            Points in the body frame, m.
+
+        Returns
+        -------
+        ndarray, shape (3,) or (m, 3)
+            Inertial positions, m.
+        """
+        return np.einsum("...ij,...j->...i", self.R[k], local) + self.origin[k]
+
+    def point_velocity(self, k, p) -> np.ndarray:
+        """Velocity of the body-k point at inertial position ``p``, m/s."""
+        return self.v[k] + cross(self.omega[k], p - self.r[k])
+
+    def point_bias_acceleration(self, k, p) -> np.ndarray:
+        """Acceleration at ``xdd = 0`` of the body-k point at inertial ``p``."""
+        lever = p - self.r[k]
+        w = self.omega[k]
+        return self.a_bias[k] + cross(self.alpha_bias[k], lever) + cross(w, cross(w, lever))
+
+    def point_partials(self, k, p) -> np.ndarray:
+        """Partial velocities of body points, shape (m, 3, n_coords).
+
+        Parameters
+        ----------
+        k : ndarray of int, shape (m,)
+            Body indices.
+        p : ndarray, shape (m, 3)
+            Inertial positions of the points.
+
+        Returns
+        -------
+        ndarray, shape (m, 3, n_coords)
+            ``V_P = V_k + W_k x (p - r_k)`` column by column.
+        """
+        return self.V[k] - skew(p - self.r[k]) @ self.W[k]
+
+    def kinetic_energy(self) -> float:
+        """``sum m v^2 / 2 + omega . I omega / 2``, J."""
+        w = self.omega[:-1]
+        Iw = np.einsum("kij,kj->ki", self.inertia_world(), w)
+        return float(0.5 * np.sum(self.mass * np.sum(self.v[:-1] ** 2, axis=1)) + 0.5 * np.sum(w * Iw))

@@ -1,0 +1,167 @@
+"""The Result of a simulation: time histories and counters."""
+
+from __future__ import annotations
+
+import os
+import tempfile
+
+import numpy as np
+from attrs import define, field
+
+from .errors import FlexmbError
+
+__all__ = ["Result"]
+
+_ARRAYS = ("t", "x", "xd", "xdd", "positions", "rotations", "kinetic", "potential",
+           "residual", "velocity_residual", "reactions")
+_LISTS = ("coordinate_names", "body_names", "constraint_labels", "driver_names")
+_SCALARS = ("n_rhs", "n_steps", "n_complements", "n_projections", "wall_time", "status", "message", "method",
+            "complement")
+
+
+@define
+class Result:
+    """Time histories of a simulation.
+
+    Attributes
+    ----------
+    t : ndarray, shape (nt,)
+        Output times, s.
+    x, xd, xdd : ndarray, shape (nt, n)
+        Coordinates, speeds and accelerations.
+    positions : ndarray, shape (nt, n_bodies, 3)
+        Mass-centre positions, m.
+    rotations : ndarray, shape (nt, n_bodies, 3, 3)
+        Body rotation matrices (body -> inertial).
+    kinetic, potential : ndarray, shape (nt,)
+        Kinetic and potential energy, J.
+    residual : ndarray, shape (nt,)
+        max |phi| (eq. 28), m or rad.
+    velocity_residual : ndarray, shape (nt,)
+        max |psi xd - b| (eq. 29).
+    reactions : ndarray, shape (nt, m)
+        Constraint multipliers, labelled by ``constraint_labels``.
+    n_rhs, n_steps, n_complements, n_projections : int
+        Work counters.
+    status : {'finished', 'failed', 'interrupted', 'running'}
+        How the run ended; ``message`` says why.
+    """
+
+    t: np.ndarray
+    x: np.ndarray
+    xd: np.ndarray
+    xdd: np.ndarray
+    positions: np.ndarray
+    rotations: np.ndarray
+    kinetic: np.ndarray
+    potential: np.ndarray
+    residual: np.ndarray
+    velocity_residual: np.ndarray
+    reactions: np.ndarray
+    coordinate_names: list = field(factory=list)
+    body_names: list = field(factory=list)
+    constraint_labels: list = field(factory=list)
+    driver_names: list = field(factory=list)
+    n_rhs: int = 0
+    n_steps: int = 0
+    n_complements: int = 0
+    n_projections: int = 0
+    wall_time: float = 0.0
+    status: str = "running"
+    message: str = ""
+    method: str = ""
+    complement: str = ""
+
+    @property
+    def energy(self) -> np.ndarray:
+        """Total mechanical energy (kinetic + potential), J."""
+        return self.kinetic + self.potential
+
+    def coordinate(self, name: str) -> np.ndarray:
+        """History of one coordinate by its name (``"joint.coordinate"`` or a joint name).
+
+        Parameters
+        ----------
+        name : str
+            Coordinate name; a joint name alone selects its first coordinate.
+
+        Returns
+        -------
+        ndarray, shape (nt,)
+            Values at the output times.
+        """
+        names = self.coordinate_names
+        if name in names:
+            return self.x[:, names.index(name)]
+        for i, c in enumerate(names):
+            if c.split(".")[0] == name:
+                return self.x[:, i]
+        raise FlexmbError(f"no coordinate {name!r}; known: {names}")
+
+    def body_position(self, name: str) -> np.ndarray:
+        """Mass-centre position history of a body, shape (nt, 3), m."""
+        try:
+            return self.positions[:, self.body_names.index(name)]
+        except ValueError:
+            raise FlexmbError(f"no body {name!r}; known: {self.body_names}") from None
+
+    def driver_effort(self, name: str) -> np.ndarray:
+        """Torque (N m) or force (N) a driver supplies, shape (nt,).
+
+        Parameters
+        ----------
+        name : str
+            Driver name.
+
+        Returns
+        -------
+        ndarray, shape (nt,)
+            The effort applied to the driven coordinate.
+        """
+        label = f"driver {name}"
+        if label not in self.constraint_labels:
+            raise FlexmbError(f"no driver {name!r}; known: {self.driver_names}")
+        return self.reactions[:, self.constraint_labels.index(label)]
+
+    def save(self, path) -> None:
+        """Save to a ``.npz`` file (written to a temporary name, then renamed).
+
+        Parameters
+        ----------
+        path : str or path-like
+            Target file.
+        """
+        path = os.fspath(path)
+        data = {k: getattr(self, k) for k in _ARRAYS}
+        data.update({k: np.array(getattr(self, k), dtype=str) for k in _LISTS})
+        data.update({k: np.array(getattr(self, k)) for k in _SCALARS})
+        folder = os.path.dirname(os.path.abspath(path))
+        fd, tmp = tempfile.mkstemp(suffix=".npz", dir=folder)
+        os.close(fd)
+        try:
+            np.savez_compressed(tmp, **data)
+            os.replace(tmp, path)
+        except BaseException:
+            if os.path.exists(tmp):
+                os.remove(tmp)
+            raise
+
+    @classmethod
+    def load(cls, path) -> "Result":
+        """Load a result written by :meth:`save`.
+
+        Parameters
+        ----------
+        path : str or path-like
+            File written by :meth:`save`.
+
+        Returns
+        -------
+        Result
+            The result, identical to the one saved.
+        """
+        with np.load(path) as z:
+            kw = {k: z[k] for k in _ARRAYS}
+            kw.update({k: [str(s) for s in z[k]] for k in _LISTS})
+            kw.update({k: z[k].item() for k in _SCALARS})
+        return cls(**kw)

@@ -1,0 +1,318 @@
+"""Time integration of the reduced equations, with constraint projection."""
+
+from __future__ import annotations
+
+import sys
+import time as _time
+
+import numpy as np
+from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, Radau
+
+from .errors import AssemblyError, FlexmbError, ModelError, SimulationError
+from .result import Result
+
+__all__ = ["simulate", "initial_state", "INTEGRATORS"]
+
+INTEGRATORS = {"RK45": RK45, "RK23": RK23, "DOP853": DOP853, "Radau": Radau, "BDF": BDF, "LSODA": LSODA}
+
+
+class _NonFinite(Exception):
+    def __init__(self, t, what):
+        super().__init__(what)
+        self.t = t
+
+
+def _as_system(model_or_system, complement):
+    from .system import System
+
+    if isinstance(model_or_system, System):
+        if complement is not None:
+            from .complements import get_complement
+
+            model_or_system.strategy = get_complement(complement)
+        return model_or_system
+    return model_or_system.build(complement=complement or "svd")
+
+
+def _coordinate_mask(system, names):
+    """Boolean mask of coordinates from names (coordinate or joint names)."""
+    mask = np.zeros(system.n_coords, bool)
+    for name in names:
+        hits = [i for i, c in enumerate(system.coordinate_names) if c == name or c.split(".")[0] == name]
+        if not hits:
+            raise ModelError(f"no coordinate or joint named {name!r}; coordinates are {system.coordinate_names}")
+        mask[hits] = True
+    return mask
+
+
+def _fill(system, values, what):
+    out = np.zeros(system.n_coords)
+    given = np.zeros(system.n_coords, bool)
+    for name, value in (values or {}).items():
+        mask = _coordinate_mask(system, [name])
+        v = np.broadcast_to(np.asarray(value, dtype=float), (int(mask.sum()),))
+        if not np.all(np.isfinite(v)):
+            raise ModelError(f"initial {what} {name!r} must be finite, got {value!r}")
+        out[mask] = v
+        given |= mask
+    return out, given
+
+
+def initial_state(system, t0: float = 0.0, positions=None, speeds=None, x0=None, xd0=None, fixed=None):
+    """Consistent initial coordinates and speeds.
+
+    Starting from ``positions`` (rough guesses are fine), the coordinates not
+    listed in ``fixed`` are moved by minimum-norm Newton steps to close the
+    loops (``phi(x0, t0) = 0``); then the speeds are made consistent
+    (``psi xd0 = b``) by a minimum-norm correction, holding the speeds named
+    in ``speeds``.
+
+    Parameters
+    ----------
+    system : System
+        Compiled model.
+    t0 : float
+        Initial time, s.
+    positions, speeds : dict, optional
+        ``{name: value}`` with a coordinate name (``"joint.angle"``) or a
+        joint name (all its coordinates).
+    x0, xd0 : array_like, shape (n,), optional
+        Full initial vectors (override ``positions`` / ``speeds``).
+    fixed : list of str, optional
+        Coordinates (or joints) to hold at their given values during assembly.
+
+    Returns
+    -------
+    x0, xd0 : ndarray, shape (n,)
+        The assembled state.
+
+    Raises
+    ------
+    AssemblyError
+        If a loop cannot close; the message names the worst rows.
+    """
+    x, _ = _fill(system, positions, "position")
+    held_x = np.zeros(system.n_coords, bool)
+    xd, held_v = _fill(system, speeds, "speed")
+    if x0 is not None:
+        x = np.array(x0, dtype=float).reshape(system.n_coords)
+    if xd0 is not None:
+        xd = np.array(xd0, dtype=float).reshape(system.n_coords)
+    if fixed:
+        held_x |= _coordinate_mask(system, fixed)
+    if system.n_constraints == 0:
+        return x, xd
+    x, _ = system.project(t0, x, xd, fixed=held_x)
+    _, xd = system.project(t0, x, xd, fixed=held_v)
+    return x, xd
+
+
+def _progress(t, t0, t1, last, stream=sys.stderr):
+    now = _time.perf_counter()
+    if now - last < 0.5 and t < t1:
+        return last
+    frac = (t - t0) / (t1 - t0) if t1 > t0 else 1.0
+    bar = "#" * int(30 * frac)
+    stream.write(f"\r  simulating [{bar:<30}] {100 * frac:5.1f}%  t = {t:.4g} s")
+    if t >= t1:
+        stream.write("\n")
+    stream.flush()
+    return now
+
+
+def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=None, x0=None, xd0=None,
+             fixed=None, n_out: int = 201, t_eval=None, method: str = "DOP853", rtol: float = 1e-8,
+             atol: float | None = None, complement=None, projection_tol: float = 1e-10,
+             max_step: float = np.inf, progress: bool | None = None) -> Result:
+    """Simulate a model from ``t0`` to ``t_end``.
+
+    The state (x, xd) is integrated by a scipy solver; the accelerations
+    come from the reduced equations (eqs. 36-39) at every evaluation. After
+    each step the position and speed residuals are checked, and when either
+    exceeds ``projection_tol`` the state is projected back onto the
+    constraints and the solver restarted.
+
+    Parameters
+    ----------
+    model : Model or System
+        What to simulate.
+    t_end : float
+        End time, s.
+    t0 : float
+        Start time, s.
+    positions, speeds, x0, xd0, fixed
+        Initial conditions, see :func:`initial_state`.
+    n_out : int
+        Number of equally spaced output times (ignored if ``t_eval``).
+    t_eval : array_like, optional
+        Output times, increasing, within [t0, t_end].
+    method : {'DOP853', 'RK45', 'RK23', 'Radau', 'BDF', 'LSODA'} or OdeSolver class
+        Integrator; explicit ones for non-stiff models, Radau/BDF for stiff.
+    rtol, atol : float
+        Integration tolerances (``atol`` defaults to ``rtol / 100``).
+    complement : {'svd', 'eigen'} or ComplementStrategy, optional
+        Orthogonal complement strategy (default: the system's, ``'svd'``).
+    projection_tol : float
+        Largest residual |phi| or |psi xd - b| tolerated before projecting.
+    max_step : float
+        Largest step, s.
+    progress : bool, optional
+        Show a progress bar on stderr (default: when stderr is a terminal).
+
+    Returns
+    -------
+    Result
+        Time histories and counters.
+
+    Raises
+    ------
+    SimulationError
+        If the state goes non-finite or the solver fails; ``.result`` holds
+        the outputs computed up to then and ``.t`` the time.
+    ModelError
+        If the model has no degree of freedom left.
+
+    Examples
+    --------
+    >>> import flexmb as fm
+    >>> model = fm.Model()
+    >>> bar = fm.RigidBody.slender_bar("bar", mass=1.0, length=1.0)
+    >>> _ = model.add(fm.Revolute("pin", model.ground, bar), fm.Gravity((0, -9.81, 0)))
+    >>> res = fm.simulate(model, 1.0, positions={"pin": 0.5})
+    >>> res.status
+    'finished'
+    """
+    system = _as_system(model, complement)
+    solver_cls = INTEGRATORS.get(method, method) if isinstance(method, str) else method
+    if isinstance(solver_cls, str):
+        raise ModelError(f"unknown integrator {method!r}; pick one of {sorted(INTEGRATORS)}")
+    name = method if isinstance(method, str) else getattr(method, "__name__", str(method))
+    atol = rtol / 100 if atol is None else atol
+    if not t_end > t0:
+        raise ModelError(f"t_end must be > t0, got t0 = {t0}, t_end = {t_end}")
+    if progress is None:
+        progress = sys.stderr.isatty()
+
+    x, xd = initial_state(system, t0, positions, speeds, x0, xd0, fixed)
+    p = system.dof(t0, x)
+    if p == 0:
+        raise ModelError(
+            f"the model has no degree of freedom left: {system.n_coords} coordinates, "
+            f"{system.n_constraints} constraint rows of rank {system.n_coords}"
+        )
+    n = system.n_coords
+    times = np.linspace(t0, t_end, n_out) if t_eval is None else np.asarray(t_eval, dtype=float)
+    if times.ndim != 1 or np.any(np.diff(times) <= 0) or times[0] < t0 or times[-1] > t_end:
+        raise ModelError("t_eval must be increasing and within [t0, t_end]")
+
+    counters = {"rhs": 0}
+    start_complements = system.n_complements
+
+    def fun(t, y):
+        counters["rhs"] += 1
+        xdd = system.accelerations(t, y[:n], y[n:])
+        if not np.all(np.isfinite(xdd)):
+            bad = [system.coordinate_names[i] for i in np.flatnonzero(~np.isfinite(xdd))[:5]]
+            raise _NonFinite(t, f"accelerations became non-finite ({', '.join(bad)})")
+        return np.concatenate([y[n:], xdd])
+
+    out_y = []
+    n_steps = n_proj = 0
+    t_wall = _time.perf_counter()
+    status, message = "running", ""
+    y = np.concatenate([x, xd])
+    k_out = 0
+    if times[0] == t0:
+        out_y.append(y.copy())
+        k_out = 1
+    last = 0.0
+
+    def make(tstart, ystart, first_step=None):
+        return solver_cls(fun, tstart, ystart, t_end, rtol=rtol, atol=atol, max_step=max_step,
+                          first_step=first_step)
+
+    t_now = t0
+    try:
+        solver = make(t0, y)
+        while solver.status == "running":
+            t_prev = solver.t
+            msg = solver.step()
+            n_steps += 1
+            if solver.status == "failed":
+                raise _NonFinite(solver.t, f"the integrator failed: {msg}")
+            if not np.all(np.isfinite(solver.y)):
+                raise _NonFinite(solver.t, "the state became non-finite")
+            t_now = solver.t
+            if k_out < len(times) and times[k_out] <= t_now:
+                dense = solver.dense_output()
+                while k_out < len(times) and times[k_out] <= t_now:
+                    out_y.append(dense(times[k_out]) if times[k_out] != t_now else solver.y.copy())
+                    k_out += 1
+            if solver.status == "running":
+                xs, vs = solver.y[:n], solver.y[n:]
+                phi, psi, b = system.constraints.evaluate(system.kinematics(t_now, xs, vs), level=1)
+                if phi.size and max(np.max(np.abs(phi)), np.max(np.abs(psi @ vs - b))) > projection_tol:
+                    xs, vs = system.project(t_now, xs, vs, tol=min(1e-12, projection_tol))
+                    n_proj += 1
+                    solver = make(t_now, np.concatenate([xs, vs]), first_step=max(solver.step_size, 1e-14)
+                                  if solver.step_size else None)
+            if progress:
+                last = _progress(t_now, t0, t_end, last)
+            del t_prev
+        status, message = "finished", "reached t_end"
+    except (_NonFinite, AssemblyError) as exc:
+        status = "failed"
+        t_fail = getattr(exc, "t", t_now)
+        message = f"at t = {t_fail:.9g} s: {exc}"
+    except KeyboardInterrupt:
+        status, message = "interrupted", f"interrupted by the user at t = {t_now:.9g} s"
+    wall = _time.perf_counter() - t_wall
+
+    result = _collect(system, times[: len(out_y)], np.array(out_y).reshape(len(out_y), 2 * n))
+    result.n_rhs = counters["rhs"]
+    result.n_steps = n_steps
+    result.n_complements = system.n_complements - start_complements
+    result.n_projections = n_proj
+    result.wall_time = wall
+    result.status, result.message = status, message
+    result.method = name
+    result.complement = system.strategy.name
+    if status == "failed":
+        raise SimulationError(f"simulation failed {message}", t=t_now, result=result)
+    return result
+
+
+def _collect(system, t, Y) -> Result:
+    """Evaluate the output quantities at the stored states."""
+    n = system.n_coords
+    nt, nb, m = len(t), system.topology.n_bodies, system.n_constraints
+    xdd = np.zeros((nt, n))
+    pos = np.zeros((nt, nb, 3))
+    rot = np.zeros((nt, nb, 3, 3))
+    kin_e = np.zeros(nt)
+    pot_e = np.zeros(nt)
+    res = np.zeros(nt)
+    vres = np.zeros(nt)
+    lam = np.zeros((nt, m))
+    for i in range(nt):
+        x, xd = Y[i, :n], Y[i, n:]
+        kin, A, f, phi, psi, b, gamma = system.equations(t[i], x, xd)
+        try:
+            xdd[i] = system._solve(t[i], A, f, psi, gamma)
+        except FlexmbError:
+            xdd[i] = np.nan
+        pos[i] = kin.r[:-1]
+        rot[i] = kin.R[:-1]
+        kin_e[i] = kin.kinetic_energy()
+        pot_e[i] = system.forces.potential_energy(kin)
+        if m:
+            res[i] = np.max(np.abs(phi))
+            vres[i] = np.max(np.abs(psi @ xd - b))
+            lam[i] = np.linalg.lstsq(psi.T, A @ xdd[i] - f, rcond=None)[0]
+    return Result(
+        t=np.asarray(t, float), x=Y[:, :n].copy(), xd=Y[:, n:].copy(), xdd=xdd, positions=pos,
+        rotations=rot, kinetic=kin_e, potential=pot_e, residual=res, velocity_residual=vres,
+        reactions=lam, coordinate_names=list(system.coordinate_names), body_names=list(system.body_names),
+        constraint_labels=list(system.constraints.labels),
+        driver_names=[d.name for d in system.constraints.drivers],
+    )

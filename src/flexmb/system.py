@@ -1,0 +1,244 @@
+"""The compiled system: topology, assembler, constraints and the reduced equations."""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.linalg as sla
+
+from .assembly import ForceAssembler, mass_matrix
+from .complements import get_complement
+from .constraints import Constraints
+from .errors import AssemblyError, ModelError
+from .kinematics import Kinematics
+from .topology import Topology
+
+__all__ = ["System"]
+
+
+class System:
+    """A model compiled for evaluation: ``A(x, t) xdd = f`` with ``psi xd = b``.
+
+    Parameters
+    ----------
+    model : Model
+        A validated model.
+    complement : str or ComplementStrategy
+        Orthogonal complement strategy (``"svd"`` or ``"eigen"``).
+
+    Attributes
+    ----------
+    n_coords : int
+        Number of generalized coordinates n.
+    n_constraints : int
+        Number of constraint rows m.
+    coordinate_names : list of str
+        ``"joint.coordinate"`` per coordinate.
+    n_complements : int
+        Count of complement computations so far.
+    """
+
+    def __init__(self, model, complement="svd"):
+        self.model = model
+        self.topology = Topology(model)
+        self.forces = ForceAssembler(model.forces)
+        self.constraints = Constraints(self.topology, model.drivers)
+        self.strategy = get_complement(complement)
+        self.n_coords = self.topology.n_coords
+        self.n_constraints = self.constraints.n_rows
+        self.coordinate_names = self.topology.coordinate_names
+        self.body_names = [b.name for b in self.topology.bodies]
+        self.n_complements = 0
+        self._trial()
+
+    def _trial(self):
+        """Evaluate every force element once so bad input fails at build time."""
+        x = np.zeros(self.n_coords)
+        kin = self.kinematics(0.0, x, x)
+        for cls, elements in self.forces.groups:
+            for e in elements:
+                try:
+                    from .forces import Loads
+
+                    cls.apply_all([e], kin, Loads(kin))
+                    cls.potential_all([e], kin)
+                except ModelError as exc:
+                    raise ModelError(f"force element {e.name!r}: {exc}") from exc
+                except Exception as exc:  # a user element failing on the reference state
+                    raise ModelError(
+                        f"force element {e.name!r} ({type(e).__name__}) failed on the reference state: "
+                        f"{type(exc).__name__}: {exc}"
+                    ) from exc
+
+    # -- evaluation
+    def kinematics(self, t: float, x: np.ndarray, xd: np.ndarray) -> Kinematics:
+        """Kinematics of all bodies at a state (eqs. 6-18)."""
+        return Kinematics(self.topology, t, np.asarray(x, dtype=float), np.asarray(xd, dtype=float))
+
+    def index(self, body) -> int:
+        """Row of a body in per-body arrays (-1 for the ground)."""
+        try:
+            return self.topology.index[body]
+        except KeyError:
+            raise ModelError(f"body {getattr(body, 'name', body)!r} is not in the model") from None
+
+    def coordinate_slice(self, joint) -> slice:
+        """Slice of x holding a joint's coordinates."""
+        return self.topology.coordinate_slice(joint)
+
+    def complement(self, psi):
+        """Orthogonal complement of psi by the system's strategy (eqs. 30-37)."""
+        self.n_complements += 1
+        return self.strategy.complement(psi)
+
+    def equations(self, t, x, xd):
+        """All the pieces of the equations of motion at one state.
+
+        Returns
+        -------
+        kin : Kinematics
+        A : ndarray, shape (n, n)
+            Generalized mass matrix (eq. 2).
+        f : ndarray, shape (n,)
+            Force array (eq. 3).
+        phi, psi, b, gamma : ndarray
+            Constraint residual, Jacobian and right-hand sides (eqs. 28-29).
+        """
+        kin = self.kinematics(t, x, xd)
+        A = mass_matrix(kin)
+        f = self.forces.force_array(kin)
+        phi, psi, b, gamma = self.constraints.evaluate(kin)
+        return kin, A, f, phi, psi, b, gamma
+
+    def accelerations(self, t, x, xd) -> np.ndarray:
+        """Generalized accelerations from the reduced equations (eqs. 36-39).
+
+        With ``xdd = T zd + xdd_p`` (``psi T = 0``, ``psi xdd_p = gamma``),
+        ``T^T A T zd = T^T (f - A xdd_p)``; the constraint forces drop out.
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        x, xd : ndarray, shape (n,)
+            Coordinates and speeds.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            xdd.
+
+        Raises
+        ------
+        AssemblyError
+            If the reduced mass matrix is not positive definite.
+        """
+        _, A, f, _, psi, _, gamma = self.equations(t, x, xd)
+        return self._solve(t, A, f, psi, gamma)
+
+    def _solve(self, t, A, f, psi, gamma):
+        c = self.complement(psi)
+        T = c.T
+        xdd_p = c.particular(gamma) if c.rank else np.zeros(self.n_coords)
+        if T.shape[1] == 0:
+            return xdd_p
+        M = T.T @ A @ T
+        rhs = T.T @ (f - A @ xdd_p)
+        try:
+            zd = sla.cho_solve(sla.cho_factor(M), rhs)
+        except (np.linalg.LinAlgError, ValueError) as exc:
+            raise AssemblyError(
+                f"reduced mass matrix T^T A T is not positive definite at t = {t:.6g} s "
+                "(a body without mass or inertia on a freedom?)"
+            ) from exc
+        return T @ zd + xdd_p
+
+    def reactions(self, t, x, xd, xdd=None):
+        """Constraint reactions (Lagrange multipliers) at a state.
+
+        ``A xdd = f + psi^T lambda``; lambda is the minimum-norm solution
+        (unique for independent rows). A driver's row gives the torque or
+        force it supplies; a cut joint's point rows give the force it
+        transmits to its parent body (inertial axes, N).
+
+        Returns
+        -------
+        ndarray, shape (m,)
+            One multiplier per constraint row, labelled by
+            ``self.constraints.labels``.
+        """
+        _, A, f, _, psi, _, gamma = self.equations(t, x, xd)
+        if xdd is None:
+            xdd = self._solve(t, A, f, psi, gamma)
+        if psi.shape[0] == 0:
+            return np.zeros(0)
+        lam, *_ = np.linalg.lstsq(psi.T, A @ xdd - f, rcond=None)
+        return lam
+
+    def energy(self, t, x, xd) -> tuple[float, float]:
+        """Kinetic and potential energy, J."""
+        kin = self.kinematics(t, x, xd)
+        return kin.kinetic_energy(), self.forces.potential_energy(kin)
+
+    def dof(self, t=0.0, x=None) -> int:
+        """Degrees of freedom p = n - rank(psi) at a configuration."""
+        x = np.zeros(self.n_coords) if x is None else x
+        _, psi, _ = self.constraints.evaluate(self.kinematics(t, x, np.zeros_like(x)), level=1)
+        return self.strategy.complement(psi).p
+
+    # -- constraint satisfaction
+    def project(self, t, x, xd, tol=1e-12, max_iter=50, fixed=None, max_step=0.5):
+        """Project a state onto the constraints (Newton, minimum-norm steps).
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        x, xd : ndarray, shape (n,)
+            State to correct.
+        tol : float
+            Target for max |phi| (m or rad).
+        max_iter : int
+            Newton iterations allowed.
+        fixed : ndarray of bool, shape (n,), optional
+            Coordinates to leave unchanged.
+        max_step : float
+            Largest change of any coordinate in one Newton step (rad or m),
+            so that rough guesses do not jump to a far branch.
+
+        Returns
+        -------
+        x, xd : ndarray
+            Corrected state with ``phi = 0`` and ``psi xd = b``.
+
+        Raises
+        ------
+        AssemblyError
+            If the constraints cannot be closed; the message names the
+            constraint rows with the largest residual.
+        """
+        x = np.array(x, dtype=float)
+        xd = np.array(xd, dtype=float)
+        if self.n_constraints == 0:
+            return x, xd
+        free = np.ones(self.n_coords, bool) if fixed is None else ~np.asarray(fixed, bool)
+        for _ in range(max_iter):
+            kin = self.kinematics(t, x, xd)
+            phi, psi, _ = self.constraints.evaluate(kin, level=1)
+            if np.max(np.abs(phi)) <= tol:
+                break
+            step, *_ = np.linalg.lstsq(psi[:, free], phi, rcond=1e-12)
+            big = np.max(np.abs(step))
+            x[free] -= step * min(1.0, max_step / big) if big > 0 else step
+        else:
+            kin = self.kinematics(t, x, xd)
+            phi = self.constraints.evaluate(kin, level=0)
+            worst = np.argsort(-np.abs(phi))[:3]
+            rows = ", ".join(f"{self.constraints.labels[i]} = {phi[i]:.3g}" for i in worst)
+            raise AssemblyError(
+                f"the constraints cannot be closed at t = {t:.6g} s: residual {np.max(np.abs(phi)):.3g} "
+                f"after {max_iter} Newton steps (largest: {rows})"
+            )
+        phi, psi, b = self.constraints.evaluate(self.kinematics(t, x, xd), level=1)
+        step, *_ = np.linalg.lstsq(psi[:, free], psi @ xd - b, rcond=1e-12)
+        xd[free] -= step
+        return x, xd

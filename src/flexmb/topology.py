@@ -1,0 +1,171 @@
+"""Spanning tree, cut joints, coordinate numbering and index arrays.
+
+Built once per model; every evaluation reuses these arrays. Bodies are
+numbered in breadth-first order from the ground, so a parent always comes
+before its children; the ground is index -1 (the extra last row of every
+per-body array).
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict, deque
+
+import numpy as np
+
+from .errors import ModelError
+
+__all__ = ["Topology"]
+
+
+class Topology:
+    """The tree structure of a model.
+
+    Parameters
+    ----------
+    model : Model
+        The model.
+
+    Attributes
+    ----------
+    bodies : list of Body
+        Non-ground bodies, breadth-first from the ground.
+    tree_joints : list of Joint
+        ``tree_joints[k]`` joins body k to its parent.
+    cut_joints : list of Joint
+        Joints that close loops (they give constraint equations).
+    parent : ndarray of int, shape (n_bodies,)
+        Parent body index (-1: ground).
+    ancestors : ndarray, shape (n_bodies, n_bodies)
+        ``ancestors[k, j] = 1`` if body j is on the path from ground to k
+        (k included).
+    coord_body : ndarray of int, shape (n_coords,)
+        Body whose tree joint owns each coordinate.
+    coordinate_names : list of str
+        ``"joint.coordinate"`` names.
+
+    Raises
+    ------
+    ModelError
+        If a body cannot be reached from the ground, or a joint that must be
+        cut cannot give constraint equations.
+    """
+
+    def __init__(self, model):
+        self.model = model
+        ground = model.ground
+        named_cut = {j for j in model.joints if j.cut}
+        children = defaultdict(list)
+        for j in model.joints:
+            if j not in named_cut:
+                children[j.parent].append(j)
+        order: list = []
+        tree: dict = {}
+        seen = {ground}
+        queue = deque([ground])
+        while queue:
+            b = queue.popleft()
+            for j in children[b]:
+                if j.child in seen:
+                    continue
+                seen.add(j.child)
+                tree[j.child] = j
+                order.append(j.child)
+                queue.append(j.child)
+        problems = []
+        for b in model.bodies:
+            if b not in seen:
+                problems.append(
+                    f"body {b.name!r} is not connected to the ground through tree joints "
+                    "(joints run parent -> child from the ground)"
+                )
+        tree_set = set(tree.values())
+        self.cut_joints = [j for j in model.joints if j not in tree_set]
+        for j in self.cut_joints:
+            rows = 3 * j.cut_point + len(j.cut_directions) + len(j.cut_perpendicular)
+            if rows == 0:
+                problems.append(f"joint {j.name!r} ({type(j).__name__}) closes a loop but imposes no constraint")
+        for d in model.drivers:
+            if d.joint not in tree_set:
+                problems.append(f"driver {d.name!r}: joint {d.joint.name!r} is a cut joint and has no coordinates")
+        if problems:
+            raise ModelError("; ".join(problems), problems)
+
+        self.bodies = order
+        self.tree_joints = [tree[b] for b in order]
+        self.index = {b: k for k, b in enumerate(order)}
+        self.index[ground] = -1
+        nb = len(order)
+        self.n_bodies = nb
+        self.parent = np.array([self.index[j.parent] for j in self.tree_joints], dtype=int)
+        anc = np.zeros((nb, nb))
+        for k in range(nb):
+            anc[k, k] = 1.0
+            p = self.parent[k]
+            if p >= 0:
+                anc[k] += anc[p]
+        self.ancestors = anc
+        depth = anc.sum(axis=1)
+        self.depth = int(depth.max()) if nb else 0
+
+        # coordinates: contiguous per tree joint, in body order
+        self.joint_slice = {}
+        names, coord_body = [], []
+        start = 0
+        for k, j in enumerate(self.tree_joints):
+            self.joint_slice[j] = slice(start, start + j.n_coords)
+            names += [f"{j.name}.{c}" for c in j.coordinate_names]
+            coord_body += [k] * j.n_coords
+            start += j.n_coords
+        self.n_coords = start
+        self.coordinate_names = names
+        self.coord_body = np.array(coord_body, dtype=int)
+        self.coord_ancestors = anc[:, self.coord_body]
+
+        # joint groups by class, for batched motion()
+        groups = defaultdict(list)
+        for k, j in enumerate(self.tree_joints):
+            groups[type(j)].append(k)
+        self.groups = []
+        for cls, ks in groups.items():
+            ks = np.array(ks, dtype=int)
+            cols = np.array([np.arange(self.joint_slice[self.tree_joints[k]].start,
+                                       self.joint_slice[self.tree_joints[k]].stop) for k in ks],
+                            dtype=int).reshape(len(ks), -1)
+            self.groups.append((cls, ks, cols))
+
+        # per-body constant data
+        self.mass = np.array([b.mass for b in order], dtype=float)
+        self.inertia = np.array([b.inertia for b in order], dtype=float).reshape(nb, 3, 3)
+        self.com = np.array([b.com for b in order], dtype=float).reshape(nb, 3)
+        frames = [j.frames() for j in self.tree_joints]
+        self.parent_frame = np.array([f[0] for f in frames]).reshape(nb, 3, 3)
+        self.child_frame = np.array([f[1] for f in frames]).reshape(nb, 3, 3)
+        self.parent_point = np.array([j.parent_point for j in self.tree_joints]).reshape(nb, 3)
+        self.child_point = np.array([j.child_point for j in self.tree_joints]).reshape(nb, 3)
+        # the parent's own joint point, in the parent body frame (ground: origin)
+        cp_ext = np.vstack([self.child_point, np.zeros((1, 3))])
+        self.parent_joint_point = cp_ext[self.parent]
+
+    def coordinate_slice(self, joint) -> slice:
+        """Slice of ``x`` holding a tree joint's coordinates.
+
+        Parameters
+        ----------
+        joint : Joint
+            A tree joint of the model.
+
+        Returns
+        -------
+        slice
+            Its coordinates in ``x``.
+
+        Raises
+        ------
+        ModelError
+            If the joint is a cut joint or not in the model.
+        """
+        try:
+            return self.joint_slice[joint]
+        except KeyError:
+            kind = "a cut joint (it closes a loop)" if joint in self.cut_joints else "not in the model"
+            raise ModelError(f"joint {joint.name!r} has no coordinates: it is {kind}") from None

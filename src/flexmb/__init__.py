@@ -10,7 +10,10 @@ from .drivers import Driver
 from .errors import AssemblyError, FlexmbError, ModelError, SimulationError
 from .forces import BodyTorque, ForceElement, Gravity, JointSpringDamper, Loads, PointForce, SpringDamper
 from .joints import Cylindrical, Fixed, Free, Joint, PlanarRevolute, Prismatic, Revolute, Spherical, Universal
+from .flexible import FlexibleBody, Segment
+from .linear import Linearization, linear_statics, linearize, modes, static_equilibrium
 from .model import Model
+from .sections import Material, Section
 from .result import Result
 from .simulate import INTEGRATORS, initial_state, simulate
 from .system import System
@@ -24,5 +27,7 @@ __all__ = [
     "AssemblyError", "FlexmbError", "ModelError", "SimulationError",
     "BodyTorque", "ForceElement", "Gravity", "JointSpringDamper", "Loads", "PointForce", "SpringDamper",
     "Cylindrical", "Fixed", "Free", "Joint", "PlanarRevolute", "Prismatic", "Revolute", "Spherical", "Universal",
+    "FlexibleBody", "Segment", "Material", "Section",
+    "Linearization", "linear_statics", "linearize", "modes", "static_equilibrium",
     "Model", "Result", "INTEGRATORS", "initial_state", "simulate", "System",
 ]

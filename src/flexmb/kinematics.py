@@ -141,6 +141,10 @@ class Kinematics:
         """Row of ``body`` in the per-body arrays (-1 for the ground)."""
         return self.topology.index[body]
 
+    def locate(self, body, point) -> tuple[int, np.ndarray]:
+        """Row and local point of a point on a (rigid or flexible) body; see :meth:`Topology.locate`."""
+        return self.topology.locate(body, point)
+
     def coordinate_slice(self, joint) -> slice:
         """Slice of ``x`` holding a tree joint's coordinates."""
         return self.topology.coordinate_slice(joint)

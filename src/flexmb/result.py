@@ -12,7 +12,7 @@ from .errors import FlexmbError
 
 __all__ = ["Result"]
 
-_ARRAYS = ("t", "x", "xd", "xdd", "positions", "rotations", "kinetic", "potential",
+_ARRAYS = ("t", "x", "xd", "xdd", "positions", "origins", "rotations", "kinetic", "potential",
            "residual", "velocity_residual", "reactions")
 _LISTS = ("coordinate_names", "body_names", "constraint_labels", "driver_names")
 _SCALARS = ("n_rhs", "n_steps", "n_complements", "n_projections", "wall_time", "status", "message", "method",
@@ -31,6 +31,8 @@ class Result:
         Coordinates, speeds and accelerations.
     positions : ndarray, shape (nt, n_bodies, 3)
         Mass-centre positions, m.
+    origins : ndarray, shape (nt, n_bodies, 3)
+        Body-frame origins, m.
     rotations : ndarray, shape (nt, n_bodies, 3, 3)
         Body rotation matrices (body -> inertial).
     kinetic, potential : ndarray, shape (nt,)
@@ -52,6 +54,7 @@ class Result:
     xd: np.ndarray
     xdd: np.ndarray
     positions: np.ndarray
+    origins: np.ndarray
     rotations: np.ndarray
     kinetic: np.ndarray
     potential: np.ndarray
@@ -62,6 +65,7 @@ class Result:
     body_names: list = field(factory=list)
     constraint_labels: list = field(factory=list)
     driver_names: list = field(factory=list)
+    flexible: dict = field(factory=dict)
     n_rhs: int = 0
     n_steps: int = 0
     n_complements: int = 0
@@ -105,6 +109,27 @@ class Result:
         except ValueError:
             raise FlexmbError(f"no body {name!r}; known: {self.body_names}") from None
 
+    def shape(self, name: str) -> np.ndarray:
+        """Deformed centre line of a flexible body: the segment ends.
+
+        Parameters
+        ----------
+        name : str
+            Name of a :class:`~flexmb.FlexibleBody`.
+
+        Returns
+        -------
+        ndarray, shape (nt, n_segments + 1, 3)
+            Inertial positions of the root, every segment joint and the tip, m.
+        """
+        if name not in self.flexible:
+            raise FlexmbError(f"no flexible body {name!r}; flexible bodies: {sorted(self.flexible)}")
+        rows, l = self.flexible[name]
+        rows = np.asarray(rows, dtype=int)
+        ends = self.origins[:, rows]
+        tip = ends[:, -1] + self.rotations[:, rows[-1], :, 0] * l
+        return np.concatenate([ends, tip[:, None]], axis=1)
+
     def driver_effort(self, name: str) -> np.ndarray:
         """Torque (N m) or force (N) a driver supplies, shape (nt,).
 
@@ -135,6 +160,11 @@ class Result:
         data = {k: getattr(self, k) for k in _ARRAYS}
         data.update({k: np.array(getattr(self, k), dtype=str) for k in _LISTS})
         data.update({k: np.array(getattr(self, k)) for k in _SCALARS})
+        names = sorted(self.flexible)
+        data["flexible_names"] = np.array(names, dtype=str)
+        data["flexible_lengths"] = np.array([self.flexible[k][1] for k in names], dtype=float)
+        for i, k in enumerate(names):
+            data[f"flexible_rows_{i}"] = np.asarray(self.flexible[k][0], dtype=int)
         folder = os.path.dirname(os.path.abspath(path))
         fd, tmp = tempfile.mkstemp(suffix=".npz", dir=folder)
         os.close(fd)
@@ -164,4 +194,6 @@ class Result:
             kw = {k: z[k] for k in _ARRAYS}
             kw.update({k: [str(s) for s in z[k]] for k in _LISTS})
             kw.update({k: z[k].item() for k in _SCALARS})
+            kw["flexible"] = {str(k): (z[f"flexible_rows_{i}"].tolist(), float(z["flexible_lengths"][i]))
+                              for i, k in enumerate(z["flexible_names"])}
         return cls(**kw)

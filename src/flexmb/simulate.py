@@ -121,7 +121,7 @@ def _progress(t, t0, t1, last, stream=sys.stderr):
 
 
 def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=None, x0=None, xd0=None,
-             fixed=None, n_out: int = 201, t_eval=None, method: str = "DOP853", rtol: float = 1e-8,
+             fixed=None, n_out: int = 201, t_eval=None, method: str = "auto", rtol: float = 1e-8,
              atol: float | None = None, complement=None, projection_tol: float = 1e-10,
              max_step: float = np.inf, progress: bool | None = None) -> Result:
     """Simulate a model from ``t0`` to ``t_end``.
@@ -146,8 +146,10 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         Number of equally spaced output times (ignored if ``t_eval``).
     t_eval : array_like, optional
         Output times, increasing, within [t0, t_end].
-    method : {'DOP853', 'RK45', 'RK23', 'Radau', 'BDF', 'LSODA'} or OdeSolver class
+    method : {'auto', 'DOP853', 'RK45', 'RK23', 'Radau', 'BDF', 'LSODA'} or OdeSolver class
         Integrator; explicit ones for non-stiff models, Radau/BDF for stiff.
+        ``'auto'`` takes Radau when the model has flexible bodies (stiff
+        segment springs) and DOP853 otherwise.
     rtol, atol : float
         Integration tolerances (``atol`` defaults to ``rtol / 100``).
     complement : {'svd', 'eigen'} or ComplementStrategy, optional
@@ -183,6 +185,8 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     'finished'
     """
     system = _as_system(model, complement)
+    if method == "auto":
+        method = "Radau" if system.topology.flexible else "DOP853"
     solver_cls = INTEGRATORS.get(method, method) if isinstance(method, str) else method
     if isinstance(solver_cls, str):
         raise ModelError(f"unknown integrator {method!r}; pick one of {sorted(INTEGRATORS)}")
@@ -288,6 +292,7 @@ def _collect(system, t, Y) -> Result:
     nt, nb, m = len(t), system.topology.n_bodies, system.n_constraints
     xdd = np.zeros((nt, n))
     pos = np.zeros((nt, nb, 3))
+    org = np.zeros((nt, nb, 3))
     rot = np.zeros((nt, nb, 3, 3))
     kin_e = np.zeros(nt)
     pot_e = np.zeros(nt)
@@ -302,6 +307,7 @@ def _collect(system, t, Y) -> Result:
         except FlexmbError:
             xdd[i] = np.nan
         pos[i] = kin.r[:-1]
+        org[i] = kin.origin[:-1]
         rot[i] = kin.R[:-1]
         kin_e[i] = kin.kinetic_energy()
         pot_e[i] = system.forces.potential_energy(kin)
@@ -310,9 +316,11 @@ def _collect(system, t, Y) -> Result:
             vres[i] = np.max(np.abs(psi @ xd - b))
             lam[i] = np.linalg.lstsq(psi.T, A @ xdd[i] - f, rcond=None)[0]
     return Result(
-        t=np.asarray(t, float), x=Y[:, :n].copy(), xd=Y[:, n:].copy(), xdd=xdd, positions=pos,
+        t=np.asarray(t, float), x=Y[:, :n].copy(), xd=Y[:, n:].copy(), xdd=xdd, positions=pos, origins=org,
         rotations=rot, kinetic=kin_e, potential=pot_e, residual=res, velocity_residual=vres,
         reactions=lam, coordinate_names=list(system.coordinate_names), body_names=list(system.body_names),
         constraint_labels=list(system.constraints.labels),
         driver_names=[d.name for d in system.constraints.drivers],
+        flexible={b.name: ([system.topology.index[sg] for sg in segs], b.segment_length)
+                  for b, (_, segs, _) in system.topology.flexible.items()},
     )

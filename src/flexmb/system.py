@@ -40,7 +40,10 @@ class System:
     def __init__(self, model, complement="svd"):
         self.model = model
         self.topology = Topology(model)
-        self.forces = ForceAssembler(model.forces)
+        from .forces.elastic import BeamElasticity
+
+        elastic = [BeamElasticity(f"{b.name}.elasticity", b) for b in self.topology.flexible]
+        self.forces = ForceAssembler(list(model.forces) + elastic)
         self.constraints = Constraints(self.topology, model.drivers)
         self.strategy = get_complement(complement)
         self.n_coords = self.topology.n_coords

@@ -51,11 +51,49 @@ class Topology:
     """
 
     def __init__(self, model):
+        from attrs import evolve
+
+        from .flexible import FlexibleBody
+
         self.model = model
+        self.cache: dict = {}
         ground = model.ground
-        named_cut = {j for j in model.joints if j.cut}
-        children = defaultdict(list)
+        problems = []
+
+        # flexible bodies expand into segments and elastic joints
+        self.flexible = {}
+        internal = []
+        for b in model.bodies:
+            if isinstance(b, FlexibleBody):
+                root, segs, joints = b.expand()
+                self.flexible[b] = (root, segs, joints)
+                internal += joints
+
+        def place(body, point, as_child):
+            if body not in self.flexible:
+                return body, point
+            root, segs, _ = self.flexible[body]
+            if as_child:
+                return root, point
+            i, local = body.locate(point)
+            return segs[i], local
+
+        self.joint_map = {}
+        redirected = []
         for j in model.joints:
+            parent, pp = place(j.parent, j.parent_point, False)
+            child, cp = place(j.child, j.child_point, j.child in self.flexible and not j.cut)
+            if parent is not j.parent or child is not j.child:
+                j2 = evolve(j, parent=parent, child=child, parent_point=pp, child_point=cp)
+            else:
+                j2 = j
+            self.joint_map[j] = j2
+            redirected.append(j2)
+        all_joints = redirected + internal
+
+        named_cut = {self.joint_map[j] for j in model.joints if j.cut}
+        children = defaultdict(list)
+        for j in all_joints:
             if j not in named_cut:
                 children[j.parent].append(j)
         order: list = []
@@ -71,21 +109,34 @@ class Topology:
                 tree[j.child] = j
                 order.append(j.child)
                 queue.append(j.child)
-        problems = []
         for b in model.bodies:
-            if b not in seen:
+            carrier = self.flexible[b][0] if b in self.flexible else b
+            if carrier not in seen:
                 problems.append(
                     f"body {b.name!r} is not connected to the ground through tree joints "
                     "(joints run parent -> child from the ground)"
                 )
         tree_set = set(tree.values())
-        self.cut_joints = [j for j in model.joints if j not in tree_set]
+        for j in model.joints:
+            j2 = self.joint_map[j]
+            if j.child in self.flexible and j2 in tree_set and np.any(j.child_point != 0):
+                problems.append(
+                    f"joint {j.name!r}: flexible body {j.child.name!r} must be attached to its parent at "
+                    f"its root (child_point = 0), got {j.child_point.tolist()}"
+                )
+            if j2 not in tree_set and j.child in self.flexible and not j.cut:
+                # closes a loop: attach at the segment carrying the point
+                child, cp = place(j.child, j.child_point, False)
+                j3 = evolve(j2, child=child, child_point=cp)
+                self.joint_map[j] = j3
+                all_joints[all_joints.index(j2)] = j3
+        self.cut_joints = [j for j in all_joints if j not in tree_set]
         for j in self.cut_joints:
             rows = 3 * j.cut_point + len(j.cut_directions) + len(j.cut_perpendicular)
             if rows == 0:
                 problems.append(f"joint {j.name!r} ({type(j).__name__}) closes a loop but imposes no constraint")
         for d in model.drivers:
-            if d.joint not in tree_set:
+            if self.joint_map.get(d.joint) not in tree_set:
                 problems.append(f"driver {d.name!r}: joint {d.joint.name!r} is a cut joint and has no coordinates")
         if problems:
             raise ModelError("; ".join(problems), problems)
@@ -94,6 +145,8 @@ class Topology:
         self.tree_joints = [tree[b] for b in order]
         self.index = {b: k for k, b in enumerate(order)}
         self.index[ground] = -1
+        for b, (root, _, _) in self.flexible.items():
+            self.index[b] = self.index[root]
         nb = len(order)
         self.n_bodies = nb
         self.parent = np.array([self.index[j.parent] for j in self.tree_joints], dtype=int)
@@ -165,7 +218,49 @@ class Topology:
             If the joint is a cut joint or not in the model.
         """
         try:
-            return self.joint_slice[joint]
+            return self.joint_slice[self.joint_map.get(joint, joint)]
         except KeyError:
-            kind = "a cut joint (it closes a loop)" if joint in self.cut_joints else "not in the model"
+            kind = ("a cut joint (it closes a loop)" if self.joint_map.get(joint, joint) in self.cut_joints
+                    else "not in the model")
             raise ModelError(f"joint {joint.name!r} has no coordinates: it is {kind}") from None
+
+    def locate(self, body, point) -> tuple[int, np.ndarray]:
+        """Body row and local point for a point given on a (possibly flexible) body.
+
+        Parameters
+        ----------
+        body : Body
+            A body of the model (rigid, flexible or the ground).
+        point : array_like, shape (3,)
+            Point in the body's frame, m.
+
+        Returns
+        -------
+        index : int
+            Row in the per-body arrays (-1: ground).
+        local : ndarray, shape (3,)
+            The point in that row's body frame.
+        """
+        if body in self.flexible:
+            i, local = body.locate(point)
+            return self.index[self.flexible[body][1][i]], local
+        try:
+            return self.index[body], np.asarray(point, dtype=float)
+        except KeyError:
+            raise ModelError(f"body {getattr(body, 'name', body)!r} is not in the model") from None
+
+    def elastic_columns(self, body) -> np.ndarray:
+        """Coordinate indices of a flexible body's elastic coordinates, joint by joint.
+
+        Parameters
+        ----------
+        body : FlexibleBody
+            The body.
+
+        Returns
+        -------
+        ndarray of int, shape (n_joints * len(keep),)
+            Indices into x, ordered (joint, kept coordinate).
+        """
+        joints = self.flexible[body][2]
+        return np.concatenate([np.arange(self.joint_slice[j].start, self.joint_slice[j].stop) for j in joints])

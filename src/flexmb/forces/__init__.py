@@ -14,7 +14,8 @@ from attrs import field, frozen
 from .._validate import name_check
 from ..rotations import cross
 
-__all__ = ["ForceElement", "Loads", "Gravity", "SpringDamper", "JointSpringDamper", "PointForce", "BodyTorque"]
+__all__ = ["ForceElement", "Loads", "Gravity", "SpringDamper", "JointSpringDamper", "PointForce", "BodyTorque",
+           "BeamElasticity"]
 
 
 class Loads:
@@ -123,3 +124,4 @@ class ForceElement:
 from .gravity import Gravity  # noqa: E402
 from .loads import BodyTorque, PointForce  # noqa: E402
 from .springs import JointSpringDamper, SpringDamper  # noqa: E402
+from .elastic import BeamElasticity  # noqa: E402

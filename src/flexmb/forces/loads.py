@@ -67,11 +67,11 @@ class PointForce(ForceElement):
 
     def apply(self, state, loads) -> None:
         """Add the force at its point."""
-        k = state.index(self.body)
+        k, local = state.locate(self.body, self.point)
         f = _evaluate(self.force, state)
         if self.frame == "body":
             f = state.R[k] @ f
-        loads.add_point_force(k, state.point_position(k, self.point), f)
+        loads.add_point_force(k, state.point_position(k, local), f)
 
 
 @frozen(eq=False)
@@ -88,15 +88,19 @@ class BodyTorque(ForceElement):
         Torque, N m: a constant vector, or ``f(t)`` / ``f(t, state)``.
     frame : {'ground', 'body'}
         Frame of the torque components.
+    point : array_like, shape (3,)
+        On a flexible body, a body-frame point of the segment that takes the
+        torque (ignored on a rigid body).
     """
 
     body: Body = field()
     torque: Any = field(converter=_vector_or_callable, validator=_check_value)
     frame: str = field(default="ground", validator=_check_frame)
+    point: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
 
     def apply(self, state, loads) -> None:
         """Add the torque."""
-        k = state.index(self.body)
+        k, _ = state.locate(self.body, self.point)
         tq = _evaluate(self.torque, state)
         if self.frame == "body":
             tq = state.R[k] @ tq

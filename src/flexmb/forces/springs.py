@@ -57,9 +57,10 @@ class SpringDamper(ForceElement):
     rest_length: float = field(default=0.0, converter=float, validator=_non_negative)
 
     def _geometry(self, state):
-        i, j = state.index(self.body1), state.index(self.body2)
-        p1 = state.point_position(i, self.point1)
-        p2 = state.point_position(j, self.point2)
+        i, l1 = state.locate(self.body1, self.point1)
+        j, l2 = state.locate(self.body2, self.point2)
+        p1 = state.point_position(i, l1)
+        p2 = state.point_position(j, l2)
         return i, j, p1, p2
 
     def apply(self, state, loads) -> None:

@@ -1,0 +1,149 @@
+"""Beam cross-sections and materials for flexible bodies."""
+
+from __future__ import annotations
+
+import numpy as np
+from attrs import field, frozen
+
+from ._validate import label, name_check, positive
+from .errors import ModelError
+
+__all__ = ["Section", "Material"]
+
+
+def _non_negative(instance, attribute, value):
+    if not np.isfinite(value) or value < 0:
+        raise ModelError(f"{label(instance)}: {attribute.name} must be finite and >= 0, got {value!r}")
+
+
+@frozen(eq=False)
+class Section:
+    """Cross-section properties of a beam (beam axis along the body x axis).
+
+    Parameters
+    ----------
+    area : float
+        A, m^2.
+    Iy : float
+        Second moment about the section's y axis (bending in the x-z plane), m^4.
+    Iz : float
+        Second moment about the section's z axis (bending in the x-y plane), m^4.
+    J : float
+        Torsion constant (Saint-Venant), m^4.
+    Ip : float, optional
+        Polar second moment ``Iy + Iz`` (for the segments' rotary inertia), m^4.
+    c_y, c_z : float
+        Outer-fibre distances along y and z, m (for stresses).
+    name : str
+        Label for messages.
+    kind : str
+        ``"rectangular"``, ``"circular"``, ``"tube"`` or ``"general"``.
+
+    Examples
+    --------
+    >>> from flexmb import Section
+    >>> s = Section.rectangular(0.02, 0.005)
+    >>> round(s.Iy * 1e12, 6)
+    208.333333
+    """
+
+    area: float = field(converter=float, validator=positive)
+    Iy: float = field(converter=float, validator=positive)
+    Iz: float = field(converter=float, validator=positive)
+    J: float = field(converter=float, validator=positive)
+    Ip: float | None = field(default=None)
+    c_y: float = field(default=0.0, converter=float, validator=_non_negative)
+    c_z: float = field(default=0.0, converter=float, validator=_non_negative)
+    name: str = field(default="section", validator=name_check)
+    kind: str = field(default="general")
+
+    @property
+    def polar(self) -> float:
+        """Polar second moment (``Ip`` or ``Iy + Iz``), m^4."""
+        return self.Iy + self.Iz if self.Ip is None else float(self.Ip)
+
+    @classmethod
+    def rectangular(cls, b: float, h: float) -> "Section":
+        """Solid rectangle, width b along y and thickness h along z.
+
+        Parameters
+        ----------
+        b, h : float
+            Width and thickness, m.
+
+        Returns
+        -------
+        Section
+            ``A = b h``, ``Iy = b h^3/12``, ``Iz = h b^3/12`` and the torsion
+            constant ``J = b t^3 (1/3 - 0.21 (t/w)(1 - (t/w)^4/12))`` with
+            t = min(b, h), w = max(b, h) (Roark).
+        """
+        if not (b > 0 and h > 0):
+            raise ModelError(f"Section.rectangular: b and h must be > 0, got b={b!r}, h={h!r}")
+        t, w = min(b, h), max(b, h)
+        r = t / w
+        J = w * t**3 * (1.0 / 3.0 - 0.21 * r * (1.0 - r**4 / 12.0))
+        return cls(b * h, b * h**3 / 12.0, h * b**3 / 12.0, J, None, b / 2, h / 2, f"rect {b}x{h}", "rectangular")
+
+    @classmethod
+    def circular(cls, d: float) -> "Section":
+        """Solid circle of diameter d (m): ``J = Ip = pi d^4 / 32``."""
+        if not d > 0:
+            raise ModelError(f"Section.circular: d must be > 0, got {d!r}")
+        I = np.pi * d**4 / 64.0
+        return cls(np.pi * d * d / 4.0, I, I, 2 * I, 2 * I, d / 2, d / 2, f"circle {d}", "circular")
+
+    @classmethod
+    def tube(cls, d_out: float, d_in: float) -> "Section":
+        """Circular tube, outer and inner diameters (m)."""
+        if not (d_out > d_in >= 0):
+            raise ModelError(f"Section.tube: need d_out > d_in >= 0, got {d_out!r}, {d_in!r}")
+        I = np.pi * (d_out**4 - d_in**4) / 64.0
+        A = np.pi * (d_out**2 - d_in**2) / 4.0
+        return cls(A, I, I, 2 * I, 2 * I, d_out / 2, d_out / 2, f"tube {d_out}/{d_in}", "tube")
+
+
+@frozen(eq=False)
+class Material:
+    """Linear elastic isotropic material.
+
+    Parameters
+    ----------
+    E : float
+        Young's modulus, Pa.
+    density : float
+        Density, kg/m^3.
+    nu : float, optional
+        Poisson's ratio (gives ``G = E / (2 (1 + nu))``).
+    G : float, optional
+        Shear modulus, Pa (overrides ``nu``).
+    name : str
+        Label.
+    """
+
+    E: float = field(converter=float, validator=positive)
+    density: float = field(converter=float, validator=positive)
+    nu: float | None = field(default=0.3)
+    G_: float | None = field(default=None, alias="G")
+    name: str = field(default="material", validator=name_check)
+
+    def __attrs_post_init__(self):
+        if self.G_ is None and (self.nu is None or not -1.0 < float(self.nu) < 0.5):
+            raise ModelError(f"{label(self)}: Poisson's ratio must be in (-1, 0.5), got {self.nu!r}")
+        if self.G_ is not None and not float(self.G_) > 0:
+            raise ModelError(f"{label(self)}: G must be > 0, got {self.G_!r}")
+
+    @property
+    def G(self) -> float:
+        """Shear modulus, Pa."""
+        return float(self.G_) if self.G_ is not None else self.E / (2.0 * (1.0 + float(self.nu)))
+
+    @classmethod
+    def aluminium(cls) -> "Material":
+        """E = 70 GPa, nu = 0.33, rho = 2700 kg/m^3 (benchmark B1)."""
+        return cls(70e9, 2700.0, 0.33, name="aluminium")
+
+    @classmethod
+    def steel(cls) -> "Material":
+        """E = 210 GPa, nu = 0.3, rho = 7850 kg/m^3."""
+        return cls(210e9, 7850.0, 0.3, name="steel")

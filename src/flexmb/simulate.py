@@ -231,9 +231,19 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         k_out = 1
     last = 0.0
 
+    extra = {}
+    if solver_cls in (Radau, BDF) and system.state_jacobian(t0, x, xd) is not None:
+        counters["jac"] = 0
+
+        def jac(t, y):
+            counters["jac"] += 1
+            return system.state_jacobian(t, y[:n], y[n:])
+
+        extra["jac"] = jac
+
     def make(tstart, ystart, first_step=None):
         return solver_cls(fun, tstart, ystart, t_end, rtol=rtol, atol=atol, max_step=max_step,
-                          first_step=first_step)
+                          first_step=first_step, **extra)
 
     t_now = t0
     try:
@@ -274,6 +284,7 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
 
     result = _collect(system, times[: len(out_y)], np.array(out_y).reshape(len(out_y), 2 * n))
     result.n_rhs = counters["rhs"]
+    result.n_jac = counters.get("jac", 0)
     result.n_steps = n_steps
     result.n_complements = system.n_complements - start_complements
     result.n_projections = n_proj

@@ -136,7 +136,25 @@ class System:
             If the reduced mass matrix is not positive definite.
         """
         _, A, f, _, psi, _, gamma = self.equations(t, x, xd)
+        if not (np.all(np.isfinite(f)) and np.all(np.isfinite(A))):
+            raise AssemblyError(f"at t = {t:.9g} s: {self._diagnose(t, x, xd, A, f)}")
         return self._solve(t, A, f, psi, gamma)
+
+    def _diagnose(self, t, x, xd, A, f):
+        """Name what made the equations non-finite."""
+        kin = self.kinematics(t, x, xd)
+        from .forces import Loads
+
+        for cls, elements in self.forces.groups:
+            for e in elements:
+                loads = Loads(kin)
+                cls.apply_all([e], kin, loads)
+                if not (np.all(np.isfinite(loads.force)) and np.all(np.isfinite(loads.torque))
+                        and np.all(np.isfinite(loads.generalized))):
+                    return f"force element {e.name!r} ({type(e).__name__}) gave a non-finite load"
+        if not np.all(np.isfinite(A)):
+            return "the mass matrix is not finite (non-finite coordinates?)"
+        return "the force array is not finite (non-finite speeds?)"
 
     def _solve(self, t, A, f, psi, gamma):
         c = self.complement(psi)
@@ -154,6 +172,43 @@ class System:
                 "(a body without mass or inertia on a freedom?)"
             ) from exc
         return T @ zd + xdd_p
+
+    def state_jacobian(self, t, x, xd) -> np.ndarray | None:
+        """Approximate Jacobian of the state derivative for implicit integrators.
+
+        ``J = [[0, I], [-P K, -P C]]`` with ``P = T (T^T A T)^-1 T^T`` at the
+        current state and K, C the diagonal spring and damper constants on
+        coordinates (segment joints, joint springs). It follows the state
+        through A and T, costs one mass matrix instead of n right-hand sides,
+        and leaves out the smaller geometric and gyroscopic terms (the
+        integrator's Newton iteration absorbs them).
+
+        Returns
+        -------
+        ndarray, shape (2n, 2n) or None
+            None if no element contributes a coordinate stiffness.
+        """
+        kin = self.kinematics(t, x, xd)
+        parts = [cls.tangent_all(el, kin) for cls, el in self.forces.groups]
+        parts = [p for p in parts if p is not None]
+        if not parts:
+            return None
+        n = self.n_coords
+        K = np.zeros(n)
+        C = np.zeros(n)
+        for cols, k, c in parts:
+            np.add.at(K, cols, k)
+            np.add.at(C, cols, c)
+        A = mass_matrix(kin)
+        _, psi, _ = self.constraints.evaluate(kin, level=1)
+        T = self.complement(psi).T
+        M = T.T @ A @ T
+        P = T @ sla.cho_solve(sla.cho_factor(M), T.T)
+        J = np.zeros((2 * n, 2 * n))
+        J[:n, n:] = np.eye(n)
+        J[n:, :n] = -P * K
+        J[n:, n:] = -P * C
+        return J
 
     def reactions(self, t, x, xd, xdd=None):
         """Constraint reactions (Lagrange multipliers) at a state.
@@ -176,6 +231,30 @@ class System:
             return np.zeros(0)
         lam, *_ = np.linalg.lstsq(psi.T, A @ xdd - f, rcond=None)
         return lam
+
+    def shape(self, body, x, t: float = 0.0) -> np.ndarray:
+        """Deformed centre line of a flexible body at one configuration.
+
+        Parameters
+        ----------
+        body : FlexibleBody
+            A flexible body of the model.
+        x : ndarray, shape (n,)
+            Coordinates.
+        t : float
+            Time, s.
+
+        Returns
+        -------
+        ndarray, shape (n_segments + 1, 3)
+            Root, segment joints and tip, inertial, m.
+        """
+        if body not in self.topology.flexible:
+            raise ModelError(f"{getattr(body, 'name', body)!r} is not a flexible body of the model")
+        kin = self.kinematics(t, x, np.zeros_like(x))
+        rows = np.array([self.topology.index[s] for s in self.topology.flexible[body][1]])
+        tip = kin.origin[rows[-1]] + kin.R[rows[-1], :, 0] * body.segment_length
+        return np.vstack([kin.origin[rows], tip])
 
     def energy(self, t, x, xd) -> tuple[float, float]:
         """Kinetic and potential energy, J."""

@@ -120,6 +120,21 @@ class ForceElement:
         """Summed potential energy of all elements of this class."""
         return float(sum(e.potential(state) for e in elements))
 
+    @classmethod
+    def tangent_all(cls, elements, state):
+        """Diagonal stiffness and damping the elements put on coordinates, if any.
+
+        Used to build the Jacobian for implicit integrators; elements that
+        act through bodies return None (their stiffness is not included).
+
+        Returns
+        -------
+        tuple of (cols, k, c) or None
+            Coordinate indices and the spring and damper constants on them
+            (``dF/dx = -k``, ``dF/dxd = -c`` on the diagonal).
+        """
+        return None
+
 
 from .gravity import Gravity  # noqa: E402
 from .loads import BodyTorque, PointForce  # noqa: E402

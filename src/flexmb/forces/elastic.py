@@ -53,6 +53,11 @@ class BeamElasticity(ForceElement):
         cols, k, _ = cls._arrays(elements, state)
         return float(0.5 * np.sum(k * state.x[cols] ** 2))
 
+    @classmethod
+    def tangent_all(cls, elements, state):
+        """Diagonal K and C on the elastic coordinates."""
+        return cls._arrays(elements, state)
+
     def apply(self, state, loads) -> None:
         """Add this body's elastic forces."""
         type(self).apply_all([self], state, loads)

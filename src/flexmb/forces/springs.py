@@ -129,6 +129,18 @@ class JointSpringDamper(ForceElement):
         s = state.coordinate_slice(self.joint)
         loads.generalized[s] -= self.stiffness * (state.x[s] - self.rest) + self.damping * state.xd[s]
 
+    @classmethod
+    def tangent_all(cls, elements, state):
+        """Diagonal k and c on the joints' coordinates."""
+        cols, k, c = [], [], []
+        for e in elements:
+            s = state.coordinate_slice(e.joint)
+            m = s.stop - s.start
+            cols.append(np.arange(s.start, s.stop))
+            k.append(np.broadcast_to(e.stiffness, (m,)))
+            c.append(np.broadcast_to(e.damping, (m,)))
+        return np.concatenate(cols), np.concatenate(k), np.concatenate(c)
+
     def potential(self, state) -> float:
         """``sum k (q - q0)^2 / 2``, J."""
         s = state.coordinate_slice(self.joint)

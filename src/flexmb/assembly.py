@@ -26,10 +26,10 @@ def mass_matrix(kin) -> np.ndarray:
         ``A = sum_k m_k V_k^T V_k + W_k^T I_k W_k``.
     """
     V, W = kin.V[:-1], kin.W[:-1]
-    n = V.shape[2]
-    Vm = (V * np.sqrt(kin.mass)[:, None, None]).reshape(-1, n)
-    IW = (kin.inertia_world() @ W).reshape(-1, n)
-    return Vm.T @ Vm + W.reshape(-1, n).T @ IW
+    rows, n = 3 * V.shape[0], V.shape[2]
+    Vm = (V * np.sqrt(kin.mass)[:, None, None]).reshape(rows, n)
+    IW = (kin.inertia_world() @ W).reshape(rows, n)
+    return Vm.T @ Vm + W.reshape(rows, n).T @ IW
 
 
 class ForceAssembler:

@@ -98,7 +98,7 @@ class Constraints:
             Pj = kin.point_position(rj, pj)
             phis.append((Pi - Pj).ravel())
             if level >= 1:
-                psis.append((kin.point_partials(ri, Pi) - kin.point_partials(rj, Pj)).reshape(-1, n))
+                psis.append((kin.point_partials(ri, Pi) - kin.point_partials(rj, Pj)).reshape(3 * len(ri), n))
                 bs.append(np.zeros(3 * len(ri)))
             if level >= 2:
                 gammas.append(-(kin.point_bias_acceleration(ri, Pi) - kin.point_bias_acceleration(rj, Pj)).ravel())

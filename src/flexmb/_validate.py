@@ -10,17 +10,47 @@ import numpy as np
 
 from .errors import ModelError
 
-__all__ = ["as_array", "label", "vector3", "matrix33", "positive", "finite_array", "name_check"]
+__all__ = ["as_array", "as_float", "label", "vector3", "matrix33", "positive", "finite_array", "name_check", "is_a"]
 
 
-def as_array(value) -> np.ndarray:
-    """Copy ``value`` to a read-only float array."""
+def as_array(value):
+    """Copy ``value`` to a read-only float array.
+
+    Input that is not numeric is returned unchanged: the field's validator
+    then rejects it with a message naming the element (a converter does not
+    know the element).
+    """
     try:
         arr = np.array(value, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise ModelError(f"expected numbers, got {value!r}") from exc
+    except (TypeError, ValueError):
+        return value
     arr.setflags(write=False)
     return arr
+
+
+def as_float(value):
+    """``float(value)``, or ``value`` unchanged for the validator to reject."""
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        return value
+
+
+def _numeric(instance, attribute, value):
+    if not (isinstance(value, np.ndarray) and value.dtype == float):
+        raise ModelError(f"{label(instance)}: {attribute.name} must be numbers, got {value!r}")
+
+
+def is_a(kind):
+    """Validator: the value is an instance of ``kind``."""
+
+    def check(instance, attribute, value):
+        if not isinstance(value, kind):
+            raise ModelError(
+                f"{label(instance)}: {attribute.name} must be a {kind.__name__}, got {type(value).__name__}"
+            )
+
+    return check
 
 
 def label(instance) -> str:
@@ -36,12 +66,14 @@ def name_check(instance, attribute, value):
 
 def finite_array(instance, attribute, value):
     """All entries finite."""
+    _numeric(instance, attribute, value)
     if not np.all(np.isfinite(value)):
         raise ModelError(f"{label(instance)}: {attribute.name} must be finite, got {np.asarray(value).tolist()}")
 
 
 def vector3(instance, attribute, value):
     """A finite 3-vector."""
+    _numeric(instance, attribute, value)
     if value.shape != (3,):
         raise ModelError(f"{label(instance)}: {attribute.name} must have shape (3,), got {value.shape}")
     finite_array(instance, attribute, value)
@@ -49,6 +81,7 @@ def vector3(instance, attribute, value):
 
 def matrix33(instance, attribute, value):
     """A finite 3x3 matrix."""
+    _numeric(instance, attribute, value)
     if value.shape != (3, 3):
         raise ModelError(f"{label(instance)}: {attribute.name} must have shape (3, 3), got {value.shape}")
     finite_array(instance, attribute, value)
@@ -56,7 +89,7 @@ def matrix33(instance, attribute, value):
 
 def positive(instance, attribute, value):
     """A finite number > 0."""
-    if not np.isfinite(value) or not value > 0:
+    if not isinstance(value, float) or not np.isfinite(value) or not value > 0:
         raise ModelError(f"{label(instance)}: {attribute.name} must be > 0, got {value!r}")
 
 

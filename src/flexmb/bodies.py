@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from attrs import field, frozen
 
-from ._validate import as_array, label, matrix33, name_check, positive, vector3
+from ._validate import as_array, as_float, label, matrix33, name_check, positive, vector3
 from .errors import ModelError
 
 __all__ = ["Body", "Ground", "RigidBody", "Marker"]
@@ -102,7 +102,7 @@ class RigidBody(Body):
     0.00225
     """
 
-    mass: float = field(default=1.0, converter=float, validator=positive)
+    mass: float = field(default=1.0, converter=as_float, validator=positive)
     inertia: np.ndarray = field(
         default=(1.0, 1.0, 1.0),
         converter=lambda v: as_array(np.diag(v) if np.ndim(v) == 1 else v),

@@ -141,14 +141,16 @@ class Model:
         ModelError
             With ``.problems`` holding all messages.
         """
-        problems = self.problems()
-        if not problems:
-            from .topology import Topology
+        from .topology import Topology
 
-            try:
-                Topology(self)
-            except ModelError as exc:
-                problems = exc.problems
+        problems = self.problems()
+        try:
+            Topology(self)
+        except ModelError as exc:
+            problems += [p for p in exc.problems if p not in problems]
+        except Exception:
+            if not problems:  # a crash on a model already known to be invalid adds nothing
+                raise
         if problems:
             raise ModelError(
                 f"Model {self.name!r} is invalid:\n  - " + "\n  - ".join(problems), problems

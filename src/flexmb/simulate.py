@@ -198,11 +198,13 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         progress = sys.stderr.isatty()
 
     x, xd = initial_state(system, t0, positions, speeds, x0, xd0, fixed)
-    p = system.dof(t0, x)
-    if p == 0:
+    n_drv = len(system.constraints.drivers)
+    kin0 = system.kinematics(t0, x, xd)
+    psi_loops = system.constraints.evaluate(kin0, level=1)[1][: system.n_constraints - n_drv]
+    if system.strategy.complement(psi_loops).p == 0:
         raise ModelError(
-            f"the model has no degree of freedom left: {system.n_coords} coordinates, "
-            f"{system.n_constraints} constraint rows of rank {system.n_coords}"
+            f"the model has no degree of freedom left: its {system.n_coords} coordinates are all fixed by "
+            f"{system.n_constraints - n_drv} loop-closure rows (a structure, not a mechanism)"
         )
     n = system.n_coords
     times = np.linspace(t0, t_end, n_out) if t_eval is None else np.asarray(t_eval, dtype=float)
@@ -276,8 +278,8 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         status, message = "finished", "reached t_end"
     except (_NonFinite, AssemblyError) as exc:
         status = "failed"
-        t_fail = getattr(exc, "t", t_now)
-        message = f"at t = {t_fail:.9g} s: {exc}"
+        t_now = getattr(exc, "t", t_now)
+        message = str(exc) if isinstance(exc, AssemblyError) else f"at t = {t_now:.9g} s: {exc}"
     except KeyboardInterrupt:
         status, message = "interrupted", f"interrupted by the user at t = {t_now:.9g} s"
     wall = _time.perf_counter() - t_wall

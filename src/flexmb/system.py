@@ -137,7 +137,9 @@ class System:
         """
         _, A, f, _, psi, _, gamma = self.equations(t, x, xd)
         if not (np.all(np.isfinite(f)) and np.all(np.isfinite(A))):
-            raise AssemblyError(f"at t = {t:.9g} s: {self._diagnose(t, x, xd, A, f)}")
+            err = AssemblyError(f"at t = {t:.9g} s: {self._diagnose(t, x, xd, A, f)}")
+            err.t = t
+            raise err
         return self._solve(t, A, f, psi, gamma)
 
     def _diagnose(self, t, x, xd, A, f):

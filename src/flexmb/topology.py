@@ -136,7 +136,7 @@ class Topology:
             if rows == 0:
                 problems.append(f"joint {j.name!r} ({type(j).__name__}) closes a loop but imposes no constraint")
         for d in model.drivers:
-            if self.joint_map.get(d.joint) not in tree_set:
+            if d.joint in self.joint_map and self.joint_map[d.joint] not in tree_set:
                 problems.append(f"driver {d.name!r}: joint {d.joint.name!r} is a cut joint and has no coordinates")
         if problems:
             raise ModelError("; ".join(problems), problems)

@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 from attrs import field, frozen
 
-from .._validate import as_array, label, name_check, vector3
+from .._validate import as_array, is_a, label, name_check, vector3
 from ..bodies import Body
 from ..errors import ModelError
 from . import ForceElement
@@ -60,7 +60,7 @@ class PointForce(ForceElement):
         Frame of the force components.
     """
 
-    body: Body = field()
+    body: Body = field(validator=is_a(Body))
     force: Any = field(converter=_vector_or_callable, validator=_check_value)
     point: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
     frame: str = field(default="ground", validator=_check_frame)
@@ -93,7 +93,7 @@ class BodyTorque(ForceElement):
         torque (ignored on a rigid body).
     """
 
-    body: Body = field()
+    body: Body = field(validator=is_a(Body))
     torque: Any = field(converter=_vector_or_callable, validator=_check_value)
     frame: str = field(default="ground", validator=_check_frame)
     point: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)

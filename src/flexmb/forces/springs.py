@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from attrs import field, frozen
 
-from .._validate import as_array, label, name_check, vector3
+from .._validate import as_array, finite_array, is_a, label, name_check, vector3
 from ..bodies import Body
 from ..joints import Joint
 from . import ForceElement
@@ -16,6 +16,8 @@ __all__ = ["SpringDamper", "JointSpringDamper"]
 def _non_negative(instance, attribute, value):
     from ..errors import ModelError
 
+    if not isinstance(value, (float, np.ndarray)) or np.asarray(value).dtype != float:
+        raise ModelError(f"{label(instance)}: {attribute.name} must be numbers, got {value!r}")
     v = np.asarray(value)
     if not np.all(np.isfinite(v)) or np.any(v < 0):
         raise ModelError(f"{label(instance)}: {attribute.name} must be finite and >= 0, got {v.tolist()}")
@@ -48,9 +50,9 @@ class SpringDamper(ForceElement):
     vector ``-k (p2 - p1)``, smooth through ``l = 0``.
     """
 
-    body1: Body = field()
+    body1: Body = field(validator=is_a(Body))
     point1: np.ndarray = field(converter=as_array, validator=vector3)
-    body2: Body = field()
+    body2: Body = field(validator=is_a(Body))
     point2: np.ndarray = field(converter=as_array, validator=vector3)
     stiffness: float = field(converter=float, validator=_non_negative)
     damping: float = field(default=0.0, converter=float, validator=_non_negative)
@@ -107,10 +109,10 @@ class JointSpringDamper(ForceElement):
     (eq. 5: ``F^s - F^d``); potential ``k (q - q0)^2 / 2``.
     """
 
-    joint: Joint = field()
+    joint: Joint = field(validator=is_a(Joint))
     stiffness: np.ndarray = field(converter=as_array, validator=_non_negative)
     damping: np.ndarray = field(default=0.0, converter=as_array, validator=_non_negative)
-    rest: np.ndarray = field(default=0.0, converter=as_array)
+    rest: np.ndarray = field(default=0.0, converter=as_array, validator=finite_array)
 
     def check(self, model) -> list[str]:
         """The joint must have coordinates matching the parameter sizes."""

@@ -15,7 +15,7 @@ __all__ = ["Result"]
 _ARRAYS = ("t", "x", "xd", "xdd", "positions", "origins", "rotations", "kinetic", "potential",
            "residual", "velocity_residual", "reactions")
 _LISTS = ("coordinate_names", "body_names", "constraint_labels", "driver_names")
-_SCALARS = ("n_rhs", "n_jac", "n_steps", "n_complements", "n_projections", "wall_time", "status", "message", "method",
+_SCALARS = ("n_dof", "n_rhs", "n_jac", "n_steps", "n_complements", "n_projections", "wall_time", "status", "message", "method",
             "complement")
 
 
@@ -43,6 +43,8 @@ class Result:
         max |psi xd - b| (eq. 29).
     reactions : ndarray, shape (nt, m)
         Constraint multipliers, labelled by ``constraint_labels``.
+    n_dof : int
+        Number of independent speeds p = n - rank(psi) at the start.
     n_rhs, n_jac, n_steps, n_complements, n_projections : int
         Work counters (right-hand sides, Jacobians, steps, complements,
         projections).
@@ -67,6 +69,7 @@ class Result:
     constraint_labels: list = field(factory=list)
     driver_names: list = field(factory=list)
     flexible: dict = field(factory=dict)
+    n_dof: int = 0
     n_rhs: int = 0
     n_jac: int = 0
     n_steps: int = 0

@@ -285,6 +285,7 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     wall = _time.perf_counter() - t_wall
 
     result = _collect(system, times[: len(out_y)], np.array(out_y).reshape(len(out_y), 2 * n))
+    result.n_dof = system.dof(t0, x)
     result.n_rhs = counters["rhs"]
     result.n_jac = counters.get("jac", 0)
     result.n_steps = n_steps

@@ -21,3 +21,15 @@ def test_pendulum_conserves_energy():
     res = fm.simulate(model, 1.0, positions={"pin": 0.5}, rtol=1e-10, atol=1e-12)
     assert res.status == "finished"
     assert np.ptp(res.energy) < 1e-8 * abs(res.potential).max()
+
+
+def test_projection_restart_near_end_time():
+    """A projection restart close to t_end must not ask scipy for a first step past the end."""
+    import sys, os
+    sys.path.insert(0, os.path.dirname(__file__))
+    from conftest import fourbar, fourbar_initial
+
+    res = fm.simulate(fourbar(), 2.0, positions=fourbar_initial(), fixed=["A"], rtol=1e-8)
+    assert res.status == "finished"
+    assert res.n_projections > 0
+    assert res.residual.max() < 1e-8

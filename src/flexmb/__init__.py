@@ -7,7 +7,7 @@ orthogonal complement arrays (Amirouche & Huston 1988).
 from .bodies import Body, Ground, Marker, RigidBody
 from .complements import COMPLEMENTS, ComplementStrategy, EigenComplement, SVDComplement, get_complement
 from .drivers import Driver
-from .errors import AssemblyError, FlexmbError, ModelError, SimulationError
+from .errors import AssemblyError, ExportError, FlexmbError, ModelError, SimulationError
 from .forces import BodyTorque, ForceElement, Gravity, JointSpringDamper, Loads, PointForce, SpringDamper
 from .joints import Cylindrical, Fixed, Free, Joint, PlanarRevolute, Prismatic, Revolute, Spherical, Universal
 from .flexible import FlexibleBody, Segment
@@ -24,7 +24,7 @@ __all__ = [
     "Body", "Ground", "Marker", "RigidBody",
     "COMPLEMENTS", "ComplementStrategy", "EigenComplement", "SVDComplement", "get_complement",
     "Driver",
-    "AssemblyError", "FlexmbError", "ModelError", "SimulationError",
+    "AssemblyError", "ExportError", "FlexmbError", "ModelError", "SimulationError",
     "BodyTorque", "ForceElement", "Gravity", "JointSpringDamper", "Loads", "PointForce", "SpringDamper",
     "Cylindrical", "Fixed", "Free", "Joint", "PlanarRevolute", "Prismatic", "Revolute", "Spherical", "Universal",
     "FlexibleBody", "Segment", "Material", "Section",

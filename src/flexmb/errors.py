@@ -6,7 +6,7 @@ caller can catch them all at once; the subclasses tell where it happened.
 
 from __future__ import annotations
 
-__all__ = ["FlexmbError", "ModelError", "AssemblyError", "SimulationError"]
+__all__ = ["FlexmbError", "ModelError", "AssemblyError", "SimulationError", "ExportError"]
 
 
 class FlexmbError(Exception):
@@ -50,3 +50,13 @@ class SimulationError(FlexmbError):
         super().__init__(message)
         self.t = t
         self.result = result
+
+
+class ExportError(FlexmbError, ValueError):
+    """A result or state cannot be exported or drawn (bad fields, index or file).
+
+    Parameters
+    ----------
+    message : str
+        What is wrong, naming the field or argument.
+    """

@@ -153,6 +153,46 @@ class Result:
             raise FlexmbError(f"no driver {name!r}; known: {self.driver_names}")
         return self.reactions[:, self.constraint_labels.index(label)]
 
+    def export_vtk(self, folder, **kw):
+        """Write the result for ParaView: a ``.vtu`` per output time and a ``.pvd``.
+
+        Parameters
+        ----------
+        folder : str or path-like
+            Output folder (created if missing).
+        **kw
+            ``prefix``, ``system``, ``triad``: see :func:`flexmb.export.vtk.export_vtk`.
+
+        Returns
+        -------
+        pathlib.Path
+            The ``.pvd`` file; open it in ParaView.
+        """
+        from .export.vtk import export_vtk
+
+        return export_vtk(self, folder, **kw)
+
+    def plot(self, coords=None, path=None, **kw):
+        """Time histories of coordinates (matplotlib); see :func:`flexmb.viz.plot`.
+
+        Parameters
+        ----------
+        coords : list of str, optional
+            Coordinate or joint names (default all).
+        path : str or path-like, optional
+            Save the figure there (PNG, PDF, ... by its ending).
+        **kw
+            Passed to :func:`flexmb.viz.plot`.
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            The figure.
+        """
+        from .viz import plot
+
+        return plot(self, coords, path, **kw)
+
     def save(self, path) -> None:
         """Save to a ``.npz`` file (written to a temporary name, then renamed).
 

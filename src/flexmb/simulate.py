@@ -270,8 +270,9 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
                 if phi.size and max(np.max(np.abs(phi)), np.max(np.abs(psi @ vs - b))) > projection_tol:
                     xs, vs = system.project(t_now, xs, vs, tol=min(1e-12, projection_tol))
                     n_proj += 1
-                    solver = make(t_now, np.concatenate([xs, vs]), first_step=max(solver.step_size, 1e-14)
-                                  if solver.step_size else None)
+                    step = solver.step_size
+                    first = min(max(step, 1e-14), t_end - t_now) if step else None
+                    solver = make(t_now, np.concatenate([xs, vs]), first_step=first)
             if progress:
                 last = _progress(t_now, t0, t_end, last)
             del t_prev

@@ -133,7 +133,6 @@ class _Layout:
         offset = nr * per
         segment = [np.full(sum(len(b) for b in line_body), -1)]
         self.elastic: dict[str, tuple[list, list]] = {}
-        pattern_cache = {}
         for b, (name, rows, _) in enumerate(self.flexible, start=nr):
             n_seg = len(rows)
             ends = offset + np.arange(n_seg)
@@ -141,15 +140,15 @@ class _Layout:
             line_body.append(np.full(n_seg, b))
             segment.append(np.arange(n_seg))
             row.append(np.append(rows, rows[-1]))  # the tip rides on the last segment
-            pattern = pattern_cache.setdefault(name, re.compile(rf"^{re.escape(name)}\.j(\d+)\.(\w+)$"))
+            pattern = re.compile(rf"^{re.escape(name)}\.j(\d+)\.(\w+)$")
             for col, cname in enumerate(result.coordinate_names):
                 m = pattern.match(cname)
                 if not m:
                     continue
                 k, coord = int(m.group(1)), m.group(2)
-                if coord not in ELASTIC_FIELDS or k > n_seg:
+                if coord not in ELASTIC_FIELDS or k >= n_seg:
                     raise ExportError(f"coordinate {cname!r} of flexible body {name!r} is not a segment-joint "
-                                      f"coordinate <body>.j<k>.<{'|'.join(ELASTIC_FIELDS)}> with k <= {n_seg}")
+                                      f"coordinate <body>.j<k>.<{'|'.join(ELASTIC_FIELDS)}> with k < {n_seg}")
                 cols, points = self.elastic.setdefault(ELASTIC_FIELDS[coord], ([], []))
                 cols.append(col)
                 # joint j<k> sits at the start of segment k: centre-line point k
@@ -255,7 +254,7 @@ def _meshes(result, frames, system=None, triad=0.0, extra=None):
 
 
 def body_names(result) -> list[str]:
-    """Names of the exported bodies, in the order of the ``body_id`` cell data.
+    """Return the names of the exported bodies, in the order of the ``body_id`` cell data.
 
     Parameters
     ----------

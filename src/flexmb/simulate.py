@@ -107,6 +107,20 @@ def initial_state(system, t0: float = 0.0, positions=None, speeds=None, x0=None,
     return x, xd
 
 
+#: explicit steps above which 'auto' takes an implicit integrator
+EXPLICIT_STEP_LIMIT = 3000
+
+
+def _choose_method(system, t0, t1, x, xd) -> str:
+    """'Radau' when the springs make the model stiff over [t0, t1], else 'DOP853'.
+
+    DOP853's stability bound is about ``h omega_max < 3``; if that needs more
+    than ``EXPLICIT_STEP_LIMIT`` steps the model is stiff for this run.
+    """
+    w = system.highest_frequency(t0, x, xd)
+    return "Radau" if (t1 - t0) * w / 3.0 > EXPLICIT_STEP_LIMIT else "DOP853"
+
+
 def _progress(t, t0, t1, last, stream=sys.stderr):
     now = _time.perf_counter()
     if now - last < 0.5 and t < t1:
@@ -148,8 +162,9 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         Output times, increasing, within [t0, t_end].
     method : {'auto', 'DOP853', 'RK45', 'RK23', 'Radau', 'BDF', 'LSODA'} or OdeSolver class
         Integrator; explicit ones for non-stiff models, Radau/BDF for stiff.
-        ``'auto'`` takes Radau when the model has flexible bodies (stiff
-        segment springs) and DOP853 otherwise.
+        ``'auto'`` estimates the highest frequency of the coordinate springs
+        and takes Radau when an explicit method would need more than
+        ``EXPLICIT_STEP_LIMIT`` steps just to stay stable, DOP853 otherwise.
     rtol, atol : float
         Integration tolerances (``atol`` defaults to ``rtol / 100``).
     complement : {'svd', 'eigen'} or ComplementStrategy, optional
@@ -185,10 +200,9 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     'finished'
     """
     system = _as_system(model, complement)
-    if method == "auto":
-        method = "Radau" if system.topology.flexible else "DOP853"
+    auto = method == "auto"
     solver_cls = INTEGRATORS.get(method, method) if isinstance(method, str) else method
-    if isinstance(solver_cls, str):
+    if isinstance(solver_cls, str) and not auto:
         raise ModelError(f"unknown integrator {method!r}; pick one of {sorted(INTEGRATORS)}")
     name = method if isinstance(method, str) else getattr(method, "__name__", str(method))
     atol = rtol / 100 if atol is None else atol
@@ -198,6 +212,10 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         progress = sys.stderr.isatty()
 
     x, xd = initial_state(system, t0, positions, speeds, x0, xd0, fixed)
+    if auto:
+        method = _choose_method(system, t0, t_end, x, xd)
+        name = method
+        solver_cls = INTEGRATORS[method]
     n_drv = len(system.constraints.drivers)
     kin0 = system.kinematics(t0, x, xd)
     psi_loops = system.constraints.evaluate(kin0, level=1)[1][: system.n_constraints - n_drv]

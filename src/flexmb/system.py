@@ -212,6 +212,19 @@ class System:
         J[n:, n:] = -P * C
         return J
 
+    def highest_frequency(self, t, x, xd) -> float:
+        """Estimate of the highest natural angular frequency from the coordinate springs, rad/s.
+
+        The largest eigenvalue of ``P K`` (see :meth:`state_jacobian`); 0 if
+        no element puts a stiffness on coordinates.
+        """
+        J = self.state_jacobian(t, x, xd)
+        if J is None:
+            return 0.0
+        n = self.n_coords
+        lam = np.linalg.eigvals(-J[n:, :n])
+        return float(np.sqrt(max(np.max(lam.real), 0.0)))
+
     def reactions(self, t, x, xd, xdd=None):
         """Constraint reactions (Lagrange multipliers) at a state.
 

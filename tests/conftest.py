@@ -74,7 +74,7 @@ def slender_pendulum_chain(n_links, length=1.0, mass=1.0, g=9.81):
     return model
 
 
-def fourbar(complement_joint=fm.PlanarRevolute, crank_driver=None):
+def fourbar(complement_joint=fm.PlanarRevolute):
     """Benchmark B5: planar four-bar under gravity along -y.
 
     Ground pivots (0, 0) and (0.3, 0); crank 0.1 m, coupler 0.3 m,

@@ -84,6 +84,30 @@ class ForceAssembler:
         force = kin.mass[:, None] * kin.a_bias[:-1]
         return F - np.einsum("kin,ki->n", kin.V[:-1], force) - np.einsum("kin,ki->n", kin.W[:-1], torque)
 
+    def group_powers(self, kin) -> np.ndarray:
+        """Power of each force-element class, ``F_g . xd`` (W), in ``self.groups`` order.
+
+        Parameters
+        ----------
+        kin : Kinematics
+            The kinematic state.
+
+        Returns
+        -------
+        ndarray, shape (n_groups,)
+            Power delivered by the elements of each class.
+        """
+        out = np.zeros(len(self.groups))
+        for i, (cls, elements) in enumerate(self.groups):
+            loads = Loads(kin)
+            cls.apply_all(elements, kin, loads)
+            out[i] = self.active_force(kin, loads) @ kin.xd
+        return out
+
+    def group_names(self) -> list[str]:
+        """One label per force-element class (its elements' names joined)."""
+        return [", ".join(e.name for e in elements) for _, elements in self.groups]
+
     def potential_energy(self, kin) -> float:
         """Summed potential energy of the conservative elements, J."""
         return float(sum(cls.potential_all(elements, kin) for cls, elements in self.groups))

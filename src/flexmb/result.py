@@ -48,6 +48,10 @@ class Result:
     n_rhs, n_jac, n_steps, n_complements, n_projections : int
         Work counters (right-hand sides, Jacobians, steps, complements,
         projections).
+    work : dict of str to ndarray, shape (nt,)
+        With ``simulate(..., track_work=True)``: work done since the start
+        by each driver (``"driver <name>"``) and each class of force
+        elements, J.
     status : {'finished', 'failed', 'interrupted', 'running'}
         How the run ended; ``message`` says why.
     """
@@ -69,6 +73,7 @@ class Result:
     constraint_labels: list = field(factory=list)
     driver_names: list = field(factory=list)
     flexible: dict = field(factory=dict)
+    work: dict = field(factory=dict)
     n_dof: int = 0
     n_rhs: int = 0
     n_jac: int = 0
@@ -205,6 +210,10 @@ class Result:
         data = {k: getattr(self, k) for k in _ARRAYS}
         data.update({k: np.array(getattr(self, k), dtype=str) for k in _LISTS})
         data.update({k: np.array(getattr(self, k)) for k in _SCALARS})
+        wnames = list(self.work)
+        data["work_names"] = np.array(wnames, dtype=str)
+        for i, k in enumerate(wnames):
+            data[f"work_{i}"] = self.work[k]
         names = sorted(self.flexible)
         data["flexible_names"] = np.array(names, dtype=str)
         data["flexible_lengths"] = np.array([self.flexible[k][1] for k in names], dtype=float)
@@ -239,6 +248,7 @@ class Result:
             kw = {k: z[k] for k in _ARRAYS}
             kw.update({k: [str(s) for s in z[k]] for k in _LISTS})
             kw.update({k: z[k].item() for k in _SCALARS})
+            kw["work"] = {str(k): z[f"work_{i}"] for i, k in enumerate(z["work_names"])} if "work_names" in z else {}
             kw["flexible"] = {str(k): (z[f"flexible_rows_{i}"].tolist(), float(z["flexible_lengths"][i]))
                               for i, k in enumerate(z["flexible_names"])}
         return cls(**kw)

@@ -137,7 +137,7 @@ def _progress(t, t0, t1, last, stream=sys.stderr):
 def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=None, x0=None, xd0=None,
              fixed=None, n_out: int = 201, t_eval=None, method: str = "auto", rtol: float = 1e-8,
              atol: float | None = None, complement=None, projection_tol: float = 1e-10,
-             max_step: float = np.inf, progress: bool | None = None) -> Result:
+             max_step: float = np.inf, progress: bool | None = None, track_work: bool = False) -> Result:
     """Simulate a model from ``t0`` to ``t_end``.
 
     The state (x, xd) is integrated by a scipy solver; the accelerations
@@ -175,6 +175,10 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         Largest step, s.
     progress : bool, optional
         Show a progress bar on stderr (default: when stderr is a terminal).
+    track_work : bool
+        Integrate, with the state, the work done by each driver and by each
+        class of force elements (``Result.work``), for energy balances:
+        ``sum of all works = change of kinetic energy``.
 
     Returns
     -------
@@ -232,19 +236,37 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     counters = {"rhs": 0}
     start_complements = system.n_complements
 
+    work_names = ([f"driver {d.name}" for d in system.constraints.drivers] + system.forces.group_names()
+                  if track_work else [])
+    n_w = len(work_names)
+
     def fun(t, y):
         counters["rhs"] += 1
-        xdd = system.accelerations(t, y[:n], y[n:])
+        xs, vs = y[:n], y[n : 2 * n]
+        if not n_w:
+            xdd = system.accelerations(t, xs, vs)
+        else:
+            kin, A, f, _, psi, _, gamma = system.equations(t, xs, vs)
+            if not (np.all(np.isfinite(f)) and np.all(np.isfinite(A))):
+                xdd = system.accelerations(t, xs, vs)  # raises with the diagnosis
+            xdd = system._solve(t, A, f, psi, gamma)
+            rates = np.zeros(n_w)
+            if n_drv:
+                lam = np.linalg.lstsq(psi.T, A @ xdd - f, rcond=None)[0]
+                rates[:n_drv] = lam[-n_drv:] * np.array([d.velocity(t) for d in system.constraints.drivers])
+            rates[n_drv:] = system.forces.group_powers(kin)
         if not np.all(np.isfinite(xdd)):
             bad = [system.coordinate_names[i] for i in np.flatnonzero(~np.isfinite(xdd))[:5]]
             raise _NonFinite(t, f"accelerations became non-finite ({', '.join(bad)})")
-        return np.concatenate([y[n:], xdd])
+        if n_w:
+            return np.concatenate([vs, xdd, rates])
+        return np.concatenate([vs, xdd])
 
     out_y = []
     n_steps = n_proj = 0
     t_wall = _time.perf_counter()
     status, message = "running", ""
-    y = np.concatenate([x, xd])
+    y = np.concatenate([x, xd, np.zeros(n_w)])
     k_out = 0
     if times[0] == t0:
         out_y.append(y.copy())
@@ -257,7 +279,8 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
 
         def jac(t, y):
             counters["jac"] += 1
-            return system.state_jacobian(t, y[:n], y[n:])
+            J = system.state_jacobian(t, y[:n], y[n : 2 * n])
+            return np.pad(J, ((0, n_w), (0, n_w))) if n_w else J
 
         extra["jac"] = jac
 
@@ -283,14 +306,14 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
                     out_y.append(dense(times[k_out]) if times[k_out] != t_now else solver.y.copy())
                     k_out += 1
             if solver.status == "running":
-                xs, vs = solver.y[:n], solver.y[n:]
+                xs, vs = solver.y[:n], solver.y[n : 2 * n]
                 phi, psi, b = system.constraints.evaluate(system.kinematics(t_now, xs, vs), level=1)
                 if phi.size and max(np.max(np.abs(phi)), np.max(np.abs(psi @ vs - b))) > projection_tol:
                     xs, vs = system.project(t_now, xs, vs, tol=min(1e-12, projection_tol))
                     n_proj += 1
                     step = solver.step_size
                     first = min(max(step, 1e-14), t_end - t_now) if step else None
-                    solver = make(t_now, np.concatenate([xs, vs]), first_step=first)
+                    solver = make(t_now, np.concatenate([xs, vs, solver.y[2 * n :]]), first_step=first)
             if progress:
                 last = _progress(t_now, t0, t_end, last)
             del t_prev
@@ -303,7 +326,9 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         status, message = "interrupted", f"interrupted by the user at t = {t_now:.9g} s"
     wall = _time.perf_counter() - t_wall
 
-    result = _collect(system, times[: len(out_y)], np.array(out_y).reshape(len(out_y), 2 * n))
+    Y = np.array(out_y).reshape(len(out_y), 2 * n + n_w)
+    result = _collect(system, times[: len(out_y)], Y[:, : 2 * n])
+    result.work = {name: Y[:, 2 * n + i].copy() for i, name in enumerate(work_names)}
     result.n_dof = system.dof(t0, x)
     result.n_rhs = counters["rhs"]
     result.n_jac = counters.get("jac", 0)

@@ -7,12 +7,13 @@ orthogonal complement arrays (Amirouche & Huston 1988).
 from .bodies import Body, Ground, Marker, RigidBody
 from .complements import COMPLEMENTS, ComplementStrategy, EigenComplement, SVDComplement, get_complement
 from .drivers import Driver
-from .errors import AssemblyError, ExportError, FlexmbError, ModelError, SimulationError
+from .errors import AssemblyError, ExportError, FlexmbError, ModelError, PluginError, SimulationError
 from .forces import BodyTorque, ForceElement, Gravity, JointSpringDamper, Loads, PointForce, SpringDamper
 from .joints import Cylindrical, Fixed, Free, Joint, PlanarRevolute, Prismatic, Revolute, Spherical, Universal
 from .flexible import FlexibleBody, Segment
 from .linear import Linearization, linear_statics, linearize, modes, static_equilibrium
 from .model import Model
+from .registry import PluginInfo, plugins, register
 from .sections import Material, Section
 from .result import Result
 from .simulate import INTEGRATORS, initial_state, simulate
@@ -24,10 +25,10 @@ __all__ = [
     "Body", "Ground", "Marker", "RigidBody",
     "COMPLEMENTS", "ComplementStrategy", "EigenComplement", "SVDComplement", "get_complement",
     "Driver",
-    "AssemblyError", "ExportError", "FlexmbError", "ModelError", "SimulationError",
+    "AssemblyError", "ExportError", "FlexmbError", "ModelError", "PluginError", "SimulationError",
     "BodyTorque", "ForceElement", "Gravity", "JointSpringDamper", "Loads", "PointForce", "SpringDamper",
     "Cylindrical", "Fixed", "Free", "Joint", "PlanarRevolute", "Prismatic", "Revolute", "Spherical", "Universal",
     "FlexibleBody", "Segment", "Material", "Section",
     "Linearization", "linear_statics", "linearize", "modes", "static_equilibrium",
-    "Model", "Result", "INTEGRATORS", "initial_state", "simulate", "System",
+    "Model", "PluginInfo", "plugins", "register", "Result", "INTEGRATORS", "initial_state", "simulate", "System",
 ]

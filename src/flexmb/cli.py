@@ -81,6 +81,24 @@ def _run(args) -> int:
     return 0
 
 
+def _plugins(args) -> int:
+    """Print the plugin table: kind, name, origin, status (and why, for broken ones)."""
+    from .registry import plugins
+
+    rows = plugins(args.kind)
+    header = ("kind", "name", "origin", "status")
+    cells = [header] + [(p.kind, p.name, p.origin, p.status) for p in rows]
+    widths = [max(len(c[i]) for c in cells) for i in range(len(header))]
+    for c in cells:
+        print("  ".join(v.ljust(w) for v, w in zip(c, widths)).rstrip())
+    problems = [p for p in rows if p.status != "ok"]
+    if problems:
+        print()
+    for p in problems:
+        print(f"{p.kind}/{p.name} ({p.origin}): {p.error}")
+    return 0
+
+
 def main(argv=None) -> int:
     """Entry point of the ``flexmb`` command.
 
@@ -104,9 +122,13 @@ def main(argv=None) -> int:
     run.add_argument("--complement", default="svd", help="svd or eigen")
     run.add_argument("--integrator", default="DOP853")
     run.add_argument("--n-out", type=int, default=501)
+    run.set_defaults(func=_run)
+    plug = sub.add_parser("plugins", help="list bodies, joints, forces, complements and integrators by name")
+    plug.add_argument("--kind", default=None, help="bodies, joints, forces, complements or integrators")
+    plug.set_defaults(func=_plugins)
     args = parser.parse_args(argv)
     try:
-        return _run(args)
+        return args.func(args)
     except FlexmbError as exc:
         print(f"flexmb: error: {exc}", file=sys.stderr)
         return 2

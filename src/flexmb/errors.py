@@ -6,7 +6,7 @@ caller can catch them all at once; the subclasses tell where it happened.
 
 from __future__ import annotations
 
-__all__ = ["FlexmbError", "ModelError", "AssemblyError", "SimulationError", "ExportError"]
+__all__ = ["FlexmbError", "ModelError", "AssemblyError", "SimulationError", "ExportError", "PluginError"]
 
 
 class FlexmbError(Exception):
@@ -59,4 +59,19 @@ class ExportError(FlexmbError, ValueError):
     ----------
     message : str
         What is wrong, naming the field or argument.
+    """
+
+
+class PluginError(FlexmbError):
+    """A plugin cannot be found, loaded or registered.
+
+    Raised for an unknown name, a plugin that fails to import, an object that
+    is not a subclass of its kind's base class, or a name claimed by two
+    distributions. The message names the plugin, its distribution and the
+    cause.
+
+    Parameters
+    ----------
+    message : str
+        What is wrong, naming the plugin and its distribution.
     """

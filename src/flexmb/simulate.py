@@ -8,6 +8,7 @@ import time as _time
 import numpy as np
 from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, Radau
 
+from . import registry
 from .errors import AssemblyError, FlexmbError, ModelError, SimulationError
 from .result import Result
 
@@ -107,6 +108,15 @@ def initial_state(system, t0: float = 0.0, positions=None, speeds=None, x0=None,
     return x, xd
 
 
+def _solver_class(method):
+    """The OdeSolver class: ``method`` itself, or looked up by name in the plugin registry."""
+    if not isinstance(method, str):
+        return method
+    if method not in registry.names("integrators"):
+        raise ModelError(f"unknown integrator {method!r}; pick one of {registry.names('integrators')}")
+    return registry.get("integrators", method)
+
+
 #: explicit steps above which 'auto' takes an implicit integrator
 EXPLICIT_STEP_LIMIT = 3000
 
@@ -162,6 +172,8 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         Output times, increasing, within [t0, t_end].
     method : {'auto', 'DOP853', 'RK45', 'RK23', 'Radau', 'BDF', 'LSODA'} or OdeSolver class
         Integrator; explicit ones for non-stiff models, Radau/BDF for stiff.
+        A name is looked up in the plugin registry (entry-point group
+        ``flexmb.integrators``), so installed plugins are accepted too.
         ``'auto'`` estimates the highest frequency of the coordinate springs
         and takes Radau when an explicit method would need more than
         ``EXPLICIT_STEP_LIMIT`` steps just to stay stable, DOP853 otherwise.
@@ -205,9 +217,7 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     """
     system = _as_system(model, complement)
     auto = method == "auto"
-    solver_cls = INTEGRATORS.get(method, method) if isinstance(method, str) else method
-    if isinstance(solver_cls, str) and not auto:
-        raise ModelError(f"unknown integrator {method!r}; pick one of {sorted(INTEGRATORS)}")
+    solver_cls = None if auto else _solver_class(method)
     name = method if isinstance(method, str) else getattr(method, "__name__", str(method))
     atol = rtol / 100 if atol is None else atol
     if not t_end > t0:
@@ -219,7 +229,7 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     if auto:
         method = _choose_method(system, t0, t_end, x, xd)
         name = method
-        solver_cls = INTEGRATORS[method]
+        solver_cls = _solver_class(method)
     n_drv = len(system.constraints.drivers)
     kin0 = system.kinematics(t0, x, xd)
     psi_loops = system.constraints.evaluate(kin0, level=1)[1][: system.n_constraints - n_drv]

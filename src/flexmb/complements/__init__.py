@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from .. import registry
 from ..errors import ModelError
 from .base import Complement, ComplementStrategy
 from .eigen import EigenComplement
@@ -18,7 +19,8 @@ def get_complement(strategy) -> ComplementStrategy:
     Parameters
     ----------
     strategy : str, type or ComplementStrategy
-        ``"eigen"``, ``"svd"``, a subclass, or an instance.
+        ``"eigen"``, ``"svd"``, a plugin's name (entry-point group
+        ``flexmb.complements``), a subclass, or an instance.
 
     Returns
     -------
@@ -29,14 +31,14 @@ def get_complement(strategy) -> ComplementStrategy:
     ------
     ModelError
         For an unknown name (the message lists the valid ones).
+    PluginError
+        If the named plugin is broken or claimed by two distributions.
     """
     if isinstance(strategy, ComplementStrategy):
         return strategy
     if isinstance(strategy, type) and issubclass(strategy, ComplementStrategy):
         return strategy()
-    try:
-        return COMPLEMENTS[strategy]()
-    except (KeyError, TypeError):
-        raise ModelError(
-            f"unknown complement strategy {strategy!r}; pick one of {sorted(COMPLEMENTS)}"
-        ) from None
+    # names come from the plugin registry (entry points, COMPLEMENTS' built-ins among them)
+    if isinstance(strategy, str) and strategy in registry.names("complements"):
+        return registry.get("complements", strategy)()
+    raise ModelError(f"unknown complement strategy {strategy!r}; pick one of {registry.names('complements')}")

@@ -108,7 +108,7 @@ class Result:
         if name in names:
             return self.x[:, names.index(name)]
         for i, c in enumerate(names):
-            if c.split(".")[0] == name:
+            if c.rsplit(".", 1)[0] == name:
                 return self.x[:, i]
         raise FlexmbError(f"no coordinate {name!r}; known: {names}")
 

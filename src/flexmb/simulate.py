@@ -39,7 +39,7 @@ def _coordinate_mask(system, names):
     """Boolean mask of coordinates from names (coordinate or joint names)."""
     mask = np.zeros(system.n_coords, bool)
     for name in names:
-        hits = [i for i, c in enumerate(system.coordinate_names) if c == name or c.split(".")[0] == name]
+        hits = [i for i, c in enumerate(system.coordinate_names) if c == name or c.rsplit(".", 1)[0] == name]
         if not hits:
             raise ModelError(f"no coordinate or joint named {name!r}; coordinates are {system.coordinate_names}")
         mask[hits] = True

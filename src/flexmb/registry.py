@@ -60,6 +60,10 @@ BUILTINS = {
         "gravity": "flexmb.forces:Gravity", "spring_damper": "flexmb.forces:SpringDamper",
         "joint_spring_damper": "flexmb.forces:JointSpringDamper", "point_force": "flexmb.forces:PointForce",
         "body_torque": "flexmb.forces:BodyTorque",
+        # shipped in plugins/flexmb_friction, installed with flexmb
+        "velocity_weakening_friction": "flexmb_friction:VelocityWeakeningFriction",
+        "coulomb_friction": "flexmb_friction:CoulombFriction",
+        "viscous_friction": "flexmb_friction:ViscousFriction",
     },
     "complements": {"eigen": "flexmb.complements:EigenComplement", "svd": "flexmb.complements:SVDComplement"},
     "integrators": {name: f"scipy.integrate:{name}" for name in ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")},

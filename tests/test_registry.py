@@ -256,6 +256,8 @@ def test_import_flexmb_reads_no_entry_points():
 
 # --------------------------------------------------------------------------- real installed metadata
 
+import flexmb_friction  # noqa: E402  (shipped plugin, installed with flexmb)
+
 EXPECTED = {
     "bodies": {"rigid_body": fm.RigidBody, "flexible_body": fm.FlexibleBody},
     "joints": {"revolute": fm.Revolute, "planar_revolute": fm.PlanarRevolute, "prismatic": fm.Prismatic,
@@ -263,7 +265,10 @@ EXPECTED = {
                "fixed": fm.Fixed, "free": fm.Free},
     "forces": {"gravity": fm.Gravity, "spring_damper": fm.SpringDamper,
                "joint_spring_damper": fm.JointSpringDamper, "point_force": fm.PointForce,
-               "body_torque": fm.BodyTorque},
+               "body_torque": fm.BodyTorque,
+               "velocity_weakening_friction": flexmb_friction.VelocityWeakeningFriction,
+               "coulomb_friction": flexmb_friction.CoulombFriction,
+               "viscous_friction": flexmb_friction.ViscousFriction},
     "complements": {"eigen": fm.EigenComplement, "svd": fm.SVDComplement},
     "integrators": {"RK45": RK45, "RK23": RK23, "DOP853": DOP853, "Radau": Radau, "BDF": BDF, "LSODA": LSODA},
 }

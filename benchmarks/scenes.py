@@ -34,3 +34,15 @@ def b1_reference():
     beta_l = np.array([1.8751041, 4.6940911, 7.8547574])
     freqs = beta_l**2 / (2 * np.pi) * np.sqrt(EI / (rhoA * B1_L**4))
     return static, freqs
+
+
+def b2(n_segments: int, damped: bool = True) -> fm.Model:
+    """B2: the B1 beam with torsion and both bendings, a 0.05 kg tip mass at (L, 0.02, 0), tilted gravity."""
+    model = fm.Model(f"B2 N={n_segments}")
+    beam = fm.FlexibleBody("beam", B1_L, fm.Section.rectangular(B1_B, B1_H), b1_material(), n_segments,
+                           keep=("torsion", "bend_y", "bend_z"), damping=B1_BETA if damped else 0.0)
+    tip = fm.RigidBody("tip", 0.05, (0.0, 0.0, 0.0), (0.0, 0.02, 0.0))
+    model.add(fm.Fixed("clamp", model.ground, beam),
+              fm.Fixed("tip_mount", beam, tip, parent_point=(B1_L, 0.0, 0.0)),
+              fm.Gravity((0.0, -0.6 * 9.81, -0.8 * 9.81)))
+    return model

@@ -244,6 +244,33 @@ class SlidingFriction(ForceElement):
         return rows, p, v_s, cls._law(params, v_s)
 
     @classmethod
+    def velocity_tangent_all(cls, elements, state):
+        """``dF/dv`` of every element at its point, by central differences of the law.
+
+        Only the law is differenced (cheap), with steps well below the
+        smoothing speed; the result feeds the implicit integrators'
+        Jacobian.
+
+        Returns
+        -------
+        rows : ndarray of int, shape (m,)
+        p : ndarray, shape (m, 3)
+        D : ndarray, shape (m, 3, 3)
+        """
+        rows, local, n, params = cls._gather(elements, state)
+        p = state.point_position(rows, local)
+        v = state.point_velocity(rows, p)
+        proj = np.eye(3) - n[:, :, None] * n[:, None, :]
+        v_s = np.einsum("mij,mj->mi", proj, v)
+        eps = params.get("smoothing_speed", np.ones(len(rows)))
+        h = (1e-4 * eps + 1e-7 * np.linalg.norm(v_s, axis=1))[:, None]
+        D = np.zeros((len(rows), 3, 3))
+        for j in range(3):
+            dv = h * proj[:, :, j]
+            D[:, :, j] = (cls._law(params, v_s + dv) - cls._law(params, v_s - dv)) / (2 * h)
+        return rows, p, D
+
+    @classmethod
     def apply_all(cls, elements, state, loads) -> None:
         """Apply all elements of this class in one call.
 

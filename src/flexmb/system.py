@@ -179,8 +179,10 @@ class System:
         """Approximate Jacobian of the state derivative for implicit integrators.
 
         ``J = [[0, I], [-P K, -P C]]`` with ``P = T (T^T A T)^-1 T^T`` at the
-        current state and K, C the diagonal spring and damper constants on
-        coordinates (segment joints, joint springs). It follows the state
+        current state, K the diagonal spring constants on coordinates
+        (segment joints, joint springs) and C their dampers plus
+        ``-sum V_P^T (dF/dv) V_P`` of velocity-dependent point forces
+        (friction). It follows the state
         through A and T, costs one mass matrix instead of n right-hand sides,
         and leaves out the smaller geometric and gyroscopic terms (the
         integrator's Newton iteration absorbs them).
@@ -193,14 +195,19 @@ class System:
         kin = self.kinematics(t, x, xd)
         parts = [cls.tangent_all(el, kin) for cls, el in self.forces.groups]
         parts = [p for p in parts if p is not None]
-        if not parts:
+        vparts = [cls.velocity_tangent_all(el, kin) for cls, el in self.forces.groups]
+        vparts = [p for p in vparts if p is not None]
+        if not parts and not vparts:
             return None
         n = self.n_coords
         K = np.zeros(n)
-        C = np.zeros(n)
+        C = np.zeros((n, n))
         for cols, k, c in parts:
             np.add.at(K, cols, k)
-            np.add.at(C, cols, c)
+            C[cols, cols] += c
+        for rows, p, D in vparts:
+            VP = kin.point_partials(rows, p)
+            C -= np.einsum("min,mij,mjk->nk", VP, D, VP)
         A = mass_matrix(kin)
         _, psi, _ = self.constraints.evaluate(kin, level=1)
         T = self.complement(psi).T
@@ -209,7 +216,7 @@ class System:
         J = np.zeros((2 * n, 2 * n))
         J[:n, n:] = np.eye(n)
         J[n:, :n] = -P * K
-        J[n:, n:] = -P * C
+        J[n:, n:] = -P @ C
         return J
 
     def highest_frequency(self, t, x, xd) -> float:

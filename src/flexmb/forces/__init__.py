@@ -135,6 +135,22 @@ class ForceElement:
         """
         return None
 
+    @classmethod
+    def velocity_tangent_all(cls, elements, state):
+        """Derivatives of point forces with respect to the points' velocities, if any.
+
+        Used, like :meth:`tangent_all`, for the implicit integrators'
+        Jacobian: a stiff velocity-dependent force (a regularised friction,
+        a damper) left out of it makes Newton's method slow.
+
+        Returns
+        -------
+        tuple of (rows, points, D) or None
+            Body rows (m,), inertial points (m, 3) and ``D = dF/dv``
+            (m, 3, 3) of each force.
+        """
+        return None
+
 
 from .gravity import Gravity  # noqa: E402
 from .loads import BodyTorque, PointForce  # noqa: E402

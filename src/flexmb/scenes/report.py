@@ -77,7 +77,7 @@ def run_fourbar(out, t_end=None, rtol=1e-8, complement="svd", method="auto", n_o
     return summary
 
 
-def run_wiper(out, t_end=None, rtol=1e-7, complement="svd", method="auto", n_out=501, progress=True,
+def run_wiper(out, t_end=None, rtol=1e-6, complement="svd", method="auto", n_out=501, progress=True,
               n_segments=6):
     """The wiper, rigid and flexible blades: Figs. 5-6 of the paper, torque, energy balance."""
     from .wiper import WiperOptions, wiper

@@ -108,7 +108,12 @@ def run_wiper(out, t_end=None, rtol=1e-6, complement="svd", method="auto", n_out
         summary[label]["vtk"] = _vtk(res, os.path.join(out, f"vtk_{label}"), f"wiper_{label}")
     plt = _plt()
     if plt:
-        fig, ax = plt.subplots(3, 1, figsize=(7, 9), sharex=True)
+        fig, ax = plt.subplots(4, 1, figsize=(7, 11), sharex=True)
+        tips = {label: _tip(res, label == "flexible") for label, res in runs.items()}
+        if len(runs["rigid"].t) == len(runs["flexible"].t):
+            ax[3].plot(runs["flexible"].t, 1e3 * np.linalg.norm(tips["flexible"] - tips["rigid"], axis=1),
+                       color="C1", label="flexible - rigid")
+        ax[3].set_ylabel("tip deflection [mm]")
         for label, res in runs.items():
             tip = _tip(res, label == "flexible")
             disp = np.linalg.norm(tip - tip[0], axis=1)
@@ -119,7 +124,7 @@ def run_wiper(out, t_end=None, rtol=1e-6, complement="svd", method="auto", n_out
         ax[0].set_ylabel("right tip displacement [m]")
         ax[1].set_ylabel("right tip speed [m/s]")
         ax[2].set_ylabel("crank torque [N m]")
-        ax[2].set_xlabel("t [s]")
+        ax[3].set_xlabel("t [s]")
         for a in ax:
             a.legend()
             a.grid(alpha=0.3)

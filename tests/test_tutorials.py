@@ -5,8 +5,9 @@ Each tutorial in ``tutorials/`` is executed with :func:`runpy.run_path`
 the module-level results it defines are checked against references it does
 not compute itself: the elliptic-integral period of a physical pendulum,
 loop closure, energy conservation and the work-energy theorem, agreement of
-two complement strategies, and Euler-Bernoulli beam theory with its
-1/N^2 convergence.
+two complement strategies, Euler-Bernoulli beam theory with its
+1/N^2 convergence, and the wiper's assembly, sweep, tip speed (the paper's
+Fig. 6) and energy balance.
 """
 
 from __future__ import annotations
@@ -35,7 +36,7 @@ def run():
 
 def test_every_tutorial_is_tested():
     assert sorted(p.name for p in TUTORIALS.glob("[0-9][0-9]_*.py")) == [
-        "01_pendulum.py", "02_fourbar.py", "03_cantilever.py"]
+        "01_pendulum.py", "02_fourbar.py", "03_cantilever.py", "04_wiper.py"]
 
 
 def test_pendulum(run):
@@ -72,3 +73,15 @@ def test_cantilever(run):
     assert ns["res"].status == "finished"
     assert -2.1 * ns["static_ref"] < ns["tip_z_min"] < -1.9 * ns["static_ref"]
     assert ns["t_min"] == pytest.approx(0.5 / ns["freq_ref"][0], rel=0.05)
+
+
+def test_wiper(run):
+    ns = run("04_wiper.py")
+    assert ns["assembly_residual"] < 1e-10
+    # the arms' sweep and the tip speed of the paper's Fig. 6 (its axis reaches 2.5 m/s)
+    assert 75 < ns["sweep_right_deg"] < 83
+    assert 62 < ns["sweep_left_deg"] < 70
+    assert 1.5 < ns["peak_tip_speed"] < 2.6
+    # driver work = change of kinetic + elastic energy + friction and damping dissipation
+    assert ns["energy_balance_error_rigid"] < 1e-6
+    assert ns["energy_balance_error_flexible"] < 1e-6

@@ -112,7 +112,7 @@ class Constraints:
             if level >= 1:
                 de = cross(dvec, e)
                 Ve = kin.point_partials(rj, Pj) - kin.point_partials(ri, Pi)
-                psis.append(np.einsum("mi,min->mn", de, kin.W[ri]) + np.einsum("mi,min->mn", dvec, Ve))
+                psis.append(np.einsum("mi,min->mn", de, kin.angular_partials(ri)) + np.einsum("mi,min->mn", dvec, Ve))
                 bs.append(np.zeros(len(ri)))
             if level >= 2:
                 wi = kin.omega[ri]
@@ -129,7 +129,7 @@ class Constraints:
             phis.append(_dot(a, b))
             if level >= 1:
                 ab = cross(a, b)
-                psis.append(np.einsum("mi,min->mn", ab, kin.W[ri] - kin.W[rj]))
+                psis.append(np.einsum("mi,min->mn", ab, kin.angular_partials(ri) - kin.angular_partials(rj)))
                 bs.append(np.zeros(len(ri)))
             if level >= 2:
                 wi, wj = kin.omega[ri], kin.omega[rj]

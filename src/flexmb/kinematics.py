@@ -19,6 +19,8 @@ body downstream of j is ``G_v[:, c] + G_w[:, c] x (r_P - o'_j)`` (eqs. 7,
 
 from __future__ import annotations
 
+from functools import cached_property
+
 import numpy as np
 
 from .rotations import cross, skew
@@ -53,7 +55,12 @@ class Kinematics:
         (``Wdot xd`` and ``Vdot xd`` of eq. 3).
     W, V : ndarray, shape (n_bodies + 1, 3, n_coords)
         Partial angular velocities and partial velocities of the mass
-        centres (eqs. 7, 17).
+        centres (eqs. 7, 17); formed on first access only (the assembler
+        works from the per-coordinate ``Sw``, ``Sv``).
+    Sw, Sv : ndarray, shape (n_coords, 3)
+        Each coordinate's motion in Plucker form about the inertial origin:
+        a point p of any body downstream of the coordinate has the partial
+        velocity ``Sv + Sw x p`` and partial angular velocity ``Sw``.
     """
 
     def __init__(self, topology, t: float, x: np.ndarray, xd: np.ndarray):
@@ -102,21 +109,22 @@ class Kinematics:
         r[:nb] += np.einsum("kij,kj->ki", R[:nb], topo.com)
         self.origin, self.r, self.joint_point = origin, r, jp
 
-        # partial velocities (eqs. 7, 17)
+        # partial velocities (eqs. 7, 17), kept per coordinate: the column c of
+        # V_k is G_v + G_w x (r_k - o'_j) for every body k downstream of c's
+        # joint. In Plucker form about the inertial origin, a coordinate's
+        # motion is S_c = (G_w, G_v - G_w x o'_j) and any body point p moves
+        # with S_v + S_w x p, so V and W never need to be stored whole.
         cb = topo.coord_body
         Gw = np.einsum("cij,jc->ci", RM[cb], hw)  # (n, 3)
         Gv = np.einsum("cij,jc->ci", RM[cb], hv)
-        lever = r[:nb, None, :] - jp[cb][None, :, :]  # (nb, n, 3)
-        ancc = topo.coord_ancestors[:, :, None]
-        V = np.zeros((nb + 1, 3, n))
-        W = np.zeros((nb + 1, 3, n))
-        V[:nb] = (ancc * (Gv[None] + cross(Gw[None], lever))).transpose(0, 2, 1)
-        W[:nb] = (ancc * Gw[None]).transpose(0, 2, 1)
-        self.V, self.W = V, W
         self.Gw, self.Gv = Gw, Gv
+        self.Sw, self.Sv = Gw, Gv - cross(Gw, jp[cb])
+        ca = topo.coord_ancestors  # (nb, n)
 
-        omega = W @ xd
-        v = V @ xd
+        omega = np.zeros((nb + 1, 3))
+        v = np.zeros((nb + 1, 3))
+        omega[:nb] = ca @ (self.Sw * xd[:, None])
+        v[:nb] = ca @ (self.Sv * xd[:, None]) + cross(omega[:nb], r[:nb])
         self.omega, self.v = omega, v
 
         # velocity-dependent accelerations (eqs. 13, 18 at xdd = 0)
@@ -135,6 +143,22 @@ class Kinematics:
         acc = np.zeros((nb + 1, 3))
         acc[:nb] = a_jp + cross(alpha[:nb], u) + cross(omega[:nb], cross(omega[:nb], u))
         self.alpha_bias, self.a_bias = alpha, acc
+
+    @cached_property
+    def W(self) -> np.ndarray:
+        """Partial angular velocities of all bodies (eq. 7), shape (n_bodies + 1, 3, n_coords)."""
+        nb = self.topology.n_bodies
+        W = np.zeros((nb + 1, 3, self.x.shape[0]))
+        W[:nb] = self.angular_partials(np.arange(nb))
+        return W
+
+    @cached_property
+    def V(self) -> np.ndarray:
+        """Partial velocities of all mass centres (eq. 17), shape (n_bodies + 1, 3, n_coords)."""
+        nb = self.topology.n_bodies
+        V = np.zeros((nb + 1, 3, self.x.shape[0]))
+        V[:nb] = self.point_partials(np.arange(nb), self.r[:nb])
+        return V
 
     # -- lookups used by force elements and constraints
     def index(self, body) -> int:
@@ -187,16 +211,59 @@ class Kinematics:
         Parameters
         ----------
         k : ndarray of int, shape (m,)
-            Body indices.
+            Body indices (-1, the ground, gives zeros).
         p : ndarray, shape (m, 3)
             Inertial positions of the points.
 
         Returns
         -------
         ndarray, shape (m, 3, n_coords)
-            ``V_P = V_k + W_k x (p - r_k)`` column by column.
+            ``V_P = V_k + W_k x (p - r_k)`` column by column (eq. 17),
+            formed as ``Sv + Sw x p`` over the coordinates upstream of k.
         """
-        return self.V[k] - skew(p - self.r[k]) @ self.W[k]
+        k = np.atleast_1d(k)
+        p = np.reshape(p, (-1, 3))
+        cols = self.Sv[None] + cross(self.Sw[None], p[:, None, :])  # (m, n, 3)
+        return (self._upstream(k)[:, :, None] * cols).transpose(0, 2, 1)
+
+    def angular_partials(self, k) -> np.ndarray:
+        """Partial angular velocities ``W_k`` of bodies (eq. 7), shape (m, 3, n_coords).
+
+        Parameters
+        ----------
+        k : ndarray of int, shape (m,)
+            Body indices (-1, the ground, gives zeros).
+
+        Returns
+        -------
+        ndarray, shape (m, 3, n_coords)
+            Column c is the coordinate's axis ``Sw[c]`` if c moves body k.
+        """
+        k = np.atleast_1d(k)
+        return (self._upstream(k)[:, :, None] * self.Sw[None]).transpose(0, 2, 1)
+
+    def _upstream(self, k) -> np.ndarray:
+        """0/1 rows: which coordinates move each body in ``k`` (none for the ground)."""
+        ca = self.topology.coord_ancestors
+        return np.where((k >= 0)[:, None], ca[k], 0.0)
+
+    def spatial_inertia(self) -> np.ndarray:
+        """Spatial inertia of each body about the inertial origin, shape (n_bodies, 6, 6).
+
+        Blocks ``[[I_c + m [r]^T [r], m [r]], [-m [r], m E]]`` act on the
+        Plucker velocity ``(omega, v_O)``, so that the kinetic energy of
+        body k is ``(omega, v_O) . I_O (omega, v_O) / 2`` and the
+        inertias of a subtree add.
+        """
+        nb = self.topology.n_bodies
+        m, r = self.mass, self.r[:nb]
+        rx = skew(r)
+        out = np.empty((nb, 6, 6))
+        out[:, :3, :3] = self.inertia_world() - m[:, None, None] * (rx @ rx)
+        out[:, :3, 3:] = m[:, None, None] * rx
+        out[:, 3:, :3] = -out[:, :3, 3:]
+        out[:, 3:, 3:] = m[:, None, None] * np.eye(3)
+        return out
 
     def kinetic_energy(self) -> float:
         """``sum m v^2 / 2 + omega . I omega / 2``, J."""

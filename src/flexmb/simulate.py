@@ -10,6 +10,7 @@ from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, Radau
 
 from . import registry
 from .errors import AssemblyError, FlexmbError, ModelError, SimulationError
+from .integrators import second_order
 from .result import Result
 
 __all__ = ["simulate", "initial_state", "INTEGRATORS"]
@@ -293,6 +294,9 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
             return np.pad(J, ((0, n_w), (0, n_w))) if n_w else J
 
         extra["jac"] = jac
+        # the Jacobian has the block form [[0, I], [Jx, Jv]]: factor n x n only
+        extra["n_second"] = n
+        solver_cls = second_order(solver_cls)
 
     def make(tstart, ystart, first_step=None):
         return solver_cls(fun, tstart, ystart, t_end, rtol=rtol, atol=atol, max_step=max_step,

@@ -159,6 +159,8 @@ class System:
         return "the force array is not finite (non-finite speeds?)"
 
     def _solve(self, t, A, f, psi, gamma):
+        if psi.shape[0] == 0:  # an open tree: T = I, no complement needed
+            return self._cholesky_solve(t, A, f)
         c = self.complement(psi)
         T = c.T
         xdd_p = c.particular(gamma) if c.rank else np.zeros(self.n_coords)
@@ -166,14 +168,18 @@ class System:
             return xdd_p
         M = T.T @ A @ T
         rhs = T.T @ (f - A @ xdd_p)
+        return T @ self._cholesky_solve(t, M, rhs) + xdd_p
+
+    @staticmethod
+    def _cholesky_solve(t, M, rhs):
+        """Solve ``M z = rhs`` for the symmetric positive definite (reduced) mass matrix."""
         try:
-            zd = sla.cho_solve(sla.cho_factor(M), rhs)
+            return sla.cho_solve(sla.cho_factor(M, check_finite=False), rhs, check_finite=False)
         except (np.linalg.LinAlgError, ValueError) as exc:
             raise AssemblyError(
                 f"reduced mass matrix T^T A T is not positive definite at t = {t:.6g} s "
                 "(a body without mass or inertia on a freedom?)"
             ) from exc
-        return T @ zd + xdd_p
 
     def state_jacobian(self, t, x, xd) -> np.ndarray | None:
         """Approximate Jacobian of the state derivative for implicit integrators.
@@ -209,10 +215,13 @@ class System:
             VP = kin.point_partials(rows, p)
             C -= np.einsum("min,mij,mjk->nk", VP, D, VP)
         A = mass_matrix(kin)
-        _, psi, _ = self.constraints.evaluate(kin, level=1)
-        T = self.complement(psi).T
-        M = T.T @ A @ T
-        P = T @ sla.cho_solve(sla.cho_factor(M), T.T)
+        if self.n_constraints == 0:
+            P = sla.cho_solve(sla.cho_factor(A, check_finite=False), np.eye(n), check_finite=False)
+        else:
+            _, psi, _ = self.constraints.evaluate(kin, level=1)
+            T = self.complement(psi).T
+            M = T.T @ A @ T
+            P = T @ sla.cho_solve(sla.cho_factor(M), T.T)
         J = np.zeros((2 * n, 2 * n))
         J[:n, n:] = np.eye(n)
         J[n:, :n] = -P * K

@@ -173,6 +173,16 @@ class Topology:
         self.coordinate_names = names
         self.coord_body = np.array(coord_body, dtype=int)
         self.coord_ancestors = anc[:, self.coord_body]
+        # coord_upstream[c, d]: coordinate c moves the body of coordinate d
+        # (c's joint on d's path from the ground, d's own joint included);
+        # A[c, d] is non-zero only where this or its transpose holds.
+        up = self.coord_ancestors[self.coord_body].T.astype(bool)
+        self.coord_upstream = up
+        # 0/1 masks that pick A from B[c, d] = S_c . IC_body(d) S_d and its
+        # transpose, kept contiguous so that the assembly never reads a
+        # transposed array element by element.
+        self.mass_mask = up.astype(float)
+        self.mass_mask_t = np.ascontiguousarray(up.T & ~up).astype(float)
 
         # joint groups by class, for batched motion()
         groups = defaultdict(list)

@@ -230,7 +230,7 @@ class JointLoads:
 def _check_times(t, tq):
     if tq.size and (np.any(~np.isfinite(tq)) or tq.min() < t[0] or tq.max() > t[-1]):
         bad = tq[(tq < t[0]) | (tq > t[-1]) | ~np.isfinite(tq)].ravel()
-        raise FlexmbError(f"time {bad[0]!r} s is outside the result, which covers [{t[0]:.9g}, {t[-1]:.9g}] s")
+        raise FlexmbError(f"time {float(bad[0])!r} s is outside the result, which covers [{t[0]:.9g}, {t[-1]:.9g}] s")
 
 
 def _resolve(result, body, system=None) -> FlexibleBody:

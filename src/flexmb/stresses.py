@@ -157,11 +157,11 @@ class SectionField:
         """
         tq = np.asarray(t, dtype=float)
         _check_times(self.t, tq)
-        flat = self.values.reshape(len(self.t), -1)
-        out = np.empty((tq.size, flat.shape[1]))
-        for j in range(flat.shape[1]):  # over station x component columns, not times
-            out[:, j] = np.interp(tq.ravel(), self.t, flat[:, j])
-        return out.reshape(tq.shape + self.values.shape[1:])
+        if len(self.t) == 1:
+            return np.broadcast_to(self.values[0], tq.shape + self.values.shape[1:]).copy()
+        i = np.clip(np.searchsorted(self.t, tq, side="right") - 1, 0, len(self.t) - 2)
+        w = ((tq - self.t[i]) / (self.t[i + 1] - self.t[i]))[..., None, None]
+        return (1.0 - w) * self.values[i] + w * self.values[i + 1]
 
     def envelope(self) -> Envelope:
         """Largest absolute value over time at each station, and when it occurs.

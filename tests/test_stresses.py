@@ -234,6 +234,26 @@ def test_fourbar_constraint_loads_and_body_balance():
     np.testing.assert_allclose(total, 0.25 * a, atol=2e-3 * 0.25 * 9.81)
 
 
+def test_pendulum_pin_force_closed_form():
+    # slender bar, pivot at its end, gravity -y: at angle theta and rate w the pin must supply
+    # m (a_c - g), a_c = alpha x r_c - w^2 r_c, alpha = -3 g cos(theta) / (2 L)
+    m, length, g, theta, w = 1.3, 0.8, 9.81, 0.4, 2.0
+    model = fm.Model()
+    bar = fm.RigidBody.slender_bar("bar", m, length)
+    model.add(fm.Revolute("pin", model.ground, bar, axis=(0, 0, 1)), fm.Gravity((0.0, -g, 0.0)))
+    system = model.build()
+    res = stresses.state_result(system, [theta], [w])
+    e = np.array([np.cos(theta), np.sin(theta), 0.0])
+    rc = 0.5 * length * e
+    alpha = -3 * g * np.cos(theta) / (2 * length)
+    a_c = np.cross([0.0, 0.0, alpha], rc) - w * w * rc
+    pin = m * (a_c - np.array([0.0, -g, 0.0]))
+    force, moment = res.joint_loads(system).joint("pin")
+    R = res.rotations[0, 0]
+    np.testing.assert_allclose(R @ force[0], -pin, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(moment[0], 0.0, atol=1e-12)  # a pin transmits no moment about its axis here
+
+
 # -- envelope, interpolation, bad input
 
 
@@ -279,6 +299,9 @@ def test_bad_input_is_named():
 def test_vtk_section_fields_read_back(tmp_path):
     model, beam = cantilever(4, keep=("torsion", "bend_y", "bend_z"), damping=BETA,
                              loads=[lambda b: fm.Gravity((0.0, -3.0, -9.0))])
+    # a rigid tip mass: its points come first in the files, before the beam's centre line
+    model.add(fm.Fixed("mount", beam, fm.RigidBody("tip", 0.02, np.eye(3) * 1e-6, (0.0, 0.02, 0.0)),
+                       parent_point=(L, 0.0, 0.0)))
     system = model.build()
     res = fm.simulate(system, 0.01, n_out=3, method="Radau", rtol=1e-6)
     pvd = res.export_vtk(tmp_path, system=system)
@@ -286,11 +309,13 @@ def test_vtk_section_fields_read_back(tmp_path):
     vm = res.section_stresses(beam).component("von_mises")
     for i in range(len(res.t)):
         mesh = meshio.read(pvd.parent / f"flexmb_{i:04d}.vtu")
-        # the beam's centre line: root, joints 1..3, tip; the clamp frame is not drawn
+        # points: the tip mass (origin, mass centre), then the beam's root, joints 1..3, tip
+        assert len(mesh.points) == 7
         for field, comp in vtk.SECTION_FIELDS.items():
-            np.testing.assert_allclose(mesh.point_data[field][:4], loads.component(comp)[i], rtol=1e-12, atol=0)
-            assert mesh.point_data[field][4] == 0.0
-        np.testing.assert_allclose(mesh.point_data["von_mises"][:4], vm[i], rtol=1e-12, atol=0)
+            np.testing.assert_allclose(mesh.point_data[field][2:6], loads.component(comp)[i], rtol=1e-12, atol=0)
+            np.testing.assert_array_equal(mesh.point_data[field][[0, 1, 6]], 0.0)
+        np.testing.assert_allclose(mesh.point_data["von_mises"][2:6], vm[i], rtol=1e-12, atol=0)
+    assert np.abs(loads.component("Mx")[-1]).max() > 0  # the offset tip mass twists the beam
     assert "von_mises" not in vtk.to_meshio(res, 0).point_data  # without a system: no section data
 
 

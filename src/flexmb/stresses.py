@@ -77,7 +77,18 @@ class Envelope:
     components: tuple
 
     def component(self, name: str) -> np.ndarray:
-        """Peak of one component along the body, shape (n_stations,)."""
+        """Peak of one component along the body.
+
+        Parameters
+        ----------
+        name : str
+            Component name.
+
+        Returns
+        -------
+        ndarray, shape (n_stations,)
+            ``max_t |value|`` at each station.
+        """
         return self.peak[:, _component_index(self.components, name)]
 
 

@@ -252,3 +252,79 @@ class Result:
             kw["flexible"] = {str(k): (z[f"flexible_rows_{i}"].tolist(), float(z["flexible_lengths"][i]))
                               for i, k in enumerate(z["flexible_names"])}
         return cls(**kw)
+
+    def section_loads(self, body, system=None):
+        """Internal loads at the segment joints of a flexible body; see :func:`flexmb.stresses.section_loads`.
+
+        Parameters
+        ----------
+        body : FlexibleBody or str
+            The body (a name needs ``system``).
+        system : System or Model, optional
+            With it, also the components the body does not keep.
+
+        Returns
+        -------
+        SectionField
+            Values shape (nt, n_joints, n_components), ``stations`` (m),
+            ``components`` and ``units``; ``.envelope()`` for the peaks.
+        """
+        from .stresses import section_loads
+
+        return section_loads(self, body, system)
+
+    def section_strains(self, body, system=None):
+        """Curvatures, twist and axial strain at the segment joints; see :func:`flexmb.stresses.section_strains`.
+
+        Parameters
+        ----------
+        body : FlexibleBody or str
+            The body (a name needs ``system``).
+        system : System or Model, optional
+            To look the body up by name.
+
+        Returns
+        -------
+        SectionField
+            Values shape (nt, n_joints, n_components).
+        """
+        from .stresses import section_strains
+
+        return section_strains(self, body, system)
+
+    def section_stresses(self, body, system=None):
+        """Outer-fibre and von Mises stresses at the segment joints; see :func:`flexmb.stresses.section_stresses`.
+
+        Parameters
+        ----------
+        body : FlexibleBody or str
+            The body (a name needs ``system``).
+        system : System or Model, optional
+            With it, the loads the body does not keep count too.
+
+        Returns
+        -------
+        SectionField
+            Stresses (Pa), shape (nt, n_joints, 6).
+        """
+        from .stresses import section_stresses
+
+        return section_stresses(self, body, system)
+
+    def joint_loads(self, system):
+        """Force and moment every joint transmits; see :func:`flexmb.stresses.joint_loads`.
+
+        Parameters
+        ----------
+        system : System or Model
+            The model the result came from.
+
+        Returns
+        -------
+        JointLoads
+            ``force`` and ``moment`` (nt, n_joints, 3) in each joint's
+            child marker frame, ``names``.
+        """
+        from .stresses import joint_loads
+
+        return joint_loads(self, system)

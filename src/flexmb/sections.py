@@ -102,6 +102,35 @@ class Section:
         A = np.pi * (d_out**2 - d_in**2) / 4.0
         return cls(A, I, I, 2 * I, 2 * I, d_out / 2, d_out / 2, f"tube {d_out}/{d_in}", "tube")
 
+    def torsion_modulus(self) -> float:
+        """Torsional section modulus W_t, m^3: the largest shear stress is ``T / W_t``.
+
+        Returns
+        -------
+        float
+            * circle: ``J / r`` (``tau = T r / J``, r = d / 2);
+            * tube: ``J / r_o`` (``tau = T r_o / J``, outer radius);
+            * rectangle, long side w and short side t:
+              ``alpha w t^2`` with ``alpha = 1 / (3 + 1.8 t / w)``, i.e.
+              ``tau = T (3 w + 1.8 t) / (w^2 t^2)`` (Roark's formulas,
+              Young & Budynas, Table 10.1; alpha = 0.208 for a square,
+              1/3 for a thin strip), the stress at the middle of the long
+              sides;
+            * general: ``J / max(c_y, c_z)``, exact only for circles.
+
+        Raises
+        ------
+        ModelError
+            If the outer-fibre distances are not given.
+        """
+        c = max(self.c_y, self.c_z)
+        if not c > 0:
+            raise ModelError(f"{label(self)}: no outer-fibre distances c_y, c_z (needed for stresses)")
+        if self.kind == "rectangular":
+            w, t = 2.0 * c, 2.0 * min(self.c_y, self.c_z)
+            return w * w * t * t / (3.0 * w + 1.8 * t)
+        return self.J / c
+
 
 @frozen(eq=False)
 class Material:

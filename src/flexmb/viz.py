@@ -18,7 +18,7 @@ from attrs import evolve, field, frozen
 from ._files import atomic_write
 from .errors import ExportError
 
-__all__ = ["RenderOptions", "render_state", "animate", "plot"]
+__all__ = ["RenderOptions", "render_state", "animate", "plot", "plot_envelope", "plot_station"]
 
 _VIEWS = ("auto", "xy", "xz", "yz", "iso")
 
@@ -347,3 +347,128 @@ def plot(result, coords=None, path=None, *, energy: bool = False, figsize=(7.0, 
         fmt = path.suffix.lstrip(".") or "png"
         atomic_write(path, lambda tmp: fig.savefig(tmp, format=fmt), suffix=path.suffix or ".png")
     return fig
+
+
+def _section_figure(path, figsize):
+    try:
+        import matplotlib  # noqa: F401
+    except ImportError as exc:
+        raise ExportError("plots need matplotlib: pip install 'flexmb[viz]'") from exc
+    if path is None:
+        import matplotlib.pyplot as plt
+
+        return plt.subplots(figsize=figsize)
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=figsize)
+    return fig, fig.subplots()
+
+
+def _section_components(field, components) -> list[int]:
+    if not (hasattr(field, "components") and hasattr(field, "values") and hasattr(field, "stations")):
+        raise ExportError(f"expected a SectionField (result.section_stresses(body)), got {type(field).__name__}")
+    names = list(field.components)
+    if components is None:
+        components = [c for c in ("sigma_max", "von_mises") if c in names] or names
+    elif isinstance(components, str):
+        components = [components]
+    bad = [c for c in components if c not in names]
+    if bad:
+        raise ExportError(f"no component(s) {bad}; components are {names}")
+    return [names.index(c) for c in components]
+
+
+def _scale(units):
+    """Plot Pa as MPa."""
+    return (1e-6, "MPa") if units == "Pa" else (1.0, units)
+
+
+def _finish(fig, path):
+    fig.tight_layout()
+    if path is not None:
+        path = Path(os.fspath(path))
+        fmt = path.suffix.lstrip(".") or "png"
+        atomic_write(path, lambda tmp: fig.savefig(tmp, format=fmt), suffix=path.suffix or ".png")
+    return fig
+
+
+def plot_envelope(field, path=None, *, components=None, figsize=(7.0, 4.0)):
+    """Plot the envelope of section loads or stresses along a flexible body.
+
+    Parameters
+    ----------
+    field : SectionField
+        From ``result.section_stresses(body)`` (or ``section_loads``,
+        ``section_strains``).
+    path : str or path-like, optional
+        Save the figure there (format from the ending); else use pyplot.
+    components : str or list of str, optional
+        Components to draw (default ``sigma_max`` and ``von_mises`` when
+        present, else all).
+    figsize : tuple of float
+        Figure size, inches.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The largest absolute value over time against the station position
+        (m); stresses in MPa.
+
+    Raises
+    ------
+    ExportError
+        If a component is unknown, or matplotlib is not installed.
+    """
+    cols = _section_components(field, components)
+    fig, ax = _section_figure(path, figsize)
+    env = field.envelope()
+    for c in cols:
+        k, unit = _scale(field.units[c])
+        ax.plot(field.stations, k * env.peak[:, c], "o-", label=f"{field.components[c]} ({unit})")
+    ax.set_xlabel(f"position along {field.body} (m)")
+    ax.set_ylabel("max over time of |value|")
+    ax.set_title(f"{field.body}: envelope over t = [{field.t[0]:.3g}, {field.t[-1]:.3g}] s")
+    ax.legend(fontsize="small")
+    return _finish(fig, path)
+
+
+def plot_station(field, path=None, *, station: int = 0, components=None, figsize=(7.0, 4.0)):
+    """Plot section loads or stresses at one station against time (default: the root).
+
+    Parameters
+    ----------
+    field : SectionField
+        From ``result.section_stresses(body)`` (or ``section_loads``).
+    path : str or path-like, optional
+        Save the figure there (format from the ending); else use pyplot.
+    station : int
+        Station index (0: the first segment joint, the root of a clamped
+        body; negative counts from the tip).
+    components : str or list of str, optional
+        Components to draw (default ``sigma_max`` and ``von_mises`` when
+        present, else all).
+    figsize : tuple of float
+        Figure size, inches.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The figure; stresses in MPa.
+
+    Raises
+    ------
+    ExportError
+        If the station or a component is unknown, or matplotlib is not installed.
+    """
+    cols = _section_components(field, components)
+    n = len(field.stations)
+    if not -n <= int(station) < n:
+        raise ExportError(f"station {station} is out of range: {field.body} has {n} stations")
+    fig, ax = _section_figure(path, figsize)
+    for c in cols:
+        k, unit = _scale(field.units[c])
+        ax.plot(field.t, k * field.values[:, station, c], label=f"{field.components[c]} ({unit})")
+    ax.set_xlabel("time (s)")
+    ax.set_title(f"{field.body} at x = {field.stations[station]:.4g} m")
+    ax.legend(fontsize="small")
+    return _finish(fig, path)

@@ -10,7 +10,9 @@ Every file is an unstructured grid of lines:
 Point data: ``displacement`` and ``velocity`` of every point, and the
 elastic coordinates of the segment joints (``bending_y``, ``bending_z``,
 ``torsion``, plus ``axial``, ``shear_y``, ``shear_z`` when a body keeps
-them). Cell data: ``body_id`` (an index into :func:`body_names`) and
+them). With a system, also the section loads at the segment joints:
+``moment_torsion``, ``moment_bend_y``, ``moment_bend_z`` (N m) and
+``von_mises`` (Pa), see :mod:`flexmb.stresses`. Cell data: ``body_id`` (an index into :func:`body_names`) and
 ``segment``. Field data: ``time`` (and ``TimeValue``, which ParaView reads
 as the time of a file series). See ``docs/export.md``.
 
@@ -35,7 +37,7 @@ from .._files import atomic_write
 from ..errors import ExportError
 from ..result import Result
 
-__all__ = ["ELASTIC_FIELDS", "body_names", "to_meshio", "write_vtu", "write_pvd", "export_vtk",
+__all__ = ["ELASTIC_FIELDS", "SECTION_FIELDS", "body_names", "to_meshio", "write_vtu", "write_pvd", "export_vtk",
            "export_snapshot", "export_modes"]
 
 #: elastic coordinate of a segment joint -> point-data name (rad for rotations, m for translations)
@@ -237,6 +239,35 @@ def _velocities(layout, result, P, system, frames) -> dict[int, np.ndarray]:
     return {i: V[i] for i in frames}
 
 
+#: section-load point data written with a system: name -> section-load component (N m)
+SECTION_FIELDS = {"moment_torsion": "Mx", "moment_bend_y": "My", "moment_bend_z": "Mz"}
+
+
+def _section_values(layout, result, system) -> dict[str, np.ndarray]:
+    """Section moments and von Mises stress at the segment-joint points, shape (nt, n_points) each.
+
+    From the kept coordinates' springs and dampers (:mod:`flexmb.stresses`);
+    0 at other points and for components a body does not keep.
+    """
+    from ..stresses import _section_loads, _stresses
+
+    nt = len(np.asarray(result.t))
+    out = {name: np.zeros((nt, layout.n_points)) for name in (*SECTION_FIELDS, "von_mises")}
+    bodies = {b.name: b for b in getattr(system.topology, "flexible", {})}
+    offset = layout.n_points - sum(len(rows) + 1 for _, rows, _ in layout.flexible)
+    for name, rows, _ in layout.flexible:
+        body = bodies.get(name)
+        if body is not None:
+            loads = _section_loads(result, body, None)
+            points = offset + (0 if body.clamped else 1) + np.arange(body.n_joints)
+            for field, comp in SECTION_FIELDS.items():
+                if comp in loads.components:
+                    out[field][:, points] = loads.component(comp)
+            out["von_mises"][:, points] = _stresses(result, body, loads).component("von_mises")
+        offset += len(rows) + 1
+    return out
+
+
 def _meshes(result, frames, system=None, triad=0.0, extra=None):
     """Meshes at the given output indices, sharing one layout and one pass over the history."""
     _check_result(result)
@@ -248,9 +279,12 @@ def _meshes(result, frames, system=None, triad=0.0, extra=None):
     V = _velocities(layout, result, P, system, frames)
     t = np.asarray(result.t, dtype=float)
     x = np.asarray(result.x, dtype=float)
+    section = _section_values(layout, result, system) if system is not None and layout.flexible else {}
     for i in frames:
         field_data = {"time": t[i], **(extra or {})}
-        yield layout.mesh(P[i], P[i] - P[0], V[i], x[i], field_data)
+        mesh = layout.mesh(P[i], P[i] - P[0], V[i], x[i], field_data)
+        mesh.point_data.update({name: v[i] for name, v in section.items()})
+        yield mesh
 
 
 def body_names(result) -> list[str]:
@@ -297,7 +331,10 @@ def to_meshio(result, i: int, *, system=None, triad: float = 0.0) -> "meshio.Mes
         Point data ``displacement`` (m, from the same point at ``t[0]``),
         ``velocity`` (m/s), ``bending_y``, ``bending_z``, ``torsion`` (rad,
         at the segment-joint points, 0 elsewhere) and ``axial``,
-        ``shear_y``, ``shear_z`` (m) if kept; cell data ``body_id`` (index
+        ``shear_y``, ``shear_z`` (m) if kept; with ``system``, also the
+        section loads ``moment_torsion``, ``moment_bend_y``,
+        ``moment_bend_z`` (N m, kept coordinates' springs and dampers) and
+        ``von_mises`` (Pa) at the segment-joint points; cell data ``body_id`` (index
         into :func:`body_names`) and ``segment`` (-1 for rigid bodies);
         field data ``time`` (s).
 

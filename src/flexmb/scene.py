@@ -46,6 +46,7 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
+import attrs
 import numpy as np
 from attrs import define, evolve, field, frozen
 
@@ -508,9 +509,15 @@ class _Loader:
                     self.fail(path, f"missing key {k!r} ({what} needs it)")
         else:
             params = {}
+        types = {}
+        if attrs.has(ctor):  # the field's declared type (the __init__ annotation is the converter's)
+            types = {a.alias or a.name: a.type for a in attrs.fields(ctor) if a.type is not None}
         for k, v in table.items():
             p = params.get(k)
             annotation = "" if p is None or p.annotation is inspect.Parameter.empty else str(p.annotation)
+            if k in types:
+                t = types[k]
+                annotation = t if isinstance(t, str) else getattr(t, "__name__", str(t))
             kind = self.ref_kind(k, annotation)
             key_path = f"{path}.{k}"
             if kind is not None:
@@ -553,8 +560,11 @@ class _Loader:
         m = re.match(r"^(?:[A-Za-z_][\w.]*(?: '[^']*')?|[\w.]+\(\)): ", msg)
         rest = msg[m.end():] if m else msg
         for k in sorted(table, key=len, reverse=True):
-            if re.match(rf"{re.escape(k)}\b", rest) and not rest.startswith(k + "("):
+            if re.match(rf"{re.escape(k)}(?: must| is| has| cannot|:)", rest):
                 self.fail(f"{path}.{k}", rest[len(k):].lstrip(" :"))
+        key = _failing_field(exc)
+        if key in table:
+            self.fail(f"{path}.{key}", rest)
         self.fail(path, rest)
 
     def plugin(self, path: str, kind: str, table: dict, default: str | None = None):
@@ -788,6 +798,18 @@ class _Loader:
                 self.fail(f"{path}.point", f"must be 3 numbers (m, in the body frame), got {point!r}")
             points[label] = (body.name, tuple(float(x) for x in point))
         return OutputSettings(prefix=prefix, points=points, **kw)
+
+
+def _failing_field(exc: BaseException) -> str | None:
+    """Name of the attrs field whose validator raised ``exc`` (validators get ``attribute``), if any."""
+    name = None
+    tb = exc.__traceback__
+    while tb is not None:
+        attribute = tb.tb_frame.f_locals.get("attribute")
+        if isinstance(attribute, attrs.Attribute):
+            name = attribute.alias or attribute.name
+        tb = tb.tb_next
+    return name
 
 
 def _constructors(cls) -> dict:

@@ -31,6 +31,9 @@ def _run(args) -> int:
         summary = run_scene(args.scene, args.out, **kw)
         print(json.dumps(summary, indent=2))
         print(f"wrote {args.out}/ (results .npz, summary.json, plots .png, VTK series)")
+        if summary.get("status") == "interrupted":
+            print("flexmb: interrupted: the outputs hold the run up to then", file=sys.stderr)
+            return 130
         return 0
     return _run_file(args)
 

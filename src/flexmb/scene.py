@@ -469,7 +469,7 @@ class _Loader:
         if not isinstance(value, str):
             self.fail(path, f"must be the name of a {kind} (a string), got {_toml_type(value)} {value!r}")
         if value not in table:
-            known = sorted(table) + (["ground"] if kind == "body" else [])
+            known = sorted(table)
             self.fail(path, f"unknown {kind} {value!r}; known: {', '.join(known) or 'none'}")
         return table[value]
 

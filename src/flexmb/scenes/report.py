@@ -106,6 +106,9 @@ def run_wiper(out, t_end=None, rtol=1e-6, complement="svd", method="auto", n_out
             "energy_balance_rel_error": balance,
         }
         summary[label]["vtk"] = _vtk(res, os.path.join(out, f"vtk_{label}"), f"wiper_{label}")
+        if res.status == "interrupted":  # Ctrl-C: keep what was written, start no further run
+            summary["status"] = "interrupted"
+            return summary
     plt = _plt()
     if plt:
         fig, ax = plt.subplots(4, 1, figsize=(7, 11), sharex=True)

@@ -564,7 +564,7 @@ class _Loader:
                 self.fail(f"{path}.{k}", rest[len(k):].lstrip(" :"))
         key = _failing_field(exc)
         if key in table:
-            self.fail(f"{path}.{key}", rest)
+            self.fail(f"{path}.{key}", rest[len(key):].lstrip() if rest.startswith(key + " ") else rest)
         self.fail(path, rest)
 
     def plugin(self, path: str, kind: str, table: dict, default: str | None = None):

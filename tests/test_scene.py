@@ -385,3 +385,11 @@ def test_scene_error_is_a_model_error_with_the_key_path():
     with pytest.raises(fm.ModelError) as info:
         fm.loads_scene(GOOD.replace("mass = 1.0", "mass = -1.0"))
     assert isinstance(info.value, fm.SceneError) and info.value.key_path == "bodies.bar.mass"
+
+
+def test_initial_values_by_dotted_coordinate_names():
+    text = GOOD + "[initial]\npositions = { pin.angle = 0.25 }\nspeeds = { \"pin.angle\" = -1.5 }\n"
+    scene = fm.loads_scene(text)
+    assert scene.initial.positions == {"pin.angle": 0.25} and scene.initial.speeds == {"pin.angle": -1.5}
+    res = scene.simulate(t_end=0.01, n_out=2)
+    assert (res.x[0, 0], res.xd[0, 0]) == (0.25, -1.5)

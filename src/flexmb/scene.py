@@ -749,7 +749,7 @@ class _Loader:
         self.keys("initial", t, optional=("positions", "speeds", "fixed"))
         out = {}
         for what in ("positions", "speeds"):
-            values = self.table(f"initial.{what}", t.get(what, {}))
+            values = _flatten(self.table(f"initial.{what}", t.get(what, {})))
             for k, v in values.items():
                 if isinstance(v, list):
                     for x in v:
@@ -798,6 +798,17 @@ class _Loader:
                 self.fail(f"{path}.point", f"must be 3 numbers (m, in the body frame), got {point!r}")
             points[label] = (body.name, tuple(float(x) for x in point))
         return OutputSettings(prefix=prefix, points=points, **kw)
+
+
+def _flatten(table: dict, prefix: str = "") -> dict:
+    """``{B = {angle = 1}}`` (what TOML makes of the dotted key ``B.angle = 1``) -> ``{"B.angle": 1}``."""
+    out = {}
+    for k, v in table.items():
+        if isinstance(v, dict):
+            out.update(_flatten(v, f"{prefix}{k}."))
+        else:
+            out[f"{prefix}{k}"] = v
+    return out
 
 
 def _failing_field(exc: BaseException) -> str | None:

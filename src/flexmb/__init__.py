@@ -8,6 +8,7 @@ from .bodies import Body, Ground, Marker, RigidBody
 from .complements import COMPLEMENTS, ComplementStrategy, EigenComplement, SVDComplement, get_complement
 from .drivers import Driver
 from .errors import AssemblyError, ExportError, FlexmbError, ModelError, PluginError, SimulationError
+from .errors import SceneError
 from .forces import BodyTorque, ForceElement, Gravity, JointSpringDamper, Loads, PointForce, SpringDamper
 from .joints import Cylindrical, Fixed, Free, Joint, PlanarRevolute, Prismatic, Revolute, Spherical, Universal
 from .flexible import FlexibleBody, Segment
@@ -18,6 +19,7 @@ from .sections import Material, Section
 from .result import Result
 from .simulate import INTEGRATORS, initial_state, simulate
 from .system import System
+from .scene import Scene, load_scene, loads_scene
 
 __version__ = "0.1.0"
 
@@ -31,4 +33,5 @@ __all__ = [
     "FlexibleBody", "Segment", "Material", "Section",
     "Linearization", "linear_statics", "linearize", "modes", "static_equilibrium",
     "Model", "PluginInfo", "plugins", "register", "Result", "INTEGRATORS", "initial_state", "simulate", "System",
+    "Scene", "SceneError", "load_scene", "loads_scene",
 ]

@@ -1,26 +1,64 @@
-"""The ``flexmb`` command line."""
+"""The ``flexmb`` command line.
+
+``flexmb run SCENE.toml --out DIR`` simulates a scene file (or the built-in
+``fourbar`` / ``wiper``) and writes results, plots and VTK; ``flexmb info
+SCENE.toml`` describes a scene; ``flexmb plugins`` lists the plugins. A bad
+scene gives exit status 2 and one line ``flexmb: error: <file>: <key path>:
+<what>``; a failed simulation gives 1 (after writing its partial outputs); a
+run stopped with Ctrl-C writes what it computed and gives 130.
+"""
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 
-from .errors import FlexmbError
+from .errors import FlexmbError, SimulationError
 
 __all__ = ["main"]
 
 
 def _run(args) -> int:
-    from .scenes.report import run_scene
+    from .scenes.report import SCENES, run_scene
 
-    kw = dict(t_end=args.t_end, complement=args.complement, method=args.integrator, n_out=args.n_out,
-              progress=not args.quiet)
-    if args.rtol is not None:
-        kw["rtol"] = args.rtol
-    summary = run_scene(args.scene, args.out, **kw)
+    if args.scene in SCENES and not os.path.exists(args.scene):
+        kw = dict(t_end=args.t_end, complement=args.complement or "svd", method=args.integrator or "auto",
+                  n_out=args.n_out or 501, progress=not args.quiet)
+        if args.rtol is not None:
+            kw["rtol"] = args.rtol
+        summary = run_scene(args.scene, args.out, **kw)
+        print(json.dumps(summary, indent=2))
+        print(f"wrote {args.out}/ (results .npz, summary.json, plots .png, VTK series)")
+        if summary.get("status") == "interrupted":
+            print("flexmb: interrupted: the outputs hold the run up to then", file=sys.stderr)
+            return 130
+        return 0
+    return _run_file(args)
+
+
+def _run_file(args) -> int:
+    """Run a TOML scene file; an interrupted run keeps (and writes) what it computed."""
+    from .scene import load_scene
+
+    scene = load_scene(args.scene)
+    summary = scene.run(args.out, progress=not args.quiet, t_end=args.t_end, rtol=args.rtol,
+                        complement=args.complement, method=args.integrator, n_out=args.n_out)
     print(json.dumps(summary, indent=2))
-    print(f"wrote {args.out}/ (results .npz, summary.json, plots .png, VTK series)")
+    print(f"wrote {args.out}/ ({', '.join(sorted(summary.get('files', {}))) or 'nothing'}"
+          f"{', summary.json' if scene.output.summary else ''})")
+    if summary["status"] == "interrupted":
+        print(f"flexmb: interrupted: {summary['message']}; the outputs hold the run up to then", file=sys.stderr)
+        return 130
+    return 0
+
+
+def _info(args) -> int:
+    """Print what a scene file builds: bodies, joints, coordinates, constraints, freedoms."""
+    from .scene import load_scene
+
+    print(load_scene(args.scene).info())
     return 0
 
 
@@ -57,24 +95,31 @@ def main(argv=None) -> int:
     """
     parser = argparse.ArgumentParser(prog="flexmb", description="flexible multibody dynamics")
     sub = parser.add_subparsers(dest="command", required=True)
-    run = sub.add_parser("run", help="simulate a built-in scene and write results, plots and VTK")
-    run.add_argument("scene", help="fourbar or wiper")
+    run = sub.add_parser("run", help="simulate a scene file (or a built-in scene) and write results, plots and VTK")
+    run.add_argument("scene", help="a scene file SCENE.toml, or a built-in scene: fourbar or wiper")
     run.add_argument("--out", default="results", help="output folder")
     run.add_argument("--t-end", type=float, default=None, help="end time, s (default: the scene's)")
     run.add_argument("--rtol", type=float, default=None, help="relative tolerance (default: the scene's)")
-    run.add_argument("--complement", default="svd", help="orthogonal complement strategy: svd or eigen")
-    run.add_argument("--integrator", default="auto", help="auto, DOP853, Radau, BDF, ...")
-    run.add_argument("--n-out", type=int, default=501, help="number of output times")
+    run.add_argument("--complement", default=None, help="orthogonal complement strategy: svd or eigen "
+                                                        "(default: the scene's)")
+    run.add_argument("--integrator", default=None, help="auto, DOP853, Radau, BDF, ... (default: the scene's)")
+    run.add_argument("--n-out", type=int, default=None, help="number of output times (default: the scene's)")
     run.add_argument("--quiet", action="store_true", help="no progress bar")
     run.set_defaults(func=_run)
+    info = sub.add_parser("info", help="describe a scene file: bodies, coordinates, constraints, freedoms")
+    info.add_argument("scene", help="a scene file SCENE.toml")
+    info.set_defaults(func=_info)
     plug = sub.add_parser("plugins", help="list bodies, joints, forces, complements and integrators by name")
     plug.add_argument("--kind", default=None, help="bodies, joints, forces, complements or integrators")
     plug.set_defaults(func=_plugins)
     args = parser.parse_args(argv)
     try:
         return args.func(args)
+    except SimulationError as exc:
+        print(f"flexmb: error: {exc}".replace("\n", " "), file=sys.stderr)
+        return 1
     except FlexmbError as exc:
-        print(f"flexmb: error: {exc}", file=sys.stderr)
+        print(f"flexmb: error: {exc}".replace("\n", " "), file=sys.stderr)
         return 2
 
 

@@ -6,7 +6,7 @@ caller can catch them all at once; the subclasses tell where it happened.
 
 from __future__ import annotations
 
-__all__ = ["FlexmbError", "ModelError", "AssemblyError", "SimulationError", "ExportError", "PluginError"]
+__all__ = ["FlexmbError", "ModelError", "AssemblyError", "SimulationError", "ExportError", "PluginError", "SceneError"]
 
 
 class FlexmbError(Exception):
@@ -75,3 +75,23 @@ class PluginError(FlexmbError):
     message : str
         What is wrong, naming the plugin and its distribution.
     """
+
+
+class SceneError(ModelError):
+    """A scene file is invalid: bad TOML, a missing or unknown key, a wrong value.
+
+    The message starts with the file and the key path of the offending entry,
+    e.g. ``scene.toml: joints.pin.axis: must have 3 components, got 2``.
+
+    Parameters
+    ----------
+    message : str
+        ``"<file>: <key path>: <what is wrong>"``.
+    key_path : str
+        Dotted key path of the offending entry (empty when the whole file is
+        at fault, e.g. a TOML syntax error).
+    """
+
+    def __init__(self, message: str, key_path: str = ""):
+        super().__init__(message)
+        self.key_path = key_path

@@ -11,7 +11,7 @@ import numpy as np
 from ..errors import FlexmbError
 from ..simulate import simulate
 
-__all__ = ["SCENES", "run_scene"]
+__all__ = ["SCENES", "run_scene", "write_outputs"]
 
 SCENES = ("fourbar", "wiper")
 
@@ -106,6 +106,9 @@ def run_wiper(out, t_end=None, rtol=1e-6, complement="svd", method="auto", n_out
             "energy_balance_rel_error": balance,
         }
         summary[label]["vtk"] = _vtk(res, os.path.join(out, f"vtk_{label}"), f"wiper_{label}")
+        if res.status == "interrupted":  # Ctrl-C: keep what was written, start no further run
+            summary["status"] = "interrupted"
+            return summary
     plt = _plt()
     if plt:
         fig, ax = plt.subplots(4, 1, figsize=(7, 11), sharex=True)
@@ -165,4 +168,90 @@ def run_scene(name, out, **kw):
     os.makedirs(out, exist_ok=True)
     summary = runners[name](out, **kw)
     _write_json(os.path.join(out, "summary.json"), summary)
+    return summary
+
+
+def write_outputs(scene, res, out) -> dict:
+    """Write the outputs of a scene-file run: ``.npz``, ``summary.json``, a plot and VTK.
+
+    Parameters
+    ----------
+    scene : flexmb.scene.Scene
+        The scene (its ``output`` settings say what to write).
+    res : Result
+        Its result, possibly partial (interrupted or failed).
+    out : str or path-like
+        Output folder (created).
+
+    Returns
+    -------
+    dict
+        The summary (also written to ``out/summary.json`` unless disabled).
+    """
+    out = os.fspath(out)
+    os.makedirs(out, exist_ok=True)
+    o = scene.output
+    stem = os.path.join(out, o.prefix)
+    summary = {
+        "scene": scene.source, "model": scene.name, "status": res.status, "message": res.message,
+        "method": res.method, "complement": res.complement, "t_end": float(res.t[-1]) if len(res.t) else None,
+        "n_out": int(len(res.t)), "n_coords": len(res.coordinate_names), "n_dof": res.n_dof,
+        "n_rhs": res.n_rhs, "n_steps": res.n_steps, "n_projections": res.n_projections,
+        "wall_time_s": res.wall_time,
+    }
+    if len(res.t):
+        summary["max_loop_residual"] = float(res.residual.max())
+        summary["energy_J"] = {"initial": float(res.energy[0]), "final": float(res.energy[-1]),
+                               "max_change": float(np.max(np.abs(res.energy - res.energy[0])))}
+        if res.work:
+            summary["work_J"] = {k: float(v[-1]) for k, v in res.work.items()}
+        summary["drivers"] = {d: {"peak_effort": float(np.abs(res.driver_effort(d)).max())}
+                              for d in res.driver_names}
+    tracks = scene.track(res) if len(res.t) else {}
+    speeds = {k: (np.linalg.norm(np.gradient(p, res.t, axis=0), axis=1) if len(res.t) > 1 else np.zeros(len(p)))
+              for k, p in tracks.items()}
+    summary["points"] = {k: {"max_displacement_m": float(np.linalg.norm(p - p[0], axis=1).max()),
+                             "peak_speed_m_s": float(speeds[k].max())} for k, p in tracks.items()}
+    files = {}
+    if o.npz:
+        res.save(stem + ".npz")
+        files["result"] = stem + ".npz"
+    if o.plots and len(res.t):
+        plt = _plt()
+        if plt:
+            panels = 3 + bool(tracks) + bool(res.driver_names)
+            fig, ax = plt.subplots(panels, 1, figsize=(7, 2.6 * panels), sharex=True)
+            ax[0].plot(res.t, res.x)
+            if len(res.coordinate_names) <= 12:
+                ax[0].legend(res.coordinate_names, fontsize=7)
+            ax[0].set_ylabel("coordinates [rad, m]")
+            ax[1].plot(res.t, res.energy - res.energy[0])
+            ax[1].set_ylabel("energy change [J]")
+            ax[2].semilogy(res.t, np.maximum(res.residual, 1e-18))
+            ax[2].set_ylabel("loop residual")
+            i = 3
+            if tracks:
+                for k in tracks:
+                    ax[i].plot(res.t, speeds[k], label=k)
+                ax[i].set_ylabel("point speed [m/s]")
+                ax[i].legend(fontsize=8)
+                i += 1
+            if res.driver_names:
+                for d in res.driver_names:
+                    ax[i].plot(res.t, res.driver_effort(d), label=d)
+                ax[i].set_ylabel("driver effort [N m, N]")
+                ax[i].legend(fontsize=8)
+            ax[-1].set_xlabel("t [s]")
+            fig.suptitle(f"{scene.name}: {res.status}")
+            fig.tight_layout()
+            fig.savefig(stem + ".png", dpi=110)
+            plt.close(fig)
+            files["plot"] = stem + ".png"
+    if o.vtk and len(res.t):
+        pvd = _vtk(res, os.path.join(out, "vtk"), o.prefix)
+        if pvd:
+            files["vtk"] = pvd
+    summary["files"] = files
+    if o.summary:
+        _write_json(os.path.join(out, "summary.json"), summary)
     return summary

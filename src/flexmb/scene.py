@@ -1,0 +1,943 @@
+"""TOML scene files: a model, its initial state, solver settings and outputs in one file.
+
+A scene file (read with the standard library's :mod:`tomllib`) describes
+everything the Python API builds: materials, cross-sections, rigid and
+flexible bodies, joints, force elements, drivers, initial conditions, the
+solver and the outputs. Bodies, joints and force elements are looked up *by
+plugin name* in :mod:`flexmb.registry` (``type = "revolute"``), and the other
+keys of their table are passed to the class as keyword arguments, so a
+third-party plugin is usable from a scene without any change here. Every
+error is a :class:`~flexmb.errors.SceneError` whose message starts with the
+file and the key path (``scene.toml: joints.pin.axis: must have 3
+components, got 2``). Units are SI throughout. The format is documented in
+``docs/scenes.md``.
+
+Examples
+--------
+>>> import flexmb as fm
+>>> scene = fm.loads_scene('''
+... [bodies.bar]
+... shape = "slender_bar"
+... mass = 1.0
+... length = 1.0
+... [joints.pin]
+... type = "revolute"
+... parent = "ground"
+... child = "bar"
+... [forces.gravity]
+... type = "gravity"
+... g = [0.0, -9.81, 0.0]
+... [initial]
+... positions = { pin = 0.5 }
+... [solver]
+... t_end = 1.0
+... ''')
+>>> scene.system().coordinate_names
+['pin.angle']
+"""
+
+from __future__ import annotations
+
+import inspect
+import math
+import os
+import re
+import tomllib
+from pathlib import Path
+from typing import Any
+
+import attrs
+import numpy as np
+from attrs import define, evolve, field, frozen
+
+from . import registry
+from .errors import FlexmbError, ModelError, PluginError, SceneError, SimulationError
+
+__all__ = ["Scene", "SolverSettings", "OutputSettings", "InitialState", "load_scene", "loads_scene", "SECTIONS"]
+
+#: top-level tables of a scene file and what each holds
+SECTIONS = {
+    "model": "name and default complement strategy",
+    "materials": "named materials for flexible bodies",
+    "sections": "named beam cross-sections",
+    "bodies": "rigid and flexible bodies by plugin name",
+    "joints": "joints by plugin name",
+    "forces": "force elements by plugin name",
+    "drivers": "prescribed joint motions",
+    "initial": "initial positions, speeds and held coordinates",
+    "solver": "end time, integrator, tolerances, outputs times, complement",
+    "output": "files to write and points to track",
+}
+
+_BODY_KEYS = {"parent", "child", "body", "body1", "body2"}
+_TOML_TYPES = {bool: "a boolean", int: "an integer", float: "a float", str: "a string", list: "an array",
+               dict: "a table"}
+
+
+def _toml_type(value) -> str:
+    return _TOML_TYPES.get(type(value), f"a {type(value).__name__}")
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+@frozen
+class SolverSettings:
+    """Settings of :func:`flexmb.simulate` read from ``[solver]``.
+
+    Parameters
+    ----------
+    t_end : float
+        End time, s.
+    method : str
+        Integrator name (``'auto'``, ``'DOP853'``, ``'Radau'``, ... or a plugin).
+    rtol : float
+        Relative tolerance.
+    atol : float or None
+        Absolute tolerance (default ``rtol / 100``).
+    n_out : int
+        Number of equally spaced output times.
+    complement : str
+        Orthogonal complement strategy (``'svd'``, ``'eigen'`` or a plugin).
+    projection_tol : float
+        Largest constraint residual tolerated before projecting.
+    max_step : float
+        Largest step, s.
+    track_work : bool
+        Integrate the work of drivers and force classes (``Result.work``).
+    """
+
+    t_end: float
+    method: str = "auto"
+    rtol: float = 1e-8
+    atol: float | None = None
+    n_out: int = 201
+    complement: str = "svd"
+    projection_tol: float = 1e-10
+    max_step: float = math.inf
+    track_work: bool = False
+
+
+@frozen
+class OutputSettings:
+    """What ``Scene.run`` writes, read from ``[output]``.
+
+    Parameters
+    ----------
+    npz, summary, plots, vtk : bool
+        Write the result (``<name>.npz``), ``summary.json``, ``<name>.png``
+        and the VTK series (``vtk/<name>.pvd``).
+    prefix : str
+        File-name stem (default: the model name).
+    points : dict of str to (str, tuple of float)
+        Points to track: ``{label: (body name, point in the body frame, m)}``.
+    """
+
+    npz: bool = True
+    summary: bool = True
+    plots: bool = True
+    vtk: bool = True
+    prefix: str = "scene"
+    points: dict = field(factory=dict)
+
+
+@frozen
+class InitialState:
+    """Initial conditions read from ``[initial]`` (see :func:`flexmb.initial_state`).
+
+    Parameters
+    ----------
+    positions, speeds : dict
+        ``{coordinate or joint name: value}``, rad or m and rad/s or m/s.
+    fixed : tuple of str
+        Coordinates held at their given values while the loops are closed.
+    """
+
+    positions: dict = field(factory=dict)
+    speeds: dict = field(factory=dict)
+    fixed: tuple = ()
+
+
+@define
+class Scene:
+    """A model with its initial state, solver settings and outputs, as read from a scene file.
+
+    Attributes
+    ----------
+    name : str
+        Scene name (``[model] name``).
+    model : Model
+        The model.
+    initial : InitialState
+        Initial conditions.
+    solver : SolverSettings
+        Solver settings.
+    output : OutputSettings
+        What :meth:`run` writes.
+    source : str
+        The file the scene came from (for messages).
+    types : dict of str to str
+        Plugin name of each body, joint and force element, by element name.
+
+    See Also
+    --------
+    load_scene : Read a scene file.
+    """
+
+    name: str
+    model: Any
+    initial: InitialState
+    solver: SolverSettings
+    output: OutputSettings
+    source: str = "<scene>"
+    types: dict = field(factory=dict)
+
+    def settings(self, **overrides) -> SolverSettings:
+        """The solver settings with some replaced (``None`` values are ignored).
+
+        Parameters
+        ----------
+        **overrides
+            Fields of :class:`SolverSettings`.
+
+        Returns
+        -------
+        SolverSettings
+            The settings used.
+        """
+        return evolve(self.solver, **{k: v for k, v in overrides.items() if v is not None})
+
+    def system(self, complement: str | None = None):
+        """Compile the model (:meth:`flexmb.Model.build`).
+
+        Parameters
+        ----------
+        complement : str, optional
+            Complement strategy (default: the scene's).
+
+        Returns
+        -------
+        System
+            The compiled system.
+        """
+        return self.model.build(complement=complement or self.solver.complement)
+
+    def initial_state(self, system=None):
+        """Consistent initial coordinates and speeds (:func:`flexmb.initial_state`).
+
+        Parameters
+        ----------
+        system : System, optional
+            Compiled model (default: :meth:`system`).
+
+        Returns
+        -------
+        x0, xd0 : ndarray, shape (n,)
+            The assembled state.
+        """
+        from .simulate import initial_state
+
+        system = system or self.system()
+        return initial_state(system, 0.0, self.initial.positions, self.initial.speeds,
+                             fixed=list(self.initial.fixed) or None)
+
+    def simulate(self, progress: bool | None = False, **overrides):
+        """Simulate the scene.
+
+        Parameters
+        ----------
+        progress : bool, optional
+            Progress bar on stderr.
+        **overrides
+            Fields of :class:`SolverSettings` to replace (``t_end``, ``rtol``,
+            ``method``, ``complement``, ``n_out``, ...).
+
+        Returns
+        -------
+        Result
+            The result; ``status`` is ``'interrupted'`` if the run was
+            stopped with Ctrl-C (the outputs computed so far are kept).
+
+        Raises
+        ------
+        SimulationError
+            If the run fails; ``.result`` holds the partial result.
+        """
+        from .simulate import simulate
+
+        s = self.settings(**overrides)
+        return simulate(self.model, s.t_end, positions=self.initial.positions, speeds=self.initial.speeds,
+                        fixed=list(self.initial.fixed) or None, n_out=s.n_out, method=s.method, rtol=s.rtol,
+                        atol=s.atol, complement=s.complement, projection_tol=s.projection_tol,
+                        max_step=s.max_step, progress=progress, track_work=s.track_work)
+
+    def track(self, result) -> dict:
+        """Trajectories of the ``[output.points]`` of the scene.
+
+        Parameters
+        ----------
+        result : Result
+            A result of this scene.
+
+        Returns
+        -------
+        dict of str to ndarray, shape (nt, 3)
+            Inertial positions of each tracked point, m.
+        """
+        from .flexible import FlexibleBody
+
+        out = {}
+        for label, (body_name, point) in self.output.points.items():
+            body = self.model[body_name]
+            p = np.asarray(point, dtype=float)
+            if isinstance(body, FlexibleBody):
+                i, local = body.locate(p)
+                row = result.flexible[body_name][0][i]
+            else:
+                row, local = result.body_names.index(body_name), p
+            out[label] = result.origins[:, row] + result.rotations[:, row] @ local
+        return out
+
+    def run(self, out, progress: bool = True, **overrides) -> dict:
+        """Simulate and write the outputs: ``.npz`` result, ``summary.json``, plots and VTK.
+
+        A run stopped with Ctrl-C writes what it computed so far (the summary
+        says ``"status": "interrupted"``); a failed run writes its partial
+        result and then raises.
+
+        Parameters
+        ----------
+        out : str or path-like
+            Output folder (created).
+        progress : bool
+            Progress bar on stderr.
+        **overrides
+            Fields of :class:`SolverSettings` to replace.
+
+        Returns
+        -------
+        dict
+            The summary (also written to ``out/summary.json``).
+
+        Raises
+        ------
+        SimulationError
+            If the run fails (after writing the partial outputs).
+        """
+        from .scenes.report import write_outputs
+
+        failure = None
+        try:
+            result = self.simulate(progress=progress, **overrides)
+        except SimulationError as exc:
+            failure, result = exc, exc.result
+        summary = write_outputs(self, result, out)
+        if failure is not None:
+            raise failure
+        return summary
+
+    def info(self) -> str:
+        """Describe the scene: bodies, joints, coordinates, constraints, redundancy, freedoms.
+
+        Returns
+        -------
+        str
+            A text report (what ``flexmb info`` prints).
+        """
+        from .flexible import FlexibleBody
+        from .simulate import EXPLICIT_STEP_LIMIT
+
+        system = self.system()
+        x0, xd0 = self.initial_state(system)
+        kin = system.kinematics(0.0, x0, xd0)
+        _, psi, _ = system.constraints.evaluate(kin, level=1)
+        c = system.strategy.complement(psi)
+        names = system.coordinate_names
+        lines = [f"scene {self.source}: model {self.name!r}", f"bodies ({len(self.model.bodies)}):"]
+        for b in self.model.bodies:
+            extra = ""
+            if isinstance(b, FlexibleBody):
+                extra = (f", {b.n_segments} segments keeping {', '.join(b.keep)} "
+                         f"({b.n_elastic} elastic coordinates)")
+            lines.append(f"  {b.name}: {self.types.get(b.name, type(b).__name__)}, mass {b.mass:.6g} kg{extra}")
+        cuts = set(system.topology.cut_joints)
+        lines.append(f"joints ({len(self.model.joints)}):")
+        for j in self.model.joints:
+            mine = [n for n in names if n.rsplit(".", 1)[0] == j.name]
+            if j in cuts:
+                rows = sum(1 for lab in system.constraints.labels if lab.split(".", 1)[0] == j.name)
+                what = f"cut joint closing a loop, {rows} constraint rows"
+            else:
+                what = "coordinates " + (", ".join(mine) if mine else "none")
+            lines.append(f"  {j.name}: {self.types.get(j.name, type(j).__name__)} "
+                         f"{j.parent.name} -> {j.child.name}; {what}")
+        if self.model.forces:
+            lines.append("forces: " + ", ".join(f"{f.name} ({self.types.get(f.name, type(f).__name__)})"
+                                                for f in self.model.forces))
+        for d in self.model.drivers:
+            lines.append(f"driver {d.name}: drives {names[system.coordinate_slice(d.joint).start + d.coordinate]}")
+        m = system.n_constraints
+        lines += [
+            f"coordinates: n = {system.n_coords}",
+            f"constraint rows: m = {m}" + (f" ({', '.join(system.constraints.labels)})" if 0 < m <= 12 else ""),
+            f"rank of psi at the initial state: {c.rank}; redundant rows: {m - c.rank}",
+            f"degrees of freedom: p = n - rank = {c.p}"
+            + (f" (drivers prescribe {len(self.model.drivers)})" if self.model.drivers else ""),
+        ]
+        w = system.highest_frequency(0.0, x0, xd0)
+        s = self.solver
+        if w > 0:
+            steps = s.t_end * w / 3.0
+            stiff = steps > EXPLICIT_STEP_LIMIT
+            lines.append(f"stiffness: highest spring frequency {w:.4g} rad/s; an explicit integrator needs about "
+                         f"{steps:.3g} steps over {s.t_end:g} s to stay stable, so 'auto' picks "
+                         f"{'Radau (implicit)' if stiff else 'DOP853 (explicit)'}")
+        else:
+            lines.append("stiffness: no springs on coordinates; 'auto' picks DOP853 (explicit)")
+        lines.append(f"solver: t_end {s.t_end:g} s, method {s.method}, rtol {s.rtol:g}, n_out {s.n_out}, "
+                     f"complement {s.complement}")
+        return "\n".join(lines)
+
+
+# ----------------------------------------------------------------------------- parsing helpers
+
+
+class _Loader:
+    """Turns the parsed TOML document into a :class:`Scene`, raising SceneError with key paths."""
+
+    def __init__(self, data: dict, source: str, stem: str):
+        self.data = data
+        self.source = source
+        self.stem = stem
+        self.materials: dict = {}
+        self.sections: dict = {}
+        self.bodies: dict = {}
+        self.joints: dict = {}
+        self.types: dict = {}
+
+    # -- errors and checks
+    def fail(self, path: str, message: str):
+        where = f"{path}: " if path else ""
+        raise SceneError(f"{self.source}: {where}{message}", path)
+
+    def table(self, path: str, value) -> dict:
+        if not isinstance(value, dict):
+            self.fail(path, f"must be a table, got {_toml_type(value)}")
+        return value
+
+    def keys(self, path: str, table: dict, required=(), optional=()) -> None:
+        allowed = list(required) + list(optional)
+        for k in table:
+            if k not in allowed:
+                self.fail(f"{path}.{k}" if path else k, f"unknown key; allowed keys: {', '.join(allowed)}")
+        for k in required:
+            if k not in table:
+                self.fail(path, f"missing key {k!r}")
+
+    def number(self, path: str, value, positive=False, integer=False):
+        if integer:
+            if not isinstance(value, int) or isinstance(value, bool):
+                self.fail(path, f"must be an integer, got {_toml_type(value)} {value!r}")
+        elif not _is_number(value):
+            self.fail(path, f"must be a number, got {_toml_type(value)} {value!r}")
+        if positive and not value > 0:
+            self.fail(path, f"must be > 0, got {value!r}")
+        return value if integer else float(value)
+
+    def string(self, path: str, value) -> str:
+        if not isinstance(value, str):
+            self.fail(path, f"must be a string, got {_toml_type(value)} {value!r}")
+        return value
+
+    def boolean(self, path: str, value) -> bool:
+        if not isinstance(value, bool):
+            self.fail(path, f"must be true or false, got {_toml_type(value)} {value!r}")
+        return value
+
+    def named(self, path: str, section: str) -> dict:
+        """The sub-tables of a top-level table such as ``[bodies]``."""
+        tables = self.table(section, self.data.get(section, {}))
+        for name, t in tables.items():
+            self.table(f"{section}.{name}", t)
+        return tables
+
+    # -- references
+    def ref(self, path: str, value, kind: str):
+        table = {"body": self.bodies, "joint": self.joints, "section": self.sections,
+                 "material": self.materials}[kind]
+        if not isinstance(value, str):
+            self.fail(path, f"must be the name of a {kind} (a string), got {_toml_type(value)} {value!r}")
+        if value not in table:
+            known = sorted(table)
+            self.fail(path, f"unknown {kind} {value!r}; known: {', '.join(known) or 'none'}")
+        return table[value]
+
+    @staticmethod
+    def ref_kind(key: str, annotation: str) -> str | None:
+        if key in _BODY_KEYS or re.search(r"\bBody\b|FlexibleBody|RigidBody", annotation):
+            return "body"
+        if key == "joint" or re.search(r"\bJoint\b", annotation):
+            return "joint"
+        if key == "section" or re.search(r"\bSection\b", annotation):
+            return "section"
+        if key == "material" or re.search(r"\bMaterial\b", annotation):
+            return "material"
+        return None
+
+    # -- generic construction
+    def call(self, path: str, ctor, name: str | None, table: dict, what: str):
+        """Call ``ctor(name=name, **table)`` after checking keys and references against its signature."""
+        try:
+            sig = inspect.signature(ctor)
+        except (TypeError, ValueError):
+            sig = None
+        kwargs = {}
+        if sig is not None:
+            params = {k: p for k, p in sig.parameters.items()
+                      if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY) and k not in ("self", "cls")}
+            var_kw = any(p.kind == p.VAR_KEYWORD for p in sig.parameters.values())
+            if var_kw and isinstance(getattr(ctor, "__self__", None), type):
+                owner = inspect.signature(ctor.__self__).parameters
+                params.update({k: p for k, p in owner.items() if k not in params})
+            allowed = [k for k in params if k != "name"]
+            for k in table:
+                if k not in allowed:
+                    self.fail(f"{path}.{k}", f"unknown key for {what}; allowed keys: {', '.join(allowed)}")
+            for k, p in params.items():
+                if k != "name" and p.default is p.empty and k not in table:
+                    self.fail(path, f"missing key {k!r} ({what} needs it)")
+        else:
+            params = {}
+        types = {}
+        if attrs.has(ctor):  # the field's declared type (the __init__ annotation is the converter's)
+            types = {a.alias or a.name: a.type for a in attrs.fields(ctor) if a.type is not None}
+        for k, v in table.items():
+            p = params.get(k)
+            annotation = "" if p is None or p.annotation is inspect.Parameter.empty else str(p.annotation)
+            if k in types:
+                t = types[k]
+                annotation = t if isinstance(t, str) else getattr(t, "__name__", str(t))
+            kind = self.ref_kind(k, annotation)
+            key_path = f"{path}.{k}"
+            if kind is not None:
+                v = self.ref(key_path, v, kind)
+            else:
+                self.precheck(key_path, v, annotation, None if p is None else p.default)
+            kwargs[k] = v
+        if name is not None:
+            kwargs["name"] = name
+        try:
+            return ctor(**kwargs)
+        except (ModelError, TypeError, ValueError) as exc:
+            self.translate(path, exc, table)
+
+    def precheck(self, path: str, value, annotation: str, default) -> None:
+        """Catch wrong TOML types and vector lengths before the class sees them."""
+        ann = annotation.replace(" ", "")
+        if ann in ("float", "float|None") and not _is_number(value):
+            self.fail(path, f"must be a number, got {_toml_type(value)} {value!r}")
+        if ann == "int" and (not isinstance(value, int) or isinstance(value, bool)):
+            self.fail(path, f"must be an integer, got {_toml_type(value)} {value!r}")
+        if ann == "bool" and not isinstance(value, bool):
+            self.fail(path, f"must be true or false, got {_toml_type(value)} {value!r}")
+        if ann == "str" and not isinstance(value, str):
+            self.fail(path, f"must be a string, got {_toml_type(value)} {value!r}")
+        if "ndarray" in ann and isinstance(value, (str, bool, dict)):
+            self.fail(path, f"must be numbers, got {_toml_type(value)} {value!r}")
+        if isinstance(value, list):
+            bad = [x for x in np.ravel(np.array(value, dtype=object)) if not _is_number(x)] \
+                if all(not isinstance(x, list) for x in value) else []
+            if "ndarray" in ann and bad:
+                self.fail(path, f"must be numbers, got {_toml_type(bad[0])} {bad[0]!r} in {value!r}")
+            flat = all(_is_number(x) for x in value)
+            if flat and isinstance(default, (tuple, list)) and len(default) == 3 and len(value) != 3:
+                self.fail(path, f"must have 3 components, got {len(value)}")
+
+    def translate(self, path: str, exc: Exception, table: dict):
+        """Re-raise a construction error as a SceneError at the key it names."""
+        msg = str(exc).replace("\n", " ")
+        m = re.match(r"^(?:[A-Za-z_][\w.]*(?: '[^']*')?|[\w.]+\(\)): ", msg)
+        rest = msg[m.end():] if m else msg
+        for k in sorted(table, key=len, reverse=True):
+            if re.match(rf"{re.escape(k)}(?: must| is| has| cannot|:)", rest):
+                self.fail(f"{path}.{k}", rest[len(k):].lstrip(" :"))
+        key = _failing_field(exc)
+        if key in table:
+            self.fail(f"{path}.{key}", rest[len(key):].lstrip() if rest.startswith(key + " ") else rest)
+        self.fail(path, rest)
+
+    def plugin(self, path: str, kind: str, table: dict, default: str | None = None):
+        if "type" not in table and default is None:
+            self.fail(path, f"missing key 'type' (a {kind} plugin name; pick one of "
+                            f"{', '.join(registry.names(kind))})")
+        type_name = self.string(f"{path}.type", table.get("type", default))
+        try:
+            return type_name, registry.get(kind, type_name)
+        except PluginError as exc:
+            self.fail(f"{path}.type", str(exc))
+
+    # -- sections of the file
+    def load(self) -> Scene:
+        from .model import Model
+
+        for k in self.data:
+            if k not in SECTIONS:
+                self.fail(k, f"unknown section; allowed: {', '.join(SECTIONS)}")
+        mt = self.table("model", self.data.get("model", {}))
+        self.keys("model", mt, optional=("name", "complement"))
+        name = self.string("model.name", mt.get("name", self.stem))
+        complement = self.string("model.complement", mt.get("complement", "svd"))
+        model = Model(name)
+        self.bodies["ground"] = model.ground
+        self.load_materials()
+        self.load_sections()
+        self.load_bodies(model)
+        self.load_joints(model)
+        self.load_forces(model)
+        self.load_drivers(model)
+        solver = self.load_solver(complement)
+        initial = self.load_initial()
+        output = self.load_output(name)
+        scene = Scene(name, model, initial, solver, output, self.source, self.types)
+        try:
+            system = scene.system()
+        except FlexmbError as exc:
+            self.fail("", str(exc).replace(":\n  - ", ": ").replace("\n  - ", "; "))
+        self.check_coordinates(system, initial)
+        return scene
+
+    def load_materials(self):
+        from .sections import Material
+
+        for name, t in self.named("materials", "materials").items():
+            path = f"materials.{name}"
+            if "preset" in t:
+                self.keys(path, t, required=("preset",))
+                presets = [k for k in ("aluminium", "steel")]
+                preset = self.string(f"{path}.preset", t["preset"])
+                if preset not in presets:
+                    self.fail(f"{path}.preset", f"unknown preset {preset!r}; pick one of {', '.join(presets)}")
+                self.materials[name] = getattr(Material, preset)()
+                continue
+            self.keys(path, t, required=("E", "density"), optional=("nu", "G"))
+            kw = {k: self.number(f"{path}.{k}", v) for k, v in t.items()}
+            try:
+                self.materials[name] = Material(name=name, **kw)
+            except (ModelError, TypeError, ValueError) as exc:
+                self.translate(path, exc, t)
+
+    def load_sections(self):
+        from .sections import Section
+
+        kinds = {"rectangular": ("b", "h"), "circular": ("d",), "tube": ("d_out", "d_in"),
+                 "general": ("area", "Iy", "Iz", "J")}
+        for name, t in self.named("sections", "sections").items():
+            path = f"sections.{name}"
+            kind = self.string(f"{path}.kind", t.get("kind", "general"))
+            if kind not in kinds:
+                self.fail(f"{path}.kind", f"unknown section kind {kind!r}; pick one of {', '.join(kinds)}")
+            optional = ("kind", "Ip", "c_y", "c_z") if kind == "general" else ("kind",)
+            self.keys(path, t, required=kinds[kind], optional=optional)
+            kw = {k: self.number(f"{path}.{k}", v) for k, v in t.items() if k != "kind"}
+            try:
+                self.sections[name] = (Section(name=name, **kw) if kind == "general"
+                                       else getattr(Section, kind)(**kw))
+            except (ModelError, TypeError, ValueError) as exc:
+                self.translate(path, exc, t)
+
+    def load_bodies(self, model):
+        from .bodies import RigidBody
+
+        for name, t in self.named("bodies", "bodies").items():
+            path = f"bodies.{name}"
+            if name == "ground":
+                self.fail(path, "the name 'ground' is reserved for the inertial frame")
+            type_name, cls = self.plugin(path, "bodies", t, default="rigid_body")
+            rest = {k: v for k, v in t.items() if k not in ("type", "shape")}
+            ctor, what = cls, f"body type {type_name!r}"
+            if "shape" in t:
+                shape = self.string(f"{path}.shape", t["shape"])
+                shapes = _constructors(cls)
+                if issubclass(cls, RigidBody):
+                    shapes["bar"] = _bar
+                if shape not in shapes:
+                    self.fail(f"{path}.shape", f"unknown shape {shape!r} for {type_name}; pick one of "
+                                               f"{', '.join(sorted(shapes)) or 'none'}")
+                ctor, what = shapes[shape], f"shape {shape!r}"
+            body = self.call(path, ctor, name, rest, what)
+            self.bodies[name] = body
+            self.types[name] = type_name
+            model.add(body)
+
+    def load_joints(self, model):
+        for name, t in self.named("joints", "joints").items():
+            path = f"joints.{name}"
+            type_name, cls = self.plugin(path, "joints", t)
+            joint = self.call(path, cls, name, {k: v for k, v in t.items() if k != "type"},
+                              f"joint type {type_name!r}")
+            self.joints[name] = joint
+            self.types[name] = type_name
+            model.add(joint)
+
+    def load_forces(self, model):
+        for name, t in self.named("forces", "forces").items():
+            path = f"forces.{name}"
+            type_name, cls = self.plugin(path, "forces", t)
+            force = self.call(path, cls, name, {k: v for k, v in t.items() if k != "type"},
+                              f"force type {type_name!r}")
+            self.types[name] = type_name
+            model.add(force)
+
+    def load_drivers(self, model):
+        from .drivers import Driver
+
+        kinds = _constructors(Driver)
+        for name, t in self.named("drivers", "drivers").items():
+            path = f"drivers.{name}"
+            t = dict(t)
+            kind = self.string(f"{path}.kind", t.pop("kind", "constant_speed"))
+            if kind not in kinds:
+                self.fail(f"{path}.kind", f"unknown driver kind {kind!r}; pick one of {', '.join(sorted(kinds))}")
+            if "joint" not in t:
+                self.fail(path, "missing key 'joint'")
+            joint = self.ref(f"{path}.joint", t["joint"], "joint")
+            if "coordinate" in t and isinstance(t["coordinate"], str):
+                if t["coordinate"] not in joint.coordinate_names:
+                    self.fail(f"{path}.coordinate", f"joint {joint.name!r} has no coordinate {t['coordinate']!r}; "
+                                                    f"its coordinates: {', '.join(joint.coordinate_names)}")
+                t["coordinate"] = list(joint.coordinate_names).index(t["coordinate"])
+            if kind == "constant_speed" and "rpm" in t:
+                if "speed" in t:
+                    self.fail(f"{path}.rpm", "give speed (rad/s or m/s) or rpm, not both")
+                t["speed"] = 2 * np.pi * self.number(f"{path}.rpm", t.pop("rpm")) / 60.0
+            model.add(self.call(path, kinds[kind], name, t, f"driver kind {kind!r}"))
+
+    def load_solver(self, complement: str) -> SolverSettings:
+        t = self.table("solver", self.data.get("solver", {}))
+        if "solver" not in self.data:
+            self.fail("solver", "missing section (at least t_end)")
+        fields = ("t_end", "method", "rtol", "atol", "n_out", "complement", "projection_tol", "max_step",
+                  "track_work")
+        self.keys("solver", t, required=("t_end",), optional=fields[1:])
+        kw = {}
+        for k, v in t.items():
+            p = f"solver.{k}"
+            if k in ("method", "complement"):
+                kw[k] = self.string(p, v)
+            elif k == "track_work":
+                kw[k] = self.boolean(p, v)
+            elif k == "n_out":
+                kw[k] = self.number(p, v, integer=True)
+                if kw[k] < 2:
+                    self.fail(p, f"must be >= 2, got {v}")
+            else:
+                kw[k] = self.number(p, v, positive=True)
+        kw.setdefault("complement", complement)
+        if kw["complement"] not in registry.names("complements"):
+            key = "solver.complement" if "complement" in t else "model.complement"
+            self.fail(key, f"unknown complement strategy {kw['complement']!r}; pick one of "
+                           f"{', '.join(registry.names('complements'))}")
+        method = kw.get("method", "auto")
+        if method != "auto" and method not in registry.names("integrators"):
+            self.fail("solver.method", f"unknown integrator {method!r}; pick one of auto, "
+                                       f"{', '.join(registry.names('integrators'))}")
+        return SolverSettings(**kw)
+
+    def load_initial(self) -> InitialState:
+        t = self.table("initial", self.data.get("initial", {}))
+        self.keys("initial", t, optional=("positions", "speeds", "fixed"))
+        out = {}
+        for what in ("positions", "speeds"):
+            values = _flatten(self.table(f"initial.{what}", t.get(what, {})))
+            for k, v in values.items():
+                if isinstance(v, list):
+                    for x in v:
+                        self.number(f"initial.{what}.{k}", x)
+                else:
+                    self.number(f"initial.{what}.{k}", v)
+            out[what] = dict(values)
+        fixed = t.get("fixed", [])
+        if not isinstance(fixed, list):
+            self.fail("initial.fixed", f"must be an array of coordinate or joint names, got {_toml_type(fixed)}")
+        for i, f in enumerate(fixed):
+            self.string(f"initial.fixed[{i}]", f)
+        return InitialState(out["positions"], out["speeds"], tuple(fixed))
+
+    def check_coordinates(self, system, initial: InitialState) -> None:
+        names = system.coordinate_names
+        joints = {n.rsplit(".", 1)[0] for n in names}
+        for what, values in (("positions", initial.positions), ("speeds", initial.speeds),
+                             ("fixed", dict.fromkeys(initial.fixed))):
+            for k, v in values.items():
+                path = f"initial.{what}" + (f".{k}" if what != "fixed" else "")
+                if k not in names and k not in joints:
+                    self.fail(path, f"no coordinate or joint named {k!r}; coordinates: {', '.join(names)}")
+                if isinstance(v, list):
+                    count = sum(1 for n in names if n == k or n.rsplit(".", 1)[0] == k)
+                    if len(v) != count:
+                        self.fail(path, f"must have {count} values (one per coordinate of {k!r}), got {len(v)}")
+
+    def load_output(self, name: str) -> OutputSettings:
+        t = self.table("output", self.data.get("output", {}))
+        self.keys("output", t, optional=("npz", "summary", "plots", "vtk", "prefix", "points"))
+        kw = {k: self.boolean(f"output.{k}", t[k]) for k in ("npz", "summary", "plots", "vtk") if k in t}
+        prefix = self.string("output.prefix", t.get("prefix", re.sub(r"[^\w.\-]+", "_", name)))
+        if not re.fullmatch(r"[\w.\-]+", prefix):
+            self.fail("output.prefix", f"must be a plain file-name stem (letters, digits, _ . -), got {prefix!r}")
+        points = {}
+        for label, p in self.table("output.points", t.get("points", {})).items():
+            path = f"output.points.{label}"
+            self.table(path, p)
+            self.keys(path, p, required=("body",), optional=("point",))
+            body = self.ref(f"{path}.body", p["body"], "body")
+            if body.name == "ground":
+                self.fail(f"{path}.body", "track a point of a moving body, not the ground")
+            point = p.get("point", [0.0, 0.0, 0.0])
+            if not (isinstance(point, list) and len(point) == 3 and all(_is_number(x) for x in point)):
+                self.fail(f"{path}.point", f"must be 3 numbers (m, in the body frame), got {point!r}")
+            points[label] = (body.name, tuple(float(x) for x in point))
+        return OutputSettings(prefix=prefix, points=points, **kw)
+
+
+def _flatten(table: dict, prefix: str = "") -> dict:
+    """``{B = {angle = 1}}`` (what TOML makes of the dotted key ``B.angle = 1``) -> ``{"B.angle": 1}``."""
+    out = {}
+    for k, v in table.items():
+        if isinstance(v, dict):
+            out.update(_flatten(v, f"{prefix}{k}."))
+        else:
+            out[f"{prefix}{k}"] = v
+    return out
+
+
+def _failing_field(exc: BaseException) -> str | None:
+    """Name of the attrs field whose validator raised ``exc`` (validators get ``attribute``), if any."""
+    name = None
+    tb = exc.__traceback__
+    while tb is not None:
+        attribute = tb.tb_frame.f_locals.get("attribute")
+        if isinstance(attribute, attrs.Attribute):
+            name = attribute.alias or attribute.name
+        tb = tb.tb_next
+    return name
+
+
+def _constructors(cls) -> dict:
+    """Public class methods of ``cls`` whose first argument is ``name`` (its named constructors)."""
+    out = {}
+    for k in dir(cls):
+        if k.startswith("_") or not isinstance(inspect.getattr_static(cls, k), classmethod):
+            continue
+        method = getattr(cls, k)
+        try:
+            first = next(iter(inspect.signature(method).parameters), None)
+        except (TypeError, ValueError):
+            continue
+        if first == "name":
+            out[k] = method
+    return out
+
+
+def _bar(name: str, mass: float, vector):
+    """A uniform slender bar from the body origin to ``vector`` (m): ``m L^2 / 12`` transverse.
+
+    Parameters
+    ----------
+    name : str
+        Body name.
+    mass : float
+        Mass, kg.
+    vector : array_like, shape (3,)
+        The bar's far end in the body frame, m.
+
+    Returns
+    -------
+    RigidBody
+        Mass centre at ``vector / 2``, central inertia ``m L^2 / 12 (I - e e^T)``.
+    """
+    from .bodies import RigidBody
+
+    v = np.asarray(vector, dtype=float)
+    if v.shape != (3,):
+        raise ModelError(f"vector must have 3 components, got {v.size}")
+    L = np.linalg.norm(v)
+    if not L > 0:
+        raise ModelError("vector must not be a zero-length vector")
+    e = v / L
+    return RigidBody(name, mass, mass * L * L / 12.0 * (np.eye(3) - np.outer(e, e)), v / 2)
+
+
+def loads_scene(text: str, source: str = "<scene>") -> Scene:
+    """Read a scene from TOML text.
+
+    Parameters
+    ----------
+    text : str
+        The TOML document.
+    source : str
+        Name used in messages (normally the file name).
+
+    Returns
+    -------
+    Scene
+        The scene, its model validated and compiled once.
+
+    Raises
+    ------
+    SceneError
+        On invalid TOML (with its line and column) or an invalid entry (with
+        its key path).
+
+    See Also
+    --------
+    load_scene : Read a scene file.
+    """
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneError(f"{source}: invalid TOML: {exc}") from exc
+    stem = Path(source).stem if source != "<scene>" else "scene"
+    return _Loader(data, source, stem).load()
+
+
+def load_scene(path) -> Scene:
+    """Read a scene file (TOML, SI units; the format is described in ``docs/scenes.md``).
+
+    Parameters
+    ----------
+    path : str or path-like
+        The ``.toml`` file.
+
+    Returns
+    -------
+    Scene
+        With ``.model``, ``.initial``, ``.solver`` and ``.output``;
+        ``scene.simulate()`` runs it and ``scene.run(out)`` writes its
+        outputs.
+
+    Raises
+    ------
+    SceneError
+        If the file cannot be read, is not valid TOML, or an entry is
+        invalid; the message starts with ``<file>: <key path>:``.
+
+    Examples
+    --------
+    >>> import flexmb as fm
+    >>> scene = fm.load_scene("tutorials/02_fourbar.toml")  # doctest: +SKIP
+    >>> scene.simulate().status  # doctest: +SKIP
+    'finished'
+    """
+    path = os.fspath(path)
+    try:
+        with open(path, "rb") as fh:
+            raw = fh.read()
+    except OSError as exc:
+        raise SceneError(f"{path}: cannot read the scene file: {exc.strerror or exc}") from exc
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise SceneError(f"{path}: not a UTF-8 text file ({exc.reason} at byte {exc.start})") from exc
+    return loads_scene(text, source=path)
+

@@ -1,0 +1,162 @@
+"""The ``flexmb`` command: run and info on scene files, errors, interrupted runs.
+
+Most tests call :func:`flexmb.cli.main` in-process; one runs the real
+``python -m flexmb`` in a subprocess.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import pathlib
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import flexmb as fm
+from flexmb.cli import main
+
+SIMULATE = sys.modules["flexmb.simulate"]
+
+TUTORIALS = pathlib.Path(__file__).resolve().parents[1] / "tutorials"
+PENDULUM = str(TUTORIALS / "01_pendulum.toml")
+FOURBAR = str(TUTORIALS / "02_fourbar.toml")
+
+
+def test_info_reports_coordinates_constraints_and_freedoms(capsys):
+    assert main(["info", FOURBAR]) == 0
+    out = capsys.readouterr().out
+    assert "crank: rigid_body, mass 0.1 kg" in out
+    assert "A: revolute ground -> crank; coordinates A.angle" in out
+    assert "C: planar_revolute coupler -> rocker; cut joint closing a loop, 2 constraint rows" in out
+    assert "coordinates: n = 3" in out
+    assert "rank of psi at the initial state: 2; redundant rows: 0" in out
+    assert "degrees of freedom: p = n - rank = 1" in out
+
+
+def test_info_finds_the_redundant_rows_of_a_spatial_cut(tmp_path, capsys):
+    # a spatial revolute closing a planar loop writes 5 rows of rank 2 (3 redundant), as tutorial 02 shows
+    text = pathlib.Path(FOURBAR).read_text().replace('type = "planar_revolute"', 'type = "revolute"')
+    scene = tmp_path / "spatial.toml"
+    scene.write_text(text)
+    assert main(["info", str(scene)]) == 0
+    out = capsys.readouterr().out
+    assert "constraint rows: m = 5" in out
+    assert "rank of psi at the initial state: 2; redundant rows: 3" in out
+    assert "degrees of freedom: p = n - rank = 1" in out
+
+
+def test_info_gives_the_stiffness_hint(capsys):
+    assert main(["info", str(TUTORIALS / "04_wiper.toml")]) == 0
+    out = capsys.readouterr().out
+    assert "degrees of freedom: p = n - rank = 24 (drivers prescribe 1)" in out  # 9 + 2 * 6 * 2 - 9
+    assert "'auto' picks Radau (implicit)" in out
+
+
+def test_run_writes_results_summary_plot_and_vtk(tmp_path, capsys):
+    out = tmp_path / "out"
+    assert main(["run", PENDULUM, "--out", str(out), "--t-end", "0.2", "--n-out", "21", "--quiet"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "finished" and summary["t_end"] == pytest.approx(0.2)
+    assert summary == json.loads(capsys.readouterr().out.split("\nwrote ")[0])
+    res = fm.Result.load(out / "pendulum.npz")
+    ref = fm.load_scene(PENDULUM).simulate(t_end=0.2, n_out=21)
+    assert np.array_equal(res.x, ref.x) and np.array_equal(res.t, ref.t)
+    assert (out / "vtk" / "pendulum.pvd").exists() and len(list((out / "vtk").glob("*.vtu"))) == 21
+    try:
+        import matplotlib  # noqa: F401
+    except ImportError:
+        pass
+    else:
+        assert (out / "pendulum.png").stat().st_size > 0
+    # the tracked tip moves on the unit circle: its chord from the start is 2 sin(|q - q0| / 2)
+    chord = 2 * np.sin(np.abs(res.x[:, 0] - res.x[0, 0]) / 2)
+    assert summary["points"]["tip"]["max_displacement_m"] == pytest.approx(chord.max(), rel=1e-12)
+
+
+def test_run_options_override_the_scene(tmp_path, capsys):
+    out = tmp_path / "o"
+    argv = ["run", FOURBAR, "--out", str(out), "--t-end", "0.1", "--n-out", "5", "--rtol", "1e-6",
+            "--complement", "eigen", "--integrator", "RK45", "--quiet"]
+    assert main(argv) == 0
+    s = json.loads((out / "summary.json").read_text())
+    assert (s["method"], s["complement"], s["n_out"]) == ("RK45", "eigen", 5)
+    assert s["max_loop_residual"] < 1e-7
+
+
+def test_interrupted_run_writes_what_it_computed(tmp_path, monkeypatch, capsys):
+    def stop(t, t0, t1, last, stream=None):
+        if t > 0.1:
+            raise KeyboardInterrupt
+        return last
+
+    monkeypatch.setattr(SIMULATE, "_progress", stop)
+    out = tmp_path / "partial"
+    assert main(["run", PENDULUM, "--out", str(out), "--t-end", "1.0", "--n-out", "101"]) == 130
+    assert "interrupted" in capsys.readouterr().err
+    res = fm.Result.load(out / "pendulum.npz")
+    assert res.status == "interrupted" and 0.1 <= res.t[-1] < 1.0 and len(res.t) > 5
+    assert json.loads((out / "summary.json").read_text())["status"] == "interrupted"
+    ref = fm.load_scene(PENDULUM).simulate(t_end=1.0, n_out=101)
+    np.testing.assert_allclose(res.x, ref.x[: len(res.t)], rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("text, where", [
+    ("[bodies.bar]\nmass = 1.0\n[solver]\nt_end = = 1\n", "invalid TOML: "),
+    ("[bodies.bar]\nmass = -1.0\n[solver]\nt_end = 1.0\n", "bad.toml: bodies.bar.mass: must be > 0"),
+    ('[joints.pin]\ntype = "hinge"\n[solver]\nt_end = 1.0\n', "bad.toml: joints.pin.type: no joints plugin"),
+])
+def test_bad_scene_exits_2_with_one_line(tmp_path, monkeypatch, capsys, text, where):
+    monkeypatch.chdir(tmp_path)
+    pathlib.Path("bad.toml").write_text(text)
+    for cmd in ("run", "info"):
+        assert main([cmd, "bad.toml"]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("flexmb: error: bad.toml: ") and where in err and err.count("\n") == 1
+
+
+def test_missing_scene_file_exits_2(tmp_path, capsys):
+    assert main(["info", str(tmp_path / "none.toml")]) == 2
+    assert "cannot read the scene file" in capsys.readouterr().err
+
+
+def test_builtin_scene_names_still_run(tmp_path, capsys):
+    assert main(["run", "fourbar", "--out", str(tmp_path), "--t-end", "0.05", "--n-out", "3", "--quiet"]) == 0
+    assert json.loads((tmp_path / "summary.json").read_text())["scene"] == "fourbar"
+    assert (tmp_path / "fourbar.npz").exists()
+
+
+def test_plugins_lists_the_friction_plugin(capsys):
+    assert main(["plugins", "--kind", "forces"]) == 0
+    assert "velocity_weakening_friction" in capsys.readouterr().out
+
+
+def test_the_real_command_in_a_subprocess(tmp_path):
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(pathlib.Path(fm.__file__).parents[1]),
+                                                                     os.environ.get("PYTHONPATH")])))
+    ok = subprocess.run([sys.executable, "-m", "flexmb", "info", FOURBAR], capture_output=True, text=True, env=env,
+                        cwd=tmp_path)
+    assert ok.returncode == 0, ok.stderr
+    assert "degrees of freedom: p = n - rank = 1" in ok.stdout
+    (tmp_path / "bad.toml").write_text('[joints.pin]\ntype = "revolute"\nparent = "ground"\nchild = "rod"\n'
+                                       "[solver]\nt_end = 1.0\n")
+    bad = subprocess.run([sys.executable, "-m", "flexmb", "run", "bad.toml"], capture_output=True, text=True,
+                         env=env, cwd=tmp_path)
+    assert bad.returncode == 2
+    assert bad.stderr == "flexmb: error: bad.toml: joints.pin.child: unknown body 'rod'; known: ground\n"
+
+
+def test_interrupted_builtin_wiper_keeps_the_first_run(tmp_path, monkeypatch, capsys):
+    def stop(t, t0, t1, last, stream=None):
+        if t > 0.02:
+            raise KeyboardInterrupt
+        return last
+
+    monkeypatch.setattr(SIMULATE, "_progress", stop)
+    assert main(["run", "wiper", "--out", str(tmp_path), "--t-end", "0.5", "--n-out", "51"]) == 130
+    res = fm.Result.load(tmp_path / "wiper_rigid.npz")
+    assert res.status == "interrupted" and 0.02 <= res.t[-1] < 0.5
+    assert not (tmp_path / "wiper_flexible.npz").exists()
+    assert json.loads((tmp_path / "summary.json").read_text())["status"] == "interrupted"

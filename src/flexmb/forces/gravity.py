@@ -24,7 +24,7 @@ class Gravity(ForceElement):
 
     Notes
     -----
-    Potential energy ``U = -sum_k m_k g . r_k``.
+    Potential energy ``U = -sum_k m_k (g @ r_k)``.
     """
 
     g: np.ndarray = field(default=(0.0, 0.0, -9.81), converter=as_array, validator=vector3)
@@ -35,5 +35,5 @@ class Gravity(ForceElement):
         loads.force[:-1] += state.mass[:, None] * self.g
 
     def potential(self, state) -> float:
-        """``-sum m g . r``, J."""
+        """Potential energy ``U = -sum_k m_k (g @ r_k)``, J."""
         return float(-np.sum(state.mass * (state.r[:-1] @ self.g)))

@@ -99,6 +99,11 @@ def _insert_pages(app, docname, source):
         source[0] = source[0].replace(MARKER, "\n".join(more_pages()))
 
 
+def _reread_index(app, env, added, changed, removed):
+    # the index's toctree depends on which pages exist, not only on its own text
+    return ["index"]
+
+
 # ---------------------------------------------------------------------------
 # One page per tutorial script.
 TUTORIALS = ROOT / "tutorials"
@@ -106,7 +111,10 @@ TUTORIAL_PAGES = DOCS / "tutorials"
 
 
 def _tutorial_page(script: Path) -> str:
-    doc = ast.get_docstring(ast.parse(script.read_text(encoding="utf-8"))) or script.stem
+    tree = ast.parse(script.read_text(encoding="utf-8"))
+    doc = ast.get_docstring(tree) or script.stem
+    # the listing starts after the module docstring, which is the page's text
+    first = tree.body[0].end_lineno + 1 if ast.get_docstring(tree) else 1
     lines = doc.strip().splitlines()
     # the sphinx-gallery title: a line underlined with '='
     if len(lines) > 1 and re.fullmatch(r"=+", lines[1].strip()):
@@ -119,7 +127,8 @@ def _tutorial_page(script: Path) -> str:
             "repository root; its pictures go to ``results/``.\n\n"
             f"{body}\n\n"
             "The script\n----------\n\n"
-            f".. literalinclude:: {rel}\n   :language: python\n   :linenos:\n")
+            f".. literalinclude:: {rel}\n   :language: python\n   :lines: {first}-\n"
+            f"   :lineno-start: {first}\n")
 
 
 def write_tutorial_pages() -> list[str]:
@@ -167,5 +176,6 @@ def _fix_docstring(app, what, name, obj, options, lines):
 
 def setup(app):
     app.connect("source-read", _insert_pages)
+    app.connect("env-get-outdated", _reread_index)
     app.connect("autodoc-process-docstring", _fix_docstring)
     return {"parallel_read_safe": True}

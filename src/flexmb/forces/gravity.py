@@ -29,9 +29,9 @@ class Gravity(ForceElement):
     Examples
     --------
     A bar of 1 kg and 1 m pinned at one end, turned up by 90 deg: its mass
-    centre is 0.5 m higher, ``U = m g h = 4.905`` J, and gravity's
-    generalized force on the pin angle is zero; flat (angle 0) it is the
-    moment ``-m g L / 2``.
+    centre is 0.5 m higher and ``U = m g h = 4.905`` J. Flat (angle 0),
+    gravity's generalized force on the pin angle is the moment
+    ``-m g L / 2 = -4.905`` N m.
 
     >>> import numpy as np
     >>> import flexmb as fm

@@ -31,10 +31,14 @@ class SpringDamper(ForceElement):
     ----------
     name : str
         Unique name.
-    body1, body2 : Body
-        The two bodies (either may be the ground).
-    point1, point2 : array_like, shape (3,)
-        Attachment points in the body frames, m.
+    body1 : Body
+        The first body (it may be the ground).
+    point1 : array_like, shape (3,)
+        Attachment point in the frame of ``body1``, m.
+    body2 : Body
+        The second body (it may be the ground).
+    point2 : array_like, shape (3,)
+        Attachment point in the frame of ``body2``, m.
     stiffness : float
         k, N/m.
     damping : float

@@ -36,7 +36,7 @@ def run():
 
 def test_every_tutorial_is_tested():
     assert sorted(p.name for p in TUTORIALS.glob("[0-9][0-9]_*.py")) == [
-        "01_pendulum.py", "02_fourbar.py", "03_cantilever.py", "04_wiper.py"]
+        "01_pendulum.py", "02_fourbar.py", "03_cantilever.py", "04_wiper.py", "06_export_paraview.py"]
 
 
 def test_pendulum(run):
@@ -88,3 +88,27 @@ def test_wiper(run):
     # blade root stress: the starting friction mu_s N on a 0.25 m blade alone gives
     # 6 (0.4 * 5 * 0.25) / (0.002 * 0.01^2) = 15 MPa; the blade's inertia adds a little
     assert 15e6 < ns["rigid_root_stress_peak"] < 19e6 and ns["clamp_vs_springs"] < 1e-9
+
+
+def test_export_paraview(monkeypatch, tmp_path):
+    # the tutorial writes to results/ below the working directory
+    monkeypatch.chdir(tmp_path)
+    ns = runpy.run_path(str(TUTORIALS / "06_export_paraview.py"))
+    folder = tmp_path / "results" / "06_export_paraview"
+    assert ns["pvd"] == pathlib.Path("results") / "06_export_paraview" / "beam.pvd"
+    assert sorted(p.name for p in folder.glob("beam_*.vtu")) == [f"beam_{i:04d}.vtu" for i in range(16)]
+    # the collection lists every output time, and the files read back what the Result holds
+    assert ns["n_files"] == 16
+    assert ns["time_error"] == 0.0
+    assert ns["tip_error"] < 1e-15
+    assert ns["bending_error"] < 1e-15
+    # static bending moment at the clamp carries the whole weight: rho A g L^2 / 2 (rho 2700, A 20 mm x 5 mm)
+    assert ns["clamp_moment_ref"] == pytest.approx(2700.0 * 0.02 * 0.005 * 9.81 * 1.0**2 / 2, rel=1e-12)
+    assert ns["static_moment_error"] < 1e-8
+    # released from rest: the tip swings to about twice the Euler-Bernoulli static deflection
+    # rho A g L^4 / (8 E I), after half a period of the first mode (4.1126 Hz)
+    static_ref = 2700.0 * 1e-4 * 9.81 / (8 * 70e9 * 0.02 * 0.005**3 / 12)
+    assert -2.1 * static_ref < ns["tip_z_min"] < -1.9 * static_ref
+    assert abs(ns["t_min"] - 0.5 / 4.1126) <= 0.011
+    # a step load on a structure at rest: the clamp moment overshoots to at most about twice the static one
+    assert 1.7 < ns["clamp_moment_peak"] / ns["clamp_moment_ref"] < 2.05

@@ -83,6 +83,26 @@ class Joint:
         reference configuration).
     cut : bool
         Force this joint to be a cut joint (closing a loop).
+
+    Examples
+    --------
+    A joint is mostly data. A slide along the joint frame's x, pushed by
+    4 N, moves a 2 kg block at ``F / m = 2`` m/s^2:
+
+    >>> import numpy as np
+    >>> import flexmb as fm
+    >>> class SlideX(fm.Joint):
+    ...     # a translation along the joint frame's x (coordinate: x, m)
+    ...     translation_axes = (0,)
+    ...     coordinate_names = ("x",)
+    >>> model = fm.Model()
+    >>> block = fm.RigidBody.box("block", 2.0, (0.1, 0.1, 0.1))
+    >>> rail = SlideX("rail", model.ground, block)
+    >>> system = model.add(rail, fm.PointForce("push", block, (4.0, 0.0, 0.0))).build()
+    >>> system.coordinate_names
+    ['rail.x']
+    >>> system.accelerations(0.0, np.zeros(1), np.zeros(1))
+    array([2.])
     """
 
     translation_axes: ClassVar[tuple[int, ...]] = ()
@@ -214,7 +234,26 @@ class PlanarRevolute(Revolute):
 
 @frozen(eq=False)
 class Prismatic(_AxisJoint):
-    """One translation along ``axis`` (coordinate: slide, m)."""
+    """One translation along ``axis`` (coordinate: slide, m).
+
+    Parameters
+    ----------
+    axis : array_like, shape (3,)
+        Slide direction in the parent body frame (the joint frame's z).
+
+    Examples
+    --------
+    A block sliding down a vertical rail falls freely, at g:
+
+    >>> import numpy as np
+    >>> import flexmb as fm
+    >>> model = fm.Model()
+    >>> block = fm.RigidBody.box("block", 1.0, (0.1, 0.1, 0.1))
+    >>> rail = fm.Prismatic("rail", model.ground, block, axis=(0, 0, 1))
+    >>> system = model.add(rail, fm.Gravity((0.0, 0.0, -9.81))).build()
+    >>> system.accelerations(0.0, np.zeros(1), np.zeros(1))
+    array([-9.81])
+    """
 
     translation_axes = (2,)
     coordinate_names = ("slide",)
@@ -246,6 +285,15 @@ class Universal(Joint):
     axis2 : array_like, shape (3,)
         Second axis, in the child body frame, perpendicular to ``axis`` in
         the reference configuration (joint frame y).
+
+    Examples
+    --------
+    >>> import flexmb as fm
+    >>> model = fm.Model()
+    >>> shaft = fm.RigidBody.slender_bar("shaft", 1.0, 0.5)
+    >>> joint = fm.Universal("cardan", model.ground, shaft, axis=(1, 0, 0), axis2=(0, 1, 0))
+    >>> joint.n_coords, joint.coordinate_names
+    (2, ('angle1', 'angle2'))
     """
 
     rotation_axes = (0, 1)

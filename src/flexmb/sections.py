@@ -148,6 +148,15 @@ class Material:
         Shear modulus, Pa (overrides ``nu``).
     name : str
         Label.
+
+    Examples
+    --------
+    >>> import flexmb as fm
+    >>> steel = fm.Material(210e9, 7850.0, nu=0.3, name="steel")
+    >>> round(steel.G / 1e9, 4)  # E / (2 (1 + nu)), GPa
+    80.7692
+    >>> fm.Material.aluminium().E
+    70000000000.0
     """
 
     E: float = field(converter=float, validator=positive)

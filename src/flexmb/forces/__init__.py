@@ -85,6 +85,31 @@ class ForceElement:
     The ``state`` gives ``t``, ``x``, ``xd``, ``R`` (rotations), ``r`` (mass
     centres), ``v``, ``omega``, and ``index(body)``, ``point_position``,
     ``point_velocity`` and ``coordinate_slice(joint)``.
+
+    Examples
+    --------
+    A linear drag on a body's mass centre, ``-c v``: one field of data and
+    one method. On a 1 m bar turning at 2 rad/s about a pin at its end, the
+    mass centre moves at 1 m/s, and the drag's generalized force is
+    ``-c (L / 2)^2 * omega = -0.25`` N m for ``c = 0.5`` N s/m.
+
+    >>> import numpy as np
+    >>> from attrs import field, frozen
+    >>> import flexmb as fm
+    >>> @frozen(eq=False)
+    ... class Drag(fm.ForceElement):
+    ...     body: fm.Body = field()
+    ...     c: float = 0.5
+    ...
+    ...     def apply(self, state, loads):
+    ...         k = state.index(self.body)
+    ...         loads.add_point_force(k, state.r[k], -self.c * state.v[k])
+    >>> model = fm.Model()
+    >>> bar = fm.RigidBody.slender_bar("bar", mass=1.0, length=1.0)
+    >>> system = model.add(fm.Revolute("pin", model.ground, bar), Drag("drag", bar)).build()
+    >>> kin = system.kinematics(0.0, np.zeros(1), np.array([2.0]))
+    >>> system.forces.active_force(kin)
+    array([-0.25])
     """
 
     name: str = field(validator=name_check)

@@ -157,25 +157,7 @@ def write_tutorial_pages() -> list[str]:
 write_tutorial_pages()
 
 
-# ---------------------------------------------------------------------------
-# Docstrings in modules owned by others that reST misreads: ``|phi|`` is
-# parsed as a substitution reference. Until their owners quote them, only
-# these docstrings are patched, only at these strings, and only for the
-# docs build (the source files are untouched). Remove an entry once the
-# docstring is fixed; an entry whose text no longer occurs is ignored.
-DOCSTRING_FIXES = {
-    "flexmb.Result": [("max |phi|", "max ``|phi|``"), ("max |psi xd - b|", "max ``|psi xd - b|``")],
-    "flexmb.simulate": [("|phi| or |psi xd - b|", "``|phi|`` or ``|psi xd - b|``")],
-}
-
-
-def _fix_docstring(app, what, name, obj, options, lines):
-    for old, new in DOCSTRING_FIXES.get(name, ()):
-        lines[:] = [line.replace(old, new) for line in lines]
-
-
 def setup(app):
     app.connect("source-read", _insert_pages)
     app.connect("env-get-outdated", _reread_index)
-    app.connect("autodoc-process-docstring", _fix_docstring)
     return {"parallel_read_safe": True}

@@ -38,9 +38,9 @@ class Result:
     kinetic, potential : ndarray, shape (nt,)
         Kinetic and potential energy, J.
     residual : ndarray, shape (nt,)
-        max |phi| (eq. 28), m or rad.
+        max ``|phi|`` (eq. 28), m or rad.
     velocity_residual : ndarray, shape (nt,)
-        max |psi xd - b| (eq. 29).
+        max ``|psi xd - b|`` (eq. 29).
     reactions : ndarray, shape (nt, m)
         Constraint multipliers, labelled by ``constraint_labels``.
     n_dof : int

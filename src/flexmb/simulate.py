@@ -183,7 +183,7 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     complement : {'svd', 'eigen'} or ComplementStrategy, optional
         Orthogonal complement strategy (default: the system's, ``'svd'``).
     projection_tol : float
-        Largest residual |phi| or |psi xd - b| tolerated before projecting.
+        Largest residual ``|phi|`` or ``|psi xd - b|`` tolerated before projecting.
     max_step : float
         Largest step, s.
     progress : bool, optional

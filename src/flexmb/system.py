@@ -309,7 +309,7 @@ class System:
         x, xd : ndarray, shape (n,)
             State to correct.
         tol : float
-            Target for max |phi| (m or rad).
+            Target for max ``|phi|`` (m or rad).
         max_iter : int
             Newton iterations allowed.
         fixed : ndarray of bool, shape (n,), optional

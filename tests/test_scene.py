@@ -50,6 +50,14 @@ def cantilever():
     return model, {}, None, {"rtol": 1e-6}
 
 
+def export_cantilever():
+    model = fm.Model("cantilever")
+    beam = fm.FlexibleBody.uniform_beam("beam", 1.0, fm.Section.rectangular(0.02, 0.005), fm.Material.aluminium(),
+                                        8, keep=("bend_y",))
+    model.add(fm.Fixed("clamp", model.ground, beam), fm.Gravity((0.0, 0.0, -9.81)))
+    return model, {}, None, {"rtol": 1e-6}
+
+
 def wiper_ref(flexible):
     def build():
         model, initial = wiper(WiperOptions(flexible=flexible))
@@ -62,6 +70,7 @@ SCENES = {
     "01_pendulum.toml": pendulum,
     "02_fourbar.toml": fourbar_ref,
     "03_cantilever.toml": cantilever,
+    "06_export_paraview.toml": export_cantilever,
     "04_wiper.toml": wiper_ref(True),
     "04_wiper_rigid.toml": wiper_ref(False),
 }

@@ -155,7 +155,8 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     come from the reduced equations (eqs. 36-39) at every evaluation. After
     each step the position and speed residuals are checked, and when either
     exceeds ``projection_tol`` the state is projected back onto the
-    constraints and the solver restarted.
+    constraints and the solver restarted. The stored output states, which
+    are interpolated between steps, are projected onto the constraints too.
 
     Parameters
     ----------
@@ -317,7 +318,13 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
             if k_out < len(times) and times[k_out] <= t_now:
                 dense = solver.dense_output()
                 while k_out < len(times) and times[k_out] <= t_now:
-                    out_y.append(dense(times[k_out]) if times[k_out] != t_now else solver.y.copy())
+                    y_out = dense(times[k_out]) if times[k_out] != t_now else solver.y.copy()
+                    if system.n_constraints:
+                        # the interpolant leaves the constraints by about rtol
+                        # between steps: store consistent states
+                        y_out[:n], y_out[n : 2 * n] = system.project(
+                            times[k_out], y_out[:n], y_out[n : 2 * n], tol=min(1e-12, projection_tol))
+                    out_y.append(y_out)
                     k_out += 1
             if solver.status == "running":
                 xs, vs = solver.y[:n], solver.y[n : 2 * n]

@@ -125,7 +125,11 @@ def test_custom_elements(monkeypatch):
     res_nut = ns["res_nut"]
     np.testing.assert_allclose(res_nut.origins[:, 0, 2], -a * res_nut.t**2 / 2, rtol=0, atol=1e-8)
     assert ns["nut_error"] < 1e-8 and ns["nut_energy_drift"] < 1e-10
+    # a subclass with another lead, in the same model: its own class group, its own acceleration
+    a_fine = g / (1 + (2 * np.pi / 0.002) ** 2 * I_axis / m)
+    np.testing.assert_allclose(ns["a_two"], [a, a_fine], rtol=1e-12)
     # the TOML scene uses the registered plugins by name and reproduces the Python model
+    assert ns["session_plugins"] == [("forces", "aero_drag"), ("joints", "screw")]
     assert ns["scene"].types["screw"] == "screw" and ns["scene"].types["vane"] == "aero_drag"
     assert ns["scene_difference"] < 1e-12
     # the vane's drag brakes the fall

@@ -76,10 +76,21 @@ SCENES = {
 }
 
 
+# tutorials without a scene file of their own, and why
+NO_SCENE_FILE = {
+    # its scene is a string inside the script: it uses the element classes the script defines
+    "05_custom_elements.py",
+    # exports the cantilever of tutorial 03 (03_cantilever.toml); the topic is the VTK files
+    "06_export_paraview.py",
+}
+
+
 def test_every_tutorial_has_a_scene_file():
     shipped = sorted(p.name for p in TUTORIALS.glob("*.toml"))
     assert shipped == sorted(SCENES)
     for py in TUTORIALS.glob("[0-9][0-9]_*.py"):
+        if py.name in NO_SCENE_FILE:
+            continue
         assert any(name.startswith(py.stem) for name in shipped), py.name
 
 

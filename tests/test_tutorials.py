@@ -7,7 +7,9 @@ not compute itself: the elliptic-integral period of a physical pendulum,
 loop closure, energy conservation and the work-energy theorem, agreement of
 two complement strategies, Euler-Bernoulli beam theory with its
 1/N^2 convergence, and the wiper's assembly, sweep, tip speed (the paper's
-Fig. 6) and energy balance.
+Fig. 6) and energy balance; a user's quadratic drag law (a falling ball's
+tanh law, energy lost = drag work) and screw joint (finite differences, a
+falling nut's constant acceleration), used from a scene by plugin name.
 """
 
 from __future__ import annotations
@@ -36,7 +38,8 @@ def run():
 
 def test_every_tutorial_is_tested():
     assert sorted(p.name for p in TUTORIALS.glob("[0-9][0-9]_*.py")) == [
-        "01_pendulum.py", "02_fourbar.py", "03_cantilever.py", "04_wiper.py", "06_export_paraview.py"]
+        "01_pendulum.py", "02_fourbar.py", "03_cantilever.py", "04_wiper.py", "05_custom_elements.py",
+        "06_export_paraview.py"]
 
 
 def test_pendulum(run):
@@ -88,6 +91,52 @@ def test_wiper(run):
     # blade root stress: the starting friction mu_s N on a 0.25 m blade alone gives
     # 6 (0.4 * 5 * 0.25) / (0.002 * 0.01^2) = 15 MPa; the blade's inertia adds a little
     assert 15e6 < ns["rigid_root_stress_peak"] < 19e6 and ns["clamp_vs_springs"] < 1e-9
+
+
+def test_custom_elements(monkeypatch):
+    from flexmb import registry
+    from flexmb.errors import ModelError
+
+    # the tutorial registers its classes for the session: keep them out of the other tests
+    monkeypatch.setattr(registry, "_session", {})
+    ns = runpy.run_path(str(TUTORIALS / "05_custom_elements.py"))
+    g = 9.81
+    # AeroDrag: the batched apply_all adds the same loads as apply, element by element, and the
+    # drag moment of 20 strips at radii s_i on a paddle turning at w is -1/2 rho Cd dA w^2 sum s_i^3
+    assert ns["apply_difference"] < 1e-14
+    s = (np.arange(20) + 0.5) / 20
+    assert ns["drag_moment"] == pytest.approx(-0.5 * 1.225 * 1.2 * 0.2 / 20 * 3.0**2 * np.sum(s**3), rel=1e-12)
+    # falling ball with quadratic drag: v = -v_t tanh(g t / v_t), v_t = sqrt(2 m g / (rho Cd A))
+    v_t = np.sqrt(2 * 0.1 * g / (1.225 * 0.47 * np.pi * 0.1**2 / 4))
+    assert ns["v_terminal"] == pytest.approx(v_t, rel=1e-14) and v_t == pytest.approx(20.8299, abs=1e-4)
+    res_ball = ns["res_ball"]
+    np.testing.assert_allclose(res_ball.xd[:, 0], -v_t * np.tanh(g * res_ball.t / v_t), rtol=0, atol=1e-8 * v_t)
+    assert ns["fall_error"] < 1e-8
+    # paddle pendulum: the energy lost equals the drag's work, and most of it is lost in 10 s
+    assert ns["energy_balance_error"] < 1e-6
+    assert 0.85 < ns["energy_lost_fraction"] < 0.97
+    assert np.all(np.diff(ns["drag_work"]) <= 1e-12)  # drag never does positive work
+    # screw joint: partial velocities are derivatives of positions (joint alone, and on a turntable)
+    assert ns["joint_fd_error"] < 1e-8 and ns["system_fd_error"] < 1e-8
+    # falling nut: a = g / (1 + (2 pi / p)^2 I / m), I = m (r_o^2 + r_i^2) / 2 of a thick ring
+    m, p, I_axis = 0.2, 0.04, 0.2 * (0.02**2 + 0.006**2) / 2
+    a = g / (1 + (2 * np.pi / p) ** 2 * I_axis / m)
+    assert ns["a_exact"] == pytest.approx(a, rel=1e-14) and a == pytest.approx(1.537874, abs=1e-6)
+    res_nut = ns["res_nut"]
+    np.testing.assert_allclose(res_nut.origins[:, 0, 2], -a * res_nut.t**2 / 2, rtol=0, atol=1e-8)
+    assert ns["nut_error"] < 1e-8 and ns["nut_energy_drift"] < 1e-10
+    # a subclass with another lead, in the same model: its own class group, its own acceleration
+    a_fine = g / (1 + (2 * np.pi / 0.002) ** 2 * I_axis / m)
+    np.testing.assert_allclose(ns["a_two"], [a, a_fine], rtol=1e-12)
+    # the TOML scene uses the registered plugins by name and reproduces the Python model
+    assert ns["session_plugins"] == [("forces", "aero_drag"), ("joints", "screw")]
+    assert ns["scene"].types["screw"] == "screw" and ns["scene"].types["vane"] == "aero_drag"
+    assert ns["scene_difference"] < 1e-12
+    # the vane's drag brakes the fall
+    assert -a / 2 < ns["braked_drop"] < 0
+    # validators name the element
+    with pytest.raises(ModelError, match="AeroDrag 'v': area must be > 0"):
+        ns["AeroDrag"]("v", ns["nut"], area=0.0)
 
 
 def test_export_paraview(monkeypatch, tmp_path):

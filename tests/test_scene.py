@@ -80,8 +80,6 @@ SCENES = {
 NO_SCENE_FILE = {
     # its scene is a string inside the script: it uses the element classes the script defines
     "05_custom_elements.py",
-    # exports the cantilever of tutorial 03 (03_cantilever.toml); the topic is the VTK files
-    "06_export_paraview.py",
 }
 
 

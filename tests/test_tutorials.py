@@ -39,7 +39,7 @@ def run():
 def test_every_tutorial_is_tested():
     assert sorted(p.name for p in TUTORIALS.glob("[0-9][0-9]_*.py")) == [
         "01_pendulum.py", "02_fourbar.py", "03_cantilever.py", "04_wiper.py", "05_custom_elements.py",
-        "06_export_paraview.py"]
+        "06_export_paraview.py", "07_speed_vs_error.py"]
 
 
 def test_pendulum(run):
@@ -137,6 +137,19 @@ def test_custom_elements(monkeypatch):
     # validators name the element
     with pytest.raises(ModelError, match="AeroDrag 'v': area must be > 0"):
         ns["AeroDrag"]("v", ns["nut"], area=0.0)
+
+
+def test_speed_vs_error(run):
+    ns = run("07_speed_vs_error.py")
+    # tolerance proportionality: the integration error falls about as fast as rtol, and monotonically
+    assert 0.8 < ns["slope_error"] < 1.6
+    assert np.all(np.diff(ns["int_error"]) < 0) and np.all(np.diff(ns["rhs"]) > 0)
+    # second-order convergence in N (the clamp spring is 2k), far above the integration error
+    assert 1.8 < ns["order"] < 2.2
+    assert ns["disc_error"].min() > 100 * ns["int_error"].max()
+    # the choice meets the target: C / N^2 within 0.9 of it, the integration error within 0.1
+    assert ns["C"] / ns["n_choice"] ** 2 <= 0.9 * ns["target"] < ns["C"] / (ns["n_choice"] / 2) ** 2
+    assert ns["int_error"][list(ns["rtols"]).index(ns["rtol_choice"])] <= 0.1 * ns["target"]
 
 
 def test_export_paraview(monkeypatch, tmp_path):

@@ -7,8 +7,8 @@ orthogonal complement arrays (Amirouche & Huston 1988).
 from .bodies import Body, Ground, Marker, RigidBody
 from .complements import COMPLEMENTS, ComplementStrategy, EigenComplement, SVDComplement, get_complement
 from .drivers import Driver
-from .errors import AssemblyError, ExportError, FlexmbError, ModelError, PluginError, SimulationError
-from .errors import SceneError
+from .errors import (AssemblyError, ExportError, FlexmbError, ModelError, PluginError, SceneError, SimulationError,
+                     StiffnessWarning)
 from .forces import BodyTorque, ForceElement, Gravity, JointSpringDamper, Loads, PointForce, SpringDamper
 from .joints import Cylindrical, Fixed, Free, Joint, PlanarRevolute, Prismatic, Revolute, Spherical, Universal
 from .flexible import FlexibleBody, Segment
@@ -34,4 +34,5 @@ __all__ = [
     "Linearization", "linear_statics", "linearize", "modes", "static_equilibrium",
     "Model", "PluginInfo", "plugins", "register", "Result", "INTEGRATORS", "initial_state", "simulate", "System",
     "Scene", "SceneError", "load_scene", "loads_scene",
+    "StiffnessWarning",
 ]

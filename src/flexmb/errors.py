@@ -6,7 +6,8 @@ caller can catch them all at once; the subclasses tell where it happened.
 
 from __future__ import annotations
 
-__all__ = ["FlexmbError", "ModelError", "AssemblyError", "SimulationError", "ExportError", "PluginError", "SceneError"]
+__all__ = ["FlexmbError", "ModelError", "AssemblyError", "SimulationError", "ExportError", "PluginError", "SceneError",
+           "StiffnessWarning"]
 
 
 class FlexmbError(Exception):
@@ -95,3 +96,16 @@ class SceneError(ModelError):
     def __init__(self, message: str, key_path: str = ""):
         super().__init__(message)
         self.key_path = key_path
+
+
+class StiffnessWarning(UserWarning):
+    """An explicit integrator was asked for on a scene that is stiff for the time span.
+
+    Issued by :func:`flexmb.simulate` when ``method`` is an explicit
+    Runge-Kutta method ('RK45', 'RK23', 'DOP853') and the highest natural
+    frequency of the coordinate springs (:meth:`System.highest_frequency`)
+    would force more than ``EXPLICIT_STEP_LIMIT`` steps just to stay stable.
+    The message names the estimated frequency and recommends 'Radau' or
+    ``method='auto'``. Turn it into an error with
+    ``warnings.simplefilter("error", flexmb.StiffnessWarning)``.
+    """

@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import sys
 import time as _time
+import warnings
 
 import numpy as np
 from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, Radau
 
 from . import registry
-from .errors import AssemblyError, FlexmbError, ModelError, SimulationError
+from .errors import AssemblyError, FlexmbError, ModelError, SimulationError, StiffnessWarning
 from .integrators import second_order
 from .result import Result
 
@@ -132,6 +133,20 @@ def _choose_method(system, t0, t1, x, xd) -> str:
     return "Radau" if (t1 - t0) * w / 3.0 > EXPLICIT_STEP_LIMIT else "DOP853"
 
 
+def _warn_if_stiff(system, solver_cls, t0, t1, x, xd):
+    """Warn (:class:`StiffnessWarning`) when an explicit method meets a scene stiff over [t0, t1]."""
+    if solver_cls not in (RK45, RK23, DOP853):
+        return
+    w = system.highest_frequency(t0, x, xd)
+    n_stable = (t1 - t0) * w / 3.0
+    if n_stable > EXPLICIT_STEP_LIMIT:
+        warnings.warn(StiffnessWarning(
+            f"the scene is stiff for {solver_cls.__name__}: its highest natural frequency is about "
+            f"{w:.4g} rad/s ({w / (2 * np.pi):.4g} Hz), so an explicit method needs some {n_stable:.3g} "
+            f"steps over {t1 - t0:.4g} s just to stay stable; use method='Radau' (or method='auto')"
+        ), stacklevel=3)
+
+
 def _progress(t, t0, t1, last, stream=sys.stderr):
     now = _time.perf_counter()
     if now - last < 0.5 and t < t1:
@@ -207,6 +222,12 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     ModelError
         If the model has no degree of freedom left.
 
+    Warns
+    -----
+    StiffnessWarning
+        If ``method`` is explicit ('RK45', 'RK23', 'DOP853') and the scene is
+        stiff over [t0, t_end] (see ``method='auto'``).
+
     Examples
     --------
     >>> import flexmb as fm
@@ -232,6 +253,8 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         method = _choose_method(system, t0, t_end, x, xd)
         name = method
         solver_cls = _solver_class(method)
+    else:
+        _warn_if_stiff(system, solver_cls, t0, t_end, x, xd)
     n_drv = len(system.constraints.drivers)
     kin0 = system.kinematics(t0, x, xd)
     psi_loops = system.constraints.evaluate(kin0, level=1)[1][: system.n_constraints - n_drv]
@@ -240,6 +263,9 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
             f"the model has no degree of freedom left: its {system.n_coords} coordinates are all fixed by "
             f"{system.n_constraints - n_drv} loop-closure rows (a structure, not a mechanism)"
         )
+    # the rank of psi is judged once, on the assembled state: off the constraint manifold
+    # (integrator stages) redundant rows (Bricard linkage) would look independent
+    system.rank_limit = system.strategy.complement(system.constraints.evaluate(kin0, level=1)[1]).rank
     n = system.n_coords
     times = np.linspace(t0, t_end, n_out) if t_eval is None else np.asarray(t_eval, dtype=float)
     if times.ndim != 1 or np.any(np.diff(times) <= 0) or times[0] < t0 or times[-1] > t_end:
@@ -321,9 +347,10 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
                     y_out = dense(times[k_out]) if times[k_out] != t_now else solver.y.copy()
                     if system.n_constraints:
                         # the interpolant leaves the constraints by about rtol
-                        # between steps: store consistent states
-                        y_out[:n], y_out[n : 2 * n] = system.project(
-                            times[k_out], y_out[:n], y_out[n : 2 * n], tol=min(1e-12, projection_tol))
+                        # between steps: store consistent states, by the rule
+                        # the steps follow
+                        y_out[:n], y_out[n : 2 * n] = _project_output(
+                            system, times[k_out], y_out[:n], y_out[n : 2 * n], projection_tol)
                     out_y.append(y_out)
                     k_out += 1
             if solver.status == "running":
@@ -363,6 +390,31 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     if status == "failed":
         raise SimulationError(f"simulation failed {message}", t=t_now, result=result)
     return result
+
+
+#: largest ratio of an output projection's correction to the residual it removes
+OUTPUT_PROJECTION_GAIN = 1e3
+
+
+def _project_output(system, t, x, xd, tol):
+    """An output state projected onto the constraints, unless that is ill-conditioned.
+
+    Near a singular position (a flattened four-bar) the minimum-norm
+    correction divides the residual by a tiny singular value of psi; such a
+    correction, larger than ``OUTPUT_PROJECTION_GAIN`` times the residual,
+    is refused and the interpolated state kept as it is.
+    """
+    phi, psi, b = system.constraints.evaluate(system.kinematics(t, x, xd), level=1)
+    res = max(np.max(np.abs(phi)), np.max(np.abs(psi @ xd - b)))
+    if res <= tol:
+        return x, xd
+    try:
+        xp, vp = system.project(t, x, xd, tol=min(1e-12, tol))
+    except AssemblyError:
+        return x, xd
+    if max(np.max(np.abs(xp - x)), np.max(np.abs(vp - xd))) > OUTPUT_PROJECTION_GAIN * res:
+        return x, xd
+    return xp, vp
 
 
 def _collect(system, t, Y) -> Result:

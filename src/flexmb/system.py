@@ -51,6 +51,9 @@ class System:
         self.coordinate_names = self.topology.coordinate_names
         self.body_names = [b.name for b in self.topology.bodies]
         self.n_complements = 0
+        #: largest rank of psi used by :meth:`complement` (None: no cap); set by
+        #: :func:`~flexmb.simulate` to the rank at the assembled initial state
+        self.rank_limit: int | None = None
         self._trial()
 
     def _trial(self):
@@ -89,9 +92,17 @@ class System:
         return self.topology.coordinate_slice(joint)
 
     def complement(self, psi):
-        """Orthogonal complement of psi by the system's strategy (eqs. 30-37)."""
+        """Orthogonal complement of psi by the system's strategy (eqs. 30-37).
+
+        With ``rank_limit`` set, a numerically higher rank is truncated to it
+        (:meth:`Complement.truncated`): redundant constraints stay redundant
+        at states slightly off the constraint manifold.
+        """
         self.n_complements += 1
-        return self.strategy.complement(psi)
+        c = self.strategy.complement(psi)
+        if self.rank_limit is not None:
+            c = c.truncated(self.rank_limit)
+        return c
 
     def equations(self, t, x, xd):
         """All the pieces of the equations of motion at one state.
@@ -163,7 +174,11 @@ class System:
             return self._cholesky_solve(t, A, f)
         c = self.complement(psi)
         T = c.T
-        xdd_p = c.particular(gamma) if c.rank else np.zeros(self.n_coords)
+        cp = c
+        srtol = getattr(self.strategy, "singular_rtol", 0.0)
+        if srtol and c.rank:  # near a singular position: leave gamma / (tiny sigma) out
+            cp = c.truncated(int(np.sum(c.scale > srtol * np.max(c.scale))))
+        xdd_p = cp.particular(gamma) if cp.rank else np.zeros(self.n_coords)
         if T.shape[1] == 0:
             return xdd_p
         M = T.T @ A @ T
@@ -299,6 +314,20 @@ class System:
         return self.strategy.complement(psi).p
 
     # -- constraint satisfaction
+    def _min_norm(self, a, rhs, rcond=1e-12):
+        """Minimum-norm least-squares solution of ``a x = rhs``, rank capped at ``rank_limit``.
+
+        Like ``np.linalg.lstsq(a, rhs, rcond)``, except that singular values
+        beyond ``rank_limit`` count as zero: near (not on) the constraint
+        manifold a redundant row would otherwise be inverted through a
+        singular value of the size of the violation.
+        """
+        U, s, Vt = np.linalg.svd(a, full_matrices=False)
+        r = int(np.sum(s > rcond * s[0])) if s.size else 0
+        if self.rank_limit is not None:
+            r = min(r, self.rank_limit)
+        return Vt[:r].T @ ((U[:, :r].T @ rhs) / s[:r])
+
     def project(self, t, x, xd, tol=1e-12, max_iter=50, fixed=None, max_step=0.5):
         """Project a state onto the constraints (Newton, minimum-norm steps).
 
@@ -339,7 +368,7 @@ class System:
             phi, psi, _ = self.constraints.evaluate(kin, level=1)
             if np.max(np.abs(phi)) <= tol:
                 break
-            step, *_ = np.linalg.lstsq(psi[:, free], phi, rcond=1e-12)
+            step = self._min_norm(psi[:, free], phi)
             big = np.max(np.abs(step))
             x[free] -= step * min(1.0, max_step / big) if big > 0 else step
         else:
@@ -352,6 +381,6 @@ class System:
                 f"after {max_iter} Newton steps (largest: {rows})"
             )
         phi, psi, b = self.constraints.evaluate(self.kinematics(t, x, xd), level=1)
-        step, *_ = np.linalg.lstsq(psi[:, free], psi @ xd - b, rcond=1e-12)
+        step = self._min_norm(psi[:, free], psi @ xd - b)
         xd[free] -= step
         return x, xd

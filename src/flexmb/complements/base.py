@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from attrs import define, field, frozen
 
-from ..errors import AssemblyError
+from ..errors import AssemblyError, ModelError
 
 __all__ = ["Complement", "ComplementStrategy"]
 
@@ -55,6 +55,33 @@ class Complement:
         """
         return self.basis @ ((self.left.T @ rhs) / self.scale)
 
+    def truncated(self, rank: int) -> "Complement":
+        """The complement of psi with its rank capped at ``rank``.
+
+        The row-space directions with the smallest singular values beyond
+        ``rank`` are moved into T. Off the constraint manifold (an
+        integrator's stage state) redundant rows (Bricard linkage) look
+        independent, with tiny singular values of the order of the
+        constraint violation; counting them would lock the mechanism and
+        divide the acceleration terms by them.
+
+        Parameters
+        ----------
+        rank : int
+            Largest rank to keep (>= 0).
+
+        Returns
+        -------
+        Complement
+            Itself if ``self.rank <= rank``, else the truncated complement.
+        """
+        if self.rank <= rank:
+            return self
+        order = np.argsort(-self.scale, kind="stable")
+        keep, drop = order[:rank], order[rank:]
+        T = np.hstack([self.T, self.basis[:, drop]])
+        return Complement(T, rank, self.basis[:, keep], self.scale[keep], self.left[:, keep])
+
 
 @frozen(eq=False)
 class ComplementStrategy:
@@ -75,12 +102,27 @@ class ComplementStrategy:
     ----------
     rtol : float, optional
         Relative zero tolerance; default per strategy.
+    singular_rtol : float
+        Singular values of psi below ``singular_rtol`` times the largest are
+        left out of the particular solution ``xdd_p = psi^+ gamma`` (the
+        number of freedoms p is unchanged). Off by default (0). Set it (e.g.
+        1e-2) for mechanisms that pass through singular positions, such as
+        a parallelogram four-bar at its flattened configurations: near such
+        a point a tiny constraint violation makes ``gamma / sigma`` throw
+        the motion onto the other branch (or back); without those terms it
+        moves on by its inertia and the projection corrects the small error.
     """
 
     name = "base"
     default_rtol = 1e-10
 
     rtol: float | None = None
+    singular_rtol: float = field(default=0.0, kw_only=True)
+
+    @singular_rtol.validator
+    def _check_singular_rtol(self, attribute, value):
+        if not (isinstance(value, (int, float)) and 0.0 <= value < 1.0):
+            raise ModelError(f"{type(self).__name__}: singular_rtol must be in [0, 1), got {value!r}")
 
     @property
     def tol(self) -> float:

@@ -7,9 +7,9 @@ from collections import defaultdict
 import numpy as np
 
 from .forces import Loads
-from .rotations import cross
+from .rotations import cross, skew
 
-__all__ = ["mass_matrix", "generalized_force", "ForceAssembler"]
+__all__ = ["mass_matrix", "generalized_force", "geometric_stiffness", "ForceAssembler"]
 
 
 def mass_matrix(kin) -> np.ndarray:
@@ -67,6 +67,95 @@ def generalized_force(kin, force, torque) -> np.ndarray:
     total = topo.ancestors.T @ wrench  # subtree sums, (nb, 6)
     cb = topo.coord_body
     return np.einsum("ci,ci->c", kin.Sw, total[cb, :3]) + np.einsum("ci,ci->c", kin.Sv, total[cb, 3:])
+
+
+def _motion_cross(a, b):
+    """Spatial motion cross product ``a x b`` of Plucker vectors (angular, linear), shape (..., 6)."""
+    return np.concatenate([cross(a[..., :3], b[..., :3]),
+                           cross(a[..., :3], b[..., 3:]) + cross(a[..., 3:], b[..., :3])], axis=-1)
+
+
+def _force_cross(a, f):
+    """Spatial force cross product ``a x* f`` of a motion a and a wrench f (moment, force), shape (..., 6)."""
+    return np.concatenate([cross(a[..., :3], f[..., :3]) + cross(a[..., 3:], f[..., 3:]),
+                           cross(a[..., :3], f[..., 3:])], axis=-1)
+
+
+def geometric_stiffness(kin, xdd, force, torque) -> np.ndarray:
+    """Derivative of the generalized forces with respect to the coordinates, at fixed speeds and accelerations.
+
+    ``G[c, d] = d g_c / d x_d`` with ``g = sum_k V_k^T (F_k - m_k a_k) +
+    W_k^T (T_k - I_k alpha_k - omega_k x I_k omega_k)`` (eqs. 3, 5, 19:
+    the generalized active plus inertia forces, ``A xdd - f = -g``), for
+    applied forces that keep their inertial direction while their points
+    of application move with the bodies (gravity exactly), and for the
+    inertia forces of the accelerations ``xdd``: the geometric stiffness
+    of the loads and the ``(dA/dx) xdd`` terms. Changes of the
+    velocity-product terms other than by a rigid rotation are left out.
+
+    Parameters
+    ----------
+    kin : Kinematics
+        The kinematic state.
+    xdd : ndarray, shape (n_coords,)
+        Accelerations.
+    force, torque : ndarray, shape (n_bodies, 3)
+        Applied forces at the mass centres and torques, inertial.
+
+    Returns
+    -------
+    ndarray, shape (n_coords, n_coords)
+        G; the Jacobian of the accelerations is ``A^-1 (G - K)`` in an
+        open tree with coordinate springs K.
+
+    Notes
+    -----
+    Moving coordinate d by ``delta`` moves everything after it rigidly by
+    the twist ``S_d delta`` (Plucker, about the origin). The axis S_c of a
+    coordinate after d turns with it, the resultant wrench W of a subtree
+    after d turns too, except for the parts that do not: the applied loads'
+    directions and the accelerations ``a_d`` produced before d. With ``H``
+    the composite inertia of a subtree and ``u_d = S_d x a_d``,
+
+    * c after d: ``G[c, d] = S_c . (H_c u_d - Q_c S_wd)``;
+    * d after c: ``G[c, d] = S_c . (S_d x* W_d + H_d u_d - Q_d S_wd)``,
+
+    where ``Q omega`` is the change of the subtree's load wrench when the
+    loads turn back by omega. Every product is (n x 6)(6 x n): O(n^2).
+    """
+    topo = kin.topology
+    nb = topo.n_bodies
+    cb = topo.coord_body
+    anc_t = topo.ancestors.T
+    S = np.concatenate([kin.Sw, kin.Sv], axis=1)
+    Sx = S * xdd[:, None]
+    r, w, v = kin.r[:nb], kin.omega[:nb], kin.v[:nb]
+    # spatial accelerations (about the origin) of the bodies
+    acc = np.concatenate([kin.alpha_bias[:nb], kin.a_bias[:nb] - cross(kin.alpha_bias[:nb], r) - cross(w, v)],
+                         axis=1) + topo.coord_ancestors @ Sx
+    alpha = acc[:, :3]
+    a_r = acc[:, 3:] + cross(alpha, r) + cross(w, v)
+    I = kin.inertia_world()
+    net_f = force - kin.mass[:, None] * a_r
+    net_t = torque - np.einsum("kij,kj->ki", I, alpha) - cross(w, np.einsum("kij,kj->ki", I, w))
+    W = anc_t @ np.concatenate([net_t + cross(r, net_f), net_f], axis=1)
+    IC = (anc_t @ kin.spatial_inertia().reshape(nb, 36)).reshape(nb, 6, 6)
+    # accelerations produced before each coordinate (parent body + earlier coordinates of its joint)
+    acc_g = np.vstack([acc, np.zeros((1, 6))])
+    cs = np.cumsum(Sx, axis=0)
+    start = topo.coord_joint_start
+    before = np.where((start > 0)[:, None], cs[start - 1], 0.0)
+    a_pre = acc_g[topo.parent[cb]] + cs - before
+    u = _motion_cross(S, a_pre)
+    # Q of each subtree: the wrench change of space-fixed loads, linear in omega
+    Fe = anc_t @ force
+    Te = anc_t @ torque
+    Ge = (anc_t @ (skew(r) @ skew(force)).reshape(nb, 9)).reshape(nb, 3, 3)
+    Q = np.concatenate([-Ge - skew(Te), -skew(Fe)], axis=1)  # (nb, 6, 3)
+    H, Qc = IC[cb], Q[cb]
+    after = np.einsum("cij,cj->ci", H, S) @ u.T - np.einsum("cij,ci->cj", Qc, S) @ kin.Sw.T
+    y = _force_cross(S, W[cb]) + np.einsum("cij,cj->ci", H, u) - np.einsum("cij,cj->ci", Qc, kin.Sw)
+    return after * topo.after_mask + (S @ y.T) * topo.before_mask
 
 
 class ForceAssembler:

@@ -183,6 +183,18 @@ class Topology:
         # transposed array element by element.
         self.mass_mask = up.astype(float)
         self.mass_mask_t = np.ascontiguousarray(up.T & ~up).astype(float)
+        # geometric stiffness masks (assembly.geometric_stiffness): coordinate c
+        # "after" d when d moves c's body and, within one joint, c comes later
+        # in the joint's chain of motions
+        n = len(self.coord_body)
+        same = self.coord_body[:, None] == self.coord_body[None, :]
+        idx = np.arange(n)
+        self.after_mask = (up.T & (~same | (idx[:, None] >= idx[None, :]))).astype(float)
+        self.before_mask = (up & (~same | (idx[:, None] < idx[None, :]))).astype(float)
+        starts = np.zeros(n, dtype=int)
+        for j, sl in self.joint_slice.items():
+            starts[sl] = sl.start
+        self.coord_joint_start = starts
 
         # joint groups by class, for batched motion()
         groups = defaultdict(list)

@@ -29,12 +29,22 @@ RESULTS = os.path.join(HERE, "results")
 
 
 def load(paths) -> list:
-    """All rows of the given JSON-lines files."""
-    rows = []
+    """All rows of the given JSON-lines files; a configuration met twice keeps its last row.
+
+    So a side-by-side run (``compare.jsonl``, read last) replaces flexmb's rows
+    of the same scene, N, integrator and tolerance from ``flexmb_<scene>.jsonl``.
+    """
+    rows = {}
     for p in paths:
         with open(p) as fh:
-            rows += [json.loads(line) for line in fh if line.strip()]
-    return rows
+            for line in fh:
+                if line.strip():
+                    r = json.loads(line)
+                    key = tuple(str(r.get(k)) for k in ("tool", "scene", "variant", "n_segments", "integrator",
+                                                         "rtol", "h", "error_kind"))
+                    rows.pop(key, None)
+                    rows[key] = r
+    return list(rows.values())
 
 
 def _ok(r) -> bool:
@@ -180,7 +190,8 @@ def main(argv=None):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    files = args.files or sorted(glob.glob(os.path.join(RESULTS, "*.jsonl")))
+    files = args.files or sorted(glob.glob(os.path.join(RESULTS, "*.jsonl")),
+                                 key=lambda p: (os.path.basename(p) == "compare.jsonl", p))
     rows = load(files)
     for scene in sorted({r["scene"] for r in rows}):
         for path in (plot_work_precision(plt, rows, scene, args.out),

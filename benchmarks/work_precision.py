@@ -200,7 +200,7 @@ def integrators_for(scene: Scene, n: int, wanted) -> list:
 
 
 def run_scene(scene: Scene, ns, integrators=("Radau", "BDF", "DOP853", "auto"), rtols=(1e-3, 1e-5, 1e-7),
-              repeat: int = 3, ref_rtol: float = 1e-10, refdir: str = REFS, log=print) -> list:
+              repeat: int = 3, ref_rtol: float = 1e-10, refdir: str = REFS, log=None) -> list:
     """Work-precision rows (JSON-ready dicts) of one scene over N, integrators and rtols.
 
     Parameters
@@ -229,6 +229,7 @@ def run_scene(scene: Scene, ns, integrators=("Radau", "BDF", "DOP853", "auto"), 
         One row per configuration (BENCHMARKS.md fields, plus ``status``,
         ``atol``, ``t_end``, ``ref_uncertainty``, ``output``).
     """
+    log = log or (lambda *a: print(*a, flush=True))
     rows = []
     refs = {}
     for n in ns:
@@ -320,13 +321,12 @@ def main(argv=None):
         ns = args.n if args.n and sc.name in ("B1", "B2") else (quick_n[sc.name] if args.quick else sc.ns)
         if sc.name == "B4" and args.n and sc.variant.startswith("flexible"):
             ns = args.n
-        by_scene.setdefault(sc.name, []).extend(
-            run_scene(sc, ns, args.integrators, args.rtols, args.repeat, args.ref_rtol,
-                      os.path.join(args.out, "refs")))
-    for name, rows in by_scene.items():
-        path = os.path.join(args.out, f"flexmb_{name}.jsonl")
-        write_jsonl(rows, path)
-        print(f"wrote {len(rows)} lines to {path}")
+        rows = by_scene.setdefault(sc.name, [])
+        rows.extend(run_scene(sc, ns, args.integrators, args.rtols, args.repeat, args.ref_rtol,
+                              os.path.join(args.out, "refs")))
+        path = os.path.join(args.out, f"flexmb_{sc.name}.jsonl")
+        write_jsonl(rows, path)  # after every scene variant, so an interrupted run keeps what it did
+        print(f"wrote {len(rows)} lines to {path}", flush=True)
 
 
 if __name__ == "__main__":

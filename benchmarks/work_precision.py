@@ -46,8 +46,8 @@ from scenes import b1, b2  # noqa: E402
 RESULTS = os.path.join(HERE, "results")
 REFS = os.path.join(RESULTS, "refs")
 
-#: explicit steps (t_end * omega_max / 3) above which DOP853 is not tried
-DOP853_STEP_LIMIT = 20000
+#: explicit steps (t_end * omega_max / 3) above which DOP853 is not tried (flexmb's own "auto" limit)
+DOP853_STEP_LIMIT = 3000
 
 
 # ----------------------------------------------------------------------------- scenes

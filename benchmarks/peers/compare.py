@@ -61,11 +61,12 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--b1", type=int, nargs="*", default=[8, 16])
     ap.add_argument("--b2", type=int, nargs="*", default=[4, 8])
-    ap.add_argument("--peers", nargs="*", default=["exudyn", "pydy"])
+    ap.add_argument("--peers", nargs="*", default=["exudyn", "mujoco", "pydy"])
     ap.add_argument("--peers-python", default="/work/venv-peers/bin/python")
     ap.add_argument("--rtols", type=float, nargs="+", default=[1e-4, 1e-5, 1e-6, 1e-7, 1e-8])
     ap.add_argument("--integrators", nargs="+", default=["Radau", "BDF", "auto"])
     ap.add_argument("--exudyn-steps", type=int, nargs="+", default=[500, 1000, 2000, 4000, 8000, 16000])
+    ap.add_argument("--mujoco-steps", type=int, nargs="+", default=[2000, 4000, 8000, 16000, 32000, 64000])
     ap.add_argument("--pydy-rtols", type=float, nargs="+", default=[1e-5, 1e-6, 1e-7, 1e-8])
     ap.add_argument("--pydy-budget", type=float, default=240.0, help="setup seconds after which N stops growing")
     ap.add_argument("--repeat", type=int, default=3)
@@ -97,6 +98,16 @@ def main(argv=None):
                              args.peers_python, "exudyn_beam.py",
                              ["--scene", name, "--n", n, "--repeat", args.repeat, "--steps", *args.exudyn_steps,
                               "--reference", *ref_out, "--reference-label", label], 3600)]
+            if "mujoco" in args.peers:
+                out = peer_rows(args.peers_python, "mujoco_beam.py",
+                                ["--scene", name, "--n", n, "--repeat", args.repeat, "--steps", *args.mujoco_steps,
+                                 "--reference", *ref_out, "--reference-label", label], 3600)
+                out = [dict(r, reference=label) if "tool" in r else dict(wp._row(sc, n, tool="mujoco"), **r)
+                       for r in out]
+                rows += out
+                done = [r for r in out if r.get("error") is not None]
+                if done:
+                    agreement[("mujoco", name, n)] = min(r["error"] for r in done)
             if "pydy" in args.peers:
                 if pydy_over.get(name):
                     rows.append(dict(wp._row(sc, n, tool="pydy"),
@@ -143,7 +154,8 @@ def summary(rows, agreement, args, started) -> str:
              f"Error: integration error of the tip position at t = 1 s (Euclidean norm, m) against flexmb's "
              f"Radau solution of the same model at rtol {args.ref_rtol:g}. \"Agreement\" is the distance of the "
              "peer's own converged solution (Exudyn: Richardson extrapolation of generalized-alpha with "
-             f"{args.verify_steps} and {2 * args.verify_steps} steps; PyDy: its tightest rtol) to that reference: "
+             f"{args.verify_steps} and {2 * args.verify_steps} steps; MuJoCo: its best RK4 run; PyDy: its best "
+             "run) to that reference: "
              "it shows that the peer solves the same equations.", "",
              f"Best = least wall time among the runs with error <= {target:g}. PyDy's total includes its symbolic "
              "derivation and code generation (setup_s), which it must redo for every new model.", "",
@@ -156,7 +168,7 @@ def summary(rows, agreement, args, started) -> str:
         best = best_wall_at(srows, target)
         for n in sorted({r["n_segments"] for r in srows}):
             fx = best.get(("flexmb", n))
-            tools = ["flexmb"] + [t for t in ("exudyn", "pydy") if t in args.peers]
+            tools = ["flexmb"] + [t for t in ("exudyn", "mujoco", "pydy") if t in args.peers]
             for tool in tools:
                 b = best.get((tool, n))
                 status = next((r.get("status") for r in srows if r.get("tool") == tool and r["n_segments"] == n

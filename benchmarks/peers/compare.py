@@ -63,8 +63,9 @@ def main(argv=None):
     ap.add_argument("--b2", type=int, nargs="*", default=[4, 8])
     ap.add_argument("--peers", nargs="*", default=["exudyn", "mujoco", "pydy"])
     ap.add_argument("--peers-python", default="/work/venv-peers/bin/python")
-    ap.add_argument("--rtols", type=float, nargs="+", default=[1e-4, 1e-5, 1e-6, 1e-7, 1e-8])
-    ap.add_argument("--integrators", nargs="+", default=["Radau", "BDF", "auto"])
+    ap.add_argument("--rtols", type=float, nargs="+", default=[1e-5, 1e-6, 1e-7, 1e-8])
+    ap.add_argument("--integrators", nargs="+", default=["Radau", "BDF", "DOP853"],
+                    help="flexmb methods ('auto' resolves to Radau or DOP853, so it is not repeated here)")
     ap.add_argument("--exudyn-steps", type=int, nargs="+", default=[500, 1000, 2000, 4000, 8000, 16000])
     ap.add_argument("--mujoco-steps", type=int, nargs="+", default=[2000, 4000, 8000, 16000, 32000, 64000])
     ap.add_argument("--pydy-rtols", type=float, nargs="+", default=[1e-5, 1e-6, 1e-7, 1e-8])
@@ -117,7 +118,7 @@ def main(argv=None):
                     out = peer_rows(args.peers_python, "pydy_beam.py",
                                     ["--scene", name, "--n", n, "--repeat", args.repeat, "--rtols", *args.pydy_rtols,
                                      "--budget", args.pydy_budget, "--reference", *ref_out,
-                                     "--reference-label", label], 6 * args.pydy_budget + 600)
+                                     "--reference-label", label], 2 * args.pydy_budget + 300)
                     out = [dict(r, reference=label) if "tool" in r else dict(wp._row(sc, n, tool="pydy"), **r)
                            for r in out]
                     rows += out

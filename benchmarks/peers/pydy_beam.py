@@ -30,6 +30,7 @@ import argparse
 import os
 import statistics
 import sys
+import tempfile
 import time
 
 import numpy as np
@@ -106,7 +107,8 @@ def derive(scene: str, n: int, generator: str = "cython"):
     system.constants = consts
     used = generator
     try:
-        rhs = system.generate_ode_function(generator=generator, force_c_contiguous=True)
+        kw = {"tmp_dir": tempfile.mkdtemp(prefix="pydy-codegen-")} if generator == "cython" else {}
+        rhs = system.generate_ode_function(generator=generator, force_c_contiguous=True, **kw)
     except Exception:  # noqa: BLE001 - no compiler: PyDy's pure-Python fallback
         used = "lambdify"
         rhs = system.generate_ode_function(generator="lambdify")

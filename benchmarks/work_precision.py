@@ -266,17 +266,39 @@ def run_scene(scene: Scene, ns, integrators=("Radau", "BDF", "DOP853", "auto"), 
                 log(f"  {method:7s} rtol {rtol:7.0e}  wall {statistics.median(walls):8.3f} s  "
                     f"rhs {res.n_rhs:7d}  error {err:9.2e}")
     if len(refs) > 1 and scene.name in ("B1", "B2", "B4"):
-        n_top = max(refs)
-        for n, ref in refs.items():
-            if n == n_top:
-                continue
-            rows.append(_row(
-                scene, n, n_coords=int(ref["n_coords"]), n_dof=int(ref["n_dof"]), integrator=str(ref["method"]),
-                rtol=float(ref["rtol"]), setup_s=float(ref["setup_s"]), wall_s=float(ref["wall_s"]),
-                steps=int(ref["steps"]), rhs_evals=int(ref["rhs_evals"]), jac_evals=int(ref["jac_evals"]),
-                error=float(np.linalg.norm(ref["output"] - refs[n_top]["output"])), error_kind="discretisation",
-                reference=f"flexmb N={n_top} Radau rtol={ref_rtol:g}", status="finished", t_end=scene.t_end,
-                output=np.asarray(ref["output"]).tolist()))
+        rows += discretisation_rows(scene, refs, ref_rtol)
+    return rows
+
+
+def discretisation_rows(scene: Scene, refs: dict, ref_rtol: float) -> list:
+    """Discretisation error of each N's reference against the largest N's (``error_kind = "discretisation"``).
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene the references belong to.
+    refs : dict of int to dict
+        References by N (from :func:`reference`).
+    ref_rtol : float
+        Their tolerance (for the labels).
+
+    Returns
+    -------
+    list of dict
+        One row per N below the largest.
+    """
+    n_top = max(refs)
+    rows = []
+    for n, ref in sorted(refs.items()):
+        if n == n_top:
+            continue
+        rows.append(_row(
+            scene, n, n_coords=int(ref["n_coords"]), n_dof=int(ref["n_dof"]), integrator=str(ref["method"]),
+            rtol=float(ref["rtol"]), setup_s=float(ref["setup_s"]), wall_s=float(ref["wall_s"]),
+            steps=int(ref["steps"]), rhs_evals=int(ref["rhs_evals"]), jac_evals=int(ref["jac_evals"]),
+            error=float(np.linalg.norm(ref["output"] - refs[n_top]["output"])), error_kind="discretisation",
+            reference=f"flexmb N={n_top} Radau rtol={ref_rtol:g}", status="finished", t_end=scene.t_end,
+            output=np.asarray(ref["output"]).tolist()))
     return rows
 
 
@@ -305,7 +327,19 @@ def main(argv=None):
     ap.add_argument("--quick", action="store_true",
                     help="small N (B1 8 16, B2 4 8, B4 rigid 0.25 s), rtols 1e-3 1e-5 1e-7, ref rtol 1e-9")
     ap.add_argument("--out", default=RESULTS)
+    ap.add_argument("--discretisation-only", action="store_true",
+                    help="only write flexmb_<scene>_discretisation.jsonl from the references already cached for --n")
     args = ap.parse_args(argv)
+    if args.discretisation_only:
+        table = scenes(args.b4_t_end)
+        for key in expand_scene_names(args.scenes, table):
+            sc = table[key]
+            refs = {n: reference(sc, n, args.ref_rtol, os.path.join(args.out, "refs")) for n in (args.n or sc.ns)}
+            rows = discretisation_rows(sc, refs, args.ref_rtol)
+            path = os.path.join(args.out, f"flexmb_{sc.name}_discretisation.jsonl")
+            write_jsonl(rows, path)
+            print(f"wrote {len(rows)} lines to {path}")
+        return
     if args.quick:
         args.rtols = [1e-3, 1e-5, 1e-7]
         args.ref_rtol = min(max(args.ref_rtol, 1e-9), 1e-9)

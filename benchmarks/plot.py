@@ -52,6 +52,19 @@ def _ok(r) -> bool:
             and str(r.get("status", "finished")).startswith("finished"))
 
 
+def _tidy_log_axes(ax):
+    """Minor tick labels of log axes only at 2 and 5 times a power of ten, in plain numbers."""
+    from matplotlib.ticker import FuncFormatter, NullFormatter
+
+    def label(v, _):
+        mant = v / 10 ** np.floor(np.log10(v))
+        return f"{v:g}" if round(mant) in (2, 5) and abs(mant - round(mant)) < 1e-6 else ""
+
+    lo, hi = ax.get_xlim()
+    ax.xaxis.set_minor_formatter(FuncFormatter(label) if hi / lo < 100 else NullFormatter())
+    ax.yaxis.set_minor_formatter(NullFormatter())
+
+
 def _line_key(r) -> str:
     integ = str(r.get("integrator"))
     return f"{r['tool']} {integ}"
@@ -107,12 +120,13 @@ def plot_work_precision(plt, rows, scene, out):
         title = f"{scene} N = {n}" if n else f"{scene}"
         ax.set_title(f"{title}\n{v}", fontsize=9)
         ax.set_xlabel("wall time [s] (median)")
-        ax.set_ylabel("integration error")
+        ax.set_ylabel(f"integration error [{'rad' if scene == 'B5' else 'm'}]")
+        _tidy_log_axes(ax)
         ax.grid(alpha=0.3, which="both")
         ax.legend(fontsize=7)
     for ax in list(axes.flat)[len(panels):]:
         ax.set_visible(False)
-    fig.suptitle(f"Work-precision, {scene}: integration error against the same model at the tightest settings",
+    fig.suptitle(f"Work-precision, {scene}: integration error against\nthe same model at the tightest settings",
                  fontsize=10)
     fig.tight_layout()
     path = os.path.join(out, f"wp_{scene}.png")
@@ -143,6 +157,7 @@ def plot_scaling(plt, rows, scene, out, target):
     ax.set_xlabel("N (segments)")
     ax.set_ylabel(f"wall time per simulated second [s/s]\nat integration error <= {target:g}")
     ax.set_title(f"{scene}: cost against N (best integrator and tolerance per N)", fontsize=10)
+    _tidy_log_axes(ax)
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=8)
     fig.tight_layout()
@@ -170,6 +185,7 @@ def plot_discretisation(plt, rows, scene, out):
     ax.set_xlabel("N (segments)")
     ax.set_ylabel("discretisation error [m]")
     ax.set_title(f"{scene}: discretisation error against N", fontsize=10)
+    _tidy_log_axes(ax)
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=8)
     fig.tight_layout()
@@ -190,6 +206,7 @@ def main(argv=None):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    os.makedirs(args.out, exist_ok=True)
     files = args.files or sorted(glob.glob(os.path.join(RESULTS, "*.jsonl")),
                                  key=lambda p: (os.path.basename(p) == "compare.jsonl", p))
     rows = load(files)

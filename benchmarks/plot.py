@@ -67,6 +67,8 @@ def _tidy_log_axes(ax):
 
 def _line_key(r) -> str:
     integ = str(r.get("integrator"))
+    if integ.startswith(r["tool"] + " "):
+        integ = integ[len(r["tool"]) + 1:]
     return f"{r['tool']} {integ}"
 
 
@@ -106,7 +108,7 @@ def plot_work_precision(plt, rows, scene, out):
                                                           for r in rows)]
     cols = min(len(panels), 3)
     nrows = int(np.ceil(len(panels) / cols))
-    fig, axes = plt.subplots(nrows, cols, figsize=(5.2 * cols, 4.3 * nrows), squeeze=False)
+    fig, axes = plt.subplots(nrows, cols, figsize=(8.2 * cols, 4.3 * nrows), squeeze=False)
     for ax, (n, v) in zip(axes.flat, panels):
         lines = defaultdict(list)
         for r in rows:
@@ -123,7 +125,7 @@ def plot_work_precision(plt, rows, scene, out):
         ax.set_ylabel(f"integration error [{'rad' if scene == 'B5' else 'm'}]")
         _tidy_log_axes(ax)
         ax.grid(alpha=0.3, which="both")
-        ax.legend(fontsize=7)
+        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     for ax in list(axes.flat)[len(panels):]:
         ax.set_visible(False)
     fig.suptitle(f"Work-precision, {scene}: integration error against\nthe same model at the tightest settings",

@@ -58,11 +58,21 @@ def _tidy_log_axes(ax):
 
     def label(v, _):
         mant = v / 10 ** np.floor(np.log10(v))
-        return f"{v:g}" if round(mant) in (2, 5) and abs(mant - round(mant)) < 1e-6 else ""
+        return f"{v:.0e}" if v < 1e-2 and round(mant) in (2, 5) and abs(mant - round(mant)) < 1e-6 else \
+            f"{v:g}" if round(mant) in (2, 5) and abs(mant - round(mant)) < 1e-6 else ""
 
-    lo, hi = ax.get_xlim()
-    ax.xaxis.set_minor_formatter(FuncFormatter(label) if hi / lo < 100 else NullFormatter())
-    ax.yaxis.set_minor_formatter(NullFormatter())
+    for axis, (lo, hi) in ((ax.xaxis, ax.get_xlim()), (ax.yaxis, ax.get_ylim())):
+        axis.set_minor_formatter(FuncFormatter(label) if hi / lo < 100 else NullFormatter())
+
+
+def _n_ticks(ax, ns):
+    """Label the x axis at the segment counts that were run."""
+    from matplotlib.ticker import NullFormatter
+
+    ax.set_xticks(ns)
+    ax.set_xticklabels([str(n) for n in ns])
+    ax.xaxis.set_minor_formatter(NullFormatter())
+    ax.set_xlim(min(ns) / 1.3, max(ns) * 1.3)
 
 
 def _line_key(r) -> str:
@@ -160,6 +170,7 @@ def plot_scaling(plt, rows, scene, out, target):
     ax.set_ylabel(f"wall time per simulated second [s/s]\nat integration error <= {target:g}")
     ax.set_title(f"{scene}: cost against N (best integrator and tolerance per N)", fontsize=10)
     _tidy_log_axes(ax)
+    _n_ticks(ax, sorted({n for _, n in best}))
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=8)
     fig.tight_layout()
@@ -188,6 +199,7 @@ def plot_discretisation(plt, rows, scene, out):
     ax.set_ylabel("discretisation error [m]")
     ax.set_title(f"{scene}: discretisation error against N", fontsize=10)
     _tidy_log_axes(ax)
+    _n_ticks(ax, sorted({r["n_segments"] for r in rows}))
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=8)
     fig.tight_layout()

@@ -53,16 +53,19 @@ def _ok(r) -> bool:
 
 
 def _tidy_log_axes(ax):
-    """Minor tick labels of log axes only at 2 and 5 times a power of ten, in plain numbers."""
+    """Minor tick labels of short log axes only at 2, (3,) 5 times a power of ten."""
     from matplotlib.ticker import FuncFormatter, NullFormatter
 
-    def label(v, _):
+    def label(v, _, marks):
         mant = v / 10 ** np.floor(np.log10(v))
-        return f"{v:.0e}" if v < 1e-2 and round(mant) in (2, 5) and abs(mant - round(mant)) < 1e-6 else \
-            f"{v:g}" if round(mant) in (2, 5) and abs(mant - round(mant)) < 1e-6 else ""
+        if round(mant) not in marks or abs(mant - round(mant)) > 1e-6:
+            return ""
+        return f"{v:.0e}" if v < 1e-2 else f"{v:g}"
 
     for axis, (lo, hi) in ((ax.xaxis, ax.get_xlim()), (ax.yaxis, ax.get_ylim())):
-        axis.set_minor_formatter(FuncFormatter(label) if hi / lo < 100 else NullFormatter())
+        marks = (2, 3, 5) if hi / lo < 10 else (2, 5)
+        axis.set_minor_formatter(FuncFormatter(lambda v, pos, marks=marks: label(v, pos, marks))
+                                 if hi / lo < 100 else NullFormatter())
 
 
 def _n_ticks(ax, ns):

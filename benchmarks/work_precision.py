@@ -349,16 +349,24 @@ def main(argv=None):
     if args.quick:
         keys = [k for k in keys if k != "B4-flexible"]
     quick_n = {"B1": (8, 16), "B2": (4, 8), "B4": (2,), "B5": (0,)}
+    variants = {table[k].variant for k in keys}
     by_scene = {}
     for key in keys:
         sc = table[key]
         ns = args.n if args.n and sc.name in ("B1", "B2") else (quick_n[sc.name] if args.quick else sc.ns)
         if sc.name == "B4" and args.n and sc.variant.startswith("flexible"):
             ns = args.n
-        rows = by_scene.setdefault(sc.name, [])
+        if sc.ns == (0,):  # rigid scenes have no segment count
+            ns = (0,)
+        path = os.path.join(args.out, f"flexmb_{sc.name}.jsonl")
+        if sc.name not in by_scene:  # keep the other variants' rows of an earlier run of this scene
+            by_scene[sc.name] = []
+            if os.path.exists(path):
+                with open(path) as fh:
+                    by_scene[sc.name] = [r for r in map(json.loads, fh) if r.get("variant") not in variants]
+        rows = by_scene[sc.name]
         rows.extend(run_scene(sc, ns, args.integrators, args.rtols, args.repeat, args.ref_rtol,
                               os.path.join(args.out, "refs")))
-        path = os.path.join(args.out, f"flexmb_{sc.name}.jsonl")
         write_jsonl(rows, path)  # after every scene variant, so an interrupted run keeps what it did
         print(f"wrote {len(rows)} lines to {path}", flush=True)
 

@@ -52,8 +52,9 @@ TOL = 1e-12
 
 # -- selection ---------------------------------------------------------------
 
-def test_registry_holds_eigen_and_svd():
-    assert fm.COMPLEMENTS == {"eigen": fm.EigenComplement, "svd": fm.SVDComplement}
+def test_registry_holds_eigen_svd_qr_auto():
+    assert fm.COMPLEMENTS == {"eigen": fm.EigenComplement, "svd": fm.SVDComplement, "qr": fm.QRComplement,
+                              "auto": fm.AutoComplement}
     for name, cls in fm.COMPLEMENTS.items():
         assert issubclass(cls, ComplementStrategy)
         assert cls.name == name
@@ -74,7 +75,7 @@ def test_get_complement_by_name_class_instance(name):
     assert type(system.strategy) is cls
 
 
-@pytest.mark.parametrize("bad", ["qr", "SVD", "", 42, ["svd"], int, None])
+@pytest.mark.parametrize("bad", ["lu", "SVD", "", 42, ["svd"], int, None])
 def test_unknown_strategy_raises_model_error_listing_names(bad):
     with pytest.raises(fm.ModelError) as info:
         fm.get_complement(bad)
@@ -164,8 +165,11 @@ def check_complement(c, psi, rank, tol=TOL):
     assert np.max(np.abs(c.T.T @ c.T - np.eye(n - rank)), initial=0.0) <= tol
     Q = np.hstack([c.basis, c.T])  # row space + null space = R^n, orthogonal
     assert np.max(np.abs(Q.T @ Q - np.eye(n))) <= tol
-    # psi basis = left diag(scale), with orthonormal left
-    assert np.max(np.abs(psi @ c.basis - c.left * c.scale), initial=0.0) <= tol * smax
+    # psi basis = left K, with orthonormal left; K = diag(scale) for an SVD, upper triangular otherwise
+    K = np.diag(c.scale) if c.factor is None else c.factor
+    assert K.shape == (rank, rank) and np.allclose(np.abs(np.diag(K)), c.scale, rtol=1e-14, atol=0)
+    assert np.all(np.tril(K, -1) == 0.0)
+    assert np.max(np.abs(psi @ c.basis - c.left @ K), initial=0.0) <= tol * smax
     assert np.max(np.abs(c.left.T @ c.left - np.eye(rank)), initial=0.0) <= tol
 
 
@@ -230,7 +234,7 @@ def test_rtol_decides_what_counts_as_zero(name):
     V, _ = np.linalg.qr(np.random.default_rng(3).normal(size=(4, 4)))
     psi = np.diag([2.0, 1.0, 1e-4]) @ V[:3]  # singular values 2, 1, 1e-4 (squares 4, 1, 1e-8)
     assert cls().complement(psi).rank == 3
-    loose = cls(rtol=1e-3 if name == "svd" else 1e-6).complement(psi)
+    loose = cls(rtol=1e-6 if name == "eigen" else 1e-3).complement(psi)
     assert loose.rank == 2 and loose.p == 2
     np.testing.assert_allclose(loose.T @ loose.T.T, V[2:].T @ V[2:], rtol=0, atol=1e-12)
 

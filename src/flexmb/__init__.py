@@ -20,6 +20,7 @@ from .result import Result
 from .simulate import INTEGRATORS, initial_state, simulate
 from .system import System
 from .scene import Scene, load_scene, loads_scene
+from .complements import AutoComplement, QRComplement
 
 __version__ = "0.1.0"
 
@@ -34,4 +35,5 @@ __all__ = [
     "Linearization", "linear_statics", "linearize", "modes", "static_equilibrium",
     "Model", "PluginInfo", "plugins", "register", "Result", "INTEGRATORS", "initial_state", "simulate", "System",
     "Scene", "SceneError", "load_scene", "loads_scene",
+    "AutoComplement", "QRComplement",
 ]

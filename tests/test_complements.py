@@ -312,3 +312,178 @@ def test_system_counts_complement_calls():
     before = system.n_complements
     system.accelerations(0.0, x, np.zeros(3))
     assert system.n_complements == before + 1
+
+
+# -- qr and auto: against svd and eigen ------------------------------------------
+
+def sarrus_psi(rng):
+    """Loop Jacobian (6 x 6 twists) of a Sarrus linkage: two groups of three parallel revolute axes.
+
+    Each group of parallel axes (direction a) spans the twists {(t a; v), v
+    perpendicular to a} (dimension 3); the two spans meet in the pure
+    translation along a x b, so rank 5 and one degree of freedom, whatever
+    the axis positions (overconstrained, like Bricard's 6R loops).
+    """
+    a, b = np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.6, 0.8])
+    points = rng.uniform(-0.5, 0.5, size=(6, 3))
+    axes = np.array([a, a, a, b, b, b])
+    return np.vstack([axes.T, np.cross(points, axes).T])  # (omega; p x omega) per column
+
+
+def large_cases():
+    """(id, builder(rng) -> psi, rank) with n >= AutoComplement.min_n, so auto takes its QR branch."""
+
+    def wiper_like(rng):
+        return well_conditioned(rng, 9, 33)
+
+    def medium(rng):
+        return well_conditioned(rng, 30, 300)
+
+    def medium_deficient(rng):
+        return low_rank(rng, 40, 120, 27)
+
+    def tall_deficient(rng):
+        return low_rank(rng, 70, 60, 45)
+
+    def redundant_rows(rng):
+        a = well_conditioned(rng, 20, 80)
+        return np.vstack([a, rng.normal(size=(6, 20)) @ a])[rng.permutation(26)]
+
+    return [
+        pytest.param(wiper_like, 9, id="9x33"),
+        pytest.param(medium, 30, id="30x300"),
+        pytest.param(medium_deficient, 27, id="40x120-rank27"),
+        pytest.param(tall_deficient, 45, id="70x60-rank45"),
+        pytest.param(redundant_rows, 20, id="26x80-redundant"),
+    ]
+
+
+QR_LIKE = [pytest.param(lambda: fm.QRComplement(), id="qr"),
+           pytest.param(lambda: fm.AutoComplement(), id="auto"),
+           pytest.param(lambda: fm.AutoComplement(min_n=1), id="auto-always-tries-qr")]
+
+
+def check_against_svd_and_eigen(c, psi, rank, rng):
+    cs = fm.SVDComplement().complement(psi)
+    ce = fm.EigenComplement().complement(psi)
+    assert c.rank == cs.rank == ce.rank == rank
+    P = c.T @ c.T.T
+    np.testing.assert_allclose(P, cs.T @ cs.T.T, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(P, ce.T @ ce.T.T, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(c.basis @ c.basis.T, cs.basis @ cs.basis.T, rtol=0, atol=1e-10)
+    scale = np.linalg.norm(psi, 2)
+    for rhs in (psi @ rng.normal(size=psi.shape[1]), rng.normal(size=psi.shape[0])):  # consistent, and not
+        x = c.particular(rhs)
+        ref = np.linalg.lstsq(psi, rhs, rcond=None)[0]  # LAPACK gelsd: minimum-norm least squares
+        size = max(1.0, np.abs(ref).max())
+        np.testing.assert_allclose(x, ref, rtol=0, atol=1e-10 * size)
+        np.testing.assert_allclose(x, cs.particular(rhs), rtol=0, atol=1e-10 * size)
+        assert np.linalg.norm(psi.T @ (psi @ x - rhs)) <= 1e-10 * scale**2 * size  # normal equations
+
+
+@pytest.mark.parametrize("make_strategy", QR_LIKE)
+@pytest.mark.parametrize("make, rank", [*psi_cases(), *large_cases()])
+def test_qr_and_auto_match_svd_and_eigen(make_strategy, make, rank):
+    rng = np.random.default_rng(31 + rank)
+    strategy = make_strategy()
+    for _ in range(2):
+        psi = make(rng)
+        c = strategy.complement(psi)
+        check_complement(c, psi, rank)
+        check_against_svd_and_eigen(c, psi, rank, rng)
+
+
+@pytest.mark.parametrize("make_strategy", QR_LIKE)
+def test_sarrus_loop_is_rank_five(make_strategy):
+    rng = np.random.default_rng(6)
+    for _ in range(5):
+        psi = sarrus_psi(rng)
+        c = make_strategy().complement(psi)
+        check_complement(c, psi, 5)
+        check_against_svd_and_eigen(c, psi, 5, rng)
+
+
+def test_both_ways_of_forming_q_agree(monkeypatch):
+    """Q from LAPACK dorgqr and from the compact WY product I - V S V^T give the same complement."""
+    from flexmb.complements import qr as qrmod
+
+    rng = np.random.default_rng(12)
+    for psi in (low_rank(rng, 40, 120, 27), well_conditioned(rng, 12, 20), well_conditioned(rng, 8, 5),
+                low_rank(rng, 9, 9, 9)):
+        runs = []
+        for threshold in (0, 10**9):
+            monkeypatch.setattr(qrmod, "WY_MIN_N", threshold)
+            Q, R, piv = qrmod.pivoted_qr(psi)
+            np.testing.assert_allclose(Q.T @ Q, np.eye(psi.shape[1]), rtol=0, atol=1e-13)
+            np.testing.assert_allclose(Q[:, :R.shape[0]] @ R, psi.T[:, piv], rtol=0, atol=1e-13 * np.abs(psi).max())
+            runs.append(Q)
+        np.testing.assert_allclose(runs[0], runs[1], rtol=0, atol=1e-12)
+
+
+def test_qr_diagonal_orders_and_reveals_rank():
+    from flexmb.complements.qr import pivoted_qr
+
+    rng = np.random.default_rng(4)
+    psi = low_rank(rng, 10, 14, 6)
+    _, R, piv = pivoted_qr(psi)
+    d = np.abs(np.diag(R))
+    assert np.all(np.diff(d) <= 1e-14 * d[0])  # non-increasing
+    assert d[5] / d[0] > 1e-3 and d[6] / d[0] < 1e-14
+    assert sorted(piv) == list(range(10))
+
+
+def test_auto_chooses_by_size_and_conditioning():
+    rng = np.random.default_rng(8)
+    auto = fm.AutoComplement()
+    assert auto.min_n == 40 and auto.band == 100.0
+    assert auto.choose(well_conditioned(rng, 2, 3)) == "svd"  # tiny: svd
+    assert auto.choose(low_rank(rng, 5, 3, 2)) == "svd"
+    assert auto.choose(well_conditioned(rng, 30, 300)) == "qr"  # large, clear rank
+    assert auto.choose(low_rank(rng, 40, 120, 27)) == "qr"
+    assert auto.choose(np.zeros((3, 50))) == "svd" and auto.choose(np.zeros((0, 50))) == "svd"
+    # singular values 1 ... and one at 1e-9 or 3e-11: the last diagonal ratio falls within
+    # a factor 100 of rtol = 1e-10, so the SVD decides the rank (20 and 19)
+    U, _ = np.linalg.qr(rng.normal(size=(20, 20)))
+    V, _ = np.linalg.qr(rng.normal(size=(60, 20)))
+    for small, rank in ((1e-9, 20), (3e-11, 19)):
+        s = np.r_[rng.uniform(0.5, 2.0, 19), small]
+        psi = (U * s) @ V.T
+        assert auto.choose(psi) == "svd"
+        c = auto.complement(psi)
+        assert c.rank == rank and c.factor is None  # an SVD complement
+        cs = fm.SVDComplement().complement(psi)
+        np.testing.assert_allclose(c.T @ c.T.T, cs.T @ cs.T.T, rtol=0, atol=1e-12)
+    # the same spectrum with the small value well below the band: qr
+    s = np.r_[rng.uniform(0.5, 2.0, 19), 1e-14]
+    assert auto.choose((U * s) @ V.T) == "qr"
+    assert auto.complement((U * s) @ V.T).rank == 19
+    # a narrower band hands the 1e-9 case to qr, whose rank agrees
+    narrow = fm.AutoComplement(band=5.0)
+    psi = (U * np.r_[rng.uniform(0.5, 2.0, 19), 1e-9]) @ V.T
+    assert narrow.choose(psi) == "qr" and narrow.complement(psi).rank == 20
+
+
+def test_auto_and_qr_construction_and_repr():
+    assert repr(fm.AutoComplement()) == "AutoComplement(rtol=None, min_n=40, band=100.0)"
+    assert repr(fm.QRComplement(rtol=1e-8)) == "QRComplement(rtol=1e-08)"
+    assert fm.QRComplement().tol == 1e-10 and fm.AutoComplement(rtol=1e-6).tol == 1e-6
+    for bad in ({"min_n": 0}, {"band": 0.0}, {"band": -2.0}):
+        (key, value), = bad.items()
+        with pytest.raises(ValueError, match=f"AutoComplement: {key} must be > 0, got {value!r}"):
+            fm.AutoComplement(**bad)
+
+
+@pytest.mark.parametrize("cut", [fm.PlanarRevolute, fm.Revolute], ids=["planar-cut", "spatial-cut"])
+def test_fourbar_simulation_with_qr_and_auto_agrees_with_svd(cut):
+    runs = {}
+    # "auto" takes the svd branch on this 3-coordinate loop; min_n=1 sends it through its qr branch
+    for key, strategy in (("svd", "svd"), ("qr", "qr"), ("auto", "auto"), ("auto-qr", fm.AutoComplement(min_n=1))):
+        res = fm.simulate(fourbar(cut), 0.5, positions=fourbar_initial(), fixed=["A"], complement=strategy,
+                          rtol=1e-10, atol=1e-12, t_eval=np.linspace(0.0, 0.5, 51))
+        assert res.complement == key.split("-")[0] and res.status == "finished"
+        runs[key] = res
+    ref = runs["svd"]
+    assert np.ptp(ref.x[:, 0]) > 0.1  # it moves
+    for name in ("qr", "auto", "auto-qr"):
+        assert np.abs(runs[name].x - ref.x).max() < 1e-8
+        assert np.abs(runs[name].xd - ref.xd).max() < 1e-8 * np.abs(ref.xd).max()

@@ -69,7 +69,7 @@ class AutoComplement(ComplementStrategy):
     name = "auto"
     default_rtol = 1e-10
 
-    min_n: int = field(default=12, validator=_positive)
+    min_n: int = field(default=40, validator=_positive)
     band: float = field(default=100.0, validator=_positive)
 
     def _decide(self, psi: np.ndarray):

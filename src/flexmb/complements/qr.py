@@ -15,7 +15,7 @@ __all__ = ["QRComplement", "pivoted_qr"]
 #: about twice the flops at lower speed. Measured with
 #: ``benchmarks/complements_speed.py``: below this the few extra numpy calls
 #: of the WY form cost more than they save.
-WY_MIN_N = 64
+WY_MIN_N = 96
 
 #: LAPACK block size used to size the work arrays.
 _NB = 32
@@ -97,10 +97,13 @@ def complement_from_qr(psi: np.ndarray, Q: np.ndarray, R: np.ndarray, piv: np.nd
     """
     m = psi.shape[0]
     r = rank
-    left_p, K = np.linalg.qr(R[:r].T)  # (m, r), (r, r)
+    # thin QR R[:r]^T = left_p K through LAPACK (numpy's qr costs 30 µs on a 2 x 2)
+    qr2, tau2, _, _ = lapack.dgeqrf(np.array(R[:r].T, order="F"), lwork=max(1, r * _NB), overwrite_a=1)
+    K = np.triu(qr2[:r])
+    left_p, _, _ = lapack.dorgqr(qr2, tau2, lwork=max(1, r * _NB), overwrite_a=1)  # (m, r)
     left = np.empty((m, r))
     left[piv] = left_p
-    return Complement(Q[:, r:].copy(), r, Q[:, :r].copy(), np.abs(np.diagonal(K)).copy(), left, K)
+    return Complement(Q[:, r:].copy(), r, Q[:, :r].copy(), np.abs(K.diagonal()), left, K)
 
 
 class QRComplement(ComplementStrategy):

@@ -23,9 +23,9 @@ class AutoComplement(ComplementStrategy):
 
     The rule, applied to each psi (m x n) passed to :meth:`complement`:
 
-    1. if ``n < min_n`` (default 12), use the SVD: for such tiny matrices
-       the two cost the same few tens of microseconds, and the SVD is the
-       safer;
+    1. if ``n < min_n`` (default 40), use the SVD: for such small matrices
+       it is as fast as the QR or faster (the QR path makes more Python
+       calls), and it is the safer;
     2. otherwise factor ``psi^T P = Q R`` (:class:`~flexmb.complements.QRComplement`)
        and look at the diagonal ratios ``rho_i = |R_ii| / |R_00|``. If none
        lies within a factor ``band`` (default 100) of the tolerance, i.e.
@@ -34,13 +34,16 @@ class AutoComplement(ComplementStrategy):
     3. else the rank is ambiguous (the ratios only estimate the singular
        value ratios ``s_i / s_0``) and the SVD decides.
 
-    Both thresholds are measured (``benchmarks/complements_speed.py``): the
-    QR is faster than the SVD from ``n`` of about 10 (2x3: QR 27 µs,
-    SVD 21 µs; 9x33: QR 49 µs, SVD 73 µs; 100x1000: QR about 7 times
-    faster); over random psi up to 200 x 800 with graded spectra and row
-    scalings from 0.1 to 10, ``rho_i`` differed from ``s_i / s_0`` by at most
-    a factor 7.1, so a band of 100 leaves a margin of 14. The price of an
-    ambiguous case is one QR on top of the SVD.
+    Both thresholds are measured (``benchmarks/complements_speed.py``,
+    single-threaded BLAS, on a loaded 2-core machine): with ``m = n/3 + 1``
+    the QR and the SVD take the same time at n of about 33 (45 µs), and
+    the QR is faster from n = 64 (121 against 194 µs), 3.3 times faster at
+    30 x 300 and 8 times at 100 x 1000; below n = 12 the SVD is up to
+    35 µs faster. Over 340 random psi up to 200 x 800 with graded spectra
+    (singular values down to 1e-16) and row scalings from 0.1 to 10,
+    ``rho_i`` differed from ``s_i / s_0`` by at most a factor 7.1, so a band
+    of 100 leaves a margin of 14. An ambiguous case costs one QR on top of
+    the SVD.
 
     Parameters
     ----------

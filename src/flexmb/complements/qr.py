@@ -13,8 +13,9 @@ __all__ = ["QRComplement", "pivoted_qr"]
 #: formed as ``I - V S V^T`` with one matrix product (compact WY form,
 #: Schreiber & Van Loan 1989) rather than by LAPACK ``dorgqr``, which does
 #: about twice the flops at lower speed. Measured with
-#: ``benchmarks/complements_speed.py``: below this the few extra numpy calls
-#: of the WY form cost more than they save.
+#: ``benchmarks/complements_speed.py``: the two break even near n = 96,
+#: below which the few extra numpy calls of the WY form cost more than they
+#: save (n = 256: WY 1.8 ms, dorgqr 2.7 ms).
 WY_MIN_N = 96
 
 #: LAPACK block size used to size the work arrays.
@@ -123,8 +124,10 @@ class QRComplement(ComplementStrategy):
     redundant constraints are handled.
 
     It needs no iteration, unlike the SVD, and forms Q with one matrix
-    product for large n (see :data:`WY_MIN_N`): about 4-7 times faster than
-    ``svd`` for psi of 30 x 300 and 100 x 1000, and as fast for tiny psi
+    product for large n (see :data:`WY_MIN_N`): 3.3 and 8 times faster than
+    ``svd`` for psi of 30 x 300 and 100 x 1000, as fast at 9 x 33, and
+    10-30 µs slower on the tiny psi of rigid loops (2 x 3: 76 against
+    48 µs), where Python overhead dominates
     (``benchmarks/complements_speed.py``). Pivoted QR reveals the rank
     reliably in practice but not always (Kahan's matrix); when a diagonal
     ratio lies near ``rtol``, prefer ``svd`` or ``auto``.

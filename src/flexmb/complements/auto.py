@@ -76,7 +76,7 @@ class AutoComplement(ComplementStrategy):
     band: float = field(default=100.0, validator=_positive)
 
     def _decide(self, psi: np.ndarray):
-        """('svd', None) or ('qr', (Q, R, piv, rank)) for a nonzero finite psi."""
+        """Apply the rule to a nonzero finite psi: ``('svd', None)`` or ``('qr', (Q, R, piv, rank))``."""
         if psi.shape[1] < self.min_n:
             return "svd", None
         Q, R, piv = pivoted_qr(psi)

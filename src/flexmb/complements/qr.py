@@ -7,7 +7,7 @@ from scipy.linalg import lapack
 
 from .base import Complement, ComplementStrategy
 
-__all__ = ["QRComplement", "pivoted_qr"]
+__all__ = ["QRComplement", "complement_from_qr", "pivoted_qr", "qr_rank"]
 
 #: Number of coordinates n from which the orthogonal factor Q (n x n) is
 #: formed as ``I - V S V^T`` with one matrix product (compact WY form,
@@ -63,7 +63,8 @@ def pivoted_qr(psi: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
     Notes
     -----
-    Calls LAPACK ``dgeqp3`` directly (scipy.linalg.qr would add about 25 µs
+    Q is the n x n orthogonal factor whose trailing columns span the null
+    space of psi (eqs. 30-39). Calls LAPACK ``dgeqp3`` directly (scipy.linalg.qr would add about 25 µs
     of checks per call on the tiny matrices of rigid loops).
     """
     m, n = psi.shape
@@ -80,7 +81,20 @@ def pivoted_qr(psi: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def qr_rank(R: np.ndarray, tol: float) -> int:
-    """Numerical rank from the diagonal of R: the count of ``|R_ii| > tol |R_00|``."""
+    """Numerical rank from the diagonal of a pivoted QR's R: the count of ``|R_ii| > tol |R_00|``.
+
+    Parameters
+    ----------
+    R : ndarray, shape (k, m)
+        Upper-trapezoidal factor of :func:`pivoted_qr`, ``R[0, 0] != 0``.
+    tol : float
+        Relative zero tolerance.
+
+    Returns
+    -------
+    int
+        The numerical rank.
+    """
     d = np.abs(np.diagonal(R))
     return int(np.sum(d > tol * d[0]))
 
@@ -95,6 +109,21 @@ def complement_from_qr(psi: np.ndarray, Q: np.ndarray, R: np.ndarray, piv: np.nd
     and upper-triangular K (r x r): a complete orthogonal decomposition
     ``psi ≈ left K basis^T``, whose minimum-norm least-squares solution is
     ``basis K^-1 left^T rhs`` (Golub & Van Loan 5.5.6).
+
+    Parameters
+    ----------
+    psi : ndarray, shape (m, n)
+        Constraint Jacobian (eq. 29).
+    Q, R, piv : ndarray
+        Its pivoted QR, from :func:`pivoted_qr`.
+    rank : int
+        Numerical rank r, from :func:`qr_rank`.
+
+    Returns
+    -------
+    Complement
+        T (n x (n - r)), the row-space basis, ``left`` (m x r) and the
+        triangular ``factor`` K (r x r).
     """
     m = psi.shape[0]
     r = rank

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 from scipy.linalg import lapack
 
@@ -20,6 +22,14 @@ WY_MIN_N = 96
 
 #: LAPACK block size used to size the work arrays.
 _NB = 32
+
+
+@lru_cache(maxsize=64)
+def _upper(k: int, m: int) -> np.ndarray:
+    """Mask of the upper trapezoid of a k x m array (np.triu costs 5 µs per call on tiny arrays)."""
+    mask = np.triu(np.ones((k, m)))
+    mask.flags.writeable = False
+    return mask
 
 
 def _q_by_wy(qr: np.ndarray, tau: np.ndarray) -> np.ndarray:
@@ -70,7 +80,7 @@ def pivoted_qr(psi: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     m, n = psi.shape
     qr, jpvt, tau, _, _ = lapack.dgeqp3(np.array(psi.T, order="F"), lwork=2 * m + (m + 1) * _NB, overwrite_a=1)
     k = tau.shape[0]
-    R = np.triu(qr[:k])
+    R = qr[:k] * _upper(k, m)
     if n >= WY_MIN_N:
         Q = _q_by_wy(qr, tau)
     else:
@@ -129,7 +139,7 @@ def complement_from_qr(psi: np.ndarray, Q: np.ndarray, R: np.ndarray, piv: np.nd
     r = rank
     # thin QR R[:r]^T = left_p K through LAPACK (numpy's qr costs 30 µs on a 2 x 2)
     qr2, tau2, _, _ = lapack.dgeqrf(np.array(R[:r].T, order="F"), lwork=max(1, r * _NB), overwrite_a=1)
-    K = np.triu(qr2[:r])
+    K = qr2[:r] * _upper(r, r)
     left_p, _, _ = lapack.dorgqr(qr2, tau2, lwork=max(1, r * _NB), overwrite_a=1)  # (m, r)
     left = np.empty((m, r))
     left[piv] = left_p

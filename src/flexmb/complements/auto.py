@@ -23,9 +23,9 @@ class AutoComplement(ComplementStrategy):
 
     The rule, applied to each psi (m x n) passed to :meth:`complement`:
 
-    1. if ``n < min_n`` (default 40), use the SVD: for such small matrices
-       it is as fast as the QR or faster (the QR path makes more Python
-       calls), and it is the safer;
+    1. if ``n < min_n`` (default 20), use the SVD: for such small matrices
+       it is as fast as the QR or a few microseconds faster (the QR path
+       makes more Python calls), and it is the safer;
     2. otherwise factor ``psi^T P = Q R`` (:class:`~flexmb.complements.QRComplement`)
        and look at the diagonal ratios ``rho_i = |R_ii| / |R_00|``. If none
        lies within a factor ``band`` (default 100) of the tolerance, i.e.
@@ -35,12 +35,12 @@ class AutoComplement(ComplementStrategy):
        value ratios ``s_i / s_0``) and the SVD decides.
 
     Both thresholds are measured (``benchmarks/complements_speed.py``,
-    single-threaded BLAS, on a loaded 2-core machine): with ``m = n/3 + 1``
-    the QR and the SVD take the same time at n of about 33 (45 µs), and
-    the QR is faster from n = 64 (121 against 194 µs), 3.3 times faster at
-    30 x 300 and 8 times at 100 x 1000; below n = 12 the SVD is up to
-    35 µs faster. Over 340 random psi up to 200 x 800 with graded spectra
-    (singular values down to 1e-16) and row scalings from 0.1 to 10,
+    single-threaded BLAS, two runs on a loaded 2-core machine): with
+    ``m = n/3 + 1`` the QR and the SVD cost the same (20-50 µs) up to
+    n = 16, and the QR is faster from n = 24 on (51 against 71 µs), 2.7-3
+    times faster at 30 x 300 and 7.5-11 times at 100 x 1000. Over 340 random
+    psi up to 200 x 800 with graded spectra (singular values down to 1e-16)
+    and row scalings from 0.1 to 10,
     ``rho_i`` differed from ``s_i / s_0`` by at most a factor 7.1, so a band
     of 100 leaves a margin of 14. An ambiguous case costs one QR on top of
     the SVD.
@@ -72,7 +72,7 @@ class AutoComplement(ComplementStrategy):
     name = "auto"
     default_rtol = 1e-10
 
-    min_n: int = field(default=40, validator=_positive)
+    min_n: int = field(default=20, validator=_positive)
     band: float = field(default=100.0, validator=_positive)
 
     def _decide(self, psi: np.ndarray):

@@ -34,7 +34,7 @@ NAMES = ("eigen", "svd", "qr", "auto")
 #: (label, m, n, rank or None for full rank)
 SHAPES = [
     ("four-bar, planar cut", 2, 3, None),
-    ("flexible wiper", 9, 33, None),
+    ("random, wiper size", 9, 33, None),
     ("four-bar, spatial cut (redundant)", 5, 3, 2),
     ("medium", 30, 300, None),
     ("large", 100, 1000, None),
@@ -47,6 +47,17 @@ def make_psi(rng, m, n, rank=None):
     U, _ = np.linalg.qr(rng.normal(size=(m, r)))
     V, _ = np.linalg.qr(rng.normal(size=(n, r)))
     return (U * rng.uniform(0.5, 5.0, r)) @ V.T
+
+
+def wiper_psi():
+    """The wiper's actual psi (9 x 33) at its assembled initial state."""
+    from flexmb.scenes.wiper import wiper
+
+    model, initial = wiper()
+    system = model.build()
+    x0, xd0 = fm.initial_state(system, positions=initial)
+    _, psi, _ = system.constraints.evaluate(system.kinematics(0.0, x0, xd0), level=1)
+    return psi
 
 
 def best_us(fn, repeat=5):
@@ -64,10 +75,11 @@ def main():
     strategies = {name: fm.get_complement(name) for name in NAMES}
     rows = []
     print(f"{'case':<36} {'m x n':>10} " + " ".join(f"{n + ' us':>10}" for n in NAMES) + "  svd/qr  |dP|max")
-    for label, m, n, rank in SHAPES:
+    for label, m, n, rank in [*SHAPES, ("wiper, actual psi", 9, 33, "wiper")]:
         if args.quick and n > 500:
             continue
-        psi = make_psi(rng, m, n, rank)
+        psi = wiper_psi() if rank == "wiper" else make_psi(rng, m, n, rank)
+        m, n = psi.shape
         ref = strategies["svd"].complement(psi)
         P = ref.T @ ref.T.T
         dev = max(np.abs(strategies[s].complement(psi).T @ strategies[s].complement(psi).T.T - P).max()

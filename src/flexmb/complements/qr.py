@@ -164,8 +164,8 @@ class QRComplement(ComplementStrategy):
 
     It needs no iteration, unlike the SVD, and forms Q with one matrix
     product for large n (see :data:`WY_MIN_N`): 2.7-3 and 7.5-11 times
-    faster than ``svd`` for psi of 30 x 300 and 100 x 1000, about 10 %
-    faster at 9 x 33, and up to 8 µs (20 %) slower on the tiny psi of rigid
+    faster than ``svd`` for psi of 30 x 300 and 100 x 1000, as fast on
+    the wiper's 9 x 33 (about 40 µs), and up to 8 µs (20 %) slower on the tiny psi of rigid
     loops, where Python overhead dominates
     (``benchmarks/complements_speed.py``). Pivoted QR reveals the rank
     reliably in practice but not always (Kahan's matrix); when a diagonal

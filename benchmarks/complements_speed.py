@@ -33,9 +33,9 @@ NAMES = ("eigen", "svd", "qr", "auto")
 
 #: (label, m, n, rank or None for full rank)
 SHAPES = [
-    ("four-bar, planar cut", 2, 3, None),
+    ("random, four-bar size, planar cut", 2, 3, None),
     ("random, wiper size", 9, 33, None),
-    ("four-bar, spatial cut (redundant)", 5, 3, 2),
+    ("random, four-bar size, spatial cut", 5, 3, 2),
     ("medium", 30, 300, None),
     ("large", 100, 1000, None),
 ]

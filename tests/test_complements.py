@@ -20,6 +20,16 @@ What is checked
   all-zero psi give ``T = I``, non-finite psi raises ``AssemblyError``.
 * The eigen and SVD strategies give the same null-space projector
   ``T T^T`` to ``1e-10``.
+* ``qr`` and ``auto`` (also forced through its QR branch with ``min_n=1``)
+  give the same rank, null-space projector ``T T^T`` and row-space
+  projector as ``svd`` and ``eigen`` to ``1e-10``, and particular solutions
+  equal to LAPACK's minimum-norm least squares (``np.linalg.lstsq``) for
+  consistent and inconsistent right-hand sides, on the random cases above,
+  on larger ones (9 x 33 up to 70 x 60, redundant rows) and on a Sarrus
+  6R loop (two triples of parallel axes: rank 5 by construction); Q from
+  LAPACK ``dorgqr`` and from the compact WY product agree; ``auto`` picks
+  the SVD for small n and for diagonal ratios near ``rtol``; four-bar
+  runs with ``qr`` and ``auto`` follow the ``svd`` run to ``1e-8``.
 * The planar four-bar with a spatial revolute cut joint has 3 coordinates,
   5 constraint rows and ``rank(psi) = 2`` (three rows are redundant), so
   ``p = 1``; ``T`` is the direction of the loop's motion obtained
@@ -52,8 +62,9 @@ TOL = 1e-12
 
 # -- selection ---------------------------------------------------------------
 
-def test_registry_holds_eigen_and_svd():
-    assert fm.COMPLEMENTS == {"eigen": fm.EigenComplement, "svd": fm.SVDComplement}
+def test_registry_holds_eigen_svd_qr_auto():
+    assert fm.COMPLEMENTS == {"eigen": fm.EigenComplement, "svd": fm.SVDComplement, "qr": fm.QRComplement,
+                              "auto": fm.AutoComplement}
     for name, cls in fm.COMPLEMENTS.items():
         assert issubclass(cls, ComplementStrategy)
         assert cls.name == name
@@ -74,7 +85,7 @@ def test_get_complement_by_name_class_instance(name):
     assert type(system.strategy) is cls
 
 
-@pytest.mark.parametrize("bad", ["qr", "SVD", "", 42, ["svd"], int, None])
+@pytest.mark.parametrize("bad", ["lu", "SVD", "", 42, ["svd"], int, None])
 def test_unknown_strategy_raises_model_error_listing_names(bad):
     with pytest.raises(fm.ModelError) as info:
         fm.get_complement(bad)
@@ -164,8 +175,11 @@ def check_complement(c, psi, rank, tol=TOL):
     assert np.max(np.abs(c.T.T @ c.T - np.eye(n - rank)), initial=0.0) <= tol
     Q = np.hstack([c.basis, c.T])  # row space + null space = R^n, orthogonal
     assert np.max(np.abs(Q.T @ Q - np.eye(n))) <= tol
-    # psi basis = left diag(scale), with orthonormal left
-    assert np.max(np.abs(psi @ c.basis - c.left * c.scale), initial=0.0) <= tol * smax
+    # psi basis = left K, with orthonormal left; K = diag(scale) for an SVD, upper triangular otherwise
+    K = np.diag(c.scale) if c.factor is None else c.factor
+    assert K.shape == (rank, rank) and np.allclose(np.abs(np.diag(K)), c.scale, rtol=1e-14, atol=0)
+    assert np.all(np.tril(K, -1) == 0.0)
+    assert np.max(np.abs(psi @ c.basis - c.left @ K), initial=0.0) <= tol * smax
     assert np.max(np.abs(c.left.T @ c.left - np.eye(rank)), initial=0.0) <= tol
 
 
@@ -230,7 +244,7 @@ def test_rtol_decides_what_counts_as_zero(name):
     V, _ = np.linalg.qr(np.random.default_rng(3).normal(size=(4, 4)))
     psi = np.diag([2.0, 1.0, 1e-4]) @ V[:3]  # singular values 2, 1, 1e-4 (squares 4, 1, 1e-8)
     assert cls().complement(psi).rank == 3
-    loose = cls(rtol=1e-3 if name == "svd" else 1e-6).complement(psi)
+    loose = cls(rtol=1e-6 if name == "eigen" else 1e-3).complement(psi)
     assert loose.rank == 2 and loose.p == 2
     np.testing.assert_allclose(loose.T @ loose.T.T, V[2:].T @ V[2:], rtol=0, atol=1e-12)
 
@@ -308,3 +322,179 @@ def test_system_counts_complement_calls():
     before = system.n_complements
     system.accelerations(0.0, x, np.zeros(3))
     assert system.n_complements == before + 1
+
+
+# -- qr and auto: against svd and eigen ------------------------------------------
+
+def sarrus_psi(rng):
+    """Loop Jacobian (6 x 6 twists) of a Sarrus linkage: two groups of three parallel revolute axes.
+
+    Each group of parallel axes (direction a) spans the twists {(t a; v), v
+    perpendicular to a} (dimension 3); the two spans meet in the pure
+    translation along a x b, so rank 5 and one degree of freedom, whatever
+    the axis positions (overconstrained, like Bricard's 6R loops).
+    """
+    a, b = np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.6, 0.8])
+    points = rng.uniform(-0.5, 0.5, size=(6, 3))
+    axes = np.array([a, a, a, b, b, b])
+    return np.vstack([axes.T, np.cross(points, axes).T])  # (omega; p x omega) per column
+
+
+def large_cases():
+    """(id, builder(rng) -> psi, rank) with n >= AutoComplement.min_n, so auto takes its QR branch."""
+
+    def wiper_like(rng):
+        return well_conditioned(rng, 9, 33)
+
+    def medium(rng):
+        return well_conditioned(rng, 30, 300)
+
+    def medium_deficient(rng):
+        return low_rank(rng, 40, 120, 27)
+
+    def tall_deficient(rng):
+        return low_rank(rng, 70, 60, 45)
+
+    def redundant_rows(rng):
+        a = well_conditioned(rng, 20, 80)
+        return np.vstack([a, rng.normal(size=(6, 20)) @ a])[rng.permutation(26)]
+
+    return [
+        pytest.param(wiper_like, 9, id="9x33"),
+        pytest.param(medium, 30, id="30x300"),
+        pytest.param(medium_deficient, 27, id="40x120-rank27"),
+        pytest.param(tall_deficient, 45, id="70x60-rank45"),
+        pytest.param(redundant_rows, 20, id="26x80-redundant"),
+    ]
+
+
+QR_LIKE = [pytest.param(lambda: fm.QRComplement(), id="qr"),
+           pytest.param(lambda: fm.AutoComplement(), id="auto"),
+           pytest.param(lambda: fm.AutoComplement(min_n=1), id="auto-always-tries-qr")]
+
+
+def check_against_svd_and_eigen(c, psi, rank, rng):
+    cs = fm.SVDComplement().complement(psi)
+    ce = fm.EigenComplement().complement(psi)
+    assert c.rank == cs.rank == ce.rank == rank
+    P = c.T @ c.T.T
+    np.testing.assert_allclose(P, cs.T @ cs.T.T, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(P, ce.T @ ce.T.T, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(c.basis @ c.basis.T, cs.basis @ cs.basis.T, rtol=0, atol=1e-10)
+    scale = np.linalg.norm(psi, 2)
+    for rhs in (psi @ rng.normal(size=psi.shape[1]), rng.normal(size=psi.shape[0])):  # consistent, and not
+        x = c.particular(rhs)
+        ref = np.linalg.lstsq(psi, rhs, rcond=None)[0]  # LAPACK gelsd: minimum-norm least squares
+        size = max(1.0, np.abs(ref).max())
+        np.testing.assert_allclose(x, ref, rtol=0, atol=1e-10 * size)
+        np.testing.assert_allclose(x, cs.particular(rhs), rtol=0, atol=1e-10 * size)
+        assert np.linalg.norm(psi.T @ (psi @ x - rhs)) <= 1e-10 * scale**2 * size  # normal equations
+
+
+@pytest.mark.parametrize("make_strategy", QR_LIKE)
+@pytest.mark.parametrize("make, rank", [*psi_cases(), *large_cases()])
+def test_qr_and_auto_match_svd_and_eigen(make_strategy, make, rank):
+    rng = np.random.default_rng(31 + rank)
+    strategy = make_strategy()
+    for _ in range(2):
+        psi = make(rng)
+        c = strategy.complement(psi)
+        check_complement(c, psi, rank)
+        check_against_svd_and_eigen(c, psi, rank, rng)
+
+
+@pytest.mark.parametrize("make_strategy", QR_LIKE)
+def test_sarrus_loop_is_rank_five(make_strategy):
+    rng = np.random.default_rng(6)
+    for _ in range(5):
+        psi = sarrus_psi(rng)
+        c = make_strategy().complement(psi)
+        check_complement(c, psi, 5)
+        check_against_svd_and_eigen(c, psi, 5, rng)
+
+
+def test_both_ways_of_forming_q_agree(monkeypatch):
+    """Q from LAPACK dorgqr and from the compact WY product I - V S V^T give the same complement."""
+    from flexmb.complements import qr as qrmod
+
+    rng = np.random.default_rng(12)
+    for psi in (low_rank(rng, 40, 120, 27), well_conditioned(rng, 12, 20), well_conditioned(rng, 8, 5),
+                low_rank(rng, 9, 9, 9)):
+        runs = []
+        for threshold in (0, 10**9):
+            monkeypatch.setattr(qrmod, "WY_MIN_N", threshold)
+            Q, R, piv = qrmod.pivoted_qr(psi)
+            np.testing.assert_allclose(Q.T @ Q, np.eye(psi.shape[1]), rtol=0, atol=1e-13)
+            np.testing.assert_allclose(Q[:, :R.shape[0]] @ R, psi.T[:, piv], rtol=0, atol=1e-13 * np.abs(psi).max())
+            runs.append(Q)
+        np.testing.assert_allclose(runs[0], runs[1], rtol=0, atol=1e-12)
+
+
+def test_qr_diagonal_orders_and_reveals_rank():
+    from flexmb.complements.qr import pivoted_qr
+
+    rng = np.random.default_rng(4)
+    psi = low_rank(rng, 10, 14, 6)
+    _, R, piv = pivoted_qr(psi)
+    d = np.abs(np.diag(R))
+    assert np.all(np.diff(d) <= 1e-14 * d[0])  # non-increasing
+    assert d[5] / d[0] > 1e-3 and d[6] / d[0] < 1e-14
+    assert sorted(piv) == list(range(10))
+
+
+def test_auto_chooses_by_size_and_conditioning():
+    rng = np.random.default_rng(8)
+    auto = fm.AutoComplement()
+    assert auto.min_n == 20 and auto.band == 100.0
+    assert auto.choose(well_conditioned(rng, 2, 3)) == "svd"  # tiny: svd
+    assert auto.choose(well_conditioned(rng, 6, 19)) == "svd" and auto.choose(well_conditioned(rng, 6, 20)) == "qr"
+    assert auto.choose(low_rank(rng, 5, 3, 2)) == "svd"
+    assert auto.choose(well_conditioned(rng, 30, 300)) == "qr"  # large, clear rank
+    assert auto.choose(low_rank(rng, 40, 120, 27)) == "qr"
+    assert auto.choose(np.zeros((3, 50))) == "svd" and auto.choose(np.zeros((0, 50))) == "svd"
+    # singular values 1 ... and one at 1e-9 or 3e-11: the last diagonal ratio falls within
+    # a factor 100 of rtol = 1e-10, so the SVD decides the rank (20 and 19)
+    U, _ = np.linalg.qr(rng.normal(size=(20, 20)))
+    V, _ = np.linalg.qr(rng.normal(size=(60, 20)))
+    for small, rank in ((1e-9, 20), (3e-11, 19)):
+        s = np.r_[rng.uniform(0.5, 2.0, 19), small]
+        psi = (U * s) @ V.T
+        assert auto.choose(psi) == "svd"
+        c = auto.complement(psi)
+        assert c.rank == rank and c.factor is None  # an SVD complement
+        cs = fm.SVDComplement().complement(psi)
+        np.testing.assert_allclose(c.T @ c.T.T, cs.T @ cs.T.T, rtol=0, atol=1e-12)
+    # the same spectrum with the small value well below the band: qr
+    s = np.r_[rng.uniform(0.5, 2.0, 19), 1e-14]
+    assert auto.choose((U * s) @ V.T) == "qr"
+    assert auto.complement((U * s) @ V.T).rank == 19
+    # a narrower band hands the 1e-9 case to qr, whose rank agrees
+    narrow = fm.AutoComplement(band=5.0)
+    psi = (U * np.r_[rng.uniform(0.5, 2.0, 19), 1e-9]) @ V.T
+    assert narrow.choose(psi) == "qr" and narrow.complement(psi).rank == 20
+
+
+def test_auto_and_qr_construction_and_repr():
+    assert repr(fm.AutoComplement()) == "AutoComplement(rtol=None, min_n=20, band=100.0)"
+    assert repr(fm.QRComplement(rtol=1e-8)) == "QRComplement(rtol=1e-08)"
+    assert fm.QRComplement().tol == 1e-10 and fm.AutoComplement(rtol=1e-6).tol == 1e-6
+    for bad in ({"min_n": 0}, {"band": 0.0}, {"band": -2.0}):
+        (key, value), = bad.items()
+        with pytest.raises(ValueError, match=f"AutoComplement: {key} must be > 0, got {value!r}"):
+            fm.AutoComplement(**bad)
+
+
+@pytest.mark.parametrize("cut", [fm.PlanarRevolute, fm.Revolute], ids=["planar-cut", "spatial-cut"])
+def test_fourbar_simulation_with_qr_and_auto_agrees_with_svd(cut):
+    runs = {}
+    # "auto" takes the svd branch on this 3-coordinate loop; min_n=1 sends it through its qr branch
+    for key, strategy in (("svd", "svd"), ("qr", "qr"), ("auto", "auto"), ("auto-qr", fm.AutoComplement(min_n=1))):
+        res = fm.simulate(fourbar(cut), 0.3, positions=fourbar_initial(), fixed=["A"], complement=strategy,
+                          rtol=1e-10, atol=1e-12, t_eval=np.linspace(0.0, 0.3, 31))
+        assert res.complement == key.split("-")[0] and res.status == "finished"
+        runs[key] = res
+    ref = runs["svd"]
+    assert np.ptp(ref.x[:, 0]) > 0.1  # it moves
+    for name in ("qr", "auto", "auto-qr"):
+        assert np.abs(runs[name].x - ref.x).max() < 1e-8
+        assert np.abs(runs[name].xd - ref.xd).max() < 1e-8 * np.abs(ref.xd).max()

@@ -211,8 +211,9 @@ def test_register_refuses_bad_input():
 def test_unknown_names_list_the_valid_ones():
     with pytest.raises(PluginError, match=r"no joints plugin named 'hinge'; pick one of \['cylindrical'"):
         registry.get("joints", "hinge")
-    with pytest.raises(ModelError, match=r"unknown complement strategy 'qr'; pick one of \['eigen', 'svd'\]"):
-        fm.get_complement("qr")
+    pattern = r"unknown complement strategy 'lu'; pick one of \['auto', 'eigen', 'qr', 'svd'\]"
+    with pytest.raises(ModelError, match=pattern):
+        fm.get_complement("lu")
     with pytest.raises(ModelError, match=r"unknown integrator 'Euler'; pick one of \['BDF', 'DOP853'"):
         fm.simulate(_pendulum(), 0.1, method="Euler")
 
@@ -269,7 +270,8 @@ EXPECTED = {
                "velocity_weakening_friction": flexmb_friction.VelocityWeakeningFriction,
                "coulomb_friction": flexmb_friction.CoulombFriction,
                "viscous_friction": flexmb_friction.ViscousFriction},
-    "complements": {"eigen": fm.EigenComplement, "svd": fm.SVDComplement},
+    "complements": {"eigen": fm.EigenComplement, "svd": fm.SVDComplement, "qr": fm.QRComplement,
+                    "auto": fm.AutoComplement},
     "integrators": {"RK45": RK45, "RK23": RK23, "DOP853": DOP853, "Radau": Radau, "BDF": BDF, "LSODA": LSODA},
 }
 BUILTIN_NAMES = [(kind, name) for kind, table in EXPECTED.items() for name in table]

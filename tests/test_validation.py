@@ -555,13 +555,13 @@ def test_joint_spring_on_cut_joint_fails_at_build():
 
 
 def test_unknown_complement_strategy():
-    pattern = r"unknown complement strategy 'qr'; pick one of \['eigen', 'svd'\]"
+    pattern = r"unknown complement strategy 'lu'; pick one of \['auto', 'eigen', 'qr', 'svd'\]"
     with pytest.raises(fm.ModelError, match=pattern):
-        fm.get_complement("qr")
+        fm.get_complement("lu")
     with pytest.raises(fm.ModelError, match=pattern):
-        pendulum().build(complement="qr")
+        pendulum().build(complement="lu")
     with pytest.raises(fm.ModelError, match=pattern):
-        fm.simulate(pendulum(), 1.0, complement="qr")
+        fm.simulate(pendulum(), 1.0, complement="lu")
     with pytest.raises(fm.ModelError, match=r"unknown complement strategy None"):
         fm.get_complement(None)
 

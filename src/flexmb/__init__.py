@@ -20,6 +20,7 @@ from .result import Result
 from .simulate import INTEGRATORS, initial_state, simulate
 from .system import System
 from .scene import Scene, load_scene, loads_scene
+from .complements import AutoComplement, QRComplement
 
 __version__ = "0.1.0"
 
@@ -35,4 +36,5 @@ __all__ = [
     "Model", "PluginInfo", "plugins", "register", "Result", "INTEGRATORS", "initial_state", "simulate", "System",
     "Scene", "SceneError", "load_scene", "loads_scene",
     "StiffnessWarning",
+    "AutoComplement", "QRComplement",
 ]

@@ -65,7 +65,8 @@ BUILTINS = {
         "coulomb_friction": "flexmb_friction:CoulombFriction",
         "viscous_friction": "flexmb_friction:ViscousFriction",
     },
-    "complements": {"eigen": "flexmb.complements:EigenComplement", "svd": "flexmb.complements:SVDComplement"},
+    "complements": {"eigen": "flexmb.complements:EigenComplement", "svd": "flexmb.complements:SVDComplement",
+                    "qr": "flexmb.complements:QRComplement", "auto": "flexmb.complements:AutoComplement"},
     "integrators": {name: f"scipy.integrate:{name}" for name in ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")},
 }
 
@@ -315,7 +316,7 @@ def plugins(kind: str | None = None) -> list[PluginInfo]:
     --------
     >>> import flexmb
     >>> [p.name for p in flexmb.plugins("complements")]
-    ['eigen', 'svd']
+    ['auto', 'eigen', 'qr', 'svd']
     """
     kinds = list(KINDS) if kind is None else [_kind(kind)]
     rows = []

@@ -7,10 +7,13 @@ from ..errors import ModelError
 from .base import Complement, ComplementStrategy
 from .eigen import EigenComplement
 from .svd import SVDComplement
+from .qr import QRComplement
+from .auto import AutoComplement
 
-__all__ = ["Complement", "ComplementStrategy", "EigenComplement", "SVDComplement", "COMPLEMENTS", "get_complement"]
+__all__ = ["Complement", "ComplementStrategy", "EigenComplement", "SVDComplement", "COMPLEMENTS", "get_complement",
+           "QRComplement", "AutoComplement"]
 
-COMPLEMENTS = {"eigen": EigenComplement, "svd": SVDComplement}
+COMPLEMENTS = {"eigen": EigenComplement, "svd": SVDComplement, "qr": QRComplement, "auto": AutoComplement}
 
 
 def get_complement(strategy) -> ComplementStrategy:
@@ -19,7 +22,7 @@ def get_complement(strategy) -> ComplementStrategy:
     Parameters
     ----------
     strategy : str, type or ComplementStrategy
-        ``"eigen"``, ``"svd"``, a plugin's name (entry-point group
+        ``"eigen"``, ``"svd"``, ``"qr"``, ``"auto"``, a plugin's name (entry-point group
         ``flexmb.complements``), a subclass, or an instance.
 
     Returns

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 from attrs import define, field, frozen
+from scipy.linalg import solve_triangular
 
 from ..errors import AssemblyError, ModelError
 
@@ -26,7 +27,12 @@ class Complement:
     scale : ndarray, shape (rank,)
         Singular values of psi on ``basis`` (``psi basis = U diag(scale)``).
     left : ndarray, shape (m, rank)
-        Left singular vectors ``U``.
+        Left singular vectors ``U`` (an orthonormal basis of the range of psi).
+    factor : ndarray, shape (rank, rank), optional
+        Upper-triangular K with ``psi basis = left K``, for strategies that
+        are not an SVD (``qr``: a complete orthogonal decomposition); then
+        ``scale`` holds ``|diag(K)|``. None (the default) means
+        ``K = diag(scale)``.
     """
 
     T: np.ndarray
@@ -34,6 +40,7 @@ class Complement:
     basis: np.ndarray
     scale: np.ndarray
     left: np.ndarray
+    factor: np.ndarray | None = None
 
     @property
     def p(self) -> int:
@@ -53,6 +60,8 @@ class Complement:
         ndarray, shape (n,)
             ``x = psi^+ rhs``.
         """
+        if self.factor is not None:  # psi = left K basis^T: x = basis K^-1 left^T rhs
+            return self.basis @ solve_triangular(self.factor, self.left.T @ rhs, check_finite=False)
         return self.basis @ ((self.left.T @ rhs) / self.scale)
 
     def truncated(self, rank: int) -> "Complement":

@@ -35,3 +35,8 @@ __all__ = [
     "Model", "PluginInfo", "plugins", "register", "Result", "INTEGRATORS", "initial_state", "simulate", "System",
     "Scene", "SceneError", "load_scene", "loads_scene",
 ]
+
+from .scene import scene_from_dict
+from .study import Study, StudyResult, run_study
+
+__all__ += ["scene_from_dict", "Study", "StudyResult", "run_study"]

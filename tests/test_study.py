@@ -57,7 +57,7 @@ speeds = { pin = 0.0 }
 
 [solver]
 t_end = 1.0
-rtol = 1e-10
+rtol = 1e-8
 n_out = 1001
 
 [output.points.tip]
@@ -248,13 +248,13 @@ def _exit_for_heavy_bars(scene, result):
 
 
 def test_dead_worker_process_is_recorded_and_the_others_finish(scene_file, tmp_path):
-    study = Study.from_file(scene_file, {"bodies.bar.mass": [1.0, 3.0, 2.0, 4.0]},
+    study = Study.from_file(scene_file, {"bodies.bar.mass": [1.0, 3.0, 2.0]},
                             outputs=[("t_end", _exit_for_heavy_bars)], fixed={"solver.t_end": 0.2})
     res = study.run(tmp_path, executor="process", workers=2, progress=False)
     status = {r["parameters"]["bodies.bar.mass"]: (r["status"], r["error"]) for r in res.rows}
     assert status[3.0] == ("failed", "worker process died while running this case")
-    assert [status[m][0] for m in (1.0, 2.0, 4.0)] == ["finished"] * 3
-    assert res.column("t_end")[[0, 2, 3]] == pytest.approx([0.2] * 3, rel=1e-14)
+    assert [status[m][0] for m in (1.0, 2.0)] == ["finished"] * 2
+    assert res.column("t_end")[[0, 2]] == pytest.approx([0.2] * 2, rel=1e-14)
 
 
 def test_interrupted_study_resumes_with_only_the_missing_cases(scene_file, tmp_path):

@@ -501,6 +501,11 @@ def _execute_serial(tasks, record, workers):
         record(task, _run_case(task))
 
 
+#: environment of the worker processes: one BLAS thread each, as Dask's nanny sets it, so that the
+#: workers do not oversubscribe the cores and the process pool and Dask give bit-identical results
+WORKER_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+
+
 def _execute_pool(tasks, record, workers):
     """A process pool with at most ``workers`` cases in flight.
 
@@ -513,6 +518,8 @@ def _execute_pool(tasks, record, workers):
     ctx = multiprocessing.get_context(_start_method())
     queue, suspects = deque(tasks), deque()
     pool = None
+    saved = {k: os.environ.get(k) for k in WORKER_ENV}
+    os.environ.update(WORKER_ENV)  # read by the workers' BLAS when they start (this process's is loaded)
     try:
         while queue or suspects:
             pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx)
@@ -544,6 +551,11 @@ def _execute_pool(tasks, record, workers):
     finally:
         if pool is not None:
             pool.shutdown(wait=False, cancel_futures=True)
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
 
 
 def _execute_dask(tasks, record, client):

@@ -125,8 +125,9 @@ def test_parameter_study(monkeypatch, tmp_path):
     assert len(list((tmp_path / "results" / "study_rigid" / "cases").glob("*.json"))) == 4
     # rigid blades: 0 degrees of freedom, so the motion ignores the friction and the motor's work
     # is affine in the normal load N (friction force = mu(v) N with v prescribed by the loops)
-    assert ns["tip_speed_spread"] < 1e-9
-    assert ns["work_nonlinearity"] < 1e-7
-    assert ns["work_slope"] > 0
+    assert ns["tip_speed_spread"] < 1e-6
+    assert ns["work_nonlinearity"] < 1e-8
+    assert ns["work_slope"] == pytest.approx(0.3151, rel=1e-3)
     assert np.all(np.diff(ns["torque"]) > 0)
-    assert np.all(ns["energy_balance"] < 1e-6)
+    # sum of the works = change of kinetic energy, in every case
+    assert np.all(ns["energy_balance"] < 1e-7)

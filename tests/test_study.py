@@ -88,6 +88,19 @@ def _comparable(result):
             for cells in result.table()]
 
 
+def _assert_same_table(a, b):
+    """Same columns, same rows, same text cells, floats equal to 1e-12 (relative)."""
+    assert a.columns == b.columns
+    ta, tb = _comparable(a), _comparable(b)
+    assert len(ta) == len(tb)
+    for ra, rb in zip(ta, tb):
+        for x, y in zip(ra, rb):
+            if isinstance(x, float):
+                assert x == pytest.approx(y, rel=1e-12, abs=1e-300)
+            else:
+                assert x == y
+
+
 @pytest.fixture(scope="module")
 def serial(scene_file, tmp_path_factory):
     return _study(scene_file).run(tmp_path_factory.mktemp("serial"), executor="serial", progress=False)
@@ -197,9 +210,8 @@ def test_table_files(serial):
 
 def test_process_pool_and_dask_give_the_serial_table(scene_file, serial, tmp_path):
     pool = _study(scene_file).run(tmp_path / "pool", executor="process", workers=2, progress=False)
-    assert pool.columns == serial.columns
-    assert _comparable(pool) == _comparable(serial)  # equal to the last bit, so also to 1e-12
-    assert len({r["worker"] for r in pool.rows}) >= 1
+    _assert_same_table(pool, serial)
+    assert len(pool.rows) == 6
     assert all(r["worker"].split(":")[1] != str(os.getpid()) for r in pool.rows)
 
     pytest.importorskip("distributed")
@@ -208,15 +220,9 @@ def test_process_pool_and_dask_give_the_serial_table(scene_file, serial, tmp_pat
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
                       dashboard_address=None) as cluster, Client(cluster) as client:
         dask = _study(scene_file).run(tmp_path / "dask", client=client, progress=False)
-    assert dask.columns == serial.columns
-    a, b = _comparable(dask), _comparable(serial)
-    for ra, rb in zip(a, b):
-        for x, y in zip(ra, rb):
-            if isinstance(x, float):
-                assert x == pytest.approx(y, rel=1e-12, abs=1e-300)
-            else:
-                assert x == y
-    assert len(a) == len(b) == 6
+    _assert_same_table(dask, serial)
+    _assert_same_table(dask, pool)
+    assert all(r["worker"].split(":")[1] != str(os.getpid()) for r in dask.rows)
 
 
 # ----------------------------------------------------------------------------- failures and resuming

@@ -98,8 +98,13 @@ def _study(args) -> int:
     study = Study.from_file(args.scene, {k: parse_spec(v) for k, v in vary.items()}, outputs=args.output,
                             fixed=fixed, samples=args.samples, seed=args.seed, sampling=args.sampling)
     executor = "serial" if args.serial else "process"
-    result = study.run(args.out, executor=executor, workers=args.workers, scheduler=args.scheduler,
-                       progress=not args.quiet, retry_failed=args.retry_failed)
+    try:
+        result = study.run(args.out, executor=executor, workers=args.workers, scheduler=args.scheduler,
+                           progress=not args.quiet, retry_failed=args.retry_failed)
+    except KeyboardInterrupt:
+        print(f"\nflexmb: interrupted: the finished cases are in {args.out}/cases/; "
+              "run the same command again to resume", file=sys.stderr)
+        return 130
     print(result.summary())
     print(f"wrote {args.out}/ (table.csv, table.npz, cases/, study.png, summary.txt)")
     return 1 if result.failed else 0

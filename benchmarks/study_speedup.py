@@ -14,10 +14,12 @@ It runs
 each into a fresh folder, and reports the wall time of each, the speed-up
 ``T(1 worker) / T(2 workers)``, and the overhead per case of each path: the
 time beyond the cases' own work, ``(workers * T - sum of case times) / n``,
-and the Dask path's extra time per case over the process pool's. A JSON line
+and the Dask path's extra time per case over the process pool's; then 150
+tiny cases (a pendulum for 0.01 s) on the pool and on Dask, where the
+overhead per case is all that is left. A JSON line
 per run goes to ``benchmarks/results/study_speedup.jsonl``.
 
-Run: ``python benchmarks/study_speedup.py [--t-end 0.5] [--repeat 1]``. It
+Run: ``python benchmarks/study_speedup.py [--t-end 0.5] [--repeat 1] [--overhead-only]``. It
 takes a few minutes. The machine's load (``os.getloadavg``) is printed: on a
 shared machine the speed-up is lower than the cores allow.
 """
@@ -59,7 +61,12 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--t-end", type=float, default=0.5)
     parser.add_argument("--repeat", type=int, default=1)
+    parser.add_argument("--tiny", type=int, default=150, help="number of tiny cases for the overhead")
+    parser.add_argument("--overhead-only", action="store_true", help="only the tiny-case overhead")
     args = parser.parse_args()
+    if args.overhead_only:
+        tiny_case_overhead(args.tiny)
+        return
     study = make_study(args.t_end)
     n = len(study.cases())
     print(f"{n} wiper cases, t_end {args.t_end} s; CPUs {os.cpu_count()}, load average before "
@@ -108,9 +115,47 @@ def main():
     if dask:
         print(f"Dask path minus process pool (2 workers each): "
               f"{(np.median(dask) - np.median(two)) / n * 2:+.3f} s per case (worker time)")
+    lines += tiny_case_overhead(args.tiny)
     with open(os.path.join(HERE, "results", "study_speedup.jsonl"), "a") as fh:
         for line in lines:
             fh.write(json.dumps(line) + "\n")
+
+
+def tiny_case_overhead(n: int) -> list:
+    """Overhead on tiny cases (a pendulum for 0.01 s), pool and Dask with 2 workers each.
+
+    Each path runs ``n`` and ``2 n`` cases; the worker time not spent in the
+    cases, ``2 wall - sum of case times``, is fitted as ``start-up + n *
+    per case``, so the pool's start-up (starting the processes, importing
+    flexmb) is apart from the cost of each case (sending the task and the
+    result, writing the case file).
+    """
+    try:
+        from distributed import Client, LocalCluster
+    except ImportError:
+        Client = None
+    out = []
+    print(f"overhead on tiny cases (pendulum, 0.01 s), 2 workers, {n} and {2 * n} cases:")
+    for label in ["process pool"] + (["dask LocalCluster"] if Client else []):
+        idle = []
+        for m in (n, 2 * n):
+            study = Study.from_file(os.path.join(HERE, "..", "tutorials", "01_pendulum.toml"),
+                                    {"bodies.bar.mass": f"lin:1:2:{m}"}, outputs=["final:pin"],
+                                    fixed={"solver.t_end": 0.01, "solver.n_out": 2})
+            if label == "process pool":
+                wall, res = timed(study, executor="process", workers=2)
+            else:
+                with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                  dashboard_address=None) as cluster, Client(cluster) as client:
+                    wall, res = timed(study, client=client)
+            idle.append(2 * wall - float(np.nansum(res.column("wall_time_s"))))
+        per_case = (idle[1] - idle[0]) / n
+        startup = idle[0] - n * per_case
+        print(f"  {label:<20} {per_case * 1e3:6.1f} ms per case, start-up {startup:5.2f} s of worker time"
+              + (" (cluster started beforehand)" if label.startswith("dask") else ""))
+        out.append({"tool": "flexmb", "scene": "pendulum tiny cases", "variant": label, "workers": 2, "n_cases": n,
+                    "overhead_per_case_s": per_case, "startup_s": startup, "load_average": os.getloadavg()[0]})
+    return out
 
 
 if __name__ == "__main__":

@@ -352,3 +352,22 @@ def test_cli_study(scene_file, tmp_path, capsys):
                  "--serial", "--quiet", "--out", str(tmp_path / "ok")]) == 0
     assert main(["study", str(scene_file), "--vary", "bodies.bar.mass", "--out", str(tmp_path / "x")]) == 2
     assert "write KEY=VALUE" in capsys.readouterr().err
+
+
+def test_time_series_outputs(scene_file, tmp_path):
+    res = Study.from_file(scene_file, {"bodies.bar.mass": [1.0, -1.0, 2.0]},
+                          outputs=["final:pin", "history:pin", "time"],
+                          fixed={"solver.t_end": 0.2, "solver.n_out": 11}).run(tmp_path, executor="serial",
+                                                                             progress=False)
+    history, t = res.column("history:pin"), res.column("time")
+    assert history.shape == t.shape == (3, 11)
+    assert np.all(np.isnan(history[1])) and t[0] == pytest.approx(np.linspace(0, 0.2, 11), abs=1e-15)
+    assert history[[0, 2], -1] == pytest.approx(res.column("final:pin")[[0, 2]], abs=0)
+    # released from rest at the horizontal: q = -(3 g / 2 L) t^2 / 2 for small t (angular acceleration 3 g / 2 L)
+    assert history[0, 1] == pytest.approx(-0.75 * G * 0.02**2, rel=1e-4)
+    assert res.scalar_outputs == ["final:pin"]
+    npz = np.load(tmp_path / "table.npz")
+    assert npz["history:pin"].shape == (3, 11)
+    assert (tmp_path / "study.png").is_file()
+    header, first = (tmp_path / "table.csv").read_text().splitlines()[:2]
+    assert json.loads(next(c for c in first.split('"') if c.startswith("[")))[-1] == history[0, -1]

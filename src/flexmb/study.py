@@ -359,6 +359,14 @@ def _minimum(scene, res, coordinate):
     return float(res.coordinate(coordinate).min())
 
 
+def _history(scene, res, coordinate):
+    return res.coordinate(coordinate).tolist()
+
+
+def _times(scene, res, _=None):
+    return res.t.tolist()
+
+
 def _max_residual(scene, res, _=None):
     return float(res.residual.max())
 
@@ -377,6 +385,8 @@ OUTPUTS = {
     "final": (_final, "coordinate", "value of a coordinate at t_end"),
     "max": (_maximum, "coordinate", "largest value of a coordinate"),
     "min": (_minimum, "coordinate", "smallest value of a coordinate"),
+    "history": (_history, "coordinate", "a coordinate at every output time (a time series)"),
+    "time": (_times, None, "the output times, s (a time series)"),
     "max_residual": (_max_residual, None, "largest loop-closure residual"),
     "n_rhs": (_n_rhs, None, "right-hand-side evaluations (the cost, machine-independent)"),
 }
@@ -403,6 +413,10 @@ def _check_output(spec, scene, system) -> None:
     if arg not in known:
         raise FlexmbError(f"output {spec!r}: write {name}:<{needs}>; {needs}s of this scene: "
                           f"{', '.join(known) or 'none'}")
+
+
+def _is_real(x) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool)
 
 
 def _output_name(spec) -> str:
@@ -966,18 +980,32 @@ class StudyResult:
 
         Returns
         -------
-        ndarray, shape (n_cases,)
-            Floats for numeric columns, else strings or objects.
+        ndarray, shape (n_cases,) or (n_cases, n_t)
+            Floats for numeric columns, a 2-d float array (padded with NaN)
+            for time series, else strings or objects.
         """
         if name not in self.columns:
             raise FlexmbError(f"no column {name!r}; columns: {', '.join(self.columns)}")
         values = [self._cell(r, name) for r in self.rows]
+        if name in self.outputs and any(isinstance(v, list) for v in values):
+            if all(v is None or (isinstance(v, list) and all(_is_real(x) for x in v)) for v in values):
+                n_t = max(len(v) for v in values if v is not None)
+                series = np.full((len(values), n_t), np.nan)
+                for i, v in enumerate(values):
+                    if v:
+                        series[i, :len(v)] = v
+                return series
         numeric = all(v is None or (isinstance(v, (int, float)) and not isinstance(v, bool)) for v in values)
         if numeric and name not in ("case_id",):
             return np.array([np.nan if v is None else v for v in values], dtype=float if name != "case" else int)
         if all(isinstance(v, str) for v in values):
             return np.array(values, dtype=str)
         return np.array(values, dtype=object)
+
+    @property
+    def scalar_outputs(self) -> list[str]:
+        """The outputs that are one number per case (not time series)."""
+        return [o for o in self.outputs if self.column(o).ndim == 1 and self.column(o).dtype.kind in "fi"]
 
     @staticmethod
     def _cell(row: dict, name: str):
@@ -1016,7 +1044,8 @@ class StudyResult:
         w = csv.writer(buf, lineterminator="\n")
         w.writerow(self.columns)
         for cells in self.table():
-            w.writerow(["" if v is None else (repr(v) if isinstance(v, float) else v) for v in cells])
+            w.writerow(["" if v is None else repr(v) if isinstance(v, float) else json.dumps(v)
+                        if isinstance(v, (list, dict)) else v for v in cells])
         files["csv"] = atomic_write(out / "table.csv", lambda tmp: Path(tmp).write_text(buf.getvalue()))
         arrays = {c: self.column(c) for c in self.columns}
         arrays = {c: (a.astype(str) if a.dtype == object else a) for c, a in arrays.items()}
@@ -1027,7 +1056,7 @@ class StudyResult:
         except ImportError:
             pass
         else:
-            tab = pa.table({c: arrays[c] for c in self.columns})
+            tab = pa.table({c: (list(arrays[c]) if arrays[c].ndim > 1 else arrays[c]) for c in self.columns})
             files["parquet"] = atomic_write(out / "table.parquet", lambda tmp: pq.write_table(tab, tmp))
         png = self.plot(out / "study.png")
         if png is not None:
@@ -1057,9 +1086,10 @@ class StudyResult:
         except ImportError:
             return None
         ok = np.array([r["status"] == "finished" for r in self.rows])
-        if not ok.any() or not self.outputs:
+        outputs = self.scalar_outputs
+        if not ok.any() or not outputs:
             return None
-        n_o, n_p = len(self.outputs), len(self.parameters)
+        n_o, n_p = len(outputs), len(self.parameters)
         fig, axes = plt.subplots(n_o, n_p, figsize=(3.4 * n_p + 0.6, 2.6 * n_o + 0.6), squeeze=False)
         for j, p in enumerate(self.parameters):
             x = self.column(p)
@@ -1067,7 +1097,7 @@ class StudyResult:
             # colour by the other parameters' combination, so each curve is one setting of them
             combo = [tuple(self._cell(r, q) for q in others) for r in self.rows]
             groups = list(dict.fromkeys(combo))
-            for i, o in enumerate(self.outputs):
+            for i, o in enumerate(outputs):
                 ax = axes[i, j]
                 y = self.column(o)
                 if x.dtype.kind not in "fi" or y.dtype.kind not in "fi":
@@ -1118,9 +1148,9 @@ class StudyResult:
         if self.outputs and n > len(bad):
             width = max(len(o) for o in self.outputs)
             lines.append(f"  {'output'.ljust(width)}  {'min':>12}  {'max':>12}  (case of max)")
-            for o in self.outputs:
+            for o in self.scalar_outputs:
                 y = self.column(o)
-                if y.dtype.kind not in "fi" or not np.isfinite(y).any():
+                if not np.isfinite(y).any():
                     continue
                 k = int(np.nanargmax(y))
                 lines.append(f"  {o.ljust(width)}  {np.nanmin(y):12.6g}  {np.nanmax(y):12.6g}  ({k})")

@@ -220,8 +220,19 @@ def test_process_pool_and_dask_give_the_serial_table(scene_file, serial, tmp_pat
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
                       dashboard_address=None) as cluster, Client(cluster) as client:
         dask = _study(scene_file).run(tmp_path / "dask", client=client, progress=False)
+        # the command line, pointed at the same cluster by its address
+        args = ["study", str(scene_file), "--vary", "bodies.bar.length=0.5,1.0,2.0", "--vary",
+                f"initial.positions.pin=0.0,{np.pi / 6!r}", "--set", "solver.t_end=1.0", "--quiet",
+                "--out", str(tmp_path / "cli")]
+        for o in OUTPUTS:
+            args += ["--output", o]
+        assert main(args + ["--scheduler", cluster.scheduler_address]) == 0
     _assert_same_table(dask, serial)
     _assert_same_table(dask, pool)
+    cli = Study.from_file(scene_file, {"bodies.bar.length": LENGTHS, "initial.positions.pin": [0.0, np.pi / 6]},
+                          outputs=OUTPUTS, fixed={"solver.t_end": 1.0}).run(tmp_path / "cli", progress=False)
+    assert cli.ran == [] and cli.skipped == 6  # same study: found done, read back from the case files
+    _assert_same_table(cli, serial)
     assert all(r["worker"].split(":")[1] != str(os.getpid()) for r in dask.rows)
 
 
@@ -348,8 +359,9 @@ def test_cli_study(scene_file, tmp_path, capsys):
     assert "bodies.bar.mass: must be > 0, got -2.0" in text
     manifest = json.loads((out / "study.json").read_text())
     assert manifest["parameters"] == ["bodies.bar.mass", "initial.positions.pin"]
-    assert main(["study", str(scene_file), "--vary", "bodies.bar.mass=1.0", "--set", "solver.t_end=0.2",
-                 "--serial", "--quiet", "--out", str(tmp_path / "ok")]) == 0
+    assert main(["study", str(scene_file), "--vary", "bodies.bar.mass=1.0,2.0", "--set", "solver.t_end=0.2",
+                 "--serial", "--out", str(tmp_path / "ok")]) == 0
+    assert "study: 2/2 cases done (0 failed)" in capsys.readouterr().err
     assert main(["study", str(scene_file), "--vary", "bodies.bar.mass", "--out", str(tmp_path / "x")]) == 2
     assert "write KEY=VALUE" in capsys.readouterr().err
 

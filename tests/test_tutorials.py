@@ -39,7 +39,7 @@ def run():
 def test_every_tutorial_is_tested():
     assert sorted(p.name for p in TUTORIALS.glob("[0-9][0-9]_*.py")) == [
         "01_pendulum.py", "02_fourbar.py", "03_cantilever.py", "04_wiper.py", "05_custom_elements.py",
-        "06_export_paraview.py", "07_speed_vs_error.py"]
+        "06_export_paraview.py", "07_speed_vs_error.py", "08_parameter_study.py"]
 
 
 def test_pendulum(run):
@@ -174,3 +174,21 @@ def test_export_paraview(monkeypatch, tmp_path):
     assert abs(ns["t_min"] - 0.5 / 4.1126) <= 0.011
     # a step load on a structure at rest: the clamp moment overshoots to at most about twice the static one
     assert 1.7 < ns["clamp_moment_peak"] / ns["clamp_moment_ref"] < 2.05
+
+
+def test_parameter_study(monkeypatch, tmp_path):
+    # the tutorial writes its study to results/ below the working directory
+    monkeypatch.chdir(tmp_path)
+    ns = runpy.run_path(str(TUTORIALS / "08_parameter_study.py"))
+    result = ns["result"]
+    assert [r["status"] for r in result.rows] == ["finished"] * 4
+    assert (tmp_path / "results" / "study_rigid" / "table.csv").is_file()
+    assert len(list((tmp_path / "results" / "study_rigid" / "cases").glob("*.json"))) == 4
+    # rigid blades: 0 degrees of freedom, so the motion ignores the friction and the motor's work
+    # is affine in the normal load N (friction force = mu(v) N with v prescribed by the loops)
+    assert ns["tip_speed_spread"] < 1e-6
+    assert ns["work_nonlinearity"] < 1e-8
+    assert ns["work_slope"] == pytest.approx(0.3151, rel=1e-3)
+    assert np.all(np.diff(ns["torque"]) > 0)
+    # sum of the works = change of kinetic energy, in every case
+    assert np.all(ns["energy_balance"] < 1e-7)

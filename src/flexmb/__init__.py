@@ -38,3 +38,8 @@ __all__ = [
     "StiffnessWarning",
     "AutoComplement", "QRComplement",
 ]
+
+from .scene import scene_from_dict
+from .study import Study, StudyResult, run_study
+
+__all__ += ["scene_from_dict", "Study", "StudyResult", "run_study"]

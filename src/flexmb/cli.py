@@ -6,6 +6,8 @@ SCENE.toml`` describes a scene; ``flexmb plugins`` lists the plugins. A bad
 scene gives exit status 2 and one line ``flexmb: error: <file>: <key path>:
 <what>``; a failed simulation gives 1 (after writing its partial outputs); a
 run stopped with Ctrl-C writes what it computed and gives 130.
+``flexmb study SCENE.toml --vary KEY=SPEC ... --out DIR`` runs a parameter
+study (:mod:`flexmb.study`); it gives 1 if some case failed.
 """
 
 from __future__ import annotations
@@ -80,6 +82,34 @@ def _plugins(args) -> int:
     return 0
 
 
+def _key_value(text: str, option: str):
+    key, sep, value = text.partition("=")
+    if not sep or not key.strip() or not value.strip():
+        raise FlexmbError(f"{option} {text!r}: write KEY=VALUE, e.g. bodies.bar.mass=2.0")
+    return key.strip(), value.strip()
+
+
+def _study(args) -> int:
+    """Run a parameter study of a scene file; exit 1 if some case failed (all others are in the table)."""
+    from .study import Study, parse_spec, parse_value
+
+    vary = dict(_key_value(v, "--vary") for v in args.vary)
+    fixed = {k: parse_value(v) for k, v in (_key_value(s, "--set") for s in args.set)}
+    study = Study.from_file(args.scene, {k: parse_spec(v) for k, v in vary.items()}, outputs=args.output,
+                            fixed=fixed, samples=args.samples, seed=args.seed, sampling=args.sampling)
+    executor = "serial" if args.serial else "process"
+    try:
+        result = study.run(args.out, executor=executor, workers=args.workers, scheduler=args.scheduler,
+                           progress=not args.quiet, retry_failed=args.retry_failed)
+    except KeyboardInterrupt:
+        print(f"\nflexmb: interrupted: the finished cases are in {args.out}/cases/; "
+              "run the same command again to resume", file=sys.stderr)
+        return 130
+    print(result.summary())
+    print(f"wrote {args.out}/ (table.csv, table.npz, cases/, study.png, summary.txt)")
+    return 1 if result.failed else 0
+
+
 def main(argv=None) -> int:
     """Entry point of the ``flexmb`` command.
 
@@ -112,6 +142,27 @@ def main(argv=None) -> int:
     plug = sub.add_parser("plugins", help="list bodies, joints, forces, complements and integrators by name")
     plug.add_argument("--kind", default=None, help="bodies, joints, forces, complements or integrators")
     plug.set_defaults(func=_plugins)
+    st = sub.add_parser("study", help="run a parameter study of a scene file on a process pool or a Dask cluster")
+    st.add_argument("scene", help="a scene file SCENE.toml")
+    st.add_argument("--vary", action="append", required=True, metavar="KEY=SPEC",
+                    help="a scene key path and its values: v1,v2,... | lin:START:STOP:N | log:START:STOP:N | "
+                         "uniform:LOW:HIGH | loguniform:LOW:HIGH | normal:MEAN:STD (repeatable; a+b sets both keys)")
+    st.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                    help="a scene key set to one value in every case, e.g. solver.t_end=0.5 (repeatable)")
+    st.add_argument("--output", action="append", default=[], metavar="NAME",
+                    help="an output per case, e.g. peak_speed:tip, peak_effort:motor, energy_balance, final:pin "
+                         "(repeatable; default: tracked points, drivers, energy balance, residual)")
+    st.add_argument("--out", required=True, help="output folder (a study run again there resumes)")
+    st.add_argument("--samples", type=int, default=None, help="number of samples of the random parameters")
+    st.add_argument("--seed", type=int, default=0, help="seed of the random samples")
+    st.add_argument("--sampling", default="lhs", choices=["lhs", "mc"], help="Latin hypercube or Monte Carlo")
+    st.add_argument("--workers", type=int, default=None, help="size of the local process pool (default: CPUs)")
+    st.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                    help="run on this Dask scheduler, e.g. tcp://10.0.0.1:8786 (pip install -e '.[dask]')")
+    st.add_argument("--serial", action="store_true", help="run the cases one after another in this process")
+    st.add_argument("--retry-failed", action="store_true", help="run again the cases recorded as failed")
+    st.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    st.set_defaults(func=_study)
     args = parser.parse_args(argv)
     try:
         return args.func(args)

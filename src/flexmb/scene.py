@@ -54,6 +54,7 @@ from . import registry
 from .errors import FlexmbError, ModelError, PluginError, SceneError, SimulationError
 
 __all__ = ["Scene", "SolverSettings", "OutputSettings", "InitialState", "load_scene", "loads_scene", "SECTIONS"]
+__all__ += ["scene_from_dict"]
 
 #: top-level tables of a scene file and what each holds
 SECTIONS = {
@@ -941,3 +942,48 @@ def load_scene(path) -> Scene:
         raise SceneError(f"{path}: not a UTF-8 text file ({exc.reason} at byte {exc.start})") from exc
     return loads_scene(text, source=path)
 
+
+
+def scene_from_dict(data: dict, source: str = "<scene>") -> Scene:
+    """Build a scene from an already parsed TOML document (a nested dict).
+
+    This is what :func:`loads_scene` does after parsing; parameter studies
+    (:mod:`flexmb.study`) use it to build each case from the scene's
+    document with some key paths replaced.
+
+    Parameters
+    ----------
+    data : dict
+        The document, as :func:`tomllib.loads` returns it (not modified).
+    source : str
+        Name used in messages (normally the file name).
+
+    Returns
+    -------
+    Scene
+        The scene, its model validated and compiled once.
+
+    Raises
+    ------
+    SceneError
+        On an invalid entry, with its key path.
+
+    See Also
+    --------
+    loads_scene : Read a scene from TOML text.
+
+    Examples
+    --------
+    >>> import flexmb as fm
+    >>> doc = {"bodies": {"bar": {"shape": "slender_bar", "mass": 2.0, "length": 1.0}},
+    ...        "joints": {"pin": {"type": "revolute", "parent": "ground", "child": "bar"}},
+    ...        "solver": {"t_end": 1.0}}
+    >>> fm.scene_from_dict(doc).model["bar"].mass
+    2.0
+    """
+    import copy
+
+    if not isinstance(data, dict):
+        raise SceneError(f"{source}: a scene must be a table (dict), got {type(data).__name__}")
+    stem = Path(source).stem if source != "<scene>" else "scene"
+    return _Loader(copy.deepcopy(data), source, stem).load()

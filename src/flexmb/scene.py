@@ -347,7 +347,7 @@ class Scene:
             A text report (what ``flexmb info`` prints).
         """
         from .flexible import FlexibleBody
-        from .simulate import EXPLICIT_STEP_LIMIT
+        from .simulate import AUTO_IMPLICIT_STEPS
 
         system = self.system()
         x0, xd0 = self.initial_state(system)
@@ -390,7 +390,7 @@ class Scene:
         s = self.solver
         if w > 0:
             steps = s.t_end * w / 3.0
-            stiff = steps > EXPLICIT_STEP_LIMIT
+            stiff = steps > AUTO_IMPLICIT_STEPS
             lines.append(f"stiffness: highest spring frequency {w:.4g} rad/s; an explicit integrator needs about "
                          f"{steps:.3g} steps over {s.t_end:g} s to stay stable, so 'auto' picks "
                          f"{'Radau (implicit)' if stiff else 'DOP853 (explicit)'}")

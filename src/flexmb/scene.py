@@ -897,7 +897,10 @@ def loads_scene(text: str, source: str = "<scene>") -> Scene:
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise SceneError(f"{source}: invalid TOML: {exc}") from exc
+        msg = str(exc)
+        if msg.endswith("(at end of document)"):  # tomllib gives no line there: name the last one
+            msg = f"{msg[:-1]}, line {max(len(text.splitlines()), 1)})"
+        raise SceneError(f"{source}: invalid TOML: {msg}") from exc
     stem = Path(source).stem if source != "<scene>" else "scene"
     return _Loader(data, source, stem).load()
 

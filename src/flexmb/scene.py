@@ -532,6 +532,8 @@ class _Loader:
             return ctor(**kwargs)
         except (ModelError, TypeError, ValueError) as exc:
             self.translate(path, exc, table)
+        except ArithmeticError as exc:  # e.g. length = 1e300 overflowing length**2, or -1e-300 ** 4 == 0
+            self.fail(path, f"values out of range for {what} ({type(exc).__name__}: {exc})")
 
     def precheck(self, path: str, value, annotation: str, default) -> None:
         """Catch wrong TOML types and vector lengths before the class sees them."""
@@ -627,6 +629,8 @@ class _Loader:
                 self.materials[name] = Material(name=name, **kw)
             except (ModelError, TypeError, ValueError) as exc:
                 self.translate(path, exc, t)
+            except ArithmeticError as exc:  # overflow or underflow of extreme values
+                self.fail(path, f"values out of range ({type(exc).__name__}: {exc})")
 
     def load_sections(self):
         from .sections import Section
@@ -646,6 +650,8 @@ class _Loader:
                                        else getattr(Section, kind)(**kw))
             except (ModelError, TypeError, ValueError) as exc:
                 self.translate(path, exc, t)
+            except ArithmeticError as exc:  # overflow or underflow of extreme values
+                self.fail(path, f"values out of range ({type(exc).__name__}: {exc})")
 
     def load_bodies(self, model):
         from .bodies import RigidBody
@@ -897,7 +903,10 @@ def loads_scene(text: str, source: str = "<scene>") -> Scene:
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise SceneError(f"{source}: invalid TOML: {exc}") from exc
+        msg = str(exc)
+        if msg.endswith("(at end of document)"):  # tomllib gives no line there: name the last one
+            msg = f"{msg[:-1]}, line {max(len(text.splitlines()), 1)})"
+        raise SceneError(f"{source}: invalid TOML: {msg}") from exc
     stem = Path(source).stem if source != "<scene>" else "scene"
     return _Loader(data, source, stem).load()
 

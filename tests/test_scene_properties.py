@@ -1,0 +1,318 @@
+"""Property-based tests (hypothesis) of invalid scene files (issue 7, last bullet).
+
+A valid tutorial scene (``tutorials/01_pendulum.toml``, ``02_fourbar.toml``,
+``03_cantilever.toml``) is parsed with :mod:`tomllib` into a nested dict and
+spoiled by exactly one random mutation: a deleted key, an unknown key, a value
+of the wrong type (a string for a number, an array of the wrong length, a
+table for a scalar), a non-finite or non-positive number, an unknown plugin
+``type``, a reference to an element that does not exist, or an element renamed
+without its references. The document is written back to TOML (a tiny
+serializer below; no extra dependency) and read with
+``flexmb.loads_scene(text, "fuzz.toml")``. The properties:
+
+* the only exceptions ever raised are :class:`flexmb.FlexmbError` subclasses
+  (never a TypeError, KeyError, AttributeError, ... escaping);
+* a :class:`flexmb.SceneError` message starts with ``fuzz.toml:`` and names the
+  key path (or the element) that the mutation spoiled;
+* a scene that still loads builds, and a very short run of it (t_end = 1e-3 s,
+  2 outputs, guarded by an alarm) either gives finite results or does not
+  report ``'finished'``.
+
+Syntactically broken TOML gives a SceneError with the line number. Settings
+follow ``tests/test_properties.py``: derandomized, 30 examples, no deadline.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+import signal
+import tomllib
+from contextlib import contextmanager
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, example, given, settings
+from hypothesis import strategies as st
+
+import flexmb as fm
+
+TUTORIALS = Path(__file__).resolve().parent.parent / "tutorials"
+BASES = {name: tomllib.loads((TUTORIALS / name).read_text(encoding="utf-8"))
+         for name in ("01_pendulum.toml", "02_fourbar.toml", "03_cantilever.toml")}
+#: top-level tables whose sub-tables are named elements
+ELEMENTS = ("materials", "sections", "bodies", "joints", "forces", "drivers")
+#: keys whose value is the name of another element, and the table it names
+REFERENCES = {"parent": "bodies", "child": "bodies", "body": "bodies", "section": "sections",
+              "material": "materials"}
+
+MODEST = settings(max_examples=30, deadline=None, derandomize=True, print_blob=True,
+                  suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+
+
+# ----------------------------------------------------------------------------- TOML writer
+
+def _key(k: str) -> str:
+    return k if re.fullmatch(r"[A-Za-z0-9_-]+", k) else json.dumps(k)
+
+
+def _value(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        if math.isnan(v):
+            return "nan"
+        if math.isinf(v):
+            return "inf" if v > 0 else "-inf"
+        return repr(v)
+    if isinstance(v, str):
+        return json.dumps(v)  # ASCII-only JSON strings are valid TOML basic strings
+    if isinstance(v, list):
+        return "[" + ", ".join(_value(x) for x in v) + "]"
+    if isinstance(v, dict):
+        return "{ " + ", ".join(f"{_key(k)} = {_value(x)}" for k, x in v.items()) + " }" if v else "{}"
+    raise TypeError(f"cannot write {type(v).__name__}")
+
+
+def dumps(doc: dict) -> str:
+    """A nested dict as TOML: one ``[table]`` per top-level key, inline tables below."""
+    lines = []
+    for section, table in doc.items():
+        if isinstance(table, dict):
+            lines.append(f"[{_key(section)}]")
+            lines += [f"{_key(k)} = {_value(v)}" for k, v in table.items()]
+        else:
+            lines.insert(0, f"{_key(section)} = {_value(table)}")
+    return "\n".join(lines) + "\n"
+
+
+def test_writer_round_trips_the_tutorials():
+    for doc in BASES.values():
+        assert tomllib.loads(dumps(doc)) == doc
+    odd = {"a": {"b c": [1, 2.5, -math.inf, "q\"\\"], "d": {"e": {}, "f": True}}}
+    back = tomllib.loads(dumps(odd))
+    assert back["a"]["b c"][:2] == [1, 2.5] and back["a"]["b c"][2] == -math.inf
+    assert back["a"]["b c"][3] == "q\"\\" and back["a"]["d"] == {"e": {}, "f": True}
+
+
+# ----------------------------------------------------------------------------- mutations
+
+def _nodes(value, path=()):
+    """Every (path, value) below a document: tables, arrays, scalars and array items (index as int)."""
+    if isinstance(value, dict):
+        for k, v in value.items():
+            yield path + (k,), v
+            yield from _nodes(v, path + (k,))
+    elif isinstance(value, list):
+        for i, v in enumerate(value):
+            yield path + (i,), v
+            yield from _nodes(v, path + (i,))
+
+
+def _get(doc, path):
+    for k in path:
+        doc = doc[k]
+    return doc
+
+
+def _dotted(path) -> str:
+    """The key path as flexmb writes it, without array indices (``forces.gravity.g``)."""
+    return ".".join(str(k) for k in path if not isinstance(k, int))
+
+
+def _element(path) -> list[str]:
+    """Strings of which a message about ``path`` must contain one: the element or the section."""
+    keys = [k for k in path if not isinstance(k, int)]
+    if keys[0] in ELEMENTS and len(keys) >= 2:
+        return [f"{keys[0]}.{keys[1]}", f"'{keys[1]}'"]
+    if keys[0] == "output" and len(keys) >= 3:
+        return [".".join(keys[:3]), f"'{keys[2]}'"]
+    return [keys[0]]
+
+
+names = st.text("abcdefghijklmnopqrstuvwxyz_", min_size=1, max_size=8)
+wrong_scalars = st.one_of(st.just("oops"), st.booleans(), st.just({"x": 1.0}))
+bad_numbers = st.sampled_from([math.nan, math.inf, -math.inf, -1.0, 0.0, -1e-300, 1e300])
+
+
+@st.composite
+def mutated_scenes(draw):
+    """``(base name, mutated document, mutation kind, strings the message must contain one of)``."""
+    base = draw(st.sampled_from(sorted(BASES)))
+    doc = json.loads(json.dumps(BASES[base]))  # deep copy
+    nodes = list(_nodes(doc))
+    kind = draw(st.sampled_from(["delete", "unknown_key", "wrong_type", "bad_number", "bad_plugin",
+                                 "dangling", "rename"]))
+    if kind == "delete":
+        path, value = draw(st.sampled_from([(p, v) for p, v in nodes if not isinstance(p[-1], int)]))
+        del _get(doc, path[:-1])[path[-1]]
+        # the message may name the key, its element, or an element the deleted table named or held
+        # (deleting joints.pin leaves body 'bar' unconnected; deleting [bodies] leaves 'bar' unknown)
+        related = [f"'{v}'" for _, v in _nodes(value) if isinstance(v, str)]
+        related += [f"'{k}'" for p, _ in _nodes(value) for k in p if isinstance(k, str)]
+        return base, doc, kind, [_dotted(path)] + _element(path) + related
+    if kind == "unknown_key":
+        tables = [()] + [p for p, v in nodes if isinstance(v, dict)]
+        path = draw(st.sampled_from(tables))
+        key = "unknown_" + draw(names)
+        _get(doc, path)[key] = draw(st.one_of(st.floats(-1, 1), st.just("x"), st.just([1.0])))
+        return base, doc, kind, [_dotted(path + (key,))]
+    if kind == "wrong_type":
+        path, value = draw(st.sampled_from([(p, v) for p, v in nodes if not isinstance(v, dict)]))
+        if isinstance(value, list):
+            new = draw(st.one_of(wrong_scalars, st.just(1.0),
+                                 st.lists(st.just(0.5), max_size=5).filter(lambda x: len(x) != len(value))))
+        elif isinstance(value, str):
+            new = draw(st.one_of(wrong_scalars.filter(lambda x: not isinstance(x, str)), st.just(2.0),
+                                 st.just(["a", "b"])))
+        else:
+            new = draw(st.one_of(wrong_scalars, st.just([1.0, 2.0])))
+        _get(doc, path[:-1])[path[-1]] = new
+        return base, doc, kind, [_dotted(path)] + _element(path)
+    if kind == "bad_number":
+        numeric = [(p, v) for p, v in nodes if isinstance(v, (int, float)) and not isinstance(v, bool)]
+        path, value = draw(st.sampled_from(numeric))
+        new = draw(st.sampled_from([0, -1])) if isinstance(value, int) and not isinstance(value, bool) \
+            else draw(bad_numbers)
+        _get(doc, path[:-1])[path[-1]] = new
+        # classes check some values together ("sections.strip: b and h must be > 0"): the element will do
+        return base, doc, kind, [_dotted(path)] + _element(path)
+    if kind == "bad_plugin":
+        section = draw(st.sampled_from([s for s in ("bodies", "joints", "forces") if doc.get(s)]))
+        name = draw(st.sampled_from(sorted(doc[section])))
+        doc[section][name]["type"] = "no_such_" + draw(names)
+        return base, doc, kind, [f"{section}.{name}.type"]
+    if kind == "dangling":
+        refs = [p for p, v in nodes if isinstance(v, str) and p[-1] in REFERENCES]
+        refs += [("initial", "positions", k) for k in doc.get("initial", {}).get("positions", {})]
+        refs += [("initial", "fixed", i) for i in range(len(doc.get("initial", {}).get("fixed", [])))]
+        path = draw(st.sampled_from(refs))
+        missing = "missing_" + draw(names)
+        if path[:2] == ("initial", "positions"):
+            t = doc["initial"]["positions"]
+            t[missing] = t.pop(path[-1])
+            return base, doc, kind, [f"initial.positions.{missing}"]
+        _get(doc, path[:-1])[path[-1]] = missing
+        return base, doc, kind, [_dotted(path)]
+    # rename an element without renaming its references (the message must name the old name)
+    candidates = [(s, n) for s in ("materials", "sections", "bodies", "joints") for n in doc.get(s, {})
+                  if any(v == n for p, v in nodes if isinstance(v, str) and p[0] != s)
+                  or n in doc.get("initial", {}).get("positions", {})]
+    section, name = draw(st.sampled_from(candidates))
+    new_name = name + "_" + draw(names)
+    doc[section] = {(new_name if k == name else k): v for k, v in doc[section].items()}
+    return base, doc, kind, [f"'{name}'"]
+
+
+# ----------------------------------------------------------------------------- the properties
+
+class _Hang(BaseException):
+    """Raised by the alarm when one example runs too long (not an Exception, so nothing swallows it)."""
+
+
+@contextmanager
+def alarm(seconds: float):
+    def ring(signum, frame):
+        raise _Hang(f"no answer after {seconds} s")
+
+    old = signal.signal(signal.SIGALRM, ring)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, old)
+
+
+def check(text: str, expected: list[str] | None, run: bool = True):
+    """Load, build and (if ``run``) briefly run ``text``; assert the error properties; return what happened."""
+    with alarm(20.0):
+        try:
+            scene = fm.loads_scene(text, "fuzz.toml")
+        except fm.SceneError as exc:
+            msg = str(exc)
+            assert msg.startswith("fuzz.toml:"), msg
+            if expected is not None:
+                assert any(e in msg for e in expected), f"{msg!r} names none of {expected}"
+            return "scene error"
+        except Exception as exc:  # noqa: BLE001 - the property: nothing but SceneError from loading
+            raise AssertionError(f"loads_scene raised {type(exc).__name__}: {exc}") from exc
+        try:
+            scene.system()
+            if not run:
+                return "built"
+            result = scene.simulate(t_end=1e-3, n_out=2)
+        except fm.FlexmbError:
+            return "error"
+        except Exception as exc:  # noqa: BLE001
+            raise AssertionError(f"a loaded scene raised {type(exc).__name__}: {exc}") from exc
+    if result.status == "finished":
+        assert np.all(np.isfinite(result.x)) and np.all(np.isfinite(result.xd)), "finished with NaN"
+    return "ran"
+
+
+@pytest.mark.parametrize("name", sorted(BASES))
+def test_unmutated_tutorials_load_and_run(name):
+    assert check(dumps(BASES[name]), None) == "ran"
+
+
+def _mutate(base: str, path: tuple, value) -> dict:
+    doc = json.loads(json.dumps(BASES[base]))
+    _get(doc, path[:-1])[path[-1]] = value
+    return doc
+
+
+@MODEST
+@given(case=mutated_scenes())
+# found by this test: ctor arithmetic escaped as OverflowError / ZeroDivisionError (fixed in scene.py)
+@example(case=("02_fourbar.toml", _mutate("02_fourbar.toml", ("bodies", "crank", "length"), 1e300),
+               "bad_number", ["bodies.crank"]))
+@example(case=("03_cantilever.toml", _mutate("03_cantilever.toml", ("bodies", "beam", "length"), -1e-300),
+               "bad_number", ["bodies.beam"]))
+def test_mutated_scene_raises_only_flexmb_errors_naming_the_key(case):
+    base, doc, kind, expected = case
+    # huge finite values are only loaded and built, not run: the solvers do not yet stop them cleanly
+    # (see the two xfail tests below)
+    huge = any(isinstance(v, float) and 1e100 < abs(v) < math.inf for _, v in _nodes(doc))
+    check(dumps(doc), expected, run=not huge)
+
+
+@pytest.mark.xfail(run=False, reason="known bug: 'auto' picks DOP853 from the spring frequencies only, so a "
+                                     "huge damping_ratio makes the explicit run crawl (over 30 s for 1 ms)")
+def test_huge_damping_ratio_auto_method():
+    doc = json.loads(json.dumps(BASES["03_cantilever.toml"]))
+    doc["bodies"]["beam"]["damping_ratio"] = 1e300
+    scene = fm.loads_scene(dumps(doc), "fuzz.toml")
+    with alarm(20.0):
+        with pytest.raises(fm.FlexmbError):
+            scene.simulate(t_end=1e-3, n_out=2)
+
+
+@pytest.mark.xfail(run=False, reason="known bug (simulate.py): with Radau a non-finite Jacobian escapes as "
+                                     "scipy's ValueError 'array must not contain infs or NaNs'")
+def test_huge_gravity_radau_gives_simulation_error():
+    scene = fm.loads_scene(dumps(_mutate("01_pendulum.toml", ("forces", "gravity", "g"), [0.0, 1e300, 0.0])),
+                           "fuzz.toml")
+    with pytest.raises(fm.FlexmbError):
+        scene.simulate(t_end=1e-3, n_out=2, method="Radau")
+
+
+@pytest.mark.parametrize("text, line", [
+    ("[model]\nname = \"x\"\n[bodies.bar\nmass = 1.0\n", 3),          # unclosed table header
+    ("[model]\nname = \"bad \\q escape\"\n", 2),                       # invalid escape
+    ("[solver]\nt_end = [1.0, 2.0\n", 2),                             # unclosed array (end of document)
+    ("[solver]\nt_end = 1.0\nt_end = 2.0\n", 3),                      # duplicate key
+    ("[model]\nname = \"x\"\n\n[model]\n", 4),                        # table defined twice
+    ("[solver]\nt_end = 1.0.0\n", 2),                                 # bad number
+    ("[initial]\npositions = { pin = 0.5\n", 2),                      # unclosed inline table
+])
+def test_broken_toml_gives_scene_error_with_line(text, line):
+    with pytest.raises(fm.SceneError) as info:
+        fm.loads_scene(text, "fuzz.toml")
+    msg = str(info.value)
+    assert msg.startswith("fuzz.toml: invalid TOML"), msg
+    assert f"line {line}" in msg, msg

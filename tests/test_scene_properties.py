@@ -275,15 +275,14 @@ def _mutate(base: str, path: tuple, value) -> dict:
                "bad_number", ["bodies.beam"]))
 def test_mutated_scene_raises_only_flexmb_errors_naming_the_key(case):
     base, doc, kind, expected = case
-    # huge finite values are only loaded and built, not run: the solvers do not yet stop them cleanly
-    # (see the two xfail tests below)
+    # huge finite values are only loaded and built, not run: a 1 ms run may still take long with them
+    # (the two known cases are run by the tests below)
     huge = any(isinstance(v, float) and 1e100 < abs(v) < math.inf for _, v in _nodes(doc))
     check(dumps(doc), expected, run=not huge)
 
 
-@pytest.mark.xfail(run=False, reason="known bug: 'auto' picks DOP853 from the spring frequencies only, so a "
-                                     "huge damping_ratio makes the explicit run crawl (over 30 s for 1 ms)")
 def test_huge_damping_ratio_auto_method():
+    # 'auto' counts the damping rate too, so it picks Radau, which stops cleanly
     doc = json.loads(json.dumps(BASES["03_cantilever.toml"]))
     doc["bodies"]["beam"]["damping_ratio"] = 1e300
     scene = fm.loads_scene(dumps(doc), "fuzz.toml")
@@ -292,9 +291,8 @@ def test_huge_damping_ratio_auto_method():
             scene.simulate(t_end=1e-3, n_out=2)
 
 
-@pytest.mark.xfail(run=False, reason="known bug (simulate.py): with Radau a non-finite Jacobian escapes as "
-                                     "scipy's ValueError 'array must not contain infs or NaNs'")
 def test_huge_gravity_radau_gives_simulation_error():
+    # a non-finite Jacobian makes scipy raise ValueError in the step: reported as a SimulationError
     scene = fm.loads_scene(dumps(_mutate("01_pendulum.toml", ("forces", "gravity", "g"), [0.0, 1e300, 0.0])),
                            "fuzz.toml")
     with pytest.raises(fm.FlexmbError):

@@ -341,7 +341,10 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         solver = make(t0, y)
         while solver.status == "running":
             t_prev = solver.t
-            msg = solver.step()
+            try:
+                msg = solver.step()
+            except (ValueError, np.linalg.LinAlgError) as exc:  # scipy's checks on a non-finite Jacobian
+                raise _NonFinite(solver.t, f"the integrator failed: {exc}") from exc
             n_steps += 1
             if solver.status == "failed":
                 raise _NonFinite(solver.t, f"the integrator failed: {msg}")

@@ -260,17 +260,22 @@ class System:
         return J
 
     def highest_frequency(self, t, x, xd) -> float:
-        """Estimate of the highest natural angular frequency from the coordinate springs, rad/s.
+        """Estimate of the fastest rate of the coordinate springs and dampers, rad/s.
 
-        The largest eigenvalue of ``P K`` (see :meth:`state_jacobian`); 0 if
-        no element puts a stiffness on coordinates.
+        The larger of the highest natural frequency ``sqrt(max eig(P K))`` and
+        the highest damping rate ``max |eig(P C)|`` (an overdamped mode decays
+        at about that rate, which limits an explicit method just as a
+        frequency does); see :meth:`state_jacobian`. 0 if no element puts a
+        stiffness or damping on coordinates.
         """
         J = self.state_jacobian(t, x, xd, geometric=False)
         if J is None:
             return 0.0
         n = self.n_coords
-        lam = np.linalg.eigvals(-J[n:, :n])
-        return float(np.sqrt(max(np.max(lam.real), 0.0)))
+        stiff = np.linalg.eigvals(-J[n:, :n])
+        damp = np.linalg.eigvals(-J[n:, n:])
+        rate = max(float(np.sqrt(max(np.max(stiff.real), 0.0))), float(np.max(np.abs(damp))))
+        return rate if np.isfinite(rate) else np.inf
 
     def reactions(self, t, x, xd, xdd=None):
         """Constraint reactions (Lagrange multipliers) at a state.

@@ -386,12 +386,13 @@ class Scene:
             f"degrees of freedom: p = n - rank = {c.p}"
             + (f" (drivers prescribe {len(self.model.drivers)})" if self.model.drivers else ""),
         ]
-        w = system.highest_frequency(0.0, x0, xd0)
+        w = system.fastest_rate(0.0, x0, xd0)
         s = self.solver
         if w > 0:
             steps = s.t_end * w / 3.0
             stiff = steps > AUTO_IMPLICIT_STEPS
-            lines.append(f"stiffness: highest spring frequency {w:.4g} rad/s; an explicit integrator needs about "
+            lines.append(f"stiffness: highest spring frequency {system.highest_frequency(0.0, x0, xd0):.4g} rad/s, "
+                         f"fastest rate with the dampers {w:.4g} rad/s; an explicit integrator needs about "
                          f"{steps:.3g} steps over {s.t_end:g} s to stay stable, so 'auto' picks "
                          f"{'Radau (implicit)' if stiff else 'DOP853 (explicit)'}")
         else:

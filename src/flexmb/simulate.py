@@ -136,7 +136,7 @@ def _choose_method(system, t0, t1, x, xd) -> str:
     than ``AUTO_IMPLICIT_STEPS`` steps, the implicit Radau (with the
     geometric state Jacobian) is the cheaper choice.
     """
-    w = system.highest_frequency(t0, x, xd)
+    w = system.fastest_rate(t0, x, xd)
     return "Radau" if (t1 - t0) * w / 3.0 > AUTO_IMPLICIT_STEPS else "DOP853"
 
 
@@ -144,13 +144,16 @@ def _warn_if_stiff(system, solver_cls, t0, t1, x, xd):
     """Warn (:class:`StiffnessWarning`) when an explicit method meets a scene stiff over [t0, t1]."""
     if solver_cls not in (RK45, RK23, DOP853):
         return
-    w = system.highest_frequency(t0, x, xd)
+    wn = system.highest_frequency(t0, x, xd)
+    w = system.fastest_rate(t0, x, xd)
     n_stable = (t1 - t0) * w / 3.0
     if n_stable > EXPLICIT_STEP_LIMIT:
+        damping = f" and its fastest damping rate {w:.4g} rad/s" if w > wn else ""
         warnings.warn(StiffnessWarning(
             f"the scene is stiff for {solver_cls.__name__}: its highest natural frequency is about "
-            f"{w:.4g} rad/s ({w / (2 * np.pi):.4g} Hz), so an explicit method needs some {n_stable:.3g} "
-            f"steps over {t1 - t0:.4g} s just to stay stable; use method='Radau' (or method='auto')"
+            f"{wn:.4g} rad/s ({wn / (2 * np.pi):.4g} Hz){damping}, so an explicit method needs some "
+            f"{n_stable:.3g} steps over {t1 - t0:.4g} s just to stay stable; use method='Radau' "
+            f"(or method='auto')"
         ), stacklevel=3)
 
 

@@ -260,22 +260,32 @@ class System:
         return J
 
     def highest_frequency(self, t, x, xd) -> float:
-        """Estimate of the fastest rate of the coordinate springs and dampers, rad/s.
+        """Estimate of the highest natural angular frequency from the coordinate springs, rad/s.
 
-        The larger of the highest natural frequency ``sqrt(max eig(P K))`` and
-        the highest damping rate ``max |eig(P C)|`` (an overdamped mode decays
-        at about that rate, which limits an explicit method just as a
-        frequency does); see :meth:`state_jacobian`. 0 if no element puts a
-        stiffness or damping on coordinates.
+        ``sqrt(max eig(P K))`` (see :meth:`state_jacobian`); 0 if no element
+        puts a stiffness on coordinates.
         """
+        return self._rates(t, x, xd)[0]
+
+    def fastest_rate(self, t, x, xd) -> float:
+        """The fastest time scale of the coordinate springs and dampers, rad/s.
+
+        The larger of :meth:`highest_frequency` and the highest damping rate
+        ``max |eig(P C)|``: an overdamped mode decays at about that rate, and
+        limits the step of an explicit method just as a frequency does. Used
+        by ``method='auto'`` and the :class:`~flexmb.StiffnessWarning`.
+        """
+        return max(self._rates(t, x, xd))
+
+    def _rates(self, t, x, xd) -> tuple[float, float]:
         J = self.state_jacobian(t, x, xd, geometric=False)
         if J is None:
-            return 0.0
+            return 0.0, 0.0
         n = self.n_coords
         stiff = np.linalg.eigvals(-J[n:, :n])
         damp = np.linalg.eigvals(-J[n:, n:])
-        rate = max(float(np.sqrt(max(np.max(stiff.real), 0.0))), float(np.max(np.abs(damp))))
-        return rate if np.isfinite(rate) else np.inf
+        rates = (float(np.sqrt(max(np.max(stiff.real), 0.0))), float(np.max(np.abs(damp))))
+        return tuple(r if np.isfinite(r) else np.inf for r in rates)
 
     def reactions(self, t, x, xd, xdd=None):
         """Constraint reactions (Lagrange multipliers) at a state.

@@ -537,12 +537,20 @@ def _execute_pool(tasks, record, workers):
     try:
         while queue or suspects:
             pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx)
-            running, broken = {}, []
+            running, broken, refused = {}, [], False
             while (queue or suspects or running) and not broken:
                 limit = 1 if suspects else workers
-                while len(running) < limit and (suspects or queue) and not (suspects and running):
-                    task = suspects.popleft() if suspects else queue.popleft()
-                    running[pool.submit(_run_case, task)] = task
+                while not refused and len(running) < limit and (suspects or queue) and not (suspects and running):
+                    source = suspects if suspects else queue
+                    task = source.popleft()
+                    try:
+                        running[pool.submit(_run_case, task)] = task
+                    except BrokenProcessPool:  # a worker died since the last wait: this case never ran
+                        source.appendleft(task)
+                        refused = True
+                if not running:
+                    break  # (refused) a fresh pool takes the rest
+                # after a refusal the cases in flight end, those on the dead worker with BrokenProcessPool
                 done, _ = wait(running, return_when=FIRST_COMPLETED)
                 for fut in done:
                     task = running.pop(fut)

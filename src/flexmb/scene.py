@@ -678,24 +678,23 @@ class _Loader:
             self.types[name] = type_name
             model.add(body)
 
-    def load_joints(self, model):
-        for name, t in self.named("joints", "joints").items():
-            path = f"joints.{name}"
-            type_name, cls = self.plugin(path, "joints", t)
-            joint = self.call(path, cls, name, {k: v for k, v in t.items() if k != "type"},
-                              f"joint type {type_name!r}")
-            self.joints[name] = joint
+    def _load_plugins(self, model, section, what):
+        """Build every table of ``[section]`` by its plugin ``type`` and add it to the model."""
+        built = {}
+        for name, t in self.named(section, section).items():
+            path = f"{section}.{name}"
+            type_name, cls = self.plugin(path, section, t)
+            built[name] = self.call(path, cls, name, {k: v for k, v in t.items() if k != "type"},
+                                    f"{what} type {type_name!r}")
             self.types[name] = type_name
-            model.add(joint)
+            model.add(built[name])
+        return built
+
+    def load_joints(self, model):
+        self.joints.update(self._load_plugins(model, "joints", "joint"))
 
     def load_forces(self, model):
-        for name, t in self.named("forces", "forces").items():
-            path = f"forces.{name}"
-            type_name, cls = self.plugin(path, "forces", t)
-            force = self.call(path, cls, name, {k: v for k, v in t.items() if k != "type"},
-                              f"force type {type_name!r}")
-            self.types[name] = type_name
-            model.add(force)
+        self._load_plugins(model, "forces", "force")
 
     def load_drivers(self, model):
         from .drivers import Driver

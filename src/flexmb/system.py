@@ -11,6 +11,7 @@ from .constraints import Constraints
 from .errors import AssemblyError, ModelError
 from .kinematics import Kinematics
 from .topology import Topology
+from .tree_solver import SPARSE_MIN_COORDS, TreeSolver
 
 __all__ = ["System"]
 
@@ -24,6 +25,13 @@ class System:
         A validated model.
     complement : str or ComplementStrategy
         Orthogonal complement strategy (``"svd"`` or ``"eigen"``).
+    sparse : bool or None
+        Solve the equations of an open tree by the sparse
+        :class:`~flexmb.tree_solver.TreeSolver` (O(n) per evaluation,
+        A never formed) instead of a dense Cholesky factorization of A.
+        None (default): sparse for open trees with at least
+        :data:`~flexmb.tree_solver.SPARSE_MIN_COORDS` coordinates. Models
+        with loops always use the dense complement path.
 
     Attributes
     ----------
@@ -35,9 +43,11 @@ class System:
         ``"joint.coordinate"`` per coordinate.
     n_complements : int
         Count of complement computations so far.
+    tree_solver : TreeSolver or None
+        The sparse solver of an open tree, if used.
     """
 
-    def __init__(self, model, complement="svd"):
+    def __init__(self, model, complement="svd", sparse=None):
         self.model = model
         self.topology = Topology(model)
         from .forces.elastic import BeamElasticity
@@ -51,6 +61,11 @@ class System:
         self.coordinate_names = self.topology.coordinate_names
         self.body_names = [b.name for b in self.topology.bodies]
         self.n_complements = 0
+        if sparse and self.n_constraints:
+            raise ModelError("sparse=True needs an open tree: this model has loop or driver constraints")
+        if sparse is None:
+            sparse = self.n_constraints == 0 and self.n_coords >= SPARSE_MIN_COORDS
+        self.tree_solver = TreeSolver(self.topology) if sparse else None
         #: largest rank of psi used by :meth:`complement` (None: no cap); set by
         #: :func:`~flexmb.simulate` to the rank at the assembled initial state
         self.rank_limit: int | None = None
@@ -146,12 +161,21 @@ class System:
         AssemblyError
             If the reduced mass matrix is not positive definite.
         """
+        if self.tree_solver is not None:  # open tree, sparse: A is never formed
+            kin = self.kinematics(t, x, xd)
+            f = self.forces.force_array(kin)
+            if not (np.all(np.isfinite(f)) and np.all(np.isfinite(kin.R))):
+                self._raise_non_finite(t, x, xd, None, f)
+            return self.tree_solver.solve(self.tree_solver.factor(kin), f)
         _, A, f, _, psi, _, gamma = self.equations(t, x, xd)
         if not (np.all(np.isfinite(f)) and np.all(np.isfinite(A))):
-            err = AssemblyError(f"at t = {t:.9g} s: {self._diagnose(t, x, xd, A, f)}")
-            err.t = t
-            raise err
+            self._raise_non_finite(t, x, xd, A, f)
         return self._solve(t, A, f, psi, gamma)
+
+    def _raise_non_finite(self, t, x, xd, A, f):
+        err = AssemblyError(f"at t = {t:.9g} s: {self._diagnose(t, x, xd, A, f)}")
+        err.t = t
+        raise err
 
     def _diagnose(self, t, x, xd, A, f):
         """Name what made the equations non-finite."""
@@ -165,7 +189,7 @@ class System:
                 if not (np.all(np.isfinite(loads.force)) and np.all(np.isfinite(loads.torque))
                         and np.all(np.isfinite(loads.generalized))):
                     return f"force element {e.name!r} ({type(e).__name__}) gave a non-finite load"
-        if not np.all(np.isfinite(A)):
+        if A is None or not np.all(np.isfinite(A)):
             return "the mass matrix is not finite (non-finite coordinates?)"
         return "the force array is not finite (non-finite speeds?)"
 
@@ -239,24 +263,30 @@ class System:
         for rows, p, D in vparts:
             VP = kin.point_partials(rows, p)
             C -= np.einsum("min,mij,mjk->nk", VP, D, VP)
+        # X = [G - K, -C]; J[n:] = P X, by solves with the factorization (no explicit P)
+        X = np.zeros((n, 2 * n))
+        X[:, :n] = -np.diag(K)
+        X[:, n:] = -C
+        # dense even where accelerations use the TreeSolver: with 2n right-hand
+        # sides, a dense Cholesky factorization is faster than SuperLU's solves
         A = mass_matrix(kin)
+        _, psi, _, gamma = self.constraints.evaluate(kin)
         if self.n_constraints == 0:
-            P = sla.cho_solve(sla.cho_factor(A, check_finite=False), np.eye(n), check_finite=False)
+            cho = sla.cho_factor(A, check_finite=False)
+            solve = lambda rhs: sla.cho_solve(cho, rhs, check_finite=False)  # noqa: E731
         else:
-            _, psi, _ = self.constraints.evaluate(kin, level=1)
             T = self.complement(psi).T
-            M = T.T @ A @ T
-            P = T @ sla.cho_solve(sla.cho_factor(M), T.T)
-        J = np.zeros((2 * n, 2 * n))
-        J[:n, n:] = np.eye(n)
-        J[n:, :n] = -P * K
-        J[n:, n:] = -P @ C
+            cho = sla.cho_factor(T.T @ A @ T, check_finite=False)
+            solve = lambda rhs: T @ sla.cho_solve(cho, T.T @ rhs, check_finite=False)  # noqa: E731
+        if geometric:
+            f = self.forces.force_array(kin)
+            xdd = solve(f) if self.n_constraints == 0 else self._solve(t, A, f, psi, gamma)
         if geometric:
             loads = self.forces.loads(kin)
-            f = self.forces.force_array(kin)
-            _, psi, _, gamma = self.constraints.evaluate(kin)
-            xdd = self._solve(t, A, f, psi, gamma)
-            J[n:, :n] += P @ geometric_stiffness(kin, xdd, loads.force[:-1], loads.torque[:-1])
+            X[:, :n] += geometric_stiffness(kin, xdd, loads.force[:-1], loads.torque[:-1])
+        J = np.zeros((2 * n, 2 * n))
+        J[:n, n:] = np.eye(n)
+        J[n:] = solve(X)
         return J
 
     def highest_frequency(self, t, x, xd) -> float:

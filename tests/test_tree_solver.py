@@ -1,0 +1,89 @@
+"""The sparse open-tree solver against the dense Cholesky path (an independent formulation of eq. 2)."""
+
+import numpy as np
+import pytest
+from conftest import JOINT_TYPES, random_chain
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from strategies import build_tree, states, tree_specs
+
+import flexmb as fm
+from flexmb.assembly import mass_matrix
+from flexmb.tree_solver import SPARSE_MIN_COORDS
+
+
+def _pair(model):
+    return model.build(sparse=False), model.build(sparse=True)
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(specs=tree_specs(max_joints=6), data=st.data())
+def test_random_trees_sparse_equals_dense(specs, data):
+    dense, sparse = _pair(build_tree(specs)[0])
+    assert dense.tree_solver is None and sparse.tree_solver is not None
+    x, xd = data.draw(states(dense.n_coords, scale=1.2))
+    a_d = dense.accelerations(0.3, x, xd)
+    a_s = sparse.accelerations(0.3, x, xd)
+    A = mass_matrix(dense.kinematics(0.3, x, xd))
+    # both solve A xdd = f: compare through the residual scale of A
+    scale = np.abs(A).max() * max(np.abs(a_d).max(), 1.0)
+    assert np.abs(A @ (a_s - a_d)).max() <= 1e-10 * scale
+
+
+@pytest.mark.parametrize("branch", [False, True])
+def test_chains_of_all_joint_types(rng, branch):
+    dense, sparse = _pair(random_chain(rng, JOINT_TYPES * 3, branch=branch))
+    n = dense.n_coords
+    x, xd = 0.4 * rng.normal(size=n), rng.normal(size=n)
+    a_d, a_s = dense.accelerations(0.0, x, xd), sparse.accelerations(0.0, x, xd)
+    assert np.abs(a_s - a_d).max() <= 1e-9 * np.abs(a_d).max()
+
+
+def _beam(n_segments):
+    """The B2 strip: torsion and both bendings, tilted gravity."""
+    model = fm.Model("beam")
+    beam = fm.FlexibleBody("beam", 1.0, fm.Section.rectangular(0.02, 0.005), fm.Material(70e9, 2700.0, 0.33),
+                           n_segments, keep=("torsion", "bend_y", "bend_z"), damping=7.7e-4)
+    model.add(fm.Fixed("clamp", model.ground, beam), fm.Gravity((0.0, -5.886, -7.848)))
+    return model
+
+
+def test_flexible_beam_run_is_the_same():
+    """A 3-angle beam over 20 ms: same trajectory, Jacobian and step sequence within the conditioning."""
+    dense, sparse = _pair(_beam(12))
+    runs = [fm.simulate(s, 0.02, method="Radau", rtol=1e-6, n_out=5) for s in (dense, sparse)]
+    assert runs[0].status == runs[1].status == "finished"
+    assert np.abs(runs[0].x - runs[1].x).max() <= 1e-9
+
+
+def test_default_choice_by_size():
+    small = _beam(4).build()
+    big = _beam(SPARSE_MIN_COORDS // 3 + 1).build()
+    assert small.tree_solver is None
+    assert big.tree_solver is not None and big.n_coords >= SPARSE_MIN_COORDS
+
+
+def test_sparse_refused_with_loops():
+    from conftest import fourbar
+
+    with pytest.raises(fm.ModelError, match="sparse=True needs an open tree"):
+        fourbar().build(sparse=True)
+
+
+def test_point_mass_on_a_pin_is_a_clear_error():
+    model = fm.Model("massless")
+    bar = fm.RigidBody("bar", 1.0, np.diag([0.1, 0.1, 0.1]))
+    tip = fm.RigidBody("tip", 1.0, (0.0, 0.0, 0.0))  # a point mass pinned at its centre: no inertia on tip_pin
+    model.add(fm.Revolute("pin", model.ground, bar, axis=(0, 0, 1)))
+    model.add(fm.Revolute("tip_pin", bar, tip, parent_point=(1, 0, 0), axis=(0, 0, 1)))
+    system = model.build(sparse=True)
+    with pytest.raises(fm.AssemblyError, match="singular"):
+        system.accelerations(0.0, np.zeros(2), np.zeros(2))
+
+
+def test_non_finite_state_is_diagnosed():
+    system = _beam(3).build(sparse=True)
+    x = np.zeros(system.n_coords)
+    x[1] = np.nan
+    with pytest.raises(fm.AssemblyError, match="t = 0"):
+        system.accelerations(0.0, x, np.zeros_like(x))

@@ -62,7 +62,7 @@ class Ground(Body):
     name : str
         Name (default ``"ground"``).
     mass : float
-        Mass, kg; 0 (the ground's motion is prescribed, not computed).
+        Mass, kg; 0 (the ground does not move, its mass never enters).
     inertia : ndarray, shape (3, 3)
         Inertia tensor, kg m^2; zeros.
     com : ndarray, shape (3,)

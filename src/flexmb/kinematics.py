@@ -167,7 +167,8 @@ class Kinematics:
         Parameters
         ----------
         body : Body
-            A rigid body of the model or the ground.
+            A body of the model or the ground (a flexible body gives the row
+            of its first segment).
 
         Returns
         -------

@@ -99,7 +99,8 @@ class System:
         Parameters
         ----------
         body : Body
-            A rigid body of the model or the ground.
+            A body of the model or the ground (a flexible body gives the row
+            of its first segment).
 
         Returns
         -------

@@ -30,6 +30,8 @@ import re
 import sys
 from pathlib import Path
 
+import attrs
+
 DOCS = Path(__file__).resolve().parent
 ROOT = DOCS.parent
 sys.path.insert(0, str(ROOT / "src"))
@@ -53,8 +55,8 @@ extensions = [
 
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
 root_doc = "index"
-exclude_patterns = ["_build", "Thumbs.db", ".DS_Store", "README.md"]
-templates_path = []
+exclude_patterns = ["_build", "_templates", "Thumbs.db", ".DS_Store", "README.md"]
+templates_path = ["_templates"]
 
 myst_enable_extensions = ["dollarmath", "colon_fence"]
 myst_heading_anchors = 3
@@ -70,6 +72,40 @@ autodoc_member_order = "bysource"
 numpydoc_show_class_members = False
 numpydoc_class_members_toctree = False
 numpydoc_xref_param_type = False
+
+# Every docstring the build renders is validated; a failed check is a
+# warning, so an error under -W. The same set is checked over the whole
+# public API by tests/test_docstrings.py (which keeps the two sets equal).
+numpydoc_validation_checks = {"GL08", "SS01", "SS02", "SS03", "SS04", "PR01", "PR02", "PR07", "PR10", "RT01", "RT03"}
+
+# The name tables are dicts: autodata shows their value, and they have no
+# docstring of their own to validate (api.rst describes them).
+numpydoc_validation_exclude = {r"^flexmb\.(COMPLEMENTS|INTEGRATORS)$"}
+
+
+def _attrs_fields() -> dict[str, list[str]]:
+    """The attrs fields of every public attrs class, by each dotted name it has in an ``__all__``.
+
+    The class template (``_templates/autosummary/class.rst``) leaves them out
+    of the attribute tables: they are documented in the class's Parameters
+    section, and as slots they have no docstring of their own.
+    """
+    import importlib
+    import pkgutil
+
+    out = {}
+    modules = ["flexmb"] + [m.name for m in pkgutil.walk_packages(flexmb.__path__, "flexmb.")
+                            if not any(part.startswith("_") for part in m.name.split("."))]
+    for modname in modules:
+        module = importlib.import_module(modname)
+        for name in getattr(module, "__all__", ()):
+            obj = getattr(module, name)
+            if isinstance(obj, type) and attrs.has(obj):
+                out[f"{modname}.{name}"] = [f.name for f in attrs.fields(obj)]
+    return out
+
+
+autosummary_context = {"attrs_fields": _attrs_fields()}
 
 # Markdown links to files outside the Sphinx source (tutorial scripts,
 # benchmarks/, pyproject.toml) are fine on GitHub; Sphinx cannot resolve

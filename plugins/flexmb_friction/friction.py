@@ -251,11 +251,21 @@ class SlidingFriction(ForceElement):
         smoothing speed; the result feeds the implicit integrators'
         Jacobian.
 
+        Parameters
+        ----------
+        elements : sequence of SlidingFriction
+            The model's elements of this class.
+        state : Kinematics
+            The current kinematic state.
+
         Returns
         -------
         rows : ndarray of int, shape (m,)
+            Body rows of the contact points.
         p : ndarray, shape (m, 3)
+            Inertial positions of the contact points, m.
         D : ndarray, shape (m, 3, 3)
+            ``dF/dv`` of each friction force, N s/m.
         """
         rows, local, n, params = cls._gather(elements, state)
         p = state.point_position(rows, local)

@@ -175,14 +175,40 @@ class ForceAssembler:
         self.groups = list(groups.items())
 
     def loads(self, kin) -> Loads:
-        """Apply every force element to a fresh :class:`Loads`."""
+        """Apply every force element to a fresh :class:`Loads`.
+
+        Parameters
+        ----------
+        kin : Kinematics
+            The kinematic state.
+
+        Returns
+        -------
+        Loads
+            Forces and torques on the bodies and generalized forces on the
+            coordinates.
+        """
         loads = Loads(kin)
         for cls, elements in self.groups:
             cls.apply_all(elements, kin, loads)
         return loads
 
     def active_force(self, kin, loads: Loads | None = None) -> np.ndarray:
-        """Generalized active force F (eq. 5), shape (n_coords,)."""
+        """Generalized active force F (eq. 5).
+
+        Parameters
+        ----------
+        kin : Kinematics
+            The kinematic state.
+        loads : Loads, optional
+            The applied loads, if already computed (default: :meth:`loads`).
+
+        Returns
+        -------
+        ndarray, shape (n_coords,)
+            ``F_l = sum_k V_kl . force_k + W_kl . torque_k`` plus the
+            generalized forces on coordinates.
+        """
         if loads is None:
             loads = self.loads(kin)
         return generalized_force(kin, loads.force[:-1], loads.torque[:-1]) + loads.generalized
@@ -229,9 +255,26 @@ class ForceAssembler:
         return out
 
     def group_names(self) -> list[str]:
-        """One label per force-element class (its elements' names joined)."""
+        """One label per force-element class (its elements' names joined).
+
+        Returns
+        -------
+        list of str
+            Labels in the order of ``groups``.
+        """
         return [", ".join(e.name for e in elements) for _, elements in self.groups]
 
     def potential_energy(self, kin) -> float:
-        """Summed potential energy of the conservative elements, J."""
+        """Summed potential energy of the conservative elements.
+
+        Parameters
+        ----------
+        kin : Kinematics
+            The kinematic state.
+
+        Returns
+        -------
+        float
+            Potential energy, J.
+        """
         return float(sum(cls.potential_all(elements, kin) for cls, elements in self.groups))

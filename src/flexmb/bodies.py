@@ -26,6 +26,11 @@ class Body:
     2. provide ``mass`` (kg), ``inertia`` (central inertia tensor in the body
        frame, kg m^2, shape (3, 3)) and ``com`` (mass centre in the body
        frame, m, shape (3,)).
+
+    Parameters
+    ----------
+    name : str
+        Unique name.
     """
 
     name: str = field(validator=name_check)
@@ -50,7 +55,19 @@ class Body:
 
 @frozen(eq=False)
 class Ground(Body):
-    """The inertial frame. Every model has exactly one, ``model.ground``."""
+    """The inertial frame. Every model has exactly one, ``model.ground``.
+
+    Parameters
+    ----------
+    name : str
+        Name (default ``"ground"``).
+    mass : float
+        Mass, kg; 0 (the ground does not move, its mass never enters).
+    inertia : ndarray, shape (3, 3)
+        Inertia tensor, kg m^2; zeros.
+    com : ndarray, shape (3,)
+        Mass centre in the ground frame, m; the origin.
+    """
 
     name: str = field(default="ground", validator=name_check)
     mass: float = 0.0

@@ -56,10 +56,8 @@ class SimulationError(FlexmbError):
 class ExportError(FlexmbError, ValueError):
     """A result or state cannot be exported or drawn (bad fields, index or file).
 
-    Parameters
-    ----------
-    message : str
-        What is wrong, naming the field or argument.
+    Raised with one argument, the message: what is wrong, naming the field or
+    argument.
     """
 
 
@@ -70,11 +68,6 @@ class PluginError(FlexmbError):
     is not a subclass of its kind's base class, or a name claimed by two
     distributions. The message names the plugin, its distribution and the
     cause.
-
-    Parameters
-    ----------
-    message : str
-        What is wrong, naming the plugin and its distribution.
     """
 
 

@@ -78,7 +78,14 @@ class Segment(Body):
 
 @frozen(eq=False)
 class SegmentJoint(Joint):
-    """Elastic joint between two segments; subclasses fix the kept coordinates."""
+    """Elastic joint between two segments; subclasses fix the kept coordinates.
+
+    Parameters
+    ----------
+    name, parent, child, parent_point, child_point, parent_frame, child_frame, cut
+        As for :class:`~flexmb.Joint`; :class:`FlexibleBody` creates these
+        joints between its segments.
+    """
 
     cut_point: ClassVar[bool] = False
 
@@ -239,7 +246,7 @@ class FlexibleBody(Body):
     # -- derived data
     @property
     def segment_length(self) -> float:
-        """l = L / N, m."""
+        """Segment length l = L / N, m."""
         return self.length / self.n_segments
 
     @property

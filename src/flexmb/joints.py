@@ -200,6 +200,10 @@ class Revolute(_AxisJoint):
 
     Parameters
     ----------
+    name, parent, child, parent_point, child_point, parent_frame, child_frame, cut
+        As for :class:`Joint`: the unique name, the parent and child bodies,
+        the joint point (m) and frame in each body frame, and whether the
+        joint is forced to be a cut joint.
     axis : array_like, shape (3,)
         Rotation axis in the parent body frame (the joint frame's z).
 
@@ -225,6 +229,16 @@ class PlanarRevolute(Revolute):
     In the tree it is a :class:`Revolute`. Closing a planar loop it keeps
     the joint points together in the plane normal to ``axis`` (2 rows),
     where a spatial revolute writes 5 rows, 3 of them redundant.
+
+    Parameters
+    ----------
+    name, parent, child, parent_point, child_point, parent_frame, child_frame, cut
+        As for :class:`Joint`: the unique name, the parent and child bodies,
+        the joint point (m) and frame in each body frame, and whether the
+        joint is forced to be a cut joint.
+    axis : array_like, shape (3,)
+        Rotation axis in the parent body frame (the joint frame's z); the
+        plane of the loop is normal to it.
     """
 
     cut_point = False
@@ -238,6 +252,10 @@ class Prismatic(_AxisJoint):
 
     Parameters
     ----------
+    name, parent, child, parent_point, child_point, parent_frame, child_frame, cut
+        As for :class:`Joint`: the unique name, the parent and child bodies,
+        the joint point (m) and frame in each body frame, and whether the
+        joint is forced to be a cut joint.
     axis : array_like, shape (3,)
         Slide direction in the parent body frame (the joint frame's z).
 
@@ -264,7 +282,18 @@ class Prismatic(_AxisJoint):
 
 @frozen(eq=False)
 class Cylindrical(_AxisJoint):
-    """Translation along and rotation about ``axis`` (coordinates: slide m, angle rad)."""
+    """Translation along and rotation about ``axis`` (coordinates: slide m, angle rad).
+
+    Parameters
+    ----------
+    name, parent, child, parent_point, child_point, parent_frame, child_frame, cut
+        As for :class:`Joint`: the unique name, the parent and child bodies,
+        the joint point (m) and frame in each body frame, and whether the
+        joint is forced to be a cut joint.
+    axis : array_like, shape (3,)
+        Slide direction and rotation axis in the parent body frame (the
+        joint frame's z).
+    """
 
     translation_axes = (2,)
     rotation_axes = (2,)
@@ -280,6 +309,10 @@ class Universal(Joint):
 
     Parameters
     ----------
+    name, parent, child, parent_point, child_point, parent_frame, child_frame, cut
+        As for :class:`Joint`: the unique name, the parent and child bodies,
+        the joint point (m) and frame in each body frame, and whether the
+        joint is forced to be a cut joint.
     axis : array_like, shape (3,)
         First axis, in the parent body frame (joint frame x).
     axis2 : array_like, shape (3,)
@@ -321,6 +354,13 @@ class Spherical(Joint):
 
     The angles are singular where the second one reaches +-90 deg; as a cut
     joint (three point rows) it has no such limit.
+
+    Parameters
+    ----------
+    name, parent, child, parent_point, child_point, parent_frame, child_frame, cut
+        As for :class:`Joint`: the unique name, the parent and child bodies,
+        the joint point (m) and frame in each body frame, and whether the
+        joint is forced to be a cut joint.
     """
 
     rotation_axes = (0, 1, 2)
@@ -329,14 +369,30 @@ class Spherical(Joint):
 
 @frozen(eq=False)
 class Fixed(Joint):
-    """No relative motion (no coordinates); welds the child to the parent."""
+    """No relative motion (no coordinates); welds the child to the parent.
+
+    Parameters
+    ----------
+    name, parent, child, parent_point, child_point, parent_frame, child_frame, cut
+        As for :class:`Joint`: the unique name, the parent and child bodies,
+        the joint point (m) and frame in each body frame, and whether the
+        joint is forced to be a cut joint.
+    """
 
     cut_perpendicular = ((0, 1), (1, 2), (2, 0))
 
 
 @frozen(eq=False)
 class Free(Joint):
-    """Six freedoms: translations x, y, z (m) then Bryant angles rx, ry, rz (rad)."""
+    """Six freedoms: translations x, y, z (m) then Bryant angles rx, ry, rz (rad).
+
+    Parameters
+    ----------
+    name, parent, child, parent_point, child_point, parent_frame, child_frame, cut
+        As for :class:`Joint`: the unique name, the parent and child bodies,
+        the joint point (m) and frame in each body frame, and whether the
+        joint is forced to be a cut joint.
+    """
 
     translation_axes = (0, 1, 2)
     rotation_axes = (0, 1, 2)

@@ -162,19 +162,65 @@ class Kinematics:
 
     # -- lookups used by force elements and constraints
     def index(self, body) -> int:
-        """Row of ``body`` in the per-body arrays (-1 for the ground)."""
+        """Row of ``body`` in the per-body arrays.
+
+        Parameters
+        ----------
+        body : Body
+            A body of the model or the ground (a flexible body gives the row
+            of its first segment).
+
+        Returns
+        -------
+        int
+            Row index (-1 for the ground).
+        """
         return self.topology.index[body]
 
     def locate(self, body, point) -> tuple[int, np.ndarray]:
-        """Row and local point of a point on a (rigid or flexible) body; see :meth:`Topology.locate`."""
+        """Row and local point of a point on a (rigid or flexible) body.
+
+        See :meth:`flexmb.topology.Topology.locate`.
+
+        Parameters
+        ----------
+        body : Body
+            A body of the model (rigid, flexible or the ground).
+        point : array_like, shape (3,)
+            Point in the body's frame, m.
+
+        Returns
+        -------
+        index : int
+            Row in the per-body arrays (-1: ground).
+        local : ndarray, shape (3,)
+            The point in that row's body frame, m.
+        """
         return self.topology.locate(body, point)
 
     def coordinate_slice(self, joint) -> slice:
-        """Slice of ``x`` holding a tree joint's coordinates."""
+        """Slice of ``x`` holding a tree joint's coordinates.
+
+        Parameters
+        ----------
+        joint : Joint
+            A tree (not cut) joint of the model.
+
+        Returns
+        -------
+        slice
+            Its coordinates' positions in ``x``.
+        """
         return self.topology.coordinate_slice(joint)
 
     def inertia_world(self) -> np.ndarray:
-        """Central inertia tensors in inertial axes, shape (n_bodies, 3, 3)."""
+        """Central inertia tensors in inertial axes.
+
+        Returns
+        -------
+        ndarray, shape (n_bodies, 3, 3)
+            ``R_k I_k R_k^T``, kg m^2.
+        """
         R = self.R[:-1]
         return R @ self.topology.inertia @ R.transpose(0, 2, 1)
 
@@ -196,11 +242,39 @@ class Kinematics:
         return np.einsum("...ij,...j->...i", self.R[k], local) + self.origin[k]
 
     def point_velocity(self, k, p) -> np.ndarray:
-        """Velocity of the body-k point at inertial position ``p``, m/s."""
+        """Velocity of the body-k point at inertial position ``p``.
+
+        Parameters
+        ----------
+        k : int or ndarray of int, shape (m,)
+            Body index (or indices).
+        p : ndarray, shape (3,) or (m, 3)
+            Inertial positions of the points, m.
+
+        Returns
+        -------
+        ndarray, shape (3,) or (m, 3)
+            ``v_k + omega_k x (p - r_k)``, m/s.
+        """
         return self.v[k] + cross(self.omega[k], p - self.r[k])
 
     def point_bias_acceleration(self, k, p) -> np.ndarray:
-        """Acceleration at ``xdd = 0`` of the body-k point at inertial ``p``."""
+        """Acceleration at ``xdd = 0`` of the body-k point at inertial ``p``.
+
+        Parameters
+        ----------
+        k : int or ndarray of int, shape (m,)
+            Body index (or indices).
+        p : ndarray, shape (3,) or (m, 3)
+            Inertial positions of the points, m.
+
+        Returns
+        -------
+        ndarray, shape (3,) or (m, 3)
+            ``a_bias + alpha_bias x l + omega x (omega x l)`` with
+            ``l = p - r_k``, m/s^2: the velocity-dependent part of the
+            point's acceleration.
+        """
         lever = p - self.r[k]
         w = self.omega[k]
         return self.a_bias[k] + cross(self.alpha_bias[k], lever) + cross(w, cross(w, lever))
@@ -254,6 +328,11 @@ class Kinematics:
         Plucker velocity ``(omega, v_O)``, so that the kinetic energy of
         body k is ``(omega, v_O) . I_O (omega, v_O) / 2`` and the
         inertias of a subtree add.
+
+        Returns
+        -------
+        ndarray, shape (n_bodies, 6, 6)
+            ``I_O`` of each body, SI units.
         """
         nb = self.topology.n_bodies
         m, r = self.mass, self.r[:nb]
@@ -266,7 +345,13 @@ class Kinematics:
         return out
 
     def kinetic_energy(self) -> float:
-        """``sum m v^2 / 2 + omega . I omega / 2``, J."""
+        """Kinetic energy of all bodies.
+
+        Returns
+        -------
+        float
+            ``sum m v^2 / 2 + omega . I omega / 2``, J.
+        """
         w = self.omega[:-1]
         Iw = np.einsum("kij,kj->ki", self.inertia_world(), w)
         return float(0.5 * np.sum(self.mass * np.sum(self.v[:-1] ** 2, axis=1)) + 0.5 * np.sum(w * Iw))

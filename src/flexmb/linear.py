@@ -15,7 +15,9 @@ __all__ = ["Linearization", "linearize", "modes", "static_equilibrium", "linear_
 class Linearization:
     """Linear equations ``M zdd + C zd + K z = F`` in independent coordinates z.
 
-    Attributes
+    Each parameter is kept as the attribute of the same name.
+
+    Parameters
     ----------
     M, C, K : ndarray, shape (p, p)
         Mass, damping and stiffness matrices (eqs. 21, 36-39 linearised).

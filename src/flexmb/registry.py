@@ -79,7 +79,9 @@ _UNKNOWN = "an unknown distribution"
 class PluginInfo:
     """One row of the plugin listing.
 
-    Attributes
+    Each parameter is kept as the attribute of the same name.
+
+    Parameters
     ----------
     kind : {'bodies', 'joints', 'forces', 'complements', 'integrators'}
         The plugin kind (entry-point group ``flexmb.<kind>``).

@@ -23,7 +23,9 @@ _SCALARS = ("n_dof", "n_rhs", "n_jac", "n_steps", "n_complements", "n_projection
 class Result:
     """Time histories of a simulation.
 
-    Attributes
+    Each parameter is kept as the attribute of the same name.
+
+    Parameters
     ----------
     t : ndarray, shape (nt,)
         Output times, s.
@@ -43,17 +45,37 @@ class Result:
         max ``|psi xd - b|`` (eq. 29).
     reactions : ndarray, shape (nt, m)
         Constraint multipliers, labelled by ``constraint_labels``.
+    coordinate_names : list of str
+        ``"joint.coordinate"`` per column of ``x``.
+    body_names : list of str
+        Body names, one per row of ``positions``, ``origins`` and
+        ``rotations``.
+    constraint_labels : list of str
+        One label per constraint row (column of ``reactions``).
+    driver_names : list of str
+        Names of the model's drivers.
+    flexible : dict of str to (list of int, float)
+        For each flexible body, its segments' rows in the per-body arrays and
+        the segment length l = L / N, m (used by :meth:`shape`).
     n_dof : int
         Number of independent speeds p = n - rank(psi) at the start.
     n_rhs, n_jac, n_steps, n_complements, n_projections : int
         Work counters (right-hand sides, Jacobians, steps, complements,
         projections).
+    wall_time : float
+        Wall-clock time of the integration, s.
     work : dict of str to ndarray, shape (nt,)
         With ``simulate(..., track_work=True)``: work done since the start
         by each driver (``"driver <name>"``) and each class of force
         elements, J.
     status : {'finished', 'failed', 'interrupted', 'running'}
         How the run ended; ``message`` says why.
+    message : str
+        Why the run ended as it did (``"reached t_end"`` when it finished).
+    method : str
+        Name of the integrator used (after ``'auto'`` chose one).
+    complement : str
+        Name of the complement strategy used.
     """
 
     t: np.ndarray
@@ -113,7 +135,23 @@ class Result:
         raise FlexmbError(f"no coordinate {name!r}; known: {names}")
 
     def body_position(self, name: str) -> np.ndarray:
-        """Mass-centre position history of a body, shape (nt, 3), m."""
+        """Mass-centre position history of a body.
+
+        Parameters
+        ----------
+        name : str
+            Body name.
+
+        Returns
+        -------
+        ndarray, shape (nt, 3)
+            Mass-centre positions, inertial, m.
+
+        Raises
+        ------
+        FlexmbError
+            If no body has that name.
+        """
         try:
             return self.positions[:, self.body_names.index(name)]
         except ValueError:

@@ -164,7 +164,9 @@ class InitialState:
 class Scene:
     """A model with its initial state, solver settings and outputs, as read from a scene file.
 
-    Attributes
+    Each parameter is kept as the attribute of the same name.
+
+    Parameters
     ----------
     name : str
         Scene name (``[model] name``).

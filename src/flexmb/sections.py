@@ -87,7 +87,24 @@ class Section:
 
     @classmethod
     def circular(cls, d: float) -> "Section":
-        """Solid circle of diameter d (m): ``J = Ip = pi d^4 / 32``."""
+        """Solid circle of diameter d: ``J = Ip = pi d^4 / 32``.
+
+        Parameters
+        ----------
+        d : float
+            Diameter, m.
+
+        Returns
+        -------
+        Section
+            ``A = pi d^2 / 4``, ``Iy = Iz = pi d^4 / 64`` and
+            ``J = Ip = pi d^4 / 32``.
+
+        Raises
+        ------
+        ModelError
+            If ``d <= 0``.
+        """
         if not d > 0:
             raise ModelError(f"Section.circular: d must be > 0, got {d!r}")
         I = np.pi * d**4 / 64.0
@@ -95,7 +112,24 @@ class Section:
 
     @classmethod
     def tube(cls, d_out: float, d_in: float) -> "Section":
-        """Circular tube, outer and inner diameters (m)."""
+        """Circular tube.
+
+        Parameters
+        ----------
+        d_out, d_in : float
+            Outer and inner diameters, m (``d_in = 0`` gives a solid circle).
+
+        Returns
+        -------
+        Section
+            ``A = pi (d_out^2 - d_in^2) / 4``,
+            ``Iy = Iz = pi (d_out^4 - d_in^4) / 64`` and ``J = Ip = Iy + Iz``.
+
+        Raises
+        ------
+        ModelError
+            Unless ``d_out > d_in >= 0``.
+        """
         if not (d_out > d_in >= 0):
             raise ModelError(f"Section.tube: need d_out > d_in >= 0, got {d_out!r}, {d_in!r}")
         I = np.pi * (d_out**4 - d_in**4) / 64.0

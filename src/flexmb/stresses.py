@@ -53,7 +53,9 @@ STRESS_COMPONENTS = ("sigma_axial", "sigma_bend_y", "sigma_bend_z", "tau_torsion
 class Envelope:
     """Largest absolute value over time, per station and component.
 
-    Attributes
+    Each parameter is kept as the attribute of the same name.
+
+    Parameters
     ----------
     peak : ndarray, shape (n_stations, n_components)
         ``max_t |value|``.
@@ -103,7 +105,9 @@ def _component_index(components, name) -> int:
 class SectionField:
     """A quantity along a flexible body over time: loads, strains or stresses.
 
-    Attributes
+    Each parameter is kept as the attribute of the same name.
+
+    Parameters
     ----------
     body : str
         Name of the flexible body.
@@ -192,7 +196,9 @@ class SectionField:
 class JointLoads:
     """Force and moment transmitted by every joint over time.
 
-    Attributes
+    Each parameter is kept as the attribute of the same name.
+
+    Parameters
     ----------
     t : ndarray, shape (nt,)
         Output times, s.

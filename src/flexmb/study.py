@@ -944,7 +944,9 @@ def _read_case(path: Path, study_key: str) -> dict | None:
 class StudyResult:
     """The table of a study: one row per case with its parameters, outputs, status and error.
 
-    Attributes
+    Each parameter is kept as the attribute of the same name.
+
+    Parameters
     ----------
     parameters : list of str
         Varied key paths (columns).

@@ -66,8 +66,8 @@ class System:
         if sparse is None:
             sparse = self.n_constraints == 0 and self.n_coords >= SPARSE_MIN_COORDS
         self.tree_solver = TreeSolver(self.topology) if sparse else None
-        #: largest rank of psi used by :meth:`complement` (None: no cap); set by
-        #: :func:`~flexmb.simulate` to the rank at the assembled initial state
+        #: Largest rank of psi used by :meth:`complement` (None: no cap); set by
+        #: :func:`~flexmb.simulate` to the rank at the assembled initial state.
         self.rank_limit: int | None = None
         self._trial()
 
@@ -92,18 +92,59 @@ class System:
 
     # -- evaluation
     def kinematics(self, t: float, x: np.ndarray, xd: np.ndarray) -> Kinematics:
-        """Kinematics of all bodies at a state (eqs. 6-18)."""
+        """Kinematics of all bodies at a state (eqs. 6-18).
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        x, xd : ndarray, shape (n,)
+            Coordinates and speeds.
+
+        Returns
+        -------
+        Kinematics
+            Rotations, positions, velocities and partial velocities.
+        """
         return Kinematics(self.topology, t, np.asarray(x, dtype=float), np.asarray(xd, dtype=float))
 
     def index(self, body) -> int:
-        """Row of a body in per-body arrays (-1 for the ground)."""
+        """Row of a body in per-body arrays.
+
+        Parameters
+        ----------
+        body : Body
+            A body of the model or the ground (a flexible body gives the row
+            of its first segment).
+
+        Returns
+        -------
+        int
+            Row index (-1 for the ground).
+
+        Raises
+        ------
+        ModelError
+            If the body is not in the model.
+        """
         try:
             return self.topology.index[body]
         except KeyError:
             raise ModelError(f"body {getattr(body, 'name', body)!r} is not in the model") from None
 
     def coordinate_slice(self, joint) -> slice:
-        """Slice of x holding a joint's coordinates."""
+        """Slice of x holding a joint's coordinates.
+
+        Parameters
+        ----------
+        joint : Joint
+            A tree (not cut) joint of the model.
+
+        Returns
+        -------
+        slice
+            Its coordinates' positions in x.
+        """
         return self.topology.coordinate_slice(joint)
 
     def complement(self, psi):
@@ -112,6 +153,17 @@ class System:
         With ``rank_limit`` set, a numerically higher rank is truncated to it
         (:meth:`Complement.truncated`): redundant constraints stay redundant
         at states slightly off the constraint manifold.
+
+        Parameters
+        ----------
+        psi : ndarray, shape (m, n)
+            Constraint Jacobian (eq. 29).
+
+        Returns
+        -------
+        Complement
+            T (n x p) with ``psi T = 0``, ``T^T T = I``, and the particular
+            solver.
         """
         self.n_complements += 1
         c = self.strategy.complement(psi)
@@ -122,9 +174,17 @@ class System:
     def equations(self, t, x, xd):
         """All the pieces of the equations of motion at one state.
 
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        x, xd : ndarray, shape (n,)
+            Coordinates and speeds.
+
         Returns
         -------
         kin : Kinematics
+            Kinematics at the state (eqs. 6-18).
         A : ndarray, shape (n, n)
             Generalized mass matrix (eq. 2).
         f : ndarray, shape (n,)
@@ -294,6 +354,18 @@ class System:
 
         ``sqrt(max eig(P K))`` (see :meth:`state_jacobian`); 0 if no element
         puts a stiffness on coordinates.
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        x, xd : ndarray, shape (n,)
+            Coordinates and speeds.
+
+        Returns
+        -------
+        float
+            Angular frequency, rad/s.
         """
         return self._rates(t, x, xd)[0]
 
@@ -304,6 +376,18 @@ class System:
         ``max |eig(P C)|``: an overdamped mode decays at about that rate, and
         limits the step of an explicit method just as a frequency does. Used
         by ``method='auto'`` and the :class:`~flexmb.StiffnessWarning`.
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        x, xd : ndarray, shape (n,)
+            Coordinates and speeds.
+
+        Returns
+        -------
+        float
+            Rate, rad/s (1/s for a damping rate).
         """
         return max(self._rates(t, x, xd))
 
@@ -324,6 +408,15 @@ class System:
         (unique for independent rows). A driver's row gives the torque or
         force it supplies; a cut joint's point rows give the force it
         transmits to its parent body (inertial axes, N).
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        x, xd : ndarray, shape (n,)
+            Coordinates and speeds.
+        xdd : ndarray, shape (n,), optional
+            Accelerations at the state (default: solved here).
 
         Returns
         -------
@@ -364,12 +457,38 @@ class System:
         return np.vstack([kin.origin[rows], tip])
 
     def energy(self, t, x, xd) -> tuple[float, float]:
-        """Kinetic and potential energy, J."""
+        """Kinetic and potential energy at a state.
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        x, xd : ndarray, shape (n,)
+            Coordinates and speeds.
+
+        Returns
+        -------
+        kinetic, potential : float
+            Energies, J.
+        """
         kin = self.kinematics(t, x, xd)
         return kin.kinetic_energy(), self.forces.potential_energy(kin)
 
     def dof(self, t=0.0, x=None) -> int:
-        """Degrees of freedom p = n - rank(psi) at a configuration."""
+        """Degrees of freedom p = n - rank(psi) at a configuration.
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        x : ndarray, shape (n,), optional
+            Coordinates (default: the reference configuration, zeros).
+
+        Returns
+        -------
+        int
+            Number of independent speeds p.
+        """
         x = np.zeros(self.n_coords) if x is None else x
         _, psi, _ = self.constraints.evaluate(self.kinematics(t, x, np.zeros_like(x)), level=1)
         return self.strategy.complement(psi).p

@@ -55,6 +55,9 @@ class AutoComplement(ComplementStrategy):
     band : float
         Factor around ``rtol`` within which a QR diagonal ratio is
         ambiguous.
+    singular_rtol : float
+        Relative floor of the singular values used in particular solutions;
+        see :class:`ComplementStrategy`.
 
     Examples
     --------

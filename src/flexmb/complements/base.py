@@ -15,7 +15,10 @@ __all__ = ["Complement", "ComplementStrategy"]
 class Complement:
     """An orthogonal complement of psi and a particular solver.
 
-    Attributes
+    Built by :meth:`ComplementStrategy.complement`; the parameters are also
+    its attributes.
+
+    Parameters
     ----------
     T : ndarray, shape (n, p)
         Orthonormal basis of the null space of psi: ``psi T = 0``,

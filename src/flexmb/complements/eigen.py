@@ -17,6 +17,14 @@ class EigenComplement(ComplementStrategy):
     values below about 3e-7 of the largest, as squaring halves the digits)
     span the null space of psi (eqs. 30-37).
 
+    Parameters
+    ----------
+    rtol : float, optional
+        Relative zero tolerance of the eigenvalues of S (default ``1e-13``).
+    singular_rtol : float
+        Relative floor of the singular values used in particular solutions;
+        see :class:`ComplementStrategy`.
+
     Examples
     --------
     >>> import numpy as np

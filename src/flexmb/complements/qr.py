@@ -171,6 +171,14 @@ class QRComplement(ComplementStrategy):
     reliably in practice but not always (Kahan's matrix); when a diagonal
     ratio lies near ``rtol``, prefer ``svd`` or ``auto``.
 
+    Parameters
+    ----------
+    rtol : float, optional
+        Relative zero tolerance of the diagonal of R (default ``1e-10``).
+    singular_rtol : float
+        Relative floor of the singular values used in particular solutions;
+        see :class:`ComplementStrategy`.
+
     Examples
     --------
     >>> import numpy as np

@@ -16,6 +16,14 @@ class SVDComplement(ComplementStrategy):
     (default ``rtol = 1e-10``). Better conditioned than the eigen strategy,
     which squares the condition number.
 
+    Parameters
+    ----------
+    rtol : float, optional
+        Relative zero tolerance of the singular values (default ``1e-10``).
+    singular_rtol : float
+        Relative floor of the singular values used in particular solutions;
+        see :class:`ComplementStrategy`.
+
     Examples
     --------
     >>> import numpy as np

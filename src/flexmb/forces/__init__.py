@@ -64,7 +64,15 @@ class Loads:
         np.add.at(self.torque, body_index, cross(lever, force))
 
     def add_torque(self, body_index, torque) -> None:
-        """Add torques (inertial components, N m) to bodies."""
+        """Add torques (inertial components, N m) to bodies.
+
+        Parameters
+        ----------
+        body_index : int or ndarray of int, shape (m,)
+            Bodies the torques act on (-1 is the ground).
+        torque : ndarray, shape (m, 3)
+            Torques, inertial, N m.
+        """
         np.add.at(self.torque, np.atleast_1d(body_index), np.reshape(torque, (-1, 3)))
 
 
@@ -85,6 +93,11 @@ class ForceElement:
     The ``state`` gives ``t``, ``x``, ``xd``, ``R`` (rotations), ``r`` (mass
     centres), ``v``, ``omega``, and ``index(body)``, ``point_position``,
     ``point_velocity`` and ``coordinate_slice(joint)``.
+
+    Parameters
+    ----------
+    name : str
+        Unique name of the element.
 
     Examples
     --------
@@ -127,22 +140,70 @@ class ForceElement:
         raise NotImplementedError(f"{type(self).__name__} must implement apply(state, loads)")
 
     def potential(self, state) -> float:
-        """Potential energy of the element, J (0 if not conservative)."""
+        """Potential energy of the element (0 if not conservative).
+
+        Parameters
+        ----------
+        state : Kinematics
+            The current kinematic state.
+
+        Returns
+        -------
+        float
+            Potential energy, J.
+        """
         return 0.0
 
     def check(self, model) -> list[str]:
-        """Problems with this element in ``model`` (empty if none)."""
+        """List the problems with this element in ``model``.
+
+        Called by :meth:`flexmb.Model.validate`, which collects the problems
+        of every element into one :class:`flexmb.ModelError`.
+
+        Parameters
+        ----------
+        model : Model
+            The model the element belongs to.
+
+        Returns
+        -------
+        list of str
+            One message per problem, naming the element (empty if none).
+        """
         return []
 
     @classmethod
     def apply_all(cls, elements, state, loads: Loads) -> None:
-        """Apply all elements of this class (default: one at a time)."""
+        """Apply all elements of this class (default: one at a time).
+
+        Parameters
+        ----------
+        elements : sequence of ForceElement
+            The model's elements of this class.
+        state : Kinematics
+            The current kinematic state.
+        loads : Loads
+            Accumulator to add to.
+        """
         for e in elements:
             e.apply(state, loads)
 
     @classmethod
     def potential_all(cls, elements, state) -> float:
-        """Summed potential energy of all elements of this class."""
+        """Summed potential energy of all elements of this class.
+
+        Parameters
+        ----------
+        elements : sequence of ForceElement
+            The model's elements of this class.
+        state : Kinematics
+            The current kinematic state.
+
+        Returns
+        -------
+        float
+            Potential energy, J.
+        """
         return float(sum(e.potential(state) for e in elements))
 
     @classmethod
@@ -151,6 +212,13 @@ class ForceElement:
 
         Used to build the Jacobian for implicit integrators; elements that
         act through bodies return None (their stiffness is not included).
+
+        Parameters
+        ----------
+        elements : sequence of ForceElement
+            The model's elements of this class.
+        state : Kinematics
+            The current kinematic state.
 
         Returns
         -------
@@ -167,6 +235,13 @@ class ForceElement:
         Used, like :meth:`tangent_all`, for the implicit integrators'
         Jacobian: a stiff velocity-dependent force (a regularised friction,
         a damper) left out of it makes Newton's method slow.
+
+        Parameters
+        ----------
+        elements : sequence of ForceElement
+            The model's elements of this class.
+        state : Kinematics
+            The current kinematic state.
 
         Returns
         -------

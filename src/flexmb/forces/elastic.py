@@ -43,25 +43,81 @@ class BeamElasticity(ForceElement):
 
     @classmethod
     def apply_all(cls, elements, state, loads) -> None:
-        """Add ``-K eta - C etadot`` for all flexible bodies at once."""
+        """Add ``-K eta - C etadot`` for all flexible bodies at once.
+
+        Parameters
+        ----------
+        elements : sequence of ForceElement
+            The model's elements of this class.
+        state : Kinematics
+            The current kinematic state.
+        loads : Loads
+            Accumulator to add to.
+        """
         cols, k, c = cls._arrays(elements, state)
         loads.generalized[cols] -= k * state.x[cols] + c * state.xd[cols]
 
     @classmethod
     def potential_all(cls, elements, state) -> float:
-        """``sum eta K eta / 2``, J."""
+        """Elastic energy ``sum eta K eta / 2`` of all flexible bodies.
+
+        Parameters
+        ----------
+        elements : sequence of ForceElement
+            The model's elements of this class.
+        state : Kinematics
+            The current kinematic state.
+
+        Returns
+        -------
+        float
+            Potential energy, J.
+        """
         cols, k, _ = cls._arrays(elements, state)
         return float(0.5 * np.sum(k * state.x[cols] ** 2))
 
     @classmethod
     def tangent_all(cls, elements, state):
-        """Diagonal K and C on the elastic coordinates."""
+        """Diagonal K and C on the elastic coordinates.
+
+        Parameters
+        ----------
+        elements : sequence of ForceElement
+            The model's elements of this class.
+        state : Kinematics
+            The current kinematic state.
+
+        Returns
+        -------
+        cols, k, c : ndarray, shape (n_elastic,)
+            Elastic coordinate indices, joint stiffnesses and damping
+            constants ``beta K``.
+        """
         return cls._arrays(elements, state)
 
     def apply(self, state, loads) -> None:
-        """Add this body's elastic forces."""
+        """Add this body's elastic forces.
+
+        Parameters
+        ----------
+        state : Kinematics
+            The current kinematic state.
+        loads : Loads
+            Accumulator to add to.
+        """
         type(self).apply_all([self], state, loads)
 
     def potential(self, state) -> float:
-        """Elastic energy of this body, J."""
+        """Elastic energy of this body.
+
+        Parameters
+        ----------
+        state : Kinematics
+            The current kinematic state.
+
+        Returns
+        -------
+        float
+            Potential energy, J.
+        """
         return type(self).potential_all([self], state)

@@ -52,9 +52,28 @@ class Gravity(ForceElement):
     name: str = field(default="gravity", validator=name_check)
 
     def apply(self, state, loads) -> None:
-        """Add ``m g`` to every body."""
+        """Add ``m g`` to every body.
+
+        Parameters
+        ----------
+        state : Kinematics
+            The current kinematic state.
+        loads : Loads
+            Accumulator to add to.
+        """
         loads.force[:-1] += state.mass[:, None] * self.g
 
     def potential(self, state) -> float:
-        """Potential energy ``U = -sum_k m_k (g @ r_k)``, J."""
+        """Potential energy ``U = -sum_k m_k (g @ r_k)``.
+
+        Parameters
+        ----------
+        state : Kinematics
+            The current kinematic state.
+
+        Returns
+        -------
+        float
+            Potential energy, J.
+        """
         return float(-np.sum(state.mass * (state.r[:-1] @ self.g)))

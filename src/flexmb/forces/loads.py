@@ -85,7 +85,15 @@ class PointForce(ForceElement):
     frame: str = field(default="ground", validator=_check_frame)
 
     def apply(self, state, loads) -> None:
-        """Add the force at its point."""
+        """Add the force at its point.
+
+        Parameters
+        ----------
+        state : Kinematics
+            The current kinematic state.
+        loads : Loads
+            Accumulator to add to.
+        """
         k, local = state.locate(self.body, self.point)
         f = _evaluate(self.force, state)
         if self.frame == "body":
@@ -134,7 +142,15 @@ class BodyTorque(ForceElement):
     point: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
 
     def apply(self, state, loads) -> None:
-        """Add the torque."""
+        """Add the torque.
+
+        Parameters
+        ----------
+        state : Kinematics
+            The current kinematic state.
+        loads : Loads
+            Accumulator to add to.
+        """
         k, _ = state.locate(self.body, self.point)
         tq = _evaluate(self.torque, state)
         if self.frame == "body":

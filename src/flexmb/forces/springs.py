@@ -91,7 +91,15 @@ class SpringDamper(ForceElement):
         return i, j, p1, p2
 
     def apply(self, state, loads) -> None:
-        """Add the spring and damper force pair."""
+        """Add the spring and damper force pair.
+
+        Parameters
+        ----------
+        state : Kinematics
+            The current kinematic state.
+        loads : Loads
+            Accumulator to add to.
+        """
         i, j, p1, p2 = self._geometry(state)
         dp = p2 - p1
         dv = state.point_velocity(j, p2) - state.point_velocity(i, p1)
@@ -106,7 +114,18 @@ class SpringDamper(ForceElement):
         loads.add_point_force(np.array([i, j]), np.array([p1, p2]), np.array([-f2, f2]))
 
     def potential(self, state) -> float:
-        """``k (l - l0)^2 / 2``, J."""
+        """Spring energy ``k (l - l0)^2 / 2``.
+
+        Parameters
+        ----------
+        state : Kinematics
+            The current kinematic state.
+
+        Returns
+        -------
+        float
+            Potential energy, J.
+        """
         _, _, p1, p2 = self._geometry(state)
         return float(0.5 * self.stiffness * (np.linalg.norm(p2 - p1) - self.rest_length) ** 2)
 
@@ -159,7 +178,18 @@ class JointSpringDamper(ForceElement):
     rest: np.ndarray = field(default=0.0, converter=as_array, validator=finite_array)
 
     def check(self, model) -> list[str]:
-        """The joint must have coordinates matching the parameter sizes."""
+        """Check that the joint has coordinates matching the parameter sizes.
+
+        Parameters
+        ----------
+        model : Model
+            The model the element belongs to.
+
+        Returns
+        -------
+        list of str
+            One message per problem (empty if none).
+        """
         n = self.joint.n_coords
         out = []
         for name in ("stiffness", "damping", "rest"):
@@ -171,13 +201,34 @@ class JointSpringDamper(ForceElement):
         return out
 
     def apply(self, state, loads) -> None:
-        """Add ``-k (q - q0) - c qdot``."""
+        """Add ``-k (q - q0) - c qdot``.
+
+        Parameters
+        ----------
+        state : Kinematics
+            The current kinematic state.
+        loads : Loads
+            Accumulator to add to.
+        """
         s = state.coordinate_slice(self.joint)
         loads.generalized[s] -= self.stiffness * (state.x[s] - self.rest) + self.damping * state.xd[s]
 
     @classmethod
     def tangent_all(cls, elements, state):
-        """Diagonal k and c on the joints' coordinates."""
+        """Diagonal k and c on the joints' coordinates.
+
+        Parameters
+        ----------
+        elements : sequence of ForceElement
+            The model's elements of this class.
+        state : Kinematics
+            The current kinematic state.
+
+        Returns
+        -------
+        cols, k, c : ndarray, shape (m,)
+            Coordinate indices, stiffnesses and damping constants.
+        """
         cols, k, c = [], [], []
         for e in elements:
             s = state.coordinate_slice(e.joint)
@@ -188,6 +239,17 @@ class JointSpringDamper(ForceElement):
         return np.concatenate(cols), np.concatenate(k), np.concatenate(c)
 
     def potential(self, state) -> float:
-        """``sum k (q - q0)^2 / 2``, J."""
+        """Spring energy ``sum k (q - q0)^2 / 2``.
+
+        Parameters
+        ----------
+        state : Kinematics
+            The current kinematic state.
+
+        Returns
+        -------
+        float
+            Potential energy, J.
+        """
         s = state.coordinate_slice(self.joint)
         return float(0.5 * np.sum(self.stiffness * (state.x[s] - self.rest) ** 2))

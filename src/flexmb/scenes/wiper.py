@@ -51,7 +51,13 @@ def _points_m() -> dict:
 
 
 def glass_normal() -> np.ndarray:
-    """Unit normal of the best-fit plane of the joint points (pointing to +z)."""
+    """Unit normal of the best-fit plane of the joint points (pointing to +z).
+
+    Returns
+    -------
+    ndarray, shape (3,)
+        The normal, in the model's inertial frame.
+    """
     X = np.array(list(_points_m().values()))
     n = np.linalg.svd(X - X.mean(axis=0))[2][2]
     return n if n[2] > 0 else -n
@@ -90,6 +96,9 @@ class WiperOptions:
         ``smoothing_speed`` (m/s).
     friction : bool
         Include the tip friction.
+    masses : dict of str to float
+        Masses of the rigid links ``crank``, ``drive_link``, ``arm`` and
+        ``connecting_link``, kg.
     """
 
     flexible: bool = True

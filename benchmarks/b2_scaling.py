@@ -1,28 +1,100 @@
-"""B2 cost against N up to N = 256: wall time per simulated second (Radau, rtol 1e-4).
+"""B2 cost against N up to N = 256: wall time per simulated second at integration error <= 1e-6 m.
 
-rtol 1e-4 gives integration errors of 1e-8..1e-7 m at N = 16..64 against
-the references of ``work_precision.py`` (``results/summary.md``); at
-N = 128 and 256 no reference is computed (it would take hours), so these
-rows have no error. Prints one JSON line per N; the committed run is
-``results/flexmb_B2_scaling.jsonl``.
+For every N, flexmb's Radau runs at a few tolerances (median of
+``--repeat`` runs each), and each run's integration error is measured
+against the cached reference of the same model (Radau at ``--ref-rtol``,
+``work_precision.reference``; at N = 256 that reference takes several CPU
+minutes once). The least wall time with error <= ``--target`` per N gives
+the curve and its fitted exponent (``np.polyfit`` on log-log, as
+``plot.py``), and the local exponents between neighbouring N.
 
-Run: ``python benchmarks/b2_scaling.py 16 32 64 128 256`` (about 2 minutes).
+Writes ``results/flexmb_B2_scaling.jsonl`` (BENCHMARKS.md fields plus
+``cpu_s``) and ``results/scaling_B2_to256.png``, and prints a table.
+
+Run: ``python benchmarks/b2_scaling.py`` (defaults: N = 8 ... 256, rtol 1e-3
+and 1e-4, 3 repeats; about 15 minutes with the references cached).
 """
 
+from __future__ import annotations
+
+import argparse
 import json
 import os
+import statistics
 import sys
 import time
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import flexmb as fm  # noqa: E402
-from scenes import b2  # noqa: E402
+import numpy as np
 
-for N in [int(a) for a in sys.argv[1:]]:
-    s = b2(N).build()
-    t0 = time.perf_counter(); c0 = time.process_time()
-    r = fm.simulate(s, 1.0, rtol=1e-4, method="Radau", n_out=2)
-    row = {"tool": "flexmb", "scene": "B2", "variant": "scaling, no reference", "n_segments": N, "n_coords": s.n_coords,
-           "integrator": "Radau", "rtol": 1e-4, "wall_s": time.perf_counter() - t0, "cpu_s": time.process_time() - c0,
-           "steps": r.n_steps, "rhs_evals": r.n_rhs, "jac_evals": r.n_jac, "status": r.status}
-    print(json.dumps(row), flush=True)
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+
+import flexmb as fm  # noqa: E402
+import plot  # noqa: E402
+import work_precision as wp  # noqa: E402
+
+
+def run(n, rtol, repeat, scene, ref):
+    """Median wall and CPU time of ``repeat`` runs, and the error of the last one."""
+    walls, cpus = [], []
+    for _ in range(repeat):
+        c0 = time.process_time()
+        setup, wall, res, system = wp.run_once(scene, n, "Radau", rtol)
+        walls.append(wall)
+        cpus.append(time.process_time() - c0 - setup)
+    err = float(np.linalg.norm(np.asarray(scene.output(res)) - ref["output"]))
+    return {"tool": "flexmb", "scene": "B2", "variant": scene.variant, "n_segments": n,
+            "n_coords": system.n_coords, "n_dof": res.n_dof, "integrator": "Radau", "rtol": rtol, "h": None,
+            "setup_s": setup, "wall_s": statistics.median(walls), "cpu_s": statistics.median(cpus),
+            "steps": res.n_steps, "rhs_evals": res.n_rhs, "jac_evals": res.n_jac, "error": err,
+            "error_kind": "integration", "reference": f"flexmb Radau rtol={ref['rtol']:g} same N",
+            "sparse": system.tree_solver is not None, "status": res.status, "t_end": scene.t_end}
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--n", nargs="+", type=int, default=[8, 16, 32, 64, 128, 256])
+    ap.add_argument("--rtols", nargs="+", type=float, default=[1e-3, 1e-4])
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--ref-rtol", type=float, default=1e-9)
+    ap.add_argument("--target", type=float, default=1e-6)
+    ap.add_argument("--out", default=wp.RESULTS)
+    args = ap.parse_args(argv)
+    scene = wp.scenes()["B2"]
+    rows = []
+    for n in args.n:
+        ref = wp.reference(scene, n, args.ref_rtol)
+        for rtol in args.rtols:
+            row = run(n, rtol, args.repeat, scene, ref)
+            rows.append(row)
+            print(json.dumps(row), flush=True)
+    os.makedirs(args.out, exist_ok=True)
+    wp.write_jsonl(rows, os.path.join(args.out, "flexmb_B2_scaling.jsonl"))
+
+    best = plot.best_wall_at(rows, args.target)
+    ns = sorted(n for (_, n) in best)
+    walls = [best[("flexmb", n)][0] / scene.t_end for n in ns]
+    print(f"\nB2, Radau, least wall time per simulated second at error <= {args.target:g} m (flexmb {fm.__version__})")
+    print("| N | n | rtol | error m | wall s | CPU s | steps | rhs | jac | local exponent |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    for i, n in enumerate(ns):
+        r = best[("flexmb", n)][1]
+        local = f"{np.log(walls[i] / walls[i - 1]) / np.log(n / ns[i - 1]):.2f}" if i else "—"
+        print(f"| {n} | {r['n_coords']} | {r['rtol']:g} | {r['error']:.1e} | {r['wall_s']:.3g} | {r['cpu_s']:.3g} "
+              f"| {r['steps']} | {r['rhs_evals']} | {r['jac_evals']} | {local} |")
+    p = plot.fit_exponent(ns, walls)
+    print(f"fitted exponent over N = {ns[0]}..{ns[-1]}: {p:.2f}" if p is not None else "no fit")
+    missing = [n for n in args.n if n not in ns]
+    if missing:
+        print(f"no run reached error <= {args.target:g} at N = {missing}")
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    path, _ = plot.plot_scaling(plt, rows, "B2", args.out, args.target, name="scaling_B2_to256.png")
+    print("wrote", path)
+
+
+if __name__ == "__main__":
+    main()

@@ -150,7 +150,7 @@ def plot_work_precision(plt, rows, scene, out):
     return path
 
 
-def plot_scaling(plt, rows, scene, out, target):
+def plot_scaling(plt, rows, scene, out, target, name=None):
     rows = [r for r in rows if r["scene"] == scene]
     best = best_wall_at(rows, target)
     tools = sorted({t for t, _ in best})
@@ -177,7 +177,7 @@ def plot_scaling(plt, rows, scene, out, target):
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=8)
     fig.tight_layout()
-    path = os.path.join(out, f"scaling_{scene}.png")
+    path = os.path.join(out, name or f"scaling_{scene}.png")
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path, exps

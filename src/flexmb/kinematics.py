@@ -27,6 +27,8 @@ from .rotations import cross, skew
 
 __all__ = ["Kinematics"]
 
+_EYE = np.eye(3)
+
 
 class Kinematics:
     """Positions, velocities, partial velocities and bias accelerations.
@@ -71,6 +73,7 @@ class Kinematics:
         self.xd = xd
         nb, n = topo.n_bodies, topo.n_coords
         self.mass = topo.mass
+        self._inertia_world = None
         parent = topo.parent
 
         # joint motions, batched per joint class
@@ -80,8 +83,14 @@ class Kinematics:
         av = np.empty((nb, 3))
         hw = np.zeros((3, n))
         hv = np.zeros((3, n))
-        for cls, ks, cols in topo.groups:
-            R_, d_, Hw, Hv, aw_, av_ = cls.motion(x[cols], xd[cols])
+        for i, (cls, ks, cols) in enumerate(topo.groups):
+            if cols.shape[1]:
+                R_, d_, Hw, Hv, aw_, av_ = cls.motion(x[cols], xd[cols])
+            else:  # no coordinates: a constant motion, evaluated once per model
+                key = ("constant motion", i)
+                if key not in topo.cache:
+                    topo.cache[key] = cls.motion(x[cols], xd[cols])
+                R_, d_, Hw, Hv, aw_, av_ = topo.cache[key]
             Rj[ks], d[ks], aw[ks], av[ks] = R_, d_, aw_, av_
             if cols.shape[1]:
                 hw[:, cols] = Hw.transpose(1, 0, 2)
@@ -90,11 +99,9 @@ class Kinematics:
         # global rotations by pointer jumping: R_k = R_P F_p Rj F_c^T
         R = np.empty((nb + 1, 3, 3))
         R[:nb] = topo.parent_frame @ Rj @ topo.child_frame.transpose(0, 2, 1)
-        R[nb] = np.eye(3)
-        ptr = np.append(np.where(parent < 0, nb, parent), nb)
-        while np.any(ptr[:nb] != nb):
-            R[:nb] = R[ptr[:nb]] @ R[:nb]
-            ptr = ptr[ptr]
+        R[nb] = _EYE
+        for ptr in topo.jump_pointers:
+            R[:nb] = R[ptr] @ R[:nb]
         self.R = R
 
         RP = R[parent]
@@ -130,8 +137,7 @@ class Kinematics:
         # velocity-dependent accelerations (eqs. 13, 18 at xdd = 0)
         wP = omega[parent]
         w_rel = omega[:nb] - wP
-        v_rel = np.zeros((nb, 3))
-        np.add.at(v_rel, cb, Gv * xd[:, None])
+        v_rel = topo.coord_incidence @ (Gv * xd[:, None])
         beta = cross(wP, w_rel) + np.einsum("kij,kj->ki", RM, aw)
         alpha = np.zeros((nb + 1, 3))
         alpha[:nb] = anc @ beta
@@ -214,15 +220,17 @@ class Kinematics:
         return self.topology.coordinate_slice(joint)
 
     def inertia_world(self) -> np.ndarray:
-        """Central inertia tensors in inertial axes.
+        """Central inertia tensors in inertial axes (computed once per state).
 
         Returns
         -------
         ndarray, shape (n_bodies, 3, 3)
             ``R_k I_k R_k^T``, kg m^2.
         """
-        R = self.R[:-1]
-        return R @ self.topology.inertia @ R.transpose(0, 2, 1)
+        if self._inertia_world is None:
+            R = self.R[:-1]
+            self._inertia_world = R @ self.topology.inertia @ R.transpose(0, 2, 1)
+        return self._inertia_world
 
     def point_position(self, k, local) -> np.ndarray:
         """Inertial position of body-fixed points.

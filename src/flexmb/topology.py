@@ -159,6 +159,13 @@ class Topology:
         self.ancestors = anc
         depth = anc.sum(axis=1)
         self.depth = int(depth.max()) if nb else 0
+        # pointer jumping (Kinematics): the ancestor 1, 2, 4, ... levels up of
+        # every body (nb: the ground), one array per jump
+        ptr = np.append(np.where(self.parent < 0, nb, self.parent), nb)
+        self.jump_pointers = []
+        while np.any(ptr[:nb] != nb):
+            self.jump_pointers.append(ptr[:nb].copy())
+            ptr = ptr[ptr]
 
         # coordinates: contiguous per tree joint, in body order
         self.joint_slice = {}
@@ -173,6 +180,8 @@ class Topology:
         self.coordinate_names = names
         self.coord_body = np.array(coord_body, dtype=int)
         self.coord_ancestors = anc[:, self.coord_body]
+        # coord_incidence[k, c] = 1 where coordinate c belongs to body k's tree joint
+        self.coord_incidence = (np.arange(nb)[:, None] == self.coord_body[None, :]).astype(float)
         # coord_upstream[c, d]: coordinate c moves the body of coordinate d
         # (c's joint on d's path from the ground, d's own joint included);
         # A[c, d] is non-zero only where this or its transpose holds.

@@ -12,7 +12,8 @@ Writes ``results/flexmb_B2_scaling.jsonl`` (BENCHMARKS.md fields plus
 ``cpu_s``) and ``results/scaling_B2_to256.png``, and prints a table.
 
 Run: ``python benchmarks/b2_scaling.py`` (defaults: N = 8 ... 256, rtol 1e-3
-and 1e-4, 3 repeats; about 15 minutes with the references cached).
+and 1e-4, 3 repeats; about 15 minutes with the references cached, which a first run computes:
+about 10 CPU minutes at N = 128 and 256).
 """
 
 from __future__ import annotations
@@ -64,8 +65,11 @@ def main(argv=None):
     rows = []
     for n in args.n:
         ref = wp.reference(scene, n, args.ref_rtol)
+        loose = wp.reference(scene, n, 10 * args.ref_rtol)  # its distance: the reference's own error
+        unc = float(np.linalg.norm(ref["output"] - loose["output"]))
         for rtol in args.rtols:
             row = run(n, rtol, args.repeat, scene, ref)
+            row["ref_uncertainty"] = unc
             rows.append(row)
             print(json.dumps(row), flush=True)
     os.makedirs(args.out, exist_ok=True)
@@ -75,13 +79,14 @@ def main(argv=None):
     ns = sorted(n for (_, n) in best)
     walls = [best[("flexmb", n)][0] / scene.t_end for n in ns]
     print(f"\nB2, Radau, least wall time per simulated second at error <= {args.target:g} m (flexmb {fm.__version__})")
-    print("| N | n | rtol | error m | wall s | CPU s | steps | rhs | jac | local exponent |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    print("| N | n | rtol | error m | reference's error m | wall s | CPU s | steps | rhs | jac | local exponent |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     for i, n in enumerate(ns):
         r = best[("flexmb", n)][1]
         local = f"{np.log(walls[i] / walls[i - 1]) / np.log(n / ns[i - 1]):.2f}" if i else "—"
-        print(f"| {n} | {r['n_coords']} | {r['rtol']:g} | {r['error']:.1e} | {r['wall_s']:.3g} | {r['cpu_s']:.3g} "
-              f"| {r['steps']} | {r['rhs_evals']} | {r['jac_evals']} | {local} |")
+        print(f"| {n} | {r['n_coords']} | {r['rtol']:g} | {r['error']:.1e} | {r['ref_uncertainty']:.0e} "
+              f"| {r['wall_s']:.3g} | {r['cpu_s']:.3g} | {r['steps']} | {r['rhs_evals']} | {r['jac_evals']} "
+              f"| {local} |")
     p = plot.fit_exponent(ns, walls)
     print(f"fitted exponent over N = {ns[0]}..{ns[-1]}: {p:.2f}" if p is not None else "no fit")
     missing = [n for n in args.n if n not in ns]

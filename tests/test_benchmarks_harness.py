@@ -79,3 +79,15 @@ def test_fit_exponent_and_best_wall():
     rows = [{"tool": "a", "n_segments": 8, "error": e, "wall_s": w, "error_kind": "integration"}
             for e, w in ((1e-5, 0.1), (1e-7, 0.5), (1e-8, 0.9))]
     assert plot.best_wall_at(rows, 1e-6)[("a", 8)][0] == 0.5
+
+
+def test_b2_scaling_row_measures_the_error_against_the_reference(tmp_path):
+    b2s = pytest.importorskip("b2_scaling")
+    import dataclasses
+
+    scene = dataclasses.replace(wp.scenes()["B2"], t_end=0.1)
+    ref = wp.reference(scene, 2, 1e-8, refdir=str(tmp_path))
+    row = b2s.run(2, 1e-4, 1, scene, ref)
+    assert FIELDS <= set(row) and row["n_coords"] == 6 and row["status"] == "finished"
+    assert row["cpu_s"] > 0 and not row["sparse"]
+    assert 0 < row["error"] < 1e-5  # rtol 1e-4 against the same model at 1e-8

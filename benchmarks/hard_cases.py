@@ -72,8 +72,9 @@ def singular():
     fig, ax = plt.subplots(1, 2, figsize=(10, 3.6))
     start = dict(positions={"A": PARA_TH0, "B": -PARA_TH0, "D": PARA_TH0}, speeds={"A": PARA_W}, fixed=["A"],
                  rtol=1e-10, n_out=601, method="DOP853")
-    for label, strategy in (("svd, singular_rtol = 1e-2", fm.SVDComplement(singular_rtol=1e-2)),
-                            ("svd, default (0)", fm.SVDComplement())):
+    for label, strategy in (("svd, default (singular_window = 0.1)", fm.SVDComplement()),
+                            ("svd, singular_rtol = 1e-2", fm.SVDComplement(singular_rtol=1e-2)),
+                            ("svd, filter off (singular_window = 0)", fm.SVDComplement(singular_window=0.0))):
         res = fm.simulate(parallelogram().build(complement=strategy), 3.0, **start)
         A, B = res.coordinate("A"), res.coordinate("B")
         err = A - (PARA_TH0 + PARA_W * res.t)

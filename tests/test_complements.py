@@ -475,8 +475,9 @@ def test_auto_chooses_by_size_and_conditioning():
 
 
 def test_auto_and_qr_construction_and_repr():
-    assert repr(fm.AutoComplement()) == "AutoComplement(rtol=None, singular_rtol=0.0, min_n=20, band=100.0)"
-    assert repr(fm.QRComplement(rtol=1e-8)) == "QRComplement(rtol=1e-08, singular_rtol=0.0)"
+    assert repr(fm.AutoComplement()) == ("AutoComplement(rtol=None, singular_rtol=0.0, singular_window=0.1, "
+                                         "min_n=20, band=100.0)")
+    assert repr(fm.QRComplement(rtol=1e-8)) == "QRComplement(rtol=1e-08, singular_rtol=0.0, singular_window=0.1)"
     assert fm.QRComplement().tol == 1e-10 and fm.AutoComplement(rtol=1e-6).tol == 1e-6
     for bad in ({"min_n": 0}, {"band": 0.0}, {"band": -2.0}):
         (key, value), = bad.items()

@@ -275,7 +275,10 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         )
     # the rank of psi is judged once, on the assembled state: off the constraint manifold
     # (integrator stages) redundant rows (Bricard linkage) would look independent
-    system.rank_limit = system.strategy.complement(system.constraints.evaluate(kin0, level=1)[1]).rank
+    c0 = system.strategy.complement(system.constraints.evaluate(kin0, level=1)[1])
+    system.rank_limit = c0.rank
+    # the scale of the singular-position filter (ComplementStrategy.singular_window)
+    system.sigma_ref = float(c0.singular_values()[c0.rank - 1]) if c0.rank else None
     n = system.n_coords
     times = np.linspace(t0, t_end, n_out) if t_eval is None else np.asarray(t_eval, dtype=float)
     if times.ndim != 1 or np.any(np.diff(times) <= 0) or times[0] < t0 or times[-1] > t_end:
@@ -370,7 +373,7 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
                 xs, vs = solver.y[:n], solver.y[n : 2 * n]
                 phi, psi, b = system.constraints.evaluate(system.kinematics(t_now, xs, vs), level=1)
                 if phi.size and max(np.max(np.abs(phi)), np.max(np.abs(psi @ vs - b))) > projection_tol:
-                    xs, vs = system.project(t_now, xs, vs, tol=min(1e-12, projection_tol))
+                    xs, vs = system.project(t_now, xs, vs, tol=min(1e-12, projection_tol), speeds="mass")
                     n_proj += 1
                     step = solver.step_size
                     first = min(max(step, 1e-14), t_end - t_now) if step else None
@@ -415,17 +418,51 @@ def _project_output(system, t, x, xd, tol):
     Near a singular position (a flattened four-bar) the minimum-norm
     correction divides the residual by a tiny singular value of psi; such a
     correction, larger than ``OUTPUT_PROJECTION_GAIN`` times the residual,
-    is refused and the interpolated state kept as it is.
+    is refused, and the state is projected in the well-conditioned
+    directions only (:func:`_project_partial`). Speeds are projected
+    mass-orthogonally, as after the steps.
     """
     phi, psi, b = system.constraints.evaluate(system.kinematics(t, x, xd), level=1)
     res = max(np.max(np.abs(phi)), np.max(np.abs(psi @ xd - b)))
     if res <= tol:
         return x, xd
     try:
-        xp, vp = system.project(t, x, xd, tol=min(1e-12, tol))
+        xp, vp = system.project(t, x, xd, tol=min(1e-12, tol), speeds="mass")
     except AssemblyError:
-        return x, xd
+        return _project_partial(system, t, x, xd, res)
     if max(np.max(np.abs(xp - x)), np.max(np.abs(vp - xd))) > OUTPUT_PROJECTION_GAIN * res:
+        return _project_partial(system, t, x, xd, res)
+    return xp, vp
+
+
+def _project_partial(system, t, x, xd, res, n_iter=3):
+    """Project a state near a singular position in the well-conditioned directions only.
+
+    The rows of psi along singular values below ``system.singular_window()``
+    are left out (on the flattened parallelogram the violation along them is
+    of second order in the state's error, and correcting it would move the
+    state along the other branch); the speeds are projected
+    mass-orthogonally onto what remains. Returns ``(x, xd)`` unchanged if
+    that does not reduce the residual, or if it needs a correction larger
+    than ``OUTPUT_PROJECTION_GAIN`` times the residual.
+    """
+    window = system.singular_window()
+    if window <= 0.0:
+        return x, xd
+    xp = np.array(x, dtype=float)
+    for _ in range(n_iter):
+        phi, psi, _ = system.constraints.evaluate(system.kinematics(t, xp, xd), level=1)
+        c = system.complement(psi)
+        c = c.truncated(int(np.sum(c.scale >= window)))
+        if c.rank:
+            xp -= c.particular(phi)
+    kin = system.kinematics(t, xp, xd)
+    phi, psi, b = system.constraints.evaluate(kin, level=1)
+    c = system.complement(psi)
+    c = c.truncated(int(np.sum(c.scale >= window)))
+    vp = system._mass_orthogonal_speeds(kin, psi, b, xd, c=c)
+    new = max(np.max(np.abs(phi)), np.max(np.abs(psi @ vp - b)))
+    if new >= res or max(np.max(np.abs(xp - x)), np.max(np.abs(vp - xd))) > OUTPUT_PROJECTION_GAIN * res:
         return x, xd
     return xp, vp
 

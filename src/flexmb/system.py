@@ -69,6 +69,9 @@ class System:
         #: Largest rank of psi used by :meth:`complement` (None: no cap); set by
         #: :func:`~flexmb.simulate` to the rank at the assembled initial state.
         self.rank_limit: int | None = None
+        #: smallest nonzero singular value of psi at the assembled initial state (None: not
+        #: judged); set by :func:`~flexmb.simulate`, scales the strategy's ``singular_window``
+        self.sigma_ref: float | None = None
         self._trial()
 
     def _trial(self):
@@ -258,16 +261,39 @@ class System:
             return self._cholesky_solve(t, A, f)
         c = self.complement(psi)
         T = c.T
-        cp = c
-        srtol = getattr(self.strategy, "singular_rtol", 0.0)
-        if srtol and c.rank:  # near a singular position: leave gamma / (tiny sigma) out
-            cp = c.truncated(int(np.sum(c.scale > srtol * np.max(c.scale))))
-        xdd_p = cp.particular(gamma) if cp.rank else np.zeros(self.n_coords)
+        xdd_p = self._particular(c, gamma)
         if T.shape[1] == 0:
             return xdd_p
         M = T.T @ A @ T
         rhs = T.T @ (f - A @ xdd_p)
         return T @ self._cholesky_solve(t, M, rhs) + xdd_p
+
+    def _particular(self, c, rhs):
+        """``psi^+ rhs`` with the strategy's treatment of singular positions.
+
+        Singular values of psi below ``singular_window * sigma_ref`` are
+        filtered (:meth:`Complement.particular`); with the opt-in
+        ``singular_rtol``, those below ``singular_rtol`` times the largest
+        are left out. Near a singular position (a flattened parallelogram)
+        ``gamma / sigma`` would otherwise throw the motion onto the other
+        branch (docs/stability.md, section 2).
+        """
+        srtol = getattr(self.strategy, "singular_rtol", 0.0)
+        if srtol and c.rank:
+            c = c.truncated(int(np.sum(c.scale > srtol * np.max(c.scale))))
+        if not c.rank:
+            return np.zeros(self.n_coords)
+        return c.particular(rhs, window=self.singular_window())
+
+    def singular_window(self) -> float:
+        """Singular values of psi below this are filtered in particular solutions (0: none).
+
+        ``strategy.singular_window * sigma_ref`` (see
+        :class:`~flexmb.complements.ComplementStrategy`).
+        """
+        if not self.sigma_ref:
+            return 0.0
+        return getattr(self.strategy, "singular_window", 0.0) * self.sigma_ref
 
     @staticmethod
     def _cholesky_solve(t, M, rhs):
@@ -508,7 +534,7 @@ class System:
             r = min(r, self.rank_limit)
         return Vt[:r].T @ ((U[:, :r].T @ rhs) / s[:r])
 
-    def project(self, t, x, xd, tol=1e-12, max_iter=50, fixed=None, max_step=0.5):
+    def project(self, t, x, xd, tol=1e-12, max_iter=50, fixed=None, max_step=0.5, speeds="min-norm"):
         """Project a state onto the constraints (Newton, minimum-norm steps).
 
         Parameters
@@ -526,6 +552,14 @@ class System:
         max_step : float
             Largest change of any coordinate in one Newton step (rad or m),
             so that rough guesses do not jump to a far branch.
+        speeds : {'min-norm', 'mass'}
+            How the speeds are corrected: the minimum-norm correction of the
+            free speeds (default), or the mass-orthogonal projection onto
+            ``psi xd = b`` (``fixed`` must be None): the correction is
+            A-orthogonal to the consistent speeds, so it changes the kinetic
+            energy only to second order (Bayo & Ledesma's mass-orthogonal
+            projection), also near a singular position where the minimum-norm
+            correction is a large multiple of the residual.
 
         Returns
         -------
@@ -560,7 +594,21 @@ class System:
                 f"the constraints cannot be closed at t = {t:.6g} s: residual {np.max(np.abs(phi)):.3g} "
                 f"after {max_iter} Newton steps (largest: {rows})"
             )
-        phi, psi, b = self.constraints.evaluate(self.kinematics(t, x, xd), level=1)
+        kin = self.kinematics(t, x, xd)
+        phi, psi, b = self.constraints.evaluate(kin, level=1)
+        if speeds == "mass" and fixed is None:
+            return x, self._mass_orthogonal_speeds(kin, psi, b, xd)
         step = self._min_norm(psi[:, free], psi @ xd - b)
         xd[free] -= step
         return x, xd
+
+    def _mass_orthogonal_speeds(self, kin, psi, b, xd, c=None):
+        """``xd_p + T (T^T A T)^-1 T^T A (xd - xd_p)`` with ``xd_p = psi^+ b``: the consistent speeds
+        nearest to ``xd`` in the kinetic-energy metric (``c``: the complement to use)."""
+        c = self.complement(psi) if c is None else c
+        vp = self._particular(c, b)
+        T = c.T
+        if T.shape[1] == 0:
+            return vp
+        A = mass_matrix(kin)
+        return vp + T @ self._cholesky_solve(kin.t, T.T @ A @ T, T.T @ (A @ (xd - vp)))

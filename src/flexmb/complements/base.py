@@ -50,13 +50,21 @@ class Complement:
         """Number of independent speeds."""
         return self.T.shape[1]
 
-    def particular(self, rhs: np.ndarray) -> np.ndarray:
+    def particular(self, rhs: np.ndarray, window: float = 0.0) -> np.ndarray:
         """Minimum-norm solution x of ``psi x = rhs`` (least squares if inconsistent).
 
         Parameters
         ----------
         rhs : ndarray, shape (m,)
             Right-hand side (b for speeds, gamma for accelerations).
+        window : float
+            Singular values ``s`` of psi below ``window`` are inverted as
+            ``s / (s^2 + w^2 (1 - s^2/w^2)^2)`` instead of ``1/s`` (a
+            Tikhonov filter that fades in below the window: exact for
+            ``s >= w``, continuous with its slope at ``s = w``, and at most
+            about ``1/w``). It keeps a constraint violation from being divided
+            by a collapsing singular value near a singular position (see
+            :attr:`ComplementStrategy.singular_window`). 0 (default): none.
 
         Returns
         -------
@@ -64,8 +72,21 @@ class Complement:
             ``x = psi^+ rhs``.
         """
         if self.factor is not None:  # psi = left K basis^T: x = basis K^-1 left^T rhs
+            # |diag K| of the pivoted QR bounds the smallest singular value from above and
+            # reveals it within a modest factor: an SVD of K only where one may be in the window
+            if window > 0.0 and self.scale.size and np.min(self.scale) < 10.0 * window:
+                U, s, Vt = np.linalg.svd(self.factor)
+                return self.basis @ (Vt.T @ _filtered(s, U.T @ (self.left.T @ rhs), window))
             return self.basis @ solve_triangular(self.factor, self.left.T @ rhs, check_finite=False)
+        if window > 0.0:
+            return self.basis @ _filtered(self.scale, self.left.T @ rhs, window)
         return self.basis @ ((self.left.T @ rhs) / self.scale)
+
+    def singular_values(self) -> np.ndarray:
+        """Singular values of psi on its row space (``scale``, or those of ``factor``), descending."""
+        if self.factor is not None:
+            return np.linalg.svd(self.factor, compute_uv=False)
+        return np.sort(self.scale)[::-1]
 
     def truncated(self, rank: int) -> "Complement":
         """The complement of psi with its rank capped at ``rank``.
@@ -95,6 +116,12 @@ class Complement:
         return Complement(T, rank, self.basis[:, keep], self.scale[keep], self.left[:, keep])
 
 
+def _filtered(s, g, w):
+    """``g / s`` with singular values below ``w`` regularised (:meth:`Complement.particular`)."""
+    fade = np.clip(1.0 - (s / w) ** 2, 0.0, None) ** 2
+    return s * g / (s * s + (w * w) * fade)
+
+
 @frozen(eq=False)
 class ComplementStrategy:
     """Base class of ways to build the orthogonal complement T of psi.
@@ -114,15 +141,34 @@ class ComplementStrategy:
     ----------
     rtol : float, optional
         Relative zero tolerance; default per strategy.
+    singular_window : float
+        Default treatment of singular positions (e.g. a parallelogram
+        four-bar flattened, where psi loses rank and the anti-parallelogram
+        branch crosses). ``System.sigma_ref`` is the smallest nonzero
+        singular value of psi at the assembled initial state (set by
+        :func:`~flexmb.simulate`); singular values below ``singular_window``
+        times it are inverted with the fading Tikhonov filter of
+        :meth:`Complement.particular` in the particular solutions
+        ``psi^+ gamma`` (eq. 38) and ``psi^+ b``. Near a singular position
+        the component of gamma along the collapsing direction is mostly the
+        state's tiny constraint violation; divided by the vanishing singular
+        value it throws the motion onto the level set ``phi = const`` and
+        from there onto the other branch. Filtered, the mechanism moves on by
+        its inertia on the branch its velocity points along, and the
+        (mass-orthogonal) projection of :func:`~flexmb.simulate` removes the
+        small error after it. Exact wherever no singular value has fallen
+        below ``singular_window`` times ``sigma_ref``: mechanisms that stay
+        away from singular positions are unchanged. Default 0.1; 0
+        turns it off. See docs/stability.md, section 2.
     singular_rtol : float
-        Singular values of psi below ``singular_rtol`` times the largest are
-        left out of the particular solution ``xdd_p = psi^+ gamma`` (the
-        number of freedoms p is unchanged). Off by default (0). Set it (e.g.
-        1e-2) for mechanisms that pass through singular positions, such as
-        a parallelogram four-bar at its flattened configurations: near such
-        a point a tiny constraint violation makes ``gamma / sigma`` throw
-        the motion onto the other branch (or back); without those terms it
-        moves on by its inertia and the projection corrects the small error.
+        Opt-in, older and blunter: singular values of psi below
+        ``singular_rtol`` times the largest are left out of the particular
+        solution ``xdd_p = psi^+ gamma`` (the number of freedoms p is
+        unchanged). Off by default (0). It acts at the same place in every
+        run, whatever the initial state, so it can also protect a run that
+        starts near a singular position (where ``singular_window``, judged
+        at the start, is small); but on a badly scaled psi it would drop
+        terms everywhere.
     """
 
     name = "base"
@@ -130,11 +176,17 @@ class ComplementStrategy:
 
     rtol: float | None = None
     singular_rtol: float = field(default=0.0, kw_only=True)
+    singular_window: float = field(default=0.1, kw_only=True)
 
     @singular_rtol.validator
     def _check_singular_rtol(self, attribute, value):
         if not (isinstance(value, (int, float)) and 0.0 <= value < 1.0):
             raise ModelError(f"{type(self).__name__}: singular_rtol must be in [0, 1), got {value!r}")
+
+    @singular_window.validator
+    def _check_singular_window(self, attribute, value):
+        if not (isinstance(value, (int, float)) and 0.0 <= value < 1.0):
+            raise ModelError(f"{type(self).__name__}: singular_window must be in [0, 1), got {value!r}")
 
     @property
     def tol(self) -> float:

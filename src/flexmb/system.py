@@ -69,8 +69,8 @@ class System:
         #: Largest rank of psi used by :meth:`complement` (None: no cap); set by
         #: :func:`~flexmb.simulate` to the rank at the assembled initial state.
         self.rank_limit: int | None = None
-        #: smallest nonzero singular value of psi at the assembled initial state (None: not
-        #: judged); set by :func:`~flexmb.simulate`, scales the strategy's ``singular_window``
+        #: Smallest nonzero singular value of psi at the assembled initial state (None: not
+        #: judged); set by :func:`~flexmb.simulate`, scales the strategy's ``singular_window``.
         self.sigma_ref: float | None = None
         self._trial()
 
@@ -288,8 +288,11 @@ class System:
     def singular_window(self) -> float:
         """Singular values of psi below this are filtered in particular solutions (0: none).
 
-        ``strategy.singular_window * sigma_ref`` (see
-        :class:`~flexmb.complements.ComplementStrategy`).
+        Returns
+        -------
+        float
+            ``strategy.singular_window * sigma_ref`` (see
+            :class:`~flexmb.complements.ComplementStrategy`).
         """
         if not self.sigma_ref:
             return 0.0

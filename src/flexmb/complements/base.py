@@ -83,7 +83,13 @@ class Complement:
         return self.basis @ ((self.left.T @ rhs) / self.scale)
 
     def singular_values(self) -> np.ndarray:
-        """Singular values of psi on its row space (``scale``, or those of ``factor``), descending."""
+        """Singular values of psi on its row space (``scale``, or those of ``factor``), descending.
+
+        Returns
+        -------
+        ndarray, shape (rank,)
+            The singular values.
+        """
         if self.factor is not None:
             return np.linalg.svd(self.factor, compute_uv=False)
         return np.sort(self.scale)[::-1]

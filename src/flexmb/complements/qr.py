@@ -178,6 +178,9 @@ class QRComplement(ComplementStrategy):
     singular_rtol : float
         Relative floor of the singular values used in particular solutions;
         see :class:`ComplementStrategy`.
+    singular_window : float
+        Relative width of the filter of small singular values in particular
+        solutions (default 0.1); see :class:`ComplementStrategy`.
 
     Examples
     --------

@@ -369,7 +369,7 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
                             system, times[k_out], y_out[:n], y_out[n : 2 * n], projection_tol)
                     out_y.append(y_out)
                     k_out += 1
-            if solver.status == "running":
+            if solver.status == "running" and system.n_constraints:
                 xs, vs = solver.y[:n], solver.y[n : 2 * n]
                 phi, psi, b = system.constraints.evaluate(system.kinematics(t_now, xs, vs), level=1)
                 if phi.size and max(np.max(np.abs(phi)), np.max(np.abs(psi @ vs - b))) > projection_tol:

@@ -142,7 +142,7 @@ class Kinematics:
         alpha = np.zeros((nb + 1, 3))
         alpha[:nb] = anc @ beta
         aP = alpha[parent]
-        gamma = (cross(aP, s) + cross(wP, cross(wP, s)) + 2.0 * cross(wP, v_rel)
+        gamma = (cross(aP, s) + cross(wP, cross(wP, s) + 2.0 * v_rel)
                  + np.einsum("kij,kj->ki", RM, av))
         a_jp = anc @ gamma
         u = r[:nb] - jp

@@ -111,9 +111,12 @@ def rotation_chain(axes: tuple[int, ...], q: np.ndarray, qd: np.ndarray):
         The velocity-dependent part of the angular acceleration, ``Hdot @ qd``.
     """
     m = q.shape[0]
-    R = np.broadcast_to(_E, (m, 3, 3)).copy()
     H = np.zeros((m, 3, len(axes)))
     a = np.zeros((m, 3))
+    if len(axes) == 1:  # one rotation: a fixed axis, no velocity product
+        H[:, axes[0], 0] = 1.0
+        return axis_rotation(axes[0], q[:, 0]), H, a
+    R = np.broadcast_to(_E, (m, 3, 3)).copy()
     w = np.zeros((m, 3))
     for i, ax in enumerate(axes):
         col = R[:, :, ax]

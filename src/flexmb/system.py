@@ -232,7 +232,12 @@ class System:
             if not (np.all(np.isfinite(f)) and np.all(np.isfinite(kin.R))):
                 self._raise_non_finite(t, x, xd, None, f)
             return self.tree_solver.solve(self.tree_solver.factor(kin), f)
-        _, A, f, _, psi, _, gamma = self.equations(t, x, xd)
+        if self.n_constraints:
+            _, A, f, _, psi, _, gamma = self.equations(t, x, xd)
+        else:  # an open tree: no constraints to evaluate
+            kin = self.kinematics(t, x, xd)
+            A, f = mass_matrix(kin), self.forces.force_array(kin)
+            psi = gamma = np.zeros((0,))
         if not (np.all(np.isfinite(f)) and np.all(np.isfinite(A))):
             self._raise_non_finite(t, x, xd, A, f)
         return self._solve(t, A, f, psi, gamma)

@@ -499,3 +499,36 @@ def test_fourbar_simulation_with_qr_and_auto_agrees_with_svd(cut):
     for name in ("qr", "auto", "auto-qr"):
         assert np.abs(runs[name].x - ref.x).max() < 1e-8
         assert np.abs(runs[name].xd - ref.xd).max() < 1e-8 * np.abs(ref.xd).max()
+
+
+@pytest.mark.parametrize("comp", ["svd", "eigen", "qr", "auto"])
+def test_round_off_psi_has_rank_zero(comp):
+    psi = 1e-16 * np.random.default_rng(3).normal(size=(5, 3))
+    c = fm.get_complement(comp).complement(psi)
+    assert c.rank == 0 and c.p == 3
+
+
+def test_a_loop_that_constrains_nothing_runs():
+    """A cut revolute between two welded bodies, frames off by round-off: psi ~ 1e-16.
+
+    Hypothesis found this loop (tests/test_properties.py): a relative rank test counted
+    the noise as rank 2, the singular-position filter scaled by sigma ~ 1e-16, and DOP853
+    stalled.
+    """
+    weld = np.array([[-1.0, -1.33532024e-07, 0.0], [-1.33532024e-07, 1.0, 0.0], [0.0, 0.0, -1.0]])
+    c, s_ = 0.897173091, 0.441679120
+    model = fm.Model("welded")
+    b0 = fm.RigidBody("b0", 2.776, np.diag([0.05, 0.33333333, 0.29461961]))
+    b1 = fm.RigidBody("b1", 0.99999, np.diag([0.35173296, 0.92541643, 1.09903008]))
+    model.add(fm.Spherical("j0", model.ground, b0, parent_point=(0.0, -0.21506409, 0.0),
+                           child_point=(0.0, 0.85721794, 0.0), parent_frame=np.diag([-1.0, -1.0, 1.0]),
+                           child_frame=np.array([[c, -s_, 0.0], [-s_, -c, 0.0], [0.0, 0.0, -1.0]])))
+    point = (-0.83696619, -0.08763643, -1.0)
+    model.add(fm.Fixed("j1", b0, b1, child_point=point, parent_frame=weld, child_frame=np.eye(3)))
+    model.add(fm.Revolute("cut0", b1, b0, parent_point=point, parent_frame=np.eye(3), child_frame=weld, cut=True))
+    model.add(fm.Gravity((0.0, -9.81, 0.0)))
+    for comp in ("svd", "eigen"):
+        system = model.build(complement=comp)
+        assert system.dof(0.0, np.zeros(3)) == 3
+        res = fm.simulate(system, 0.2, speeds={"j0": (0.3, -0.2, 0.4)}, rtol=1e-10, method="DOP853", n_out=5)
+        assert res.status == "finished" and res.n_steps < 500

@@ -10,6 +10,12 @@ from ..errors import AssemblyError, ModelError
 
 __all__ = ["Complement", "ComplementStrategy"]
 
+#: Entries of psi at or below this (m per coordinate unit, or dimensionless)
+#: are round-off: a psi made only of them constrains nothing (e.g. a cut
+#: joint between two bodies welded together), rank 0. A relative rank test
+#: alone would count its noise (singular values ~1e-16) as constraints.
+PSI_ZERO = 1e-12
+
 
 @define
 class Complement:
@@ -218,7 +224,7 @@ class ComplementStrategy:
             If psi contains non-finite entries.
         """
         m, n = psi.shape
-        if m == 0 or not np.any(psi):
+        if m == 0 or not np.any(np.abs(psi) > PSI_ZERO):
             return Complement(np.eye(n), 0, np.zeros((n, 0)), np.zeros(0), np.zeros((m, 0)))
         if not np.all(np.isfinite(psi)):
             raise AssemblyError("constraint Jacobian psi is not finite")

@@ -1,6 +1,7 @@
 """Plots of the benchmark JSON lines (BENCHMARKS.md): work-precision, scaling with N, discretisation.
 
-Reads every ``*.jsonl`` in ``benchmarks/results/`` (or the files given) and
+Reads every ``*.jsonl`` in ``benchmarks/results/`` (or the files given),
+except the runs that have figures of their own (``OWN_FIGURES``), and
 writes, next to them:
 
 - ``wp_<scene>.png``: integration error against wall time (log-log), one
@@ -26,6 +27,10 @@ import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 RESULTS = os.path.join(HERE, "results")
+
+#: result files left out by default: other runs of the same tools (one figure
+#: shows one run) that have their own tables and figures
+OWN_FIGURES = {"compare_first_run.jsonl", "floor_B1.jsonl", "flexmb_B2_scaling.jsonl"}
 
 
 def load(paths) -> list:
@@ -151,7 +156,7 @@ def plot_work_precision(plt, rows, scene, out):
 
 
 def plot_scaling(plt, rows, scene, out, target, name=None):
-    rows = [r for r in rows if r["scene"] == scene]
+    rows = [r for r in rows if r["scene"] == scene and (r.get("n_segments") or 0) > 0]
     best = best_wall_at(rows, target)
     tools = sorted({t for t, _ in best})
     if not best or max(len([1 for t, _ in best if t == tool]) for tool in tools) < 2:
@@ -224,7 +229,8 @@ def main(argv=None):
     import matplotlib.pyplot as plt
 
     os.makedirs(args.out, exist_ok=True)
-    files = args.files or sorted(glob.glob(os.path.join(RESULTS, "*.jsonl")),
+    files = args.files or sorted((p for p in glob.glob(os.path.join(RESULTS, "*.jsonl"))
+                                  if os.path.basename(p) not in OWN_FIGURES),
                                  key=lambda p: (os.path.basename(p) == "compare.jsonl", p))
     rows = load(files)
     for scene in sorted({r["scene"] for r in rows}):

@@ -7,6 +7,7 @@ import scipy.linalg as sla
 from attrs import define
 
 from .errors import AssemblyError
+from .threads import limited_blas
 
 __all__ = ["Linearization", "linearize", "modes", "static_equilibrium", "linear_statics"]
 
@@ -42,6 +43,7 @@ class Linearization:
     t: float
 
 
+@limited_blas
 def linearize(system, x0=None, xd0=None, t: float = 0.0, h: float = 1e-6) -> Linearization:
     """Linearise the reduced equations of motion about a state.
 
@@ -87,6 +89,7 @@ def linearize(system, x0=None, xd0=None, t: float = 0.0, h: float = 1e-6) -> Lin
                          x0=x0, xd0=xd0, t=t)
 
 
+@limited_blas
 def modes(system_or_lin, n_modes: int | None = None, **kw):
     """Natural frequencies and mode shapes (undamped, ``K phi = w^2 M phi``).
 
@@ -130,6 +133,7 @@ def modes(system_or_lin, n_modes: int | None = None, **kw):
     return np.sqrt(np.maximum(w2, 0.0)) / (2 * np.pi), shapes
 
 
+@limited_blas
 def linear_statics(system, x0=None, t: float = 0.0):
     """Static deflection of the model linearised about ``x0``: ``K z = F``.
 
@@ -151,6 +155,7 @@ def linear_statics(system, x0=None, t: float = 0.0):
     return lin.x0 + lin.T @ np.linalg.solve(lin.K, lin.F)
 
 
+@limited_blas
 def static_equilibrium(system, x0=None, t: float = 0.0, tol: float = 1e-10, max_iter: int = 50):
     """Nonlinear static equilibrium (e.g. gravity sag) by Newton's method.
 

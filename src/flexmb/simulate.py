@@ -13,6 +13,7 @@ from . import registry
 from .errors import AssemblyError, FlexmbError, ModelError, SimulationError, StiffnessWarning
 from .integrators import second_order
 from .result import Result
+from .threads import limited_blas
 
 __all__ = ["simulate", "initial_state", "INTEGRATORS"]
 
@@ -170,6 +171,7 @@ def _progress(t, t0, t1, last, stream=sys.stderr):
     return now
 
 
+@limited_blas
 def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=None, x0=None, xd0=None,
              fixed=None, n_out: int = 201, t_eval=None, method: str = "auto", rtol: float = 1e-8,
              atol: float | None = None, complement=None, projection_tol: float = 1e-10,

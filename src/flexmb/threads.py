@@ -1,0 +1,117 @@
+"""The BLAS threads flexmb's evaluations use.
+
+The matrices of one evaluation (mass matrices, complements, the n x n
+Newton matrices of the implicit integrators) are small or medium: for
+them a multi-threaded BLAS spends more on waking and synchronising its
+threads than on arithmetic, and on a loaded machine (a parameter study
+running one case per core) the threads wait for cores and a run can take
+tens of times longer (docs/benchmarks.md, "BLAS threads"). flexmb
+therefore runs its solvers with :data:`BLAS_THREADS` BLAS threads,
+whatever ``OPENBLAS_NUM_THREADS`` or ``OMP_NUM_THREADS`` say, and restores
+the caller's setting afterwards.
+
+Set the environment variable ``FLEXMB_BLAS_THREADS`` (an integer >= 1) to
+change it, e.g. for a model whose reduced mass matrix has thousands of
+rows.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import functools
+import os
+import threading
+
+from .errors import ModelError
+
+__all__ = ["BLAS_THREADS", "blas_threads", "limited_blas"]
+
+
+def _threads_from_env() -> int:
+    value = os.environ.get("FLEXMB_BLAS_THREADS", "1")
+    try:
+        n = int(value)
+    except ValueError:
+        n = 0
+    if n < 1:
+        raise ModelError(f"FLEXMB_BLAS_THREADS must be an integer >= 1, got {value!r}")
+    return n
+
+
+#: BLAS threads used inside :func:`~flexmb.simulate` and the static and
+#: linear analyses (environment variable ``FLEXMB_BLAS_THREADS``, default 1).
+BLAS_THREADS = _threads_from_env()
+
+_controller = None
+_lock = threading.Lock()
+_active = 0  # blocks inside blas_threads, over all Python threads
+_limiter = None
+
+
+def _get_controller():
+    global _controller
+    if _controller is None:
+        from threadpoolctl import ThreadpoolController
+
+        _controller = ThreadpoolController()
+    return _controller
+
+
+@contextlib.contextmanager
+def blas_threads(n: int | None = None):
+    """Run a block with at most ``n`` BLAS threads, then restore the previous limits.
+
+    The limit is process-wide (BLAS libraries have one thread pool): the
+    first block to enter sets it, nested blocks and blocks entered from
+    other Python threads meanwhile keep it, and the last to leave restores
+    the caller's limits. Only the first block pays the call into each BLAS
+    library. OpenBLAS applies a limit set from the main thread to all
+    threads; one set from another Python thread may have no effect (process
+    pool workers, as in :func:`~flexmb.run_study`, call from their main
+    thread).
+
+    Parameters
+    ----------
+    n : int, optional
+        Thread limit (default: :data:`BLAS_THREADS`).
+
+    Yields
+    ------
+    None
+        The block runs with the limit in force.
+    """
+    global _active, _limiter
+    with _lock:
+        if _active == 0:
+            _limiter = _get_controller().limit(limits=BLAS_THREADS if n is None else n, user_api="blas")
+        _active += 1
+    try:
+        yield
+    finally:
+        with _lock:
+            _active -= 1
+            if _active == 0:
+                _limiter.restore_original_limits()
+                _limiter = None
+
+
+def limited_blas(func):
+    """Decorate a solver so that it runs with :data:`BLAS_THREADS` BLAS threads.
+
+    Parameters
+    ----------
+    func : callable
+        The function to wrap.
+
+    Returns
+    -------
+    callable
+        ``func`` run inside :func:`blas_threads`.
+    """
+
+    @functools.wraps(func)
+    def wrapper(*args, **kwargs):
+        with blas_threads():
+            return func(*args, **kwargs)
+
+    return wrapper

@@ -7,9 +7,10 @@ from collections import defaultdict
 import numpy as np
 
 from .forces import Loads
-from .rotations import cross, skew
+from .kernels import dynamics as _dyn
+from .kernels import tangent as _tangent
 
-__all__ = ["mass_matrix", "generalized_force", "geometric_stiffness", "ForceAssembler"]
+__all__ = ["mass_matrix", "composite_inertias", "generalized_force", "geometric_stiffness", "ForceAssembler"]
 
 
 def mass_matrix(kin) -> np.ndarray:
@@ -32,16 +33,32 @@ def mass_matrix(kin) -> np.ndarray:
     spatial inertias of the bodies a coordinate moves add up to a
     composite inertia ``IC``, and ``A[c, d] = S_c . IC S_d`` for the
     deeper of the two coordinates' bodies (zero for coordinates on
-    different branches). That costs ``36 n_bodies^2 + 6 n^2``.
+    different branches). The compiled kernel
+    (:func:`flexmb.kernels.dynamics.mass_matrix`) walks each coordinate's
+    path from the ground: O(n depth).
     """
     topo = kin.topology
-    nb = topo.n_bodies
-    S = np.concatenate([kin.Sw, kin.Sv], axis=1)  # (n, 6)
-    IC = (topo.ancestors.T @ kin.spatial_inertia().reshape(nb, 36)).reshape(nb, 6, 6)
-    F = np.einsum("cij,cj->ci", IC[topo.coord_body], S)
-    # A[c, d] = S_c . IC_{body(d)} S_d where c moves d's body, else the
-    # transposed product where d moves c's body, else 0
-    return (S @ F.T) * topo.mass_mask + (F @ S.T) * topo.mass_mask_t
+    return _dyn.mass_matrix(topo.parent, topo.coord_start, topo.coord_body, composite_inertias(kin), kin.Sw,
+                            kin.Sv)
+
+
+def composite_inertias(kin) -> np.ndarray:
+    """Spatial inertia about the origin of each body's subtree (computed once per state).
+
+    Parameters
+    ----------
+    kin : Kinematics
+        The kinematic state.
+
+    Returns
+    -------
+    ndarray, shape (n_bodies, 6, 6)
+        The sum of :meth:`Kinematics.spatial_inertia` over the body and
+        everything after it.
+    """
+    if kin._composite is None:
+        kin._composite = _dyn.composite_inertias(kin.topology.parent, kin.spatial_inertia())
+    return kin._composite
 
 
 def generalized_force(kin, force, torque) -> np.ndarray:
@@ -62,23 +79,7 @@ def generalized_force(kin, force, torque) -> np.ndarray:
         bodies it moves.
     """
     topo = kin.topology
-    nb = topo.n_bodies
-    wrench = np.concatenate([torque + cross(kin.r[:nb], force), force], axis=1)
-    total = topo.ancestors.T @ wrench  # subtree sums, (nb, 6)
-    cb = topo.coord_body
-    return np.einsum("ci,ci->c", kin.Sw, total[cb, :3]) + np.einsum("ci,ci->c", kin.Sv, total[cb, 3:])
-
-
-def _motion_cross(a, b):
-    """Spatial motion cross product ``a x b`` of Plucker vectors (angular, linear), shape (..., 6)."""
-    return np.concatenate([cross(a[..., :3], b[..., :3]),
-                           cross(a[..., :3], b[..., 3:]) + cross(a[..., 3:], b[..., :3])], axis=-1)
-
-
-def _force_cross(a, f):
-    """Spatial force cross product ``a x* f`` of a motion a and a wrench f (moment, force), shape (..., 6)."""
-    return np.concatenate([cross(a[..., :3], f[..., :3]) + cross(a[..., 3:], f[..., 3:]),
-                           cross(a[..., :3], f[..., 3:])], axis=-1)
+    return _dyn.generalized_force(topo.parent, topo.coord_body, kin.r, force, torque, kin.Sw, kin.Sv)
 
 
 def geometric_stiffness(kin, xdd, force, torque) -> np.ndarray:
@@ -124,38 +125,10 @@ def geometric_stiffness(kin, xdd, force, torque) -> np.ndarray:
     loads turn back by omega. Every product is (n x 6)(6 x n): O(n^2).
     """
     topo = kin.topology
-    nb = topo.n_bodies
-    cb = topo.coord_body
-    anc_t = topo.ancestors.T
-    S = np.concatenate([kin.Sw, kin.Sv], axis=1)
-    Sx = S * xdd[:, None]
-    r, w, v = kin.r[:nb], kin.omega[:nb], kin.v[:nb]
-    # spatial accelerations (about the origin) of the bodies
-    acc = np.concatenate([kin.alpha_bias[:nb], kin.a_bias[:nb] - cross(kin.alpha_bias[:nb], r) - cross(w, v)],
-                         axis=1) + topo.coord_ancestors @ Sx
-    alpha = acc[:, :3]
-    a_r = acc[:, 3:] + cross(alpha, r) + cross(w, v)
-    I = kin.inertia_world()
-    net_f = force - kin.mass[:, None] * a_r
-    net_t = torque - np.einsum("kij,kj->ki", I, alpha) - cross(w, np.einsum("kij,kj->ki", I, w))
-    W = anc_t @ np.concatenate([net_t + cross(r, net_f), net_f], axis=1)
-    IC = (anc_t @ kin.spatial_inertia().reshape(nb, 36)).reshape(nb, 6, 6)
-    # accelerations produced before each coordinate (parent body + earlier coordinates of its joint)
-    acc_g = np.vstack([acc, np.zeros((1, 6))])
-    cs = np.cumsum(Sx, axis=0)
-    start = topo.coord_joint_start
-    before = np.where((start > 0)[:, None], cs[start - 1], 0.0)
-    a_pre = acc_g[topo.parent[cb]] + cs - before
-    u = _motion_cross(S, a_pre)
-    # Q of each subtree: the wrench change of space-fixed loads, linear in omega
-    Fe = anc_t @ force
-    Te = anc_t @ torque
-    Ge = (anc_t @ (skew(r) @ skew(force)).reshape(nb, 9)).reshape(nb, 3, 3)
-    Q = np.concatenate([-Ge - skew(Te), -skew(Fe)], axis=1)  # (nb, 6, 3)
-    H, Qc = IC[cb], Q[cb]
-    after = np.einsum("cij,cj->ci", H, S) @ u.T - np.einsum("cij,ci->cj", Qc, S) @ kin.Sw.T
-    y = _force_cross(S, W[cb]) + np.einsum("cij,cj->ci", H, u) - np.einsum("cij,cj->ci", Qc, kin.Sw)
-    return after * topo.after_mask + (S @ y.T) * topo.before_mask
+    return _tangent.geometric_stiffness(
+        topo.parent, topo.coord_start, topo.coord_body, kin.Sw, kin.Sv, np.asarray(xdd, dtype=float), kin.r,
+        kin.omega, kin.v, kin.alpha_bias, kin.a_bias, kin.inertia_world(), kin.mass, composite_inertias(kin),
+        np.ascontiguousarray(force), np.ascontiguousarray(torque))
 
 
 class ForceAssembler:
@@ -227,11 +200,8 @@ class ForceAssembler:
             ``f = F - sum_k [m_k V_k^T (Vdot_k xd) + W_k^T (I_k Wdot_k xd + w_k x I_k w_k)]``.
         """
         loads = self.loads(kin)
-        I = kin.inertia_world()
-        w = kin.omega[:-1]
-        Iw = np.einsum("kij,kj->ki", I, w)
-        torque = loads.torque[:-1] - np.einsum("kij,kj->ki", I, kin.alpha_bias[:-1]) - cross(w, Iw)
-        force = loads.force[:-1] - kin.mass[:, None] * kin.a_bias[:-1]
+        force, torque = _dyn.bias_wrenches(kin.mass, kin.inertia_world(), kin.omega, kin.alpha_bias, kin.a_bias,
+                                           loads.force, loads.torque)
         return generalized_force(kin, force, torque) + loads.generalized
 
     def group_powers(self, kin) -> np.ndarray:

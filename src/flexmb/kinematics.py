@@ -1,9 +1,9 @@
-"""Stacked kinematics of all bodies: rotations, positions, V and W (eqs. 6-18).
+"""Kinematics of all bodies: rotations, positions, V and W (eqs. 6-18).
 
-Everything is computed for all bodies at once. Sums along the path from
-the ground are products with the 0/1 ancestor matrix; the chained rotations
-use pointer jumping (log2(depth) batched matrix products), so there is no
-Python loop over bodies.
+Evaluated by the compiled kernels of :mod:`flexmb.kernels.tree`: one pass
+over the tree from the ground out, O(n). Joints whose class computes its
+own ``motion()`` (plugins) are called back from here, one batched call per
+class.
 
 Notation (per tree joint j joining body k to its parent P):
 
@@ -23,11 +23,11 @@ from functools import cached_property
 
 import numpy as np
 
-from .rotations import cross, skew
+from .kernels import dynamics as _dyn
+from .kernels import tree as _tree
+from .rotations import cross
 
 __all__ = ["Kinematics"]
-
-_EYE = np.eye(3)
 
 
 class Kinematics:
@@ -73,17 +73,19 @@ class Kinematics:
         self.xd = xd
         nb, n = topo.n_bodies, topo.n_coords
         self.mass = topo.mass
-        self._inertia_world = None
-        parent = topo.parent
+        self._inertias = None
+        self._composite = None  # assembly.composite_inertias
 
-        # joint motions, batched per joint class
+        # joint motions: generic joints compiled, others by their class (batched)
         Rj = np.empty((nb, 3, 3))
         d = np.empty((nb, 3))
         aw = np.empty((nb, 3))
         av = np.empty((nb, 3))
-        hw = np.zeros((3, n))
-        hv = np.zeros((3, n))
-        for i, (cls, ks, cols) in enumerate(topo.groups):
+        hw = np.empty((n, 3))
+        hv = np.empty((n, 3))
+        _tree.joint_motions(x, xd, topo.coord_start, topo.coord_kind, topo.coord_axis, topo.external,
+                            Rj, d, hw, hv, aw, av)
+        for i, (cls, ks, cols) in enumerate(topo.external_groups):
             if cols.shape[1]:
                 R_, d_, Hw, Hv, aw_, av_ = cls.motion(x[cols], xd[cols])
             else:  # no coordinates: a constant motion, evaluated once per model
@@ -93,62 +95,13 @@ class Kinematics:
                 R_, d_, Hw, Hv, aw_, av_ = topo.cache[key]
             Rj[ks], d[ks], aw[ks], av[ks] = R_, d_, aw_, av_
             if cols.shape[1]:
-                hw[:, cols] = Hw.transpose(1, 0, 2)
-                hv[:, cols] = Hv.transpose(1, 0, 2)
+                hw[cols] = Hw.transpose(0, 2, 1)
+                hv[cols] = Hv.transpose(0, 2, 1)
 
-        # global rotations by pointer jumping: R_k = R_P F_p Rj F_c^T
-        R = np.empty((nb + 1, 3, 3))
-        R[:nb] = topo.parent_frame @ Rj @ topo.child_frame.transpose(0, 2, 1)
-        R[nb] = _EYE
-        for ptr in topo.jump_pointers:
-            R[:nb] = R[ptr] @ R[:nb]
-        self.R = R
-
-        RP = R[parent]
-        RM = RP @ topo.parent_frame
-        s = np.einsum("kij,kj->ki", RP, topo.parent_point - topo.parent_joint_point)
-        s += np.einsum("kij,kj->ki", RM, d)
-        anc = topo.ancestors
-        jp = anc @ s
-        origin = np.zeros((nb + 1, 3))
-        origin[:nb] = jp - np.einsum("kij,kj->ki", R[:nb], topo.child_point)
-        r = origin.copy()
-        r[:nb] += np.einsum("kij,kj->ki", R[:nb], topo.com)
-        self.origin, self.r, self.joint_point = origin, r, jp
-
-        # partial velocities (eqs. 7, 17), kept per coordinate: the column c of
-        # V_k is G_v + G_w x (r_k - o'_j) for every body k downstream of c's
-        # joint. In Plucker form about the inertial origin, a coordinate's
-        # motion is S_c = (G_w, G_v - G_w x o'_j) and any body point p moves
-        # with S_v + S_w x p, so V and W never need to be stored whole.
-        cb = topo.coord_body
-        Gw = np.einsum("cij,jc->ci", RM[cb], hw)  # (n, 3)
-        Gv = np.einsum("cij,jc->ci", RM[cb], hv)
-        self.Gw, self.Gv = Gw, Gv
-        self.Sw, self.Sv = Gw, Gv - cross(Gw, jp[cb])
-        ca = topo.coord_ancestors  # (nb, n)
-
-        omega = np.zeros((nb + 1, 3))
-        v = np.zeros((nb + 1, 3))
-        omega[:nb] = ca @ (self.Sw * xd[:, None])
-        v[:nb] = ca @ (self.Sv * xd[:, None]) + cross(omega[:nb], r[:nb])
-        self.omega, self.v = omega, v
-
-        # velocity-dependent accelerations (eqs. 13, 18 at xdd = 0)
-        wP = omega[parent]
-        w_rel = omega[:nb] - wP
-        v_rel = topo.coord_incidence @ (Gv * xd[:, None])
-        beta = cross(wP, w_rel) + np.einsum("kij,kj->ki", RM, aw)
-        alpha = np.zeros((nb + 1, 3))
-        alpha[:nb] = anc @ beta
-        aP = alpha[parent]
-        gamma = (cross(aP, s) + cross(wP, cross(wP, s) + 2.0 * v_rel)
-                 + np.einsum("kij,kj->ki", RM, av))
-        a_jp = anc @ gamma
-        u = r[:nb] - jp
-        acc = np.zeros((nb + 1, 3))
-        acc[:nb] = a_jp + cross(alpha[:nb], u) + cross(omega[:nb], cross(omega[:nb], u))
-        self.alpha_bias, self.a_bias = alpha, acc
+        (self.R, self.origin, self.r, self.omega, self.v, self.alpha_bias, self.a_bias, self.joint_point,
+         self.Sw, self.Sv, self.Gw, self.Gv) = _tree.tree_kinematics(
+            topo.parent, topo.coord_start, topo.parent_frame, topo.child_frame, topo.lever, topo.child_point,
+            topo.com, Rj, d, hw, hv, aw, av, xd)
 
     @cached_property
     def W(self) -> np.ndarray:
@@ -227,10 +180,12 @@ class Kinematics:
         ndarray, shape (n_bodies, 3, 3)
             ``R_k I_k R_k^T``, kg m^2.
         """
-        if self._inertia_world is None:
-            R = self.R[:-1]
-            self._inertia_world = R @ self.topology.inertia @ R.transpose(0, 2, 1)
-        return self._inertia_world
+        return self._spatial()[0]
+
+    def _spatial(self):
+        if self._inertias is None:
+            self._inertias = _dyn.spatial_inertias(self.R, self.r, self.mass, self.topology.inertia)
+        return self._inertias
 
     def point_position(self, k, local) -> np.ndarray:
         """Inertial position of body-fixed points.
@@ -326,8 +281,8 @@ class Kinematics:
 
     def _upstream(self, k) -> np.ndarray:
         """0/1 rows: which coordinates move each body in ``k`` (none for the ground)."""
-        ca = self.topology.coord_ancestors
-        return np.where((k >= 0)[:, None], ca[k], 0.0)
+        topo = self.topology
+        return _tree.upstream_rows(np.asarray(k, dtype=np.int64), topo.parent, topo.coord_start, topo.n_coords)
 
     def spatial_inertia(self) -> np.ndarray:
         """Spatial inertia of each body about the inertial origin, shape (n_bodies, 6, 6).
@@ -342,15 +297,7 @@ class Kinematics:
         ndarray, shape (n_bodies, 6, 6)
             ``I_O`` of each body, SI units.
         """
-        nb = self.topology.n_bodies
-        m, r = self.mass, self.r[:nb]
-        rx = skew(r)
-        out = np.empty((nb, 6, 6))
-        out[:, :3, :3] = self.inertia_world() - m[:, None, None] * (rx @ rx)
-        out[:, :3, 3:] = m[:, None, None] * rx
-        out[:, 3:, :3] = -out[:, :3, 3:]
-        out[:, 3:, 3:] = m[:, None, None] * np.eye(3)
-        return out
+        return self._spatial()[1]
 
     def kinetic_energy(self) -> float:
         """Kinetic energy of all bodies.

@@ -444,28 +444,38 @@ def _project_partial(system, t, x, xd, res, n_iter=3):
     are left out (on the flattened parallelogram the violation along them is
     of second order in the state's error, and correcting it would move the
     state along the other branch); the speeds are projected
-    mass-orthogonally onto what remains. Returns ``(x, xd)`` unchanged if
-    that does not reduce the residual, or if it needs a correction larger
-    than ``OUTPUT_PROJECTION_GAIN`` times the residual.
+    mass-orthogonally onto what remains. The positions and the speeds are
+    judged apart: each correction is kept only if it reduces its own
+    residual (``|phi|``, ``|psi xd - b|``) and is no larger than
+    ``OUTPUT_PROJECTION_GAIN`` times the state's residual.
     """
     window = system.singular_window()
     if window <= 0.0:
         return x, xd
+
+    def well_conditioned(psi):
+        c = system.complement(psi)
+        return c.truncated(int(np.sum(c.scale >= window)))
+
+    limit = OUTPUT_PROJECTION_GAIN * res
     xp = np.array(x, dtype=float)
     for _ in range(n_iter):
         phi, psi, _ = system.constraints.evaluate(system.kinematics(t, xp, xd), level=1)
-        c = system.complement(psi)
-        c = c.truncated(int(np.sum(c.scale >= window)))
+        c = well_conditioned(psi)
         if c.rank:
             xp -= c.particular(phi)
     kin = system.kinematics(t, xp, xd)
     phi, psi, b = system.constraints.evaluate(kin, level=1)
-    c = system.complement(psi)
-    c = c.truncated(int(np.sum(c.scale >= window)))
-    vp = system._mass_orthogonal_speeds(kin, psi, b, xd, c=c)
-    new = max(np.max(np.abs(phi)), np.max(np.abs(psi @ vp - b)))
-    if new >= res or max(np.max(np.abs(xp - x)), np.max(np.abs(vp - xd))) > OUTPUT_PROJECTION_GAIN * res:
-        return x, xd
+    phi0 = system.constraints.evaluate(system.kinematics(t, x, xd), level=0)
+    if np.max(np.abs(phi)) >= np.max(np.abs(phi0)) or np.max(np.abs(xp - x)) > limit:
+        xp = np.array(x, dtype=float)  # the positions are kept
+        kin = system.kinematics(t, xp, xd)
+        phi, psi, b = system.constraints.evaluate(kin, level=1)
+    # the speeds, judged apart: a speed residual along the singular direction
+    # (not corrected) must not veto the positions' correction
+    vp = system._mass_orthogonal_speeds(kin, psi, b, xd, c=well_conditioned(psi))
+    if np.max(np.abs(psi @ vp - b)) >= np.max(np.abs(psi @ xd - b)) or np.max(np.abs(vp - xd)) > limit:
+        vp = np.array(xd, dtype=float)
     return xp, vp
 
 

@@ -32,6 +32,7 @@ from attrs import field, frozen
 from .errors import FlexmbError
 from .flexible import FlexibleBody, segment_joint_class
 from .rotations import cross
+from .kernels.dynamics import subtree_sums
 
 __all__ = ["SectionField", "Envelope", "JointLoads", "LOAD_COMPONENTS", "section_loads", "section_strains",
            "section_stresses", "joint_loads", "constraint_loads", "joint_stations", "state_result"]
@@ -603,9 +604,9 @@ def _loads_at(system, t, x, xd, xdd, lam):
     D = kin.mass[:, None] * a - F
     H = np.einsum("kij,kj->ki", I, alpha) + cross(w, np.einsum("kij,kj->ki", I, w)) - tau
     r = kin.r[:-1]
-    anc = topo.ancestors  # anc[b, k] = 1: k is on the path to b, so b is in k's subtree
-    f = anc.T @ D
-    m = anc.T @ (cross(r, D) + H) - cross(kin.joint_point, f)
+    # what each subtree's bodies need, summed over the subtree
+    f = subtree_sums(topo.parent, np.ascontiguousarray(D))
+    m = subtree_sums(topo.parent, cross(r, D) + H) - cross(kin.joint_point, f)
     frames = kin.R[:-1] @ topo.child_frame
     # the child side exerts minus what the joint supplies to it
     force = -np.einsum("kji,kj->ki", frames, f)

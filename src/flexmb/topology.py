@@ -12,7 +12,9 @@ from collections import defaultdict, deque
 
 import numpy as np
 
+from . import kernels
 from .errors import ModelError
+from .joints import Joint
 
 __all__ = ["Topology"]
 
@@ -35,11 +37,20 @@ class Topology:
         Joints that close loops (they give constraint equations).
     parent : ndarray of int, shape (n_bodies,)
         Parent body index (-1: ground).
-    ancestors : ndarray, shape (n_bodies, n_bodies)
-        ``ancestors[k, j] = 1`` if body j is on the path from ground to k
-        (k included).
     coord_body : ndarray of int, shape (n_coords,)
         Body whose tree joint owns each coordinate.
+    coord_start : ndarray of int, shape (n_bodies + 1,)
+        Body k's tree joint owns ``x[coord_start[k]:coord_start[k + 1]]``.
+    coord_kind, coord_axis : ndarray of int, shape (n_coords,)
+        Translation or rotation (:mod:`flexmb.kernels`) and the joint-frame
+        axis of each coordinate of a generic joint motion.
+    external : ndarray of bool, shape (n_bodies,)
+        Tree joints whose class computes its own ``motion()``.
+
+    Notes
+    -----
+    Every array is O(n): the tree is walked through ``parent``, never
+    through a dense ancestor matrix.
     coordinate_names : list of str
         ``"joint.coordinate"`` names.
 
@@ -150,22 +161,11 @@ class Topology:
         nb = len(order)
         self.n_bodies = nb
         self.parent = np.array([self.index[j.parent] for j in self.tree_joints], dtype=int)
-        anc = np.zeros((nb, nb))
+        depth = np.zeros(nb, dtype=np.int64)
         for k in range(nb):
-            anc[k, k] = 1.0
             p = self.parent[k]
-            if p >= 0:
-                anc[k] += anc[p]
-        self.ancestors = anc
-        depth = anc.sum(axis=1)
+            depth[k] = 1 + (depth[p] if p >= 0 else 0)
         self.depth = int(depth.max()) if nb else 0
-        # pointer jumping (Kinematics): the ancestor 1, 2, 4, ... levels up of
-        # every body (nb: the ground), one array per jump
-        ptr = np.append(np.where(self.parent < 0, nb, self.parent), nb)
-        self.jump_pointers = []
-        while np.any(ptr[:nb] != nb):
-            self.jump_pointers.append(ptr[:nb].copy())
-            ptr = ptr[ptr]
 
         # coordinates: contiguous per tree joint, in body order
         self.joint_slice = {}
@@ -178,44 +178,38 @@ class Topology:
             start += j.n_coords
         self.n_coords = start
         self.coordinate_names = names
-        self.coord_body = np.array(coord_body, dtype=int)
-        self.coord_ancestors = anc[:, self.coord_body]
-        # coord_incidence[k, c] = 1 where coordinate c belongs to body k's tree joint
-        self.coord_incidence = (np.arange(nb)[:, None] == self.coord_body[None, :]).astype(float)
-        # coord_upstream[c, d]: coordinate c moves the body of coordinate d
-        # (c's joint on d's path from the ground, d's own joint included);
-        # A[c, d] is non-zero only where this or its transpose holds.
-        up = self.coord_ancestors[self.coord_body].T.astype(bool)
-        self.coord_upstream = up
-        # 0/1 masks that pick A from B[c, d] = S_c . IC_body(d) S_d and its
-        # transpose, kept contiguous so that the assembly never reads a
-        # transposed array element by element.
-        self.mass_mask = up.astype(float)
-        self.mass_mask_t = np.ascontiguousarray(up.T & ~up).astype(float)
-        # geometric stiffness masks (assembly.geometric_stiffness): coordinate c
-        # "after" d when d moves c's body and, within one joint, c comes later
-        # in the joint's chain of motions
-        n = len(self.coord_body)
-        same = self.coord_body[:, None] == self.coord_body[None, :]
-        idx = np.arange(n)
-        self.after_mask = (up.T & (~same | (idx[:, None] >= idx[None, :]))).astype(float)
-        self.before_mask = (up & (~same | (idx[:, None] < idx[None, :]))).astype(float)
-        starts = np.zeros(n, dtype=int)
-        for j, sl in self.joint_slice.items():
+        self.coord_body = np.array(coord_body, dtype=np.int64)
+        self.coord_start = np.array([0] + [self.joint_slice[j].stop for j in self.tree_joints], dtype=np.int64)
+        starts = np.zeros(start, dtype=np.int64)
+        for sl in self.joint_slice.values():
             starts[sl] = sl.start
         self.coord_joint_start = starts
 
-        # joint groups by class, for batched motion()
+        # joint motions: the generic one (translations along fixed axes, then
+        # rotations about moving axes) is compiled; a class overriding
+        # motion() is called back, one batched call per class
+        kind, axis = [], []
+        self.external = np.zeros(nb, dtype=np.bool_)
         groups = defaultdict(list)
         for k, j in enumerate(self.tree_joints):
-            groups[type(j)].append(k)
-        self.groups = []
+            if getattr(type(j).motion, "__func__", None) is not Joint.motion.__func__:
+                self.external[k] = True
+                groups[type(j)].append(k)
+                kind += [kernels.EXTERNAL] * j.n_coords
+                axis += [0] * j.n_coords
+                continue
+            kind += [kernels.TRANSLATION] * len(j.translation_axes) + [kernels.ROTATION] * len(j.rotation_axes)
+            axis += list(j.translation_axes) + list(j.rotation_axes)
+        self.coord_kind = np.array(kind, dtype=np.int64)
+        self.coord_axis = np.array(axis, dtype=np.int64)
+        self.parent = self.parent.astype(np.int64)
+        self.external_groups = []
         for cls, ks in groups.items():
-            ks = np.array(ks, dtype=int)
+            ks = np.array(ks, dtype=np.int64)
             cols = np.array([np.arange(self.joint_slice[self.tree_joints[k]].start,
                                        self.joint_slice[self.tree_joints[k]].stop) for k in ks],
-                            dtype=int).reshape(len(ks), -1)
-            self.groups.append((cls, ks, cols))
+                            dtype=np.int64).reshape(len(ks), -1)
+            self.external_groups.append((cls, ks, cols))
 
         # per-body constant data
         self.mass = np.array([b.mass for b in order], dtype=float)
@@ -229,6 +223,7 @@ class Topology:
         # the parent's own joint point, in the parent body frame (ground: origin)
         cp_ext = np.vstack([self.child_point, np.zeros((1, 3))])
         self.parent_joint_point = cp_ext[self.parent]
+        self.lever = np.ascontiguousarray(self.parent_point - self.parent_joint_point)
 
     def coordinate_slice(self, joint) -> slice:
         """Slice of ``x`` holding a tree joint's coordinates.

@@ -1,0 +1,24 @@
+"""Compiled kernels of the evaluation path (numba, ``cache=True``).
+
+The model's tree is laid out as flat arrays once
+(:class:`flexmb.topology.Topology`): bodies in breadth-first order (a parent
+before its children, the ground as the extra last row), each tree joint's
+coordinates contiguous in ``x``, and per coordinate its kind (translation
+or rotation of the generic joint motion, or a joint whose class computes
+its own motion in Python) and axis. The kernels walk that layout with
+plain loops: one pass from the ground out for the kinematics, one pass
+from the leaves in for subtree sums, so that an evaluation costs O(n) time
+and memory for an open tree (the dense mass matrix of a model with loops
+costs O(n depth)).
+
+Compiled code is cached beside these sources (numba's ``cache=True``): the
+first run of a new installation compiles (see the README for the measured
+time), later runs load the machine code.
+"""
+
+#: coordinate kinds in ``Topology.coord_kind``: a translation or a rotation
+#: of the generic joint motion, or a coordinate of a joint whose class
+#: computes its own motion (called back from Python)
+TRANSLATION, ROTATION, EXTERNAL = 0, 1, 2
+
+__all__ = ["TRANSLATION", "ROTATION", "EXTERNAL"]

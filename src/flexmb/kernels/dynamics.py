@@ -1,0 +1,240 @@
+"""Kane's equations from the tree: spatial inertias, mass matrix and force array (eqs. 1-5).
+
+In Plucker form about the inertial origin, the spatial inertias of the
+bodies a coordinate moves add up to a composite inertia ``IC`` (one pass
+from the leaves in), and ``A[c, d] = S_c . IC S_d`` for the deeper of the
+two coordinates' bodies (zero for coordinates on different branches): the
+composite-rigid-body form of eq. 2, O(n depth) for the dense A. The
+generalized forces (eq. 5) are the axes' projections of the subtree
+wrenches, O(n).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .tree import _cross, _mv
+
+__all__ = ["spatial_inertias", "composite_inertias", "subtree_sums", "mass_matrix", "generalized_force", "bias_wrenches"]
+
+
+@njit(cache=True)
+def spatial_inertias(R, r, mass, inertia):
+    """Central inertias in inertial axes and spatial inertias about the origin.
+
+    Parameters
+    ----------
+    R : ndarray, shape (n_bodies + 1, 3, 3)
+        Body rotations (the last row, the ground, is not used).
+    r : ndarray, shape (n_bodies + 1, 3)
+        Mass centres.
+    mass : ndarray, shape (n_bodies,)
+        Masses.
+    inertia : ndarray, shape (n_bodies, 3, 3)
+        Central inertia tensors in the body frames.
+
+    Returns
+    -------
+    inertia_world : ndarray, shape (n_bodies, 3, 3)
+        ``R_k I_k R_k^T``.
+    spatial : ndarray, shape (n_bodies, 6, 6)
+        ``[[I_c + m [r]^T [r], m [r]], [-m [r], m E]]`` acting on the
+        Plucker velocity ``(omega, v_O)``.
+    """
+    nb = mass.shape[0]
+    Iw = np.empty((nb, 3, 3))
+    out = np.zeros((nb, 6, 6))
+    for k in range(nb):
+        Rk = R[k]
+        RI = np.empty((3, 3))
+        for i in range(3):
+            for j in range(3):
+                RI[i, j] = Rk[i, 0] * inertia[k, 0, j] + Rk[i, 1] * inertia[k, 1, j] + Rk[i, 2] * inertia[k, 2, j]
+        for i in range(3):
+            for j in range(3):
+                Iw[k, i, j] = RI[i, 0] * Rk[j, 0] + RI[i, 1] * Rk[j, 1] + RI[i, 2] * Rk[j, 2]
+        m = mass[k]
+        x, y, z = r[k, 0], r[k, 1], r[k, 2]
+        # m [r]^T [r] = m (|r|^2 E - r r^T)
+        rr = x * x + y * y + z * z
+        rv = (x, y, z)
+        for i in range(3):
+            for j in range(3):
+                out[k, i, j] = Iw[k, i, j] + m * ((rr if i == j else 0.0) - rv[i] * rv[j])
+        # m [r] (skew), and its negative below
+        out[k, 0, 4] = -m * z
+        out[k, 0, 5] = m * y
+        out[k, 1, 3] = m * z
+        out[k, 1, 5] = -m * x
+        out[k, 2, 3] = -m * y
+        out[k, 2, 4] = m * x
+        for i in range(3):
+            for j in range(3):
+                out[k, 3 + i, j] = -out[k, i, 3 + j]
+            out[k, 3 + i, 3 + i] = m
+    return Iw, out
+
+
+@njit(cache=True)
+def composite_inertias(parent, spatial):
+    """Spatial inertia of each body's subtree (itself and everything after it).
+
+    Parameters
+    ----------
+    parent : ndarray of int, shape (n_bodies,)
+        Parent body (-1: ground); parents come before children.
+    spatial : ndarray, shape (n_bodies, 6, 6)
+        Spatial inertias about the origin.
+
+    Returns
+    -------
+    ndarray, shape (n_bodies, 6, 6)
+        Subtree sums, one pass from the leaves in.
+    """
+    IC = spatial.copy()
+    for k in range(parent.shape[0] - 1, -1, -1):
+        p = parent[k]
+        if p >= 0:
+            IC[p] += IC[k]
+    return IC
+
+
+@njit(cache=True)
+def subtree_sums(parent, values):
+    """Sum per-body rows over each body's subtree (the body and everything after it).
+
+    Parameters
+    ----------
+    parent : ndarray of int, shape (n_bodies,)
+        Parent body (-1: ground); parents come before children.
+    values : ndarray, shape (n_bodies, m)
+        One row per body.
+
+    Returns
+    -------
+    ndarray, shape (n_bodies, m)
+        ``out[k] = sum of values[b]`` over the bodies b whose path from the
+        ground passes through k.
+    """
+    out = values.copy()
+    for k in range(parent.shape[0] - 1, -1, -1):
+        p = parent[k]
+        if p >= 0:
+            out[p] += out[k]
+    return out
+
+
+@njit(cache=True)
+def mass_matrix(parent, coord_start, coord_body, IC, Sw, Sv):
+    """Generalized mass matrix (eq. 2) by composite inertias.
+
+    Parameters
+    ----------
+    parent : ndarray of int, shape (n_bodies,)
+        Parent body (-1: ground).
+    coord_start : ndarray of int, shape (n_bodies + 1,)
+        Coordinate ranges of the tree joints.
+    coord_body : ndarray of int, shape (n,)
+        Body whose tree joint owns each coordinate.
+    IC : ndarray, shape (n_bodies, 6, 6)
+        Composite inertias (:func:`composite_inertias`).
+    Sw, Sv : ndarray, shape (n, 3)
+        Plucker axes of the coordinates.
+
+    Returns
+    -------
+    ndarray, shape (n, n)
+        ``A[c, d] = S_c . IC_{body(d)} S_d`` for c on d's path from the
+        ground (its own joint included), mirrored; zero across branches.
+    """
+    n = Sw.shape[0]
+    A = np.zeros((n, n))
+    F = np.empty(6)
+    for d in range(n):
+        k = coord_body[d]
+        for i in range(6):
+            F[i] = (IC[k, i, 0] * Sw[d, 0] + IC[k, i, 1] * Sw[d, 1] + IC[k, i, 2] * Sw[d, 2]
+                    + IC[k, i, 3] * Sv[d, 0] + IC[k, i, 4] * Sv[d, 1] + IC[k, i, 5] * Sv[d, 2])
+        j = k
+        while j >= 0:
+            for c in range(coord_start[j], coord_start[j + 1]):
+                val = (Sw[c, 0] * F[0] + Sw[c, 1] * F[1] + Sw[c, 2] * F[2]
+                       + Sv[c, 0] * F[3] + Sv[c, 1] * F[4] + Sv[c, 2] * F[5])
+                A[c, d] = val
+                if j != k:
+                    A[d, c] = val
+            j = parent[j]
+    return A
+
+
+@njit(cache=True)
+def generalized_force(parent, coord_body, r, force, torque, Sw, Sv):
+    """Project forces and torques on the bodies onto the coordinates (eq. 5).
+
+    Parameters
+    ----------
+    parent : ndarray of int, shape (n_bodies,)
+        Parent body (-1: ground).
+    coord_body : ndarray of int, shape (n,)
+        Body whose tree joint owns each coordinate.
+    r : ndarray, shape (>= n_bodies, 3)
+        Mass centres.
+    force, torque : ndarray, shape (>= n_bodies, 3)
+        Force at each mass centre and torque on each body, inertial.
+    Sw, Sv : ndarray, shape (n, 3)
+        Plucker axes of the coordinates.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        ``sum_k V_k^T force_k + W_k^T torque_k``: each coordinate's axis
+        against the resultant wrench, about the origin, of the bodies it
+        moves.
+    """
+    nb = parent.shape[0]
+    total = np.empty((nb, 6))
+    for k in range(nb):
+        total[k, :3] = torque[k] + _cross(r[k], force[k])
+        total[k, 3:] = force[k]
+    for k in range(nb - 1, -1, -1):
+        p = parent[k]
+        if p >= 0:
+            total[p] += total[k]
+    n = Sw.shape[0]
+    out = np.empty(n)
+    for c in range(n):
+        b = coord_body[c]
+        out[c] = (Sw[c, 0] * total[b, 0] + Sw[c, 1] * total[b, 1] + Sw[c, 2] * total[b, 2]
+                  + Sv[c, 0] * total[b, 3] + Sv[c, 1] * total[b, 4] + Sv[c, 2] * total[b, 5])
+    return out
+
+
+@njit(cache=True)
+def bias_wrenches(mass, inertia_world, omega, alpha_bias, a_bias, force, torque):
+    """Applied loads minus the velocity-dependent inertia forces (eq. 3 at ``xdd = 0``).
+
+    Parameters
+    ----------
+    mass : ndarray, shape (n_bodies,)
+        Masses.
+    inertia_world : ndarray, shape (n_bodies, 3, 3)
+        Central inertias in inertial axes.
+    omega, alpha_bias, a_bias : ndarray, shape (>= n_bodies, 3)
+        Angular velocities and bias accelerations.
+    force, torque : ndarray, shape (>= n_bodies, 3)
+        Applied forces at the mass centres and torques.
+
+    Returns
+    -------
+    force, torque : ndarray, shape (n_bodies, 3)
+        ``F - m a_bias`` and ``T - I alpha_bias - omega x I omega``.
+    """
+    nb = mass.shape[0]
+    f = np.empty((nb, 3))
+    t = np.empty((nb, 3))
+    for k in range(nb):
+        f[k] = force[k] - mass[k] * a_bias[k]
+        Iw = _mv(inertia_world[k], omega[k])
+        t[k] = torque[k] - _mv(inertia_world[k], alpha_bias[k]) - _cross(omega[k], Iw)
+    return f, t

@@ -1,0 +1,296 @@
+"""Kinematics of the tree, one pass from the ground out (eqs. 6-18).
+
+Notation (per tree joint j joining body k to its parent P), as in
+:mod:`flexmb.kinematics`:
+
+* ``R_M = R_P F_p``: the parent marker frame in inertial axes;
+* ``o'_k``: the joint point on the child side (inertial);
+* ``s_k = o'_k - o'_P``: vector from the parent's joint point to this one.
+
+A coordinate c of joint j has the inertial partial angular velocity
+``G_w = R_M h_w`` and partial velocity ``G_v = R_M h_v`` at the joint
+point; in Plucker form about the inertial origin its motion is
+``S_c = (G_w, G_v - G_w x o'_j)``, and any point p of a body downstream of
+the joint moves with ``S_v + S_w x p`` (eqs. 7, 17).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+__all__ = ["joint_motions", "tree_kinematics", "upstream_rows"]
+
+_TRANSLATION = 0
+
+
+@njit(cache=True, inline="always")
+def _cross(a, b):
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+
+
+@njit(cache=True, inline="always")
+def _mv(M, v):
+    return np.array([M[0, 0] * v[0] + M[0, 1] * v[1] + M[0, 2] * v[2],
+                     M[1, 0] * v[0] + M[1, 1] * v[1] + M[1, 2] * v[2],
+                     M[2, 0] * v[0] + M[2, 1] * v[1] + M[2, 2] * v[2]])
+
+
+# In-place helpers (no allocation in the loops over bodies): out may not alias the inputs.
+
+@njit(cache=True, inline="always")
+def _cross_to(out, a, b):
+    out[0] = a[1] * b[2] - a[2] * b[1]
+    out[1] = a[2] * b[0] - a[0] * b[2]
+    out[2] = a[0] * b[1] - a[1] * b[0]
+
+
+@njit(cache=True, inline="always")
+def _mv_to(out, M, v):
+    for i in range(3):
+        out[i] = M[i, 0] * v[0] + M[i, 1] * v[1] + M[i, 2] * v[2]
+
+
+@njit(cache=True, inline="always")
+def _mm_to(out, A, B):
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = A[i, 0] * B[0, j] + A[i, 1] * B[1, j] + A[i, 2] * B[2, j]
+
+
+@njit(cache=True, inline="always")
+def _mmt_to(out, A, B):
+    """``out = A @ B.T``."""
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = A[i, 0] * B[j, 0] + A[i, 1] * B[j, 1] + A[i, 2] * B[j, 2]
+
+
+@njit(cache=True)
+def joint_motions(x, xd, coord_start, coord_kind, coord_axis, external, Rj, d, hw, hv, aw, av):
+    """Relative motions of the generic joints (translations, then rotations about moving axes).
+
+    A generic joint's coordinates are translations along fixed axes of
+    the parent marker frame and rotations about successive moving axes
+    (``R = R_a1(q1) R_a2(q2) ...``, the Bryant sequence for axes x, y, z).
+    Bodies flagged ``external`` (joint classes with their own
+    ``motion()``) are skipped: their rows are filled in Python.
+
+    Parameters
+    ----------
+    x, xd : ndarray, shape (n,)
+        Coordinates and speeds.
+    coord_start : ndarray of int, shape (n_bodies + 1,)
+        Body k's tree joint owns ``x[coord_start[k]:coord_start[k + 1]]``.
+    coord_kind, coord_axis : ndarray of int, shape (n,)
+        Translation (0) or rotation (1), and the marker axis (0, 1, 2).
+    external : ndarray of bool, shape (n_bodies,)
+        Joints whose motion is computed elsewhere.
+    Rj, d, hw, hv, aw, av : ndarray
+        Outputs (filled for non-external bodies): joint rotation
+        (n_bodies, 3, 3), child point in the parent marker frame
+        (n_bodies, 3), per-coordinate partial angular velocity and velocity
+        in the parent marker frame (n, 3), and the velocity-dependent
+        angular and linear accelerations ``Hdot qd`` (n_bodies, 3).
+    """
+    nb = coord_start.shape[0] - 1
+    w = np.empty(3)
+    ci = np.empty(3)
+    for k in range(nb):
+        if external[k]:
+            continue
+        R = Rj[k]
+        R[:, :] = 0.0
+        R[0, 0] = R[1, 1] = R[2, 2] = 1.0
+        w[:] = 0.0
+        aw[k] = 0.0
+        av[k] = 0.0
+        d[k] = 0.0
+        for c in range(coord_start[k], coord_start[k + 1]):
+            ax = coord_axis[c]
+            hw[c, :] = 0.0
+            hv[c, :] = 0.0
+            if coord_kind[c] == _TRANSLATION:
+                d[k, ax] += x[c]
+                hv[c, ax] = 1.0
+                continue
+            # the axis turned by the rotations before it; a += w x w_i, w += w_i
+            for i in range(3):
+                hw[c, i] = R[i, ax]
+            q = xd[c]
+            aw[k, 0] += (w[1] * hw[c, 2] - w[2] * hw[c, 1]) * q
+            aw[k, 1] += (w[2] * hw[c, 0] - w[0] * hw[c, 2]) * q
+            aw[k, 2] += (w[0] * hw[c, 1] - w[1] * hw[c, 0]) * q
+            for i in range(3):
+                w[i] += hw[c, i] * q
+            # R <- R @ R_ax(x_c): the columns i, j of the plane turn
+            cq, sq = np.cos(x[c]), np.sin(x[c])
+            i1, j1 = (ax + 1) % 3, (ax + 2) % 3
+            for i in range(3):
+                ci[i] = R[i, i1]
+            for i in range(3):
+                R[i, i1] = cq * ci[i] + sq * R[i, j1]
+                R[i, j1] = cq * R[i, j1] - sq * ci[i]
+
+
+@njit(cache=True)
+def tree_kinematics(parent, coord_start, parent_frame, child_frame, lever, child_point, com, Rj, d, hw, hv, aw,
+                    av, xd):
+    """Rotations, positions, velocities, partial velocities and bias accelerations of all bodies.
+
+    One pass in tree order (a parent before its children), O(n).
+
+    Parameters
+    ----------
+    parent : ndarray of int, shape (n_bodies,)
+        Parent body (-1: ground).
+    coord_start : ndarray of int, shape (n_bodies + 1,)
+        Coordinate ranges of the tree joints.
+    parent_frame, child_frame : ndarray, shape (n_bodies, 3, 3)
+        Joint frame in the parent and child body frames.
+    lever : ndarray, shape (n_bodies, 3)
+        ``parent_point - parent_joint_point``: from the parent's own joint
+        point to this joint's, in the parent body frame.
+    child_point, com : ndarray, shape (n_bodies, 3)
+        Joint point and mass centre in the body frame.
+    Rj, d, hw, hv, aw, av : ndarray
+        Joint motions (:func:`joint_motions`).
+    xd : ndarray, shape (n,)
+        Speeds.
+
+    Returns
+    -------
+    R : ndarray, shape (n_bodies + 1, 3, 3)
+        Body rotations; the last row the ground.
+    origin, r, omega, v, alpha, acc : ndarray, shape (n_bodies + 1, 3)
+        Body-frame origins, mass centres, angular velocities, mass-centre
+        velocities and the bias accelerations (``xdd = 0``, eqs. 13, 18).
+    joint_point : ndarray, shape (n_bodies, 3)
+        Child-side joint points ``o'_k``.
+    Sw, Sv, Gw, Gv : ndarray, shape (n, 3)
+        Plucker axes and the joint-point partial velocities per coordinate.
+    """
+    nb = parent.shape[0]
+    n = xd.shape[0]
+    R = np.empty((nb + 1, 3, 3))
+    R[nb] = np.eye(3)
+    origin = np.zeros((nb + 1, 3))
+    r = np.zeros((nb + 1, 3))
+    jp = np.zeros((nb + 1, 3))
+    omega = np.zeros((nb + 1, 3))
+    v_o = np.zeros((nb + 1, 3))  # Plucker linear velocity about the origin
+    v = np.zeros((nb + 1, 3))
+    alpha = np.zeros((nb + 1, 3))
+    a_jp = np.zeros((nb + 1, 3))
+    acc = np.zeros((nb + 1, 3))
+    Sw = np.empty((n, 3))
+    Sv = np.empty((n, 3))
+    Gw = np.empty((n, 3))
+    Gv = np.empty((n, 3))
+    RM = np.empty((3, 3))
+    F = np.empty((3, 3))
+    G = np.empty((3, 3))
+    s = np.empty(3)
+    t1 = np.empty(3)
+    t2 = np.empty(3)
+    v_rel = np.empty(3)
+    u = np.empty(3)
+    for k in range(nb):
+        p = parent[k]
+        if p < 0:
+            p = nb
+        RP = R[p]
+        _mm_to(RM, RP, parent_frame[k])
+        _mm_to(F, parent_frame[k], Rj[k])
+        _mmt_to(G, F, child_frame[k])
+        _mm_to(R[k], RP, G)
+        # s = R_P lever + R_M d; o'_k = o'_P + s; origin and mass centre
+        _mv_to(s, RP, lever[k])
+        _mv_to(t1, RM, d[k])
+        _mv_to(t2, R[k], child_point[k])
+        _mv_to(u, R[k], com[k])
+        for i in range(3):
+            s[i] += t1[i]
+            jp[k, i] = jp[p, i] + s[i]
+            origin[k, i] = jp[k, i] - t2[i]
+            r[k, i] = origin[k, i] + u[i]
+        w = omega[k]
+        vo = v_o[k]
+        for i in range(3):
+            w[i] = omega[p, i]
+            vo[i] = v_o[p, i]
+            v_rel[i] = 0.0
+        for c in range(coord_start[k], coord_start[k + 1]):
+            _mv_to(Gw[c], RM, hw[c])
+            _mv_to(Gv[c], RM, hv[c])
+            _cross_to(t1, Gw[c], jp[k])
+            q = xd[c]
+            for i in range(3):
+                Sw[c, i] = Gw[c, i]
+                Sv[c, i] = Gv[c, i] - t1[i]
+                w[i] += Gw[c, i] * q
+                vo[i] += Sv[c, i] * q
+                v_rel[i] += Gv[c, i] * q
+        _cross_to(t1, w, r[k])
+        for i in range(3):
+            v[k, i] = vo[i] + t1[i]
+        wP = omega[p]
+        # alpha_k = alpha_P + wP x (w - wP) + R_M aw
+        for i in range(3):
+            t2[i] = w[i] - wP[i]
+        _cross_to(t1, wP, t2)
+        _mv_to(t2, RM, aw[k])
+        for i in range(3):
+            alpha[k, i] = alpha[p, i] + t1[i] + t2[i]
+        # a_jp,k = a_jp,P + alpha_P x s + wP x (wP x s + 2 v_rel) + R_M av
+        _cross_to(t1, alpha[p], s)
+        for i in range(3):
+            a_jp[k, i] = a_jp[p, i] + t1[i]
+        _cross_to(t1, wP, s)
+        for i in range(3):
+            t1[i] += 2.0 * v_rel[i]
+        _cross_to(t2, wP, t1)
+        _mv_to(t1, RM, av[k])
+        for i in range(3):
+            a_jp[k, i] += t2[i] + t1[i]
+        # acc_k = a_jp,k + alpha_k x u + w x (w x u), u = r_k - o'_k
+        for i in range(3):
+            u[i] = r[k, i] - jp[k, i]
+        _cross_to(t1, alpha[k], u)
+        for i in range(3):
+            acc[k, i] = a_jp[k, i] + t1[i]
+        _cross_to(t1, w, u)
+        _cross_to(t2, w, t1)
+        for i in range(3):
+            acc[k, i] += t2[i]
+    return R, origin, r, omega, v, alpha, acc, jp[:nb].copy(), Sw, Sv, Gw, Gv
+
+
+@njit(cache=True)
+def upstream_rows(bodies, parent, coord_start, n):
+    """0/1 rows: which coordinates move each of the given bodies.
+
+    Parameters
+    ----------
+    bodies : ndarray of int, shape (m,)
+        Body indices (-1, the ground, gives a row of zeros).
+    parent : ndarray of int, shape (n_bodies,)
+        Parent body (-1: ground).
+    coord_start : ndarray of int, shape (n_bodies + 1,)
+        Coordinate ranges of the tree joints.
+    n : int
+        Number of coordinates.
+
+    Returns
+    -------
+    ndarray, shape (m, n)
+        ``out[i, c] = 1`` if coordinate c's joint is on the path from the
+        ground to ``bodies[i]`` (its own joint included).
+    """
+    out = np.zeros((bodies.shape[0], n))
+    for i in range(bodies.shape[0]):
+        k = bodies[i]
+        while k >= 0:
+            out[i, coord_start[k]:coord_start[k + 1]] = 1.0
+            k = parent[k]
+    return out

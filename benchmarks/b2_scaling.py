@@ -49,7 +49,7 @@ def run(n, rtol, repeat, scene, ref):
             "setup_s": setup, "wall_s": statistics.median(walls), "cpu_s": statistics.median(cpus),
             "steps": res.n_steps, "rhs_evals": res.n_rhs, "jac_evals": res.n_jac, "error": err,
             "error_kind": "integration", "reference": f"flexmb Radau rtol={ref['rtol']:g} same N",
-            "sparse": system.tree_solver is not None, "status": res.status, "t_end": scene.t_end}
+            "sparse": system.articulated, "status": res.status, "t_end": scene.t_end}
 
 
 def main(argv=None):

@@ -13,7 +13,8 @@ from .constraints import Constraints
 from .errors import AssemblyError, ModelError
 from .kinematics import Kinematics
 from .topology import Topology
-from .tree_solver import SPARSE_MIN_COORDS, TreeSolver
+from .kernels.articulated import articulated_accelerations
+from .kernels.dynamics import bias_wrenches
 
 __all__ = ["System"]
 
@@ -28,11 +29,10 @@ class System:
     complement : str or ComplementStrategy
         Orthogonal complement strategy (``"svd"`` or ``"eigen"``).
     sparse : bool or None
-        Solve the equations of an open tree by the sparse
-        :class:`~flexmb.tree_solver.TreeSolver` (O(n) per evaluation,
-        A never formed) instead of a dense Cholesky factorization of A.
-        None (default): sparse for open trees with at least
-        :data:`~flexmb.tree_solver.SPARSE_MIN_COORDS` coordinates. Models
+        Solve the equations of an open tree by the articulated-body
+        recursion (:mod:`flexmb.kernels.articulated`: O(n) per evaluation,
+        A never formed) rather than by a dense Cholesky factorization of A
+        (False). None (default): the recursion for every open tree. Models
         with loops always use the dense complement path.
 
     Attributes
@@ -45,8 +45,8 @@ class System:
         ``"joint.coordinate"`` per coordinate.
     n_complements : int
         Count of complement computations so far.
-    tree_solver : TreeSolver or None
-        The sparse solver of an open tree, if used.
+    articulated : bool
+        Whether the accelerations come from the articulated-body recursion.
     """
 
     def __init__(self, model, complement="svd", sparse=None):
@@ -66,8 +66,8 @@ class System:
         if sparse and self.n_constraints:
             raise ModelError("sparse=True needs an open tree: this model has loop or driver constraints")
         if sparse is None:
-            sparse = self.n_constraints == 0 and self.n_coords >= SPARSE_MIN_COORDS
-        self.tree_solver = TreeSolver(self.topology) if sparse else None
+            sparse = self.n_constraints == 0
+        self.articulated = bool(sparse)
         #: Largest rank of psi used by :meth:`complement` (None: no cap); set by
         #: :func:`~flexmb.simulate` to the rank at the assembled initial state.
         self.rank_limit: int | None = None
@@ -226,12 +226,8 @@ class System:
         AssemblyError
             If the reduced mass matrix is not positive definite.
         """
-        if self.tree_solver is not None:  # open tree, sparse: A is never formed
-            kin = self.kinematics(t, x, xd)
-            f = self.forces.force_array(kin)
-            if not (np.all(np.isfinite(f)) and np.all(np.isfinite(kin.R))):
-                self._raise_non_finite(t, x, xd, None, f)
-            return self.tree_solver.solve(self.tree_solver.factor(kin), f)
+        if self.articulated:  # open tree: A is never formed
+            return self._articulated(t, x, xd)
         if self.n_constraints:
             _, A, f, _, psi, _, gamma = self.equations(t, x, xd)
         else:  # an open tree: no constraints to evaluate
@@ -241,6 +237,27 @@ class System:
         if not (np.all(np.isfinite(f)) and np.all(np.isfinite(A))):
             self._raise_non_finite(t, x, xd, A, f)
         return self._solve(t, A, f, psi, gamma)
+
+    def _articulated(self, t, x, xd):
+        """Accelerations of an open tree by the articulated-body recursion (O(n))."""
+        kin = self.kinematics(t, x, xd)
+        loads = self.forces.loads(kin)
+        topo = self.topology
+        force, torque = bias_wrenches(kin.mass, kin.inertia_world(), kin.omega, kin.alpha_bias, kin.a_bias,
+                                      loads.force, loads.torque)
+        xdd, bad = articulated_accelerations(topo.parent, topo.coord_start, kin.spatial_inertia(), kin.Sw, kin.Sv,
+                                             kin.r, force, torque, loads.generalized)
+        positions_finite = bool(np.all(np.isfinite(kin.R)) and np.all(np.isfinite(kin.r)))
+        if not positions_finite:
+            self._raise_non_finite(t, x, xd, None, xdd)
+        if bad >= 0:
+            raise AssemblyError(
+                f"the mass matrix is singular at t = {t:.6g} s: joint {topo.tree_joints[bad].name!r} moves no "
+                "mass or inertia along one of its freedoms (a body without mass or inertia on a freedom?)"
+            )
+        if not np.all(np.isfinite(xdd)):
+            self._raise_non_finite(t, x, xd, np.zeros((1, 1)), xdd)
+        return xdd
 
     def _raise_non_finite(self, t, x, xd, A, f):
         err = AssemblyError(f"at t = {t:.9g} s: {self._diagnose(t, x, xd, A, f)}")
@@ -369,8 +386,8 @@ class System:
         X = np.zeros((n, 2 * n))
         X[:, :n] = -np.diag(K)
         X[:, n:] = -C
-        # dense even where accelerations use the TreeSolver: with 2n right-hand
-        # sides, a dense Cholesky factorization is faster than SuperLU's solves
+        # dense even where accelerations use the articulated-body recursion: the
+        # Jacobian is dense, and its 2n right-hand sides share one factorization
         A = mass_matrix(kin)
         _, psi, _, gamma = self.constraints.evaluate(kin)
         if self.n_constraints == 0:

@@ -1,4 +1,4 @@
-"""The sparse open-tree solver against the dense Cholesky path (an independent formulation of eq. 2)."""
+"""The articulated-body recursion of open trees against the dense Cholesky path (an independent formulation of eq. 2)."""
 
 import numpy as np
 import pytest
@@ -9,7 +9,6 @@ from strategies import build_tree, states, tree_specs
 
 import flexmb as fm
 from flexmb.assembly import mass_matrix
-from flexmb.tree_solver import SPARSE_MIN_COORDS
 
 
 def _pair(model):
@@ -20,7 +19,7 @@ def _pair(model):
 @given(specs=tree_specs(max_joints=6), data=st.data())
 def test_random_trees_sparse_equals_dense(specs, data):
     dense, sparse = _pair(build_tree(specs)[0])
-    assert dense.tree_solver is None and sparse.tree_solver is not None
+    assert not dense.articulated and sparse.articulated
     x, xd = data.draw(states(dense.n_coords, scale=1.2))
     a_d = dense.accelerations(0.3, x, xd)
     a_s = sparse.accelerations(0.3, x, xd)
@@ -56,11 +55,11 @@ def test_flexible_beam_run_is_the_same():
     assert np.abs(runs[0].x - runs[1].x).max() <= 1e-9
 
 
-def test_default_choice_by_size():
-    small = _beam(4).build()
-    big = _beam(SPARSE_MIN_COORDS // 3 + 1).build()
-    assert small.tree_solver is None
-    assert big.tree_solver is not None and big.n_coords >= SPARSE_MIN_COORDS
+def test_default_is_the_recursion_for_open_trees_only():
+    from conftest import fourbar
+
+    assert _beam(4).build().articulated and _beam(101).build().articulated
+    assert not fourbar().build().articulated
 
 
 def test_sparse_refused_with_loops():
@@ -77,7 +76,7 @@ def test_point_mass_on_a_pin_is_a_clear_error():
     model.add(fm.Revolute("pin", model.ground, bar, axis=(0, 0, 1)))
     model.add(fm.Revolute("tip_pin", bar, tip, parent_point=(1, 0, 0), axis=(0, 0, 1)))
     system = model.build(sparse=True)
-    with pytest.raises(fm.AssemblyError, match="singular"):
+    with pytest.raises(fm.AssemblyError, match="singular at t = 0 s: joint 'tip_pin' moves no mass"):
         system.accelerations(0.0, np.zeros(2), np.zeros(2))
 
 

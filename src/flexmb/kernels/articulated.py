@@ -1,0 +1,163 @@
+"""Accelerations of an open tree in O(n), without forming the mass matrix.
+
+Kane's equations of an open tree (eqs. 1-5) read, coordinate by
+coordinate, ``S_c . sum_{j after c} (I_j dA_j - B_j) = Q_c``: the axis of c
+against the wrench the bodies after it need, where (in Plucker form about
+the inertial origin) ``I_j`` is body j's spatial inertia, ``dA_j`` the part
+of its spatial acceleration that the accelerations ``xdd`` produce
+(``dA_j = dA_P + S_j xdd_j``), ``B_j`` its applied loads minus the
+velocity-dependent inertia forces (the force array's wrench, eq. 3) and
+``Q_c`` the generalized forces applied on coordinates. This is the
+articulated-body recursion (Featherstone): one pass from the leaves in
+condenses each subtree onto its joint, one pass from the ground out
+solves each joint's few accelerations. All quantities are about the same
+origin, so no frame transformations appear.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+__all__ = ["articulated_accelerations"]
+
+
+@njit(cache=True)
+def _solve_spd(D, rhs, out):
+    """Solve the small symmetric positive definite ``D z = rhs`` (Cholesky); False if not positive definite."""
+    m = D.shape[0]
+    L = np.zeros((m, m))
+    for j in range(m):
+        s = D[j, j]
+        for k in range(j):
+            s -= L[j, k] * L[j, k]
+        if not s > 0.0:
+            return False
+        L[j, j] = np.sqrt(s)
+        for i in range(j + 1, m):
+            s = D[i, j]
+            for k in range(j):
+                s -= L[i, k] * L[j, k]
+            L[i, j] = s / L[j, j]
+    ncol = rhs.shape[1]
+    for col in range(ncol):
+        for i in range(m):
+            s = rhs[i, col]
+            for k in range(i):
+                s -= L[i, k] * out[k, col]
+            out[i, col] = s / L[i, i]
+        for i in range(m - 1, -1, -1):
+            s = out[i, col]
+            for k in range(i + 1, m):
+                s -= L[k, i] * out[k, col]
+            out[i, col] = s / L[i, i]
+    return True
+
+
+@njit(cache=True)
+def articulated_accelerations(parent, coord_start, spatial, Sw, Sv, r, force, torque, generalized):
+    """Solve ``A xdd = f`` of an open tree by the articulated-body recursion.
+
+    Parameters
+    ----------
+    parent : ndarray of int, shape (n_bodies,)
+        Parent body (-1: ground); parents come before children.
+    coord_start : ndarray of int, shape (n_bodies + 1,)
+        Coordinate ranges of the tree joints.
+    spatial : ndarray, shape (n_bodies, 6, 6)
+        Spatial inertias about the origin.
+    Sw, Sv : ndarray, shape (n, 3)
+        Plucker axes of the coordinates.
+    r : ndarray, shape (>= n_bodies, 3)
+        Mass centres.
+    force, torque : ndarray, shape (>= n_bodies, 3)
+        Applied loads minus the velocity-dependent inertia forces, at the
+        mass centres (:func:`flexmb.kernels.dynamics.bias_wrenches`).
+    generalized : ndarray, shape (n,)
+        Generalized forces applied on the coordinates.
+
+    Returns
+    -------
+    xdd : ndarray, shape (n,)
+        Accelerations.
+    bad : int
+        -1, or the body whose joint has a singular articulated inertia
+        (a freedom without mass or inertia); xdd is then not valid.
+    """
+    nb = parent.shape[0]
+    n = Sw.shape[0]
+    IA = spatial.copy()
+    pA = np.empty((nb, 6))
+    for k in range(nb):
+        # minus the wrench B_k about the origin
+        pA[k, 0] = -(torque[k, 0] + r[k, 1] * force[k, 2] - r[k, 2] * force[k, 1])
+        pA[k, 1] = -(torque[k, 1] + r[k, 2] * force[k, 0] - r[k, 0] * force[k, 2])
+        pA[k, 2] = -(torque[k, 2] + r[k, 0] * force[k, 1] - r[k, 1] * force[k, 0])
+        pA[k, 3] = -force[k, 0]
+        pA[k, 4] = -force[k, 1]
+        pA[k, 5] = -force[k, 2]
+    U = np.empty((n, 6))  # IA S, one row per coordinate
+    DinvUT = np.empty((n, 6))  # D^-1 U^T, one row per coordinate
+    Dinv_u = np.empty(n)
+    u = np.empty(n)
+    for k in range(nb - 1, -1, -1):
+        c0, c1 = coord_start[k], coord_start[k + 1]
+        m = c1 - c0
+        for c in range(c0, c1):
+            for i in range(6):
+                U[c, i] = (IA[k, i, 0] * Sw[c, 0] + IA[k, i, 1] * Sw[c, 1] + IA[k, i, 2] * Sw[c, 2]
+                           + IA[k, i, 3] * Sv[c, 0] + IA[k, i, 4] * Sv[c, 1] + IA[k, i, 5] * Sv[c, 2])
+            u[c] = generalized[c] - (Sw[c, 0] * pA[k, 0] + Sw[c, 1] * pA[k, 1] + Sw[c, 2] * pA[k, 2]
+                                     + Sv[c, 0] * pA[k, 3] + Sv[c, 1] * pA[k, 4] + Sv[c, 2] * pA[k, 5])
+        if m:
+            D = np.empty((m, m))
+            rhs = np.empty((m, 7))
+            for a in range(m):
+                ca = c0 + a
+                for b in range(m):
+                    cb = c0 + b
+                    D[a, b] = (Sw[ca, 0] * U[cb, 0] + Sw[ca, 1] * U[cb, 1] + Sw[ca, 2] * U[cb, 2]
+                               + Sv[ca, 0] * U[cb, 3] + Sv[ca, 1] * U[cb, 4] + Sv[ca, 2] * U[cb, 5])
+                for i in range(6):
+                    rhs[a, i] = U[ca, i]
+                rhs[a, 6] = u[ca]
+            sol = np.empty((m, 7))
+            if not _solve_spd(D, rhs, sol):
+                return np.zeros(n), k
+            for a in range(m):
+                for i in range(6):
+                    DinvUT[c0 + a, i] = sol[a, i]
+                Dinv_u[c0 + a] = sol[a, 6]
+        p = parent[k]
+        if p < 0:
+            continue
+        # condensed onto the joint: I^a = IA - U D^-1 U^T, p^a = pA + U D^-1 u
+        for i in range(6):
+            for j in range(6):
+                s = IA[k, i, j]
+                for c in range(c0, c1):
+                    s -= U[c, i] * DinvUT[c, j]
+                IA[p, i, j] += s
+            s = pA[k, i]
+            for c in range(c0, c1):
+                s += U[c, i] * Dinv_u[c]
+            pA[p, i] += s
+    xdd = np.empty(n)
+    dA = np.zeros((nb + 1, 6))
+    for k in range(nb):
+        p = parent[k]
+        if p < 0:
+            p = nb
+        for i in range(6):
+            dA[k, i] = dA[p, i]
+        for c in range(coord_start[k], coord_start[k + 1]):
+            # xdd = D^-1 (u - U^T dA_P)
+            s = Dinv_u[c]
+            for i in range(6):
+                s -= DinvUT[c, i] * dA[p, i]
+            xdd[c] = s
+        for c in range(coord_start[k], coord_start[k + 1]):
+            for i in range(3):
+                dA[k, i] += Sw[c, i] * xdd[c]
+                dA[k, 3 + i] += Sv[c, i] * xdd[c]
+    return xdd, -1

@@ -10,17 +10,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from .rotations import cross
+from .kernels.constraints import cut_rows
 
 __all__ = ["Constraints"]
 
 
-def _dot(a, b):
-    return np.einsum("mi,mi->m", a, b)
-
-
 class Constraints:
-    """Compiled constraint rows of a model.
+    """Constraint rows of a model: cut joints (compiled, :mod:`flexmb.kernels.constraints`) and drivers.
 
     Parameters
     ----------
@@ -56,7 +52,9 @@ class Constraints:
 
         def arr(rows, i, shape=None):
             out = np.array([r[i] for r in rows])
-            return out.astype(int) if shape is None else out.reshape(shape)
+            if shape is None:
+                return np.ascontiguousarray(out.astype(np.int64))
+            return np.ascontiguousarray(out.astype(float).reshape(shape))
 
         self.pt = (arr(pts, 0), arr(pts, 1, (-1, 3)), arr(pts, 2), arr(pts, 3, (-1, 3)))
         self.dr = (arr(dirs, 0), arr(dirs, 1, (-1, 3)), arr(dirs, 2, (-1, 3)), arr(dirs, 3), arr(dirs, 4, (-1, 3)))
@@ -91,51 +89,11 @@ class Constraints:
             Right-hand side of ``psi xdd = gamma``. Only for level 2.
         """
         n = kin.x.shape[0]
-        phis, psis, bs, gammas = [], [], [], []
-        ri, pi, rj, pj = self.pt
-        if len(ri):
-            Pi = kin.point_position(ri, pi)
-            Pj = kin.point_position(rj, pj)
-            phis.append((Pi - Pj).ravel())
-            if level >= 1:
-                psis.append((kin.point_partials(ri, Pi) - kin.point_partials(rj, Pj)).reshape(3 * len(ri), n))
-                bs.append(np.zeros(3 * len(ri)))
-            if level >= 2:
-                gammas.append(-(kin.point_bias_acceleration(ri, Pi) - kin.point_bias_acceleration(rj, Pj)).ravel())
-        ri, pi, ai, rj, pj = self.dr
-        if len(ri):
-            Pi = kin.point_position(ri, pi)
-            Pj = kin.point_position(rj, pj)
-            dvec = np.einsum("mij,mj->mi", kin.R[ri], ai)
-            e = Pj - Pi
-            phis.append(_dot(dvec, e))
-            if level >= 1:
-                de = cross(dvec, e)
-                Ve = kin.point_partials(rj, Pj) - kin.point_partials(ri, Pi)
-                psis.append(np.einsum("mi,min->mn", de, kin.angular_partials(ri)) + np.einsum("mi,min->mn", dvec, Ve))
-                bs.append(np.zeros(len(ri)))
-            if level >= 2:
-                wi = kin.omega[ri]
-                edot = kin.point_velocity(rj, Pj) - kin.point_velocity(ri, Pi)
-                ebias = kin.point_bias_acceleration(rj, Pj) - kin.point_bias_acceleration(ri, Pi)
-                wd = cross(wi, dvec)
-                bias = (_dot(kin.alpha_bias[ri], de) + _dot(wi, cross(wd, e) + cross(dvec, edot))
-                        + _dot(wd, edot) + _dot(dvec, ebias))
-                gammas.append(-bias)
-        ri, ai, rj, bj = self.pp
-        if len(ri):
-            a = np.einsum("mij,mj->mi", kin.R[ri], ai)
-            b = np.einsum("mij,mj->mi", kin.R[rj], bj)
-            phis.append(_dot(a, b))
-            if level >= 1:
-                ab = cross(a, b)
-                psis.append(np.einsum("mi,min->mn", ab, kin.angular_partials(ri) - kin.angular_partials(rj)))
-                bs.append(np.zeros(len(ri)))
-            if level >= 2:
-                wi, wj = kin.omega[ri], kin.omega[rj]
-                bias = (_dot(ab, kin.alpha_bias[ri] - kin.alpha_bias[rj])
-                        + _dot(cross(cross(wi, a), b) + cross(a, cross(wj, b)), wi - wj))
-                gammas.append(-bias)
+        topo = self.topology
+        phi_c, psi_c, gamma_c = cut_rows(level, n, kin.R, kin.origin, kin.r, kin.omega, kin.v, kin.alpha_bias,
+                                         kin.a_bias, kin.Sw, kin.Sv, topo.parent, topo.coord_start, *self.pt,
+                                         *self.dr, *self.pp)
+        phis, psis, bs, gammas = [phi_c], [psi_c], [np.zeros(phi_c.shape[0])], [gamma_c]
         if self.drivers:
             t = kin.t
             cols = self.driver_cols

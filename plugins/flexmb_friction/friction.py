@@ -29,8 +29,10 @@ from typing import ClassVar
 
 import numpy as np
 from attrs import field, frozen
+from numba import njit
 
 from flexmb import Body, ForceElement, ModelError
+from flexmb.kernels.loads import body_points
 
 __all__ = ["SlidingFriction", "VelocityWeakeningFriction", "CoulombFriction", "ViscousFriction"]
 
@@ -118,10 +120,58 @@ def _non_negative(instance, attribute, value):
 _GATHERED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
-def _regularised(magnitude: np.ndarray, v_s: np.ndarray, eps: np.ndarray) -> np.ndarray:
-    """``-F v_s / sqrt(|v_s|^2 + v_eps^2)`` row by row, shape (m, 3)."""
-    speed2 = np.einsum("mi,mi->m", v_s, v_s)
-    return -(magnitude / np.sqrt(speed2 + eps * eps))[:, None] * v_s
+@njit(cache=True)
+def _sliding(p_vel, normals):
+    """``v - (v . n) n`` row by row: the sliding velocities."""
+    out = np.empty_like(p_vel)
+    for i in range(p_vel.shape[0]):
+        vn = p_vel[i, 0] * normals[i, 0] + p_vel[i, 1] * normals[i, 1] + p_vel[i, 2] * normals[i, 2]
+        for a in range(3):
+            out[i, a] = p_vel[i, a] - vn * normals[i, a]
+    return out
+
+
+@njit(cache=True)
+def _velocity_weakening_law(params, v_s):
+    """Compiled law of :class:`VelocityWeakeningFriction`; params columns as its ``parameters``."""
+    out = np.empty_like(v_s)
+    for i in range(v_s.shape[0]):
+        speed2 = v_s[i, 0] ** 2 + v_s[i, 1] ** 2 + v_s[i, 2] ** 2
+        load, mu_s, slope, mu_min, eps = params[i, 0], params[i, 1], params[i, 2], params[i, 3], params[i, 4]
+        mu = max(mu_s - slope * np.sqrt(speed2), mu_min)
+        k = load * mu / np.sqrt(speed2 + eps * eps)
+        for a in range(3):
+            out[i, a] = -k * v_s[i, a]
+    return out
+
+
+@njit(cache=True)
+def _coulomb_law(params, v_s):
+    """Compiled law of :class:`CoulombFriction`; params columns as its ``parameters``."""
+    out = np.empty_like(v_s)
+    for i in range(v_s.shape[0]):
+        speed2 = v_s[i, 0] ** 2 + v_s[i, 1] ** 2 + v_s[i, 2] ** 2
+        k = params[i, 1] * params[i, 0] / np.sqrt(speed2 + params[i, 2] * params[i, 2])
+        for a in range(3):
+            out[i, a] = -k * v_s[i, a]
+    return out
+
+
+@njit(cache=True)
+def _viscous_law(params, v_s):
+    """Compiled law of :class:`ViscousFriction`; params columns as its ``parameters``."""
+    out = np.empty_like(v_s)
+    for i in range(v_s.shape[0]):
+        for a in range(3):
+            out[i, a] = -params[i, 0] * v_s[i, a]
+    return out
+
+
+def _compiled_law(cls, params: dict, v_s: np.ndarray) -> np.ndarray:
+    """A class's compiled law called with the ``_law`` arguments (a dict of parameter arrays)."""
+    table = np.column_stack([np.broadcast_to(np.asarray(params[p], dtype=float), (len(v_s),))
+                             for p in cls.parameters])
+    return cls.law_kernel(np.ascontiguousarray(table), np.ascontiguousarray(v_s, dtype=float))
 
 
 @frozen(eq=False)
@@ -210,7 +260,9 @@ class SlidingFriction(ForceElement):
         local = np.array([p for _, p in located], dtype=float).reshape(-1, 3)
         normals = np.array([e.normal for e in elements]).reshape(-1, 3)
         params = {p: np.array([getattr(e, p) for e in elements], dtype=float) for p in cls.parameters}
-        out = (rows, local, normals, params)
+        table = np.array([[getattr(e, p) for p in cls.parameters] for e in elements], dtype=float)
+        out = (rows.astype(np.int64), np.ascontiguousarray(local), np.ascontiguousarray(normals, dtype=float),
+               params, table.reshape(len(elements), len(cls.parameters)))
         if cache is not None:
             cache[key] = out
         return out
@@ -237,10 +289,11 @@ class SlidingFriction(ForceElement):
         force : ndarray, shape (m, 3)
             Friction forces, inertial, N.
         """
-        rows, local, n, params = cls._gather(elements, state)
-        p = state.point_position(rows, local)
-        v = state.point_velocity(rows, p)
-        v_s = v - np.einsum("mi,mi->m", v, n)[:, None] * n
+        rows, local, n, params, table = cls._gather(elements, state)
+        p, v = body_points(rows, local, state.R, state.origin, state.r, state.omega, state.v)
+        v_s = _sliding(v, n)
+        if cls.law_kernel is not None:
+            return rows, p, v_s, cls.law_kernel(table, v_s)
         return rows, p, v_s, cls._law(params, v_s)
 
     @classmethod
@@ -267,7 +320,7 @@ class SlidingFriction(ForceElement):
         D : ndarray, shape (m, 3, 3)
             ``dF/dv`` of each friction force, N s/m.
         """
-        rows, local, n, params = cls._gather(elements, state)
+        rows, local, n, params, _ = cls._gather(elements, state)
         p = state.point_position(rows, local)
         v = state.point_velocity(rows, p)
         proj = np.eye(3) - n[:, :, None] * n[:, None, :]
@@ -463,12 +516,12 @@ class VelocityWeakeningFriction(SlidingFriction):
             raise ModelError(f"{_label(self)}: mu_min must be <= mu_static, got mu_min = {self.mu_min!r} > "
                              f"mu_static = {self.mu_static!r}")
 
+    law_kernel = _velocity_weakening_law
+
     @classmethod
     def _law(cls, params, v_s):
-        """``-N max(mu_s - s v, mu_min) v_s / sqrt(v^2 + v_eps^2)``."""
-        speed = np.sqrt(np.einsum("mi,mi->m", v_s, v_s))
-        mu = np.maximum(params["mu_static"] - params["slope"] * speed, params["mu_min"])
-        return _regularised(params["normal_load"] * mu, v_s, params["smoothing_speed"])
+        """``-N max(mu_s - s v, mu_min) v_s / sqrt(v^2 + v_eps^2)`` (the compiled law)."""
+        return _compiled_law(cls, params, v_s)
 
 
 @frozen(eq=False)
@@ -529,10 +582,12 @@ class CoulombFriction(SlidingFriction):
     smoothing_speed: float = field(default=DEFAULT_SMOOTHING_SPEED, converter=_float, validator=_positive,
                                    kw_only=True)
 
+    law_kernel = _coulomb_law
+
     @classmethod
     def _law(cls, params, v_s):
-        """``-mu N v_s / sqrt(v^2 + v_eps^2)``."""
-        return _regularised(params["mu"] * params["normal_load"], v_s, params["smoothing_speed"])
+        """``-mu N v_s / sqrt(v^2 + v_eps^2)`` (the compiled law)."""
+        return _compiled_law(cls, params, v_s)
 
 
 @frozen(eq=False)
@@ -577,7 +632,9 @@ class ViscousFriction(SlidingFriction):
 
     damping: float = field(converter=_float, validator=_positive)
 
+    law_kernel = _viscous_law
+
     @classmethod
     def _law(cls, params, v_s):
-        """``-c v_s``."""
-        return -params["damping"][:, None] * v_s
+        """``-c v_s`` (the compiled law)."""
+        return _compiled_law(cls, params, v_s)

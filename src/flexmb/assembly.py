@@ -131,6 +131,17 @@ def geometric_stiffness(kin, xdd, force, torque) -> np.ndarray:
         np.ascontiguousarray(force), np.ascontiguousarray(torque))
 
 
+def _power(kin, loads) -> float:
+    """Power of accumulated loads: ``sum force . v + torque . omega`` over the bodies, plus ``generalized . xd``.
+
+    Equal to ``F . xd`` (eq. 5): the generalized forces are the loads'
+    projections on the partial velocities, whose combination with ``xd``
+    is each body's velocity.
+    """
+    return float(np.einsum("ki,ki->", loads.force[:-1], kin.v[:-1]) + np.einsum("ki,ki->", loads.torque[:-1],
+                 kin.omega[:-1]) + loads.generalized @ kin.xd)
+
+
 class ForceAssembler:
     """Applies the force elements and forms the force array f (eq. 3).
 
@@ -147,13 +158,16 @@ class ForceAssembler:
             groups[type(e)].append(e)
         self.groups = list(groups.items())
 
-    def loads(self, kin) -> Loads:
+    def loads(self, kin, powers: np.ndarray | None = None) -> Loads:
         """Apply every force element to a fresh :class:`Loads`.
 
         Parameters
         ----------
         kin : Kinematics
             The kinematic state.
+        powers : ndarray, shape (n_groups,), optional
+            If given, filled with the power of each class's loads (see
+            :meth:`group_powers`), from the same evaluation.
 
         Returns
         -------
@@ -162,8 +176,13 @@ class ForceAssembler:
             coordinates.
         """
         loads = Loads(kin)
-        for cls, elements in self.groups:
+        before = 0.0
+        for i, (cls, elements) in enumerate(self.groups):
             cls.apply_all(elements, kin, loads)
+            if powers is not None:
+                total = _power(kin, loads)
+                powers[i] = total - before
+                before = total
         return loads
 
     def active_force(self, kin, loads: Loads | None = None) -> np.ndarray:
@@ -186,20 +205,23 @@ class ForceAssembler:
             loads = self.loads(kin)
         return generalized_force(kin, loads.force[:-1], loads.torque[:-1]) + loads.generalized
 
-    def force_array(self, kin) -> np.ndarray:
+    def force_array(self, kin, powers: np.ndarray | None = None) -> np.ndarray:
         """Force array f of eq. 3: F minus the velocity-dependent inertia forces.
 
         Parameters
         ----------
         kin : Kinematics
             The kinematic state.
+        powers : ndarray, shape (n_groups,), optional
+            If given, filled with each force-element class's power
+            (:meth:`group_powers`) from the same evaluation.
 
         Returns
         -------
         ndarray, shape (n_coords,)
             ``f = F - sum_k [m_k V_k^T (Vdot_k xd) + W_k^T (I_k Wdot_k xd + w_k x I_k w_k)]``.
         """
-        loads = self.loads(kin)
+        loads = self.loads(kin, powers)
         force, torque = _dyn.bias_wrenches(kin.mass, kin.inertia_world(), kin.omega, kin.alpha_bias, kin.a_bias,
                                            loads.force, loads.torque)
         return generalized_force(kin, force, torque) + loads.generalized
@@ -218,10 +240,7 @@ class ForceAssembler:
             Power delivered by the elements of each class.
         """
         out = np.zeros(len(self.groups))
-        for i, (cls, elements) in enumerate(self.groups):
-            loads = Loads(kin)
-            cls.apply_all(elements, kin, loads)
-            out[i] = self.active_force(kin, loads) @ kin.xd
+        self.loads(kin, out)
         return out
 
     def group_names(self) -> list[str]:

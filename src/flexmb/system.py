@@ -176,7 +176,7 @@ class System:
             c = c.truncated(self.rank_limit)
         return c
 
-    def equations(self, t, x, xd):
+    def equations(self, t, x, xd, powers=None):
         """All the pieces of the equations of motion at one state.
 
         Parameters
@@ -185,6 +185,9 @@ class System:
             Time, s.
         x, xd : ndarray, shape (n,)
             Coordinates and speeds.
+        powers : ndarray, shape (n_groups,), optional
+            If given, filled with each force-element class's power
+            (:meth:`ForceAssembler.group_powers`) from the same evaluation.
 
         Returns
         -------
@@ -199,7 +202,7 @@ class System:
         """
         kin = self.kinematics(t, x, xd)
         A = mass_matrix(kin)
-        f = self.forces.force_array(kin)
+        f = self.forces.force_array(kin, powers)
         phi, psi, b, gamma = self.constraints.evaluate(kin)
         return kin, A, f, phi, psi, b, gamma
 

@@ -13,6 +13,7 @@ from attrs import field, frozen
 
 from .._validate import name_check
 from ..rotations import cross
+from ..kernels.loads import add_point_forces, add_torques
 
 __all__ = ["ForceElement", "Loads", "Gravity", "SpringDamper", "JointSpringDamper", "PointForce", "BodyTorque",
            "BeamElasticity"]
@@ -56,12 +57,10 @@ class Loads:
         force : ndarray, shape (m, 3)
             Forces, inertial, N.
         """
-        body_index = np.atleast_1d(body_index)
-        point = np.reshape(point, (-1, 3))
-        force = np.reshape(force, (-1, 3))
-        np.add.at(self.force, body_index, force)
-        lever = point - self.state.r[body_index]
-        np.add.at(self.torque, body_index, cross(lever, force))
+        add_point_forces(np.atleast_1d(np.asarray(body_index, dtype=np.int64)),
+                         np.ascontiguousarray(np.reshape(point, (-1, 3)), dtype=float),
+                         np.ascontiguousarray(np.reshape(force, (-1, 3)), dtype=float),
+                         self.state.r, self.force, self.torque)
 
     def add_torque(self, body_index, torque) -> None:
         """Add torques (inertial components, N m) to bodies.
@@ -73,7 +72,8 @@ class Loads:
         torque : ndarray, shape (m, 3)
             Torques, inertial, N m.
         """
-        np.add.at(self.torque, np.atleast_1d(body_index), np.reshape(torque, (-1, 3)))
+        add_torques(np.atleast_1d(np.asarray(body_index, dtype=np.int64)),
+                    np.ascontiguousarray(np.reshape(torque, (-1, 3)), dtype=float), self.torque)
 
 
 @frozen(eq=False)

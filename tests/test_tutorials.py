@@ -104,6 +104,7 @@ def test_custom_elements(monkeypatch):
     # AeroDrag: the batched apply_all adds the same loads as apply, element by element, and the
     # drag moment of 20 strips at radii s_i on a paddle turning at w is -1/2 rho Cd dA w^2 sum s_i^3
     assert ns["apply_difference"] < 1e-14
+    assert ns["compiled_difference"] < 1e-14  # the compiled apply_all gives the same loads
     s = (np.arange(20) + 0.5) / 20
     assert ns["drag_moment"] == pytest.approx(-0.5 * 1.225 * 1.2 * 0.2 / 20 * 3.0**2 * np.sum(s**3), rel=1e-12)
     # falling ball with quadratic drag: v = -v_t tanh(g t / v_t), v_t = sqrt(2 m g / (rho Cd A))

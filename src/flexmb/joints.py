@@ -27,7 +27,9 @@ from attrs import field, frozen
 from ._validate import as_array, label, name_check, optional_array, rotation_matrix, vector3
 from .bodies import Body
 from .errors import ModelError
-from .rotations import frame_from_axis, rotation_chain
+from .kernels import ROTATION, TRANSLATION
+from .kernels.tree import joint_motions
+from .rotations import frame_from_axis
 
 __all__ = [
     "Joint",
@@ -173,17 +175,23 @@ class Joint:
             Velocity-dependent angular and linear acceleration terms
             (``Hdot @ qd``), in the parent marker frame.
         """
+        # the compiled generic motion (flexmb.kernels.tree.joint_motions), for m joints laid out
+        # one after the other
+        q = np.asarray(q, dtype=float)
         m = q.shape[0]
-        nt = len(cls.translation_axes)
-        nq = nt + len(cls.rotation_axes)
-        Hw = np.zeros((m, 3, nq))
-        Hv = np.zeros((m, 3, nq))
-        d = np.zeros((m, 3))
-        for i, ax in enumerate(cls.translation_axes):
-            d[:, ax] += q[:, i]
-            Hv[:, ax, i] = 1.0
-        R, Hw[:, :, nt:], aw = rotation_chain(cls.rotation_axes, q[:, nt:], qd[:, nt:])
-        return R, d, Hw, Hv, aw, np.zeros((m, 3))
+        axes = tuple(cls.translation_axes) + tuple(cls.rotation_axes)
+        nq = len(axes)
+        kind = np.array([TRANSLATION] * len(cls.translation_axes) + [ROTATION] * len(cls.rotation_axes),
+                        dtype=np.int64)
+        R, d, aw, av = np.empty((m, 3, 3)), np.empty((m, 3)), np.empty((m, 3)), np.empty((m, 3))
+        hw, hv = np.empty((m * nq, 3)), np.empty((m * nq, 3))
+        joint_motions(np.ascontiguousarray(q.reshape(m * nq)), np.ascontiguousarray(np.reshape(qd, m * nq),
+                      dtype=float), np.arange(0, m * nq + 1, max(nq, 1), dtype=np.int64)[: m + 1]
+                      if nq else np.zeros(m + 1, dtype=np.int64), np.tile(kind, m),
+                      np.tile(np.array(axes, dtype=np.int64), m), np.zeros(m, dtype=np.bool_), R, d, hw, hv, aw, av)
+        Hw = hw.reshape(m, nq, 3).transpose(0, 2, 1)
+        Hv = hv.reshape(m, nq, 3).transpose(0, 2, 1)
+        return R, d, Hw, Hv, aw, av
 
 
 @frozen(eq=False)

@@ -12,7 +12,6 @@ import numpy as np
 from attrs import field, frozen
 
 from .._validate import name_check
-from ..rotations import cross
 from ..kernels.loads import add_point_forces, add_torques
 
 __all__ = ["ForceElement", "Loads", "Gravity", "SpringDamper", "JointSpringDamper", "PointForce", "BodyTorque",

@@ -86,3 +86,23 @@ def test_non_finite_state_is_diagnosed():
     x[1] = np.nan
     with pytest.raises(fm.AssemblyError, match="t = 0"):
         system.accelerations(0.0, x, np.zeros_like(x))
+
+
+def test_mass_times_and_armature_against_dense(rng):
+    """``A u`` in O(n), and ``(A + diag(armature)) z = r`` by the recursion, against the dense A."""
+    from flexmb.kernels.articulated import articulated_accelerations, mass_times
+
+    system = random_chain(rng, JOINT_TYPES * 2, branch=True).build(sparse=False)
+    n = system.n_coords
+    kin = system.kinematics(0.0, 0.4 * rng.normal(size=n), rng.normal(size=n))
+    topo = system.topology
+    A = mass_matrix(kin)
+    u = rng.normal(size=n)
+    Au = mass_times(topo.parent, topo.coord_start, topo.coord_body, kin.spatial_inertia(), kin.Sw, kin.Sv, u)
+    np.testing.assert_allclose(Au, A @ u, rtol=1e-12, atol=1e-12 * np.abs(A).max() * np.abs(u).max())
+    armature = rng.uniform(0.0, 5.0, size=n)
+    zeros = np.zeros((topo.n_bodies + 1, 3))
+    z, bad = articulated_accelerations(topo.parent, topo.coord_start, kin.spatial_inertia(), kin.Sw, kin.Sv, kin.r,
+                                       zeros, zeros, u, armature)
+    assert bad == -1
+    np.testing.assert_allclose((A + np.diag(armature)) @ z, u, rtol=0, atol=1e-10 * np.abs(u).max())

@@ -68,6 +68,7 @@ class System:
         if sparse is None:
             sparse = self.n_constraints == 0
         self.articulated = bool(sparse)
+        self._no_armature = np.zeros(self.n_coords)
         #: Largest rank of psi used by :meth:`complement` (None: no cap); set by
         #: :func:`~flexmb.simulate` to the rank at the assembled initial state.
         self.rank_limit: int | None = None
@@ -249,7 +250,7 @@ class System:
         force, torque = bias_wrenches(kin.mass, kin.inertia_world(), kin.omega, kin.alpha_bias, kin.a_bias,
                                       loads.force, loads.torque)
         xdd, bad = articulated_accelerations(topo.parent, topo.coord_start, kin.spatial_inertia(), kin.Sw, kin.Sv,
-                                             kin.r, force, torque, loads.generalized)
+                                             kin.r, force, torque, loads.generalized, self._no_armature)
         positions_finite = bool(np.all(np.isfinite(kin.R)) and np.all(np.isfinite(kin.r)))
         if not positions_finite:
             self._raise_non_finite(t, x, xd, None, xdd)

@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["articulated_accelerations"]
+__all__ = ["articulated_accelerations", "mass_times"]
 
 
 @njit(cache=True)
@@ -55,8 +55,14 @@ def _solve_spd(D, rhs, out):
 
 
 @njit(cache=True)
-def articulated_accelerations(parent, coord_start, spatial, Sw, Sv, r, force, torque, generalized):
-    """Solve ``A xdd = f`` of an open tree by the articulated-body recursion.
+def articulated_accelerations(parent, coord_start, spatial, Sw, Sv, r, force, torque, generalized, armature):
+    """Solve ``(A + diag(armature)) xdd = f`` of an open tree by the articulated-body recursion.
+
+    With ``armature = 0`` this is eq. 3 solved for the accelerations; a
+    positive armature on a coordinate adds to its joint's inertia
+    ``D = S^T I^A S`` exactly as ``A + diag(armature)`` would (the Newton
+    matrices of implicit integrators, ``A + a C + b K`` with diagonal
+    coordinate dampers C and springs K, are of this form).
 
     Parameters
     ----------
@@ -75,6 +81,8 @@ def articulated_accelerations(parent, coord_start, spatial, Sw, Sv, r, force, to
         mass centres (:func:`flexmb.kernels.dynamics.bias_wrenches`).
     generalized : ndarray, shape (n,)
         Generalized forces applied on the coordinates.
+    armature : ndarray, shape (n,)
+        Diagonal added to A (zeros for the equations of motion).
 
     Returns
     -------
@@ -118,6 +126,7 @@ def articulated_accelerations(parent, coord_start, spatial, Sw, Sv, r, force, to
                     cb = c0 + b
                     D[a, b] = (Sw[ca, 0] * U[cb, 0] + Sw[ca, 1] * U[cb, 1] + Sw[ca, 2] * U[cb, 2]
                                + Sv[ca, 0] * U[cb, 3] + Sv[ca, 1] * U[cb, 4] + Sv[ca, 2] * U[cb, 5])
+                D[a, a] += armature[ca]
                 for i in range(6):
                     rhs[a, i] = U[ca, i]
                 rhs[a, 6] = u[ca]
@@ -161,3 +170,63 @@ def articulated_accelerations(parent, coord_start, spatial, Sw, Sv, r, force, to
                 dA[k, i] += Sw[c, i] * xdd[c]
                 dA[k, 3 + i] += Sv[c, i] * xdd[c]
     return xdd, -1
+
+
+@njit(cache=True)
+def mass_times(parent, coord_start, coord_body, spatial, Sw, Sv, u):
+    """``A u`` for an open tree or the tree of a model with loops, in O(n), A never formed.
+
+    The accelerations ``u`` give the bodies the spatial accelerations
+    ``dA_k = dA_P + S_k u_k``; ``(A u)_c`` is the axis of c against the
+    inertia wrench ``sum I_j dA_j`` of the bodies after it (eq. 2).
+
+    Parameters
+    ----------
+    parent : ndarray of int, shape (n_bodies,)
+        Parent body (-1: ground).
+    coord_start : ndarray of int, shape (n_bodies + 1,)
+        Coordinate ranges of the tree joints.
+    coord_body : ndarray of int, shape (n,)
+        Body whose tree joint owns each coordinate.
+    spatial : ndarray, shape (n_bodies, 6, 6)
+        Spatial inertias about the origin.
+    Sw, Sv : ndarray, shape (n, 3)
+        Plucker axes of the coordinates.
+    u : ndarray, shape (n,)
+        The vector to multiply.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        ``A u``.
+    """
+    nb = parent.shape[0]
+    n = Sw.shape[0]
+    dA = np.zeros((nb + 1, 6))
+    W = np.empty((nb, 6))
+    for k in range(nb):
+        p = parent[k]
+        if p < 0:
+            p = nb
+        for i in range(6):
+            dA[k, i] = dA[p, i]
+        for c in range(coord_start[k], coord_start[k + 1]):
+            for i in range(3):
+                dA[k, i] += Sw[c, i] * u[c]
+                dA[k, 3 + i] += Sv[c, i] * u[c]
+        for i in range(6):
+            s = 0.0
+            for j in range(6):
+                s += spatial[k, i, j] * dA[k, j]
+            W[k, i] = s
+    for k in range(nb - 1, -1, -1):
+        p = parent[k]
+        if p >= 0:
+            for i in range(6):
+                W[p, i] += W[k, i]
+    out = np.empty(n)
+    for c in range(n):
+        b = coord_body[c]
+        out[c] = (Sw[c, 0] * W[b, 0] + Sw[c, 1] * W[b, 1] + Sw[c, 2] * W[b, 2]
+                  + Sv[c, 0] * W[b, 3] + Sv[c, 1] * W[b, 4] + Sv[c, 2] * W[b, 5])
+    return out

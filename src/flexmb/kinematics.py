@@ -29,6 +29,10 @@ from .rotations import cross
 
 __all__ = ["Kinematics"]
 
+# the external joint motions' arrays when a model has none (tree_kinematics reads no row of them)
+_NO_EXTERNAL = (np.empty((0, 3, 3)), np.empty((0, 3)), np.empty((0, 3)), np.empty((0, 3)), np.empty((0, 3)),
+                np.empty((0, 3)))
+
 
 class Kinematics:
     """Positions, velocities, partial velocities and bias accelerations.
@@ -76,32 +80,30 @@ class Kinematics:
         self._inertias = None
         self._composite = None  # assembly.composite_inertias
 
-        # joint motions: generic joints compiled, others by their class (batched)
-        Rj = np.empty((nb, 3, 3))
-        d = np.empty((nb, 3))
-        aw = np.empty((nb, 3))
-        av = np.empty((nb, 3))
-        hw = np.empty((n, 3))
-        hv = np.empty((n, 3))
-        _tree.joint_motions(x, xd, topo.coord_start, topo.coord_kind, topo.coord_axis, topo.external,
-                            Rj, d, hw, hv, aw, av)
-        for i, (cls, ks, cols) in enumerate(topo.external_groups):
-            if cols.shape[1]:
-                R_, d_, Hw, Hv, aw_, av_ = cls.motion(x[cols], xd[cols])
-            else:  # no coordinates: a constant motion, evaluated once per model
-                key = ("constant motion", i)
-                if key not in topo.cache:
-                    topo.cache[key] = cls.motion(x[cols], xd[cols])
-                R_, d_, Hw, Hv, aw_, av_ = topo.cache[key]
-            Rj[ks], d[ks], aw[ks], av[ks] = R_, d_, aw_, av_
-            if cols.shape[1]:
-                hw[cols] = Hw.transpose(0, 2, 1)
-                hv[cols] = Hv.transpose(0, 2, 1)
+        # joint motions: generic joints compiled (inside tree_kinematics), others by their
+        # class, one batched call per class
+        ext = _NO_EXTERNAL
+        if topo.external_groups:
+            ext = (np.empty((nb, 3, 3)), np.empty((nb, 3)), np.empty((n, 3)), np.empty((n, 3)), np.empty((nb, 3)),
+                   np.empty((nb, 3)))
+            Rj, d, hw, hv, aw, av = ext
+            for i, (cls, ks, cols) in enumerate(topo.external_groups):
+                if cols.shape[1]:
+                    R_, d_, Hw, Hv, aw_, av_ = cls.motion(x[cols], xd[cols])
+                else:  # no coordinates: a constant motion, evaluated once per model
+                    key = ("constant motion", i)
+                    if key not in topo.cache:
+                        topo.cache[key] = cls.motion(x[cols], xd[cols])
+                    R_, d_, Hw, Hv, aw_, av_ = topo.cache[key]
+                Rj[ks], d[ks], aw[ks], av[ks] = R_, d_, aw_, av_
+                if cols.shape[1]:
+                    hw[cols] = Hw.transpose(0, 2, 1)
+                    hv[cols] = Hv.transpose(0, 2, 1)
 
         (self.R, self.origin, self.r, self.omega, self.v, self.alpha_bias, self.a_bias, self.joint_point,
-         self.Sw, self.Sv, self.Gw, self.Gv) = _tree.tree_kinematics(
-            topo.parent, topo.coord_start, topo.parent_frame, topo.child_frame, topo.lever, topo.child_point,
-            topo.com, Rj, d, hw, hv, aw, av, xd)
+         self.Sw, self.Sv) = _tree.tree_kinematics(
+            topo.parent, topo.coord_start, topo.coord_kind, topo.coord_axis, topo.external, topo.parent_frame,
+            topo.child_frame, topo.lever, topo.child_point, topo.com, x, xd, *ext)
 
     @cached_property
     def W(self) -> np.ndarray:

@@ -13,8 +13,7 @@ from .constraints import Constraints
 from .errors import AssemblyError, ModelError
 from .kinematics import Kinematics
 from .topology import Topology
-from .kernels.articulated import articulated_accelerations
-from .kernels.dynamics import bias_wrenches
+from .kernels.articulated import open_tree_accelerations
 
 __all__ = ["System"]
 
@@ -247,20 +246,19 @@ class System:
         kin = self.kinematics(t, x, xd)
         loads = self.forces.loads(kin)
         topo = self.topology
-        force, torque = bias_wrenches(kin.mass, kin.inertia_world(), kin.omega, kin.alpha_bias, kin.a_bias,
-                                      loads.force, loads.torque)
-        xdd, bad = articulated_accelerations(topo.parent, topo.coord_start, kin.spatial_inertia(), kin.Sw, kin.Sv,
-                                             kin.r, force, torque, loads.generalized, self._no_armature)
-        positions_finite = bool(np.all(np.isfinite(kin.R)) and np.all(np.isfinite(kin.r)))
-        if not positions_finite:
+        xdd, bad = open_tree_accelerations(topo.parent, topo.coord_start, kin.R, kin.r, kin.omega, kin.alpha_bias,
+                                           kin.a_bias, kin.mass, topo.inertia, kin.Sw, kin.Sv, loads.force,
+                                           loads.torque, loads.generalized, self._no_armature)
+        if bad < 0 and np.isfinite(xdd).all():  # the common case: one check
+            return xdd
+        if not (np.isfinite(kin.R).all() and np.isfinite(kin.r).all()):
             self._raise_non_finite(t, x, xd, None, xdd)
         if bad >= 0:
             raise AssemblyError(
                 f"the mass matrix is singular at t = {t:.6g} s: joint {topo.tree_joints[bad].name!r} moves no "
                 "mass or inertia along one of its freedoms (a body without mass or inertia on a freedom?)"
             )
-        if not np.all(np.isfinite(xdd)):
-            self._raise_non_finite(t, x, xd, np.zeros((1, 1)), xdd)
+        self._raise_non_finite(t, x, xd, np.zeros((1, 1)), xdd)
         return xdd
 
     def _raise_non_finite(self, t, x, xd, A, f):

@@ -19,7 +19,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["articulated_accelerations", "mass_times"]
+from .dynamics import bias_wrenches, spatial_inertias
+
+__all__ = ["articulated_accelerations", "open_tree_accelerations", "mass_times"]
 
 
 @njit(cache=True)
@@ -170,6 +172,48 @@ def articulated_accelerations(parent, coord_start, spatial, Sw, Sv, r, force, to
                 dA[k, i] += Sw[c, i] * xdd[c]
                 dA[k, 3 + i] += Sv[c, i] * xdd[c]
     return xdd, -1
+
+
+@njit(cache=True)
+def open_tree_accelerations(parent, coord_start, R, r, omega, alpha_bias, a_bias, mass, inertia, Sw, Sv, force,
+                            torque, generalized, armature):
+    """Eq. 3 of an open tree solved for xdd from the kinematics and the applied loads, in one call.
+
+    The spatial inertias (:func:`~flexmb.kernels.dynamics.spatial_inertias`),
+    the loads minus the velocity-dependent inertia forces
+    (:func:`~flexmb.kernels.dynamics.bias_wrenches`) and
+    :func:`articulated_accelerations`, fused so that an evaluation crosses
+    from Python into compiled code once.
+
+    Parameters
+    ----------
+    parent, coord_start : ndarray of int
+        The tree layout.
+    R, r, omega, alpha_bias, a_bias : ndarray
+        Kinematics, one row per body and the ground last.
+    mass : ndarray, shape (n_bodies,)
+        Masses.
+    inertia : ndarray, shape (n_bodies, 3, 3)
+        Central inertias in the body frames.
+    Sw, Sv : ndarray, shape (n, 3)
+        Plucker axes of the coordinates.
+    force, torque : ndarray, shape (n_bodies + 1, 3)
+        Applied loads at the mass centres.
+    generalized : ndarray, shape (n,)
+        Generalized forces applied on the coordinates.
+    armature : ndarray, shape (n,)
+        Diagonal added to A (zeros for the equations of motion).
+
+    Returns
+    -------
+    xdd : ndarray, shape (n,)
+        Accelerations.
+    bad : int
+        -1, or the body whose joint has a singular articulated inertia.
+    """
+    Iw, spatial = spatial_inertias(R, r, mass, inertia)
+    f, t = bias_wrenches(mass, Iw, omega, alpha_bias, a_bias, force, torque)
+    return articulated_accelerations(parent, coord_start, spatial, Sw, Sv, r, f, t, generalized, armature)
 
 
 @njit(cache=True)

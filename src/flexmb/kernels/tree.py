@@ -134,11 +134,12 @@ def joint_motions(x, xd, coord_start, coord_kind, coord_axis, external, Rj, d, h
 
 
 @njit(cache=True)
-def tree_kinematics(parent, coord_start, parent_frame, child_frame, lever, child_point, com, Rj, d, hw, hv, aw,
-                    av, xd):
+def tree_kinematics(parent, coord_start, coord_kind, coord_axis, external, parent_frame, child_frame, lever,
+                    child_point, com, x, xd, ext_Rj, ext_d, ext_hw, ext_hv, ext_aw, ext_av):
     """Rotations, positions, velocities, partial velocities and bias accelerations of all bodies.
 
-    One pass in tree order (a parent before its children), O(n).
+    The joint motions (:func:`joint_motions`), then one pass in tree order
+    (a parent before its children), O(n).
 
     Parameters
     ----------
@@ -146,6 +147,10 @@ def tree_kinematics(parent, coord_start, parent_frame, child_frame, lever, child
         Parent body (-1: ground).
     coord_start : ndarray of int, shape (n_bodies + 1,)
         Coordinate ranges of the tree joints.
+    coord_kind, coord_axis : ndarray of int, shape (n,)
+        The generic joint motion's coordinates (:func:`joint_motions`).
+    external : ndarray of bool, shape (n_bodies,)
+        Joints whose motion is given in the ``ext_*`` arrays.
     parent_frame, child_frame : ndarray, shape (n_bodies, 3, 3)
         Joint frame in the parent and child body frames.
     lever : ndarray, shape (n_bodies, 3)
@@ -153,10 +158,12 @@ def tree_kinematics(parent, coord_start, parent_frame, child_frame, lever, child
         point to this joint's, in the parent body frame.
     child_point, com : ndarray, shape (n_bodies, 3)
         Joint point and mass centre in the body frame.
-    Rj, d, hw, hv, aw, av : ndarray
-        Joint motions (:func:`joint_motions`).
-    xd : ndarray, shape (n,)
-        Speeds.
+    x, xd : ndarray, shape (n,)
+        Coordinates and speeds.
+    ext_Rj, ext_d, ext_hw, ext_hv, ext_aw, ext_av : ndarray
+        The motions of the external joints, in the layout of
+        :func:`joint_motions` (read on the external rows only; empty arrays
+        when there are none).
 
     Returns
     -------
@@ -167,11 +174,27 @@ def tree_kinematics(parent, coord_start, parent_frame, child_frame, lever, child
         velocities and the bias accelerations (``xdd = 0``, eqs. 13, 18).
     joint_point : ndarray, shape (n_bodies, 3)
         Child-side joint points ``o'_k``.
-    Sw, Sv, Gw, Gv : ndarray, shape (n, 3)
-        Plucker axes and the joint-point partial velocities per coordinate.
+    Sw, Sv : ndarray, shape (n, 3)
+        Plucker axes of the coordinates.
     """
     nb = parent.shape[0]
     n = xd.shape[0]
+    Rj = np.empty((nb, 3, 3))
+    d = np.empty((nb, 3))
+    aw = np.empty((nb, 3))
+    av = np.empty((nb, 3))
+    hw = np.empty((n, 3))
+    hv = np.empty((n, 3))
+    joint_motions(x, xd, coord_start, coord_kind, coord_axis, external, Rj, d, hw, hv, aw, av)
+    for k in range(nb):
+        if external[k]:
+            Rj[k] = ext_Rj[k]
+            d[k] = ext_d[k]
+            aw[k] = ext_aw[k]
+            av[k] = ext_av[k]
+            for c in range(coord_start[k], coord_start[k + 1]):
+                hw[c] = ext_hw[c]
+                hv[c] = ext_hv[c]
     R = np.empty((nb + 1, 3, 3))
     R[nb] = np.eye(3)
     origin = np.zeros((nb + 1, 3))
@@ -263,7 +286,7 @@ def tree_kinematics(parent, coord_start, parent_frame, child_frame, lever, child
         _cross_to(t2, w, t1)
         for i in range(3):
             acc[k, i] += t2[i]
-    return R, origin, r, omega, v, alpha, acc, jp[:nb].copy(), Sw, Sv, Gw, Gv
+    return R, origin, r, omega, v, alpha, acc, jp[:nb].copy(), Sw, Sv
 
 
 @njit(cache=True)

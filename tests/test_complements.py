@@ -532,3 +532,16 @@ def test_a_loop_that_constrains_nothing_runs():
         assert system.dof(0.0, np.zeros(3)) == 3
         res = fm.simulate(system, 0.2, speeds={"j0": (0.3, -0.2, 0.4)}, rtol=1e-10, method="DOP853", n_out=5)
         assert res.status == "finished" and res.n_steps < 500
+
+
+def test_simulate_leaves_the_callers_system_unchanged():
+    """A run calibrates a copy (rank cap, singular-position scale, strategy): the System passed in is not
+    written to (#19 item 6)."""
+    system = fourbar(fm.Revolute).build()
+    strategy = system.strategy
+    res = fm.simulate(system, 0.05, x0=fourbar_state(system, 0.5), n_out=3, complement="eigen")
+    assert res.status == "finished" and res.complement == "eigen"
+    assert system.strategy is strategy and system.strategy.name == "svd"
+    assert system.rank_limit is None and system.sigma_ref is None
+    calibrated = system.calibrated(2, 0.5)
+    assert (calibrated.rank_limit, calibrated.sigma_ref) == (2, 0.5) and system.rank_limit is None

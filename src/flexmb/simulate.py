@@ -30,11 +30,8 @@ def _as_system(model_or_system, complement):
     from .system import System
 
     if isinstance(model_or_system, System):
-        if complement is not None:
-            from .complements import get_complement
-
-            model_or_system.strategy = get_complement(complement)
-        return model_or_system
+        # a run never changes the caller's system: another strategy gives a new one
+        return model_or_system if complement is None else model_or_system.with_complement(complement)
     return model_or_system.build(complement=complement or "svd")
 
 
@@ -278,9 +275,9 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     # the rank of psi is judged once, on the assembled state: off the constraint manifold
     # (integrator stages) redundant rows (Bricard linkage) would look independent
     c0 = system.strategy.complement(system.constraints.evaluate(kin0, level=1)[1])
-    system.rank_limit = c0.rank
-    # the scale of the singular-position filter (ComplementStrategy.singular_window)
-    system.sigma_ref = float(c0.singular_values()[c0.rank - 1]) if c0.rank else None
+    # and the scale of the singular-position filter (ComplementStrategy.singular_window): the run
+    # works on a calibrated copy, the caller's system is unchanged
+    system = system.calibrated(c0.rank, float(c0.singular_values()[c0.rank - 1]) if c0.rank else None)
     n = system.n_coords
     times = np.linspace(t0, t_end, n_out) if t_eval is None else np.asarray(t_eval, dtype=float)
     if times.ndim != 1 or np.any(np.diff(times) <= 0) or times[0] < t0 or times[-1] > t_end:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 import scipy.linalg as sla
 from scipy.linalg.lapack import dpotrf as _potrf
@@ -68,12 +70,8 @@ class System:
             sparse = self.n_constraints == 0
         self.articulated = bool(sparse)
         self._no_armature = np.zeros(self.n_coords)
-        #: Largest rank of psi used by :meth:`complement` (None: no cap); set by
-        #: :func:`~flexmb.simulate` to the rank at the assembled initial state.
-        self.rank_limit: int | None = None
-        #: Smallest nonzero singular value of psi at the assembled initial state (None: not
-        #: judged); set by :func:`~flexmb.simulate`, scales the strategy's ``singular_window``.
-        self.sigma_ref: float | None = None
+        self._rank_limit: int | None = None
+        self._sigma_ref: float | None = None
         self._trial()
 
     def _trial(self):
@@ -94,6 +92,67 @@ class System:
                         f"force element {e.name!r} ({type(e).__name__}) failed on the reference state: "
                         f"{type(exc).__name__}: {exc}"
                     ) from exc
+
+    # -- what a run calibrates: new systems, this one unchanged
+    @property
+    def rank_limit(self) -> int | None:
+        """Largest rank of psi used by :meth:`complement` (None: no cap).
+
+        :func:`~flexmb.simulate` runs on a :meth:`calibrated` copy whose limit is
+        the rank at the assembled initial state.
+        """
+        return self._rank_limit
+
+    @property
+    def sigma_ref(self) -> float | None:
+        """Smallest nonzero singular value of psi at the assembled initial state (None: not judged).
+
+        Scales the strategy's ``singular_window`` (:meth:`singular_window`).
+        """
+        return self._sigma_ref
+
+    def calibrated(self, rank_limit: int | None, sigma_ref: float | None = None) -> "System":
+        """This system with the rank of psi capped and the singular-position filter scaled.
+
+        Parameters
+        ----------
+        rank_limit : int or None
+            Largest rank of psi used by :meth:`complement` (None: no cap).
+            Off the constraint manifold (an integrator's stage states)
+            redundant rows would otherwise look independent.
+        sigma_ref : float, optional
+            Smallest nonzero singular value of psi at the reference state;
+            scales ``singular_window`` (None: no filter).
+
+        Returns
+        -------
+        System
+            A new system sharing this one's compiled model; this one is
+            unchanged.
+        """
+        new = copy.copy(self)
+        new._rank_limit = rank_limit
+        new._sigma_ref = sigma_ref
+        return new
+
+    def with_complement(self, complement) -> "System":
+        """This system with another orthogonal complement strategy.
+
+        Parameters
+        ----------
+        complement : str or ComplementStrategy
+            ``"svd"``, ``"eigen"``, ``"qr"``, ``"auto"``, a registered
+            plugin's name, a class or an instance.
+
+        Returns
+        -------
+        System
+            A new system sharing this one's compiled model; this one is
+            unchanged.
+        """
+        new = copy.copy(self)
+        new.strategy = get_complement(complement)
+        return new
 
     # -- evaluation
     def kinematics(self, t: float, x: np.ndarray, xd: np.ndarray) -> Kinematics:

@@ -68,7 +68,6 @@ def evaluate(model, x, xd, t=0.3):
                a_bias=kin.a_bias, Sw=kin.Sw, Sv=kin.Sv, W=kin.W, V=kin.V, A=A, f=f, phi=phi, psi=psi, b=b,
                gamma=gamma, x=x, xd=xd, kinetic=kin.kinetic_energy(),
                potential=system.forces.potential_energy(kin))
-    system.rank_limit = None
     out["xdd"] = system.accelerations(t, x, xd)
     J = system.state_jacobian(t, x, xd)
     if J is not None:

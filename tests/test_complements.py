@@ -545,3 +545,14 @@ def test_simulate_leaves_the_callers_system_unchanged():
     assert system.rank_limit is None and system.sigma_ref is None
     calibrated = system.calibrated(2, 0.5)
     assert (calibrated.rank_limit, calibrated.sigma_ref) == (2, 0.5) and system.rank_limit is None
+
+
+@pytest.mark.parametrize("name", ["svd", "eigen", "qr"])
+def test_multipliers_are_the_least_squares_reactions(name, rng):
+    """``Complement.multipliers(r)`` is the minimum-norm solution of psi^T lambda = r, also with a redundant row."""
+    psi = rng.normal(size=(4, 7))
+    psi = np.vstack([psi, psi[0] + 2.0 * psi[2]])  # a redundant row: rank 4
+    c = fm.get_complement(name).complement(psi)
+    r = rng.normal(size=7)
+    expected = np.linalg.lstsq(psi.T, r, rcond=None)[0]
+    np.testing.assert_allclose(c.multipliers(r), expected, rtol=1e-10, atol=1e-12)

@@ -296,15 +296,13 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         if not n_w:
             xdd = system.accelerations(t, xs, vs)
         else:
-            kin, A, f, _, psi, _, gamma = system.equations(t, xs, vs)
+            rates = np.zeros(n_w)
+            kin, A, f, _, psi, _, gamma = system.equations(t, xs, vs, powers=rates[n_drv:])
             if not (np.all(np.isfinite(f)) and np.all(np.isfinite(A))):
                 xdd = system.accelerations(t, xs, vs)  # raises with the diagnosis
-            xdd = system._solve(t, A, f, psi, gamma)
-            rates = np.zeros(n_w)
+            xdd, lam = system._solve(t, A, f, psi, gamma, multipliers=True)
             if n_drv:
-                lam = np.linalg.lstsq(psi.T, A @ xdd - f, rcond=None)[0]
                 rates[:n_drv] = lam[-n_drv:] * np.array([d.velocity(t) for d in system.constraints.drivers])
-            rates[n_drv:] = system.forces.group_powers(kin)
         if not np.all(np.isfinite(xdd)):
             bad = [system.coordinate_names[i] for i in np.flatnonzero(~np.isfinite(xdd))[:5]]
             raise _NonFinite(t, f"accelerations became non-finite ({', '.join(bad)})")
@@ -493,9 +491,9 @@ def _collect(system, t, Y) -> Result:
         x, xd = Y[i, :n], Y[i, n:]
         kin, A, f, phi, psi, b, gamma = system.equations(t[i], x, xd)
         try:
-            xdd[i] = system._solve(t[i], A, f, psi, gamma)
+            xdd[i], lam_i = system._solve(t[i], A, f, psi, gamma, multipliers=True)
         except FlexmbError:
-            xdd[i] = np.nan
+            xdd[i], lam_i = np.nan, np.full(m, np.nan)
         pos[i] = kin.r[:-1]
         org[i] = kin.origin[:-1]
         rot[i] = kin.R[:-1]
@@ -504,7 +502,7 @@ def _collect(system, t, Y) -> Result:
         if m:
             res[i] = np.max(np.abs(phi))
             vres[i] = np.max(np.abs(psi @ xd - b))
-            lam[i] = np.linalg.lstsq(psi.T, A @ xdd[i] - f, rcond=None)[0]
+            lam[i] = lam_i
     return Result(
         t=np.asarray(t, float), x=Y[:, :n].copy(), xd=Y[:, n:].copy(), xdd=xdd, positions=pos, origins=org,
         rotations=rot, kinetic=kin_e, potential=pot_e, residual=res, velocity_residual=vres,

@@ -341,17 +341,21 @@ class System:
             return "the mass matrix is not finite (non-finite coordinates?)"
         return "the force array is not finite (non-finite speeds?)"
 
-    def _solve(self, t, A, f, psi, gamma):
+    def _solve(self, t, A, f, psi, gamma, multipliers=False):
+        """xdd from the reduced equations; with ``multipliers``, ``(xdd, lambda)`` (the reactions)."""
         if psi.shape[0] == 0:  # an open tree: T = I, no complement needed
-            return self._cholesky_solve(t, A, f)
+            xdd = self._cholesky_solve(t, A, f)
+            return (xdd, np.zeros(0)) if multipliers else xdd
         c = self.complement(psi)
         T = c.T
-        xdd_p = self._particular(c, gamma)
-        if T.shape[1] == 0:
-            return xdd_p
-        M = T.T @ A @ T
-        rhs = T.T @ (f - A @ xdd_p)
-        return T @ self._cholesky_solve(t, M, rhs) + xdd_p
+        xdd = xdd_p = self._particular(c, gamma)
+        if T.shape[1]:
+            M = T.T @ A @ T
+            rhs = T.T @ (f - A @ xdd_p)
+            xdd = T @ self._cholesky_solve(t, M, rhs) + xdd_p
+        if multipliers:
+            return xdd, c.multipliers(A @ xdd - f)
+        return xdd
 
     def _particular(self, c, rhs):
         """``psi^+ rhs`` with the strategy's treatment of singular positions.

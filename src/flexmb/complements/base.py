@@ -88,6 +88,28 @@ class Complement:
             return self.basis @ _filtered(self.scale, self.left.T @ rhs, window)
         return self.basis @ ((self.left.T @ rhs) / self.scale)
 
+    def multipliers(self, rhs: np.ndarray) -> np.ndarray:
+        """Minimum-norm solution lambda of ``psi^T lambda = rhs`` (least squares), on psi's kept rank.
+
+        The constraint reactions (Lagrange multipliers) of ``A xdd = f +
+        psi^T lambda`` are ``multipliers(A xdd - f)``: from the
+        factorization already made, no second least-squares solve.
+
+        Parameters
+        ----------
+        rhs : ndarray, shape (n,)
+            Right-hand side, e.g. ``A xdd - f``.
+
+        Returns
+        -------
+        ndarray, shape (m,)
+            lambda.
+        """
+        g = self.basis.T @ rhs
+        if self.factor is not None:  # psi^T = basis K^T left^T
+            return self.left @ solve_triangular(self.factor, g, trans="T", check_finite=False)
+        return self.left @ (g / self.scale)
+
     def singular_values(self) -> np.ndarray:
         """Singular values of psi on its row space (``scale``, or those of ``factor``), descending.
 

@@ -106,3 +106,27 @@ def test_mass_times_and_armature_against_dense(rng):
                                        zeros, zeros, u, armature)
     assert bad == -1
     np.testing.assert_allclose((A + np.diag(armature)) @ z, u, rtol=0, atol=1e-10 * np.abs(u).max())
+
+
+def test_newton_preconditioner_solves_the_spring_part_exactly(rng):
+    """(I - gamma J0) z = r with J0 = [[0, I], [-A^-1 K, -A^-1 C]] (the diagonal springs and dampers), in O(n)."""
+    system = _beam(5).build()
+    n = system.n_coords
+    x, xd = 0.05 * rng.normal(size=n), rng.normal(size=n)
+    pre = system.newton_preconditioner()
+    pre.setup(0.1, x, xd)
+    A = mass_matrix(system.kinematics(0.1, x, xd))
+    K, C = np.diag(pre.stiffness), np.diag(pre.damping)
+    assert np.all(pre.stiffness > 0) and np.all(pre.damping > 0)  # every coordinate is a segment joint
+    J0 = np.block([[np.zeros((n, n)), np.eye(n)], [-np.linalg.solve(A, K), -np.linalg.solve(A, C)]])
+    gamma = 3e-4
+    r = rng.normal(size=2 * n)
+    z1, z2 = pre.solve(r[:n], r[n:], gamma)
+    np.testing.assert_allclose((np.eye(2 * n) - gamma * J0) @ np.concatenate([z1, z2]), r, rtol=0, atol=1e-9)
+
+
+def test_newton_preconditioner_needs_an_open_tree():
+    from conftest import fourbar
+
+    with pytest.raises(fm.ModelError, match="needs an open tree"):
+        fourbar().build().newton_preconditioner()

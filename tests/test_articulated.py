@@ -130,3 +130,15 @@ def test_newton_preconditioner_needs_an_open_tree():
 
     with pytest.raises(fm.ModelError, match="needs an open tree"):
         fourbar().build().newton_preconditioner()
+
+
+def test_fastest_rates_by_iteration_match_the_dense_eigenvalues(rng):
+    """Large open trees estimate the highest frequency and damping rate with O(n) products (Arnoldi)."""
+    system = _beam(20).build()
+    n = system.n_coords
+    x = 0.01 * rng.normal(size=n)
+    dense = np.asarray(system.state_jacobian(0.0, x, 0 * x, geometric=False))
+    stiff = np.sqrt(np.max(np.linalg.eigvals(-dense[n:, :n]).real))
+    damp = np.max(np.abs(np.linalg.eigvals(-dense[n:, n:])))
+    w, c = system._rates_iterative(0.0, x, 0 * x)
+    assert w == pytest.approx(stiff, rel=1e-3) and c == pytest.approx(damp, rel=1e-3)

@@ -11,12 +11,16 @@ from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, Radau
 
 from . import registry
 from .errors import AssemblyError, FlexmbError, ModelError, SimulationError, StiffnessWarning
-from .integrators import second_order
+from .integrators import CVODEAdams, CVODEBDF, adapt, capabilities
 from .result import Result
 
 __all__ = ["simulate", "initial_state", "INTEGRATORS"]
 
-INTEGRATORS = {"RK45": RK45, "RK23": RK23, "DOP853": DOP853, "Radau": Radau, "BDF": BDF, "LSODA": LSODA}
+INTEGRATORS = {"RK45": RK45, "RK23": RK23, "DOP853": DOP853, "Radau": Radau, "BDF": BDF, "LSODA": LSODA,
+               "CVODE_BDF": CVODEBDF, "CVODE_Adams": CVODEAdams}
+
+#: the SUNDIALS integrators' names, listed apart from scipy's in error messages
+_SUNDIALS = ("CVODE_Adams", "CVODE_BDF")
 
 
 class _NonFinite(Exception):
@@ -114,8 +118,12 @@ def _solver_class(method):
     """The OdeSolver class: ``method`` itself, or looked up by name in the plugin registry."""
     if not isinstance(method, str):
         return method
-    if method not in registry.names("integrators"):
-        raise ModelError(f"unknown integrator {method!r}; pick one of {registry.names('integrators')}")
+    known = registry.names("integrators")
+    if method not in known:
+        others = [m for m in known if m not in _SUNDIALS]
+        sundials = [m for m in known if m in _SUNDIALS]
+        raise ModelError(f"unknown integrator {method!r}; pick one of {others}"
+                         + (f" or, from SUNDIALS, {sundials}" if sundials else ""))
     return registry.get("integrators", method)
 
 
@@ -142,7 +150,7 @@ def _choose_method(system, t0, t1, x, xd) -> str:
 
 def _warn_if_stiff(system, solver_cls, t0, t1, x, xd):
     """Warn (:class:`StiffnessWarning`) when an explicit method meets a scene stiff over [t0, t1]."""
-    if solver_cls not in (RK45, RK23, DOP853):
+    if not capabilities(solver_cls).explicit:
         return
     wn = system.highest_frequency(t0, x, xd)
     w = system.fastest_rate(t0, x, xd)
@@ -325,7 +333,12 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     last = 0.0
 
     extra = {}
-    if solver_cls in (Radau, BDF) and system.state_jacobian(t0, x, xd) is not None:
+    # what the integrator can use is declared by its class (flexmb.integrators.base)
+    solver_cls = adapt(solver_cls)
+    caps = capabilities(solver_cls)
+    if not caps.has_dense_output:
+        raise ModelError(f"integrator {name!r} has no dense output, which simulate needs for its output times")
+    if caps.uses_jacobian and system.state_jacobian(t0, x, xd) is not None:
         counters["jac"] = 0
 
         def jac(t, y):
@@ -334,9 +347,9 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
             return np.pad(J, ((0, n_w), (0, n_w))) if n_w else J
 
         extra["jac"] = jac
-        # the Jacobian has the block form [[0, I], [Jx, Jv]]: factor n x n only
-        extra["n_second"] = n
-        solver_cls = second_order(solver_cls)
+        if caps.second_order:
+            # the Jacobian has the block form [[0, I], [Jx, Jv]]: factor n x n only
+            extra["n_second"] = n
 
     def make(tstart, ystart, first_step=None):
         return solver_cls(fun, tstart, ystart, t_end, rtol=rtol, atol=atol, max_step=max_step,

@@ -7,7 +7,9 @@ step. The classes drive CVODE one internal step at a time
 scipy solver: ``step()``, ``dense_output()`` (CVODE's own Nordsieck
 interpolant, ``CVodeGetDky``), ``t``, ``y``, ``step_size``, ``nfev``,
 ``njev``. They can be given to :func:`scipy.integrate.solve_ivp` as
-``method``.
+``method`` (with ``t_eval``; not with ``dense_output=True``, which keeps
+the interpolants of past steps: CVODE's is valid only over its last
+step).
 """
 
 from __future__ import annotations

@@ -184,8 +184,9 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
              max_step: float = np.inf, progress: bool | None = None, track_work: bool = False) -> Result:
     """Simulate a model from ``t0`` to ``t_end``.
 
-    The state (x, xd) is integrated by a scipy solver; the accelerations
-    come from the reduced equations (eqs. 36-39) at every evaluation. After
+    The state (x, xd) is integrated by an OdeSolver (scipy's, or SUNDIALS'
+    CVODE); the accelerations come from the reduced equations (eqs. 36-39)
+    at every evaluation. After
     each step the position and speed residuals are checked, and when either
     exceeds ``projection_tol`` the state is projected back onto the
     constraints and the solver restarted. The stored output states, which
@@ -205,10 +206,13 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         Number of equally spaced output times (ignored if ``t_eval``).
     t_eval : array_like, optional
         Output times, increasing, within [t0, t_end].
-    method : {'auto', 'DOP853', 'RK45', 'RK23', 'Radau', 'BDF', 'LSODA'} or OdeSolver class
-        Integrator; explicit ones for non-stiff models, Radau/BDF for stiff.
-        A name is looked up in the plugin registry (entry-point group
-        ``flexmb.integrators``), so installed plugins are accepted too.
+    method : {'auto', 'DOP853', 'RK45', 'RK23', 'Radau', 'BDF', 'LSODA', 'CVODE_BDF', 'CVODE_Adams'} or OdeSolver class
+        Integrator; explicit ones for non-stiff models, Radau/BDF or
+        SUNDIALS' CVODE_BDF for stiff. A name is looked up in the plugin
+        registry (entry-point group ``flexmb.integrators``), so installed
+        plugins are accepted too. What the integrator is given (the
+        analytic Jacobian, the second-order block structure) follows the
+        capabilities its class declares (:mod:`flexmb.integrators.base`).
         ``'auto'`` estimates the highest frequency of the coordinate springs
         and takes Radau when an explicit method would need more than
         ``AUTO_IMPLICIT_STEPS`` steps just to stay stable, DOP853 otherwise.

@@ -163,8 +163,26 @@ class CVODEBDF(CVODE):
 
     Parameters
     ----------
-    fun, t0, y0, t_bound, **options
-        As for :class:`CVODE`.
+    fun : callable
+        Right-hand side ``fun(t, y) -> ydot``.
+    t0 : float
+        Initial time.
+    y0 : array_like, shape (m,)
+        Initial state.
+    t_bound : float
+        End time.
+    rtol, atol : float or array_like
+        Tolerances.
+    max_step : float
+        Largest step.
+    first_step : float, optional
+        First step size.
+    jac : callable or array_like, optional
+        State Jacobian (see :class:`CVODE`).
+    vectorized : bool
+        Ignored.
+    **extraneous
+        Ignored.
 
     Examples
     --------
@@ -182,8 +200,26 @@ class CVODEAdams(CVODE):
 
     Parameters
     ----------
-    fun, t0, y0, t_bound, **options
-        As for :class:`CVODE`.
+    fun : callable
+        Right-hand side ``fun(t, y) -> ydot``.
+    t0 : float
+        Initial time.
+    y0 : array_like, shape (m,)
+        Initial state.
+    t_bound : float
+        End time.
+    rtol, atol : float or array_like
+        Tolerances.
+    max_step : float
+        Largest step.
+    first_step : float, optional
+        First step size.
+    jac : callable or array_like, optional
+        State Jacobian (see :class:`CVODE`).
+    vectorized : bool
+        Ignored.
+    **extraneous
+        Ignored.
 
     Notes
     -----

@@ -67,7 +67,9 @@ BUILTINS = {
     },
     "complements": {"eigen": "flexmb.complements:EigenComplement", "svd": "flexmb.complements:SVDComplement",
                     "qr": "flexmb.complements:QRComplement", "auto": "flexmb.complements:AutoComplement"},
-    "integrators": {name: f"scipy.integrate:{name}" for name in ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")},
+    "integrators": {**{name: f"scipy.integrate:{name}" for name in ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")},
+                    "CVODE_BDF": "flexmb.integrators.sundials:CVODEBDF",
+                    "CVODE_Adams": "flexmb.integrators.sundials:CVODEAdams"},
 }
 
 _SOURCE_TREE = "flexmb (source tree)"

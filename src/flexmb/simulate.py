@@ -11,13 +11,17 @@ from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, Radau
 
 from . import registry
 from .errors import AssemblyError, FlexmbError, ModelError, SimulationError, StiffnessWarning
-from .integrators import second_order
+from .integrators import CVODEAdams, CVODEBDF, adapt, capabilities
 from .result import Result
 from .threads import limited_blas
 
 __all__ = ["simulate", "initial_state", "INTEGRATORS"]
 
-INTEGRATORS = {"RK45": RK45, "RK23": RK23, "DOP853": DOP853, "Radau": Radau, "BDF": BDF, "LSODA": LSODA}
+INTEGRATORS = {"RK45": RK45, "RK23": RK23, "DOP853": DOP853, "Radau": Radau, "BDF": BDF, "LSODA": LSODA,
+               "CVODE_BDF": CVODEBDF, "CVODE_Adams": CVODEAdams}
+
+#: the SUNDIALS integrators' names, listed apart from scipy's in error messages
+_SUNDIALS = ("CVODE_Adams", "CVODE_BDF")
 
 
 class _NonFinite(Exception):
@@ -112,8 +116,12 @@ def _solver_class(method):
     """The OdeSolver class: ``method`` itself, or looked up by name in the plugin registry."""
     if not isinstance(method, str):
         return method
-    if method not in registry.names("integrators"):
-        raise ModelError(f"unknown integrator {method!r}; pick one of {registry.names('integrators')}")
+    known = registry.names("integrators")
+    if method not in known:
+        others = [m for m in known if m not in _SUNDIALS]
+        sundials = [m for m in known if m in _SUNDIALS]
+        raise ModelError(f"unknown integrator {method!r}; pick one of {others}"
+                         + (f" or, from SUNDIALS, {sundials}" if sundials else ""))
     return registry.get("integrators", method)
 
 
@@ -140,7 +148,7 @@ def _choose_method(system, t0, t1, x, xd) -> str:
 
 def _warn_if_stiff(system, solver_cls, t0, t1, x, xd):
     """Warn (:class:`StiffnessWarning`) when an explicit method meets a scene stiff over [t0, t1]."""
-    if solver_cls not in (RK45, RK23, DOP853):
+    if not capabilities(solver_cls).explicit:
         return
     wn = system.highest_frequency(t0, x, xd)
     w = system.fastest_rate(t0, x, xd)
@@ -175,8 +183,9 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
              max_step: float = np.inf, progress: bool | None = None, track_work: bool = False) -> Result:
     """Simulate a model from ``t0`` to ``t_end``.
 
-    The state (x, xd) is integrated by a scipy solver; the accelerations
-    come from the reduced equations (eqs. 36-39) at every evaluation. After
+    The state (x, xd) is integrated by an OdeSolver (scipy's, or SUNDIALS'
+    CVODE); the accelerations come from the reduced equations (eqs. 36-39)
+    at every evaluation. After
     each step the position and speed residuals are checked, and when either
     exceeds ``projection_tol`` the state is projected back onto the
     constraints and the solver restarted. The stored output states, which
@@ -196,10 +205,13 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         Number of equally spaced output times (ignored if ``t_eval``).
     t_eval : array_like, optional
         Output times, increasing, within [t0, t_end].
-    method : {'auto', 'DOP853', 'RK45', 'RK23', 'Radau', 'BDF', 'LSODA'} or OdeSolver class
-        Integrator; explicit ones for non-stiff models, Radau/BDF for stiff.
-        A name is looked up in the plugin registry (entry-point group
-        ``flexmb.integrators``), so installed plugins are accepted too.
+    method : {'auto', 'DOP853', 'RK45', 'RK23', 'Radau', 'BDF', 'LSODA', 'CVODE_BDF', 'CVODE_Adams'} or OdeSolver class
+        Integrator; explicit ones for non-stiff models, Radau/BDF or
+        SUNDIALS' CVODE_BDF for stiff. A name is looked up in the plugin
+        registry (entry-point group ``flexmb.integrators``), so installed
+        plugins are accepted too. What the integrator is given (the
+        analytic Jacobian, the second-order block structure) follows the
+        capabilities its class declares (:mod:`flexmb.integrators.base`).
         ``'auto'`` estimates the highest frequency of the coordinate springs
         and takes Radau when an explicit method would need more than
         ``AUTO_IMPLICIT_STEPS`` steps just to stay stable, DOP853 otherwise.
@@ -322,7 +334,12 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     last = 0.0
 
     extra = {}
-    if solver_cls in (Radau, BDF) and system.state_jacobian(t0, x, xd) is not None:
+    # what the integrator can use is declared by its class (flexmb.integrators.base)
+    solver_cls = adapt(solver_cls)
+    caps = capabilities(solver_cls)
+    if not caps.has_dense_output:
+        raise ModelError(f"integrator {name!r} has no dense output, which simulate needs for its output times")
+    if caps.uses_jacobian and system.state_jacobian(t0, x, xd) is not None:
         counters["jac"] = 0
 
         def jac(t, y):
@@ -331,9 +348,9 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
             return np.pad(J, ((0, n_w), (0, n_w))) if n_w else J
 
         extra["jac"] = jac
-        # the Jacobian has the block form [[0, I], [Jx, Jv]]: factor n x n only
-        extra["n_second"] = n
-        solver_cls = second_order(solver_cls)
+        if caps.second_order:
+            # the Jacobian has the block form [[0, I], [Jx, Jv]]: factor n x n only
+            extra["n_second"] = n
 
     def make(tstart, ystart, first_step=None):
         return solver_cls(fun, tstart, ystart, t_end, rtol=rtol, atol=atol, max_step=max_step,

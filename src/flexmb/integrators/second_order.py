@@ -56,9 +56,10 @@ class SecondOrderRadau(Radau):
     ----------
     fun, t0, y0, t_bound
         As for :class:`scipy.integrate.Radau`.
-    n_second : int
+    n_second : int, optional
         Number n of coordinates: ``y[:n]`` are positions whose derivative
-        is ``y[n:2n]``.
+        is ``y[n:2n]``. Without it (no analytic Jacobian), the solver is
+        scipy's Radau unchanged.
     **options
         Passed to :class:`scipy.integrate.Radau`; ``jac`` must be a callable
         returning the block-form Jacobian.
@@ -69,9 +70,15 @@ class SecondOrderRadau(Radau):
     docstring.
     """
 
-    def __init__(self, fun, t0, y0, t_bound, *, n_second: int, **options):
+    explicit = False
+    uses_jacobian = True
+    second_order = True
+    has_dense_output = True
+
+    def __init__(self, fun, t0, y0, t_bound, *, n_second: int | None = None, **options):
         super().__init__(fun, t0, y0, t_bound, **options)
-        _install(self, n_second)
+        if n_second is not None:
+            _install(self, n_second)
 
 
 class SecondOrderBDF(BDF):
@@ -81,15 +88,22 @@ class SecondOrderBDF(BDF):
     ----------
     fun, t0, y0, t_bound
         As for :class:`scipy.integrate.BDF`.
-    n_second : int
-        Number n of coordinates (see :class:`SecondOrderRadau`).
+    n_second : int, optional
+        Number n of coordinates (see :class:`SecondOrderRadau`); without
+        it, the solver is scipy's BDF unchanged.
     **options
         Passed to :class:`scipy.integrate.BDF`.
     """
 
-    def __init__(self, fun, t0, y0, t_bound, *, n_second: int, **options):
+    explicit = False
+    uses_jacobian = True
+    second_order = True
+    has_dense_output = True
+
+    def __init__(self, fun, t0, y0, t_bound, *, n_second: int | None = None, **options):
         super().__init__(fun, t0, y0, t_bound, **options)
-        _install(self, n_second)
+        if n_second is not None:
+            _install(self, n_second)
 
 
 def second_order(solver_cls):

@@ -1,0 +1,136 @@
+"""What an integrator can use, declared as class attributes; scipy's solvers described by a table.
+
+An integrator is a :class:`scipy.integrate.OdeSolver` subclass (the base
+class of the ``flexmb.integrators`` plugin kind). :func:`flexmb.simulate`
+does not recognise integrators by identity: it reads what each one can use
+from four class attributes,
+
+``explicit``
+    An explicit method, whose step is bounded by stability on stiff scenes
+    (simulate warns, :class:`~flexmb.errors.StiffnessWarning`).
+``uses_jacobian``
+    The constructor takes ``jac``, a callable ``jac(t, y)`` returning the
+    state Jacobian; simulate passes the analytic one when the model has it.
+``second_order``
+    The constructor takes ``n_second = n`` and then exploits the block form
+    ``[[0, I], [Jx, Jv]]`` of the Jacobian of ``y = (x, xd, ...)``.
+``has_dense_output``
+    ``dense_output()`` gives the state between the last two steps (simulate
+    needs it for its output times).
+
+flexmb's own integrators declare them; scipy's get them from
+:data:`SCIPY_CAPABILITIES` (looked up along the class's bases, so a subclass
+of ``RK45`` is explicit too), and Radau and BDF are replaced by their
+second-order variants (:data:`SCIPY_ADAPTERS`), which are scipy's solvers
+unchanged when no Jacobian is given.
+"""
+
+from __future__ import annotations
+
+import attrs
+from attrs import frozen
+from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, Radau
+
+from .second_order import SecondOrderBDF, SecondOrderRadau
+
+__all__ = ["Capabilities", "SCIPY_CAPABILITIES", "SCIPY_ADAPTERS", "capabilities", "adapt"]
+
+
+@frozen
+class Capabilities:
+    """What an integrator class can use (see the module docstring).
+
+    Each parameter is kept as the attribute of the same name.
+
+    Parameters
+    ----------
+    explicit : bool
+        An explicit method (stability-limited on stiff scenes).
+    uses_jacobian : bool
+        Takes ``jac=`` (a callable ``jac(t, y)``).
+    second_order : bool
+        Takes ``n_second=`` and exploits the Jacobian's block form
+        ``[[0, I], [Jx, Jv]]``.
+    has_dense_output : bool
+        ``dense_output()`` interpolates over the last step.
+
+    Examples
+    --------
+    >>> from flexmb.integrators import Capabilities
+    >>> Capabilities(explicit=True).uses_jacobian
+    False
+    """
+
+    explicit: bool = False
+    uses_jacobian: bool = False
+    second_order: bool = False
+    has_dense_output: bool = True
+
+
+#: scipy's solvers, which declare nothing themselves. LSODA could take a
+#: Jacobian too; it is left without, as before, so its results do not change.
+SCIPY_CAPABILITIES = {
+    RK45: Capabilities(explicit=True),
+    RK23: Capabilities(explicit=True),
+    DOP853: Capabilities(explicit=True),
+    Radau: Capabilities(uses_jacobian=True),
+    BDF: Capabilities(uses_jacobian=True),
+    LSODA: Capabilities(),
+}
+
+#: the class simulate instantiates for a scipy solver asked for by name or class
+SCIPY_ADAPTERS = {Radau: SecondOrderRadau, BDF: SecondOrderBDF}
+
+
+def capabilities(solver_cls: type) -> Capabilities:
+    """What ``solver_cls`` can use: its class attributes, else scipy's table, else the defaults.
+
+    Parameters
+    ----------
+    solver_cls : type
+        An :class:`scipy.integrate.OdeSolver` subclass.
+
+    Returns
+    -------
+    Capabilities
+        The attributes the class (or a base) declares, the entry of its
+        nearest base in :data:`SCIPY_CAPABILITIES` for the others, and the
+        defaults of :class:`Capabilities` for the rest.
+
+    Examples
+    --------
+    >>> from scipy.integrate import DOP853
+    >>> from flexmb.integrators import capabilities
+    >>> capabilities(DOP853).explicit
+    True
+    """
+    found = next((SCIPY_CAPABILITIES[k] for k in getattr(solver_cls, "__mro__", ()) if k in SCIPY_CAPABILITIES),
+                 Capabilities())
+    declared = {a.name: bool(getattr(solver_cls, a.name)) for a in attrs.fields(Capabilities)
+                if hasattr(solver_cls, a.name)}
+    return attrs.evolve(found, **declared)
+
+
+def adapt(solver_cls: type) -> type:
+    """The class to instantiate for ``solver_cls``: scipy's Radau and BDF become their second-order variants.
+
+    Parameters
+    ----------
+    solver_cls : type
+        An :class:`scipy.integrate.OdeSolver` subclass.
+
+    Returns
+    -------
+    type
+        :class:`SecondOrderRadau` for ``Radau``, :class:`SecondOrderBDF` for
+        ``BDF`` (both scipy's solvers unchanged unless given ``n_second``),
+        ``solver_cls`` itself otherwise.
+
+    Examples
+    --------
+    >>> from scipy.integrate import Radau
+    >>> from flexmb.integrators import adapt
+    >>> adapt(Radau).__name__
+    'SecondOrderRadau'
+    """
+    return SCIPY_ADAPTERS.get(solver_cls, solver_cls)

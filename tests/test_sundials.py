@@ -1,0 +1,204 @@
+"""SUNDIALS CVODE (BDF and Adams) as flexmb integrators, and the integrator capability interface.
+
+References come from outside the integrator under test: energy
+conservation of an undamped pendulum, scipy's DOP853 or Radau at tight
+tolerances on the same model (a B1 cantilever of BENCHMARKS.md, a four-bar
+loop that needs constraint projection), and exact counts.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, Radau, solve_ivp
+
+import flexmb as fm
+from flexmb.integrators import (CVODEAdams, CVODEBDF, Capabilities, SecondOrderBDF, SecondOrderRadau, adapt,
+                                capabilities)
+
+from conftest import fourbar, fourbar_initial
+
+CVODES = ["CVODE_BDF", "CVODE_Adams"]
+G = 9.81
+
+
+def pendulum():
+    model = fm.Model("pendulum")
+    bar = fm.RigidBody.slender_bar("bar", mass=1.0, length=1.0)
+    model.add(fm.Revolute("pin", model.ground, bar), fm.Gravity((0.0, -G, 0.0)))
+    return model
+
+
+def cantilever(n_segments=4, damped=True):
+    """B1 of BENCHMARKS.md: aluminium 1 m x 20 mm x 5 mm, clamped, bending under gravity (one angle a segment)."""
+    model = fm.Model("B1")
+    beam = fm.FlexibleBody("beam", 1.0, fm.Section.rectangular(0.02, 0.005), fm.Material(70e9, 2700.0, 0.33),
+                           n_segments, keep=("bend_y",), damping=7.7398e-4 if damped else 0.0)
+    model.add(fm.Fixed("clamp", model.ground, beam), fm.Gravity((0.0, 0.0, -G)))
+    return model
+
+
+# ----------------------------------------------------------------------------- registration
+
+
+@pytest.mark.parametrize("name, cls", [("CVODE_BDF", CVODEBDF), ("CVODE_Adams", CVODEAdams)])
+def test_cvode_is_registered_by_name(name, cls):
+    assert fm.registry.get("integrators", name) is cls
+    assert fm.INTEGRATORS[name] is cls
+    assert name in [p.name for p in fm.plugins("integrators") if p.status == "ok"]
+
+
+def test_unknown_integrator_lists_the_sundials_ones():
+    with pytest.raises(fm.ModelError, match=r"or, from SUNDIALS, \['CVODE_Adams', 'CVODE_BDF'\]"):
+        fm.simulate(pendulum(), 0.1, method="Euler")
+
+
+def test_cvode_works_under_solve_ivp():
+    for cls in (CVODEBDF, CVODEAdams):
+        t_eval = np.linspace(0.0, 2.0, 7)
+        sol = solve_ivp(lambda t, y: [y[1], -y[0]], (0.0, 2.0), [1.0, 0.0], method=cls, rtol=1e-10, atol=1e-12,
+                        t_eval=t_eval)
+        assert sol.status == 0
+        assert np.abs(sol.y[0] - np.cos(t_eval)).max() < 1e-8
+
+
+# ----------------------------------------------------------------------------- capabilities
+
+
+def test_scipy_solvers_get_their_capabilities_from_the_table():
+    for cls in (RK45, RK23, DOP853):
+        assert capabilities(cls) == Capabilities(explicit=True)
+    for cls in (Radau, BDF):
+        assert capabilities(cls) == Capabilities(uses_jacobian=True)
+    assert capabilities(LSODA) == Capabilities()
+
+    class MyRK(RK45):
+        pass
+
+    assert capabilities(MyRK).explicit  # through its base
+    assert adapt(Radau) is SecondOrderRadau and adapt(BDF) is SecondOrderBDF and adapt(MyRK) is MyRK
+
+
+def test_flexmb_integrators_declare_their_capabilities():
+    assert capabilities(SecondOrderRadau) == Capabilities(uses_jacobian=True, second_order=True)
+    for cls in (CVODEBDF, CVODEAdams):
+        assert capabilities(cls) == Capabilities(uses_jacobian=True)
+
+
+def test_declared_capability_decides_what_simulate_passes():
+    """A plugin declaring ``uses_jacobian`` gets the analytic Jacobian, with no identity test in simulate."""
+    seen = {}
+
+    class Spy(CVODEBDF):
+        def __init__(self, fun, t0, y0, t_bound, *, jac=None, **options):
+            seen["jac"] = jac
+            super().__init__(fun, t0, y0, t_bound, jac=jac, **options)
+
+    class Blind(Spy):
+        uses_jacobian = False
+
+    fm.register("integrators", "spy", Spy, replace=True)
+    fm.register("integrators", "blind", Blind, replace=True)
+    system = cantilever(4).build()
+    res = fm.simulate(system, 0.05, method="spy", rtol=1e-6, n_out=3)
+    assert callable(seen["jac"]) and res.n_jac > 0 and res.method == "spy"
+    res = fm.simulate(system, 0.05, method="blind", rtol=1e-6, n_out=3)
+    assert seen["jac"] is None and res.n_jac == 0
+
+
+def test_declared_explicit_integrator_gets_the_stiffness_warning():
+    class Explicit(CVODEAdams):
+        explicit = True
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", fm.StiffnessWarning)  # so that the run stops at once
+        with pytest.raises(fm.StiffnessWarning, match="stiff for Explicit"):
+            fm.simulate(cantilever(8).build(), 10.0, method=Explicit)
+
+
+def test_integrator_without_dense_output_is_refused():
+    class NoDense(CVODEBDF):
+        has_dense_output = False
+
+    with pytest.raises(fm.ModelError, match="no dense output"):
+        fm.simulate(pendulum(), 0.1, method=NoDense)
+
+
+# ----------------------------------------------------------------------------- accuracy
+
+
+@pytest.mark.parametrize("method", CVODES)
+def test_pendulum_energy_and_reference(method):
+    """Undamped pendulum released at 90 deg: energy conserved, angle against DOP853 at rtol 1e-12."""
+    kw = dict(positions={"pin": np.pi / 2}, n_out=51)
+    ref = fm.simulate(pendulum(), 2.0, method="DOP853", rtol=1e-12, atol=1e-14, **kw)
+    res = fm.simulate(pendulum(), 2.0, method=method, rtol=1e-10, atol=1e-12, **kw)
+    assert res.status == "finished" and res.method == method
+    drift = np.abs(res.energy - res.energy[0]).max() / np.abs(res.potential).max()
+    assert drift < 1e-7
+    assert np.abs(res.x - ref.x).max() < 1e-7
+    assert np.abs(res.xd - ref.xd).max() < 1e-6
+
+
+@pytest.fixture(scope="module")
+def b1_reference():
+    system = cantilever(4).build()
+    return system, fm.simulate(system, 0.5, method="Radau", rtol=1e-11, atol=1e-13, n_out=11)
+
+
+@pytest.mark.parametrize("method", CVODES)
+def test_b1_tip_matches_radau_and_counters_are_filled(b1_reference, method):
+    system, ref = b1_reference
+    res = fm.simulate(system, 0.5, method=method, rtol=1e-9, atol=1e-11, n_out=11)
+    tip, tip_ref = res.shape("beam")[:, -1], ref.shape("beam")[:, -1]
+    assert np.abs(tip - tip_ref).max() < 1e-7
+    assert np.abs(tip_ref[:, 2]).max() > 1e-3  # it really moves
+    # the analytic Jacobian is used, and every counter is filled
+    assert res.n_jac > 0
+    assert res.n_steps > 0 and res.n_rhs > res.n_steps // 2 and res.wall_time > 0
+    assert res.n_projections == 0 and res.n_dof == 4
+
+
+def test_output_times_do_not_change_the_steps(b1_reference):
+    """Dense output (CVODE's interpolant) must not disturb the integration: same steps, same end state."""
+    system, _ = b1_reference
+    few = fm.simulate(system, 0.5, method="CVODE_BDF", rtol=1e-8, n_out=2)
+    many = fm.simulate(system, 0.5, method="CVODE_BDF", rtol=1e-8, n_out=101)
+    assert few.n_steps == many.n_steps and few.n_rhs == many.n_rhs
+    assert np.abs(few.x[-1] - many.x[-1]).max() < 1e-13
+
+
+@pytest.mark.parametrize("method", CVODES)
+def test_fourbar_loop_with_projection(method):
+    """A four-bar released at rest: the loop stays closed through projections and restarts."""
+    kw = dict(positions=fourbar_initial(np.pi / 4), fixed=["A"], n_out=21)
+    ref = fm.simulate(fourbar(), 1.0, method="DOP853", rtol=1e-12, atol=1e-14, **kw)
+    res = fm.simulate(fourbar(), 1.0, method=method, rtol=1e-9, atol=1e-11, projection_tol=1e-11, **kw)
+    assert res.status == "finished"
+    assert res.n_projections > 0  # the restart from the projected state is exercised
+    assert res.residual.max() < 1e-10
+    drift = np.abs(res.energy - res.energy[0]).max() / np.abs(res.potential).max()
+    assert drift < 1e-6
+    assert np.ptp(ref.x[:, 0]) > 1.0
+    assert np.abs(res.x - ref.x).max() < 1e-6
+
+
+# ----------------------------------------------------------------------------- failures
+
+
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")
+@pytest.mark.parametrize("method", CVODES)
+def test_non_finite_state_stops_with_the_time(method):
+    model = pendulum()
+    model.add(fm.PointForce("kick", model["bar"], lambda t: (0.0, np.nan if t > 0.1 else 1.0, 0.0),
+                            point=(1.0, 0.0, 0.0)))
+    with pytest.raises(fm.SimulationError) as info:
+        fm.simulate(model, 1.0, positions={"pin": 0.3}, method=method)
+    err = info.value
+    assert err.t == pytest.approx(0.1, abs=0.01)
+    assert str(err).startswith(f"simulation failed at t = {err.t:.9g} s")
+    assert "non-finite" in str(err)
+    res = err.result
+    assert res.status == "failed" and 0 < len(res.t) < 201 and res.n_steps > 0 and res.n_rhs > 0

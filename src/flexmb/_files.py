@@ -160,27 +160,26 @@ class _Lock:
 
     def _lock(self, fd) -> bool:
         """Lock ``fd``; False if it is no longer the file at ``self.path``; raise if held by a live run."""
+        locked = False
         if fcntl is not None:
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                locked = True
             except OSError as exc:
                 if exc.errno in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES):
                     raise self._busy(_read_pid(self.path)) from None
-                # no flock on this file system: fall back on the pid alone
-                owner = _read_pid(self.path)
-                if owner not in (None, os.getpid()) and _pid_alive(owner):
-                    raise self._busy(owner) from None
-                return True
+                # no flock on this file system (ENOLCK, ...): the pid below is all there is
+        if locked:
             try:
                 now = os.stat(self.path)
             except FileNotFoundError:
-                os.close(fd)
-                return False
+                now = None
             mine = os.fstat(fd)
-            if (now.st_ino, now.st_dev) != (mine.st_ino, mine.st_dev):
+            if now is None or (now.st_ino, now.st_dev) != (mine.st_ino, mine.st_dev):
                 os.close(fd)
                 return False
-            return True
+        # a lock file naming a live process is respected even without its flock (a file system
+        # without flock, a lock written by hand); one naming a dead process is stale: taken over
         owner = _read_pid(self.path)
         if owner not in (None, os.getpid()) and _pid_alive(owner):
             raise self._busy(owner)

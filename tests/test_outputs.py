@@ -278,6 +278,27 @@ def test_ctrl_c_while_writing_in_process_keeps_the_previous_run(tmp_path, monkey
     assert check_complete(out)["n_out"] == 31
 
 
+def test_ctrl_c_during_the_swap_lets_it_finish(tmp_path, monkeypatch, capsys):
+    from flexmb import _files
+
+    out = tmp_path / "out"
+    assert main(_run_argv(out, 0.3, 31)) == 0
+    real = _files._roll_forward
+
+    def interrupted(folder):
+        os.kill(os.getpid(), signal.SIGINT)  # held back until the swap is done
+        time.sleep(0.05)
+        return real(folder)
+
+    monkeypatch.setattr(_files, "_roll_forward", interrupted)
+    try:
+        code = main(_run_argv(out, 0.2, 21))
+    except KeyboardInterrupt:
+        code = "KeyboardInterrupt"
+    assert code == 130
+    assert check_complete(out)["n_out"] == 21
+
+
 # ----------------------------------------------------------------------------- reruns
 
 

@@ -30,6 +30,8 @@ import json
 import os
 import shutil
 import signal
+import threading
+import time
 from pathlib import Path
 from typing import Callable
 
@@ -167,7 +169,7 @@ class _Lock:
                 locked = True
             except OSError as exc:
                 if exc.errno in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES):
-                    raise self._busy(_read_pid(self.path)) from None
+                    raise self._busy(self._owner()) from None
                 # no flock on this file system (ENOLCK, ...): the pid below is all there is
         if locked:
             try:
@@ -185,6 +187,15 @@ class _Lock:
             raise self._busy(owner)
         return True
 
+    def _owner(self) -> int | None:
+        """The pid of the lock's holder; it writes it just after locking, so wait a moment for it."""
+        end = time.monotonic() + 1.0
+        while True:
+            pid = _read_pid(self.path)
+            if pid is not None or time.monotonic() > end:
+                return pid
+            time.sleep(0.01)
+
     def release(self) -> None:
         if self.fd is None:
             return
@@ -196,16 +207,36 @@ class _Lock:
 
 @contextlib.contextmanager
 def _signals_held():
-    """Hold back Ctrl-C, SIGTERM, ... (delivered when the block ends); a no-op off the main thread."""
+    """Hold back Ctrl-C, SIGTERM, ... until the block ends, then let them act.
+
+    Blocking the signals is not enough for Ctrl-C: one that arrived just
+    before the block may still be pending in the interpreter and would raise
+    KeyboardInterrupt inside it. So, on the main thread, a handler that only
+    records SIGINT stands in for the block's duration; the recorded signal is
+    handed to the previous handler at the end.
+    """
+    caught = []
+    previous = None
+    if threading.current_thread() is threading.main_thread():
+        current = signal.getsignal(signal.SIGINT)
+        if current is not None:
+            previous = signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
     block = getattr(signal, "pthread_sigmask", None)
-    if block is None:
-        yield
-        return
-    old = block(signal.SIG_BLOCK, _SIGNALS)
+    mask = block(signal.SIG_BLOCK, []) if block else None  # the current mask, unchanged
     try:
+        if block:
+            block(signal.SIG_BLOCK, _SIGNALS)
         yield
     finally:
-        block(signal.SIG_SETMASK, old)
+        if block:
+            block(signal.SIG_SETMASK, mask)
+        if previous is not None:
+            signal.signal(signal.SIGINT, previous)
+    if caught:
+        if callable(previous):
+            previous(signal.SIGINT, None)  # Python's default handler raises KeyboardInterrupt
+        elif previous == signal.SIG_DFL:
+            raise KeyboardInterrupt
 
 
 def _remove_tree(path: Path) -> None:

@@ -212,7 +212,9 @@ def test_a_run_stopped_while_writing_leaves_one_complete_run(tmp_path, sig):
         with OutputFolder(out):
             pass
     else:
-        assert proc.returncode in (0, 130), why
+        # 130 after "flexmb: interrupted ..."; rarely (about 1 in 30 probes) the interpreter then ends by
+        # SIGINT itself (-2, which a shell shows as 130 too); 0 if the run had finished
+        assert proc.returncode in (0, 130, -signal.SIGINT), why
     summary = check_complete(out)
     assert (summary["t_end"], summary["n_out"]) in ((pytest.approx(0.3), 31), (pytest.approx(0.2), 200)), why
     if proc.returncode == 130:
@@ -438,3 +440,17 @@ def test_the_summary_names_only_files_that_exist(tmp_path, prefix):
     check_complete(tmp_path / "out", prefix)
     hidden = [p.name for p in (tmp_path / "out").rglob(".*") if p.name != ".flexmb-run.json"]
     assert not hidden
+
+
+def test_a_writer_failing_after_ctrl_c_reports_the_interruption(tmp_path):
+    from flexmb._files import atomic_write
+
+    def write(tmp):
+        try:
+            raise KeyboardInterrupt
+        finally:
+            raise ValueError("Can't close the ZIP file while there is an open writing handle on it")
+
+    with pytest.raises(KeyboardInterrupt):
+        atomic_write(tmp_path / "r.npz", write, suffix=".npz")
+    assert list(tmp_path.iterdir()) == []

@@ -88,11 +88,26 @@ def atomic_write(path, write: Callable[[str], None], suffix: str = ".tmp") -> Pa
         write(tmp)
         os.chmod(tmp, mode)  # a writer may have made the file anew
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as exc:
         with contextlib.suppress(FileNotFoundError):
             os.remove(tmp)
+        if not isinstance(exc, KeyboardInterrupt) and _interrupted(exc):
+            # a writer's clean-up failed after Ctrl-C (np.savez: "Can't close the ZIP file while there
+            # is an open writing handle"): the cause is the interruption, so report that
+            raise KeyboardInterrupt from exc
         raise
     return path
+
+
+def _interrupted(exc: BaseException) -> bool:
+    """Whether ``exc`` was raised while a KeyboardInterrupt was being handled."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        seen.add(id(exc))
+        exc = exc.__context__
+    return False
 
 
 def _create_temp(path: Path, suffix: str) -> tuple[str, int]:

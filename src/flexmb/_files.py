@@ -349,10 +349,11 @@ class OutputFolder:
     Examples
     --------
     >>> import json, tempfile
+    >>> from pathlib import Path
     >>> from flexmb._files import OutputFolder, atomic_write
     >>> out = tempfile.mkdtemp()
     >>> with OutputFolder(out) as folder:
-    ...     _ = atomic_write(folder.stage("a.txt"), lambda tmp: open(tmp, "w").write("a"))
+    ...     _ = atomic_write(folder.stage("a.txt"), lambda tmp: Path(tmp).write_text("a"))
     ...     folder.commit({"files": {"a": folder.final("a.txt")}})
     >>> sorted(json.load(open(out + "/summary.json"))["files"])
     ['a']

@@ -1,25 +1,58 @@
-"""Writing files whole or not at all: a temporary name in the same folder, then a rename."""
+"""Writing files whole or not at all, and output folders that one run owns at a time.
+
+:func:`atomic_write` writes one file through a temporary name in the same
+folder, then renames it into place. :class:`OutputFolder` is what ``flexmb
+run`` (:meth:`flexmb.scene.Scene.run`, :func:`flexmb.scenes.report.run_scene`)
+writes through:
+
+1. a lock file, ``.flexmb.lock``, holding the pid of the run that owns the
+   folder: a second run into the same folder is refused at once; the lock of
+   a run that died is taken over (the kernel releases its ``flock``);
+2. a hidden staging folder inside the output folder, where the whole run is
+   written (so that every move below is a rename within one file system);
+3. a commit: the staging folder is renamed to ``.flexmb-commit`` (the point
+   of no return), then the previous run's ``summary.json`` and the files it
+   owned that the new run does not write are removed, the new files are
+   moved in, the manifest ``.flexmb-run.json`` listing them follows and
+   ``summary.json`` comes last. Signals are held back during the commit; a
+   commit cut short by a kill is finished by the next run into the folder.
+
+A reader therefore finds either the previous complete run or the new one;
+``summary.json`` is present only beside the complete set of files it names.
+Files that no flexmb run wrote are never removed.
+"""
 
 from __future__ import annotations
 
 import contextlib
+import errno
+import json
 import os
-import tempfile
+import shutil
+import signal
+import threading
+import time
 from pathlib import Path
 from typing import Callable
 
-__all__ = ["atomic_write"]
+try:
+    import fcntl
+except ImportError:  # not on Windows: the pid in the lock file is all there is
+    fcntl = None
 
+from .errors import ExportError
 
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
+__all__ = ["atomic_write", "OutputFolder", "LOCK_NAME", "MANIFEST_NAME"]
 
-
-# mkstemp creates files readable by the owner only; give the final file the
-# permissions an ordinary open() would.
-_MODE = 0o666 & ~_umask()
+#: the lock file of an output folder (holds the owner's pid)
+LOCK_NAME = ".flexmb.lock"
+#: the list of files the last complete run wrote into a folder
+MANIFEST_NAME = ".flexmb-run.json"
+#: written last: its presence marks a complete run
+SUMMARY_NAME = "summary.json"
+_STAGING = ".flexmb-staging-"
+_COMMIT = ".flexmb-commit"
+_SIGNALS = tuple(getattr(signal, s) for s in ("SIGINT", "SIGTERM", "SIGHUP", "SIGQUIT") if hasattr(signal, s))
 
 
 def atomic_write(path, write: Callable[[str], None], suffix: str = ".tmp") -> Path:
@@ -33,7 +66,7 @@ def atomic_write(path, write: Callable[[str], None], suffix: str = ".tmp") -> Pa
         ``write(tmp)`` writes the whole file to the path ``tmp``.
     suffix : str
         Ending of the temporary name (some writers choose the format by it,
-        e.g. ``".gif"``).
+        e.g. ``".gif"``, or append it, e.g. ``np.savez`` and ``".npz"``).
 
     Returns
     -------
@@ -44,18 +77,420 @@ def atomic_write(path, write: Callable[[str], None], suffix: str = ".tmp") -> Pa
     -----
     The temporary file sits next to the target, so :func:`os.replace` is an
     atomic rename: a reader sees either the old file or the complete new
-    one, and a failed write leaves nothing behind.
+    one, and a failed or interrupted write leaves nothing behind. The file
+    gets the permissions an ordinary ``open(path, "w")`` would give it
+    under the umask in force when it is written (``0o666 & ~umask``).
     """
     path = Path(os.fspath(path))
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix, dir=path.parent)
-    os.close(fd)
+    tmp, mode = _create_temp(path, suffix)
     try:
         write(tmp)
-        os.chmod(tmp, _MODE)
+        os.chmod(tmp, mode)  # a writer may have made the file anew
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as exc:
         with contextlib.suppress(FileNotFoundError):
             os.remove(tmp)
+        if not isinstance(exc, KeyboardInterrupt) and _interrupted(exc):
+            # a writer's clean-up failed after Ctrl-C (np.savez: "Can't close the ZIP file while there
+            # is an open writing handle"): the cause is the interruption, so report that
+            raise KeyboardInterrupt from exc
         raise
     return path
+
+
+def _interrupted(exc: BaseException) -> bool:
+    """Whether ``exc`` was raised while a KeyboardInterrupt was being handled."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        seen.add(id(exc))
+        exc = exc.__context__
+    return False
+
+
+def _create_temp(path: Path, suffix: str) -> tuple[str, int]:
+    """Create an empty, uniquely named file next to ``path``; return its name and mode.
+
+    ``os.open(..., 0o666)`` lets the kernel apply the umask in force now,
+    without changing it (``os.umask`` would, for every thread).
+    """
+    while True:
+        tmp = str(path.parent / f".{path.name}.{os.urandom(6).hex()}{suffix}")
+        try:
+            fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+        except FileExistsError:
+            continue
+        try:
+            return tmp, os.fstat(fd).st_mode & 0o7777
+        finally:
+            os.close(fd)
+
+
+def _pid_alive(pid: int) -> bool:
+    if pid <= 0:
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # alive, another user's
+        return True
+    except OSError:
+        return False
+    return True
+
+
+def _read_pid(path) -> int | None:
+    try:
+        text = Path(path).read_text().split()
+        return int(text[0]) if text else None
+    except (OSError, ValueError):
+        return None
+
+
+class _Lock:
+    """An exclusive lock on a folder: ``flock`` on ``.flexmb.lock``, which holds the owner's pid."""
+
+    def __init__(self, folder: Path):
+        self.path = folder / LOCK_NAME
+        self.fd = None
+
+    def _busy(self, pid):
+        who = f"pid {pid}" if pid else "another process"
+        return ExportError(f"output folder {self.path.parent} is in use by another flexmb run ({who}; lock file "
+                           f"{self.path}): wait for it to finish or write to another folder")
+
+    def acquire(self) -> None:
+        while self.fd is None:
+            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o666)
+            try:
+                if not self._lock(fd):
+                    continue  # the file we locked was the previous owner's, just removed
+                os.ftruncate(fd, 0)
+                os.write(fd, f"{os.getpid()}\n".encode())
+            except BaseException:
+                os.close(fd)
+                raise
+            self.fd = fd
+
+    def _lock(self, fd) -> bool:
+        """Lock ``fd``; False if it is no longer the file at ``self.path``; raise if held by a live run."""
+        locked = False
+        if fcntl is not None:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                locked = True
+            except OSError as exc:
+                if exc.errno in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES):
+                    raise self._busy(self._owner()) from None
+                # no flock on this file system (ENOLCK, ...): the pid below is all there is
+        if locked:
+            try:
+                now = os.stat(self.path)
+            except FileNotFoundError:
+                now = None
+            mine = os.fstat(fd)
+            if now is None or (now.st_ino, now.st_dev) != (mine.st_ino, mine.st_dev):
+                os.close(fd)
+                return False
+        # a lock file naming a live process is respected even without its flock (a file system
+        # without flock, a lock written by hand); one naming a dead process is stale: taken over
+        owner = _read_pid(self.path)
+        if owner not in (None, os.getpid()) and _pid_alive(owner):
+            raise self._busy(owner)
+        return True
+
+    def _owner(self) -> int | None:
+        """The pid of the lock's holder; it writes it just after locking, so wait a moment for it."""
+        end = time.monotonic() + 1.0
+        while True:
+            pid = _read_pid(self.path)
+            if pid is not None or time.monotonic() > end:
+                return pid
+            time.sleep(0.01)
+
+    def release(self) -> None:
+        if self.fd is None:
+            return
+        with contextlib.suppress(OSError):
+            os.remove(self.path)  # while still locked: a waiting run then finds a new inode (see _lock)
+        os.close(self.fd)
+        self.fd = None
+
+
+@contextlib.contextmanager
+def _signals_held():
+    """Hold back Ctrl-C, SIGTERM, ... until the block ends, then let them act.
+
+    Blocking the signals is not enough for Ctrl-C: one that arrived just
+    before the block may still be pending in the interpreter and would raise
+    KeyboardInterrupt inside it. So, on the main thread, a handler that only
+    records SIGINT stands in for the block's duration; the recorded signal is
+    handed to the previous handler at the end.
+    """
+    caught = []
+    previous = None
+    if threading.current_thread() is threading.main_thread():
+        current = signal.getsignal(signal.SIGINT)
+        if current is not None:
+            previous = signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
+    block = getattr(signal, "pthread_sigmask", None)
+    mask = block(signal.SIG_BLOCK, []) if block else None  # the current mask, unchanged
+    try:
+        if block:
+            block(signal.SIG_BLOCK, _SIGNALS)
+        yield
+    finally:
+        if block:
+            block(signal.SIG_SETMASK, mask)
+        if previous is not None:
+            signal.signal(signal.SIGINT, previous)
+    if caught:
+        if callable(previous):
+            previous(signal.SIGINT, None)  # Python's default handler raises KeyboardInterrupt
+        elif previous == signal.SIG_DFL:
+            raise KeyboardInterrupt
+
+
+def _remove_tree(path: Path) -> None:
+    shutil.rmtree(path, ignore_errors=True)
+
+
+def _read_manifest(folder: Path) -> list[str]:
+    try:
+        data = json.loads((folder / MANIFEST_NAME).read_text())
+        files = data["files"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return []
+    return [f for f in files if isinstance(f, str) and _safe_relative(f)]
+
+
+def _safe_relative(rel: str) -> bool:
+    """A manifest entry names a file inside the folder (never outside it, never the folder itself)."""
+    p = Path(rel)
+    return bool(rel) and not p.is_absolute() and ".." not in p.parts and p.parts[0] not in (".", "")
+
+
+def _move_order(files) -> list[str]:
+    """Data files first, then the collections (``.pvd``) that list them; summary and manifest apart."""
+    rest = [f for f in files if f not in (SUMMARY_NAME, MANIFEST_NAME)]
+    return sorted(rest, key=lambda f: (f.endswith(".pvd"), f))
+
+
+def _roll_forward(folder: Path) -> None:
+    """Finish a commit: replace the previous run's files by the ones in ``.flexmb-commit``.
+
+    Every step can be repeated, so a commit cut short (by a kill) is finished
+    by running this again.
+    """
+    commit = folder / _COMMIT
+    new = _read_manifest(commit)
+    if (commit / MANIFEST_NAME).exists():
+        old = _read_manifest(folder)
+    else:  # the manifest was moved already: the old files are gone
+        old = []
+    if (commit / SUMMARY_NAME).exists() or (commit / MANIFEST_NAME).exists():
+        # the previous summary goes first: from here on it would describe a mix
+        with contextlib.suppress(FileNotFoundError):
+            os.remove(folder / SUMMARY_NAME)
+    keep = set(new)
+    dirs = set()
+    for rel in old:
+        if rel not in keep:
+            with contextlib.suppress(FileNotFoundError, IsADirectoryError, PermissionError):
+                os.remove(folder / rel)
+            dirs.update(Path(rel).parents)
+    for rel in _move_order(new):
+        src = commit / rel
+        if src.exists():
+            (folder / rel).parent.mkdir(parents=True, exist_ok=True)
+            os.replace(src, folder / rel)
+    for name in (MANIFEST_NAME, SUMMARY_NAME):
+        if (commit / name).exists():
+            os.replace(commit / name, folder / name)
+    # folders the previous run's files were in, if that left them empty (never the output folder)
+    for d in sorted((d for d in dirs if str(d) != "."), key=lambda d: len(d.parts), reverse=True):
+        with contextlib.suppress(OSError):
+            (folder / d).rmdir()
+    _remove_tree(commit)
+
+
+class OutputFolder:
+    """An output folder written by one run at a time, whole or not at all.
+
+    Use it as a context manager: entering locks the folder and opens a
+    hidden staging folder in it; :meth:`stage` names the staging path of
+    each output file; :meth:`commit` swaps the staged run into place. Leaving
+    without a commit (an error, Ctrl-C) discards the staged files and keeps
+    the previous run; leaving releases the lock.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The output folder (created if missing).
+
+    Raises
+    ------
+    ExportError
+        On entering, if another live run holds the folder (the message names
+        its pid), or if the folder cannot be created or written.
+
+    See Also
+    --------
+    atomic_write : Write one file whole or not at all.
+
+    Notes
+    -----
+    The folder's layout is described in the module docstring of
+    :mod:`flexmb._files` and in ``docs/scenes.md`` ("Output folders").
+
+    Examples
+    --------
+    >>> import json, tempfile
+    >>> from pathlib import Path
+    >>> from flexmb._files import OutputFolder, atomic_write
+    >>> out = tempfile.mkdtemp()
+    >>> with OutputFolder(out) as folder:
+    ...     _ = atomic_write(folder.stage("a.txt"), lambda tmp: Path(tmp).write_text("a"))
+    ...     folder.commit({"files": {"a": folder.final("a.txt")}})
+    >>> sorted(json.load(open(out + "/summary.json"))["files"])
+    ['a']
+    """
+
+    def __init__(self, path):
+        self.path = Path(os.fspath(path))
+        self.staging = None
+        self.committed = False
+        self._lock = _Lock(self.path)
+
+    def __enter__(self) -> "OutputFolder":
+        try:
+            self.path.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise ExportError(f"cannot create the output folder {self.path}: {exc.strerror or exc}") from None
+        if not self.path.is_dir():
+            raise ExportError(f"the output folder {self.path} is not a folder")
+        try:
+            self._lock.acquire()
+        except OSError as exc:
+            raise ExportError(f"cannot write to the output folder {self.path}: {exc.strerror or exc}") from None
+        try:
+            self._recover()
+            self.staging = self.path / f"{_STAGING}{os.getpid()}"
+            _remove_tree(self.staging)
+            self.staging.mkdir()
+        except BaseException:
+            self._lock.release()
+            raise
+        return self
+
+    def __exit__(self, *exc) -> None:
+        try:
+            if self.staging is not None and not self.committed:
+                _remove_tree(self.staging)
+        finally:
+            self._lock.release()
+
+    def _recover(self) -> None:
+        """Finish a commit a killed run left; remove the staging folders of dead runs."""
+        if (self.path / _COMMIT).is_dir():
+            with _signals_held():
+                _roll_forward(self.path)
+        for p in self.path.glob(f"{_STAGING}*"):
+            if p.is_dir():
+                _remove_tree(p)
+
+    def stage(self, rel) -> Path:
+        """The staging path of an output file.
+
+        Parameters
+        ----------
+        rel : str
+            The file's path relative to the output folder, e.g. ``"vtk/a.pvd"``.
+
+        Returns
+        -------
+        pathlib.Path
+            Where to write it now (its folder is created).
+        """
+        if self.staging is None:
+            raise ExportError("OutputFolder.stage: use the folder in a `with` block")
+        if not _safe_relative(rel) or rel in (MANIFEST_NAME, LOCK_NAME, SUMMARY_NAME):
+            raise ExportError(f"output file name {rel!r} is not a plain path inside the output folder")
+        p = self.staging / rel
+        p.parent.mkdir(parents=True, exist_ok=True)
+        return p
+
+    def final(self, rel) -> str:
+        """The path an output file will have once committed (what a summary names).
+
+        Parameters
+        ----------
+        rel : str
+            The file's path relative to the output folder.
+
+        Returns
+        -------
+        str
+            ``os.path.join(path, rel)``.
+        """
+        return os.path.join(os.fspath(self.path), rel)
+
+    def staged(self, rel) -> bool:
+        """Whether an output file has been written to the staging folder.
+
+        Parameters
+        ----------
+        rel : str
+            The file's path relative to the output folder.
+
+        Returns
+        -------
+        bool
+            True if the staged file exists.
+        """
+        return self.staging is not None and (self.staging / rel).is_file()
+
+    def commit(self, summary: dict | None = None) -> None:
+        """Swap the staged run into place; write ``summary.json`` last.
+
+        Parameters
+        ----------
+        summary : dict, optional
+            Written as ``summary.json`` (``None``: no summary; a previous one
+            is removed all the same, since it would describe another run).
+
+        Raises
+        ------
+        ExportError
+            If the summary's ``"files"`` name a file that was not written.
+        """
+        staging = self.staging
+        if summary is not None:
+            missing = [p for p in _summary_files(summary) if not self.staged(os.path.relpath(p, self.path))]
+            if missing:
+                raise ExportError(f"the summary names files that were not written: {missing[:3]}")
+            atomic_write(staging / SUMMARY_NAME,
+                         lambda tmp: Path(tmp).write_text(json.dumps(summary, indent=2, default=str) + "\n"))
+        files = sorted(p.relative_to(staging).as_posix() for p in staging.rglob("*") if p.is_file())
+        manifest = {"format": 1, "writer": "flexmb", "pid": os.getpid(), "files": files}
+        atomic_write(staging / MANIFEST_NAME, lambda tmp: Path(tmp).write_text(json.dumps(manifest, indent=1) + "\n"))
+        with _signals_held():
+            os.replace(staging, self.path / _COMMIT)  # the point of no return
+            self.committed = True
+            _roll_forward(self.path)
+
+
+def _summary_files(summary: dict) -> list[str]:
+    """The file paths a summary names under ``"files"`` (also nested ``"vtk"`` entries of built-in scenes)."""
+    out = []
+    for key, value in summary.items():
+        if key in ("files",) and isinstance(value, dict):
+            out += [v for v in value.values() if isinstance(v, str)]
+        elif key == "vtk" and isinstance(value, str):
+            out.append(value)
+        elif isinstance(value, dict) and key != "files":
+            out += [v for k, v in value.items() if k == "vtk" and isinstance(v, str)]
+    return out

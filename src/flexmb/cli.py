@@ -5,7 +5,9 @@
 SCENE.toml`` describes a scene; ``flexmb plugins`` lists the plugins. A bad
 scene gives exit status 2 and one line ``flexmb: error: <file>: <key path>:
 <what>``; a failed simulation gives 1 (after writing its partial outputs); a
-run stopped with Ctrl-C writes what it computed and gives 130.
+run stopped with Ctrl-C writes what it computed and gives 130. A run locks
+its output folder: a second run into the same folder is refused with exit
+status 2; the outputs replace the previous run's only once complete.
 ``flexmb study SCENE.toml --vary KEY=SPEC ... --out DIR`` runs a parameter
 study (:mod:`flexmb.study`); it gives 1 if some case failed.
 """
@@ -23,6 +25,16 @@ __all__ = ["main"]
 
 
 def _run(args) -> int:
+    """Run a scene; Ctrl-C while the outputs are written leaves the folder's last complete run, exit 130."""
+    try:
+        return _run_scene(args)
+    except KeyboardInterrupt:
+        print(f"\nflexmb: interrupted while writing the outputs: {args.out}/ holds the last complete run "
+              "(summary.json says what it holds)", file=sys.stderr)
+        return 130
+
+
+def _run_scene(args) -> int:
     from .scenes.report import SCENES, run_scene
 
     if args.scene in SCENES and not os.path.exists(args.scene):

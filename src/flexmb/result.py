@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 import os
-import tempfile
 
 import numpy as np
 from attrs import define, field
 
+from ._files import atomic_write
 from .errors import FlexmbError
 
 __all__ = ["Result"]
@@ -239,6 +239,9 @@ class Result:
     def save(self, path) -> None:
         """Save to a ``.npz`` file (written to a temporary name, then renamed).
 
+        The file gets the permissions of any other file written under the
+        umask in force (:func:`flexmb._files.atomic_write`).
+
         Parameters
         ----------
         path : str or path-like
@@ -257,16 +260,7 @@ class Result:
         data["flexible_lengths"] = np.array([self.flexible[k][1] for k in names], dtype=float)
         for i, k in enumerate(names):
             data[f"flexible_rows_{i}"] = np.asarray(self.flexible[k][0], dtype=int)
-        folder = os.path.dirname(os.path.abspath(path))
-        fd, tmp = tempfile.mkstemp(suffix=".npz", dir=folder)
-        os.close(fd)
-        try:
-            np.savez_compressed(tmp, **data)
-            os.replace(tmp, path)
-        except BaseException:
-            if os.path.exists(tmp):
-                os.remove(tmp)
-            raise
+        atomic_write(path, lambda tmp: np.savez_compressed(tmp, **data), suffix=".npz")
 
     @classmethod
     def load(cls, path) -> "Result":

@@ -120,6 +120,27 @@ class SolverSettings:
     track_work: bool = False
 
 
+def _prefix_problem(prefix) -> str | None:
+    """What is wrong with an output file-name stem, or None.
+
+    A stem starts with a letter, digit or underscore and holds only those and
+    ``.`` and ``-``: no folder, no hidden file (``.x``, ``..``), nothing a
+    shell would read as an option.
+    """
+    if not isinstance(prefix, str):
+        return f"must be a string, got {_toml_type(prefix)}"
+    if len(prefix) > 200 or not re.fullmatch(r"\w[\w.\-]*", prefix):
+        return (f"must be a plain file-name stem (letters, digits, _ . -, starting with a letter, digit or _), "
+                f"got {prefix!r}")
+    return None
+
+
+def _check_prefix(instance, attribute, value) -> None:
+    problem = _prefix_problem(value)
+    if problem:
+        raise SceneError(f"output.prefix: {problem}", "output.prefix")
+
+
 @frozen
 class OutputSettings:
     """What ``Scene.run`` writes, read from ``[output]``.
@@ -130,16 +151,22 @@ class OutputSettings:
         Write the result (``<name>.npz``), ``summary.json``, ``<name>.png``
         and the VTK series (``vtk/<name>.pvd``).
     prefix : str
-        File-name stem (default: the model name).
+        File-name stem (default: the model name): letters, digits, ``_``,
+        ``.`` and ``-``, starting with a letter, digit or ``_``.
     points : dict of str to (str, tuple of float)
         Points to track: ``{label: (body name, point in the body frame, m)}``.
+
+    Raises
+    ------
+    SceneError
+        If ``prefix`` is not a plain file-name stem (the message names it).
     """
 
     npz: bool = True
     summary: bool = True
     plots: bool = True
     vtk: bool = True
-    prefix: str = "scene"
+    prefix: str = field(default="scene", validator=_check_prefix)
     points: dict = field(factory=dict)
 
 
@@ -307,7 +334,11 @@ class Scene:
 
         A run stopped with Ctrl-C writes what it computed so far (the summary
         says ``"status": "interrupted"``); a failed run writes its partial
-        result and then raises.
+        result and then raises. The folder is locked for the whole run (a
+        second run into it is refused) and the new files replace the previous
+        run's only once all are written, ``summary.json`` last; files of the
+        previous run that this one does not write are removed (see
+        ``docs/scenes.md``, "Output folders").
 
         Parameters
         ----------
@@ -327,15 +358,19 @@ class Scene:
         ------
         SimulationError
             If the run fails (after writing the partial outputs).
+        ExportError
+            If another run is writing into ``out`` (the message names its pid).
         """
-        from .scenes.report import write_outputs
+        from ._files import OutputFolder
+        from .scenes.report import _write_outputs
 
         failure = None
-        try:
-            result = self.simulate(progress=progress, **overrides)
-        except SimulationError as exc:
-            failure, result = exc, exc.result
-        summary = write_outputs(self, result, out)
+        with OutputFolder(out) as folder:  # locked before simulating: a second run is refused at once
+            try:
+                result = self.simulate(progress=progress, **overrides)
+            except SimulationError as exc:
+                failure, result = exc, exc.result
+            summary = _write_outputs(self, result, folder)
         if failure is not None:
             raise failure
         return summary
@@ -791,9 +826,11 @@ class _Loader:
         t = self.table("output", self.data.get("output", {}))
         self.keys("output", t, optional=("npz", "summary", "plots", "vtk", "prefix", "points"))
         kw = {k: self.boolean(f"output.{k}", t[k]) for k in ("npz", "summary", "plots", "vtk") if k in t}
-        prefix = self.string("output.prefix", t.get("prefix", re.sub(r"[^\w.\-]+", "_", name)))
-        if not re.fullmatch(r"[\w.\-]+", prefix):
-            self.fail("output.prefix", f"must be a plain file-name stem (letters, digits, _ . -), got {prefix!r}")
+        default = re.sub(r"^[.\-]+", "", re.sub(r"[^\w.\-]+", "_", name))[:200] or "scene"
+        prefix = self.string("output.prefix", t.get("prefix", default))
+        problem = _prefix_problem(prefix)
+        if problem:
+            self.fail("output.prefix", problem)
         points = {}
         for label, p in self.table("output.points", t.get("points", {})).items():
             path = f"output.points.{label}"

@@ -395,8 +395,9 @@ def _write_mesh(mesh, path) -> Path:
 
 
 def _check_prefix(prefix: str) -> str:
-    if not isinstance(prefix, str) or not prefix or os.sep in prefix or "/" in prefix:
-        raise ExportError(f"prefix must be a non-empty file-name stem without a folder, got {prefix!r}")
+    if not isinstance(prefix, str) or not prefix or os.sep in prefix or "/" in prefix or prefix.startswith("."):
+        raise ExportError(f"prefix must be a non-empty file-name stem without a folder, not starting with '.' "
+                          f"(a hidden file), got {prefix!r}")
     return prefix
 
 

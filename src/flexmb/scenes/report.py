@@ -1,13 +1,18 @@
-"""Run a built-in scene and write its results, plots and VTK files."""
+"""Run a built-in scene and write its results, plots and VTK files.
+
+Every run writes through one :class:`flexmb._files.OutputFolder`: the
+folder is locked for the run, the files are written to a hidden staging
+folder inside it and swapped into place at the end, ``summary.json`` last
+(see ``docs/scenes.md``, "Output folders").
+"""
 
 from __future__ import annotations
 
-import json
-import os
 import sys
 
 import numpy as np
 
+from .._files import OutputFolder, atomic_write
 from ..errors import FlexmbError
 from ..simulate import simulate
 
@@ -28,33 +33,33 @@ def _plt():
     return plt
 
 
-def _write_json(path, data):
-    tmp = path + ".tmp"
+def _savefig(plt, fig, folder, rel, dpi):
+    """Write a figure whole (through a temporary name) into the staging folder, and close it."""
     try:
-        with open(tmp, "w") as fh:
-            json.dump(data, fh, indent=2, default=str)
-        os.replace(tmp, path)
+        atomic_write(folder.stage(rel), lambda tmp: fig.savefig(tmp, format="png", dpi=dpi), suffix=".png")
     finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
+        plt.close(fig)
 
 
-def _vtk(res, folder, prefix):
+def _vtk(res, folder, sub, prefix):
+    """Write the VTK series into ``sub/`` of the staging folder; return the final ``.pvd`` path or None."""
+    rel = f"{sub}/{prefix}.pvd"
     try:
-        return str(res.export_vtk(folder, prefix=prefix))
+        res.export_vtk(folder.stage(rel).parent, prefix=prefix)
     except ImportError as exc:  # meshio missing
         print(f"no VTK written: {exc}", file=sys.stderr)
         return None
+    return folder.final(rel)
 
 
-def run_fourbar(out, t_end=None, rtol=1e-8, complement="svd", method="auto", n_out=501, progress=True):
-    """B5 four-bar: coordinates, energy drift and loop residual."""
+def run_fourbar(folder, t_end=None, rtol=1e-8, complement="svd", method="auto", n_out=501, progress=True):
+    """B5 four-bar: coordinates, energy drift and loop residual, staged in an open OutputFolder."""
     from .fourbar import fourbar
 
     model, initial, fixed = fourbar()
     res = simulate(model, t_end or 5.0, positions=initial, fixed=fixed, rtol=rtol, complement=complement,
                    method=method, n_out=n_out, progress=progress)
-    res.save(os.path.join(out, "fourbar.npz"))
+    res.save(folder.stage("fourbar.npz"))
     summary = {"scene": "fourbar", "status": res.status, "t_end": float(res.t[-1]), "n_rhs": res.n_rhs,
                "wall_time_s": res.wall_time, "max_residual": float(res.residual.max()),
                "energy_drift_J": float(np.ptp(res.energy))}
@@ -70,16 +75,15 @@ def run_fourbar(out, t_end=None, rtol=1e-8, complement="svd", method="auto", n_o
         ax[2].set_ylabel("loop residual [m]")
         ax[2].set_xlabel("t [s]")
         fig.tight_layout()
-        fig.savefig(os.path.join(out, "fourbar.png"), dpi=120)
-        plt.close(fig)
-    pvd = _vtk(res, os.path.join(out, "vtk"), "fourbar")
+        _savefig(plt, fig, folder, "fourbar.png", 120)
+    pvd = _vtk(res, folder, "vtk", "fourbar")
     summary["vtk"] = pvd
     return summary
 
 
-def run_wiper(out, t_end=None, rtol=1e-6, complement="svd", method="auto", n_out=501, progress=True,
+def run_wiper(folder, t_end=None, rtol=1e-6, complement="svd", method="auto", n_out=501, progress=True,
               n_segments=6):
-    """The wiper, rigid and flexible blades: Figs. 5-6 of the paper, torque, energy balance."""
+    """The wiper, rigid and flexible blades (Figs. 5-6 of the paper), staged in an open OutputFolder."""
     from .wiper import WiperOptions, wiper
 
     t_end = t_end or 1.0
@@ -90,7 +94,7 @@ def run_wiper(out, t_end=None, rtol=1e-6, complement="svd", method="auto", n_out
         model, initial = wiper(WiperOptions(flexible=flexible, n_segments=n_segments))
         res = simulate(model, t_end, positions=initial, rtol=rtol, complement=complement, method=method,
                        n_out=n_out, progress=progress, track_work=True)
-        res.save(os.path.join(out, f"wiper_{label}.npz"))
+        res.save(folder.stage(f"wiper_{label}.npz"))
         runs[label] = res
         work = sum(res.work.values())
         balance = float(np.max(np.abs(work - (res.kinetic - res.kinetic[0])))
@@ -105,7 +109,7 @@ def run_wiper(out, t_end=None, rtol=1e-6, complement="svd", method="auto", n_out
             "driver_work_J": float(res.work["driver motor"][-1]),
             "energy_balance_rel_error": balance,
         }
-        summary[label]["vtk"] = _vtk(res, os.path.join(out, f"vtk_{label}"), f"wiper_{label}")
+        summary[label]["vtk"] = _vtk(res, folder, f"vtk_{label}", f"wiper_{label}")
         if res.status == "interrupted":  # Ctrl-C: keep what was written, start no further run
             summary["status"] = "interrupted"
             return summary
@@ -133,8 +137,7 @@ def run_wiper(out, t_end=None, rtol=1e-6, complement="svd", method="auto", n_out
             a.grid(alpha=0.3)
         fig.suptitle("Windshield wiper at 60 rpm: rigid vs flexible blades (cf. Figs. 5-6)")
         fig.tight_layout()
-        fig.savefig(os.path.join(out, "wiper.png"), dpi=120)
-        plt.close(fig)
+        _savefig(plt, fig, folder, "wiper.png", 120)
     return summary
 
 
@@ -153,7 +156,8 @@ def run_scene(name, out, **kw):
     name : {'fourbar', 'wiper'}
         The scene.
     out : str
-        Output folder (created).
+        Output folder (created). It is locked for the run; the previous
+        run's files are replaced only once the new run is written whole.
     **kw
         ``t_end``, ``rtol``, ``complement``, ``method``, ``n_out``, ``progress``.
 
@@ -161,13 +165,20 @@ def run_scene(name, out, **kw):
     -------
     dict
         The summary also written to ``out/summary.json``.
+
+    Raises
+    ------
+    FlexmbError
+        For an unknown scene name.
+    ExportError
+        If another run is writing into ``out`` (the message names its pid).
     """
     runners = {"fourbar": run_fourbar, "wiper": run_wiper}
     if name not in runners:
         raise FlexmbError(f"unknown scene {name!r}; pick one of {sorted(runners)}")
-    os.makedirs(out, exist_ok=True)
-    summary = runners[name](out, **kw)
-    _write_json(os.path.join(out, "summary.json"), summary)
+    with OutputFolder(out) as folder:
+        summary = runners[name](folder, **kw)
+        folder.commit(summary)
     return summary
 
 
@@ -181,17 +192,27 @@ def write_outputs(scene, res, out) -> dict:
     res : Result
         Its result, possibly partial (interrupted or failed).
     out : str or path-like
-        Output folder (created).
+        Output folder (created). It is locked while writing; the files of
+        the previous run written there are replaced, or removed if this run
+        does not write them, only once this run is written whole.
 
     Returns
     -------
     dict
         The summary (also written to ``out/summary.json`` unless disabled).
+
+    Raises
+    ------
+    ExportError
+        If another run is writing into ``out`` (the message names its pid).
     """
-    out = os.fspath(out)
-    os.makedirs(out, exist_ok=True)
+    with OutputFolder(out) as folder:
+        return _write_outputs(scene, res, folder)
+
+
+def _write_outputs(scene, res, folder) -> dict:
+    """Write the outputs of a scene-file run into an open :class:`OutputFolder` and commit them."""
     o = scene.output
-    stem = os.path.join(out, o.prefix)
     summary = {
         "scene": scene.source, "model": scene.name, "status": res.status, "message": res.message,
         "method": res.method, "complement": res.complement, "t_end": float(res.t[-1]) if len(res.t) else None,
@@ -214,8 +235,8 @@ def write_outputs(scene, res, out) -> dict:
                              "peak_speed_m_s": float(speeds[k].max())} for k, p in tracks.items()}
     files = {}
     if o.npz:
-        res.save(stem + ".npz")
-        files["result"] = stem + ".npz"
+        res.save(folder.stage(o.prefix + ".npz"))
+        files["result"] = folder.final(o.prefix + ".npz")
     if o.plots and len(res.t):
         plt = _plt()
         if plt:
@@ -244,14 +265,12 @@ def write_outputs(scene, res, out) -> dict:
             ax[-1].set_xlabel("t [s]")
             fig.suptitle(f"{scene.name}: {res.status}")
             fig.tight_layout()
-            fig.savefig(stem + ".png", dpi=110)
-            plt.close(fig)
-            files["plot"] = stem + ".png"
+            _savefig(plt, fig, folder, o.prefix + ".png", 110)
+            files["plot"] = folder.final(o.prefix + ".png")
     if o.vtk and len(res.t):
-        pvd = _vtk(res, os.path.join(out, "vtk"), o.prefix)
+        pvd = _vtk(res, folder, "vtk", o.prefix)
         if pvd:
             files["vtk"] = pvd
     summary["files"] = files
-    if o.summary:
-        _write_json(os.path.join(out, "summary.json"), summary)
+    folder.commit(summary if o.summary else None)
     return summary

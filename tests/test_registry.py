@@ -272,7 +272,8 @@ EXPECTED = {
                "viscous_friction": flexmb_friction.ViscousFriction},
     "complements": {"eigen": fm.EigenComplement, "svd": fm.SVDComplement, "qr": fm.QRComplement,
                     "auto": fm.AutoComplement},
-    "integrators": {"RK45": RK45, "RK23": RK23, "DOP853": DOP853, "Radau": Radau, "BDF": BDF, "LSODA": LSODA},
+    "integrators": {"RK45": RK45, "RK23": RK23, "DOP853": DOP853, "Radau": Radau, "BDF": BDF, "LSODA": LSODA,
+                    "GeneralizedAlpha": fm.GeneralizedAlpha},
 }
 BUILTIN_NAMES = [(kind, name) for kind, table in EXPECTED.items() for name in table]
 

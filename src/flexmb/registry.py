@@ -67,7 +67,8 @@ BUILTINS = {
     },
     "complements": {"eigen": "flexmb.complements:EigenComplement", "svd": "flexmb.complements:SVDComplement",
                     "qr": "flexmb.complements:QRComplement", "auto": "flexmb.complements:AutoComplement"},
-    "integrators": {name: f"scipy.integrate:{name}" for name in ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")},
+    "integrators": dict({name: f"scipy.integrate:{name}" for name in ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")},
+                        GeneralizedAlpha="flexmb.genalpha:GeneralizedAlpha"),
 }
 
 _SOURCE_TREE = "flexmb (source tree)"

@@ -11,12 +11,14 @@ from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, Radau
 
 from . import registry
 from .errors import AssemblyError, FlexmbError, ModelError, SimulationError, StiffnessWarning
+from .genalpha import GeneralizedAlpha
 from .integrators import second_order
 from .result import Result
 
 __all__ = ["simulate", "initial_state", "INTEGRATORS"]
 
-INTEGRATORS = {"RK45": RK45, "RK23": RK23, "DOP853": DOP853, "Radau": Radau, "BDF": BDF, "LSODA": LSODA}
+INTEGRATORS = {"RK45": RK45, "RK23": RK23, "DOP853": DOP853, "Radau": Radau, "BDF": BDF, "LSODA": LSODA,
+               "GeneralizedAlpha": GeneralizedAlpha}
 
 
 class _NonFinite(Exception):
@@ -324,8 +326,9 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         k_out = 1
     last = 0.0
 
-    extra = {}
-    if solver_cls in (Radau, BDF) and system.state_jacobian(t0, x, xd) is not None:
+    # classes declaring second_order_jacobian (GeneralizedAlpha) take n_second, and jac when there is one
+    extra = {"n_second": n} if getattr(solver_cls, "second_order_jacobian", False) else {}
+    if (solver_cls in (Radau, BDF) or extra) and system.state_jacobian(t0, x, xd) is not None:
         counters["jac"] = 0
 
         def jac(t, y):
@@ -336,7 +339,7 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         extra["jac"] = jac
         # the Jacobian has the block form [[0, I], [Jx, Jv]]: factor n x n only
         extra["n_second"] = n
-        solver_cls = second_order(solver_cls)
+        solver_cls = second_order(solver_cls) or solver_cls
 
     def make(tstart, ystart, first_step=None):
         return solver_cls(fun, tstart, ystart, t_end, rtol=rtol, atol=atol, max_step=max_step,

@@ -40,7 +40,7 @@ import weakref
 
 import numpy as np
 from scipy.integrate import DenseOutput, OdeSolver
-from scipy.linalg import lu_factor, lu_solve
+from scipy.linalg import eig, lu_factor, lu_solve
 
 __all__ = ["GeneralizedAlpha", "generalized_alpha", "alpha_parameters", "amplification_matrix",
            "DEFAULT_RHO_INF"]
@@ -237,6 +237,12 @@ class GeneralizedAlpha(OdeSolver):
         Take steps of this size (the last one shortened) with no error
         control; Newton failures then raise an error (default: the class's,
         None).
+    f_max : float, optional
+        Highest frequency (Hz) whose motion the error control resolves: the
+        error estimate is projected onto the modes of ``Jx`` below it, so
+        the modes above are integrated stably and dissipated where
+        ``h omega > 1``, never resolved (default: the class's, None: every
+        mode counts).
     vectorized : bool
         Ignored (accepted for ``solve_ivp``).
     **extraneous
@@ -250,6 +256,8 @@ class GeneralizedAlpha(OdeSolver):
         Newton iterations so far.
     n_rejected : int
         Rejected steps so far (error test or Newton failure).
+    f_max : float or None
+        Frequency cutoff of the error estimate in use, Hz.
 
     Notes
     -----
@@ -295,10 +303,11 @@ class GeneralizedAlpha(OdeSolver):
 
     rho_inf: float = DEFAULT_RHO_INF
     fixed_step: float | None = None
+    f_max: float | None = None
     second_order_jacobian = True
 
     def __init__(self, fun, t0, y0, t_bound, *, n_second=None, jac=None, rtol=1e-6, atol=1e-8,
-                 max_step=np.inf, first_step=None, rho_inf=None, fixed_step=None, vectorized=False,
+                 max_step=np.inf, first_step=None, rho_inf=None, fixed_step=None, f_max=None, vectorized=False,
                  **extraneous):
         if extraneous:
             import warnings
@@ -310,6 +319,10 @@ class GeneralizedAlpha(OdeSolver):
             self.rho_inf = float(rho_inf)
         if fixed_step is not None:
             self.fixed_step = float(fixed_step)
+        if f_max is not None:
+            self.f_max = float(f_max)
+        if self.f_max is not None and not self.f_max > 0:
+            raise ValueError(f"f_max must be > 0, got {self.f_max!r}")
         self.alpha_m, self.alpha_f, self.beta, self.gamma = alpha_parameters(self.rho_inf)
         ratio = (1.0 - self.alpha_f) / (1.0 - self.alpha_m)
         self.beta_p, self.gamma_p = self.beta * ratio, self.gamma * ratio
@@ -339,6 +352,7 @@ class GeneralizedAlpha(OdeSolver):
         self.g = f0[2 * n :].copy()
         self.abar = self.a.copy()
         self.J = None  # (Jx, Jv)
+        self.low_pass = None  # projector of the error estimate onto the modes below f_max
         self.jac_current = False
         self.lu = None
         self.lu_h = None
@@ -347,7 +361,7 @@ class GeneralizedAlpha(OdeSolver):
         memory = self._recall(fun, t0)
         h_next = None
         if memory is not None:
-            self.J, self.lu, self.lu_h, self.err_old, self.h_abs_old, offset, h_next = memory
+            self.J, self.low_pass, self.lu, self.lu_h, self.err_old, self.h_abs_old, offset, h_next = memory
             self.abar = self.a + offset
         if self.fixed_step is not None:
             self.h_abs = min(abs(self.fixed_step), self.max_step)
@@ -375,7 +389,7 @@ class GeneralizedAlpha(OdeSolver):
 
     def _remember(self):
         try:
-            _MEMORY[self._fun_key] = (self.t, (self.J, self.lu, self.lu_h, self.err_old, self.h_abs_old,
+            _MEMORY[self._fun_key] = (self.t, (self.J, self.low_pass, self.lu, self.lu_h, self.err_old, self.h_abs_old,
                                                self.abar - self.a, self.h_abs))
         except TypeError:
             pass
@@ -418,6 +432,24 @@ class GeneralizedAlpha(OdeSolver):
             else:
                 Jv[:, k - n] = col
         return Jx, Jv
+
+    def _low_pass(self):
+        """``I - sum v_k w_k^H / (w_k^H v_k)`` over the eigenpairs of Jx above f_max (None if none).
+
+        Built from the high modes (distinct, well separated) with left and
+        right eigenvectors, so the cluster of zero eigenvalues (constraint
+        directions, rigid motions) needs no inverse.
+        """
+        if self.f_max is None:
+            return None
+        Jx = self.J[0]
+        lam, W, V = eig(Jx, left=True, right=True, check_finite=False)
+        high = np.abs(lam) > (2 * np.pi * self.f_max) ** 2
+        if not np.any(high):
+            return None
+        V, W = V[:, high], W[:, high]
+        d = np.einsum("ik,ik->k", W.conj(), V)
+        return np.eye(len(Jx)) - ((V / d) @ W.conj().T).real
 
     def _factor(self, h):
         Jx, Jv = self.J
@@ -479,12 +511,14 @@ class GeneralizedAlpha(OdeSolver):
                 return False, "the step size fell below the smallest step (Newton or error test fails)"
             h = h_abs * self.direction
             t1 = t + h
-            if self.direction * (t1 - self.t_bound) > 0:
+            # a remainder of round-off size after this step is taken into it
+            if self.direction * (t1 - self.t_bound) > -1e-9 * h_abs:
                 t1 = self.t_bound
                 h = t1 - t
                 h_abs = abs(h)
             if self.J is None:
                 self.J = self._jacobian(t, self.y)
+                self.low_pass = self._low_pass()
                 self.jac_current = True
                 self.lu = None
             if self.lu is None or self.lu_h != h:
@@ -493,6 +527,7 @@ class GeneralizedAlpha(OdeSolver):
             if not ok:
                 if not self.jac_current:
                     self.J = self._jacobian(t, self.y)
+                    self.low_pass = self._low_pass()
                     self.jac_current = True
                     self.lu = None
                     continue
@@ -509,6 +544,8 @@ class GeneralizedAlpha(OdeSolver):
             # filtered by the iteration matrix (as Radau filters its estimate): modes far above 1 / h,
             # which the method dissipates instead of resolving, do not set the step
             est = self.error_constant * h * h * lu_solve(self.lu, abar1 - self.abar, check_finite=False)
+            if self.low_pass is not None:
+                est = self.low_pass @ est
             sc = self.atol + self.rtol * np.maximum(np.abs(self.y[:n]), np.abs(x1))
             err = float(np.sqrt(np.mean((est / sc) ** 2))) if n else 0.0
             if err > 1.0:
@@ -550,8 +587,9 @@ class GeneralizedAlpha(OdeSolver):
                                            self.g, self.n_pos)
 
 
-def generalized_alpha(rho_inf: float = DEFAULT_RHO_INF, fixed_step: float | None = None) -> type:
-    """A :class:`GeneralizedAlpha` class configured with a spectral radius (and optionally a fixed step).
+def generalized_alpha(rho_inf: float = DEFAULT_RHO_INF, fixed_step: float | None = None,
+                      f_max: float | None = None) -> type:
+    """A :class:`GeneralizedAlpha` class configured with a spectral radius, and optionally a fixed step or a cutoff.
 
     Parameters
     ----------
@@ -562,6 +600,9 @@ def generalized_alpha(rho_inf: float = DEFAULT_RHO_INF, fixed_step: float | None
     fixed_step : float, optional
         Fixed step size, s (no error control); default: error-controlled
         steps.
+    f_max : float, optional
+        Highest frequency resolved by the error control, Hz (see
+        :class:`GeneralizedAlpha`); default: all.
 
     Returns
     -------
@@ -572,7 +613,8 @@ def generalized_alpha(rho_inf: float = DEFAULT_RHO_INF, fixed_step: float | None
     Raises
     ------
     ValueError
-        If ``rho_inf`` is not in [0, 1] or ``fixed_step`` is not positive.
+        If ``rho_inf`` is not in [0, 1], or ``fixed_step`` or ``f_max`` is
+        not positive.
 
     Examples
     --------
@@ -587,7 +629,11 @@ def generalized_alpha(rho_inf: float = DEFAULT_RHO_INF, fixed_step: float | None
     alpha_parameters(rho_inf)  # validates
     if fixed_step is not None and not float(fixed_step) > 0:
         raise ValueError(f"fixed_step must be > 0, got {fixed_step!r}")
-    label = f"rho_inf={float(rho_inf):g}" + (f", fixed_step={float(fixed_step):g}" if fixed_step else "")
+    if f_max is not None and not float(f_max) > 0:
+        raise ValueError(f"f_max must be > 0, got {f_max!r}")
+    label = (f"rho_inf={float(rho_inf):g}" + (f", fixed_step={float(fixed_step):g}" if fixed_step else "")
+             + (f", f_max={float(f_max):g}" if f_max else ""))
     return type(f"GeneralizedAlpha({label})", (GeneralizedAlpha,),
                 {"rho_inf": float(rho_inf), "fixed_step": None if fixed_step is None else float(fixed_step),
+                 "f_max": None if f_max is None else float(f_max),
                  "__module__": __name__, "__doc__": f"GeneralizedAlpha with {label}."})

@@ -195,8 +195,8 @@ def test_fourbar_with_constraint_projection():
     res = fm.simulate(model, 0.3, positions=initial, fixed=fixed, method="GeneralizedAlpha", rtol=1e-6, n_out=11)
     assert res.n_projections > 0  # restarted after each projection, from the previous instance's memory
     assert np.max(res.residual) <= 1e-10
-    assert np.max(np.abs(res.x[:, 0] - ref.x[:, 0])) < 1e-4
-    assert np.max(np.abs(res.energy - res.energy[0])) < 1e-4 * np.max(res.kinetic)
+    assert np.max(np.abs(res.x[:, 0] - ref.x[:, 0])) < 2e-4
+    assert np.max(np.abs(res.energy - res.energy[0])) < 5e-4 * np.max(res.kinetic)
     assert res.n_steps < 600
 
 

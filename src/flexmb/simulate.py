@@ -199,8 +199,10 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         Number of equally spaced output times (ignored if ``t_eval``).
     t_eval : array_like, optional
         Output times, increasing, within [t0, t_end].
-    method : {'auto', 'DOP853', 'RK45', 'RK23', 'Radau', 'BDF', 'LSODA'} or OdeSolver class
-        Integrator; explicit ones for non-stiff models, Radau/BDF for stiff.
+    method : {'auto', 'DOP853', 'RK45', 'RK23', 'Radau', 'BDF', 'LSODA', 'GeneralizedAlpha'} or OdeSolver class
+        Integrator; explicit ones for non-stiff models, Radau/BDF for stiff,
+        GeneralizedAlpha (or a class from :func:`~flexmb.generalized_alpha`)
+        for undamped flexible bodies whose fast modes should be dissipated.
         A name is looked up in the plugin registry (entry-point group
         ``flexmb.integrators``), so installed plugins are accepted too.
         ``'auto'`` estimates the highest frequency of the coordinate springs

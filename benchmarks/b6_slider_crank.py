@@ -119,6 +119,8 @@ def main(argv=None):
     ap.add_argument("--f-max", nargs="+", type=float, default=[600.0])
     ap.add_argument("--rtols", nargs="+", type=float, default=[1e-3, 1e-4])
     ap.add_argument("--damped-rtols", nargs="+", type=float, default=[1e-5, 1e-6, 1e-7])
+    ap.add_argument("--damped-integrators", nargs="+", default=["GeneralizedAlpha"],
+                    help="GeneralizedAlpha (with each --rho) and/or scipy names such as Radau")
     ap.add_argument("--ref-rtol", type=float, default=1e-10)
     ap.add_argument("--n-out", type=int, default=1001)
     ap.add_argument("--skip", nargs="*", default=[], choices=["undamped", "damped"])
@@ -163,11 +165,13 @@ def main(argv=None):
         ref = reference(args.ref_rtol, args.t_end, args.n_out)
         check = reference(10 * args.ref_rtol, args.t_end, args.n_out)
         unc = torque_error(check, ref)
-        for rho in args.rho:
+        configs = [(name, rho) for name in args.damped_integrators
+                   for rho in (args.rho if name == "GeneralizedAlpha" else [None])]
+        for name, rho in configs:
             for rtol in args.damped_rtols:
-                method = fm.generalized_alpha(rho)
+                method = fm.generalized_alpha(rho) if name == "GeneralizedAlpha" else name
                 res, wall, setup, system, cpu = run(True, method, rtol, args.t_end, args.n_out)
-                r = row(res, wall, setup, system, cpu, "damped", "GeneralizedAlpha", rtol, args.t_end, rho, None)
+                r = row(res, wall, setup, system, cpu, "damped", name, rtol, args.t_end, rho, None)
                 r.update(error=torque_error(res, ref), error_kind="integration (crank torque, max relative)",
                          reference=f"flexmb Radau rtol={args.ref_rtol:g} same N", ref_uncertainty=unc,
                          reference_energy=energy_terms(ref))

@@ -385,6 +385,11 @@ class GeneralizedAlpha(OdeSolver):
         self._fun_key = fun
         self._dense = None
 
+    @property
+    def step_size(self):
+        """Size of the last step taken, s (None before the first step)."""
+        return None if self.t_old is None else abs(self.t - self.t_old)
+
     # -- memory across restarts (simulate makes a new solver after each projection)
     @staticmethod
     def _recall(fun, t0):

@@ -568,7 +568,7 @@ def test_unknown_complement_strategy():
 
 def test_unknown_integrator():
     with pytest.raises(fm.ModelError, match=r"unknown integrator 'Euler'; pick one of \['BDF', 'DOP853', "
-                                             r"'LSODA', 'RK23', 'RK45', 'Radau'\]"):
+                                             r"'GeneralizedAlpha', 'LSODA', 'RK23', 'RK45', 'Radau'\]"):
         fm.simulate(pendulum(), 1.0, method="Euler")
 
 

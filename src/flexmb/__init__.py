@@ -18,6 +18,7 @@ from .registry import PluginInfo, plugins, register
 from .sections import Material, Section
 from .result import Result
 from .simulate import INTEGRATORS, initial_state, simulate
+from .genalpha import GeneralizedAlpha, generalized_alpha
 from .system import System
 from .scene import Scene, load_scene, loads_scene
 from .complements import AutoComplement, QRComplement
@@ -35,7 +36,7 @@ __all__ = [
     "Linearization", "linear_statics", "linearize", "modes", "static_equilibrium",
     "Model", "PluginInfo", "plugins", "register", "Result", "INTEGRATORS", "initial_state", "simulate", "System",
     "Scene", "SceneError", "load_scene", "loads_scene",
-    "StiffnessWarning",
+    "StiffnessWarning", "GeneralizedAlpha", "generalized_alpha",
     "AutoComplement", "QRComplement",
 ]
 

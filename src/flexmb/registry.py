@@ -69,7 +69,8 @@ BUILTINS = {
                     "qr": "flexmb.complements:QRComplement", "auto": "flexmb.complements:AutoComplement"},
     "integrators": {**{name: f"scipy.integrate:{name}" for name in ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")},
                     "CVODE_BDF": "flexmb.integrators.sundials:CVODEBDF",
-                    "CVODE_Adams": "flexmb.integrators.sundials:CVODEAdams"},
+                    "CVODE_Adams": "flexmb.integrators.sundials:CVODEAdams",
+                    "GeneralizedAlpha": "flexmb.genalpha:GeneralizedAlpha"},
 }
 
 _SOURCE_TREE = "flexmb (source tree)"

@@ -11,6 +11,7 @@ from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, Radau
 
 from . import registry
 from .errors import AssemblyError, FlexmbError, ModelError, SimulationError, StiffnessWarning
+from .genalpha import GeneralizedAlpha
 from .integrators import CVODEAdams, CVODEBDF, adapt, capabilities
 from .result import Result
 from .threads import limited_blas
@@ -18,7 +19,7 @@ from .threads import limited_blas
 __all__ = ["simulate", "initial_state", "INTEGRATORS"]
 
 INTEGRATORS = {"RK45": RK45, "RK23": RK23, "DOP853": DOP853, "Radau": Radau, "BDF": BDF, "LSODA": LSODA,
-               "CVODE_BDF": CVODEBDF, "CVODE_Adams": CVODEAdams}
+               "CVODE_BDF": CVODEBDF, "CVODE_Adams": CVODEAdams, "GeneralizedAlpha": GeneralizedAlpha}
 
 #: the SUNDIALS integrators' names, listed apart from scipy's in error messages
 _SUNDIALS = ("CVODE_Adams", "CVODE_BDF")
@@ -205,13 +206,15 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         Number of equally spaced output times (ignored if ``t_eval``).
     t_eval : array_like, optional
         Output times, increasing, within [t0, t_end].
-    method : {'auto', 'DOP853', 'RK45', 'RK23', 'Radau', 'BDF', 'LSODA', 'CVODE_BDF', 'CVODE_Adams'} or OdeSolver class
+    method : {'auto', 'DOP853', 'RK45', 'RK23', 'Radau', 'BDF', 'LSODA', 'CVODE_BDF', 'CVODE_Adams', 'GeneralizedAlpha'} or OdeSolver class
         Integrator; explicit ones for non-stiff models, Radau/BDF or
-        SUNDIALS' CVODE_BDF for stiff. A name is looked up in the plugin
-        registry (entry-point group ``flexmb.integrators``), so installed
-        plugins are accepted too. What the integrator is given (the
-        analytic Jacobian, the second-order block structure) follows the
-        capabilities its class declares (:mod:`flexmb.integrators.base`).
+        SUNDIALS' CVODE_BDF for stiff, GeneralizedAlpha (or a class from
+        :func:`~flexmb.generalized_alpha`) for undamped flexible bodies
+        whose fast modes should be dissipated. A name is looked up in the
+        plugin registry (entry-point group ``flexmb.integrators``), so
+        installed plugins are accepted too. What the integrator is given
+        (the analytic Jacobian, the second-order block structure) follows
+        the capabilities its class declares (:mod:`flexmb.integrators.base`).
         ``'auto'`` estimates the highest frequency of the coordinate springs
         and takes Radau when an explicit method would need more than
         ``AUTO_IMPLICIT_STEPS`` steps just to stay stable, DOP853 otherwise.
@@ -339,6 +342,8 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     caps = capabilities(solver_cls)
     if not caps.has_dense_output:
         raise ModelError(f"integrator {name!r} has no dense output, which simulate needs for its output times")
+    if caps.needs_n_second:  # written for y = (x, xd, ...) itself (GeneralizedAlpha)
+        extra["n_second"] = n
     if caps.uses_jacobian and system.state_jacobian(t0, x, xd) is not None:
         counters["jac"] = 0
 

@@ -17,6 +17,10 @@ from four class attributes,
 ``has_dense_output``
     ``dense_output()`` gives the state between the last two steps (simulate
     needs it for its output times).
+``needs_n_second``
+    The method itself is written for ``y = (x, xd, ...)``: the constructor
+    always takes ``n_second``, with or without a Jacobian
+    (:class:`~flexmb.GeneralizedAlpha`).
 
 flexmb's own integrators declare them; scipy's get them from
 :data:`SCIPY_CAPABILITIES` (looked up along the class's bases, so a subclass
@@ -53,6 +57,8 @@ class Capabilities:
         ``[[0, I], [Jx, Jv]]``.
     has_dense_output : bool
         ``dense_output()`` interpolates over the last step.
+    needs_n_second : bool
+        Always takes ``n_second=`` (a method for second-order systems).
 
     Examples
     --------
@@ -65,6 +71,7 @@ class Capabilities:
     uses_jacobian: bool = False
     second_order: bool = False
     has_dense_output: bool = True
+    needs_n_second: bool = False
 
 
 #: scipy's solvers, which declare nothing themselves. LSODA could take a

@@ -6,6 +6,7 @@ from collections import Counter
 
 from .bodies import Body, Ground
 from .drivers import Driver
+from . import memory
 from .errors import ModelError
 from .forces import ForceElement
 from .joints import Joint
@@ -139,12 +140,15 @@ class Model:
         Raises
         ------
         ModelError
-            With ``.problems`` holding all messages.
+            With ``.problems`` holding all messages; a model that would not
+            fit in the available memory (:func:`flexmb.memory.check`) is
+            refused before anything is allocated.
         """
         from .topology import Topology
 
         problems = self.problems()
         try:
+            memory.check(self)  # before Topology allocates anything
             Topology(self)
         except ModelError as exc:
             problems += [p for p in exc.problems if p not in problems]

@@ -179,11 +179,12 @@ def flexible_bodies(draw, name="beam", max_segments=6):
     section = fm.Section.rectangular(draw(st.floats(0.005, 0.05)), draw(st.floats(0.002, 0.02)))
     material = draw(st.sampled_from([fm.Material.aluminium(), fm.Material.steel()]))
     keep = tuple(draw(st.lists(st.sampled_from(ELASTIC[:3]), min_size=1, max_size=3, unique=True)))
-    n = draw(st.integers(1, max_segments))
+    clamped = draw(st.booleans())
+    n = draw(st.integers(1 if clamped else 2, max_segments))  # unclamped, one segment has no elastic joint
     # a whole float is a valid count too (it used to pass the check and fail at build)
     n_segments = draw(st.sampled_from([n, float(n), np.int64(n)]))
     return fm.FlexibleBody(name, length, section, material, n_segments, keep=keep,
-                           damping=draw(st.sampled_from([0.0, 1e-4, 1e-3])), clamped=draw(st.booleans()))
+                           damping=draw(st.sampled_from([0.0, 1e-4, 1e-3])), clamped=clamped)
 
 
 @st.composite
@@ -208,7 +209,9 @@ def bad_flexible_fields(draw):
         ("n_segments", draw(st.sampled_from(BAD_NUMBERS + [None, 0, -3, 2.5, "4", True, [4]])), "n_segments"),
         ("length", draw(st.sampled_from([bad, 0.0, -1.0])), "length"),
         ("damping", draw(st.sampled_from([bad, -1.0])), "damping"),
-        ("keep", draw(st.sampled_from([(), ("bend_x",), ("bend_y", "bend_y")])), "keep"),
+        ("keep", (), "keep at least one"),
+        ("keep", ("bend_x",), "unknown elastic coordinate"),
+        ("keep", ("bend_y", "bend_y"), "keep lists a coordinate twice"),
         ("section", "strip", "section"),
     ]))
 

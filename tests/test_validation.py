@@ -814,3 +814,9 @@ def test_slender_bar_bad_axis_and_mass():
 def test_box_non_positive_size(size):
     with pytest.raises(fm.ModelError, match=r"RigidBody.box 'block': size must be 3 finite edge lengths > 0"):
         fm.RigidBody.box("block", 1.0, size)
+
+
+def test_unclamped_flexible_body_of_one_segment_is_refused():
+    """Found by the extended hypothesis generators: it passed construction, then failed in BeamElasticity."""
+    with pytest.raises(fm.ModelError, match=r"FlexibleBody 'beam': an unclamped flexible body needs n_segments >= 2"):
+        fm.FlexibleBody("beam", 1.0, B1_SECTION, fm.Material.aluminium(), n_segments=1, clamped=False)

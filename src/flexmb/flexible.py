@@ -206,6 +206,11 @@ class FlexibleBody(Body):
         if not isinstance(value, Material):
             raise ModelError(f"{label(self)}: material must be a Material, got {type(value).__name__}")
 
+    def __attrs_post_init__(self):
+        if not self.clamped and self.n_segments < 2:
+            raise ModelError(f"{label(self)}: an unclamped flexible body needs n_segments >= 2 (one segment has "
+                             "no elastic joint); use a RigidBody, or clamped = True")
+
     @classmethod
     def uniform_beam(cls, name: str, length: float, section: Section, material: Material,
                      n_segments: int, keep=("bend_y",), damping_ratio: float = 0.0,

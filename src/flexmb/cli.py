@@ -7,7 +7,8 @@ scene gives exit status 2 and one line ``flexmb: error: <file>: <key path>:
 <what>``; a failed simulation gives 1 (after writing its partial outputs); a
 run stopped with Ctrl-C writes what it computed and gives 130.
 ``flexmb study SCENE.toml --vary KEY=SPEC ... --out DIR`` runs a parameter
-study (:mod:`flexmb.study`); it gives 1 if some case failed.
+study (:mod:`flexmb.study`); it gives 1 if some case failed (``--time-limit
+SECONDS`` stops a case that takes longer and records it as failed).
 """
 
 from __future__ import annotations

@@ -10,6 +10,9 @@ world frame), so x* closes every loop.
 
 from __future__ import annotations
 
+import os
+from contextlib import contextmanager
+
 import numpy as np
 from hypothesis import strategies as st
 
@@ -257,3 +260,22 @@ def bad_simulate_arguments(draw):
         ("projection_tol", draw(st.sampled_from([bad, 0.0, -1.0])), "projection_tol"),
     ]))
 
+
+
+@contextmanager
+def memory_limit(size: str | None):
+    """Cap the memory flexmb may plan for (``FLEXMB_MEMORY_LIMIT``), e.g. ``"8G"``; None leaves it alone.
+
+    Keeps the refusals machine-independent: 1e8 output times fit a machine
+    with 64 GB, and a future O(n) core may fit 100,000 segments.
+    """
+    old = os.environ.get("FLEXMB_MEMORY_LIMIT")
+    if size is not None:
+        os.environ["FLEXMB_MEMORY_LIMIT"] = size
+    try:
+        yield
+    finally:
+        if old is None:
+            os.environ.pop("FLEXMB_MEMORY_LIMIT", None)
+        else:
+            os.environ["FLEXMB_MEMORY_LIMIT"] = old

@@ -611,6 +611,7 @@ class _Loader:
         initial = self.load_initial()
         output = self.load_output(name)
         scene = Scene(name, model, initial, solver, output, self.source, self.types)
+        self.check_memory(model)
         try:
             system = scene.system()
         except FlexmbError as exc:
@@ -621,6 +622,16 @@ class _Loader:
         except ModelError as exc:
             self.fail("solver.n_out", str(exc))
         return scene
+
+    def check_memory(self, model) -> None:
+        """Refuse a model too large for memory at the key that sizes it (the finest flexible body's n_segments)."""
+        from .flexible import FlexibleBody
+
+        try:
+            memory.check(model, what=f"Model {model.name!r}")
+        except ModelError as exc:
+            flexible = [(b.n_segments, name) for name, b in self.bodies.items() if isinstance(b, FlexibleBody)]
+            self.fail(f"bodies.{max(flexible)[1]}.n_segments" if flexible else "", str(exc))
 
     def load_study(self) -> dict:
         t = self.table("study", self.data.get("study", {}))

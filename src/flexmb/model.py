@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from collections import Counter
 
+from . import memory
 from .bodies import Body, Ground
 from .drivers import Driver
-from . import memory
 from .errors import ModelError
 from .forces import ForceElement
 from .joints import Joint

@@ -10,6 +10,9 @@ world frame), so x* closes every loop.
 
 from __future__ import annotations
 
+import os
+from contextlib import contextmanager
+
 import numpy as np
 from hypothesis import strategies as st
 
@@ -164,3 +167,115 @@ def bad_joint_fields(draw, cls):
     if cls in (fm.Revolute, fm.PlanarRevolute, fm.Prismatic, fm.Cylindrical):
         options += [("axis", np.zeros(3), "axis"), ("axis", np.array([0.0, bad, 1.0]), "axis")]
     return draw(st.sampled_from(options))
+
+
+# ----------------------------------------------------------------------------- flexible bodies, sizes, settings
+# (issue 18 section 5: the generators above never built a FlexibleBody, nor drew sizes or solver settings)
+
+ELASTIC = ["bend_y", "bend_z", "torsion", "axial", "shear_y", "shear_z"]
+
+
+@st.composite
+def flexible_bodies(draw, name="beam", max_segments=6):
+    """A valid FlexibleBody: random length, rectangular section, material, N, kept coordinates, root, damping."""
+    length = draw(st.floats(0.2, 2.0))
+    section = fm.Section.rectangular(draw(st.floats(0.005, 0.05)), draw(st.floats(0.002, 0.02)))
+    material = draw(st.sampled_from([fm.Material.aluminium(), fm.Material.steel()]))
+    keep = tuple(draw(st.lists(st.sampled_from(ELASTIC[:3]), min_size=1, max_size=3, unique=True)))
+    clamped = draw(st.booleans())
+    n = draw(st.integers(1 if clamped else 2, max_segments))  # unclamped, one segment has no elastic joint
+    # a whole float is a valid count too (it used to pass the check and fail at build)
+    n_segments = draw(st.sampled_from([n, float(n), np.int64(n)]))
+    return fm.FlexibleBody(name, length, section, material, n_segments, keep=keep,
+                           damping=draw(st.sampled_from([0.0, 1e-4, 1e-3])), clamped=clamped)
+
+
+@st.composite
+def flexible_models(draw):
+    """A flexible beam on a revolute or fixed root, possibly carrying a rigid tip body, under gravity."""
+    model = fm.Model("flexible")
+    beam = draw(flexible_bodies())
+    root = fm.Fixed if beam.clamped else fm.Revolute
+    model.add(beam, root("root", model.ground, beam, parent_frame=draw(rotations())))
+    if draw(st.booleans()):
+        tip = fm.RigidBody("tip", **draw(body_data()))
+        model.add(fm.Revolute("tip_pin", beam, tip, parent_point=(beam.length, 0.0, 0.0)))
+    model.add(fm.Gravity((0.0, -9.81, 0.0)))
+    return model
+
+
+@st.composite
+def bad_flexible_fields(draw):
+    """One invalid FlexibleBody argument: (field, value, what the message must mention)."""
+    bad = draw(st.sampled_from(BAD_NUMBERS))
+    return draw(st.sampled_from([
+        ("n_segments", draw(st.sampled_from(BAD_NUMBERS + [None, 0, -3, 2.5, "4", True, [4]])), "n_segments"),
+        ("length", draw(st.sampled_from([bad, 0.0, -1.0])), "length"),
+        ("damping", draw(st.sampled_from([bad, -1.0])), "damping"),
+        ("keep", (), "keep at least one"),
+        ("keep", ("bend_x",), "unknown elastic coordinate"),
+        ("keep", ("bend_y", "bend_y"), "keep lists a coordinate twice"),
+        ("section", "strip", "section"),
+    ]))
+
+
+@st.composite
+def bad_shapes(draw):
+    """An invalid named-constructor call: (constructor, args, what the message must mention)."""
+    bad = draw(st.sampled_from(BAD_NUMBERS + [0.0, -1.0, -1e-300, None]))
+    size = [1.0, 1.0, 1.0]
+    size[draw(st.integers(0, 2))] = bad
+    return draw(st.sampled_from([
+        (fm.RigidBody.slender_bar, ("bar", 1.0, bad), "length"),
+        (fm.RigidBody.box, ("block", 1.0, size), "size"),
+        (fm.RigidBody.box, ("block", 1.0, size[:2]), "size"),
+    ]))
+
+
+#: sizes no machine holds: dense n x n arrays of these would need terabytes
+HUGE_COUNTS = [100_000, 1_000_000]
+
+
+@st.composite
+def simulate_arguments(draw):
+    """Valid keyword arguments of simulate: short spans, tolerances, output counts and step limits."""
+    return {"t_end": draw(st.floats(1e-4, 2e-2)), "rtol": draw(st.floats(1e-10, 1e-3)),
+            "atol": draw(st.sampled_from([None, 1e-12, 1e-8])), "n_out": draw(st.sampled_from([1, 2, 7, 50, 7.0])),
+            "max_step": draw(st.sampled_from([np.inf, 1e-2, 1e-3])),
+            "projection_tol": draw(st.sampled_from([1e-10, 1e-8]))}
+
+
+@st.composite
+def bad_simulate_arguments(draw):
+    """One invalid argument of simulate: (keyword, value, what the message must mention)."""
+    bad = draw(st.sampled_from(BAD_NUMBERS))
+    return draw(st.sampled_from([
+        ("t_end", draw(st.sampled_from([float("inf"), float("nan"), 0.0, -1.0])), "t_end"),
+        ("t0", bad, "t0"),
+        ("rtol", draw(st.sampled_from([bad, 0.0, -1.0, "tight"])), "rtol"),
+        ("atol", draw(st.sampled_from([bad, -1e-9])), "atol"),
+        ("n_out", draw(st.sampled_from([0, -1, 2.5, None, bad])), "n_out"),
+        ("n_out", draw(st.sampled_from([10**8, 10**12])), "output times"),
+        ("max_step", draw(st.sampled_from([0.0, -1.0, float("nan")])), "max_step"),
+        ("projection_tol", draw(st.sampled_from([bad, 0.0, -1.0])), "projection_tol"),
+    ]))
+
+
+
+@contextmanager
+def memory_limit(size: str | None):
+    """Cap the memory flexmb may plan for (``FLEXMB_MEMORY_LIMIT``), e.g. ``"8G"``; None leaves it alone.
+
+    Keeps the refusals machine-independent: 1e8 output times fit a machine
+    with 64 GB, and a future O(n) core may fit 100,000 segments.
+    """
+    old = os.environ.get("FLEXMB_MEMORY_LIMIT")
+    if size is not None:
+        os.environ["FLEXMB_MEMORY_LIMIT"] = size
+    try:
+        yield
+    finally:
+        if old is None:
+            os.environ.pop("FLEXMB_MEMORY_LIMIT", None)
+        else:
+            os.environ["FLEXMB_MEMORY_LIMIT"] = old

@@ -7,7 +7,13 @@ Generators are in ``tests/strategies.py``. The properties:
   null space (equal projectors ``T T^T``) and give the same rank;
 * a short conservative run keeps the energy;
 * invalid definitions raise only :class:`flexmb.ModelError`, whose message
-  names the element and the field, never another exception.
+  names the element and the field, never another exception;
+* random flexible bodies (any N, kept coordinates, root, damping) build with
+  an SPD mass matrix, and short runs with random tolerances, step limits and
+  output counts give exactly the outputs asked for; bad FlexibleBody
+  fields, bad named-constructor sizes and bad simulate arguments (non-finite
+  t_end, rtol <= 0, n_out 0, huge n_out, ...) raise only ModelError naming
+  them, and models too large for memory are refused before allocation.
 
 Random invalid *scene files* are left to the TOML scene work (not in this
 branch). Settings are modest and derandomized so the runs are reproducible.
@@ -22,8 +28,10 @@ from hypothesis import strategies as st
 
 import flexmb as fm
 from flexmb.assembly import mass_matrix
-from strategies import (JOINTS, bad_body_fields, bad_joint_fields, build_tree, loop_models, states,
-                        tree_specs)
+from flexmb import memory
+from strategies import (HUGE_COUNTS, JOINTS, bad_body_fields, bad_flexible_fields, bad_joint_fields, bad_shapes,
+                        bad_simulate_arguments, build_tree, flexible_models, loop_models, memory_limit,
+                        simulate_arguments, states, tree_specs)
 
 #: modest and reproducible (applied per test, so other modules keep hypothesis' defaults)
 MODEST = settings(max_examples=30, deadline=None, derandomize=True, print_blob=True,
@@ -164,3 +172,80 @@ def test_non_finite_initial_state_raises_model_error(specs, data):
     bad = data.draw(st.sampled_from([float("nan"), float("inf")]))
     kind = data.draw(st.sampled_from(["positions", "speeds"]))
     _raises_model_error_naming(lambda: fm.simulate(system, 0.1, **{kind: {name: bad}}), repr(name))
+
+
+# ----------------------------------------------------------------------------- flexible bodies, sizes, settings
+# issue 18 section 5: each class of the section 3 defects is in reach of one of these properties
+
+
+@settings(MODEST, max_examples=15)
+@given(model=flexible_models(), data=st.data())
+def test_flexible_models_build_with_spd_mass_matrix_and_counted_memory(model, data):
+    system = model.build()
+    # the memory estimate's counts from the definitions match the built system (coordinates: an upper bound)
+    c = memory.counts(model)
+    assert c.n_bodies == system.topology.n_bodies and c.n_coords >= system.n_coords
+    x, xd = data.draw(states(system.n_coords, scale=0.3))
+    A = mass_matrix(system.kinematics(0.0, x, xd))
+    ev = np.linalg.eigvalsh((A + A.T) / 2)
+    assert ev[0] > 1e-12 * ev[-1], f"A not positive definite: eigenvalues {ev}"
+
+
+@settings(MODEST, max_examples=10)
+@given(model=flexible_models(), kw=simulate_arguments())
+def test_short_runs_with_random_settings_give_the_outputs_asked_for(model, kw):
+    try:
+        res = fm.simulate(model, method="Radau", **kw)
+    except fm.SimulationError as exc:  # allowed: a clear failure with the partial result
+        assert exc.result is not None
+        return
+    n_out = int(kw["n_out"])
+    assert res.status == "finished" and len(res.t) == n_out
+    assert res.t[-1] == pytest.approx(kw["t_end"] if n_out > 1 else 0.0)
+    assert np.all(np.isfinite(res.x)) and np.all(np.isfinite(res.xd))
+
+
+@MODEST
+@given(bad=bad_flexible_fields())
+def test_invalid_flexible_body_raises_model_error_naming_it(bad):
+    field, value, word = bad
+    args = dict(length=1.0, section=fm.Section.rectangular(0.02, 0.005), material=fm.Material.aluminium(),
+                n_segments=4, keep=("bend_y",))
+    args[field] = value
+    _raises_model_error_naming(lambda: fm.FlexibleBody("wing", **args), "'wing'", word)
+
+
+@MODEST
+@given(bad=bad_shapes())
+def test_invalid_shape_raises_model_error_naming_it(bad):
+    make, args, word = bad
+    _raises_model_error_naming(lambda: make(*args), repr(args[0]), word)
+
+
+@settings(MODEST, max_examples=10)
+@given(n=st.sampled_from(HUGE_COUNTS), keep=st.sampled_from([("bend_y",), ("bend_y", "bend_z", "torsion")]),
+       cap=st.sampled_from([None, "64M"]))
+def test_models_too_large_for_memory_are_refused_before_allocation(n, keep, cap):
+    """Never a MemoryError, never a swap storm: a ModelError that says how much is needed.
+
+    At the machine's own limit (``cap`` None) a model the estimate says fits
+    is left alone (building it is not this test's job); under 64 MiB none of
+    these fits.
+    """
+    model = fm.Model("huge")
+    beam = fm.FlexibleBody("beam", 1.0, fm.Section.rectangular(0.02, 0.005), fm.Material.aluminium(), n, keep=keep)
+    model.add(beam, fm.Fixed("clamp", model.ground, beam))
+    with memory_limit(cap):
+        if memory.estimate(model) <= memory.limit():
+            return
+        _raises_model_error_naming(model.build, "needs about", "of memory", "is available")
+
+
+@MODEST
+@given(specs=tree_specs(max_joints=2), bad=bad_simulate_arguments())
+def test_invalid_simulate_arguments_raise_model_error_naming_them(specs, bad):
+    keyword, value, word = bad
+    kw = {"t_end": 0.01, keyword: value}
+    t_end = kw.pop("t_end")
+    with memory_limit("8G"):  # 1e8 output times must not fit, whatever the machine
+        _raises_model_error_naming(lambda: fm.simulate(build_tree(specs)[0], t_end, **kw), word)

@@ -416,3 +416,36 @@ def test_initial_values_by_dotted_coordinate_names():
     assert scene.initial.positions == {"pin.angle": 0.25} and scene.initial.speeds == {"pin.angle": -1.5}
     res = scene.simulate(t_end=0.01, n_out=2)
     assert (res.x[0, 0], res.xd[0, 0]) == (0.25, -1.5)
+
+
+# ----------------------------------------------------------------------------- issue 18 section 3: refused at once
+
+
+@pytest.mark.parametrize("edit, expected", [
+    (("t_end = 1.0", "t_end = inf"), "scene.toml: solver.t_end: must be finite, got inf"),
+    (("t_end = 1.0", "t_end = nan"), "scene.toml: solver.t_end: must be > 0, got nan"),
+    (("t_end = 1.0", "t_end = 1.0\nrtol = inf"), "scene.toml: solver.rtol: must be finite, got inf"),
+    (("t_end = 1.0", "t_end = 1.0\nprojection_tol = inf"), "scene.toml: solver.projection_tol: must be finite"),
+    (("t_end = 1.0", "t_end = 1.0\nn_out = 0"), "scene.toml: solver.n_out: must be >= 2, got 0"),
+    (("t_end = 1.0", "t_end = 1.0\nn_out = 100_000_000"),
+     "scene.toml: solver.n_out: 100000000 output times: needs about"),
+    (("length = 1.0", "length = -1.0"), "scene.toml: bodies.bar.length: must be a finite number > 0, got -1.0"),
+    (("length = 1.0", "length = 0.0"), "scene.toml: bodies.bar.length: must be a finite number > 0, got 0.0"),
+])
+def test_scene_values_that_cannot_run_are_refused_at_load(edit, expected, monkeypatch):
+    """t_end = inf integrated forever; length -1 simulated."""
+    monkeypatch.setenv("FLEXMB_MEMORY_LIMIT", "8G")  # 1e8 output times must not fit, whatever the machine
+    old, new = edit
+    assert _error(GOOD.replace(old, new, 1)).startswith(expected)
+
+
+def test_scene_max_step_may_be_infinite():
+    assert fm.loads_scene(GOOD.replace("t_end = 1.0", "t_end = 1.0\nmax_step = inf")).solver.max_step == np.inf
+
+
+def test_study_section_holds_the_time_limit():
+    assert fm.loads_scene(GOOD + "[study]\ntime_limit = 30\n").solver.t_end == 1.0
+    assert _error(GOOD + "[study]\ntime_limit = -1\n").startswith("scene.toml: study.time_limit: must be > 0, got -1")
+    assert _error(GOOD + "[study]\ntime_limit = inf\n").startswith("scene.toml: study.time_limit: must be finite")
+    assert _error(GOOD + "[study]\ntime_limt = 3\n").startswith(
+        "scene.toml: study.time_limt: unknown key; allowed keys: time_limit")

@@ -38,6 +38,7 @@ from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 import flexmb as fm
+from strategies import memory_limit
 
 TUTORIALS = Path(__file__).resolve().parent.parent / "tutorials"
 BASES = {name: tomllib.loads((TUTORIALS / name).read_text(encoding="utf-8"))
@@ -228,8 +229,12 @@ def alarm(seconds: float):
         signal.signal(signal.SIGALRM, old)
 
 
-def check(text: str, expected: list[str] | None, run: bool = True):
-    """Load, build and (if ``run``) briefly run ``text``; assert the error properties; return what happened."""
+def check(text: str, expected: list[str] | None, run: bool = True, own_settings: bool = False):
+    """Load, build and (if ``run``) briefly run ``text``; assert the error properties; return what happened.
+
+    The run lasts 1 ms with 2 outputs, or, with ``own_settings``, uses the
+    scene's own ``[solver]`` settings (then it must give ``n_out`` outputs).
+    """
     with alarm(20.0):
         try:
             scene = fm.loads_scene(text, "fuzz.toml")
@@ -245,13 +250,15 @@ def check(text: str, expected: list[str] | None, run: bool = True):
             scene.system()
             if not run:
                 return "built"
-            result = scene.simulate(t_end=1e-3, n_out=2)
+            result = scene.simulate() if own_settings else scene.simulate(t_end=1e-3, n_out=2)
         except fm.FlexmbError:
             return "error"
         except Exception as exc:  # noqa: BLE001
             raise AssertionError(f"a loaded scene raised {type(exc).__name__}: {exc}") from exc
     if result.status == "finished":
         assert np.all(np.isfinite(result.x)) and np.all(np.isfinite(result.xd)), "finished with NaN"
+        if own_settings:
+            assert len(result.t) == scene.solver.n_out and result.t[-1] == pytest.approx(scene.solver.t_end)
     return "ran"
 
 
@@ -314,3 +321,50 @@ def test_broken_toml_gives_scene_error_with_line(text, line):
     msg = str(info.value)
     assert msg.startswith("fuzz.toml: invalid TOML"), msg
     assert f"line {line}" in msg, msg
+
+
+# ----------------------------------------------------------------------------- solver settings and sizes
+# issue 18 section 5: every example above ran with t_end = 1e-3 and n_out = 2, so t_end = inf, n_out = 1e8 or
+# n_segments = 100000 were never in reach. Here the scene runs with its own drawn settings, under the alarm:
+# a value that cannot run must be refused at load, naming its key; a hang or a MemoryError fails the property.
+
+#: out-of-range values of each drawn key, and the key path the SceneError must name
+OUT_OF_RANGE = {
+    ("solver", "t_end"): [math.inf, math.nan, -1.0, 0.0],
+    ("solver", "n_out"): [0, 1, 10**8, 10**12],
+    ("solver", "rtol"): [math.inf, math.nan, -1.0, 0.0],
+    ("solver", "max_step"): [0.0, -1.0, math.nan],
+    ("bodies", "beam", "n_segments"): [100_000, 10**6, 0, -1],
+    ("bodies", "bar", "length"): [0.0, -1.0, math.inf],
+}
+
+
+@st.composite
+def sized_scenes(draw):
+    """``(document, key path spoiled or None)``: a tutorial with drawn short settings and sizes, maybe one out of range."""
+    base = draw(st.sampled_from(sorted(BASES)))
+    doc = json.loads(json.dumps(BASES[base]))
+    solver = doc["solver"]
+    solver["t_end"] = draw(st.floats(1e-4, 5e-3))
+    solver["n_out"] = draw(st.integers(2, 40))
+    solver["rtol"] = draw(st.sampled_from([1e-4, 1e-6, 1e-8]))
+    if draw(st.booleans()):
+        solver["max_step"] = draw(st.sampled_from([1e-3, 1e-4]))
+    if "beam" in doc.get("bodies", {}):
+        doc["bodies"]["beam"]["n_segments"] = draw(st.integers(1, 12))
+    paths = [p for p in OUT_OF_RANGE if p[0] == "solver" or (p[1] in doc.get("bodies", {})
+                                                              and p[2] in doc["bodies"][p[1]])]
+    path = draw(st.sampled_from([None] + paths))
+    if path is not None:
+        _get(doc, path[:-1])[path[-1]] = draw(st.sampled_from(OUT_OF_RANGE[path]))
+    return doc, path
+
+
+@settings(MODEST, max_examples=20)
+@given(case=sized_scenes())
+def test_settings_and_sizes_run_as_asked_or_are_refused_at_load(case):
+    doc, path = case
+    with memory_limit("256M"):  # n_out = 1e8 or 100,000 segments must not fit, whatever the machine or core
+        what = check(dumps(doc), None if path is None else [_dotted(path)], own_settings=True)
+    if path is not None:
+        assert what == "scene error", f"{_dotted(path)} = {_get(doc, path)!r} was not refused at load ({what})"

@@ -735,3 +735,88 @@ def test_result_unknown_names(driven_result):
         res.driver_effort("unknown")
     with pytest.raises(fm.FlexmbError, match=r"no body 'unknown'; known: \['bar0', 'bar1'\]"):
         res.body_position("unknown")
+
+
+# ----------------------------------------------------------------------------- issue 18 section 3: refused at once
+
+B1_SECTION = fm.Section.rectangular(0.02, 0.005)
+
+
+@pytest.mark.parametrize("n", [NAN, INF, -INF, None, 2.5, 0, -3, True, "4", [4]])
+def test_flexible_body_bad_n_segments_is_a_model_error(n):
+    with pytest.raises(fm.ModelError, match=r"FlexibleBody 'beam': n_segments must be an integer >= 1, got "):
+        fm.FlexibleBody("beam", 1.0, B1_SECTION, fm.Material.aluminium(), n_segments=n)
+
+
+@pytest.mark.parametrize("n", [4.0, np.int64(4), np.float64(4.0)])
+def test_flexible_body_whole_float_n_segments_builds(n):
+    beam = fm.FlexibleBody("beam", 1.0, B1_SECTION, fm.Material.aluminium(), n_segments=n, keep=("bend_y",))
+    assert beam.n_segments == 4 and type(beam.n_segments) is int
+    model = fm.Model()
+    model.add(beam, fm.Fixed("clamp", model.ground, beam))
+    assert model.build().n_coords == 4
+
+
+@pytest.mark.parametrize("kw, message", [
+    ({"rtol": -1}, r"simulate: rtol must be > 0, got -1"),
+    ({"rtol": 0.0}, r"simulate: rtol must be > 0, got 0.0"),
+    ({"rtol": NAN}, r"simulate: rtol must be a finite number, got nan"),
+    ({"rtol": INF}, r"simulate: rtol must be a finite number, got inf"),
+    ({"rtol": "x"}, r"simulate: rtol must be a number, got 'x'"),
+    ({"atol": -1e-9}, r"simulate: atol must be finite and >= 0, got -1e-09"),
+    ({"atol": NAN}, r"simulate: atol must be finite and >= 0, got nan"),
+    ({"n_out": 0}, r"simulate: n_out must be an integer >= 1, got 0"),
+    ({"n_out": -5}, r"simulate: n_out must be an integer >= 1, got -5"),
+    ({"n_out": 2.5}, r"simulate: n_out must be an integer >= 1, got 2.5"),
+    ({"n_out": NAN}, r"simulate: n_out must be an integer >= 1, got nan"),
+    ({"n_out": None}, r"simulate: n_out must be an integer >= 1, got None"),
+    ({"max_step": 0}, r"simulate: max_step must be > 0, got 0"),
+    ({"max_step": -1.0}, r"simulate: max_step must be > 0, got -1.0"),
+    ({"max_step": NAN}, r"simulate: max_step must be a finite number, got nan"),
+    ({"projection_tol": 0.0}, r"simulate: projection_tol must be > 0, got 0.0"),
+    ({"t0": NAN}, r"simulate: t0 must be a finite number, got nan"),
+    ({"t0": -INF}, r"simulate: t0 must be a finite number, got -inf"),
+    ({"t_eval": [0.0, NAN, 0.5]}, r"t_eval must be increasing and within \[t0, t_end\]"),
+    ({"t_eval": []}, r"t_eval must be increasing and within \[t0, t_end\]"),
+])
+def test_simulate_bad_arguments_are_model_errors(kw, message):
+    """Each used to reach scipy (ValueError, IndexError) or, for rtol NaN, blame the mass matrix."""
+    with pytest.raises(fm.ModelError, match=message):
+        fm.simulate(pendulum(), 0.5, **kw)
+
+
+@pytest.mark.parametrize("t_end", [INF, NAN])
+def test_simulate_non_finite_t_end_is_refused_at_once(t_end):
+    """t_end = inf used to integrate forever."""
+    with pytest.raises(fm.ModelError, match=rf"simulate: t_end must be a finite number, got {t_end}"):
+        fm.simulate(pendulum(), t_end)
+
+
+def test_simulate_whole_float_n_out_is_taken():
+    res = fm.simulate(pendulum(), 0.1, n_out=3.0)
+    assert len(res.t) == 3
+
+
+@pytest.mark.parametrize("length", [0, -1, 0.0, NAN, INF, None, "1"])
+def test_slender_bar_non_positive_length(length):
+    with pytest.raises(fm.ModelError, match=r"RigidBody.slender_bar 'bar': length must be a finite number > 0"):
+        fm.RigidBody.slender_bar("bar", 1.0, length)
+
+
+def test_slender_bar_bad_axis_and_mass():
+    with pytest.raises(fm.ModelError, match=r"RigidBody.slender_bar 'bar': axis must be 0, 1 or 2, got 3"):
+        fm.RigidBody.slender_bar("bar", 1.0, 1.0, axis=3)
+    with pytest.raises(fm.ModelError, match=r"RigidBody 'bar': mass must be > 0, got 'heavy'"):
+        fm.RigidBody.slender_bar("bar", "heavy", 1.0)
+
+
+@pytest.mark.parametrize("size", [(1.0, 0.0, 1.0), (-1.0, 1.0, 1.0), (1.0, NAN, 1.0), (1.0, 1.0), (1.0, INF, 1.0), "abc"])
+def test_box_non_positive_size(size):
+    with pytest.raises(fm.ModelError, match=r"RigidBody.box 'block': size must be 3 finite edge lengths > 0"):
+        fm.RigidBody.box("block", 1.0, size)
+
+
+def test_unclamped_flexible_body_of_one_segment_is_refused():
+    """Found by the extended hypothesis generators: it passed construction, then failed in BeamElasticity."""
+    with pytest.raises(fm.ModelError, match=r"FlexibleBody 'beam': an unclamped flexible body needs n_segments >= 2"):
+        fm.FlexibleBody("beam", 1.0, B1_SECTION, fm.Material.aluminium(), n_segments=1, clamped=False)

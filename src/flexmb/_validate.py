@@ -10,7 +10,8 @@ import numpy as np
 
 from .errors import ModelError
 
-__all__ = ["as_array", "as_float", "label", "vector3", "matrix33", "positive", "finite_array", "name_check", "is_a"]
+__all__ = ["as_array", "as_float", "label", "vector3", "matrix33", "positive", "finite_array", "name_check", "is_a",
+           "as_count", "count", "positive_value", "simulate_arguments"]
 
 
 def as_array(value):
@@ -111,3 +112,108 @@ def rotation_matrix(instance, attribute, value):
 def optional_array(value):
     """Convert unless None."""
     return None if value is None else as_array(value)
+
+
+def as_count(value):
+    """``int(value)`` for a finite whole number (``4``, ``4.0``, ``np.int64(4)``), else ``value`` unchanged.
+
+    The validator :func:`count` then rejects what is left (NaN, inf, None,
+    2.5, a string) with a message naming the element.
+    """
+    if isinstance(value, (bool, str, bytes)):
+        return value
+    try:
+        f = float(value)
+    except (TypeError, ValueError, OverflowError):
+        return value
+    if np.isfinite(f) and f == int(f):
+        return int(f)
+    return value
+
+
+def count(instance, attribute, value):
+    """Validator: an integer >= 1."""
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+        raise ModelError(f"{label(instance)}: {attribute.name} must be an integer >= 1, got {value!r}")
+
+
+def positive_value(where: str, what: str, value) -> float:
+    """``float(value)`` if it is a finite number > 0, else raise :class:`ModelError`.
+
+    For arguments of functions (named constructors, :func:`flexmb.simulate`),
+    where no attrs validator runs; ``where`` names the element or function.
+    """
+    try:
+        f = float("nan") if isinstance(value, (str, bytes)) else float(value)
+    except (TypeError, ValueError, OverflowError):
+        f = float("nan")
+    if isinstance(value, bool) or not (np.isfinite(f) and f > 0):
+        raise ModelError(f"{where}: {what} must be a finite number > 0, got {value!r}")
+    return f
+
+
+def _number(where, what, value, *, finite=True, minimum=None, strict=True):
+    try:
+        if isinstance(value, (str, bytes)):
+            raise TypeError
+        f = float(value)
+    except (TypeError, ValueError, OverflowError):
+        raise ModelError(f"{where}: {what} must be a number, got {value!r}") from None
+    if isinstance(value, bool) or np.isnan(f) or (finite and not np.isfinite(f)):
+        raise ModelError(f"{where}: {what} must be a finite number, got {value!r}")
+    if minimum is not None and not (f > minimum if strict else f >= minimum):
+        raise ModelError(f"{where}: {what} must be {'>' if strict else '>='} {minimum:g}, got {value!r}")
+    return f
+
+
+def simulate_arguments(t0, t_end, n_out, t_eval, rtol, atol, max_step, projection_tol):
+    """Check the numeric arguments of :func:`flexmb.simulate` before anything is built.
+
+    Returns
+    -------
+    t0, t_end : float
+        Finite, ``t_end > t0``.
+    n_out : int
+        An integer >= 1 (``4.0`` is taken as 4).
+    t_eval : ndarray or None
+        Finite output times, 1-d, increasing, within ``[t0, t_end]``.
+    rtol : float
+        Finite, > 0.
+    atol : float or ndarray or None
+        Finite, >= 0 (None: ``rtol / 100``).
+    max_step, projection_tol : float
+        > 0; ``max_step`` may be ``inf``.
+
+    Raises
+    ------
+    ModelError
+        Naming the argument and what is wrong with it.
+    """
+    where = "simulate"
+    t0 = _number(where, "t0", t0)
+    t_end = _number(where, "t_end", t_end)
+    if not t_end > t0:
+        raise ModelError(f"t_end must be > t0, got t0 = {t0}, t_end = {t_end}")
+    n = as_count(n_out)
+    if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+        raise ModelError(f"{where}: n_out must be an integer >= 1, got {n_out!r}")
+    if t_eval is not None:
+        try:
+            t_eval = np.array(t_eval, dtype=float)
+        except (TypeError, ValueError):
+            raise ModelError(f"{where}: t_eval must be an array of times, got {t_eval!r}") from None
+        if (t_eval.ndim != 1 or t_eval.size == 0 or not np.all(np.isfinite(t_eval)) or np.any(np.diff(t_eval) <= 0)
+                or t_eval[0] < t0 or t_eval[-1] > t_end):
+            raise ModelError("t_eval must be increasing and within [t0, t_end]")
+    rtol = _number(where, "rtol", rtol, minimum=0.0)
+    if atol is not None:
+        try:
+            a = np.array(atol, dtype=float)
+        except (TypeError, ValueError):
+            raise ModelError(f"{where}: atol must be a number or an array of numbers, got {atol!r}") from None
+        if isinstance(atol, bool) or not np.all(np.isfinite(a)) or np.any(a < 0):
+            raise ModelError(f"{where}: atol must be finite and >= 0, got {atol!r}")
+        atol = float(a) if a.ndim == 0 else a
+    max_step = _number(where, "max_step", max_step, finite=False, minimum=0.0)
+    projection_tol = _number(where, "projection_tol", projection_tol, minimum=0.0)
+    return t0, t_end, n, t_eval, rtol, atol, max_step, projection_tol

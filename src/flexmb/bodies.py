@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from attrs import field, frozen
 
-from ._validate import as_array, as_float, label, matrix33, name_check, positive, vector3
+from ._validate import as_array, as_float, label, matrix33, name_check, positive, positive_value, vector3
 from .errors import ModelError
 
 __all__ = ["Body", "Ground", "RigidBody", "Marker"]
@@ -138,7 +138,7 @@ class RigidBody(Body):
         mass : float
             Mass, kg.
         length : float
-            Length, m.
+            Length, m (finite, > 0).
         axis : {0, 1, 2}
             Body axis along the bar.
         centred : bool
@@ -149,8 +149,18 @@ class RigidBody(Body):
         -------
         RigidBody
             Central inertia ``m l^2 / 12`` about the two transverse axes.
+
+        Raises
+        ------
+        ModelError
+            If the length is not a finite number > 0 or the axis is not 0, 1 or 2.
         """
-        moments = np.full(3, mass * length**2 / 12.0)
+        where = f"RigidBody.slender_bar {name!r}"
+        length = positive_value(where, "length", length)
+        if isinstance(axis, bool) or axis not in (0, 1, 2):
+            raise ModelError(f"{where}: axis must be 0, 1 or 2, got {axis!r}")
+        mass = as_float(mass)  # anything else: the mass validator names it
+        moments = np.full(3, (mass if isinstance(mass, float) else 0.0) * length**2 / 12.0)
         moments[axis] = 0.0
         com = np.zeros(3)
         if not centred:
@@ -168,7 +178,7 @@ class RigidBody(Body):
         mass : float
             Mass, kg.
         size : array_like, shape (3,)
-            Edge lengths along the body axes, m.
+            Edge lengths along the body axes, m (finite, > 0).
         com : array_like, shape (3,)
             Mass-centre location in the body frame, m.
 
@@ -176,9 +186,23 @@ class RigidBody(Body):
         -------
         RigidBody
             Central inertia ``m (b^2 + c^2) / 12`` etc.
+
+        Raises
+        ------
+        ModelError
+            If ``size`` is not three finite edge lengths > 0.
         """
-        a, b, c = np.asarray(size, dtype=float)
-        moments = mass / 12.0 * np.array([b * b + c * c, a * a + c * c, a * a + b * b])
+        where = f"RigidBody.box {name!r}"
+        try:
+            edges = np.array(size, dtype=float)
+        except (TypeError, ValueError):
+            edges = None
+        if edges is None or edges.shape != (3,) or not np.all(np.isfinite(edges)) or not np.all(edges > 0):
+            raise ModelError(f"{where}: size must be 3 finite edge lengths > 0, got {size!r}")
+        a, b, c = edges
+        mass = as_float(mass)
+        moments = (mass if isinstance(mass, float) else 0.0) / 12.0 * np.array([b * b + c * c, a * a + c * c,
+                                                                                  a * a + b * b])
         return cls(name, mass, moments, com)
 
 

@@ -9,7 +9,8 @@ run stopped with Ctrl-C writes what it computed and gives 130. A run locks
 its output folder: a second run into the same folder is refused with exit
 status 2; the outputs replace the previous run's only once complete.
 ``flexmb study SCENE.toml --vary KEY=SPEC ... --out DIR`` runs a parameter
-study (:mod:`flexmb.study`); it gives 1 if some case failed.
+study (:mod:`flexmb.study`); it gives 1 if some case failed (``--time-limit
+SECONDS`` stops a case that takes longer and records it as failed).
 """
 
 from __future__ import annotations
@@ -112,7 +113,7 @@ def _study(args) -> int:
     executor = "serial" if args.serial else "process"
     try:
         result = study.run(args.out, executor=executor, workers=args.workers, scheduler=args.scheduler,
-                           progress=not args.quiet, retry_failed=args.retry_failed)
+                           progress=not args.quiet, retry_failed=args.retry_failed, time_limit=args.time_limit)
     except KeyboardInterrupt:
         print(f"\nflexmb: interrupted: the finished cases are in {args.out}/cases/; "
               "run the same command again to resume", file=sys.stderr)
@@ -173,6 +174,9 @@ def main(argv=None) -> int:
                     help="run on this Dask scheduler, e.g. tcp://10.0.0.1:8786 (pip install -e '.[dask]')")
     st.add_argument("--serial", action="store_true", help="run the cases one after another in this process")
     st.add_argument("--retry-failed", action="store_true", help="run again the cases recorded as failed")
+    st.add_argument("--time-limit", type=float, default=None, metavar="SECONDS",
+                    help="wall-clock seconds one case may take; a case that takes longer is stopped and recorded "
+                         "as failed (default: the scene's [study] time_limit, else none)")
     st.add_argument("--quiet", action="store_true", help="no progress on stderr")
     st.set_defaults(func=_study)
     args = parser.parse_args(argv)

@@ -24,7 +24,7 @@ from typing import ClassVar
 import numpy as np
 from attrs import field, frozen
 
-from ._validate import label, positive
+from ._validate import as_count, count, label, positive
 from .bodies import Body
 from .errors import ModelError
 from .joints import Joint
@@ -134,11 +134,6 @@ def _check_keep(instance, attribute, value):
         raise ModelError(f"{label(instance)}: keep lists a coordinate twice: {list(value)}")
 
 
-def _check_segments(instance, attribute, value):
-    if int(value) != value or value < 1:
-        raise ModelError(f"{label(instance)}: n_segments must be an integer >= 1, got {value!r}")
-
-
 def _non_negative(instance, attribute, value):
     if not np.isfinite(value) or value < 0:
         raise ModelError(f"{label(instance)}: {attribute.name} must be finite and >= 0, got {value!r}")
@@ -164,7 +159,8 @@ class FlexibleBody(Body):
     material : Material
         Material.
     n_segments : int
-        N, number of rigid segments.
+        N, number of rigid segments (>= 1; a whole float such as ``4.0`` is
+        taken as 4).
     keep : tuple of str
         Elastic coordinates each segment joint carries, any of ``"torsion"``,
         ``"bend_y"`` (bending in the x-z plane), ``"bend_z"`` (in the x-y
@@ -194,7 +190,7 @@ class FlexibleBody(Body):
     length: float = field(default=1.0, converter=float, validator=positive)
     section: Section = field(default=None)
     material: Material = field(default=None)
-    n_segments: int = field(default=8, validator=_check_segments)
+    n_segments: int = field(default=8, converter=as_count, validator=count)
     keep: tuple = field(default=("bend_y", "bend_z", "torsion"), converter=_keep, validator=_check_keep)
     damping: float = field(default=0.0, converter=float, validator=_non_negative)
     clamped: bool = field(default=True, converter=bool)
@@ -209,6 +205,11 @@ class FlexibleBody(Body):
     def _check_material(self, attribute, value):
         if not isinstance(value, Material):
             raise ModelError(f"{label(self)}: material must be a Material, got {type(value).__name__}")
+
+    def __attrs_post_init__(self):
+        if not self.clamped and self.n_segments < 2:
+            raise ModelError(f"{label(self)}: an unclamped flexible body needs n_segments >= 2 (one segment has "
+                             "no elastic joint); use a RigidBody, or clamped = True")
 
     @classmethod
     def uniform_beam(cls, name: str, length: float, section: Section, material: Material,

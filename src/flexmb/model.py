@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections import Counter
 
+from . import memory
 from .bodies import Body, Ground
 from .drivers import Driver
 from .errors import ModelError
@@ -139,12 +140,15 @@ class Model:
         Raises
         ------
         ModelError
-            With ``.problems`` holding all messages.
+            With ``.problems`` holding all messages; a model that would not
+            fit in the available memory (:func:`flexmb.memory.check`) is
+            refused before anything is allocated.
         """
         from .topology import Topology
 
         problems = self.problems()
         try:
+            memory.check(self)  # before Topology allocates anything
             Topology(self)
         except ModelError as exc:
             problems += [p for p in exc.problems if p not in problems]

@@ -50,7 +50,7 @@ import attrs
 import numpy as np
 from attrs import define, evolve, field, frozen
 
-from . import registry
+from . import memory, registry
 from .errors import FlexmbError, ModelError, PluginError, SceneError, SimulationError
 
 __all__ = ["Scene", "SolverSettings", "OutputSettings", "InitialState", "load_scene", "loads_scene", "SECTIONS"]
@@ -68,7 +68,11 @@ SECTIONS = {
     "initial": "initial positions, speeds and held coordinates",
     "solver": "end time, integrator, tolerances, outputs times, complement",
     "output": "files to write and points to track",
+    "study": "settings of parameter studies of the scene (time_limit per case)",
 }
+
+#: keys of the ``[study]`` table (read by :mod:`flexmb.study`; a plain run ignores them)
+STUDY_KEYS = ("time_limit",)
 
 _BODY_KEYS = {"parent", "child", "body", "body1", "body2"}
 _TOML_TYPES = {bool: "a boolean", int: "an integer", float: "a float", str: "a string", list: "an array",
@@ -638,15 +642,41 @@ class _Loader:
         self.load_forces(model)
         self.load_drivers(model)
         solver = self.load_solver(complement)
+        self.load_study()
         initial = self.load_initial()
         output = self.load_output(name)
         scene = Scene(name, model, initial, solver, output, self.source, self.types)
+        self.check_memory(model)
         try:
             system = scene.system()
         except FlexmbError as exc:
             self.fail("", str(exc).replace(":\n  - ", ": ").replace("\n  - ", "; "))
         self.check_coordinates(system, initial)
+        try:
+            memory.check(system, solver.n_out, what=f"{solver.n_out} output times", model=False)
+        except ModelError as exc:
+            self.fail("solver.n_out", str(exc))
         return scene
+
+    def check_memory(self, model) -> None:
+        """Refuse a model too large for memory at the key that sizes it (the finest flexible body's n_segments)."""
+        from .flexible import FlexibleBody
+
+        try:
+            memory.check(model, what=f"Model {model.name!r}")
+        except ModelError as exc:
+            flexible = [(b.n_segments, name) for name, b in self.bodies.items() if isinstance(b, FlexibleBody)]
+            self.fail(f"bodies.{max(flexible)[1]}.n_segments" if flexible else "", str(exc))
+
+    def load_study(self) -> dict:
+        t = self.table("study", self.data.get("study", {}))
+        self.keys("study", t, optional=STUDY_KEYS)
+        out = {}
+        if "time_limit" in t:
+            out["time_limit"] = self.number("study.time_limit", t["time_limit"], positive=True)
+            if not math.isfinite(out["time_limit"]):
+                self.fail("study.time_limit", f"must be finite (seconds), got {t['time_limit']!r}")
+        return out
 
     def load_materials(self):
         from .sections import Material
@@ -777,6 +807,8 @@ class _Loader:
                     self.fail(p, f"must be >= 2, got {v}")
             else:
                 kw[k] = self.number(p, v, positive=True)
+                if k != "max_step" and not math.isfinite(kw[k]):  # t_end = inf would integrate forever
+                    self.fail(p, f"must be finite, got {v!r}")
         kw.setdefault("complement", complement)
         if kw["complement"] not in registry.names("complements"):
             key = "solver.complement" if "complement" in t else "model.complement"

@@ -9,7 +9,8 @@ import warnings
 import numpy as np
 from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, Radau
 
-from . import registry
+from . import memory, registry
+from ._validate import simulate_arguments
 from .errors import AssemblyError, FlexmbError, ModelError, SimulationError, StiffnessWarning
 from .genalpha import GeneralizedAlpha
 from .integrators import CVODEAdams, CVODEBDF, adapt, capabilities
@@ -244,7 +245,10 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         If the state goes non-finite or the solver fails; ``.result`` holds
         the outputs computed up to then and ``.t`` the time.
     ModelError
-        If the model has no degree of freedom left.
+        If an argument is out of range (non-finite ``t0`` or ``t_end``,
+        ``rtol <= 0``, ``n_out < 1``, ``max_step <= 0``, ...; the message
+        names it), if the outputs would not fit in the available memory
+        (:mod:`flexmb.memory`), or if the model has no degree of freedom left.
 
     Warns
     -----
@@ -262,13 +266,14 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     >>> res.status
     'finished'
     """
+    t0, t_end, n_out, t_eval, rtol, atol, max_step, projection_tol = simulate_arguments(
+        t0, t_end, n_out, t_eval, rtol, atol, max_step, projection_tol)
     system = _as_system(model, complement)
     auto = method == "auto"
     solver_cls = None if auto else _solver_class(method)
     name = method if isinstance(method, str) else getattr(method, "__name__", str(method))
     atol = rtol / 100 if atol is None else atol
-    if not t_end > t0:
-        raise ModelError(f"t_end must be > t0, got t0 = {t0}, t_end = {t_end}")
+    memory.check(system, n_out if t_eval is None else len(t_eval), what="simulate", model=False)
     if progress is None:
         progress = sys.stderr.isatty()
 

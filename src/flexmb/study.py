@@ -11,8 +11,10 @@ built by the same loader as a scene file (:func:`flexmb.scene.scene_from_dict`),
 simulated, and reduced to its outputs. The cases run
 
 * serially (``executor="serial"``),
-* on a local process pool (the default; :class:`concurrent.futures.ProcessPoolExecutor`
-  with the ``forkserver`` or ``spawn`` start method), or
+* on local processes (the default; one process per case, at most
+  ``workers`` at a time, with the ``forkserver`` or ``spawn`` start method;
+  a case past its time limit is killed, and every case process ends when
+  the study process ends, even if it is killed), or
 * on a Dask cluster (``scheduler="tcp://host:8786"`` or a
   ``dask.distributed.Client``; ``pip install -e ".[dask]"``, imported only
   then),
@@ -21,8 +23,10 @@ and give the same table. Each finished case is written at once, atomically,
 to ``OUT/cases/<case id>.json``; the case id is a hash of its parameter
 values, so a study started again with the same arguments runs only the
 cases that are not yet done. A case that fails (the scene does not build,
-the run goes non-finite, the worker process dies) is recorded with its error
-and the study goes on. At the end the table is written as ``table.csv``,
+the run goes non-finite, the worker process dies, the case passes its
+time limit: ``time_limit`` seconds, the ``[study] time_limit`` scene key or
+``flexmb study --time-limit``) is recorded with its error and the study
+goes on. At the end the table is written as ``table.csv``,
 ``table.npz`` (and ``table.parquet`` if pyarrow is installed), each output
 is plotted against each parameter (``study.png``) and a summary is printed.
 
@@ -39,14 +43,18 @@ Examples
 from __future__ import annotations
 
 import csv
+import ctypes
 import hashlib
 import io
 import json
 import math
 import multiprocessing
 import os
+import select
+import signal
 import socket
 import sys
+import threading
 import time
 import tomllib
 from collections import deque
@@ -489,6 +497,97 @@ def _failed_row(task: dict, message: str) -> dict:
             "status": "failed", "error": message, "wall_time_s": float("nan"), "worker": ""}
 
 
+class _CaseTimeout(BaseException):
+    """Raised in the thread of a case that passed its time limit (a BaseException: no ``except Exception`` stops it)."""
+
+
+def _timeout_message(limit: float) -> str:
+    return f"exceeded the time limit of {limit:g} s per case; stopped"
+
+
+def _run_case_limited(task: dict) -> dict:
+    """:func:`_run_case` in this thread, stopped at ``task["time_limit"]`` seconds (serial and Dask executors).
+
+    A timer thread raises :class:`_CaseTimeout` in this thread
+    (``PyThreadState_SetAsyncExc``); it takes effect at the next Python
+    bytecode, so a case stuck inside one long call of compiled code stops
+    when that call returns. The process executor kills the case's process
+    instead (:func:`_execute_pool`).
+    """
+    limit = task.get("time_limit")
+    if not limit:
+        return _run_case(task)
+    t0 = time.perf_counter()
+    tid, lock, state = threading.get_ident(), threading.Lock(), {"done": False}
+
+    def fire():
+        with lock:  # never after the case has ended: the exception would hit the caller
+            if not state["done"]:
+                ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(tid), ctypes.py_object(_CaseTimeout))
+
+    timer = threading.Timer(limit, fire)
+    timer.daemon = True
+    try:
+        try:
+            timer.start()
+            return _run_case(task)
+        finally:
+            with lock:
+                state["done"] = True
+            timer.cancel()
+    except _CaseTimeout:
+        row = _failed_row(task, _timeout_message(limit))
+        row.update(wall_time_s=time.perf_counter() - t0, worker=f"{socket.gethostname()}:{os.getpid()}")
+        return row
+
+
+def _watch_study(pid: int) -> None:
+    """End this process (a case's) as soon as the study process ``pid`` ends, even by SIGKILL.
+
+    A daemon thread waits on a pidfd of the study process (Linux >= 5.3;
+    elsewhere it polls ``os.kill(pid, 0)`` twice a second), then calls
+    ``os._exit``. ``PR_SET_PDEATHSIG`` would not do: under the ``forkserver``
+    start method the parent of a case's process is the fork server, not
+    the study, and the fork server lives on while any case process holds its
+    liveness pipe. Once the cases end, the fork server and the resource
+    tracker see their pipes close and end too.
+    """
+    try:
+        fd = os.pidfd_open(pid)
+    except ProcessLookupError:
+        os._exit(70)
+    except (AttributeError, OSError):
+        fd = None
+
+    def watch():
+        if fd is not None:
+            select.select([fd], [], [])  # readable once the process has ended
+        else:
+            while True:
+                try:
+                    os.kill(pid, 0)
+                except ProcessLookupError:
+                    break
+                except PermissionError:
+                    pass
+                time.sleep(0.5)
+        os._exit(70)
+
+    threading.Thread(target=watch, name="flexmb-study-watchdog", daemon=True).start()
+
+
+def _case_process(task: dict, conn, study_pid: int) -> None:
+    """Body of the process of one case (process executor): run it, send its row back."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the study's: it stops its cases
+    _watch_study(study_pid)
+    row = _run_case(task)
+    try:
+        conn.send(row)
+    except Exception as exc:  # e.g. an output that cannot be pickled
+        conn.send(_failed_row(task, f"{type(exc).__name__}: {exc}"))
+    conn.close()
+
+
 # ----------------------------------------------------------------------------- executors
 
 
@@ -512,7 +611,7 @@ def default_workers() -> int:
 
 def _execute_serial(tasks, record, workers):
     for task in tasks:
-        record(task, _run_case(task))
+        record(task, _run_case_limited(task))
 
 
 #: environment of the worker processes: one BLAS thread each, as Dask's nanny sets it, so that the
@@ -521,58 +620,70 @@ WORKER_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THRE
 
 
 def _execute_pool(tasks, record, workers):
-    """A process pool with at most ``workers`` cases in flight.
+    """Each case in its own process, at most ``workers`` at a time; the study kills a case at its time limit.
 
-    If a worker process dies, every case then in flight is rerun alone; a
-    case that kills its worker while running alone is recorded as failed.
+    A process per case (forked by the ``forkserver``, which has imported
+    flexmb once, so a case starts in milliseconds) makes both failures
+    exact: a case that passes ``task["time_limit"]`` is killed by this
+    process, recorded as failed with the reason, and the study goes on; a
+    case that kills its process is recorded as failed, and no other case is
+    disturbed. Each case process ends when the study process ends
+    (:func:`_watch_study`), even if it is killed.
     """
-    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
-    from concurrent.futures.process import BrokenProcessPool
+    from multiprocessing.connection import wait
 
     ctx = multiprocessing.get_context(_start_method())
-    queue, suspects = deque(tasks), deque()
-    pool = None
+    if ctx.get_start_method() == "forkserver":
+        ctx.set_forkserver_preload(["__main__", "flexmb.study"])
+    queue, running = deque(tasks), {}
     saved = {k: os.environ.get(k) for k in WORKER_ENV}
-    os.environ.update(WORKER_ENV)  # read by the workers' BLAS when they start (this process's is loaded)
+    os.environ.update(WORKER_ENV)  # read by the cases' BLAS when they start (this process's is loaded)
     try:
-        while queue or suspects:
-            pool = ProcessPoolExecutor(max_workers=workers, mp_context=ctx)
-            running, broken, refused = {}, [], False
-            while (queue or suspects or running) and not broken:
-                limit = 1 if suspects else workers
-                while not refused and len(running) < limit and (suspects or queue) and not (suspects and running):
-                    source = suspects if suspects else queue
-                    task = source.popleft()
+        while queue or running:
+            while queue and len(running) < workers:
+                task = queue.popleft()
+                reader, writer = ctx.Pipe(duplex=False)
+                proc = ctx.Process(target=_case_process, args=(task, writer, os.getpid()), daemon=True,
+                                   name=f"flexmb-case-{task['case_id']}")
+                proc.start()
+                writer.close()
+                limit = task.get("time_limit")
+                running[proc.sentinel] = (proc, reader, task, time.perf_counter(), limit or math.inf)
+            now = time.perf_counter()
+            timeout = min(t0 + limit for _, _, _, t0, limit in running.values()) - now
+            ready = set(wait([r for _, r, _, _, _ in running.values()] + list(running),
+                             timeout=None if math.isinf(timeout) else max(timeout, 0.0)))
+            now = time.perf_counter()
+            for sentinel, (proc, reader, task, t0, limit) in list(running.items()):
+                row = None
+                if reader in ready or sentinel in ready:
                     try:
-                        running[pool.submit(_run_case, task)] = task
-                    except BrokenProcessPool:  # a worker died since the last wait: this case never ran
-                        source.appendleft(task)
-                        refused = True
-                if not running:
-                    break  # (refused) a fresh pool takes the rest
-                # after a refusal the cases in flight end, those on the dead worker with BrokenProcessPool
-                done, _ = wait(running, return_when=FIRST_COMPLETED)
-                for fut in done:
-                    task = running.pop(fut)
-                    try:
-                        row = fut.result()
-                    except BrokenProcessPool:
-                        broken.append(task)
-                        continue
-                    except Exception as exc:  # e.g. a result that cannot be pickled
-                        row = _failed_row(task, f"{type(exc).__name__}: {exc}")
-                    record(task, row)
-            if broken:
-                broken += list(running.values())
-                if len(broken) == 1:
-                    record(broken[0], _failed_row(broken[0], "worker process died while running this case"))
+                        row = reader.recv() if reader.poll() else None
+                    except (EOFError, OSError):
+                        row = None
+                    if row is None and sentinel not in ready:
+                        continue  # (not a row yet: the pipe only closed) wait for the process
+                    if row is None:
+                        row = _failed_row(task, "worker process died while running this case")
+                elif now - t0 >= limit:
+                    proc.kill()
+                    row = _failed_row(task, _timeout_message(limit))
+                    row.update(wall_time_s=now - t0, worker=f"{socket.gethostname()}:{proc.pid}")
                 else:
-                    suspects.extend(broken)
-            pool.shutdown(wait=True, cancel_futures=True)
-            pool = None
+                    continue
+                proc.join(5.0)
+                if proc.is_alive():
+                    proc.kill()
+                    proc.join()
+                reader.close()
+                proc.close()
+                del running[sentinel]
+                record(task, row)
     finally:
-        if pool is not None:
-            pool.shutdown(wait=False, cancel_futures=True)
+        for proc, reader, *_ in running.values():
+            proc.kill()
+            proc.join()
+            reader.close()
         for k, v in saved.items():
             if v is None:
                 os.environ.pop(k, None)
@@ -583,7 +694,7 @@ def _execute_pool(tasks, record, workers):
 def _execute_dask(tasks, record, client):
     from distributed import as_completed
 
-    futures = {client.submit(_run_case, task, pure=False, key=f"flexmb-case-{task['case_id']}-{task['study'][:8]}"):
+    futures = {client.submit(_run_case_limited, task, pure=False, key=f"flexmb-case-{task['case_id']}-{task['study'][:8]}"):
                task for task in tasks}
     try:
         for fut in as_completed(list(futures)):
@@ -831,8 +942,20 @@ class Study:
             raise FlexmbError(f"Study: column names must be unique; clash: {sorted(clash) or names}")
         return outputs
 
+    def _time_limit(self, value) -> float | None:
+        """The time limit per case: ``value``, else the scene's ``[study] time_limit`` (checked by the loader)."""
+        if value is None:
+            study = self.data.get("study")
+            value = study.get("time_limit") if isinstance(study, dict) else None
+            value = self.fixed.get("study.time_limit", value)
+            return None if value is None else float(value)
+        if isinstance(value, bool) or not _is_real(value) or not (math.isfinite(value) and value > 0):
+            raise FlexmbError(f"Study: time_limit must be a finite number of seconds > 0, got {value!r}")
+        return float(value)
+
     def run(self, out, executor: str = "process", workers: int | None = None, client=None,
-            scheduler: str | None = None, progress: bool = True, retry_failed: bool = False) -> "StudyResult":
+            scheduler: str | None = None, progress: bool = True, retry_failed: bool = False,
+            time_limit: float | None = None) -> "StudyResult":
         """Run the cases not yet done, write the table, the plot and the summary.
 
         Parameters
@@ -855,6 +978,13 @@ class Study:
             Print progress on stderr.
         retry_failed : bool
             Run again the cases recorded as failed.
+        time_limit : float, optional
+            Wall-clock seconds one case may take (default: the scene's
+            ``[study] time_limit``, else no limit). A case that takes longer
+            is stopped and recorded as failed with the reason, and the study
+            goes on. The process executor kills the case's process; the
+            serial and Dask executors interrupt the case's thread (see
+            ``docs/study.md``).
 
         Returns
         -------
@@ -864,7 +994,8 @@ class Study:
         Raises
         ------
         SceneError, FlexmbError
-            If a parameter or output is invalid (before any case runs).
+            If a parameter, output or the time limit is invalid (before any
+            case runs).
         """
         if client is not None or scheduler is not None:
             executor = "dask"
@@ -872,6 +1003,7 @@ class Study:
         if executor not in executors:
             raise FlexmbError(f"unknown executor {executor!r}; pick one of {', '.join(executors)}")
         outputs = self.validate()
+        time_limit = self._time_limit(time_limit)
         out = Path(os.fspath(out))
         study_key = self.key()
         manifest = {"scene": self.source, "study": study_key, "parameters": self.parameters,
@@ -888,7 +1020,7 @@ class Study:
                 row["case"] = i
                 done[cid] = row
         tasks = [{"case": i, "case_id": cid, "parameters": p, "data": self.data, "source": self.source,
-                  "fixed": self.fixed, "outputs": outputs, "study": study_key}
+                  "fixed": self.fixed, "outputs": outputs, "study": study_key, "time_limit": time_limit}
                  for i, (cid, p) in enumerate(zip(ids, cases)) if cid not in done]
         # cases with equal parameters (a repeated value) share one id: run it once
         seen, unique = set(), []

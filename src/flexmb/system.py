@@ -9,6 +9,7 @@ import scipy.linalg as sla
 from scipy.linalg.lapack import dpotrf as _potrf
 from scipy.linalg.lapack import dpotrs as _potrs
 
+from . import memory
 from .assembly import ForceAssembler, geometric_stiffness, mass_matrix
 from .complements import get_complement
 from .constraints import Constraints
@@ -65,6 +66,7 @@ class System:
 
     def __init__(self, model, complement="svd", sparse=None):
         self.model = model
+        memory.check(model, what=f"Model {model.name!r}")  # before Topology allocates its arrays
         self.topology = Topology(model)
         from .forces.elastic import BeamElasticity
 

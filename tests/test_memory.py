@@ -57,8 +57,8 @@ def test_counts_of_a_loop_bound_the_constraint_rows():
 
 def test_estimate_follows_the_documented_formula():
     nb, n, m, nt = 11, 30, 2, 7
-    expected = (8 * (memory.DENSE_NN * n * n + memory.DENSE_BN * nb * n + memory.DENSE_BB * nb * nb
-                     + memory.DENSE_MN * m * n) + memory.PER_BODY * nb + memory.PER_COORD * n
+    expected = (8 * (memory.DENSE_NN * n * n + memory.DENSE_MN * m * n) + memory.PER_BODY * nb
+                + memory.PER_COORD * n
                 + 8 * nt * (memory.OUTPUT_N * n + memory.OUTPUT_B * nb + m + memory.OUTPUT_FIXED))
     assert memory.estimate(Counts(nb, n, m), n_out=nt) == expected
 

@@ -12,18 +12,18 @@ bodies are cut into segments ``nb``, the number of coordinates ``n``, the
 number of constraint rows ``m`` and the number of output times ``nt``. In
 bytes, with 8-byte floats::
 
-    model   = 8 (DENSE_NN n^2 + DENSE_BN nb n + DENSE_BB nb^2 + DENSE_MN m n)
-              + PER_BODY nb + PER_COORD n
+    model   = 8 (DENSE_NN n^2 [m > 0] + DENSE_MN m n) + PER_BODY nb + PER_COORD n
     outputs = 8 nt (OUTPUT_N n + OUTPUT_B nb + m + OUTPUT_FIXED)
 
-The dense terms are the arrays of today's topology and evaluation that
-grow with the square of the model: the coordinate masks and the ancestor
-table (``topology.py``), the mass matrix and its factor, the partial
-velocities ``V`` and ``W`` of shape ``(nb, 3, n)``, and the state Jacobian
-``(2n)^2`` of an implicit integrator with its LU factors. Their
-coefficients were measured (peak RSS of a clamped beam of 200 to 800
-segments, build, one right-hand side and one state Jacobian); when the core
-drops its n x n arrays, lower :data:`DENSE_NN` and :data:`DENSE_BN`.
+The compiled core builds and evaluates an open tree in O(n) memory (no
+array grows as n^2: ``benchmarks/large_structures.py``); a model with loops
+(m > 0) forms the dense mass matrix and the reduced one with their
+factors (the ``DENSE_NN`` term) and the constraint Jacobian psi (the
+``DENSE_MN`` term). ``PER_BODY`` and ``PER_COORD`` bound what was measured
+on B1 up to 100,000 segments (about 2.8 kB per segment with its
+coordinate). Not counted: the dense state Jacobian ``(2n)^2`` of an
+implicit integrator that uses one (Radau, BDF, CVODE with a dense linear
+solver), formed when a run starts.
 
 The limit is the memory available now (``MemAvailable`` of
 ``/proc/meminfo``, else ``os.sysconf`` free pages), capped by the
@@ -40,16 +40,11 @@ from attrs import frozen
 
 from .errors import ModelError
 
-__all__ = ["Counts", "counts", "estimate", "available", "limit", "check", "DENSE_NN", "DENSE_BN", "DENSE_BB",
-           "DENSE_MN", "PER_BODY", "PER_COORD", "OUTPUT_N", "OUTPUT_B", "OUTPUT_FIXED"]
+__all__ = ["Counts", "counts", "estimate", "available", "limit", "check", "DENSE_NN", "DENSE_MN", "PER_BODY", "PER_COORD", "OUTPUT_N", "OUTPUT_B", "OUTPUT_FIXED"]
 
-#: floats per n^2: topology masks (4), mass matrix and factor (2), geometric
-#: stiffness and temporaries (2), implicit integrator's state Jacobian and LU (4)
-DENSE_NN = 12
-#: floats per nb * n: coordinate ancestors and incidence (2), V and W (6) and their products (4)
-DENSE_BN = 12
-#: floats per nb^2: the ancestor table
-DENSE_BB = 1
+#: floats per n^2 of a model with loops: the mass matrix and its factor, the reduced mass
+#: matrix and the products with the complement
+DENSE_NN = 4
 #: floats per m * n: the constraint Jacobian psi, its complement work arrays
 DENSE_MN = 4
 #: bytes per body: the Segment and joint objects, names, per-body arrays and tree tables
@@ -135,7 +130,7 @@ def counts(obj) -> Counts:
 def _parts(obj, n_out: int = 0) -> tuple[int, int, int]:
     c = counts(obj)
     nb, n, m = c.n_bodies, c.n_coords, c.n_rows
-    dense = _FLOAT * (DENSE_NN * n * n + DENSE_BN * nb * n + DENSE_BB * nb * nb + DENSE_MN * m * n)
+    dense = _FLOAT * (DENSE_NN * n * n * (m > 0) + DENSE_MN * m * n)
     rest = PER_BODY * nb + PER_COORD * n
     outputs = _FLOAT * int(n_out) * (OUTPUT_N * n + OUTPUT_B * nb + m + OUTPUT_FIXED)
     return dense, rest, outputs
@@ -254,7 +249,11 @@ def check(obj, n_out: int = 0, what: str = "", model: bool = True) -> int:
     if need <= room:
         return need
     c = counts(obj)
-    parts = [f"{_size(dense)} for the arrays that grow as n^2"] if model else []
+    parts = []
+    if model:
+        parts.append(f"{_size(rest)} for the bodies and coordinates")
+        if dense:
+            parts.append(f"{_size(dense)} for the dense arrays of the loops")
     if n_out:
         parts.append(f"{_size(outputs)} for {int(n_out):,} output times")
     raise ModelError(

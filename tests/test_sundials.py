@@ -83,8 +83,8 @@ def test_scipy_solvers_get_their_capabilities_from_the_table():
 
 def test_flexmb_integrators_declare_their_capabilities():
     assert capabilities(SecondOrderRadau) == Capabilities(uses_jacobian=True, second_order=True)
-    for cls in (CVODEBDF, CVODEAdams):
-        assert capabilities(cls) == Capabilities(uses_jacobian=True)
+    assert capabilities(CVODEBDF) == Capabilities(uses_jacobian=True, uses_preconditioner=True)
+    assert capabilities(CVODEAdams) == Capabilities(uses_jacobian=True)
 
 
 def test_declared_capability_decides_what_simulate_passes():
@@ -202,3 +202,32 @@ def test_non_finite_state_stops_with_the_time(method):
     assert "non-finite" in str(err)
     res = err.result
     assert res.status == "failed" and 0 < len(res.t) < 201 and res.n_steps > 0 and res.n_rhs > 0
+
+
+# ----------------------------------------------------------------------------- large open trees: Krylov
+
+
+def spatial_beam(n_segments):
+    """The B2 strip: torsion and both bendings, tilted gravity, damped."""
+    model = fm.Model("beam")
+    beam = fm.FlexibleBody("beam", 1.0, fm.Section.rectangular(0.02, 0.005), fm.Material(70e9, 2700.0, 0.33),
+                           n_segments, keep=("torsion", "bend_y", "bend_z"), damping=7.7398e-4)
+    model.add(fm.Fixed("clamp", model.ground, beam), fm.Gravity((0.0, -5.886, -7.848)))
+    return model
+
+
+def test_open_tree_from_krylov_size_on_is_solved_without_matrices():
+    """From KRYLOV_MIN_COORDS on, CVODE_BDF gets the O(n) Newton preconditioner (GMRES) instead of a dense
+    Jacobian, and reaches the same tip as Radau at a tight tolerance (the B2 beam, 20 ms)."""
+    from flexmb.simulate import KRYLOV_MIN_COORDS
+
+    system = spatial_beam(KRYLOV_MIN_COORDS // 3).build()
+    assert system.n_coords >= KRYLOV_MIN_COORDS
+    ref = fm.simulate(system, 0.02, method="Radau", rtol=1e-11, atol=1e-13, n_out=3)
+    res = fm.simulate(system, 0.02, method="CVODE_BDF", rtol=1e-8, atol=1e-10, n_out=3)
+    assert res.status == "finished" and res.n_jac > 0  # preconditioner set-ups
+    assert np.abs(res.x[-1] - ref.x[-1]).max() < 1e-7 * np.abs(ref.x[-1]).max()
+    # below the threshold, the dense Jacobian route
+    small = spatial_beam(4).build()
+    res_small = fm.simulate(small, 0.02, method="CVODE_BDF", rtol=1e-8, n_out=3)
+    assert res_small.status == "finished" and res_small.n_jac > 0

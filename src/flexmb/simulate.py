@@ -137,6 +137,13 @@ EXPLICIT_STEP_LIMIT = 3000
 AUTO_IMPLICIT_STEPS = 300
 
 
+#: open trees with at least this many coordinates are integrated by integrators declaring
+#: ``uses_preconditioner`` (CVODE_BDF) with O(n) preconditioned Krylov solves instead of a dense
+#: Jacobian; measured on B1 and B2 (docs/benchmarks.md, "Large open trees"): dense LU is as fast
+#: or faster below
+KRYLOV_MIN_COORDS = 48
+
+
 def _choose_method(system, t0, t1, x, xd) -> str:
     """'Radau' when the springs make an explicit method slow over [t0, t1], else 'DOP853'.
 
@@ -349,7 +356,11 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         raise ModelError(f"integrator {name!r} has no dense output, which simulate needs for its output times")
     if caps.needs_n_second:  # written for y = (x, xd, ...) itself (GeneralizedAlpha)
         extra["n_second"] = n
-    if caps.uses_jacobian and system.state_jacobian(t0, x, xd) is not None:
+    preconditioner = None
+    if caps.uses_preconditioner and system.articulated and n >= KRYLOV_MIN_COORDS:
+        # an open tree: O(n) Newton solves, no matrix (System.newton_preconditioner)
+        preconditioner = extra["preconditioner"] = system.newton_preconditioner()
+    elif caps.uses_jacobian and system.state_jacobian(t0, x, xd) is not None:
         counters["jac"] = 0
 
         def jac(t, y):
@@ -419,7 +430,7 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     result.work = {name: Y[:, 2 * n + i].copy() for i, name in enumerate(work_names)}
     result.n_dof = system.dof(t0, x)
     result.n_rhs = counters["rhs"]
-    result.n_jac = counters.get("jac", 0)
+    result.n_jac = counters.get("jac", 0) if preconditioner is None else preconditioner.n_setups
     result.n_steps = n_steps
     result.n_complements = system.n_complements - start_complements
     result.n_projections = n_proj

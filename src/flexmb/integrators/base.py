@@ -21,6 +21,12 @@ from four class attributes,
     The method itself is written for ``y = (x, xd, ...)``: the constructor
     always takes ``n_second``, with or without a Jacobian
     (:class:`~flexmb.GeneralizedAlpha`).
+``uses_preconditioner``
+    The constructor takes ``preconditioner``, a
+    :class:`~flexmb.system.NewtonPreconditioner` (O(n) approximate Newton
+    solves of an open tree) and then needs no Jacobian matrix; simulate
+    passes one for open trees of ``KRYLOV_MIN_COORDS`` coordinates or more
+    (:class:`~flexmb.integrators.CVODEBDF`).
 
 flexmb's own integrators declare them; scipy's get them from
 :data:`SCIPY_CAPABILITIES` (looked up along the class's bases, so a subclass
@@ -59,6 +65,8 @@ class Capabilities:
         ``dense_output()`` interpolates over the last step.
     needs_n_second : bool
         Always takes ``n_second=`` (a method for second-order systems).
+    uses_preconditioner : bool
+        Takes ``preconditioner=`` (a Krylov-solved implicit method).
 
     Examples
     --------
@@ -72,6 +80,7 @@ class Capabilities:
     second_order: bool = False
     has_dense_output: bool = True
     needs_n_second: bool = False
+    uses_preconditioner: bool = False
 
 
 #: scipy's solvers, which declare nothing themselves. LSODA could take a

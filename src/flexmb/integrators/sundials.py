@@ -17,7 +17,10 @@ from __future__ import annotations
 import numpy as np
 from scipy.integrate import DenseOutput, OdeSolver
 
-__all__ = ["CVODE", "CVODEBDF", "CVODEAdams"]
+__all__ = ["CVODE", "CVODEBDF", "CVODEAdams", "KRYLOV_DIM"]
+
+#: Krylov dimension of the preconditioned GMRES (the Newton preconditioner leaves little to iterate on)
+KRYLOV_DIM = 10
 
 
 class CVODE(OdeSolver):
@@ -45,6 +48,13 @@ class CVODE(OdeSolver):
     jac : callable or array_like, optional
         State Jacobian ``jac(t, y) -> (m, m)``, or a constant matrix;
         default: CVODE's internal finite differences.
+    preconditioner : NewtonPreconditioner, optional
+        For an open tree (:meth:`flexmb.System.newton_preconditioner`):
+        the linear systems are solved by GMRES, preconditioned by its O(n)
+        solve of ``(I - gamma J) z = r`` (the coordinate springs and
+        dampers exactly; the rest left to the Krylov iterations), with
+        Jacobian-vector products by differences of the right-hand side. No
+        matrix is formed: O(n) per step. ``jac`` is then not used.
     vectorized : bool
         Ignored (accepted for :func:`scipy.integrate.solve_ivp`).
     **extraneous
@@ -82,7 +92,8 @@ class CVODE(OdeSolver):
     has_dense_output = True
 
     def __init__(self, fun, t0, y0, t_bound, *, rtol: float = 1e-3, atol=1e-6, max_step: float = np.inf,
-                 first_step: float | None = None, jac=None, vectorized: bool = False, **extraneous):
+                 first_step: float | None = None, jac=None, preconditioner=None, vectorized: bool = False,
+                 **extraneous):
         import sksundae
 
         super().__init__(fun, t0, y0, t_bound, vectorized=False)
@@ -98,7 +109,9 @@ class CVODE(OdeSolver):
         def rhsfn(t, y, yp):
             yp[:] = f(t, y)
 
-        if jac is not None:
+        if preconditioner is not None:
+            options.update(self._krylov(preconditioner))
+        elif jac is not None:
             if callable(jac):
                 def jacfn(t, y, yp, JJ):
                     self.njev += 1
@@ -112,6 +125,27 @@ class CVODE(OdeSolver):
             options["jacfn"] = jacfn
         self._cvode = sksundae.cvode.CVODE(rhsfn, **options)
         self._cvode.init_step(float(t0), np.array(self.y, dtype=float))
+
+    def _krylov(self, pre) -> dict:
+        """CVODE options for GMRES preconditioned by the O(n) Newton solve of an open tree."""
+        import sksundae
+
+        n = pre.system.n_coords
+
+        def setup(t, y, yp, jok, jnew, gamma):
+            if jok and pre.n_setups:
+                jnew[0] = 0
+                return
+            self.njev += 1
+            pre.setup(t, y[:n], y[n : 2 * n])
+            jnew[0] = 1
+
+        def solve(t, y, yp, rvec, zvec, gamma, delta, lr):
+            zvec[:n], zvec[n : 2 * n] = pre.solve(rvec[:n], rvec[n : 2 * n], gamma)
+            zvec[2 * n :] = rvec[2 * n :]  # states nothing depends on (work terms)
+
+        return dict(linsolver="gmres", krylov_dim=KRYLOV_DIM,
+                    precond=sksundae.cvode.CVODEPrecond(setup, solve, side="left"))
 
     def _step_impl(self):
         out = self._cvode.step(self.t_bound, method="onestep", tstop=self.t_bound)
@@ -179,6 +213,8 @@ class CVODEBDF(CVODE):
         First step size.
     jac : callable or array_like, optional
         State Jacobian (see :class:`CVODE`).
+    preconditioner : NewtonPreconditioner, optional
+        O(n) preconditioned Krylov solves of an open tree (see :class:`CVODE`).
     vectorized : bool
         Ignored.
     **extraneous
@@ -193,6 +229,7 @@ class CVODEBDF(CVODE):
 
     family = "BDF"
     max_order = 5
+    uses_preconditioner = True
 
 
 class CVODEAdams(CVODE):
@@ -216,6 +253,8 @@ class CVODEAdams(CVODE):
         First step size.
     jac : callable or array_like, optional
         State Jacobian (see :class:`CVODE`).
+    preconditioner : NewtonPreconditioner, optional
+        O(n) preconditioned Krylov solves of an open tree (see :class:`CVODE`).
     vectorized : bool
         Ignored.
     **extraneous

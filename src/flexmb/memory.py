@@ -154,7 +154,7 @@ def estimate(obj, n_out: int = 0) -> int:
     Examples
     --------
     >>> from flexmb.memory import Counts, estimate
-    >>> estimate(Counts(n_bodies=100_001, n_coords=300_000)) > 2**40  # 100,000 segments: terabytes
+    >>> estimate(Counts(n_bodies=100_001, n_coords=300_000)) < 2**30  # 100,000 segments: about 0.6 GB
     True
     """
     return sum(_parts(obj, n_out))

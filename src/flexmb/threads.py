@@ -48,9 +48,9 @@ _active = 0  # blocks inside blas_threads, over all Python threads
 _limiter = None
 
 
-def _get_controller():
+def _get_controller(refresh: bool = False):
     global _controller
-    if _controller is None:
+    if _controller is None or refresh:
         from threadpoolctl import ThreadpoolController
 
         _controller = ThreadpoolController()
@@ -83,7 +83,10 @@ def blas_threads(n: int | None = None):
     global _active, _limiter
     with _lock:
         if _active == 0:
-            _limiter = _get_controller().limit(limits=BLAS_THREADS if n is None else n, user_api="blas")
+            # a controller of the libraries loaded now (an import since the last run may have
+            # brought another BLAS, e.g. SUNDIALS')
+            _limiter = _get_controller(refresh=True).limit(limits=BLAS_THREADS if n is None else n,
+                                                           user_api="blas")
         _active += 1
     try:
         yield

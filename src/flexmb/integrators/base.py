@@ -21,6 +21,13 @@ from four class attributes,
     The method itself is written for ``y = (x, xd, ...)``: the constructor
     always takes ``n_second``, with or without a Jacobian
     (:class:`~flexmb.GeneralizedAlpha`).
+``cheap_restart``
+    A restart from a projected state costs no more than a step (one-step
+    methods). False for multistep methods that fall back to order one
+    (CVODE): simulate then projects their state only when the constraint
+    residual exceeds ``RESTART_ATOL_FACTOR * atol`` (at most
+    ``RESTART_TOL_MAX``); the stored outputs are projected as for any
+    integrator.
 ``uses_preconditioner``
     The constructor takes ``preconditioner``, a
     :class:`~flexmb.system.NewtonPreconditioner` (O(n) approximate Newton
@@ -67,6 +74,8 @@ class Capabilities:
         Always takes ``n_second=`` (a method for second-order systems).
     uses_preconditioner : bool
         Takes ``preconditioner=`` (a Krylov-solved implicit method).
+    cheap_restart : bool
+        A restart after a projection is cheap (see the module docstring).
 
     Examples
     --------
@@ -81,6 +90,7 @@ class Capabilities:
     has_dense_output: bool = True
     needs_n_second: bool = False
     uses_preconditioner: bool = False
+    cheap_restart: bool = True
 
 
 #: scipy's solvers, which declare nothing themselves. LSODA could take a

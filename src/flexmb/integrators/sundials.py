@@ -90,6 +90,7 @@ class CVODE(OdeSolver):
     uses_jacobian = True
     second_order = False
     has_dense_output = True
+    cheap_restart = False
 
     def __init__(self, fun, t0, y0, t_bound, *, rtol: float = 1e-3, atol=1e-6, max_step: float = np.inf,
                  first_step: float | None = None, jac=None, preconditioner=None, vectorized: bool = False,

@@ -1,0 +1,51 @@
+"""CPU cost of one right-hand side (System.accelerations) of B1 and B2, per N.
+
+    OPENBLAS_NUM_THREADS=1 python benchmarks/rhs_cost.py --scene B1 --n 8 16 64
+
+CPU time (process_time) per call over many calls, after a warm-up call
+(the kernels compiled or loaded from the cache): the figure that explains a
+wall time together with the number of right-hand sides an integrator needs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+
+import numpy as np
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, HERE)
+
+import scenes  # noqa: E402
+
+
+def cost(fn, calls):
+    fn()
+    t = time.process_time()
+    for _ in range(calls):
+        fn()
+    return (time.process_time() - t) / calls
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--scene", choices=["B1", "B2"], default="B1")
+    p.add_argument("--n", type=int, nargs="+", default=[8, 16, 64])
+    p.add_argument("--calls", type=int, default=5000)
+    a = p.parse_args(argv)
+    for n in a.n:
+        system = getattr(scenes, a.scene.lower())(n).build()
+        rng = np.random.default_rng(0)
+        x, xd = 0.01 * rng.normal(size=system.n_coords), 0.01 * rng.normal(size=system.n_coords)
+        row = {"tool": "flexmb", "scene": a.scene, "n_segments": n, "n_coords": system.n_coords,
+               "rhs_cpu_us": 1e6 * cost(lambda: system.accelerations(0.0, x, xd), a.calls),
+               "kinematics_cpu_us": 1e6 * cost(lambda: system.kinematics(0.0, x, xd), a.calls)}
+        print(json.dumps(row))
+
+
+if __name__ == "__main__":
+    main()

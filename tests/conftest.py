@@ -5,7 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import flexmb as fm
+try:
+    import flexmb as fm
+except ModuleNotFoundError as exc:  # run without installing: say what to do instead of 30 import errors
+    raise pytest.UsageError(
+        f"flexmb is not installed in this Python ({exc}); run the README's test command: "
+        'python -m pip install -e ".[test]" && python -m pytest'
+    ) from exc
 
 
 def pytest_addoption(parser):

@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .dynamics import bias_wrenches, spatial_inertias
+from .dynamics import axis_projections, bias_wrenches, spatial_inertias
 
 __all__ = ["articulated_accelerations", "open_tree_accelerations", "mass_times"]
 
@@ -245,7 +245,6 @@ def mass_times(parent, coord_start, coord_body, spatial, Sw, Sv, u):
         ``A u``.
     """
     nb = parent.shape[0]
-    n = Sw.shape[0]
     dA = np.zeros((nb + 1, 6))
     W = np.empty((nb, 6))
     for k in range(nb):
@@ -263,14 +262,4 @@ def mass_times(parent, coord_start, coord_body, spatial, Sw, Sv, u):
             for j in range(6):
                 s += spatial[k, i, j] * dA[k, j]
             W[k, i] = s
-    for k in range(nb - 1, -1, -1):
-        p = parent[k]
-        if p >= 0:
-            for i in range(6):
-                W[p, i] += W[k, i]
-    out = np.empty(n)
-    for c in range(n):
-        b = coord_body[c]
-        out[c] = (Sw[c, 0] * W[b, 0] + Sw[c, 1] * W[b, 1] + Sw[c, 2] * W[b, 2]
-                  + Sv[c, 0] * W[b, 3] + Sv[c, 1] * W[b, 4] + Sv[c, 2] * W[b, 5])
-    return out
+    return axis_projections(parent, coord_body, Sw, Sv, W)

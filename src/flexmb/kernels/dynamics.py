@@ -16,7 +16,7 @@ from numba import njit
 
 from .tree import _cross, _mv
 
-__all__ = ["spatial_inertias", "composite_inertias", "subtree_sums", "mass_matrix", "generalized_force", "bias_wrenches"]
+__all__ = ["spatial_inertias", "composite_inertias", "subtree_sums", "axis_projections", "mass_matrix", "generalized_force", "bias_wrenches"]
 
 
 @njit(cache=True)
@@ -197,16 +197,40 @@ def generalized_force(parent, coord_body, r, force, torque, Sw, Sv):
     for k in range(nb):
         total[k, :3] = torque[k] + _cross(r[k], force[k])
         total[k, 3:] = force[k]
-    for k in range(nb - 1, -1, -1):
+    return axis_projections(parent, coord_body, Sw, Sv, total)
+
+
+@njit(cache=True)
+def axis_projections(parent, coord_body, Sw, Sv, wrench):
+    """Each coordinate's axis against the summed wrench of the bodies it moves (eqs. 2, 5).
+
+    Parameters
+    ----------
+    parent : ndarray of int, shape (n_bodies,)
+        Parent body (-1: ground); parents come before children.
+    coord_body : ndarray of int, shape (n,)
+        Body whose tree joint owns each coordinate.
+    Sw, Sv : ndarray, shape (n, 3)
+        Plucker axes of the coordinates.
+    wrench : ndarray, shape (n_bodies, 6)
+        Per-body wrenches (moment about the origin, force); summed over
+        each subtree in place.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        ``S_c . sum of wrench over the subtree of c's body``.
+    """
+    for k in range(parent.shape[0] - 1, -1, -1):
         p = parent[k]
         if p >= 0:
-            total[p] += total[k]
+            wrench[p] += wrench[k]
     n = Sw.shape[0]
     out = np.empty(n)
     for c in range(n):
         b = coord_body[c]
-        out[c] = (Sw[c, 0] * total[b, 0] + Sw[c, 1] * total[b, 1] + Sw[c, 2] * total[b, 2]
-                  + Sv[c, 0] * total[b, 3] + Sv[c, 1] * total[b, 4] + Sv[c, 2] * total[b, 5])
+        out[c] = (Sw[c, 0] * wrench[b, 0] + Sw[c, 1] * wrench[b, 1] + Sw[c, 2] * wrench[b, 2]
+                  + Sv[c, 0] * wrench[b, 3] + Sv[c, 1] * wrench[b, 4] + Sv[c, 2] * wrench[b, 5])
     return out
 
 

@@ -83,8 +83,9 @@ def test_scipy_solvers_get_their_capabilities_from_the_table():
 
 def test_flexmb_integrators_declare_their_capabilities():
     assert capabilities(SecondOrderRadau) == Capabilities(uses_jacobian=True, second_order=True)
-    assert capabilities(CVODEBDF) == Capabilities(uses_jacobian=True, uses_preconditioner=True, cheap_restart=False)
-    assert capabilities(CVODEAdams) == Capabilities(uses_jacobian=True, cheap_restart=False)
+    assert capabilities(CVODEBDF) == Capabilities(uses_jacobian=True, uses_preconditioner=True, cheap_restart=False,
+                                                  advances=True)
+    assert capabilities(CVODEAdams) == Capabilities(uses_jacobian=True, cheap_restart=False, advances=True)
 
 
 def test_declared_capability_decides_what_simulate_passes():
@@ -166,6 +167,20 @@ def test_output_times_do_not_change_the_steps(b1_reference):
     many = fm.simulate(system, 0.5, method="CVODE_BDF", rtol=1e-8, n_out=101)
     assert few.n_steps == many.n_steps and few.n_rhs == many.n_rhs
     assert np.abs(few.x[-1] - many.x[-1]).max() < 1e-13
+
+
+def test_cvode_own_loop_takes_the_steps_of_the_one_step_loop(b1_reference):
+    """Between output times CVODE steps in its own loop (``advance``); the steps it counts there (by its root
+    function) and the solution are those of stepping it one step at a time from Python."""
+    system, _ = b1_reference
+
+    class OneStepBDF(CVODEBDF):
+        advances = False
+
+    own = fm.simulate(system, 0.5, method="CVODE_BDF", rtol=1e-8, n_out=11)
+    one = fm.simulate(system, 0.5, method=OneStepBDF, rtol=1e-8, n_out=11)
+    assert own.n_steps == one.n_steps > 50 and own.n_rhs == one.n_rhs
+    assert np.abs(own.x - one.x).max() < 1e-13 and np.abs(own.xd - one.xd).max() < 1e-12
 
 
 @pytest.mark.parametrize("method", CVODES)

@@ -327,23 +327,20 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
 
     def fun(t, y):
         counters["rhs"] += 1
-        xs, vs = y[:n], y[n : 2 * n]
         if not n_w:
-            xdd = system.accelerations(t, xs, vs)
-        else:
-            rates = np.zeros(n_w)
-            kin, A, f, _, psi, _, gamma = system.equations(t, xs, vs, powers=rates[n_drv:])
-            if not (np.all(np.isfinite(f)) and np.all(np.isfinite(A))):
-                xdd = system.accelerations(t, xs, vs)  # raises with the diagnosis
-            xdd, lam = system._solve(t, A, f, psi, gamma, multipliers=True)
-            if n_drv:
-                rates[:n_drv] = lam[-n_drv:] * np.array([d.velocity(t) for d in system.constraints.drivers])
+            return system.state_rate(t, y)  # finite, or AssemblyError naming the cause
+        xs, vs = y[:n], y[n : 2 * n]
+        rates = np.zeros(n_w)
+        kin, A, f, _, psi, _, gamma = system.equations(t, xs, vs, powers=rates[n_drv:])
+        if not (np.all(np.isfinite(f)) and np.all(np.isfinite(A))):
+            system.accelerations(t, xs, vs)  # raises with the diagnosis
+        xdd, lam = system._solve(t, A, f, psi, gamma, multipliers=True)
         if not np.all(np.isfinite(xdd)):
             bad = [system.coordinate_names[i] for i in np.flatnonzero(~np.isfinite(xdd))[:5]]
             raise _NonFinite(t, f"accelerations became non-finite ({', '.join(bad)})")
-        if n_w:
-            return np.concatenate([vs, xdd, rates])
-        return np.concatenate([vs, xdd])
+        if n_drv:
+            rates[:n_drv] = lam[-n_drv:] * np.array([d.velocity(t) for d in system.constraints.drivers])
+        return np.concatenate([vs, xdd, rates])
 
     out_y = []
     n_steps = n_proj = 0
@@ -392,9 +389,30 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
                           first_step=first_step, **extra)
 
     t_now = t0
+    solver = None
+    own_loop = caps.advances and not system.n_constraints
     try:
         solver = make(t0, y)
-        while solver.status == "running":
+        if own_loop:
+            # nothing to check or project after a step: the solver steps in its own loop from one
+            # output time to the next (and to each percent of the span when showing progress)
+            stops = times[k_out:]
+            if progress:
+                stops = np.union1d(stops, np.linspace(t0, t_end, 101)[1:])
+            for t_stop in stops:
+                try:
+                    y_stop = solver.advance(t_stop)
+                except RuntimeError as exc:
+                    raise _NonFinite(solver.t, f"the integrator failed: {exc}") from exc
+                t_now = t_stop
+                if not np.all(np.isfinite(y_stop)):
+                    raise _NonFinite(t_now, "the state became non-finite")
+                if k_out < len(times) and times[k_out] == t_stop:
+                    out_y.append(y_stop)
+                    k_out += 1
+                if progress:
+                    last = _progress(t_now, t0, t_end, last)
+        while solver.status == "running" and not own_loop:
             t_prev = solver.t
             try:
                 msg = solver.step()
@@ -438,6 +456,8 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     except KeyboardInterrupt:
         status, message = "interrupted", f"interrupted by the user at t = {t_now:.9g} s"
     wall = _time.perf_counter() - t_wall
+    if own_loop and solver is not None:
+        n_steps = solver.n_steps
 
     Y = np.array(out_y).reshape(len(out_y), 2 * n + n_w)
     result = _collect(system, times[: len(out_y)], Y[:, : 2 * n])

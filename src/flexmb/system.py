@@ -16,7 +16,8 @@ from .constraints import Constraints
 from .errors import AssemblyError, ModelError
 from .kinematics import Kinematics
 from .topology import Topology
-from .kernels.articulated import articulated_accelerations, mass_times, open_tree_accelerations
+from .forces.tables import class_tables, merge
+from .kernels.articulated import articulated_accelerations, mass_times, open_tree_accelerations, open_tree_rhs
 
 __all__ = ["System", "NewtonPreconditioner"]
 
@@ -88,6 +89,12 @@ class System:
         self._rank_limit: int | None = None
         self._sigma_ref: float | None = None
         self._trial()
+        # an open tree whose joints and force elements are all compiled: one kernel call per evaluation
+        tables = [class_tables(cls, elements, self.topology) for cls, elements in self.forces.groups]
+        self._fused = None
+        if self.articulated and not self.topology.external_groups and all(t is not None for t in tables):
+            # plain tuples: what the kernel's dispatch reads fastest
+            self._fused = (tuple(self.topology.arrays), tuple(merge(tables)))
 
     def _trial(self):
         """Evaluate every force element once so bad input fails at build time."""
@@ -319,6 +326,8 @@ class System:
 
     def _articulated(self, t, x, xd):
         """Accelerations of an open tree by the articulated-body recursion (O(n))."""
+        if self._fused is not None:
+            return self.state_rate(t, np.concatenate([x, xd]))[self.n_coords :]
         kin = self.kinematics(t, x, xd)
         loads = self.forces.loads(kin)
         topo = self.topology
@@ -327,6 +336,11 @@ class System:
                                            loads.torque, loads.generalized, self._no_armature)
         if bad < 0 and np.isfinite(xdd).all():  # the common case: one check
             return xdd
+        self._articulated_failure(t, x, xd, kin, xdd, bad)
+
+    def _articulated_failure(self, t, x, xd, kin, xdd, bad):
+        """Raise the AssemblyError that names why an open tree's accelerations failed."""
+        topo = self.topology
         if not (np.isfinite(kin.R).all() and np.isfinite(kin.r).all()):
             self._raise_non_finite(t, x, xd, None, xdd)
         if bad >= 0:
@@ -336,6 +350,47 @@ class System:
             )
         self._raise_non_finite(t, x, xd, np.zeros((1, 1)), xdd)
         return xdd
+
+    def state_rate(self, t, y) -> np.ndarray:
+        """The first-order form's derivative ``(xd, xdd)`` at a state ``y = (x, xd)``.
+
+        An open tree whose joints and force elements are all compiled is
+        evaluated by one kernel call
+        (:func:`~flexmb.kernels.articulated.open_tree_rhs`); any other
+        model by :meth:`accelerations`.
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        y : ndarray, shape (2 n,)
+            Coordinates and speeds.
+
+        Returns
+        -------
+        ndarray, shape (2 n,)
+            ``(xd, xdd)``, finite.
+
+        Raises
+        ------
+        AssemblyError
+            If the equations are singular or not finite (naming the cause).
+        """
+        n = self.n_coords
+        if self._fused is not None:
+            ydot, status = open_tree_rhs(*self._fused, _plain(y), self._no_armature)
+            if status == -1:
+                return ydot
+            x, xd = y[:n], y[n : 2 * n]
+            self._articulated_failure(t, x, xd, self.kinematics(t, x, xd), ydot[n:], status)
+        x, xd = y[:n], y[n : 2 * n]
+        xdd = self.accelerations(t, x, xd)
+        if not np.all(np.isfinite(xdd)):
+            bad = [self.coordinate_names[i] for i in np.flatnonzero(~np.isfinite(xdd))[:5]]
+            err = AssemblyError(f"at t = {t:.9g} s: accelerations became non-finite ({', '.join(bad)})")
+            err.t = t
+            raise err
+        return np.concatenate([xd, xdd])
 
     def _raise_non_finite(self, t, x, xd, A, f):
         err = AssemblyError(f"at t = {t:.9g} s: {self._diagnose(t, x, xd, A, f)}")

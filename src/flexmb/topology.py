@@ -15,6 +15,7 @@ import numpy as np
 from . import kernels
 from .errors import ModelError
 from .joints import Joint
+from .kernels.tree import TreeArrays
 
 __all__ = ["Topology"]
 
@@ -224,6 +225,9 @@ class Topology:
         cp_ext = np.vstack([self.child_point, np.zeros((1, 3))])
         self.parent_joint_point = cp_ext[self.parent]
         self.lever = np.ascontiguousarray(self.parent_point - self.parent_joint_point)
+        self.arrays = TreeArrays(self.parent, self.coord_start, self.coord_kind, self.coord_axis, self.external,
+                                 self.parent_frame, self.child_frame, self.lever, self.child_point, self.com,
+                                 self.mass, self.inertia, self.coord_body)
 
     def coordinate_slice(self, joint) -> slice:
         """Slice of ``x`` holding a tree joint's coordinates.

@@ -13,6 +13,7 @@ from attrs import field, frozen
 
 from .._validate import name_check
 from ..kernels.loads import add_point_forces, add_torques
+from .tables import apply_tables, class_tables
 
 __all__ = ["ForceElement", "Loads", "Gravity", "SpringDamper", "JointSpringDamper", "PointForce", "BodyTorque",
            "BeamElasticity"]
@@ -184,8 +185,35 @@ class ForceElement:
         loads : Loads
             Accumulator to add to.
         """
+        tables = class_tables(cls, elements, state.topology)
+        if tables is not None:  # a built-in class: its compiled kernel
+            apply_tables(tables, state, loads)
+            return
         for e in elements:
             e.apply(state, loads)
+
+    @classmethod
+    def load_tables(cls, elements, topology):
+        """The elements as flat tables for the compiled kernel, or None (default: not compiled).
+
+        A built-in class defines this (in its own body: a subclass that
+        changes ``apply`` does not inherit it) and ``apply_all`` then runs
+        :func:`flexmb.kernels.loads.apply_load_tables`; so does the fused
+        right-hand side of an open tree.
+
+        Parameters
+        ----------
+        elements : sequence of ForceElement
+            The model's elements of this class.
+        topology : Topology
+            The model's tree (:meth:`~flexmb.topology.Topology.locate` maps
+            points to body rows).
+
+        Returns
+        -------
+        LoadTables or None
+        """
+        return None
 
     @classmethod
     def potential_all(cls, elements, state) -> float:

@@ -6,6 +6,7 @@ import numpy as np
 from attrs import field, frozen
 
 from . import ForceElement
+from .tables import LoadTables, class_tables
 
 __all__ = ["BeamElasticity"]
 
@@ -31,31 +32,28 @@ class BeamElasticity(ForceElement):
 
     @classmethod
     def _arrays(cls, elements, state):
-        topo = state.topology
-        key = ("beam", tuple(id(e) for e in elements))
-        cache = topo.cache
-        if key not in cache:
-            cols = np.concatenate([topo.elastic_columns(e.body) for e in elements])
-            k = np.concatenate([e.body.joint_stiffness().ravel() for e in elements])
-            c = np.concatenate([e.body.damping * e.body.joint_stiffness().ravel() for e in elements])
-            cache[key] = (cols, k, c)
-        return cache[key]
+        t = class_tables(cls, elements, state.topology)
+        return t.coord_cols, t.coord_k, t.coord_c
 
     @classmethod
-    def apply_all(cls, elements, state, loads) -> None:
-        """Add ``-K eta - C etadot`` for all flexible bodies at once.
+    def load_tables(cls, elements, topology) -> LoadTables:
+        """``-K eta - C etadot`` of all flexible bodies as coordinate springs (compiled).
 
         Parameters
         ----------
-        elements : sequence of ForceElement
+        elements : sequence of BeamElasticity
             The model's elements of this class.
-        state : Kinematics
-            The current kinematic state.
-        loads : Loads
-            Accumulator to add to.
+        topology : Topology
+            The model's tree.
+
+        Returns
+        -------
+        LoadTables
         """
-        cols, k, c = cls._arrays(elements, state)
-        loads.generalized[cols] -= k * state.x[cols] + c * state.xd[cols]
+        cols = np.concatenate([topology.elastic_columns(e.body) for e in elements])
+        k = np.concatenate([e.body.joint_stiffness().ravel() for e in elements])
+        c = np.concatenate([e.body.damping * e.body.joint_stiffness().ravel() for e in elements])
+        return LoadTables.of(coord_cols=cols, coord_k=k, coord_c=c, coord_rest=np.zeros(cols.shape[0]))
 
     @classmethod
     def potential_all(cls, elements, state) -> float:

@@ -7,6 +7,7 @@ from attrs import field, frozen
 
 from .._validate import as_array, name_check, vector3
 from . import ForceElement
+from .tables import LoadTables
 
 __all__ = ["Gravity"]
 
@@ -51,6 +52,23 @@ class Gravity(ForceElement):
     g: np.ndarray = field(default=(0.0, 0.0, -9.81), converter=as_array, validator=vector3)
     name: str = field(default="gravity", validator=name_check)
 
+    @classmethod
+    def load_tables(cls, elements, topology) -> LoadTables:
+        """The summed ``g`` of all gravity elements (compiled, :mod:`flexmb.forces.tables`).
+
+        Parameters
+        ----------
+        elements : sequence of Gravity
+            The model's gravity elements.
+        topology : Topology
+            The model's tree.
+
+        Returns
+        -------
+        LoadTables
+        """
+        return LoadTables.of(gravity=np.sum([e.g for e in elements], axis=0))
+
     def apply(self, state, loads) -> None:
         """Add ``m g`` to every body.
 
@@ -61,7 +79,7 @@ class Gravity(ForceElement):
         loads : Loads
             Accumulator to add to.
         """
-        loads.force[:-1] += state.mass[:, None] * self.g
+        type(self).apply_all([self], state, loads)
 
     def potential(self, state) -> float:
         """Potential energy ``U = -sum_k m_k (g @ r_k)``.

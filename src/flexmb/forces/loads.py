@@ -12,6 +12,7 @@ from .._validate import as_array, is_a, label, name_check, vector3
 from ..bodies import Body
 from ..errors import ModelError
 from . import ForceElement
+from .tables import LoadTables
 
 __all__ = ["PointForce", "BodyTorque"]
 
@@ -84,6 +85,28 @@ class PointForce(ForceElement):
     point: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
     frame: str = field(default="ground", validator=_check_frame)
 
+    @classmethod
+    def load_tables(cls, elements, topology) -> LoadTables | None:
+        """Constant forces as tables (compiled); None if one is a function of time.
+
+        Parameters
+        ----------
+        elements : sequence of PointForce
+            The model's elements of this class.
+        topology : Topology
+            The model's tree.
+
+        Returns
+        -------
+        LoadTables or None
+        """
+        if any(callable(e.force) for e in elements):
+            return None
+        where = [topology.locate(e.body, e.point) for e in elements]
+        return LoadTables.of(force_rows=[k for k, _ in where], force_local=np.reshape([p for _, p in where], (-1, 3)),
+                             force_vec=np.reshape([e.force for e in elements], (-1, 3)),
+                             force_in_body=[e.frame == "body" for e in elements])
+
     def apply(self, state, loads) -> None:
         """Add the force at its point.
 
@@ -94,6 +117,9 @@ class PointForce(ForceElement):
         loads : Loads
             Accumulator to add to.
         """
+        if not callable(self.force):  # the compiled kernel (load_tables)
+            type(self).apply_all([self], state, loads)
+            return
         k, local = state.locate(self.body, self.point)
         f = _evaluate(self.force, state)
         if self.frame == "body":
@@ -141,6 +167,27 @@ class BodyTorque(ForceElement):
     frame: str = field(default="ground", validator=_check_frame)
     point: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
 
+    @classmethod
+    def load_tables(cls, elements, topology) -> LoadTables | None:
+        """Constant torques as tables (compiled); None if one is a function of time.
+
+        Parameters
+        ----------
+        elements : sequence of BodyTorque
+            The model's elements of this class.
+        topology : Topology
+            The model's tree.
+
+        Returns
+        -------
+        LoadTables or None
+        """
+        if any(callable(e.torque) for e in elements):
+            return None
+        return LoadTables.of(torque_rows=[topology.locate(e.body, e.point)[0] for e in elements],
+                             torque_vec=np.reshape([e.torque for e in elements], (-1, 3)),
+                             torque_in_body=[e.frame == "body" for e in elements])
+
     def apply(self, state, loads) -> None:
         """Add the torque.
 
@@ -151,6 +198,9 @@ class BodyTorque(ForceElement):
         loads : Loads
             Accumulator to add to.
         """
+        if not callable(self.torque):  # the compiled kernel (load_tables)
+            type(self).apply_all([self], state, loads)
+            return
         k, _ = state.locate(self.body, self.point)
         tq = _evaluate(self.torque, state)
         if self.frame == "body":

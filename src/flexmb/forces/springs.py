@@ -9,6 +9,7 @@ from .._validate import as_array, finite_array, is_a, label, name_check, vector3
 from ..bodies import Body
 from ..joints import Joint
 from . import ForceElement
+from .tables import LoadTables, class_tables
 
 __all__ = ["SpringDamper", "JointSpringDamper"]
 
@@ -90,6 +91,30 @@ class SpringDamper(ForceElement):
         p2 = state.point_position(j, l2)
         return i, j, p1, p2
 
+    @classmethod
+    def load_tables(cls, elements, topology) -> LoadTables:
+        """The spring-dampers' ends, constants and rest lengths (compiled, :mod:`flexmb.forces.tables`).
+
+        Parameters
+        ----------
+        elements : sequence of SpringDamper
+            The model's elements of this class.
+        topology : Topology
+            The model's tree.
+
+        Returns
+        -------
+        LoadTables
+        """
+        rows, local = [], []
+        for e in elements:
+            i, l1 = topology.locate(e.body1, e.point1)
+            j, l2 = topology.locate(e.body2, e.point2)
+            rows.append((i, j))
+            local.append((l1, l2))
+        return LoadTables.of(pair_rows=np.reshape(rows, (-1, 2)), pair_local=np.reshape(local, (-1, 2, 3)),
+                             pair_par=[(e.stiffness, e.damping, e.rest_length) for e in elements])
+
     def apply(self, state, loads) -> None:
         """Add the spring and damper force pair.
 
@@ -100,18 +125,7 @@ class SpringDamper(ForceElement):
         loads : Loads
             Accumulator to add to.
         """
-        i, j, p1, p2 = self._geometry(state)
-        dp = p2 - p1
-        dv = state.point_velocity(j, p2) - state.point_velocity(i, p1)
-        length = np.linalg.norm(dp)
-        if self.rest_length == 0.0:
-            f2 = -self.stiffness * dp
-        else:
-            f2 = -self.stiffness * (length - self.rest_length) * dp / max(length, 1e-300)
-        if self.damping and length > 1e-12:
-            e = dp / length
-            f2 = f2 - self.damping * (e @ dv) * e
-        loads.add_point_force(np.array([i, j]), np.array([p1, p2]), np.array([-f2, f2]))
+        type(self).apply_all([self], state, loads)
 
     def potential(self, state) -> float:
         """Spring energy ``k (l - l0)^2 / 2``.
@@ -210,8 +224,33 @@ class JointSpringDamper(ForceElement):
         loads : Loads
             Accumulator to add to.
         """
-        s = state.coordinate_slice(self.joint)
-        loads.generalized[s] -= self.stiffness * (state.x[s] - self.rest) + self.damping * state.xd[s]
+        type(self).apply_all([self], state, loads)
+
+    @classmethod
+    def load_tables(cls, elements, topology) -> LoadTables:
+        """The joints' coordinates with their constants and rest values (compiled).
+
+        Parameters
+        ----------
+        elements : sequence of JointSpringDamper
+            The model's elements of this class.
+        topology : Topology
+            The model's tree.
+
+        Returns
+        -------
+        LoadTables
+        """
+        cols, k, c, rest = [], [], [], []
+        for e in elements:
+            s = topology.coordinate_slice(e.joint)
+            m = s.stop - s.start
+            cols.append(np.arange(s.start, s.stop))
+            k.append(np.broadcast_to(e.stiffness, (m,)))
+            c.append(np.broadcast_to(e.damping, (m,)))
+            rest.append(np.broadcast_to(e.rest, (m,)))
+        return LoadTables.of(coord_cols=np.concatenate(cols), coord_k=np.concatenate(k), coord_c=np.concatenate(c),
+                             coord_rest=np.concatenate(rest))
 
     @classmethod
     def tangent_all(cls, elements, state):
@@ -229,14 +268,8 @@ class JointSpringDamper(ForceElement):
         cols, k, c : ndarray, shape (m,)
             Coordinate indices, stiffnesses and damping constants.
         """
-        cols, k, c = [], [], []
-        for e in elements:
-            s = state.coordinate_slice(e.joint)
-            m = s.stop - s.start
-            cols.append(np.arange(s.start, s.stop))
-            k.append(np.broadcast_to(e.stiffness, (m,)))
-            c.append(np.broadcast_to(e.damping, (m,)))
-        return np.concatenate(cols), np.concatenate(k), np.concatenate(c)
+        t = class_tables(cls, elements, state.topology)
+        return t.coord_cols, t.coord_k, t.coord_c
 
     def potential(self, state) -> float:
         """Spring energy ``sum k (q - q0)^2 / 2``.

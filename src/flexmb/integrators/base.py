@@ -3,7 +3,7 @@
 An integrator is a :class:`scipy.integrate.OdeSolver` subclass (the base
 class of the ``flexmb.integrators`` plugin kind). :func:`flexmb.simulate`
 does not recognise integrators by identity: it reads what each one can use
-from four class attributes,
+from these class attributes,
 
 ``explicit``
     An explicit method, whose step is bounded by stability on stiff scenes
@@ -34,6 +34,12 @@ from four class attributes,
     solves of an open tree) and then needs no Jacobian matrix; simulate
     passes one for open trees of ``KRYLOV_MIN_COORDS`` coordinates or more
     (:class:`~flexmb.integrators.CVODEBDF`).
+``advances``
+    The solver has ``advance(t)``: it steps until ``t`` (at most
+    ``t_bound``) is reached, returns the state at ``t`` and counts its
+    steps in ``n_steps``. simulate uses it between the output times of a
+    model without constraints, where nothing is checked or projected after
+    a step (:class:`~flexmb.integrators.CVODE`).
 
 flexmb's own integrators declare them; scipy's get them from
 :data:`SCIPY_CAPABILITIES` (looked up along the class's bases, so a subclass
@@ -76,6 +82,8 @@ class Capabilities:
         Takes ``preconditioner=`` (a Krylov-solved implicit method).
     cheap_restart : bool
         A restart after a projection is cheap (see the module docstring).
+    advances : bool
+        Has ``advance(t)``: steps to ``t`` without simulate's per-step checks.
 
     Examples
     --------
@@ -91,6 +99,7 @@ class Capabilities:
     needs_n_second: bool = False
     uses_preconditioner: bool = False
     cheap_restart: bool = True
+    advances: bool = False
 
 
 #: scipy's solvers, which declare nothing themselves. LSODA could take a

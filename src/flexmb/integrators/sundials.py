@@ -22,6 +22,9 @@ __all__ = ["CVODE", "CVODEBDF", "CVODEAdams", "KRYLOV_DIM"]
 #: Krylov dimension of the preconditioned GMRES (the Newton preconditioner leaves little to iterate on)
 KRYLOV_DIM = 10
 
+#: CVODE's bound on the internal steps of one call
+MAX_STEPS = 10**9
+
 
 class CVODE(OdeSolver):
     """SUNDIALS CVODE, stepped one internal step at a time (base of :class:`CVODEBDF` and :class:`CVODEAdams`).
@@ -91,6 +94,7 @@ class CVODE(OdeSolver):
     second_order = False
     has_dense_output = True
     cheap_restart = False
+    advances = True
 
     def __init__(self, fun, t0, y0, t_bound, *, rtol: float = 1e-3, atol=1e-6, max_step: float = np.inf,
                  first_step: float | None = None, jac=None, preconditioner=None, vectorized: bool = False,
@@ -105,10 +109,12 @@ class CVODE(OdeSolver):
             max_step=0.0 if not np.isfinite(max_step) else float(max_step),
             first_step=0.0 if first_step is None else float(first_step),
         )
-        f = self.fun
+        def rhsfn(t, y, yp):  # the caller's fun itself: scipy's wrapper costs as much as a small model's call
+            self.nfev += 1
+            yp[:] = fun(t, y)
 
-        def rhsfn(t, y, yp):
-            yp[:] = f(t, y)
+        self.n_steps = 0
+        options.update(max_num_steps=MAX_STEPS)
 
         if preconditioner is not None:
             options.update(self._krylov(preconditioner))
@@ -149,16 +155,59 @@ class CVODE(OdeSolver):
                     precond=sksundae.cvode.CVODEPrecond(setup, solve, side="left"))
 
     def _step_impl(self):
-        out = self._cvode.step(self.t_bound, method="onestep", tstop=self.t_bound)
+        out = self._call(self.t_bound, "onestep")
         if out.success and out.t == self.t:
             # after an interpolated output (dense output) behind its current
             # time, CVODE's one-step mode first returns that time again
-            out = self._cvode.step(self.t_bound, method="onestep", tstop=self.t_bound)
+            out = self._call(self.t_bound, "onestep")
         if not out.success:
             return False, f"CVODE: {out.message} (flag {out.status})"
         self.t = float(out.t)
         self.y = out.y
         return True, None
+
+    def _call(self, t, method):
+        return self._cvode.step(t, method=method, tstop=self.t_bound)
+
+    def advance(self, t: float) -> np.ndarray:
+        """Step until ``t`` (at most ``t_bound``) is reached; the state there (CVODE's interpolant).
+
+        CVODE is stepped one internal step at a time, as by :meth:`step`,
+        so the output times do not change the steps; only the steps
+        themselves run between two output times, none of simulate's checks.
+
+        Parameters
+        ----------
+        t : float
+            Time to reach.
+
+        Returns
+        -------
+        ndarray
+            The state at ``t``; ``self.t`` and ``self.y`` are those of the
+            last step's end, at or past ``t``.
+
+        Raises
+        ------
+        RuntimeError
+            If CVODE fails (the message gives its flag and time).
+        """
+        t = min(float(t), self.t_bound)
+        cvode, t_bound = self._cvode, self.t_bound
+        tn = self.t
+        while tn < t:
+            out = cvode.step(t_bound, method="onestep", tstop=t_bound)
+            if not out.success:
+                self.status = "failed"
+                raise RuntimeError(f"CVODE: {out.message} (flag {out.status}) at t = {out.t:.9g} s")
+            if out.t == tn:  # after an interpolated output behind its time, one-step mode returns that time again
+                continue
+            self.n_steps += 1
+            self.t_old, tn, self.y = tn, float(out.t), out.y
+        self.t = tn
+        if tn >= t_bound:
+            self.status = "finished"
+        return self._call(t, "normal").y if tn > t else self.y.copy()
 
     def _dense_output_impl(self):
         return CVODEDenseOutput(self.t_old, self.t, self)
@@ -187,10 +236,9 @@ class CVODEDenseOutput(DenseOutput):
     def _call_impl(self, t):
         if self._solver.t != self.t:
             raise RuntimeError("a CVODE dense output is valid only until the solver's next step")
-        cv = self._solver._cvode
         if t.ndim == 0:
-            return cv.step(float(t), method="normal").y
-        return np.column_stack([cv.step(float(ti), method="normal").y for ti in t])
+            return self._solver._call(float(t), "normal").y
+        return np.column_stack([self._solver._call(float(ti), "normal").y for ti in t])
 
 
 class CVODEBDF(CVODE):

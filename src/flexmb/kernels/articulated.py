@@ -20,8 +20,10 @@ import numpy as np
 from numba import njit
 
 from .dynamics import axis_projections, bias_wrenches, spatial_inertias
+from .loads import LoadTables, apply_load_tables
+from .tree import TreeArrays, tree_kinematics
 
-__all__ = ["articulated_accelerations", "open_tree_accelerations", "mass_times"]
+__all__ = ["articulated_accelerations", "open_tree_accelerations", "open_tree_rhs", "mass_times"]
 
 
 @njit(cache=True)
@@ -214,6 +216,63 @@ def open_tree_accelerations(parent, coord_start, R, r, omega, alpha_bias, a_bias
     Iw, spatial = spatial_inertias(R, r, mass, inertia)
     f, t = bias_wrenches(mass, Iw, omega, alpha_bias, a_bias, force, torque)
     return articulated_accelerations(parent, coord_start, spatial, Sw, Sv, r, f, t, generalized, armature)
+
+
+@njit(cache=True)
+def open_tree_rhs(tree, tables, y, armature):
+    """The state derivative of an open tree whose loads are all compiled, in one call.
+
+    :func:`~flexmb.kernels.tree.tree_kinematics`, the built-in loads
+    (:func:`~flexmb.kernels.loads.apply_load_tables`) and
+    :func:`open_tree_accelerations`: the right-hand side of a model without
+    plugin joints or Python force elements, with nothing boxed in between.
+
+    Parameters
+    ----------
+    tree : tuple
+        The fields of :class:`~flexmb.kernels.tree.TreeArrays`, in order (a
+        plain tuple: numba's dispatch of a named one costs more than this
+        kernel at a few bodies).
+    tables : tuple
+        The fields of :class:`~flexmb.forces.tables.LoadTables`, in order.
+    y : ndarray, shape (2 n + k,)
+        The state ``(x, xd, ...)``; entries past ``2 n`` are not read.
+    armature : ndarray, shape (n,)
+        Diagonal added to A (zeros for the equations of motion).
+
+    Returns
+    -------
+    ydot : ndarray, shape (2 n,)
+        ``(xd, xdd)``.
+    status : int
+        -1 if ``ydot`` is finite, -2 if not, or the body whose joint has a
+        singular articulated inertia.
+    """
+    tree = TreeArrays(*tree)
+    tables = LoadTables(*tables)
+    n = armature.shape[0]
+    x = y[:n]
+    xd = y[n : 2 * n]
+    none3 = np.empty((0, 3))
+    R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = tree_kinematics(
+        tree.parent, tree.coord_start, tree.coord_kind, tree.coord_axis, tree.external, tree.parent_frame,
+        tree.child_frame, tree.lever, tree.child_point, tree.com, x, xd, np.empty((0, 3, 3)), none3, none3, none3,
+        none3, none3)
+    nb1 = R.shape[0]
+    force = np.zeros((nb1, 3))
+    torque = np.zeros((nb1, 3))
+    generalized = np.zeros(n)
+    apply_load_tables(tables, tree.mass, R, origin, r, omega, v, x, xd, force, torque, generalized)
+    xdd, bad = open_tree_accelerations(tree.parent, tree.coord_start, R, r, omega, alpha, acc, tree.mass,
+                                       tree.inertia, Sw, Sv, force, torque, generalized, armature)
+    ydot = np.empty(2 * n)
+    status = bad
+    for i in range(n):
+        ydot[i] = xd[i]
+        ydot[n + i] = xdd[i]
+        if status == -1 and not (np.isfinite(xdd[i]) and np.isfinite(xd[i])):
+            status = -2
+    return ydot, status
 
 
 @njit(cache=True)

@@ -2,10 +2,89 @@
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit
 
-__all__ = ["add_point_forces", "add_torques", "body_points"]
+__all__ = ["LoadTables", "add_point_forces", "add_torques", "body_points", "apply_load_tables"]
+
+
+class LoadTables(NamedTuple):
+    """Flat data of compiled force elements (one row per element or coordinate).
+
+    Built by :meth:`LoadTables.of` (``flexmb.forces.tables``); each
+    parameter is kept as the field of the same name.
+
+    Parameters
+    ----------
+    gravity : ndarray, shape (3,)
+        Summed uniform gravity, m/s^2.
+    coord_cols : ndarray of int, shape (m,)
+        Coordinates carrying a spring and damper.
+    coord_k, coord_c, coord_rest : ndarray, shape (m,)
+        Their stiffnesses, damping constants and rest values.
+    pair_rows : ndarray of int, shape (p, 2)
+        Body rows of the two ends of each point-to-point spring-damper.
+    pair_local : ndarray, shape (p, 2, 3)
+        The ends in their rows' body frames.
+    pair_par : ndarray, shape (p, 3)
+        Stiffness, damping constant and rest length.
+    force_rows : ndarray of int, shape (q,)
+        Body rows of constant point forces.
+    force_local : ndarray, shape (q, 3)
+        Points of application in the rows' body frames.
+    force_vec : ndarray, shape (q, 3)
+        The forces, N.
+    force_in_body : ndarray of bool, shape (q,)
+        Whether a force's components are in body axes.
+    torque_rows : ndarray of int, shape (s,)
+        Body rows of constant torques.
+    torque_vec : ndarray, shape (s, 3)
+        The torques, N m.
+    torque_in_body : ndarray of bool, shape (s,)
+        Whether a torque's components are in body axes.
+    """
+
+    gravity: np.ndarray
+    coord_cols: np.ndarray
+    coord_k: np.ndarray
+    coord_c: np.ndarray
+    coord_rest: np.ndarray
+    pair_rows: np.ndarray
+    pair_local: np.ndarray
+    pair_par: np.ndarray
+    force_rows: np.ndarray
+    force_local: np.ndarray
+    force_vec: np.ndarray
+    force_in_body: np.ndarray
+    torque_rows: np.ndarray
+    torque_vec: np.ndarray
+    torque_in_body: np.ndarray
+
+    @classmethod
+    def of(cls, **fields) -> "LoadTables":
+        """Tables holding ``fields`` and empty elsewhere (one compiled layout for every model).
+
+        Parameters
+        ----------
+        **fields : array_like
+            Some of the attributes.
+
+        Returns
+        -------
+        LoadTables
+        """
+        shapes = {"gravity": (3,), "pair_rows": (0, 2), "pair_local": (0, 2, 3), "pair_par": (0, 3),
+                  "force_local": (0, 3), "force_vec": (0, 3), "torque_vec": (0, 3)}
+        out = {}
+        for name in cls._fields:
+            dtype = (np.int64 if name.endswith("_rows") or name == "coord_cols"
+                     else np.bool_ if name.endswith("_in_body") else float)
+            value = fields.get(name)
+            out[name] = (np.zeros(shapes.get(name, (0,)), dtype=dtype) if value is None
+                         else np.ascontiguousarray(value, dtype=dtype))
+        return cls(**out)
 
 
 @njit(cache=True)
@@ -88,3 +167,111 @@ def body_points(rows, local, R, origin, r, omega, v):
         vel[i, 1] = v[k, 1] + w[2] * lx - w[0] * lz
         vel[i, 2] = v[k, 2] + w[0] * ly - w[1] * lx
     return p, vel
+
+
+@njit(cache=True)
+def apply_load_tables(tables, mass, R, origin, r, omega, v, x, xd, force, torque, generalized):
+    """Add the loads of the compiled built-in force elements (:class:`flexmb.forces.tables.LoadTables`).
+
+    Uniform gravity ``m_k g`` at the mass centres; coordinate springs and
+    dampers ``-k (q - q0) - c qdot`` (joint springs, the segment joints of
+    flexible bodies, eqs. 21, 25-27); point-to-point spring-dampers; and
+    constant point forces and body torques, in inertial or body axes. All
+    enter the generalized active force F of eq. 5 through ``force``,
+    ``torque`` and ``generalized``.
+
+    Parameters
+    ----------
+    tables : LoadTables
+        The elements' data, flat.
+    mass : ndarray, shape (n_bodies,)
+        Masses.
+    R, origin, r, omega, v : ndarray, shape (n_bodies + 1, ...)
+        Rotations, body-frame origins, mass centres, angular velocities and
+        mass-centre velocities (the ground last).
+    x, xd : ndarray, shape (n,)
+        Coordinates and speeds.
+    force, torque : ndarray, shape (n_bodies + 1, 3)
+        Accumulators at the mass centres, updated in place.
+    generalized : ndarray, shape (n,)
+        Accumulator of generalized forces, updated in place.
+    """
+    g = tables.gravity
+    if g[0] != 0.0 or g[1] != 0.0 or g[2] != 0.0:
+        for k in range(mass.shape[0]):
+            for a in range(3):
+                force[k, a] += mass[k] * g[a]
+    cols = tables.coord_cols
+    for i in range(cols.shape[0]):
+        c = cols[i]
+        generalized[c] -= tables.coord_k[i] * (x[c] - tables.coord_rest[i]) + tables.coord_c[i] * xd[c]
+    pairs = tables.pair_rows
+    if pairs.shape[0]:
+        pts = np.empty((2, 3))
+        vel = np.empty((2, 3))
+        f2 = np.empty(3)
+        for i in range(pairs.shape[0]):
+            for s in range(2):
+                k = pairs[i, s]
+                loc = tables.pair_local[i, s]
+                for a in range(3):
+                    pts[s, a] = R[k, a, 0] * loc[0] + R[k, a, 1] * loc[1] + R[k, a, 2] * loc[2] + origin[k, a]
+                lx, ly, lz = pts[s, 0] - r[k, 0], pts[s, 1] - r[k, 1], pts[s, 2] - r[k, 2]
+                w = omega[k]
+                vel[s, 0] = v[k, 0] + w[1] * lz - w[2] * ly
+                vel[s, 1] = v[k, 1] + w[2] * lx - w[0] * lz
+                vel[s, 2] = v[k, 2] + w[0] * ly - w[1] * lx
+            stiff, damp, rest = tables.pair_par[i, 0], tables.pair_par[i, 1], tables.pair_par[i, 2]
+            d0, d1, d2 = pts[1, 0] - pts[0, 0], pts[1, 1] - pts[0, 1], pts[1, 2] - pts[0, 2]
+            length = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+            scale = stiff if rest == 0.0 else stiff * (length - rest) / max(length, 1e-300)
+            f2[0], f2[1], f2[2] = -scale * d0, -scale * d1, -scale * d2
+            if damp != 0.0 and length > 1e-12:
+                e0, e1, e2 = d0 / length, d1 / length, d2 / length
+                rate = (e0 * (vel[1, 0] - vel[0, 0]) + e1 * (vel[1, 1] - vel[0, 1])
+                        + e2 * (vel[1, 2] - vel[0, 2]))
+                f2[0] -= damp * rate * e0
+                f2[1] -= damp * rate * e1
+                f2[2] -= damp * rate * e2
+            for s in range(2):
+                k = pairs[i, s]
+                sign = -1.0 if s == 0 else 1.0
+                lx, ly, lz = pts[s, 0] - r[k, 0], pts[s, 1] - r[k, 1], pts[s, 2] - r[k, 2]
+                fx, fy, fz = sign * f2[0], sign * f2[1], sign * f2[2]
+                force[k, 0] += fx
+                force[k, 1] += fy
+                force[k, 2] += fz
+                torque[k, 0] += ly * fz - lz * fy
+                torque[k, 1] += lz * fx - lx * fz
+                torque[k, 2] += lx * fy - ly * fx
+    rows = tables.force_rows
+    f = np.empty(3)
+    for i in range(rows.shape[0]):
+        k = rows[i]
+        loc = tables.force_local[i]
+        for a in range(3):
+            f[a] = tables.force_vec[i, a]
+        if tables.force_in_body[i]:
+            for a in range(3):
+                f[a] = R[k, a, 0] * tables.force_vec[i, 0] + R[k, a, 1] * tables.force_vec[i, 1] \
+                    + R[k, a, 2] * tables.force_vec[i, 2]
+        lx = R[k, 0, 0] * loc[0] + R[k, 0, 1] * loc[1] + R[k, 0, 2] * loc[2] + origin[k, 0] - r[k, 0]
+        ly = R[k, 1, 0] * loc[0] + R[k, 1, 1] * loc[1] + R[k, 1, 2] * loc[2] + origin[k, 1] - r[k, 1]
+        lz = R[k, 2, 0] * loc[0] + R[k, 2, 1] * loc[1] + R[k, 2, 2] * loc[2] + origin[k, 2] - r[k, 2]
+        force[k, 0] += f[0]
+        force[k, 1] += f[1]
+        force[k, 2] += f[2]
+        torque[k, 0] += ly * f[2] - lz * f[1]
+        torque[k, 1] += lz * f[0] - lx * f[2]
+        torque[k, 2] += lx * f[1] - ly * f[0]
+    rows = tables.torque_rows
+    for i in range(rows.shape[0]):
+        k = rows[i]
+        for a in range(3):
+            f[a] = tables.torque_vec[i, a]
+        if tables.torque_in_body[i]:
+            for a in range(3):
+                f[a] = R[k, a, 0] * tables.torque_vec[i, 0] + R[k, a, 1] * tables.torque_vec[i, 1] \
+                    + R[k, a, 2] * tables.torque_vec[i, 2]
+        for a in range(3):
+            torque[k, a] += f[a]

@@ -16,10 +16,48 @@ the joint moves with ``S_v + S_w x p`` (eqs. 7, 17).
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numba import njit
 
-__all__ = ["joint_motions", "tree_kinematics", "upstream_rows"]
+__all__ = ["TreeArrays", "joint_motions", "tree_kinematics", "upstream_rows"]
+
+
+class TreeArrays(NamedTuple):
+    """The tree's flat layout and constant body data, as the compiled kernels take it.
+
+    Built once by :class:`flexmb.topology.Topology` (``Topology.arrays``);
+    each parameter is kept as the field of the same name.
+
+    Parameters
+    ----------
+    parent, coord_start, coord_kind, coord_axis, external : ndarray of int or bool
+        The layout (see :func:`tree_kinematics`).
+    parent_frame, child_frame, lever, child_point, com : ndarray
+        The joints' frames and points and the mass centres (see
+        :func:`tree_kinematics`).
+    mass : ndarray, shape (n_bodies,)
+        Masses, kg.
+    inertia : ndarray, shape (n_bodies, 3, 3)
+        Central inertias in the body frames, kg m^2.
+    coord_body : ndarray of int, shape (n,)
+        Body whose tree joint owns each coordinate.
+    """
+
+    parent: np.ndarray
+    coord_start: np.ndarray
+    coord_kind: np.ndarray
+    coord_axis: np.ndarray
+    external: np.ndarray
+    parent_frame: np.ndarray
+    child_frame: np.ndarray
+    lever: np.ndarray
+    child_point: np.ndarray
+    com: np.ndarray
+    mass: np.ndarray
+    inertia: np.ndarray
+    coord_body: np.ndarray
 
 _TRANSLATION = 0
 

@@ -27,7 +27,10 @@ class CVODE(OdeSolver):
     """SUNDIALS CVODE, stepped one internal step at a time (base of :class:`CVODEBDF` and :class:`CVODEAdams`).
 
     A subclass only sets the class attributes: ``family`` ({'BDF',
-    'Adams'}), ``max_order``, ``linsolver``.
+    'Adams'}), ``max_order``, ``linsolver``. A solver other than CVODE
+    (:class:`IDA`) replaces the three methods that speak to it:
+    ``_create`` (the scikit-sundae object, initialised), ``_jacfn`` (its
+    Jacobian callback) and ``_krylov`` (its preconditioned GMRES options).
 
     Parameters
     ----------
@@ -95,37 +98,44 @@ class CVODE(OdeSolver):
     def __init__(self, fun, t0, y0, t_bound, *, rtol: float = 1e-3, atol=1e-6, max_step: float = np.inf,
                  first_step: float | None = None, jac=None, preconditioner=None, vectorized: bool = False,
                  **extraneous):
-        import sksundae
-
         super().__init__(fun, t0, y0, t_bound, vectorized=False)
         atol = np.asarray(atol, dtype=float)
         options = dict(
-            method=self.family, max_order=self.max_order, linsolver=self.linsolver, rtol=float(rtol),
+            max_order=self.max_order, linsolver=self.linsolver, rtol=float(rtol),
             atol=float(atol) if atol.ndim == 0 else [float(a) for a in atol],
             max_step=0.0 if not np.isfinite(max_step) else float(max_step),
             first_step=0.0 if first_step is None else float(first_step),
         )
+        if preconditioner is not None:
+            options.update(self._krylov(preconditioner))
+        elif jac is not None:
+            if not callable(jac):
+                J = np.array(jac, dtype=float)
+                jac = lambda t, y: J  # noqa: E731
+            options["jacfn"] = self._jacfn(jac)
+        self._mem = self._create(options)
+
+    def _create(self, options: dict):
+        """The scikit-sundae solver, initialised at ``(t, y)`` (:class:`IDA` overrides it)."""
+        import sksundae
+
         f = self.fun
 
         def rhsfn(t, y, yp):
             yp[:] = f(t, y)
 
-        if preconditioner is not None:
-            options.update(self._krylov(preconditioner))
-        elif jac is not None:
-            if callable(jac):
-                def jacfn(t, y, yp, JJ):
-                    self.njev += 1
-                    JJ[:, :] = jac(t, y)
-            else:
-                J = np.array(jac, dtype=float)
+        mem = sksundae.cvode.CVODE(rhsfn, method=self.family, **options)
+        mem.init_step(float(self.t), np.array(self.y, dtype=float))
+        return mem
 
-                def jacfn(t, y, yp, JJ):
-                    self.njev += 1
-                    JJ[:, :] = J
-            options["jacfn"] = jacfn
-        self._cvode = sksundae.cvode.CVODE(rhsfn, **options)
-        self._cvode.init_step(float(t0), np.array(self.y, dtype=float))
+    def _jacfn(self, jac):
+        """scikit-sundae's Jacobian callback, filling ``J = jac(t, y)`` (:class:`IDA` overrides it)."""
+
+        def jacfn(t, y, yp, JJ):
+            self.njev += 1
+            JJ[:, :] = jac(t, y)
+
+        return jacfn
 
     def _krylov(self, pre) -> dict:
         """CVODE options for GMRES preconditioned by the O(n) Newton solve of an open tree."""
@@ -149,13 +159,14 @@ class CVODE(OdeSolver):
                     precond=sksundae.cvode.CVODEPrecond(setup, solve, side="left"))
 
     def _step_impl(self):
-        out = self._cvode.step(self.t_bound, method="onestep", tstop=self.t_bound)
+        out = self._mem.step(self.t_bound, method="onestep", tstop=self.t_bound)
         if out.success and out.t == self.t:
             # after an interpolated output (dense output) behind its current
-            # time, CVODE's one-step mode first returns that time again
-            out = self._cvode.step(self.t_bound, method="onestep", tstop=self.t_bound)
+            # time, the one-step mode (CVODE's and IDA's) first returns that
+            # time again
+            out = self._mem.step(self.t_bound, method="onestep", tstop=self.t_bound)
         if not out.success:
-            return False, f"CVODE: {out.message} (flag {out.status})"
+            return False, f"{type(self._mem).__name__}: {out.message} (flag {out.status})"
         self.t = float(out.t)
         self.y = out.y
         return True, None
@@ -187,7 +198,7 @@ class CVODEDenseOutput(DenseOutput):
     def _call_impl(self, t):
         if self._solver.t != self.t:
             raise RuntimeError("a CVODE dense output is valid only until the solver's next step")
-        cv = self._solver._cvode
+        cv = self._solver._mem
         if t.ndim == 0:
             return cv.step(float(t), method="normal").y
         return np.column_stack([cv.step(float(ti), method="normal").y for ti in t])

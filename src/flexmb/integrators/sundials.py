@@ -1,15 +1,16 @@
-"""SUNDIALS CVODE (variable-order BDF and Adams) as scipy ``OdeSolver`` subclasses, through scikit-sundae.
+"""SUNDIALS CVODE (variable-order BDF and Adams) and IDA as scipy ``OdeSolver`` subclasses, through scikit-sundae.
 
-CVODE's step loop, error control, Newton iteration and dense LU run in C;
-Python is entered only for the right-hand side, the Jacobian and once per
-step. The classes drive CVODE one internal step at a time
-(``CV_ONE_STEP`` with a stop time at ``t_bound``), so they behave as any
-scipy solver: ``step()``, ``dense_output()`` (CVODE's own Nordsieck
-interpolant, ``CVodeGetDky``), ``t``, ``y``, ``step_size``, ``nfev``,
-``njev``. They can be given to :func:`scipy.integrate.solve_ivp` as
-``method`` (with ``t_eval``; not with ``dense_output=True``, which keeps
-the interpolants of past steps: CVODE's is valid only over its last
-step).
+The solvers' step loop, error control, Newton iteration and dense LU run in
+C; Python is entered only for the right-hand side, the Jacobian and once
+per step. The classes drive CVODE (or IDA, on the residual
+``y' - f(t, y)``) one internal step at a time (``CV_ONE_STEP`` /
+``IDA_ONE_STEP`` with a stop time at ``t_bound``), so they behave as any
+scipy solver: ``step()``, ``dense_output()`` (the solver's own
+interpolant, ``CVodeGetDky`` / ``IDAGetDky``), ``t``, ``y``,
+``step_size``, ``nfev``, ``njev``. They can be given to
+:func:`scipy.integrate.solve_ivp` as ``method`` (with ``t_eval``; not with
+``dense_output=True``, which keeps the interpolants of past steps: the
+solver's is valid only over its last step).
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.integrate import DenseOutput, OdeSolver
 
-__all__ = ["CVODE", "CVODEBDF", "CVODEAdams", "KRYLOV_DIM"]
+__all__ = ["CVODE", "CVODEBDF", "CVODEAdams", "IDA", "CVODEDenseOutput", "KRYLOV_DIM"]
 
 #: Krylov dimension of the preconditioned GMRES (the Newton preconditioner leaves little to iterate on)
 KRYLOV_DIM = 10
@@ -176,14 +177,14 @@ class CVODE(OdeSolver):
 
 
 class CVODEDenseOutput(DenseOutput):
-    """CVODE's interpolant over its last step (``CVodeGetDky``); valid until the solver steps again.
+    """CVODE's or IDA's interpolant over its last step (``CVodeGetDky``, ``IDAGetDky``); valid until it steps again.
 
     Parameters
     ----------
     t_old, t : float
         The last step's interval.
     solver : CVODE
-        The solver that took it.
+        The solver that took it (an :class:`IDA` too).
 
     Raises
     ------
@@ -286,3 +287,104 @@ class CVODEAdams(CVODE):
 
     family = "Adams"
     max_order = 12
+
+
+class IDA(CVODE):
+    """SUNDIALS IDA (variable-order BDF for ``F(t, y, y') = 0``) on ``F = y' - fun(t, y)`` (``'IDA'``).
+
+    It shares :class:`CVODE`'s stepping, dense output (``IDAGetDky``),
+    options and restart behaviour; only the solver object differs.
+
+    Parameters
+    ----------
+    fun : callable
+        Right-hand side ``fun(t, y) -> ydot``.
+    t0 : float
+        Initial time.
+    y0 : array_like, shape (m,)
+        Initial state; the initial derivative is ``fun(t0, y0)``.
+    t_bound : float
+        End time.
+    rtol, atol : float or array_like
+        Tolerances.
+    max_step : float
+        Largest step.
+    first_step : float, optional
+        First step size.
+    jac : callable or array_like, optional
+        State Jacobian ``J = d fun / d y`` (see :class:`CVODE`); IDA is given
+        its iteration matrix ``dF/dy + cj dF/dy' = cj I - J``.
+    preconditioner : NewtonPreconditioner, optional
+        O(n) preconditioned Krylov solves of an open tree (see
+        :class:`CVODE`): ``(cj I - J) z = r`` is solved as
+        ``(I - J / cj) z = r / cj``.
+    vectorized : bool
+        Ignored.
+    **extraneous
+        Ignored.
+
+    Notes
+    -----
+    For the ODEs flexmb integrates, IDA runs the same variable-order BDF as
+    :class:`CVODEBDF` (fixed-leading-coefficient form, orders 1-5), but its
+    iteration matrix ``cj I - J`` holds the method's coefficient ``cj``:
+    IDA sets it up anew, evaluating the Jacobian again, whenever ``cj``
+    has drifted by more than its threshold, where CVODE refactors
+    ``I - gamma J`` with the Jacobian it kept [1]_. Each set-up thus costs a
+    Jacobian; CVODE_BDF is the cheaper choice on ODEs, and IDA the solver
+    to build on for index-reduced DAE formulations.
+
+    References
+    ----------
+    .. [1] A. C. Hindmarsh et al., "SUNDIALS: Suite of nonlinear and
+       differential/algebraic equation solvers", ACM TOMS 31 (2005) 363-396.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from scipy.integrate import solve_ivp
+    >>> from flexmb.integrators import IDA
+    >>> sol = solve_ivp(lambda t, y: -y, (0.0, 1.0), [1.0], method=IDA, rtol=1e-8, atol=1e-10)
+    >>> bool(abs(sol.y[0, -1] - np.exp(-1.0)) < 1e-6)
+    True
+    """
+
+    family = "BDF"
+    max_order = 5
+    uses_preconditioner = True
+
+    def _create(self, options: dict):
+        import sksundae
+
+        f = self.fun
+
+        def resfn(t, y, yp, res):
+            res[:] = yp - f(t, y)
+
+        mem = sksundae.ida.IDA(resfn, **options)
+        y0 = np.array(self.y, dtype=float)
+        mem.init_step(float(self.t), y0, np.array(f(self.t, y0), dtype=float))
+        return mem
+
+    def _jacfn(self, jac):
+        def jacfn(t, y, yp, res, cj, JJ):
+            self.njev += 1
+            JJ[:, :] = -jac(t, y)
+            JJ[np.diag_indices_from(JJ)] += cj
+
+        return jacfn
+
+    def _krylov(self, pre) -> dict:
+        import sksundae
+
+        n = pre.system.n_coords
+
+        def setup(t, y, yp, res, cj):
+            self.njev += 1
+            pre.setup(t, y[:n], y[n : 2 * n])
+
+        def solve(t, y, yp, res, rvec, zvec, cj, delta):
+            zvec[:n], zvec[n : 2 * n] = pre.solve(rvec[:n] / cj, rvec[n : 2 * n] / cj, 1.0 / cj)
+            zvec[2 * n :] = rvec[2 * n :] / cj  # states nothing depends on (work terms)
+
+        return dict(linsolver="gmres", krylov_dim=KRYLOV_DIM, precond=sksundae.ida.IDAPrecond(setup, solve))

@@ -274,6 +274,7 @@ EXPECTED = {
                     "auto": fm.AutoComplement},
     "integrators": {"RK45": RK45, "RK23": RK23, "DOP853": DOP853, "Radau": Radau, "BDF": BDF, "LSODA": LSODA,
                     "CVODE_BDF": fm.integrators.CVODEBDF, "CVODE_Adams": fm.integrators.CVODEAdams,
+                    "IDA": fm.integrators.IDA,
                     "GeneralizedAlpha": fm.GeneralizedAlpha},
 }
 BUILTIN_NAMES = [(kind, name) for kind, table in EXPECTED.items() for name in table]

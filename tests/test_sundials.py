@@ -1,9 +1,10 @@
-"""SUNDIALS CVODE (BDF and Adams) as flexmb integrators, and the integrator capability interface.
+"""SUNDIALS CVODE (BDF and Adams) and IDA as flexmb integrators, and the integrator capability interface.
 
 References come from outside the integrator under test: energy
-conservation of an undamped pendulum, scipy's DOP853 or Radau at tight
-tolerances on the same model (a B1 cantilever of BENCHMARKS.md, a four-bar
-loop that needs constraint projection), and exact counts.
+conservation of an undamped pendulum, closed forms (a damped linear
+oscillator, a pendulum's small oscillations), scipy's DOP853 or Radau at
+tight tolerances on the same model (a B1 cantilever of BENCHMARKS.md, a
+four-bar loop that needs constraint projection), and exact counts.
 """
 
 from __future__ import annotations
@@ -15,12 +16,13 @@ import pytest
 from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, Radau, solve_ivp
 
 import flexmb as fm
-from flexmb.integrators import (CVODEAdams, CVODEBDF, Capabilities, SecondOrderBDF, SecondOrderRadau, adapt,
+from flexmb.integrators import (IDA, CVODEAdams, CVODEBDF, Capabilities, SecondOrderBDF, SecondOrderRadau, adapt,
                                 capabilities)
 
 from conftest import fourbar, fourbar_initial
 
 CVODES = ["CVODE_BDF", "CVODE_Adams"]
+SUNDIALS = [*CVODES, "IDA"]
 G = 9.81
 
 
@@ -43,7 +45,7 @@ def cantilever(n_segments=4, damped=True):
 # ----------------------------------------------------------------------------- registration
 
 
-@pytest.mark.parametrize("name, cls", [("CVODE_BDF", CVODEBDF), ("CVODE_Adams", CVODEAdams)])
+@pytest.mark.parametrize("name, cls", [("CVODE_BDF", CVODEBDF), ("CVODE_Adams", CVODEAdams), ("IDA", IDA)])
 def test_cvode_is_registered_by_name(name, cls):
     assert fm.registry.get("integrators", name) is cls
     assert fm.INTEGRATORS[name] is cls
@@ -51,12 +53,12 @@ def test_cvode_is_registered_by_name(name, cls):
 
 
 def test_unknown_integrator_lists_the_sundials_ones():
-    with pytest.raises(fm.ModelError, match=r"or, from SUNDIALS, \['CVODE_Adams', 'CVODE_BDF'\]"):
+    with pytest.raises(fm.ModelError, match=r"or, from SUNDIALS, \['CVODE_Adams', 'CVODE_BDF', 'IDA'\]"):
         fm.simulate(pendulum(), 0.1, method="Euler")
 
 
 def test_cvode_works_under_solve_ivp():
-    for cls in (CVODEBDF, CVODEAdams):
+    for cls in (CVODEBDF, CVODEAdams, IDA):
         t_eval = np.linspace(0.0, 2.0, 7)
         sol = solve_ivp(lambda t, y: [y[1], -y[0]], (0.0, 2.0), [1.0, 0.0], method=cls, rtol=1e-10, atol=1e-12,
                         t_eval=t_eval)
@@ -86,6 +88,8 @@ def test_flexmb_integrators_declare_their_capabilities():
     assert capabilities(CVODEBDF) == Capabilities(uses_jacobian=True, uses_preconditioner=True, cheap_restart=False,
                                                   advances=True)
     assert capabilities(CVODEAdams) == Capabilities(uses_jacobian=True, cheap_restart=False, advances=True)
+    assert capabilities(IDA) == Capabilities(uses_jacobian=True, uses_preconditioner=True, cheap_restart=False,
+                                             advances=True)
 
 
 def test_declared_capability_decides_what_simulate_passes():
@@ -128,11 +132,13 @@ def test_integrator_without_dense_output_is_refused():
 # ----------------------------------------------------------------------------- accuracy
 
 
-@pytest.mark.parametrize("method", CVODES)
+@pytest.mark.parametrize("method", SUNDIALS)
 def test_pendulum_energy_and_reference(method):
-    """Undamped pendulum released at 90 deg: energy conserved, angle against DOP853 at rtol 1e-12."""
-    kw = dict(positions={"pin": np.pi / 2}, n_out=51)
+    """Undamped pendulum released horizontal (90 deg from hanging; at ``pin = pi/2`` it stands upright and
+    stays): energy conserved, angle against DOP853 at rtol 1e-12."""
+    kw = dict(positions={"pin": 0.0}, n_out=51)
     ref = fm.simulate(pendulum(), 2.0, method="DOP853", rtol=1e-12, atol=1e-14, **kw)
+    assert np.ptp(ref.x) > 3.0  # it swings through the bottom to the other side
     res = fm.simulate(pendulum(), 2.0, method=method, rtol=1e-10, atol=1e-12, **kw)
     assert res.status == "finished" and res.method == method
     drift = np.abs(res.energy - res.energy[0]).max() / np.abs(res.potential).max()
@@ -147,7 +153,7 @@ def b1_reference():
     return system, fm.simulate(system, 0.5, method="Radau", rtol=1e-11, atol=1e-13, n_out=11)
 
 
-@pytest.mark.parametrize("method", CVODES)
+@pytest.mark.parametrize("method", SUNDIALS)
 def test_b1_tip_matches_radau_and_counters_are_filled(b1_reference, method):
     system, ref = b1_reference
     res = fm.simulate(system, 0.5, method=method, rtol=1e-9, atol=1e-11, n_out=11)
@@ -160,11 +166,12 @@ def test_b1_tip_matches_radau_and_counters_are_filled(b1_reference, method):
     assert res.n_projections == 0 and res.n_dof == 4
 
 
-def test_output_times_do_not_change_the_steps(b1_reference):
-    """Dense output (CVODE's interpolant) must not disturb the integration: same steps, same end state."""
+@pytest.mark.parametrize("method", ["CVODE_BDF", "IDA"])
+def test_output_times_do_not_change_the_steps(b1_reference, method):
+    """Dense output (the solver's interpolant) must not disturb the integration: same steps, same end state."""
     system, _ = b1_reference
-    few = fm.simulate(system, 0.5, method="CVODE_BDF", rtol=1e-8, n_out=2)
-    many = fm.simulate(system, 0.5, method="CVODE_BDF", rtol=1e-8, n_out=101)
+    few = fm.simulate(system, 0.5, method=method, rtol=1e-8, n_out=2)
+    many = fm.simulate(system, 0.5, method=method, rtol=1e-8, n_out=101)
     assert few.n_steps == many.n_steps and few.n_rhs == many.n_rhs
     assert np.abs(few.x[-1] - many.x[-1]).max() < 1e-13
 
@@ -211,11 +218,122 @@ def test_multistep_restarts_are_rationed():
     assert res.status == "finished" and res.n_steps < 5000 and res.n_projections < 10
 
 
+# ----------------------------------------------------------------------------- IDA
+
+
+def oscillator(stiffness, damping, mass=1.0):
+    """A rigid slider on a prismatic joint held by a spring-damper: ``m x'' + c x' + k x = 0``."""
+    model = fm.Model("oscillator")
+    body = fm.RigidBody.slender_bar("slider", mass=mass, length=0.1)
+    slide = fm.Prismatic("slide", model.ground, body, axis=(1.0, 0.0, 0.0))
+    model.add(slide, fm.JointSpringDamper("spring", slide, stiffness=stiffness, damping=damping))
+    return model
+
+
+def test_ida_iteration_matrix_is_cj_minus_the_jacobian():
+    """IDA is given dF/dy + cj dF/dy' of its residual F = y' - f(t, y): compared with differences of F."""
+    A = np.array([[0.0, 1.0], [-4.0, -0.3]])
+    solver = IDA(lambda t, y: A @ y, 0.0, [1.0, 0.0], 1.0, jac=A)
+    jacfn = solver._jacfn(lambda t, y: A)
+    y, yp, cj, h = np.array([0.3, -0.2]), np.array([0.1, 0.5]), 250.0, 1e-6
+    JJ = np.zeros((2, 2))
+    jacfn(0.0, y, yp, None, cj, JJ)
+
+    def F(y, yp):
+        return yp - A @ y
+
+    fd = np.column_stack([(F(y + h * e, yp + cj * h * e) - F(y, yp)) / h for e in np.eye(2)])
+    assert np.abs(JJ - fd).max() < 1e-6 * cj
+    assert solver.njev == 1
+
+
+def test_ida_damped_oscillator_matches_the_closed_form():
+    """``x = x0 exp(-zeta wn t) (cos wd t + zeta wn / wd sin wd t)`` over three periods, with the analytic
+    Jacobian. A BDF code keeps each step's local error below rtol (relative to the amplitude); over the few
+    hundred steps of this linear, damped motion they add up without growing, to some ten rtol: bounded by
+    100 rtol."""
+    k, c, x0, rtol = 4 * np.pi**2, 0.4, 0.1, 1e-10
+    wn, zeta = np.sqrt(k), c / (2 * np.sqrt(k))
+    wd = wn * np.sqrt(1 - zeta**2)
+    res = fm.simulate(oscillator(k, c), 3.0, method="IDA", positions={"slide": x0}, rtol=rtol,
+                      atol=1e-3 * rtol, n_out=61)
+    exact = x0 * np.exp(-zeta * wn * res.t) * (np.cos(wd * res.t) + zeta * wn / wd * np.sin(wd * res.t))
+    assert res.status == "finished" and res.method == "IDA"
+    assert res.n_jac > 0  # the analytic Jacobian, through cj I - J
+    assert np.abs(res.x[:, 0] - exact).max() < 100 * rtol * x0
+
+
+def test_ida_pendulum_small_oscillations_match_the_closed_form():
+    """A bar pendulum 1e-4 rad off the vertical: ``theta = theta0 cos(w t)``, ``w^2 = 3 g / (2 L)``. The
+    closed form's own error (the period grows by theta0^2 / 16) is 5e-9 theta0 over 2 s; the local errors
+    at rtol 1e-10 (relative to theta0: atol is far below it) add up over a few hundred steps to well below
+    1e-7 theta0, the bound. No spring, so no analytic Jacobian: IDA's own difference quotients."""
+    theta0, w = 1e-4, np.sqrt(1.5 * G)
+    res = fm.simulate(pendulum(), 2.0, method="IDA", positions={"pin": -np.pi / 2 + theta0}, rtol=1e-10,
+                      atol=1e-16, n_out=41)
+    assert res.status == "finished" and res.n_jac == 0
+    assert np.abs(res.x[:, 0] + np.pi / 2 - theta0 * np.cos(w * res.t)).max() < 1e-7 * theta0
+
+
+def test_ida_newton_converges_with_the_analytic_jacobian():
+    """B1 (N = 8: stiff segment springs) over 0.5 s. With the right iteration matrix ``cj I - J`` IDA's
+    Newton iteration converges in about one right-hand side a step and needs no difference quotients
+    (2n right-hand sides each); a wrong one fails its iterations, shrinks the steps and evaluates again."""
+
+    class Blind(IDA):
+        uses_jacobian = False
+
+    system = cantilever(8).build()
+    res = fm.simulate(system, 0.5, method="IDA", rtol=1e-6, n_out=11)
+    blind = fm.simulate(system, 0.5, method=Blind, rtol=1e-6, n_out=11)
+    assert res.n_jac > 0 and blind.n_jac == 0
+    assert res.n_rhs < 1.5 * res.n_steps
+    assert res.n_rhs < blind.n_rhs
+
+
+def sprung_fourbar():
+    """The four-bar with a torsion spring-damper at the crank pivot: a closed loop with an analytic Jacobian."""
+    model = fourbar()
+    model.add(fm.JointSpringDamper("crank spring", model["A"], stiffness=0.5, damping=0.005, rest=np.pi / 4))
+    return model
+
+
+def test_ida_fourbar_matches_radau_and_cvode_bdf():
+    """A closed loop, driven by the spring, with the analytic Jacobian. At rtol 1e-9 a BDF code keeps each
+    local error below rtol (relative to angles of order one); over the thousand-odd steps of this second
+    they add up, partly cancelling, to tens of rtol: each of IDA and CVODE_BDF is bounded by 100 rtol
+    against Radau at rtol 1e-12 (a reference a thousand times closer), and so the two by 200 rtol of each
+    other."""
+    rtol = 1e-9
+    kw = dict(positions=fourbar_initial(0.0), fixed=["A"], n_out=21)
+    ref = fm.simulate(sprung_fourbar(), 1.0, method="Radau", rtol=1e-12, atol=1e-14, **kw)
+    ida = fm.simulate(sprung_fourbar(), 1.0, method="IDA", rtol=rtol, atol=rtol / 100, **kw)
+    bdf = fm.simulate(sprung_fourbar(), 1.0, method="CVODE_BDF", rtol=rtol, atol=rtol / 100, **kw)
+    assert ida.status == "finished" and ida.n_jac > 0
+    assert np.ptp(ref.x[:, 0]) > 0.5  # it really swings
+    assert ida.residual.max() < 1e-10
+    assert np.abs(ida.x - ref.x).max() < 100 * rtol and np.abs(bdf.x - ref.x).max() < 100 * rtol
+    assert np.abs(ida.x - bdf.x).max() < 200 * rtol
+
+
+def test_ida_restarts_after_projections():
+    """The four-bar released at rest at a loose tolerance: IDA's state drifts off the loop, is projected and
+    IDA restarted from it; the loop stays closed and the energy (no damping) is kept to about rtol."""
+    rtol = 1e-7
+    kw = dict(positions=fourbar_initial(np.pi / 4), fixed=["A"], n_out=21)
+    res = fm.simulate(fourbar(), 1.0, method="IDA", rtol=rtol, atol=rtol / 100, **kw)
+    assert res.status == "finished"
+    assert res.n_projections > 0
+    assert res.residual.max() < 1e-10
+    drift = np.abs(res.energy - res.energy[0]).max() / np.abs(res.potential).max()
+    assert drift < 100 * rtol
+
+
 # ----------------------------------------------------------------------------- failures
 
 
 @pytest.mark.filterwarnings("ignore::RuntimeWarning")
-@pytest.mark.parametrize("method", CVODES)
+@pytest.mark.parametrize("method", SUNDIALS)
 def test_non_finite_state_stops_with_the_time(method):
     model = pendulum()
     model.add(fm.PointForce("kick", model["bar"], lambda t: (0.0, np.nan if t > 0.1 else 1.0, 0.0),
@@ -242,18 +360,19 @@ def spatial_beam(n_segments):
     return model
 
 
-def test_open_tree_from_krylov_size_on_is_solved_without_matrices():
-    """From KRYLOV_MIN_COORDS on, CVODE_BDF gets the O(n) Newton preconditioner (GMRES) instead of a dense
-    Jacobian, and reaches the same tip as Radau at a tight tolerance (the B2 beam, 20 ms)."""
+@pytest.mark.parametrize("method", ["CVODE_BDF", "IDA"])
+def test_open_tree_from_krylov_size_on_is_solved_without_matrices(method):
+    """From KRYLOV_MIN_COORDS on, CVODE_BDF and IDA get the O(n) Newton preconditioner (GMRES) instead of a
+    dense Jacobian, and reach the same tip as Radau at a tight tolerance (the B2 beam, 20 ms)."""
     from flexmb.simulate import KRYLOV_MIN_COORDS
 
     system = spatial_beam(KRYLOV_MIN_COORDS // 3).build()
     assert system.n_coords >= KRYLOV_MIN_COORDS
     ref = fm.simulate(system, 0.02, method="Radau", rtol=1e-11, atol=1e-13, n_out=3)
-    res = fm.simulate(system, 0.02, method="CVODE_BDF", rtol=1e-8, atol=1e-10, n_out=3)
+    res = fm.simulate(system, 0.02, method=method, rtol=1e-8, atol=1e-10, n_out=3)
     assert res.status == "finished" and res.n_jac > 0  # preconditioner set-ups
     assert np.abs(res.x[-1] - ref.x[-1]).max() < 1e-7 * np.abs(ref.x[-1]).max()
     # below the threshold, the dense Jacobian route
     small = spatial_beam(4).build()
-    res_small = fm.simulate(small, 0.02, method="CVODE_BDF", rtol=1e-8, n_out=3)
+    res_small = fm.simulate(small, 0.02, method=method, rtol=1e-8, n_out=3)
     assert res_small.status == "finished" and res_small.n_jac > 0

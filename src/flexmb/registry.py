@@ -70,6 +70,7 @@ BUILTINS = {
     "integrators": {**{name: f"scipy.integrate:{name}" for name in ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")},
                     "CVODE_BDF": "flexmb.integrators.sundials:CVODEBDF",
                     "CVODE_Adams": "flexmb.integrators.sundials:CVODEAdams",
+                    "IDA": "flexmb.integrators.sundials:IDA",
                     "GeneralizedAlpha": "flexmb.genalpha:GeneralizedAlpha"},
 }
 

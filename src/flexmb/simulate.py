@@ -13,17 +13,17 @@ from . import memory, registry
 from ._validate import simulate_arguments
 from .errors import AssemblyError, FlexmbError, ModelError, SimulationError, StiffnessWarning
 from .genalpha import GeneralizedAlpha
-from .integrators import CVODEAdams, CVODEBDF, adapt, capabilities
+from .integrators import IDA, CVODEAdams, CVODEBDF, adapt, capabilities
 from .result import Result
 from .threads import limited_blas
 
 __all__ = ["simulate", "initial_state", "INTEGRATORS"]
 
 INTEGRATORS = {"RK45": RK45, "RK23": RK23, "DOP853": DOP853, "Radau": Radau, "BDF": BDF, "LSODA": LSODA,
-               "CVODE_BDF": CVODEBDF, "CVODE_Adams": CVODEAdams, "GeneralizedAlpha": GeneralizedAlpha}
+               "CVODE_BDF": CVODEBDF, "CVODE_Adams": CVODEAdams, "IDA": IDA, "GeneralizedAlpha": GeneralizedAlpha}
 
 #: the SUNDIALS integrators' names, listed apart from scipy's in error messages
-_SUNDIALS = ("CVODE_Adams", "CVODE_BDF")
+_SUNDIALS = ("CVODE_Adams", "CVODE_BDF", "IDA")
 
 
 class _NonFinite(Exception):
@@ -222,7 +222,7 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         Number of equally spaced output times (ignored if ``t_eval``).
     t_eval : array_like, optional
         Output times, increasing, within [t0, t_end].
-    method : {'auto', 'DOP853', 'RK45', 'RK23', 'Radau', 'BDF', 'LSODA', 'CVODE_BDF', 'CVODE_Adams', 'GeneralizedAlpha'} or OdeSolver class
+    method : {'auto', 'DOP853', 'RK45', 'RK23', 'Radau', 'BDF', 'LSODA', 'CVODE_BDF', 'CVODE_Adams', 'IDA', 'GeneralizedAlpha'} or OdeSolver class
         Integrator; explicit ones for non-stiff models, Radau/BDF or
         SUNDIALS' CVODE_BDF for stiff, GeneralizedAlpha (or a class from
         :func:`~flexmb.generalized_alpha`) for undamped flexible bodies

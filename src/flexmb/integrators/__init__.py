@@ -1,4 +1,4 @@
-"""Integrators: scipy's solvers, their second-order variants, and SUNDIALS CVODE.
+"""Integrators: scipy's solvers, their second-order variants, and SUNDIALS CVODE and IDA.
 
 Every integrator is a :class:`scipy.integrate.OdeSolver` subclass, looked up
 by name in the ``flexmb.integrators`` plugin table. What :func:`flexmb.simulate`
@@ -9,15 +9,16 @@ what it relies on (dense output) are read from class attributes
 - :mod:`~flexmb.integrators.second_order`: scipy's Radau and BDF, factoring
   only the n x n Schur complement of their Newton matrix;
 - :mod:`~flexmb.integrators.sundials`: CVODE's BDF and Adams methods
-  (``'CVODE_BDF'``, ``'CVODE_Adams'``), through scikit-sundae.
+  (``'CVODE_BDF'``, ``'CVODE_Adams'``) and IDA (``'IDA'``), through
+  scikit-sundae.
 """
 
 from .base import SCIPY_ADAPTERS, SCIPY_CAPABILITIES, Capabilities, adapt, capabilities
 from .second_order import SecondOrderBDF, SecondOrderRadau, second_order
-from .sundials import CVODE, CVODEAdams, CVODEBDF, CVODEDenseOutput
+from .sundials import CVODE, IDA, CVODEAdams, CVODEBDF, CVODEDenseOutput
 
 __all__ = [
     "Capabilities", "SCIPY_CAPABILITIES", "SCIPY_ADAPTERS", "capabilities", "adapt",
     "SecondOrderRadau", "SecondOrderBDF", "second_order",
-    "CVODE", "CVODEBDF", "CVODEAdams", "CVODEDenseOutput",
+    "CVODE", "CVODEBDF", "CVODEAdams", "IDA", "CVODEDenseOutput",
 ]

@@ -1,15 +1,16 @@
-"""SUNDIALS CVODE (variable-order BDF and Adams) as scipy ``OdeSolver`` subclasses, through scikit-sundae.
+"""SUNDIALS CVODE (variable-order BDF and Adams) and IDA as scipy ``OdeSolver`` subclasses, through scikit-sundae.
 
-CVODE's step loop, error control, Newton iteration and dense LU run in C;
-Python is entered only for the right-hand side, the Jacobian and once per
-step. The classes drive CVODE one internal step at a time
-(``CV_ONE_STEP`` with a stop time at ``t_bound``), so they behave as any
-scipy solver: ``step()``, ``dense_output()`` (CVODE's own Nordsieck
-interpolant, ``CVodeGetDky``), ``t``, ``y``, ``step_size``, ``nfev``,
-``njev``. They can be given to :func:`scipy.integrate.solve_ivp` as
-``method`` (with ``t_eval``; not with ``dense_output=True``, which keeps
-the interpolants of past steps: CVODE's is valid only over its last
-step).
+The solvers' step loop, error control, Newton iteration and dense LU run in
+C; Python is entered only for the right-hand side, the Jacobian and once
+per step. The classes drive CVODE (or IDA, on the residual
+``y' - f(t, y)``) one internal step at a time (``CV_ONE_STEP`` /
+``IDA_ONE_STEP`` with a stop time at ``t_bound``), so they behave as any
+scipy solver: ``step()``, ``dense_output()`` (the solver's own
+interpolant, ``CVodeGetDky`` / ``IDAGetDky``), ``t``, ``y``,
+``step_size``, ``nfev``, ``njev``. They can be given to
+:func:`scipy.integrate.solve_ivp` as ``method`` (with ``t_eval``; not with
+``dense_output=True``, which keeps the interpolants of past steps: the
+solver's is valid only over its last step).
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.integrate import DenseOutput, OdeSolver
 
-__all__ = ["CVODE", "CVODEBDF", "CVODEAdams", "KRYLOV_DIM"]
+__all__ = ["CVODE", "CVODEBDF", "CVODEAdams", "IDA", "CVODEDenseOutput", "KRYLOV_DIM"]
 
 #: Krylov dimension of the preconditioned GMRES (the Newton preconditioner leaves little to iterate on)
 KRYLOV_DIM = 10
@@ -30,7 +31,10 @@ class CVODE(OdeSolver):
     """SUNDIALS CVODE, stepped one internal step at a time (base of :class:`CVODEBDF` and :class:`CVODEAdams`).
 
     A subclass only sets the class attributes: ``family`` ({'BDF',
-    'Adams'}), ``max_order``, ``linsolver``.
+    'Adams'}), ``max_order``, ``linsolver``. A solver other than CVODE
+    (:class:`IDA`) replaces the three methods that speak to it:
+    ``_create`` (the scikit-sundae object, initialised), ``_jacfn`` (its
+    Jacobian callback) and ``_krylov`` (its preconditioned GMRES options).
 
     Parameters
     ----------
@@ -99,39 +103,47 @@ class CVODE(OdeSolver):
     def __init__(self, fun, t0, y0, t_bound, *, rtol: float = 1e-3, atol=1e-6, max_step: float = np.inf,
                  first_step: float | None = None, jac=None, preconditioner=None, vectorized: bool = False,
                  **extraneous):
-        import sksundae
-
         super().__init__(fun, t0, y0, t_bound, vectorized=False)
+        self._raw_fun = fun
+        self.n_steps = 0
         atol = np.asarray(atol, dtype=float)
         options = dict(
-            method=self.family, max_order=self.max_order, linsolver=self.linsolver, rtol=float(rtol),
+            max_num_steps=MAX_STEPS, max_order=self.max_order, linsolver=self.linsolver, rtol=float(rtol),
             atol=float(atol) if atol.ndim == 0 else [float(a) for a in atol],
             max_step=0.0 if not np.isfinite(max_step) else float(max_step),
             first_step=0.0 if first_step is None else float(first_step),
         )
+        if preconditioner is not None:
+            options.update(self._krylov(preconditioner))
+        elif jac is not None:
+            if not callable(jac):
+                J = np.array(jac, dtype=float)
+                jac = lambda t, y: J  # noqa: E731
+            options["jacfn"] = self._jacfn(jac)
+        self._mem = self._create(options)
+
+    def _create(self, options: dict):
+        """The scikit-sundae solver, initialised at ``(t, y)`` (:class:`IDA` overrides it)."""
+        import sksundae
+
+        fun = self._raw_fun
+
         def rhsfn(t, y, yp):  # the caller's fun itself: scipy's wrapper costs as much as a small model's call
             self.nfev += 1
             yp[:] = fun(t, y)
 
-        self.n_steps = 0
-        options.update(max_num_steps=MAX_STEPS)
+        mem = sksundae.cvode.CVODE(rhsfn, method=self.family, **options)
+        mem.init_step(float(self.t), np.array(self.y, dtype=float))
+        return mem
 
-        if preconditioner is not None:
-            options.update(self._krylov(preconditioner))
-        elif jac is not None:
-            if callable(jac):
-                def jacfn(t, y, yp, JJ):
-                    self.njev += 1
-                    JJ[:, :] = jac(t, y)
-            else:
-                J = np.array(jac, dtype=float)
+    def _jacfn(self, jac):
+        """scikit-sundae's Jacobian callback, filling ``J = jac(t, y)`` (:class:`IDA` overrides it)."""
 
-                def jacfn(t, y, yp, JJ):
-                    self.njev += 1
-                    JJ[:, :] = J
-            options["jacfn"] = jacfn
-        self._cvode = sksundae.cvode.CVODE(rhsfn, **options)
-        self._cvode.init_step(float(t0), np.array(self.y, dtype=float))
+        def jacfn(t, y, yp, JJ):
+            self.njev += 1
+            JJ[:, :] = jac(t, y)
+
+        return jacfn
 
     def _krylov(self, pre) -> dict:
         """CVODE options for GMRES preconditioned by the O(n) Newton solve of an open tree."""
@@ -158,16 +170,17 @@ class CVODE(OdeSolver):
         out = self._call(self.t_bound, "onestep")
         if out.success and out.t == self.t:
             # after an interpolated output (dense output) behind its current
-            # time, CVODE's one-step mode first returns that time again
+            # time, the one-step mode (CVODE's and IDA's) first returns that
+            # time again
             out = self._call(self.t_bound, "onestep")
         if not out.success:
-            return False, f"CVODE: {out.message} (flag {out.status})"
+            return False, f"{type(self._mem).__name__}: {out.message} (flag {out.status})"
         self.t = float(out.t)
         self.y = out.y
         return True, None
 
     def _call(self, t, method):
-        return self._cvode.step(t, method=method, tstop=self.t_bound)
+        return self._mem.step(t, method=method, tstop=self.t_bound)
 
     def advance(self, t: float) -> np.ndarray:
         """Step until ``t`` (at most ``t_bound``) is reached; the state there (CVODE's interpolant).
@@ -193,13 +206,13 @@ class CVODE(OdeSolver):
             If CVODE fails (the message gives its flag and time).
         """
         t = min(float(t), self.t_bound)
-        cvode, t_bound = self._cvode, self.t_bound
+        mem, t_bound = self._mem, self.t_bound
         tn = self.t
         while tn < t:
-            out = cvode.step(t_bound, method="onestep", tstop=t_bound)
+            out = mem.step(t_bound, method="onestep", tstop=t_bound)
             if not out.success:
                 self.status = "failed"
-                raise RuntimeError(f"CVODE: {out.message} (flag {out.status}) at t = {out.t:.9g} s")
+                raise RuntimeError(f"{type(mem).__name__}: {out.message} (flag {out.status}) at t = {out.t:.9g} s")
             if out.t == tn:  # after an interpolated output behind its time, one-step mode returns that time again
                 continue
             self.n_steps += 1
@@ -214,14 +227,14 @@ class CVODE(OdeSolver):
 
 
 class CVODEDenseOutput(DenseOutput):
-    """CVODE's interpolant over its last step (``CVodeGetDky``); valid until the solver steps again.
+    """CVODE's or IDA's interpolant over its last step (``CVodeGetDky``, ``IDAGetDky``); valid until it steps again.
 
     Parameters
     ----------
     t_old, t : float
         The last step's interval.
     solver : CVODE
-        The solver that took it.
+        The solver that took it (an :class:`IDA` too).
 
     Raises
     ------
@@ -323,3 +336,104 @@ class CVODEAdams(CVODE):
 
     family = "Adams"
     max_order = 12
+
+
+class IDA(CVODE):
+    """SUNDIALS IDA (variable-order BDF for ``F(t, y, y') = 0``) on ``F = y' - fun(t, y)`` (``'IDA'``).
+
+    It shares :class:`CVODE`'s stepping, dense output (``IDAGetDky``),
+    options and restart behaviour; only the solver object differs.
+
+    Parameters
+    ----------
+    fun : callable
+        Right-hand side ``fun(t, y) -> ydot``.
+    t0 : float
+        Initial time.
+    y0 : array_like, shape (m,)
+        Initial state; the initial derivative is ``fun(t0, y0)``.
+    t_bound : float
+        End time.
+    rtol, atol : float or array_like
+        Tolerances.
+    max_step : float
+        Largest step.
+    first_step : float, optional
+        First step size.
+    jac : callable or array_like, optional
+        State Jacobian ``J = d fun / d y`` (see :class:`CVODE`); IDA is given
+        its iteration matrix ``dF/dy + cj dF/dy' = cj I - J``.
+    preconditioner : NewtonPreconditioner, optional
+        O(n) preconditioned Krylov solves of an open tree (see
+        :class:`CVODE`): ``(cj I - J) z = r`` is solved as
+        ``(I - J / cj) z = r / cj``.
+    vectorized : bool
+        Ignored.
+    **extraneous
+        Ignored.
+
+    Notes
+    -----
+    For the ODEs flexmb integrates, IDA runs the same variable-order BDF as
+    :class:`CVODEBDF` (fixed-leading-coefficient form, orders 1-5), but its
+    iteration matrix ``cj I - J`` holds the method's coefficient ``cj``:
+    IDA sets it up anew, evaluating the Jacobian again, whenever ``cj``
+    has drifted by more than its threshold, where CVODE refactors
+    ``I - gamma J`` with the Jacobian it kept [1]_. Each set-up thus costs a
+    Jacobian; CVODE_BDF is the cheaper choice on ODEs, and IDA the solver
+    to build on for index-reduced DAE formulations.
+
+    References
+    ----------
+    .. [1] A. C. Hindmarsh et al., "SUNDIALS: Suite of nonlinear and
+       differential/algebraic equation solvers", ACM TOMS 31 (2005) 363-396.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from scipy.integrate import solve_ivp
+    >>> from flexmb.integrators import IDA
+    >>> sol = solve_ivp(lambda t, y: -y, (0.0, 1.0), [1.0], method=IDA, rtol=1e-8, atol=1e-10)
+    >>> bool(abs(sol.y[0, -1] - np.exp(-1.0)) < 1e-6)
+    True
+    """
+
+    family = "BDF"
+    max_order = 5
+    uses_preconditioner = True
+
+    def _create(self, options: dict):
+        import sksundae
+
+        f = self.fun
+
+        def resfn(t, y, yp, res):
+            res[:] = yp - f(t, y)
+
+        mem = sksundae.ida.IDA(resfn, **options)
+        y0 = np.array(self.y, dtype=float)
+        mem.init_step(float(self.t), y0, np.array(f(self.t, y0), dtype=float))
+        return mem
+
+    def _jacfn(self, jac):
+        def jacfn(t, y, yp, res, cj, JJ):
+            self.njev += 1
+            JJ[:, :] = -jac(t, y)
+            JJ[np.diag_indices_from(JJ)] += cj
+
+        return jacfn
+
+    def _krylov(self, pre) -> dict:
+        import sksundae
+
+        n = pre.system.n_coords
+
+        def setup(t, y, yp, res, cj):
+            self.njev += 1
+            pre.setup(t, y[:n], y[n : 2 * n])
+
+        def solve(t, y, yp, res, rvec, zvec, cj, delta):
+            zvec[:n], zvec[n : 2 * n] = pre.solve(rvec[:n] / cj, rvec[n : 2 * n] / cj, 1.0 / cj)
+            zvec[2 * n :] = rvec[2 * n :] / cj  # states nothing depends on (work terms)
+
+        return dict(linsolver="gmres", krylov_dim=KRYLOV_DIM, precond=sksundae.ida.IDAPrecond(setup, solve))

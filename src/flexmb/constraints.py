@@ -63,9 +63,31 @@ class Constraints:
         self.driver_cols = np.array(
             [topology.coordinate_slice(d.joint).start + d.coordinate for d in self.drivers], dtype=int
         )
+        self.cut_arrays = (*self.pt, *self.dr, *self.pp)  # cut_rows' arguments, as the kernels take them
+        self._driver_psi = np.zeros((len(self.drivers), topology.n_coords))
+        self._driver_psi[np.arange(len(self.drivers)), self.driver_cols] = 1.0
         labels += [f"driver {d.name}" for d in self.drivers]
         self.labels = labels
         self.n_rows = len(labels)
+
+    def driver_rows(self, t: float, n: int):
+        """The drivers' rows of psi and gamma (``xdd_c = theta''(t)``).
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        n : int
+            Number of coordinates.
+
+        Returns
+        -------
+        psi : ndarray, shape (n_drivers, n)
+            Unit rows on the driven coordinates.
+        gamma : ndarray, shape (n_drivers,)
+            The prescribed accelerations.
+        """
+        return self._driver_psi, np.array([d.acceleration(t) for d in self.drivers], dtype=float)
 
     def evaluate(self, kin, level: int = 2):
         """Residuals and their derivatives.

@@ -331,7 +331,7 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
             return system.state_rate(t, y)  # finite, or AssemblyError naming the cause
         xs, vs = y[:n], y[n : 2 * n]
         rates = np.zeros(n_w)
-        kin, A, f, _, psi, _, gamma = system.equations(t, xs, vs, powers=rates[n_drv:])
+        A, f, psi, gamma = system.reduced_parts(t, y, powers=rates[n_drv:])
         if not (np.all(np.isfinite(f)) and np.all(np.isfinite(A))):
             system.accelerations(t, xs, vs)  # raises with the diagnosis
         xdd, lam = system._solve(t, A, f, psi, gamma, multipliers=True)

@@ -10,13 +10,17 @@ from scipy.linalg.lapack import dpotrf as _potrf
 from scipy.linalg.lapack import dpotrs as _potrs
 
 from . import memory
-from .assembly import ForceAssembler, geometric_stiffness, mass_matrix
-from .complements import get_complement
+from .assembly import ForceAssembler, _power, geometric_stiffness, mass_matrix
+from .forces import Loads
+from .complements import SVDComplement, get_complement
+from .complements.base import PSI_ZERO
 from .constraints import Constraints
 from .errors import AssemblyError, ModelError
 from .kinematics import Kinematics
 from .topology import Topology
 from .forces.tables import class_tables, merge
+from .kernels.equations import tree_equations
+from .kernels.reduced import svd_reduced_solve
 from .kernels.articulated import articulated_accelerations, mass_times, open_tree_accelerations, open_tree_rhs
 
 __all__ = ["System", "NewtonPreconditioner"]
@@ -89,12 +93,21 @@ class System:
         self._rank_limit: int | None = None
         self._sigma_ref: float | None = None
         self._trial()
-        # an open tree whose joints and force elements are all compiled: one kernel call per evaluation
+        # joints and force elements all compiled: one kernel call per evaluation (plain tuples: what
+        # the kernels' dispatch reads fastest)
         tables = [class_tables(cls, elements, self.topology) for cls, elements in self.forces.groups]
-        self._fused = None
-        if self.articulated and not self.topology.external_groups and all(t is not None for t in tables):
-            # plain tuples: what the kernel's dispatch reads fastest
-            self._fused = (tuple(self.topology.arrays), tuple(merge(tables)))
+        compiled = [g for g, t in enumerate(tables) if t is not None]
+        # force-element classes evaluated in Python (plugins), with their group index
+        self._python_groups = [(g, *self.forces.groups[g]) for g, t in enumerate(tables) if t is None]
+        merged = tuple(merge([tables[g] for g in compiled], compiled))
+        self._fused = self._fused_equations = None
+        if not self.topology.external_groups:
+            if self.articulated and not self._python_groups:
+                self._fused = (tuple(self.topology.arrays), merged)
+            self._fused_equations = (tuple(self.topology.arrays), merged, self.constraints.cut_arrays)
+        nb1 = self.topology.n_bodies + 1
+        self._no_loads = (np.zeros((nb1, 3)), np.zeros((nb1, 3)), np.zeros(self.n_coords))
+        self._no_powers = np.zeros(0)
 
     def _trial(self):
         """Evaluate every force element once so bad input fails at build time."""
@@ -103,8 +116,6 @@ class System:
         for cls, elements in self.forces.groups:
             for e in elements:
                 try:
-                    from .forces import Loads
-
                     cls.apply_all([e], kin, Loads(kin))
                     cls.potential_all([e], kin)
                 except ModelError as exc:
@@ -289,6 +300,57 @@ class System:
         phi, psi, b, gamma = self.constraints.evaluate(kin)
         return kin, A, f, phi, psi, b, gamma
 
+    def reduced_parts(self, t, y, powers=None):
+        """A, f, psi and gamma at the state ``y = (x, xd, ...)``: what the reduced equations need.
+
+        One compiled call (:func:`~flexmb.kernels.equations.tree_equations`)
+        when the model's joints and force elements are all compiled, else
+        :meth:`equations`; the drivers' rows are added here.
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        y : ndarray, shape (>= 2 n,)
+            Coordinates and speeds first.
+        powers : ndarray, shape (n_groups,), optional
+            If given, filled with each force-element class's power.
+
+        Returns
+        -------
+        A : ndarray, shape (n, n)
+            Generalized mass matrix (eq. 2).
+        f : ndarray, shape (n,)
+            Force array (eq. 3).
+        psi : ndarray, shape (m, n)
+            Constraint Jacobian (eq. 29).
+        gamma : ndarray, shape (m,)
+            Right-hand side of ``psi xdd = gamma``.
+        """
+        n = self.n_coords
+        if self._fused_equations is None:
+            _, A, f, _, psi, _, gamma = self.equations(t, y[:n], y[n : 2 * n], powers)
+            return A, f, psi, gamma
+        y = _plain(y)
+        if powers is None:
+            powers = self._no_powers
+        else:
+            powers[:] = 0.0
+        loads = self._no_loads
+        if self._python_groups:  # plugins: called back with the kinematics, their loads added in the kernel
+            kin = self.kinematics(t, y[:n], y[n : 2 * n])
+            acc = Loads(kin)
+            for g, cls, elements in self._python_groups:
+                cls.apply_all(elements, kin, acc)
+                if powers.shape[0]:
+                    powers[g] = _power(kin, acc) - sum(powers[h] for h, _, _ in self._python_groups if h < g)
+            loads = (acc.force, acc.torque, acc.generalized)
+        A, f, _, psi, gamma = tree_equations(*self._fused_equations, y, n, powers, *loads)
+        if self.constraints.drivers:
+            psi_d, gamma_d = self.constraints.driver_rows(t, n)
+            psi, gamma = np.vstack([psi, psi_d]), np.concatenate([gamma, gamma_d])
+        return A, f, psi, gamma
+
     def accelerations(self, t, x, xd) -> np.ndarray:
         """Generalized accelerations from the reduced equations (eqs. 36-39).
 
@@ -314,8 +376,8 @@ class System:
         """
         if self.articulated:  # open tree: A is never formed
             return self._articulated(t, x, xd)
-        if self.n_constraints:
-            _, A, f, _, psi, _, gamma = self.equations(t, x, xd)
+        if self.n_constraints or self._fused_equations is not None:
+            A, f, psi, gamma = self.reduced_parts(t, np.concatenate([x, xd]))
         else:  # an open tree: no constraints to evaluate
             kin = self.kinematics(t, x, xd)
             A, f = mass_matrix(kin), self.forces.force_array(kin)
@@ -400,7 +462,6 @@ class System:
     def _diagnose(self, t, x, xd, A, f):
         """Name what made the equations non-finite."""
         kin = self.kinematics(t, x, xd)
-        from .forces import Loads
 
         for cls, elements in self.forces.groups:
             for e in elements:
@@ -415,6 +476,20 @@ class System:
 
     def _solve(self, t, A, f, psi, gamma, multipliers=False):
         """xdd from the reduced equations; with ``multipliers``, ``(xdd, lambda)`` (the reactions)."""
+        if type(self.strategy) is SVDComplement and not self.strategy.singular_rtol:
+            # the default strategy: decomposition, particular solution and reduced solve in one call
+            self.n_complements += psi.shape[0] > 0
+            xdd, lam, status = svd_reduced_solve(
+                A, f, _plain(psi).reshape(psi.shape[0], self.n_coords), _plain(gamma), self.strategy.tol, PSI_ZERO,
+                -1 if self._rank_limit is None else self._rank_limit, self.singular_window())
+            if status == 2:
+                raise AssemblyError("constraint Jacobian psi is not finite")
+            if status == 1:
+                raise AssemblyError(
+                    f"reduced mass matrix T^T A T is not positive definite at t = {t:.6g} s "
+                    "(a body without mass or inertia on a freedom?)"
+                )
+            return (xdd, lam) if multipliers else xdd
         if psi.shape[0] == 0:  # an open tree: T = I, no complement needed
             xdd = self._cholesky_solve(t, A, f)
             return (xdd, np.zeros(0)) if multipliers else xdd

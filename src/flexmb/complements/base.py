@@ -7,6 +7,7 @@ from attrs import define, field, frozen
 from scipy.linalg import solve_triangular
 
 from ..errors import AssemblyError, ModelError
+from ..kernels.reduced import filtered
 
 __all__ = ["Complement", "ComplementStrategy"]
 
@@ -152,8 +153,7 @@ class Complement:
 
 def _filtered(s, g, w):
     """``g / s`` with singular values below ``w`` regularised (:meth:`Complement.particular`)."""
-    fade = np.clip(1.0 - (s / w) ** 2, 0.0, None) ** 2
-    return s * g / (s * s + (w * w) * fade)
+    return filtered(np.ascontiguousarray(s, dtype=float), np.ascontiguousarray(g, dtype=float), float(w))
 
 
 @frozen(eq=False)

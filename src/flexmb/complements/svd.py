@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..kernels.reduced import svd_parts
 from .base import Complement, ComplementStrategy
 
 __all__ = ["SVDComplement"]
@@ -40,6 +41,5 @@ class SVDComplement(ComplementStrategy):
     default_rtol = 1e-10
 
     def _complement_impl(self, psi):
-        U, s, Vt = np.linalg.svd(psi, full_matrices=True)
-        r = int(np.sum(s > self.tol * s[0]))
+        U, s, Vt, r = svd_parts(np.asarray(psi, dtype=float), self.tol)
         return Complement(Vt[r:].T.copy(), r, Vt[:r].T, s[:r], U[:, :r])

@@ -18,14 +18,20 @@ from ..kernels.loads import LoadTables, apply_load_tables
 
 __all__ = ["LoadTables", "merge", "apply_tables", "class_tables"]
 
+_NO_POWERS = np.zeros(0)
 
-def merge(tables) -> LoadTables:
+
+def merge(tables, groups=None) -> LoadTables:
     """One table holding the rows of several (gravities summed).
 
     Parameters
     ----------
     tables : sequence of LoadTables
         The tables to merge.
+    groups : sequence of int, optional
+        The group (index of the force-element class in
+        ``ForceAssembler.groups``) of each table's rows, for the powers of
+        :func:`~flexmb.kernels.loads.apply_load_tables` (default: all 0).
 
     Returns
     -------
@@ -35,9 +41,18 @@ def merge(tables) -> LoadTables:
     tables = list(tables)
     if not tables:
         return LoadTables.of()
-    fields = {"gravity": np.sum([t.gravity for t in tables], axis=0)}
+    groups = [0] * len(tables) if groups is None else list(groups)
+    fields = {"gravity": np.sum([t.gravity for t in tables], axis=0),
+              "gravity_group": [next((g for t, g in zip(tables, groups) if np.any(t.gravity)), 0)]}
+    rows_of = {"coord_group": "coord_cols", "pair_group": "pair_rows", "force_group": "force_rows",
+               "torque_group": "torque_rows"}
     for name in LoadTables._fields[1:]:
-        fields[name] = np.concatenate([getattr(t, name) for t in tables])
+        if name == "gravity_group":
+            continue
+        if name in rows_of:
+            fields[name] = np.concatenate([np.full(len(getattr(t, rows_of[name])), g) for t, g in zip(tables, groups)])
+        else:
+            fields[name] = np.concatenate([getattr(t, name) for t in tables])
     return LoadTables.of(**fields)
 
 
@@ -79,4 +94,4 @@ def apply_tables(tables: LoadTables, state, loads) -> None:
         Accumulator to add to.
     """
     apply_load_tables(tables, state.mass, state.R, state.origin, state.r, state.omega, state.v, state.x, state.xd,
-                      loads.force, loads.torque, loads.generalized)
+                      loads.force, loads.torque, loads.generalized, _NO_POWERS)

@@ -262,7 +262,7 @@ def open_tree_rhs(tree, tables, y, armature):
     force = np.zeros((nb1, 3))
     torque = np.zeros((nb1, 3))
     generalized = np.zeros(n)
-    apply_load_tables(tables, tree.mass, R, origin, r, omega, v, x, xd, force, torque, generalized)
+    apply_load_tables(tables, tree.mass, R, origin, r, omega, v, x, xd, force, torque, generalized, np.zeros(0))
     xdd, bad = open_tree_accelerations(tree.parent, tree.coord_start, R, r, omega, alpha, acc, tree.mass,
                                        tree.inertia, Sw, Sv, force, torque, generalized, armature)
     ydot = np.empty(2 * n)

@@ -44,6 +44,9 @@ class LoadTables(NamedTuple):
         The torques, N m.
     torque_in_body : ndarray of bool, shape (s,)
         Whether a torque's components are in body axes.
+    gravity_group, coord_group, pair_group, force_group, torque_group : ndarray of int
+        The force-element class (the model's group) each row belongs to,
+        for the power of each group (``gravity_group`` has one entry).
     """
 
     gravity: np.ndarray
@@ -61,6 +64,11 @@ class LoadTables(NamedTuple):
     torque_rows: np.ndarray
     torque_vec: np.ndarray
     torque_in_body: np.ndarray
+    gravity_group: np.ndarray
+    coord_group: np.ndarray
+    pair_group: np.ndarray
+    force_group: np.ndarray
+    torque_group: np.ndarray
 
     @classmethod
     def of(cls, **fields) -> "LoadTables":
@@ -76,10 +84,10 @@ class LoadTables(NamedTuple):
         LoadTables
         """
         shapes = {"gravity": (3,), "pair_rows": (0, 2), "pair_local": (0, 2, 3), "pair_par": (0, 3),
-                  "force_local": (0, 3), "force_vec": (0, 3), "torque_vec": (0, 3)}
+                  "force_local": (0, 3), "force_vec": (0, 3), "torque_vec": (0, 3), "gravity_group": (1,)}
         out = {}
         for name in cls._fields:
-            dtype = (np.int64 if name.endswith("_rows") or name == "coord_cols"
+            dtype = (np.int64 if name.endswith(("_rows", "_group")) or name == "coord_cols"
                      else np.bool_ if name.endswith("_in_body") else float)
             value = fields.get(name)
             out[name] = (np.zeros(shapes.get(name, (0,)), dtype=dtype) if value is None
@@ -170,7 +178,7 @@ def body_points(rows, local, R, origin, r, omega, v):
 
 
 @njit(cache=True)
-def apply_load_tables(tables, mass, R, origin, r, omega, v, x, xd, force, torque, generalized):
+def apply_load_tables(tables, mass, R, origin, r, omega, v, x, xd, force, torque, generalized, powers):
     """Add the loads of the compiled built-in force elements (:class:`flexmb.forces.tables.LoadTables`).
 
     Uniform gravity ``m_k g`` at the mass centres; coordinate springs and
@@ -195,16 +203,25 @@ def apply_load_tables(tables, mass, R, origin, r, omega, v, x, xd, force, torque
         Accumulators at the mass centres, updated in place.
     generalized : ndarray, shape (n,)
         Accumulator of generalized forces, updated in place.
+    powers : ndarray, shape (n_groups,) or (0,)
+        If not empty, each row's power (its loads' ``F . xd``, eq. 5) is
+        added to the entry of its group.
     """
+    track = powers.shape[0] > 0
     g = tables.gravity
     if g[0] != 0.0 or g[1] != 0.0 or g[2] != 0.0:
         for k in range(mass.shape[0]):
             for a in range(3):
                 force[k, a] += mass[k] * g[a]
+                if track:
+                    powers[tables.gravity_group[0]] += mass[k] * g[a] * v[k, a]
     cols = tables.coord_cols
     for i in range(cols.shape[0]):
         c = cols[i]
-        generalized[c] -= tables.coord_k[i] * (x[c] - tables.coord_rest[i]) + tables.coord_c[i] * xd[c]
+        q = tables.coord_k[i] * (x[c] - tables.coord_rest[i]) + tables.coord_c[i] * xd[c]
+        generalized[c] -= q
+        if track:
+            powers[tables.coord_group[i]] -= q * xd[c]
     pairs = tables.pair_rows
     if pairs.shape[0]:
         pts = np.empty((2, 3))
@@ -233,6 +250,9 @@ def apply_load_tables(tables, mass, R, origin, r, omega, v, x, xd, force, torque
                 f2[0] -= damp * rate * e0
                 f2[1] -= damp * rate * e1
                 f2[2] -= damp * rate * e2
+            if track:
+                powers[tables.pair_group[i]] += (f2[0] * (vel[1, 0] - vel[0, 0]) + f2[1] * (vel[1, 1] - vel[0, 1])
+                                                 + f2[2] * (vel[1, 2] - vel[0, 2]))
             for s in range(2):
                 k = pairs[i, s]
                 sign = -1.0 if s == 0 else 1.0
@@ -264,6 +284,11 @@ def apply_load_tables(tables, mass, R, origin, r, omega, v, x, xd, force, torque
         torque[k, 0] += ly * f[2] - lz * f[1]
         torque[k, 1] += lz * f[0] - lx * f[2]
         torque[k, 2] += lx * f[1] - ly * f[0]
+        if track:  # f . (v_k + omega_k x (p - r_k))
+            w = omega[k]
+            powers[tables.force_group[i]] += (f[0] * (v[k, 0] + w[1] * lz - w[2] * ly)
+                                              + f[1] * (v[k, 1] + w[2] * lx - w[0] * lz)
+                                              + f[2] * (v[k, 2] + w[0] * ly - w[1] * lx))
     rows = tables.torque_rows
     for i in range(rows.shape[0]):
         k = rows[i]
@@ -275,3 +300,5 @@ def apply_load_tables(tables, mass, R, origin, r, omega, v, x, xd, force, torque
                     + R[k, a, 2] * tables.torque_vec[i, 2]
         for a in range(3):
             torque[k, a] += f[a]
+            if track:
+                powers[tables.torque_group[i]] += f[a] * omega[k, a]

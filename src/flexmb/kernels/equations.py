@@ -1,0 +1,83 @@
+"""All the pieces of the equations of motion at one state, in one compiled call (eqs. 1-5, 28-29).
+
+For a model with loops (or a run that integrates the work of each class of
+force elements) the reduced equations need the mass matrix A, the force
+array f and the cut joints' rows of psi and gamma: the tree's kinematics
+(:func:`~flexmb.kernels.tree.tree_kinematics`), the compiled force
+elements (:func:`~flexmb.kernels.loads.apply_load_tables`), the composite
+inertias and :func:`~flexmb.kernels.dynamics.mass_matrix`, the bias
+wrenches projected on the axes, and
+:func:`~flexmb.kernels.constraints.cut_rows`, fused so that an evaluation
+crosses from Python into compiled code once.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .constraints import cut_rows
+from .dynamics import bias_wrenches, composite_inertias, generalized_force, mass_matrix, spatial_inertias
+from .loads import LoadTables, apply_load_tables
+from .tree import TreeArrays, tree_kinematics
+
+__all__ = ["tree_equations"]
+
+
+@njit(cache=True)
+def tree_equations(tree, tables, cuts, y, n, powers, force0, torque0, generalized0):
+    """A, f and the cut joints' rows at the state ``y = (x, xd, ...)``.
+
+    Parameters
+    ----------
+    tree : tuple
+        The fields of :class:`~flexmb.kernels.tree.TreeArrays`, in order.
+    tables : tuple
+        The fields of :class:`~flexmb.kernels.loads.LoadTables`, in order.
+    cuts : tuple
+        The cut joints' rows, the arguments of
+        :func:`~flexmb.kernels.constraints.cut_rows` after ``coord_start``.
+    y : ndarray, shape (>= 2 n,)
+        Coordinates and speeds first.
+    n : int
+        Number of coordinates.
+    powers : ndarray, shape (n_groups,) or (0,)
+        If not empty, the power of each compiled force-element class is
+        added to its entry.
+    force0, torque0 : ndarray, shape (n_bodies + 1, 3)
+        Loads of the force elements evaluated in Python (plugins), added to
+        those of the compiled ones (not modified).
+    generalized0 : ndarray, shape (n,)
+        Their generalized forces on the coordinates.
+
+    Returns
+    -------
+    A : ndarray, shape (n, n)
+        Generalized mass matrix (eq. 2).
+    f : ndarray, shape (n,)
+        Force array (eq. 3).
+    phi, gamma : ndarray, shape (m_cut,)
+        The cut joints' residuals and right-hand sides of ``psi xdd = gamma``.
+    psi : ndarray, shape (m_cut, n)
+        Their rows of the constraint Jacobian (eq. 29).
+    """
+    tree = TreeArrays(*tree)
+    tables = LoadTables(*tables)
+    x = y[:n]
+    xd = y[n : 2 * n]
+    none3 = np.empty((0, 3))
+    R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = tree_kinematics(
+        tree.parent, tree.coord_start, tree.coord_kind, tree.coord_axis, tree.external, tree.parent_frame,
+        tree.child_frame, tree.lever, tree.child_point, tree.com, x, xd, np.empty((0, 3, 3)), none3, none3, none3,
+        none3, none3)
+    force = force0.copy()
+    torque = torque0.copy()
+    generalized = generalized0.copy()
+    apply_load_tables(tables, tree.mass, R, origin, r, omega, v, x, xd, force, torque, generalized, powers)
+    Iw, spatial = spatial_inertias(R, r, tree.mass, tree.inertia)
+    A = mass_matrix(tree.parent, tree.coord_start, tree.coord_body, composite_inertias(tree.parent, spatial), Sw, Sv)
+    fw, tw = bias_wrenches(tree.mass, Iw, omega, alpha, acc, force, torque)
+    f = generalized_force(tree.parent, tree.coord_body, r, fw, tw, Sw, Sv) + generalized
+    phi, psi, gamma = cut_rows(2, n, R, origin, r, omega, v, alpha, acc, Sw, Sv, tree.parent, tree.coord_start,
+                               *cuts)
+    return A, f, phi, psi, gamma

@@ -121,7 +121,15 @@ def articulated_accelerations(parent, coord_start, spatial, Sw, Sv, r, force, to
                            + IA[k, i, 3] * Sv[c, 0] + IA[k, i, 4] * Sv[c, 1] + IA[k, i, 5] * Sv[c, 2])
             u[c] = generalized[c] - (Sw[c, 0] * pA[k, 0] + Sw[c, 1] * pA[k, 1] + Sw[c, 2] * pA[k, 2]
                                      + Sv[c, 0] * pA[k, 3] + Sv[c, 1] * pA[k, 4] + Sv[c, 2] * pA[k, 5])
-        if m:
+        if m == 1:  # one freedom (most joints): D is a number, nothing to factor
+            d = (Sw[c0, 0] * U[c0, 0] + Sw[c0, 1] * U[c0, 1] + Sw[c0, 2] * U[c0, 2]
+                 + Sv[c0, 0] * U[c0, 3] + Sv[c0, 1] * U[c0, 4] + Sv[c0, 2] * U[c0, 5]) + armature[c0]
+            if not d > 0.0:
+                return np.zeros(n), k
+            for i in range(6):
+                DinvUT[c0, i] = U[c0, i] / d
+            Dinv_u[c0] = u[c0] / d
+        elif m:
             D = np.empty((m, m))
             rhs = np.empty((m, 7))
             for a in range(m):

@@ -199,6 +199,53 @@ def integrators_for(scene: Scene, n: int, wanted) -> list:
     return out
 
 
+def prepare(scene: Scene, n: int, integrators, ref_rtol: float, refdir: str = REFS, log=None) -> dict:
+    """What the timed runs of one scene and N need: the reference, its uncertainty, the integrators to run.
+
+    Returns
+    -------
+    dict
+        ``ref`` (from :func:`reference`), ``unc`` (its distance to the
+        reference at 10x ``ref_rtol``), ``label`` (the rows' ``reference``)
+        and ``methods`` (:func:`integrators_for`).
+    """
+    log = log or (lambda *a: print(*a, flush=True))
+    ref = reference(scene, n, ref_rtol, refdir)
+    loose = reference(scene, n, ref_rtol * 10, refdir)
+    unc = float(np.linalg.norm(ref["output"] - loose["output"]))
+    log(f"{scene.name} {scene.variant} N={n}: reference {ref['wall_s']:.1f} s, uncertainty {unc:.1e}")
+    return {"ref": ref, "unc": unc, "label": f"flexmb Radau rtol={ref_rtol:g} atol={atol_for(ref_rtol):g} same N",
+            "methods": integrators_for(scene, n, integrators)}
+
+
+def run_config(scene: Scene, n: int, method: str, rtol: float, prep: dict) -> dict:
+    """One timed run of one configuration: its row (``wall_s`` and ``setup_s`` of this run), or a failure row.
+
+    Parameters
+    ----------
+    scene, n : Scene, int
+        What to run.
+    method : str
+        flexmb method name (``"auto"`` lets flexmb choose).
+    rtol : float
+        Relative tolerance (``atol = rtol / 100``).
+    prep : dict
+        From :func:`prepare` for this scene and N.
+    """
+    try:
+        s, w, res, _ = run_once(scene, n, method, rtol)
+    except fm.SimulationError as exc:
+        return _row(scene, n, integrator=method, rtol=rtol, status=f"failed: {exc}", reference=prep["label"])
+    out = np.asarray(scene.output(res), float)
+    ref = prep["ref"]
+    return _row(
+        scene, n, n_coords=int(ref["n_coords"]), n_dof=int(res.n_dof),
+        integrator=res.method if method != "auto" else f"auto ({res.method})", rtol=rtol,
+        setup_s=s, wall_s=w, steps=int(res.n_steps), rhs_evals=int(res.n_rhs), jac_evals=int(res.n_jac),
+        error=float(np.linalg.norm(out - ref["output"])), reference=prep["label"], status="finished",
+        atol=atol_for(rtol), t_end=scene.t_end, ref_uncertainty=prep["unc"], output=out.tolist())
+
+
 def run_scene(scene: Scene, ns, integrators=("Radau", "BDF", "DOP853", "auto"), rtols=(1e-3, 1e-5, 1e-7),
               repeat: int = 3, ref_rtol: float = 1e-10, refdir: str = REFS, log=None) -> list:
     """Work-precision rows (JSON-ready dicts) of one scene over N, integrators and rtols.
@@ -214,7 +261,9 @@ def run_scene(scene: Scene, ns, integrators=("Radau", "BDF", "DOP853", "auto"), 
     rtols : iterable of float
         Relative tolerances (``atol = rtol / 100``).
     repeat : int
-        Runs per configuration; the median wall and setup times are reported.
+        Runs per configuration, back to back; the median wall and setup
+        times are reported. (``peers/compare.py`` times with
+        :func:`run_config` in rounds alternating with the peers instead.)
     ref_rtol : float
         Radau tolerance of the reference; a second reference at 10x is the
         measure of its own error (``ref_uncertainty``).
@@ -233,38 +282,25 @@ def run_scene(scene: Scene, ns, integrators=("Radau", "BDF", "DOP853", "auto"), 
     rows = []
     refs = {}
     for n in ns:
-        ref = reference(scene, n, ref_rtol, refdir)
-        loose = reference(scene, n, ref_rtol * 10, refdir)
-        unc = float(np.linalg.norm(ref["output"] - loose["output"]))
-        refs[n] = ref
-        ref_label = f"flexmb Radau rtol={ref_rtol:g} atol={atol_for(ref_rtol):g} same N"
-        log(f"{scene.name} {scene.variant} N={n}: reference {ref['wall_s']:.1f} s, uncertainty {unc:.1e}")
-        for method in integrators_for(scene, n, integrators):
+        prep = prepare(scene, n, integrators, ref_rtol, refdir, log)
+        refs[n] = prep["ref"]
+        for method in prep["methods"]:
             for rtol in rtols:
-                setups, walls, res, status = [], [], None, "finished"
+                runs = []
                 for _ in range(repeat):
-                    try:
-                        s, w, res, system = run_once(scene, n, method, rtol)
-                    except fm.SimulationError as exc:
-                        status = f"failed: {exc}"
+                    runs.append(run_config(scene, n, method, rtol, prep))
+                    if runs[-1]["status"] != "finished":
                         break
-                    setups.append(s)
-                    walls.append(w)
-                if res is None or status != "finished":
-                    rows.append(_row(scene, n, integrator=method, rtol=rtol, status=status, reference=ref_label))
-                    log(f"  {method:7s} rtol {rtol:7.0e}  {status}")
+                row = runs[-1]
+                if row["status"] != "finished":
+                    rows.append(row)
+                    log(f"  {method:7s} rtol {rtol:7.0e}  {row['status']}")
                     continue
-                out = np.asarray(scene.output(res), float)
-                err = float(np.linalg.norm(out - ref["output"]))
-                rows.append(_row(
-                    scene, n, n_coords=int(ref["n_coords"]), n_dof=int(res.n_dof),
-                    integrator=res.method if method != "auto" else f"auto ({res.method})", rtol=rtol,
-                    setup_s=statistics.median(setups), wall_s=statistics.median(walls), steps=int(res.n_steps),
-                    rhs_evals=int(res.n_rhs), jac_evals=int(res.n_jac), error=err, reference=ref_label,
-                    status=status, atol=atol_for(rtol), t_end=scene.t_end, ref_uncertainty=unc,
-                    output=out.tolist()))
-                log(f"  {method:7s} rtol {rtol:7.0e}  wall {statistics.median(walls):8.3f} s  "
-                    f"rhs {res.n_rhs:7d}  error {err:9.2e}")
+                row["setup_s"] = statistics.median(r["setup_s"] for r in runs)
+                row["wall_s"] = statistics.median(r["wall_s"] for r in runs)
+                rows.append(row)
+                log(f"  {method:7s} rtol {rtol:7.0e}  wall {row['wall_s']:8.3f} s  "
+                    f"rhs {row['rhs_evals']:7d}  error {row['error']:9.2e}")
     if len(refs) > 1 and scene.name in ("B1", "B2", "B4"):
         rows += discretisation_rows(scene, refs, ref_rtol)
     return rows

@@ -7,6 +7,7 @@ own virtual environment). Used by ``exudyn_beam.py`` and ``pydy_beam.py``.
 from __future__ import annotations
 
 import json
+import os
 import sys
 
 import numpy as np
@@ -59,10 +60,11 @@ def emit(row: dict) -> None:
 
 
 def row(tool: str, scene: str, n: int, **kw) -> dict:
-    """A result row with every BENCHMARKS.md field."""
+    """A result row with every BENCHMARKS.md field, and OPENBLAS_NUM_THREADS as this process sees it."""
     base = {"tool": tool, "scene": scene, "variant": "dynamics damped", "n_segments": n,
             "n_coords": None, "n_dof": None, "integrator": None, "rtol": None, "h": None,
             "setup_s": None, "wall_s": None, "steps": None, "rhs_evals": None, "jac_evals": None,
-            "error": None, "error_kind": "integration", "reference": None}
+            "error": None, "error_kind": "integration", "reference": None,
+            "openblas_num_threads": os.environ.get("OPENBLAS_NUM_THREADS")}
     base.update(kw)
     return base

@@ -12,9 +12,13 @@ the last link's rigid-body inertia (parallel-axis theorem). Implicit
 generalized-alpha (Exudyn's default spectral radius 0.9, modified Newton),
 fixed steps, the fast module (``sys.exudynFast = True``).
 
-Prints one JSON line per run (BENCHMARKS.md fields plus ``output``, the tip
-position at t_end). ``error`` is filled when ``--reference X Y Z`` is given
-(compare.py passes flexmb's reference of the same N), otherwise null.
+Prints one JSON line per configuration (BENCHMARKS.md fields plus
+``output``, the tip position at t_end, and ``wall_rounds``): ``--repeat``
+rounds each run every configuration once, and the least wall time is
+reported (``rounds.py``; with ``--rounds-from-stdin``, compare.py drives the
+rounds and alternates them with flexmb's). ``error`` is filled when
+``--reference X Y Z`` is given (compare.py passes flexmb's reference of the
+same N), otherwise null.
 
 Run in the peers' venv::
 
@@ -30,7 +34,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import statistics
 import sys
 import time
 
@@ -42,6 +45,7 @@ import exudyn.itemInterface as eii  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from beam_data import beam, emit, row  # noqa: E402
+from rounds import drive  # noqa: E402
 
 JOINTS = (exu.JointType.RevoluteX, exu.JointType.RevoluteY, exu.JointType.RevoluteZ)
 
@@ -136,36 +140,44 @@ def main(argv=None):
     ap.add_argument("--n", type=int, nargs="+", default=[8])
     ap.add_argument("--steps", type=int, nargs="+", default=[250, 500, 1000, 2000, 4000, 8000])
     ap.add_argument("--t-end", type=float, default=1.0)
-    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--repeat", type=int, default=3,
+                    help="rounds (each runs every configuration once); the least wall time is reported")
     ap.add_argument("--reference", type=float, nargs="*", help="reference tip position (m) for the error")
     ap.add_argument("--reference-label", default="")
     ap.add_argument("--richardson", type=int, help="print the Richardson extrapolation of S and 2S steps")
+    ap.add_argument("--rounds-from-stdin", action="store_true",
+                    help="driven by compare.py: one round per line 'round' on stdin, one JSON row per run")
     args = ap.parse_args(argv)
-    for n in args.n:
-        if args.richardson:
+    if args.richardson:
+        for n in args.n:
             _, w1, y1, _, _ = run(args.scene, n, args.richardson, args.t_end)
             _, w2, y2, _, _ = run(args.scene, n, 2 * args.richardson, args.t_end)
             y = y2 + (y2 - y1) / 3.0
             emit({"tool": "exudyn", "scene": args.scene, "n_segments": n, "richardson_steps": args.richardson,
                   "output": y.tolist(), "output_fine": y2.tolist(), "change": float(np.linalg.norm(y2 - y1)),
                   "wall_s": w1 + w2})
-            continue
-        for steps in args.steps:
-            setups, walls = [], []
-            for _ in range(args.repeat):
-                s, w, tip, cnt, nc = run(args.scene, n, steps, args.t_end)
-                setups.append(s)
-                walls.append(w)
-            err = None
-            if args.reference:
-                err = float(np.linalg.norm(tip - np.asarray(args.reference)))
-            emit(row("exudyn", args.scene, n, n_coords=nc, n_dof=nc,
-                     integrator="generalized-alpha (rho_inf 0.9, modified Newton)", rtol=None,
-                     h=args.t_end / steps, setup_s=statistics.median(setups), wall_s=statistics.median(walls),
-                     steps=cnt["steps"], rhs_evals=cnt["newton"], jac_evals=cnt["jac"], error=err,
-                     reference=args.reference_label or None, output=tip.tolist(), status="finished" if cnt["ok"]
-                     else "failed", version=exu.config.Version(), t_end=args.t_end))
+        return
+    configs = [(n, steps) for n in args.n for steps in args.steps]
+    failed = set()
 
+    def run_round(r):
+        rows = []
+        for n, steps in configs:
+            if (n, steps) in failed:  # a failed run is not repeated
+                continue
+            s, w, tip, cnt, nc = run(args.scene, n, steps, args.t_end)
+            err = float(np.linalg.norm(tip - np.asarray(args.reference))) if args.reference else None
+            rows.append(row("exudyn", args.scene, n, n_coords=nc, n_dof=nc,
+                            integrator="generalized-alpha (rho_inf 0.9, modified Newton)", rtol=None,
+                            h=args.t_end / steps, setup_s=s, wall_s=w, steps=cnt["steps"], rhs_evals=cnt["newton"],
+                            jac_evals=cnt["jac"], error=err, reference=args.reference_label or None,
+                            output=tip.tolist(), status="finished" if cnt["ok"] else "failed",
+                            version=exu.config.Version(), t_end=args.t_end))
+            if not cnt["ok"]:
+                failed.add((n, steps))
+        return rows
+
+    drive(run_round, args.repeat, args.rounds_from_stdin, emit)
 
 if __name__ == "__main__":
     main()

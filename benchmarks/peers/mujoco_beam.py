@@ -12,7 +12,8 @@ is the model option. No geoms, so no contacts. MuJoCo integrates with
 fixed steps; RK4 (its accurate explicit integrator) and ``implicitfast``
 (its recommended default, implicit in the damping) are offered.
 
-Prints one JSON line per run, like ``exudyn_beam.py``. Run in the peers' venv::
+Prints one JSON line per configuration (least wall time of ``--repeat``
+rounds), like ``exudyn_beam.py``. Run in the peers' venv::
 
     /work/venv-peers/bin/python benchmarks/peers/mujoco_beam.py --scene B1 --n 8 --steps 20000 40000
 """
@@ -21,7 +22,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import statistics
 import sys
 import time
 
@@ -29,6 +29,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from beam_data import beam, emit, row  # noqa: E402
+from rounds import drive  # noqa: E402
 
 
 def _merge_tip(m, inertia, com, tip_mass, tip_point):
@@ -99,30 +100,36 @@ def main(argv=None):
     ap.add_argument("--steps", type=int, nargs="+", default=[2000, 4000, 8000, 16000, 32000, 64000])
     ap.add_argument("--integrator", nargs="+", default=["RK4"], help="RK4 and/or implicitfast")
     ap.add_argument("--t-end", type=float, default=1.0)
-    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--repeat", type=int, default=3,
+                    help="rounds (each runs every configuration once); the least wall time is reported")
     ap.add_argument("--reference", type=float, nargs="*")
     ap.add_argument("--reference-label", default="")
+    ap.add_argument("--rounds-from-stdin", action="store_true",
+                    help="driven by compare.py: one round per line 'round' on stdin, one JSON row per run")
     args = ap.parse_args(argv)
     import mujoco
 
-    for n in args.n:
-        for integ in args.integrator:
-            for steps in args.steps:
-                setups, walls = [], []
-                for _ in range(args.repeat):
-                    s, w, tip, nq, finite = run(args.scene, n, steps, args.t_end, integ)
-                    setups.append(s)
-                    walls.append(w)
-                    if not finite:
-                        break
-                err = float(np.linalg.norm(tip - np.asarray(args.reference))) if args.reference and finite else None
-                emit(row("mujoco", args.scene, n, n_coords=nq, n_dof=nq, integrator=f"mujoco {integ}",
-                         h=args.t_end / steps, setup_s=statistics.median(setups), wall_s=statistics.median(walls),
-                         steps=steps, rhs_evals=steps * (4 if integ == "RK4" else 1), jac_evals=None, error=err,
-                         reference=args.reference_label or None, output=tip.tolist() if finite else None,
-                         status="finished" if finite else "failed: unstable step (state reset or non-finite)",
-                         version=mujoco.__version__, t_end=args.t_end))
+    configs = [(n, integ, steps) for n in args.n for integ in args.integrator for steps in args.steps]
+    failed = set()
 
+    def run_round(r):
+        rows = []
+        for n, integ, steps in configs:
+            if (n, integ, steps) in failed:  # an unstable step size stays unstable: not repeated
+                continue
+            s, w, tip, nq, finite = run(args.scene, n, steps, args.t_end, integ)
+            err = float(np.linalg.norm(tip - np.asarray(args.reference))) if args.reference and finite else None
+            rows.append(row("mujoco", args.scene, n, n_coords=nq, n_dof=nq, integrator=f"mujoco {integ}",
+                            h=args.t_end / steps, setup_s=s, wall_s=w, steps=steps,
+                            rhs_evals=steps * (4 if integ == "RK4" else 1), jac_evals=None, error=err,
+                            reference=args.reference_label or None, output=tip.tolist() if finite else None,
+                            status="finished" if finite else "failed: unstable step (state reset or non-finite)",
+                            version=mujoco.__version__, t_end=args.t_end))
+            if not finite:
+                failed.add((n, integ, steps))
+        return rows
+
+    drive(run_round, args.repeat, args.rounds_from_stdin, emit)
 
 if __name__ == "__main__":
     main()

@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import statistics
 import sys
 import tempfile
 import time
@@ -37,6 +36,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from beam_data import beam, emit, row  # noqa: E402
+from rounds import drive  # noqa: E402
 
 
 def derive(scene: str, n: int, generator: str = "cython"):
@@ -145,7 +145,9 @@ def main(argv=None):
     ap.add_argument("--rtols", type=float, nargs="+", default=[1e-4, 1e-6])
     ap.add_argument("--method", default="LSODA", choices=["Radau", "BDF", "LSODA"])
     ap.add_argument("--t-end", type=float, default=1.0)
-    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--repeat", type=int, default=3,
+                    help="rounds (each runs every configuration once, the model derived in the first); the least "
+                         "wall time is reported")
     ap.add_argument("--budget", type=float, default=300.0,
                     help="setup (derivation + code generation) wall-time budget, s: a setup that has not finished "
                          "by then is interrupted and recorded as skipped, and larger N are skipped too")
@@ -153,56 +155,72 @@ def main(argv=None):
     ap.add_argument("--reference", type=float, nargs="*", action="append",
                     help="reference tip position per N, in the order of --n")
     ap.add_argument("--reference-label", default="")
+    ap.add_argument("--rounds-from-stdin", action="store_true",
+                    help="driven by compare.py: one round per line 'round' on stdin, one JSON row per run")
     args = ap.parse_args(argv)
     from scipy.integrate import solve_ivp
 
-    over = False
-    for i_n, n in enumerate(args.n):
-        ref = args.reference[i_n] if args.reference and i_n < len(args.reference) else None
-        if over:
-            for rtol in args.rtols:
-                emit(row("pydy", args.scene, n, integrator=args.method, rtol=rtol,
-                         status=f"skipped: budget ({args.budget:g} s of setup) exceeded at smaller N"))
-            continue
+    models = {}  # n -> (derived model or the status of a skipped N, setup seconds)
+    state = {"over": False}  # a setup overran the budget: larger N are skipped
+    failed = set()
+
+    def model(n):
+        if n in models:
+            return models[n]
+        if state["over"]:
+            models[n] = (f"skipped: budget ({args.budget:g} s of setup) exceeded at smaller N", None)
+            return models[n]
         t0 = time.perf_counter()
         try:
-            rhs, tip, p, nc, used, _ = _with_budget(args.budget, derive, args.scene, n, args.generator)
+            derived = _with_budget(args.budget, derive, args.scene, n, args.generator)
         except _OverBudget:
-            for rtol in args.rtols:
-                emit(row("pydy", args.scene, n, integrator=args.method, rtol=rtol,
-                         setup_s=time.perf_counter() - t0,
-                         status=f"skipped: symbolic derivation + code generation not done within the "
-                                f"{args.budget:g} s budget (interrupted)"))
-            over = True
-            continue
+            models[n] = (f"skipped: symbolic derivation + code generation not done within the "
+                         f"{args.budget:g} s budget (interrupted)", time.perf_counter() - t0)
+            state["over"] = True
+            return models[n]
         setup = time.perf_counter() - t0
-        over = setup > args.budget
-        for rtol in args.rtols:
-            walls, sol, counter = [], None, {"rhs": 0}
+        state["over"] = setup > args.budget
+        models[n] = (derived, setup)
+        return models[n]
 
-            def f(t, x):
-                counter["rhs"] += 1
-                return rhs(x, t, p)
+    def run_round(r):
+        rows = []
+        for i_n, n in enumerate(args.n):
+            ref = args.reference[i_n] if args.reference and i_n < len(args.reference) else None
+            derived, setup = model(n)
+            if isinstance(derived, str):
+                rows += [row("pydy", args.scene, n, integrator=args.method, rtol=rtol, setup_s=setup, status=derived)
+                         for rtol in args.rtols]
+                continue
+            rhs, tip, p, nc, used, _ = derived
+            for rtol in args.rtols:
+                if (n, rtol) in failed:  # a failed solve is not repeated
+                    continue
+                counter = {"rhs": 0}
 
-            for _ in range(args.repeat):
-                counter["rhs"] = 0
+                def f(t, x):
+                    counter["rhs"] += 1
+                    return rhs(x, t, p)
+
                 t0 = time.perf_counter()
                 sol = solve_ivp(f, (0.0, args.t_end), np.zeros(2 * nc), method=args.method, rtol=rtol,
                                 atol=rtol / 100, t_eval=[args.t_end])
-                walls.append(time.perf_counter() - t0)
-            if not sol.success or np.shape(sol.y)[-1:] != (1,):
-                emit(row("pydy", args.scene, n, n_coords=nc, n_dof=nc, rtol=rtol, setup_s=setup,
-                         integrator=f"scipy {args.method} (pydy {used})", status=f"failed: {sol.message}"))
-                continue
-            out = tip(np.asarray(sol.y)[:, -1])
-            err = float(np.linalg.norm(out - np.asarray(ref))) if ref else None
-            emit(row("pydy", args.scene, n, n_coords=nc, n_dof=nc,
-                     integrator=f"scipy {args.method} (pydy {used})", rtol=rtol, setup_s=setup,
-                     wall_s=statistics.median(walls), steps=None, rhs_evals=int(sol.nfev), jac_evals=int(sol.njev),
-                     error=err, reference=args.reference_label or None, output=out.tolist(),
-                     status="finished" if sol.success else f"failed: {sol.message}", atol=rtol / 100,
-                     t_end=args.t_end))
+                wall = time.perf_counter() - t0
+                if not sol.success or np.shape(sol.y)[-1:] != (1,):
+                    rows.append(row("pydy", args.scene, n, n_coords=nc, n_dof=nc, rtol=rtol, setup_s=setup,
+                                    integrator=f"scipy {args.method} (pydy {used})", status=f"failed: {sol.message}"))
+                    failed.add((n, rtol))
+                    continue
+                out = tip(np.asarray(sol.y)[:, -1])
+                err = float(np.linalg.norm(out - np.asarray(ref))) if ref else None
+                rows.append(row("pydy", args.scene, n, n_coords=nc, n_dof=nc,
+                                integrator=f"scipy {args.method} (pydy {used})", rtol=rtol, setup_s=setup,
+                                wall_s=wall, steps=None, rhs_evals=int(sol.nfev), jac_evals=int(sol.njev),
+                                error=err, reference=args.reference_label or None, output=out.tolist(),
+                                status="finished", atol=rtol / 100, t_end=args.t_end))
+        return rows
 
+    drive(run_round, args.repeat, args.rounds_from_stdin, emit)
 
 if __name__ == "__main__":
     main()

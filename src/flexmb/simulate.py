@@ -413,7 +413,6 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
                 if progress:
                     last = _progress(t_now, t0, t_end, last)
         while solver.status == "running" and not own_loop:
-            t_prev = solver.t
             try:
                 msg = solver.step()
             except (ValueError, np.linalg.LinAlgError) as exc:  # scipy's checks on a non-finite Jacobian
@@ -438,8 +437,7 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
                     k_out += 1
             if solver.status == "running" and system.n_constraints:
                 xs, vs = solver.y[:n], solver.y[n : 2 * n]
-                phi, psi, b = system.constraints.evaluate(system.kinematics(t_now, xs, vs), level=1)
-                if phi.size and max(np.max(np.abs(phi)), np.max(np.abs(psi @ vs - b))) > state_tol:
+                if system.constraint_residual(t_now, xs, vs) > state_tol:
                     xs, vs = system.project(t_now, xs, vs, tol=min(1e-12, projection_tol), speeds="mass")
                     n_proj += 1
                     step = solver.step_size
@@ -447,7 +445,6 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
                     solver = make(t_now, np.concatenate([xs, vs, solver.y[2 * n :]]), first_step=first)
             if progress:
                 last = _progress(t_now, t0, t_end, last)
-            del t_prev
         status, message = "finished", "reached t_end"
     except (_NonFinite, AssemblyError) as exc:
         status = "failed"
@@ -491,8 +488,7 @@ def _project_output(system, t, x, xd, tol):
     directions only (:func:`_project_partial`). Speeds are projected
     mass-orthogonally, as after the steps.
     """
-    phi, psi, b = system.constraints.evaluate(system.kinematics(t, x, xd), level=1)
-    res = max(np.max(np.abs(phi)), np.max(np.abs(psi @ xd - b)))
+    res = system.constraint_residual(t, x, xd)
     if res <= tol:
         return x, xd
     try:

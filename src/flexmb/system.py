@@ -19,7 +19,7 @@ from .errors import AssemblyError, ModelError
 from .kinematics import Kinematics
 from .topology import Topology
 from .forces.tables import class_tables, merge
-from .kernels.equations import tree_equations
+from .kernels.equations import cut_residual, tree_equations
 from .kernels.reduced import svd_reduced_solve
 from .kernels.articulated import articulated_accelerations, mass_times, open_tree_accelerations, open_tree_rhs
 
@@ -350,6 +350,30 @@ class System:
             psi_d, gamma_d = self.constraints.driver_rows(t, n)
             psi, gamma = np.vstack([psi, psi_d]), np.concatenate([gamma, gamma_d])
         return A, f, psi, gamma
+
+    def constraint_residual(self, t, x, xd) -> float:
+        """The largest constraint residual at a state: ``max(|phi|, |psi xd - b|)`` (eqs. 28-29).
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        x, xd : ndarray, shape (n,)
+            Coordinates and speeds.
+
+        Returns
+        -------
+        float
+            The residual (m or rad, and per second); 0 without constraints.
+        """
+        if self._fused_equations is None:
+            phi, psi, b = self.constraints.evaluate(self.kinematics(t, x, xd), level=1)
+            return max(np.max(np.abs(phi)), np.max(np.abs(psi @ xd - b))) if phi.size else 0.0
+        tree, _, cuts = self._fused_equations
+        res = max(cut_residual(tree, cuts, np.concatenate([x, xd]), self.n_coords))
+        for d, c in zip(self.constraints.drivers, self.constraints.driver_cols):
+            res = max(res, abs(x[c] - d.position(t)), abs(xd[c] - d.velocity(t)))
+        return float(res)
 
     def accelerations(self, t, x, xd) -> np.ndarray:
         """Generalized accelerations from the reduced equations (eqs. 36-39).

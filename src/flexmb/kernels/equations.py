@@ -21,7 +21,7 @@ from .dynamics import bias_wrenches, composite_inertias, generalized_force, mass
 from .loads import LoadTables, apply_load_tables
 from .tree import TreeArrays, tree_kinematics
 
-__all__ = ["tree_equations"]
+__all__ = ["tree_equations", "cut_residual"]
 
 
 @njit(cache=True)
@@ -81,3 +81,43 @@ def tree_equations(tree, tables, cuts, y, n, powers, force0, torque0, generalize
     phi, psi, gamma = cut_rows(2, n, R, origin, r, omega, v, alpha, acc, Sw, Sv, tree.parent, tree.coord_start,
                                *cuts)
     return A, f, phi, psi, gamma
+
+
+@njit(cache=True)
+def cut_residual(tree, cuts, y, n):
+    """The cut joints' largest position and velocity residuals, ``max |phi|`` and ``max |psi xd|`` (eqs. 28-29).
+
+    Parameters
+    ----------
+    tree : tuple
+        The fields of :class:`~flexmb.kernels.tree.TreeArrays`, in order.
+    cuts : tuple
+        The cut joints' rows (see :func:`tree_equations`).
+    y : ndarray, shape (>= 2 n,)
+        Coordinates and speeds first.
+    n : int
+        Number of coordinates.
+
+    Returns
+    -------
+    position, velocity : float
+        The residuals (0 without cut joints).
+    """
+    tree = TreeArrays(*tree)
+    x = y[:n]
+    xd = y[n : 2 * n]
+    none3 = np.empty((0, 3))
+    R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = tree_kinematics(
+        tree.parent, tree.coord_start, tree.coord_kind, tree.coord_axis, tree.external, tree.parent_frame,
+        tree.child_frame, tree.lever, tree.child_point, tree.com, x, xd, np.empty((0, 3, 3)), none3, none3, none3,
+        none3, none3)
+    phi, psi, _ = cut_rows(1, n, R, origin, r, omega, v, alpha, acc, Sw, Sv, tree.parent, tree.coord_start, *cuts)
+    position = 0.0
+    velocity = 0.0
+    for i in range(phi.shape[0]):
+        position = max(position, abs(phi[i]))
+        s = 0.0
+        for j in range(n):
+            s += psi[i, j] * xd[j]
+        velocity = max(velocity, abs(s))
+    return position, velocity

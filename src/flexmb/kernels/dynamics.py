@@ -14,8 +14,6 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .tree import _cross, _mv
-
 __all__ = ["spatial_inertias", "composite_inertias", "subtree_sums", "axis_projections", "mass_matrix", "generalized_force", "bias_wrenches"]
 
 
@@ -195,8 +193,11 @@ def generalized_force(parent, coord_body, r, force, torque, Sw, Sv):
     nb = parent.shape[0]
     total = np.empty((nb, 6))
     for k in range(nb):
-        total[k, :3] = torque[k] + _cross(r[k], force[k])
-        total[k, 3:] = force[k]
+        f0, f1, f2 = force[k, 0], force[k, 1], force[k, 2]
+        total[k, 0] = torque[k, 0] + r[k, 1] * f2 - r[k, 2] * f1
+        total[k, 1] = torque[k, 1] + r[k, 2] * f0 - r[k, 0] * f2
+        total[k, 2] = torque[k, 2] + r[k, 0] * f1 - r[k, 1] * f0
+        total[k, 3], total[k, 4], total[k, 5] = f0, f1, f2
     return axis_projections(parent, coord_body, Sw, Sv, total)
 
 
@@ -258,7 +259,15 @@ def bias_wrenches(mass, inertia_world, omega, alpha_bias, a_bias, force, torque)
     f = np.empty((nb, 3))
     t = np.empty((nb, 3))
     for k in range(nb):
-        f[k] = force[k] - mass[k] * a_bias[k]
-        Iw = _mv(inertia_world[k], omega[k])
-        t[k] = torque[k] - _mv(inertia_world[k], alpha_bias[k]) - _cross(omega[k], Iw)
+        J = inertia_world[k]
+        w0, w1, w2 = omega[k, 0], omega[k, 1], omega[k, 2]
+        a0, a1, a2 = alpha_bias[k, 0], alpha_bias[k, 1], alpha_bias[k, 2]
+        h0 = J[0, 0] * w0 + J[0, 1] * w1 + J[0, 2] * w2  # I omega
+        h1 = J[1, 0] * w0 + J[1, 1] * w1 + J[1, 2] * w2
+        h2 = J[2, 0] * w0 + J[2, 1] * w1 + J[2, 2] * w2
+        for i in range(3):
+            f[k, i] = force[k, i] - mass[k] * a_bias[k, i]
+        t[k, 0] = torque[k, 0] - (J[0, 0] * a0 + J[0, 1] * a1 + J[0, 2] * a2) - (w1 * h2 - w2 * h1)
+        t[k, 1] = torque[k, 1] - (J[1, 0] * a0 + J[1, 1] * a1 + J[1, 2] * a2) - (w2 * h0 - w0 * h2)
+        t[k, 2] = torque[k, 2] - (J[2, 0] * a0 + J[2, 1] * a1 + J[2, 2] * a2) - (w0 * h1 - w1 * h0)
     return f, t

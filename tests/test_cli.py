@@ -86,13 +86,25 @@ def test_run_options_override_the_scene(tmp_path, capsys):
     assert s["max_loop_residual"] < 1e-7
 
 
-def test_interrupted_run_writes_what_it_computed(tmp_path, monkeypatch, capsys):
-    def stop(t, t0, t1, last, stream=None):
-        if t > 0.1:
-            raise KeyboardInterrupt
-        return last
+def interrupt_after(t_stop):
+    """A progress bar whose update raises KeyboardInterrupt (Ctrl-C) past ``t_stop`` of simulated time."""
 
-    monkeypatch.setattr(SIMULATE, "_progress", stop)
+    class Stop:
+        def __init__(self, *args, **kw):
+            pass
+
+        def update_to(self, t):
+            if t > t_stop:
+                raise KeyboardInterrupt
+
+        def close(self):
+            pass
+
+    return Stop
+
+
+def test_interrupted_run_writes_what_it_computed(tmp_path, monkeypatch, capsys):
+    monkeypatch.setattr(SIMULATE, "Progress", interrupt_after(0.1))
     out = tmp_path / "partial"
     assert main(["run", PENDULUM, "--out", str(out), "--t-end", "1.0", "--n-out", "101"]) == 130
     assert "interrupted" in capsys.readouterr().err
@@ -149,14 +161,16 @@ def test_the_real_command_in_a_subprocess(tmp_path):
 
 
 def test_interrupted_builtin_wiper_keeps_the_first_run(tmp_path, monkeypatch, capsys):
-    def stop(t, t0, t1, last, stream=None):
-        if t > 0.02:
-            raise KeyboardInterrupt
-        return last
-
-    monkeypatch.setattr(SIMULATE, "_progress", stop)
+    monkeypatch.setattr(SIMULATE, "Progress", interrupt_after(0.02))
     assert main(["run", "wiper", "--out", str(tmp_path), "--t-end", "0.5", "--n-out", "51"]) == 130
     res = fm.Result.load(tmp_path / "wiper_rigid.npz")
     assert res.status == "interrupted" and 0.02 <= res.t[-1] < 0.5
     assert not (tmp_path / "wiper_flexible.npz").exists()
     assert json.loads((tmp_path / "summary.json").read_text())["status"] == "interrupted"
+
+
+def test_version(capsys):
+    with pytest.raises(SystemExit) as info:
+        main(["--version"])
+    assert info.value.code == 0
+    assert capsys.readouterr().out.strip() == f"flexmb {fm.__version__}"

@@ -20,6 +20,7 @@ import json
 import os
 import sys
 
+from . import __version__
 from .errors import FlexmbError, SimulationError
 
 __all__ = ["main"]
@@ -137,6 +138,7 @@ def main(argv=None) -> int:
         Exit status.
     """
     parser = argparse.ArgumentParser(prog="flexmb", description="flexible multibody dynamics")
+    parser.add_argument("--version", action="version", version=f"flexmb {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     run = sub.add_parser("run", help="simulate a scene file (or a built-in scene) and write results, plots and VTK")
     run.add_argument("scene", help="a scene file SCENE.toml, or a built-in scene: fourbar or wiper")

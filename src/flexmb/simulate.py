@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import sys
 import time as _time
 import warnings
 
@@ -15,6 +14,7 @@ from .errors import AssemblyError, FlexmbError, ModelError, SimulationError, Sti
 from .genalpha import GeneralizedAlpha
 from .integrators import IDA, CVODEAdams, CVODEBDF, adapt, capabilities
 from .result import Result
+from .progress import Progress, shown
 from .threads import limited_blas
 
 __all__ = ["simulate", "initial_state", "INTEGRATORS"]
@@ -180,19 +180,6 @@ def _warn_if_stiff(system, solver_cls, t0, t1, x, xd):
         ), stacklevel=3)
 
 
-def _progress(t, t0, t1, last, stream=sys.stderr):
-    now = _time.perf_counter()
-    if now - last < 0.5 and t < t1:
-        return last
-    frac = (t - t0) / (t1 - t0) if t1 > t0 else 1.0
-    bar = "#" * int(30 * frac)
-    stream.write(f"\r  simulating [{bar:<30}] {100 * frac:5.1f}%  t = {t:.4g} s")
-    if t >= t1:
-        stream.write("\n")
-    stream.flush()
-    return now
-
-
 @limited_blas
 def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=None, x0=None, xd0=None,
              fixed=None, n_out: int = 201, t_eval=None, method: str = "auto", rtol: float = 1e-8,
@@ -243,7 +230,9 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     max_step : float
         Largest step, s.
     progress : bool, optional
-        Show a progress bar on stderr (default: when stderr is a terminal).
+        Show progress on stderr: a bar in a terminal or a notebook, a line
+        every half minute in a log (:mod:`flexmb.progress`). Default: shown,
+        except in a CI job.
     track_work : bool
         Integrate, with the state, the work done by each driver and by each
         class of force elements (``Result.work``), for energy balances:
@@ -289,8 +278,7 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     name = method if isinstance(method, str) else getattr(method, "__name__", str(method))
     atol = rtol / 100 if atol is None else atol
     memory.check(system, n_out if t_eval is None else len(t_eval), what="simulate", model=False)
-    if progress is None:
-        progress = sys.stderr.isatty()
+    progress = shown(progress)
 
     x, xd = initial_state(system, t0, positions, speeds, x0, xd0, fixed)
     if auto:
@@ -351,7 +339,6 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     if times[0] == t0:
         out_y.append(y.copy())
         k_out = 1
-    last = 0.0
 
     extra = {}
     # what the integrator can use is declared by its class (flexmb.integrators.base)
@@ -390,6 +377,7 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
 
     t_now = t0
     solver = None
+    bar = Progress(t_end - t0, "simulating", "s", enabled=progress)
     own_loop = caps.advances and not system.n_constraints
     try:
         solver = make(t0, y)
@@ -410,8 +398,7 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
                 if k_out < len(times) and times[k_out] == t_stop:
                     out_y.append(y_stop)
                     k_out += 1
-                if progress:
-                    last = _progress(t_now, t0, t_end, last)
+                bar.update_to(t_now - t0)
         while solver.status == "running" and not own_loop:
             try:
                 msg = solver.step()
@@ -443,8 +430,7 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
                     step = solver.step_size
                     first = min(max(step, 1e-14), t_end - t_now) if step else None
                     solver = make(t_now, np.concatenate([xs, vs, solver.y[2 * n :]]), first_step=first)
-            if progress:
-                last = _progress(t_now, t0, t_end, last)
+            bar.update_to(t_now - t0)
         status, message = "finished", "reached t_end"
     except (_NonFinite, AssemblyError) as exc:
         status = "failed"
@@ -452,6 +438,8 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         message = str(exc) if isinstance(exc, AssemblyError) else f"at t = {t_now:.9g} s: {exc}"
     except KeyboardInterrupt:
         status, message = "interrupted", f"interrupted by the user at t = {t_now:.9g} s"
+    finally:
+        bar.close()  # the bar's line ends before any message
     wall = _time.perf_counter() - t_wall
     if own_loop and solver is not None:
         n_steps = solver.n_steps

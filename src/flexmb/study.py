@@ -65,6 +65,7 @@ import numpy as np
 from attrs import define, field, frozen
 
 from ._files import atomic_write
+from .progress import Progress
 from .errors import FlexmbError, SceneError
 
 __all__ = ["Distribution", "DISTRIBUTIONS", "OUTPUTS", "SAMPLINGS", "Study", "StudyResult", "parse_spec",
@@ -709,29 +710,25 @@ def _execute_dask(tasks, record, client):
 
 
 class _Progress:
-    """``study: 3/8 cases done (1 failed), 12 s elapsed, about 20 s left`` on stderr."""
+    """The study's progress bar (:mod:`flexmb.progress`): cases done, failed ones noted, time left."""
 
     def __init__(self, total: int, already: int, enabled: bool):
         self.total, self.already, self.enabled = total, already, enabled
         self.done = self.failed = 0
-        self.t0 = time.perf_counter()
-        self.tty = enabled and sys.stderr.isatty()
         if enabled and already:
             print(f"study: {already} of {total} cases done before, running the other {total - already}",
                   file=sys.stderr)
+        self.bar = Progress(total, "study", "cases", enabled=enabled, initial=already)
 
     def update(self, row: dict) -> None:
         self.done += 1
         self.failed += row["status"] != "finished"
-        if not self.enabled:
-            return
-        elapsed = time.perf_counter() - self.t0
-        todo = self.total - self.already - self.done
-        left = f", about {elapsed / self.done * todo:.0f} s left" if todo else ""
-        line = (f"study: {self.already + self.done}/{self.total} cases done ({self.failed} failed), "
-                f"{elapsed:.0f} s elapsed{left}")
-        print(("\r" + line + "   ") if self.tty else line, end="" if self.tty and todo else "\n", file=sys.stderr,
-              flush=True)
+        if self.failed:
+            self.bar.note(f"{self.failed} failed")
+        self.bar.update_to(self.already + self.done)
+
+    def close(self) -> None:
+        self.bar.close()
 
 
 # ----------------------------------------------------------------------------- the study
@@ -1051,6 +1048,7 @@ class Study:
             arg = client if executor == "dask" else max(1, int(workers or default_workers()))
             executors[executor](unique, record, arg)
         finally:
+            bar.close()
             if own_client is not None:
                 own_client.close()
         rows = []

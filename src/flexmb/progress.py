@@ -1,0 +1,139 @@
+"""Progress of long runs (a simulation, a study): a tqdm bar in a terminal or a notebook, lines in a log.
+
+Where the output goes decides how progress is shown:
+
+* a terminal: a bar on stderr, with the elapsed and remaining time and the
+  rate (simulated seconds per second of wall time, or cases per second),
+  after the first half second;
+* a notebook (Jupyter): tqdm's widget (``tqdm.auto``);
+* a file or a pipe: one plain line every ``LOG_INTERVAL`` seconds, and
+  none for a run shorter than that, so that a log holds no carriage
+  returns and short runs add nothing;
+* a CI job (the ``CI`` environment variable set): nothing.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import sys
+
+__all__ = ["Progress", "LOG_INTERVAL", "shown"]
+
+#: seconds between two progress lines written to a file or a pipe (and before the first)
+LOG_INTERVAL = 30.0
+
+
+def shown(progress: bool | None) -> bool:
+    """Whether to show progress: as asked, or by default everywhere but in a CI job.
+
+    Parameters
+    ----------
+    progress : bool or None
+        The caller's choice; None for the default.
+
+    Returns
+    -------
+    bool
+        True to show it.
+    """
+    if progress is not None:
+        return bool(progress)
+    return not os.environ.get("CI")
+
+
+def _notebook() -> bool:
+    try:
+        from IPython import get_ipython
+    except ImportError:
+        return False
+    shell = get_ipython()
+    return shell is not None and type(shell).__name__ == "ZMQInteractiveShell"
+
+
+class _Lines:
+    """A stream that turns tqdm's carriage-return updates into whole lines (for logs)."""
+
+    def __init__(self, stream):
+        self.stream = stream
+
+    def write(self, s: str) -> None:
+        s = s.replace("\r", "").rstrip()
+        if s:
+            self.stream.write(s + "\n")
+
+    def flush(self) -> None:
+        self.stream.flush()
+
+
+class Progress:
+    """A progress bar over a quantity that grows to ``total`` (simulated time, cases).
+
+    Parameters
+    ----------
+    total : float
+        The amount at the end (s of simulated time, or a number of cases).
+    what : str
+        The label before the bar, e.g. ``"simulating"``.
+    unit : str
+        The unit of the amount, e.g. ``"s"`` (the rate reads ``s/s``).
+    enabled : bool
+        False: nothing is shown (every method does nothing).
+    initial : float
+        The amount already done.
+
+    Examples
+    --------
+    >>> bar = Progress(1.0, "simulating", "s", enabled=False)
+    >>> bar.update_to(0.5)
+    >>> bar.close()
+    """
+
+    def __init__(self, total: float, what: str, unit: str, enabled: bool = True, initial: float = 0.0):
+        self._bar = None
+        if not enabled:
+            return
+        stream = sys.stderr
+        if _notebook():
+            from tqdm.auto import tqdm
+
+            kw = {}
+        else:
+            from tqdm import tqdm
+
+            tty = bool(getattr(stream, "isatty", lambda: False)())
+            width = min(shutil.get_terminal_size((100, 20)).columns, 120)  # a terminal of size 0: 100
+            kw = (dict(file=stream, delay=0.5, mininterval=0.2, ncols=width) if tty
+                  else dict(file=_Lines(stream), delay=LOG_INTERVAL, mininterval=LOG_INTERVAL, ncols=100,
+                            ascii=True))
+        self._bar = tqdm(total=float(total), initial=float(initial), desc=what, unit=unit,
+                         bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.4g}/{total:.4g} " + unit
+                         + " [{elapsed}<{remaining}, {rate_fmt}{postfix}]", **kw)
+
+    def update_to(self, amount: float) -> None:
+        """Move the bar to ``amount`` done.
+
+        Parameters
+        ----------
+        amount : float
+            The amount done so far.
+        """
+        if self._bar is not None:
+            self._bar.update(float(amount) - self._bar.n)
+
+    def note(self, text: str) -> None:
+        """Show ``text`` after the counts (e.g. ``"2 failed"``).
+
+        Parameters
+        ----------
+        text : str
+            A short note.
+        """
+        if self._bar is not None:
+            self._bar.set_postfix_str(text, refresh=False)
+
+    def close(self) -> None:
+        """End the bar (its last state stays on screen, the line ended)."""
+        if self._bar is not None:
+            self._bar.close()
+            self._bar = None

@@ -760,6 +760,8 @@ def test_flexible_body_whole_float_n_segments_builds(n):
 @pytest.mark.parametrize("kw, message", [
     ({"rtol": -1}, r"simulate: rtol must be > 0, got -1"),
     ({"rtol": 0.0}, r"simulate: rtol must be > 0, got 0.0"),
+    ({"rtol": 1e-30}, r"simulate: rtol = 1e-30 is below what double precision can meet; the smallest is 100 machine "
+                      r"epsilons, 2.2e-14"),
     ({"rtol": NAN}, r"simulate: rtol must be a finite number, got nan"),
     ({"rtol": INF}, r"simulate: rtol must be a finite number, got inf"),
     ({"rtol": "x"}, r"simulate: rtol must be a number, got 'x'"),

@@ -166,6 +166,10 @@ def _number(where, what, value, *, finite=True, minimum=None, strict=True):
     return f
 
 
+#: the smallest relative tolerance an integration can meet in double precision (scipy's bound too)
+RTOL_MIN = 100 * np.finfo(float).eps
+
+
 def simulate_arguments(t0, t_end, n_out, t_eval, rtol, atol, max_step, projection_tol):
     """Check the numeric arguments of :func:`flexmb.simulate` before anything is built.
 
@@ -178,7 +182,7 @@ def simulate_arguments(t0, t_end, n_out, t_eval, rtol, atol, max_step, projectio
     t_eval : ndarray or None
         Finite output times, 1-d, increasing, within ``[t0, t_end]``.
     rtol : float
-        Finite, > 0.
+        Finite, >= RTOL_MIN (100 machine epsilons).
     atol : float or ndarray or None
         Finite, >= 0 (None: ``rtol / 100``).
     max_step, projection_tol : float
@@ -206,6 +210,9 @@ def simulate_arguments(t0, t_end, n_out, t_eval, rtol, atol, max_step, projectio
                 or t_eval[0] < t0 or t_eval[-1] > t_end):
             raise ModelError("t_eval must be increasing and within [t0, t_end]")
     rtol = _number(where, "rtol", rtol, minimum=0.0)
+    if rtol < RTOL_MIN:
+        raise ModelError(f"{where}: rtol = {rtol:g} is below what double precision can meet; the smallest is "
+                         f"100 machine epsilons, {RTOL_MIN:.2g}")
     if atol is not None:
         try:
             a = np.array(atol, dtype=float)

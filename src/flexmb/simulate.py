@@ -545,7 +545,8 @@ def _collect(system, t, Y) -> Result:
     lam = np.zeros((nt, m))
     for i in range(nt):
         x, xd = Y[i, :n], Y[i, n:]
-        kin, A, f, phi, psi, b, gamma = system.equations(t[i], x, xd)
+        kin = system.kinematics(t[i], x, xd)
+        A, f, psi, gamma = system.reduced_parts(t[i], Y[i])
         try:
             xdd[i], lam_i = system._solve(t[i], A, f, psi, gamma, multipliers=True)
         except FlexmbError:
@@ -556,8 +557,7 @@ def _collect(system, t, Y) -> Result:
         kin_e[i] = kin.kinetic_energy()
         pot_e[i] = system.forces.potential_energy(kin)
         if m:
-            res[i] = np.max(np.abs(phi))
-            vres[i] = np.max(np.abs(psi @ xd - b))
+            res[i], vres[i] = system.constraint_residuals(t[i], x, xd)
             lam[i] = lam_i
     return Result(
         t=np.asarray(t, float), x=Y[:, :n].copy(), xd=Y[:, n:].copy(), xdd=xdd, positions=pos, origins=org,

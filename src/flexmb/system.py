@@ -351,6 +351,33 @@ class System:
             psi, gamma = np.vstack([psi, psi_d]), np.concatenate([gamma, gamma_d])
         return A, f, psi, gamma
 
+    def constraint_residuals(self, t, x, xd) -> tuple[float, float]:
+        """The largest position and velocity residuals of the constraints, ``max |phi|`` and ``max |psi xd - b|``.
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        x, xd : ndarray, shape (n,)
+            Coordinates and speeds.
+
+        Returns
+        -------
+        position, velocity : float
+            The residuals (eqs. 28-29; 0 without constraints).
+        """
+        if self._fused_equations is None:
+            phi, psi, b = self.constraints.evaluate(self.kinematics(t, x, xd), level=1)
+            if not phi.size:
+                return 0.0, 0.0
+            return float(np.max(np.abs(phi))), float(np.max(np.abs(psi @ xd - b)))
+        tree, _, cuts = self._fused_equations
+        position, velocity = cut_residual(tree, cuts, np.concatenate([x, xd]), self.n_coords)
+        for d, c in zip(self.constraints.drivers, self.constraints.driver_cols):
+            position = max(position, abs(x[c] - d.position(t)))
+            velocity = max(velocity, abs(xd[c] - d.velocity(t)))
+        return float(position), float(velocity)
+
     def constraint_residual(self, t, x, xd) -> float:
         """The largest constraint residual at a state: ``max(|phi|, |psi xd - b|)`` (eqs. 28-29).
 
@@ -366,14 +393,7 @@ class System:
         float
             The residual (m or rad, and per second); 0 without constraints.
         """
-        if self._fused_equations is None:
-            phi, psi, b = self.constraints.evaluate(self.kinematics(t, x, xd), level=1)
-            return max(np.max(np.abs(phi)), np.max(np.abs(psi @ xd - b))) if phi.size else 0.0
-        tree, _, cuts = self._fused_equations
-        res = max(cut_residual(tree, cuts, np.concatenate([x, xd]), self.n_coords))
-        for d, c in zip(self.constraints.drivers, self.constraints.driver_cols):
-            res = max(res, abs(x[c] - d.position(t)), abs(xd[c] - d.velocity(t)))
-        return float(res)
+        return max(self.constraint_residuals(t, x, xd))
 
     def accelerations(self, t, x, xd) -> np.ndarray:
         """Generalized accelerations from the reduced equations (eqs. 36-39).

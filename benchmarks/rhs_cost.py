@@ -1,4 +1,4 @@
-"""CPU cost of one right-hand side (System.accelerations) of B1 and B2, per N.
+"""CPU cost of one right-hand side (System.state_rate, what the integrators call) of B1, B2 and the wiper, per N.
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/rhs_cost.py --scene B1 --n 8 16 64
 
@@ -33,17 +33,28 @@ def cost(fn, calls):
 
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--scene", choices=["B1", "B2"], default="B1")
+    p.add_argument("--scene", choices=["B1", "B2", "wiper"], default="B1",
+                   help="wiper: the main job's flexible wiper (closed loops, a friction plugin; N = its segments)")
     p.add_argument("--n", type=int, nargs="+", default=[8, 16, 64])
     p.add_argument("--calls", type=int, default=5000)
     a = p.parse_args(argv)
     for n in a.n:
-        system = getattr(scenes, a.scene.lower())(n).build()
-        rng = np.random.default_rng(0)
-        x, xd = 0.01 * rng.normal(size=system.n_coords), 0.01 * rng.normal(size=system.n_coords)
+        if a.scene == "wiper":
+            from flexmb import initial_state
+            from flexmb.scenes.wiper import WiperOptions, wiper
+
+            model, initial = wiper(WiperOptions(flexible=True, n_segments=n))
+            system = model.build()
+            x, xd = initial_state(system, 0.0, initial)
+        else:
+            system = getattr(scenes, a.scene.lower())(n).build()
+            rng = np.random.default_rng(0)
+            x, xd = 0.01 * rng.normal(size=system.n_coords), 0.01 * rng.normal(size=system.n_coords)
+        y = np.concatenate([x, xd])
         row = {"tool": "flexmb", "scene": a.scene, "n_segments": n, "n_coords": system.n_coords,
-               "rhs_cpu_us": 1e6 * cost(lambda: system.accelerations(0.0, x, xd), a.calls),
-               "kinematics_cpu_us": 1e6 * cost(lambda: system.kinematics(0.0, x, xd), a.calls)}
+               "rhs_cpu_us": 1e6 * cost(lambda: system.state_rate(0.0, y), a.calls),
+               "kinematics_cpu_us": 1e6 * cost(lambda: system.kinematics(0.0, x, xd), a.calls),
+               "load_avg_1min": os.getloadavg()[0]}
         print(json.dumps(row))
 
 

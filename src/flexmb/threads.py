@@ -20,6 +20,7 @@ from __future__ import annotations
 import contextlib
 import functools
 import os
+import sys
 import threading
 
 from .errors import ModelError
@@ -48,12 +49,22 @@ _active = 0  # blocks inside blas_threads, over all Python threads
 _limiter = None
 
 
+_modules_seen = -1  # len(sys.modules) when the controller was made
+
+
 def _get_controller(refresh: bool = False):
-    global _controller
-    if _controller is None or refresh:
+    """The threadpoolctl controller; with ``refresh``, made anew if modules were imported since.
+
+    Finding the loaded libraries reads the process's memory map (about a
+    millisecond): a new BLAS comes with an imported extension module, so
+    the controller is made again only when ``sys.modules`` has grown.
+    """
+    global _controller, _modules_seen
+    if _controller is None or (refresh and len(sys.modules) != _modules_seen):
         from threadpoolctl import ThreadpoolController
 
         _controller = ThreadpoolController()
+        _modules_seen = len(sys.modules)
     return _controller
 
 

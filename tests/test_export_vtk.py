@@ -408,24 +408,25 @@ def test_mixed_model_layout(tmp_path):
     system = model.build()
     x = np.random.default_rng(1).uniform(-0.05, 0.05, system.n_coords)
     mesh = vtk.read_vtu(vtk.export_snapshot(system, x, tmp_path / "s.vtu"))
-    assert list(mesh.field_data["body_names"]) == ["hub", "blade", "rod"]
-    # the hub's bar (2 points), the blade's centre line (4) and blocks (3 x 8), the rod's (4 and 3 x 8),
+    # flexible bodies in the order of their first segments: the rod hangs from the ground, the blade from the hub
+    assert list(mesh.field_data["body_names"]) == ["hub", "rod", "blade"]
+    # the hub's bar (2 points), the rod's centre line (4) and blocks (3 x 8), the blade's (4 and 3 x 8),
     # then the joint points: spin on the hub, root on the hub and the blade, pin on the rod
     assert len(mesh.points) == 2 + 4 + 24 + 4 + 24 + 4
-    np.testing.assert_allclose(mesh.points[2:6], system.shape(blade, x), atol=TOL)
-    np.testing.assert_allclose(mesh.points[30:34], system.shape(rod, x), atol=TOL)
+    np.testing.assert_allclose(mesh.points[2:6], system.shape(rod, x), atol=TOL)
+    np.testing.assert_allclose(mesh.points[30:34], system.shape(blade, x), atol=TOL)
     names = system.coordinate_names
     value = {n: x[k] for k, n in enumerate(names)}
-    np.testing.assert_array_equal(mesh.point_data["bending_z"][2:6], [value[f"blade.j{k}.bend_z"] for k in range(3)]
-                                  + [0.0])
+    np.testing.assert_array_equal(mesh.point_data["bending_z"][30:34],
+                                  [value[f"blade.j{k}.bend_z"] for k in range(3)] + [0.0])
     # the unclamped rod has joints j1, j2 only: its root point carries none
     for coord in ("axial", "torsion"):
-        np.testing.assert_array_equal(mesh.point_data[coord][30:34],
+        np.testing.assert_array_equal(mesh.point_data[coord][2:6],
                                       [0.0] + [value[f"rod.j{k}.{coord}"] for k in (1, 2)] + [0.0])
-        np.testing.assert_array_equal(mesh.point_data[coord][:30], 0.0)
+        np.testing.assert_array_equal(mesh.point_data[coord][30:], 0.0)
     np.testing.assert_array_equal(mesh.cell_data_dict["body_id"]["line"][:7], [0, 1, 1, 1, 2, 2, 2])
     marks = _markers(mesh)
-    assert sorted(marks) == [(0, 0), (0, 1), (1, 1), (2, 2)]
-    np.testing.assert_allclose(marks[0, 1], marks[1, 1], rtol=0, atol=TOL)
+    assert sorted(marks) == [(0, 0), (0, 1), (1, 2), (2, 1)]
+    np.testing.assert_allclose(marks[0, 1], marks[2, 1], rtol=0, atol=TOL)
     for (body, _), p in marks.items():
         assert _on_body(mesh, body, p) < TOL

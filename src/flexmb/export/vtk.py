@@ -202,7 +202,10 @@ class _Layout:
     def __init__(self, result, system=None, triad: float = 0.0):
         self.n_rows = len(result.body_names)
         self.triad = triad
-        self.flexible = [(name, np.asarray(rows, dtype=int), float(l)) for name, (rows, l) in result.flexible.items()]
+        # flexible bodies in the order of their first segments' rows, whatever the order of result.flexible
+        # (Result.load sorts it by name)
+        self.flexible = sorted(((name, np.asarray(rows, dtype=int), float(l)) for name, (rows, l)
+                                in result.flexible.items()), key=lambda f: int(f[1][0]))
         names = list(result.body_names)
         carried = {int(k) for _, rows, _ in self.flexible for k in rows}
         # a clamped flexible body's massless clamp frame, named "<body>.base", sits at the root
@@ -539,6 +542,7 @@ def _meshes(result, frames, system=None, triad=0.0, extra=None, reference=None):
     cells, cell_data = layout.cell_blocks()
     tables = layout.tables()
     base = layout.positions(result, [reference])[0] if reference is not None else None
+    cache: dict = {}  # the XML of what the frames share (see _vtu_text)
     for n, i in enumerate(frames):
         field_data = {"time": np.array([t[i]]), **tables}
         field_data.update({k: np.atleast_1d(np.asarray(v)) for k, v in (extra or {}).items()})
@@ -547,7 +551,9 @@ def _meshes(result, frames, system=None, triad=0.0, extra=None, reference=None):
         if base is not None:
             pd = {"displacement": points - base, **pd}
             points = base
-        yield meshio.Mesh(points, cells, point_data=pd, cell_data=cell_data, field_data=field_data)
+        mesh = meshio.Mesh(points, cells, point_data=pd, cell_data=cell_data, field_data=field_data)
+        mesh._vtu_cache = cache
+        yield mesh
 
 
 def body_names(result, system=None) -> list[str]:
@@ -563,9 +569,10 @@ def body_names(result, system=None) -> list[str]:
     Returns
     -------
     list of str
-        The rigid bodies in result order, then the flexible bodies. The
-        segments of a flexible body (and its clamp frame ``"<body>.base"``)
-        are not listed: they are drawn as the flexible body.
+        The rigid bodies in result order, then the flexible bodies in the
+        order of their first segments. The segments of a flexible body (and
+        its clamp frame ``"<body>.base"``) are not listed: they are drawn as
+        the flexible body.
     """
     _check_result(result)
     return list(_Layout(result).names)
@@ -717,12 +724,8 @@ def _named(mesh) -> dict:
     return out
 
 
-def _vtu_text(mesh) -> str:
-    """The VTU XML of a meshio mesh: binary point and cell data, ASCII field data, string arrays."""
-    byte_order = "LittleEndian" if sys.byteorder == "little" else "BigEndian"
-    field = dict(mesh.field_data)
-    if "time" in field:
-        field.setdefault("TimeValue", field["time"])  # the name ParaView reads as a file's time
+def _cells_text(mesh) -> tuple[str, int]:
+    """The CellData and Cells XML of a mesh, and its number of cells."""
     conn, offsets, types = [], [], []
     end = 0
     for block in mesh.cells:
@@ -730,29 +733,65 @@ def _vtu_text(mesh) -> str:
         conn.append(data.ravel())
         offsets.append(end + data.shape[1] * np.arange(1, len(data) + 1, dtype=np.int64))
         end += data.size
-        types.append(np.full(len(data), _VTK_CELLS.get(block.type) or meshio._vtk_common.meshio_to_vtk_type[block.type],
-                             dtype=np.uint8))
-    n_cells = sum(len(b.data) for b in mesh.cells)
+        vtk_type = _VTK_CELLS.get(block.type) or meshio._vtk_common.meshio_to_vtk_type[block.type]
+        types.append(np.full(len(data), vtk_type, dtype=np.uint8))
     cell_data = {name: np.concatenate([np.asarray(v) for v in values]) for name, values in mesh.cell_data.items()}
     cell_data.update({name: np.concatenate(values) for name, values in _named(mesh).items()})
-    parts = [
-        '<?xml version="1.0"?>\n',
-        f'<VTKFile type="UnstructuredGrid" version="1.0" byte_order="{byte_order}" header_type="UInt64">\n',
-        "<UnstructuredGrid>\n<FieldData>\n",
-        *(_data_array(k, v, field=True) for k, v in field.items()),
-        f'</FieldData>\n<Piece NumberOfPoints="{len(mesh.points)}" NumberOfCells="{n_cells}">\n<PointData>\n',
-        *(_data_array(k, v) for k, v in mesh.point_data.items()),
-        "</PointData>\n<CellData>\n",
+    text = "".join([
+        "<CellData>\n",
         *(_data_array(k, v) for k, v in cell_data.items()),
-        "</CellData>\n<Points>\n",
-        _data_array("Points", np.asarray(mesh.points, dtype=float).reshape(-1, 3)),
-        "</Points>\n<Cells>\n",
+        "</CellData>\n",
+        "<Cells>\n",
         _data_array("connectivity", np.concatenate(conn) if conn else np.zeros(0, dtype=np.int64)),
         _data_array("offsets", np.concatenate(offsets) if offsets else np.zeros(0, dtype=np.int64)),
         _data_array("types", np.concatenate(types) if types else np.zeros(0, dtype=np.uint8)),
-        "</Cells>\n</Piece>\n</UnstructuredGrid>\n</VTKFile>\n",
-    ]
-    return "".join(parts)
+        "</Cells>\n",
+    ])
+    return text, sum(len(b.data) for b in mesh.cells)
+
+
+def _vtu_text(mesh) -> str:
+    """The VTU XML of a meshio mesh: binary point and cell data, ASCII field data, string arrays.
+
+    The meshes of one export share their cells, cell data and name tables
+    (and a ``_vtu_cache`` dict): their XML is made once.
+    """
+    byte_order = "LittleEndian" if sys.byteorder == "little" else "BigEndian"
+    field = dict(mesh.field_data)
+    if "time" in field:
+        field.setdefault("TimeValue", field["time"])  # the name ParaView reads as a file's time
+    cache = getattr(mesh, "_vtu_cache", None)
+    hit = cache.get("cells") if cache is not None else None
+    if hit and len(hit[0]) == len(mesh.cells) and all(a is b for a, b in zip(hit[0], mesh.cells)) \
+            and hit[1] is mesh.cell_data:
+        cells, n_cells = hit[2:]
+    else:
+        cells, n_cells = _cells_text(mesh)
+        if cache is not None:
+            cache["cells"] = (list(mesh.cells), mesh.cell_data, cells, n_cells)
+
+    def field_array(name, value):
+        if cache is None or np.asarray(value).dtype.kind not in "US":
+            return _data_array(name, value, field=True)
+        hit = cache.get(("field", name))
+        if hit is None or hit[0] is not value:
+            hit = cache[("field", name)] = (value, _data_array(name, value, field=True))
+        return hit[1]
+
+    points = np.asarray(mesh.points, dtype=float).reshape(-1, 3)
+    return "".join([
+        '<?xml version="1.0"?>\n',
+        f'<VTKFile type="UnstructuredGrid" version="1.0" byte_order="{byte_order}" header_type="UInt64">\n',
+        "<UnstructuredGrid>\n<FieldData>\n",
+        *(field_array(k, v) for k, v in field.items()),
+        f'</FieldData>\n<Piece NumberOfPoints="{len(points)}" NumberOfCells="{n_cells}">\n<PointData>\n',
+        *(_data_array(k, v) for k, v in mesh.point_data.items()),
+        "</PointData>\n",
+        cells,
+        "<Points>\n",
+        _data_array("Points", points),
+        "</Points>\n</Piece>\n</UnstructuredGrid>\n</VTKFile>\n",
+    ])
 
 
 def _write_text(path, text: str) -> None:

@@ -430,3 +430,94 @@ def test_mixed_model_layout(tmp_path):
     np.testing.assert_allclose(marks[0, 1], marks[2, 1], rtol=0, atol=TOL)
     for (body, _), p in marks.items():
         assert _on_body(mesh, body, p) < TOL
+
+
+# ----------------------------------------------------------------------------- the ParaView script
+
+
+class _FakeParaView:
+    """The few paraview.simple calls open_in_paraview.py makes, recorded (ParaView itself is not a dependency)."""
+
+    def __init__(self):
+        self.calls = []
+
+        class Proxy:
+            def __init__(proxy, **kw):
+                proxy.__dict__.update(kw)
+
+            def __getattr__(proxy, name):  # methods: recorded, return None
+                return lambda *a, **k: self.calls.append((name, a, k))
+
+        self.Proxy = Proxy
+
+    def GetActiveViewOrCreate(self, kind):
+        return self.Proxy(kind=kind)
+
+    def PVDReader(self, registrationName, FileName):
+        _, sets = _read_all(Path(FileName))
+        mesh = vtk.read_vtu(sets[0][1])
+        keys = lambda names: type("Keys", (), {"keys": lambda _: list(names)})()  # noqa: E731
+        return self.Proxy(name=registrationName, TimestepValues=[t for t, _ in sets],
+                          PointData=keys(mesh.point_data), CellData=keys(mesh.cell_data))
+
+    def Show(self, reader, view):
+        return self.Proxy(reader=reader)
+
+    def ColorBy(self, display, what):
+        self.calls.append(("ColorBy", display.reader.name, what))
+
+    def Hide(self, reader, view):
+        self.calls.append(("Hide", reader.name))
+
+    def GetAnimationScene(self):
+        self.scene = self.Proxy()
+        return self.scene
+
+    def SaveScreenshot(self, path, view, **kw):
+        self.calls.append(("SaveScreenshot", path))
+
+    def __getattr__(self, name):
+        return lambda *a, **k: self.Proxy()
+
+
+def test_paraview_script_opens_the_series_coloured_by_stress(cantilever, fourbar_result, tmp_path, monkeypatch):
+    system, _, res = cantilever
+    res.export_vtk(tmp_path / "vtk_beam", prefix="beam", system=system)
+    fourbar_result.export_vtk(tmp_path / "vtk_fourbar", prefix="fourbar", system=fourbar())
+    script = vtk.paraview_script(tmp_path / "open_in_paraview.py")
+    fake = _FakeParaView()
+    paraview = type(sys)("paraview")
+    paraview.simple = fake
+    monkeypatch.setitem(sys.modules, "paraview", paraview)
+    monkeypatch.setitem(sys.modules, "paraview.simple", fake)
+    monkeypatch.setattr(sys, "argv", [str(script), "--time", "0.02", "--screenshot", str(tmp_path / "a.png")])
+    import runpy
+
+    runpy.run_path(str(script), run_name="__main__")  # as pvpython runs it
+    colours = [c for c in fake.calls if c[0] == "ColorBy"]
+    # the beam (section stresses) by von Mises stress, the four-bar (rigid) by body name
+    assert colours == [("ColorBy", "beam.pvd", ("POINTS", "von_mises")), ("ColorBy", "fourbar.pvd", ("CELLS", "body"))]
+    assert ("Hide", "fourbar.pvd") in fake.calls  # the series with stresses is the one shown
+    assert fake.scene.AnimationTime == min(res.t, key=lambda t: abs(t - 0.02))
+    assert ("SaveScreenshot", str(tmp_path / "a.png")) in fake.calls
+    # imported as part of flexmb it does nothing
+    import importlib
+
+    assert importlib.import_module("flexmb.export.open_in_paraview").__all__ == ["main"]
+
+
+def test_paraview_script_in_pvbatch(cantilever, tmp_path):
+    """With ParaView installed (pvbatch) and a display (or xvfb-run): the real thing renders a PNG."""
+    import shutil
+
+    pvbatch = shutil.which("pvbatch")
+    if pvbatch is None:
+        pytest.skip("ParaView (pvbatch) is not installed")
+    prefix = [] if shutil.which("xvfb-run") is None else ["xvfb-run", "-a"]
+    system, _, res = cantilever
+    res.export_vtk(tmp_path / "vtk", prefix="beam", system=system)
+    script = vtk.paraview_script(tmp_path / "open_in_paraview.py")
+    proc = subprocess.run([*prefix, pvbatch, str(script), "--screenshot", str(tmp_path / "beam.png")],
+                          capture_output=True, text=True, timeout=300, cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert (tmp_path / "beam.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

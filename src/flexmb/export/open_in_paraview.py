@@ -6,6 +6,7 @@
     pvpython open_in_paraview.py                      # every .pvd below its folder
     pvpython open_in_paraview.py vtk_flexible/wiper_flexible.pvd
     pvpython open_in_paraview.py --screenshot wiper.png   # render the last time to a PNG
+    pvpython open_in_paraview.py --time 0.25 --screenshot wiper.png
     paraview --script=open_in_paraview.py             # the same in the ParaView window
 
 Each series opens as one time series (the ``.pvd``): bodies as their shapes
@@ -28,16 +29,26 @@ __all__ = ["main"]
 
 
 def _arguments(argv):
-    """The .pvd files and the screenshot path named in ``argv``."""
-    files, shot = [], None
+    """The .pvd files, the screenshot path and the time named in ``argv`` (other words are ignored)."""
+    files, shot, time = [], None, None
     args = list(argv)
     while args:
         a = args.pop(0)
         if a == "--screenshot" and args:
             shot = args.pop(0)
+        elif a == "--time" and args:
+            time = float(args.pop(0))
         elif a.endswith(".pvd"):
             files.append(a)
-    return files, shot
+    return files, shot, time
+
+
+def _times(reader):
+    """A reader's time steps as a list (ParaView gives a single number for a single step)."""
+    values = reader.TimestepValues
+    if isinstance(values, (int, float)):
+        return [float(values)]
+    return [float(t) for t in values] or [0.0]
 
 
 def _series(files, folder):
@@ -52,7 +63,8 @@ def main(argv=None, folder=None):
     Parameters
     ----------
     argv : list of str, optional
-        ``.pvd`` files and ``--screenshot PNG`` (default: the command line).
+        ``.pvd`` files, ``--time T`` (s; default the last output) and
+        ``--screenshot PNG`` (default: the command line).
     folder : str, optional
         Where to look for ``.pvd`` files when ``argv`` names none (default:
         this script's folder, else the working folder).
@@ -67,7 +79,7 @@ def main(argv=None, folder=None):
     if folder is None:
         here = globals().get("__file__")
         folder = os.path.dirname(os.path.abspath(here)) if here else os.getcwd()
-    files, shot = _arguments(sys.argv[1:] if argv is None else argv)
+    files, shot, time = _arguments(sys.argv[1:] if argv is None else argv)
     paths = _series(files, folder)
     if not paths:
         raise SystemExit(f"open_in_paraview: no .pvd file named or found below {folder}")
@@ -76,7 +88,7 @@ def main(argv=None, folder=None):
     for path in paths:
         reader = pv.PVDReader(registrationName=os.path.basename(path), FileName=path)
         reader.UpdatePipelineInformation()
-        reader.UpdatePipeline(max(reader.TimestepValues) if reader.TimestepValues else 0.0)
+        reader.UpdatePipeline(_times(reader)[-1])
         display = pv.Show(reader, view)
         display.RenderLinesAsTubes = 1
         display.LineWidth = 4.0
@@ -103,8 +115,9 @@ def main(argv=None, folder=None):
     pv.SetActiveSource(shown)
     scene = pv.GetAnimationScene()
     scene.UpdateAnimationUsingDataTimeSteps()
-    scene.AnimationTime = max(shown.TimestepValues) if shown.TimestepValues else 0.0
-    view.ResetCamera()
+    times = _times(shown)
+    scene.AnimationTime = times[-1] if time is None else min(times, key=lambda t: abs(t - time))
+    view.ResetCamera(True)  # fit the bounding box, not its sphere
     pv.Render(view)
     if shot:
         pv.SaveScreenshot(shot, view, ImageResolution=[800, 600])

@@ -15,7 +15,8 @@ came from (``system=``, a System or the Model):
 * every joint is a ``vertex`` on each body it joins, at that body's joint
   point, and a ``line`` (a *lever*) joins a joint point outside the body's
   shape to the nearest point of the shape, so the bodies meet where their
-  joints connect.
+  joints connect; a joint with translations adds a ``line`` from the
+  parent's joint point to the child's (the slide).
 
 Without a system a result alone carries no joint points and no sections: a
 rigid body is then a line from its body-frame origin through its mass
@@ -32,9 +33,9 @@ and ``von_mises`` (Pa) (:mod:`flexmb.stresses`). Cell data: ``body_id``,
 string arrays ``body``, ``joint`` and ``part`` (ParaView colours by them
 category by category). Field data: ``time``, ``TimeValue`` (ParaView's
 time of a file), and the name tables ``body_names``, ``joint_names``,
-``part_names``. Mode shapes are the one exception to the current
-configuration: drawn at the reference configuration with a
-``displacement`` to warp by. See ``docs/export.md``.
+``part_names``. Mode shapes (and snapshots given a ``reference``) are the
+exception to the current configuration: drawn at the reference
+configuration with a ``displacement`` to warp by. See ``docs/export.md``.
 
 meshio is imported here and nowhere else in flexmb: ``import flexmb`` does
 not load it. A mesh is a :class:`meshio.Mesh`; the files are written by
@@ -556,15 +557,13 @@ def _meshes(result, frames, system=None, triad=0.0, extra=None, reference=None):
         yield mesh
 
 
-def body_names(result, system=None) -> list[str]:
+def body_names(result) -> list[str]:
     """Return the names of the exported bodies, in the order of the ``body_id`` cell data.
 
     Parameters
     ----------
     result : Result
         A simulation result.
-    system : System or Model, optional
-        Accepted for symmetry with the writers; the order does not depend on it.
 
     Returns
     -------

@@ -1,4 +1,4 @@
-"""VTK export: files read back with meshio match the Result; the .pvd lists every step."""
+"""VTK export: files read back match the Result; bodies meet at their joints; the .pvd lists every step."""
 
 from __future__ import annotations
 
@@ -8,14 +8,13 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import attrs
-import meshio
 import numpy as np
 import pytest
 
 import flexmb as fm
 from flexmb.export import vtk
 
-from conftest import fourbar, fourbar_initial
+from conftest import fourbar, fourbar_initial, random_chain
 
 TOL = 1e-12
 
@@ -44,6 +43,46 @@ def _read_all(pvd: Path):
     return root, [(float(d.get("timestep")), pvd.parent / d.get("file")) for d in sets]
 
 
+def _cells(mesh, ctype):
+    """Connectivity and cell data of one cell type of a mesh."""
+    for k, block in enumerate(mesh.cells):
+        if block.type == ctype:
+            return block.data, {name: values[k] for name, values in mesh.cell_data.items()}
+    return np.zeros((0, 1), dtype=int), {name: np.zeros(0, dtype=int) for name in mesh.cell_data}
+
+
+def _markers(mesh):
+    """(body id, joint id) -> position of that body's joint point."""
+    data, cd = _cells(mesh, "vertex")
+    part = vtk.PARTS.index("joint")
+    return {(int(b), int(j)): mesh.points[p[0]] for p, b, j, q in
+            zip(data, cd["body_id"], cd["joint_id"], cd["part_id"]) if q == part}
+
+
+def _segment_distance(p, a, b):
+    d = b - a
+    s = np.clip(np.dot(p - a, d) / max(np.dot(d, d), 1e-300), 0.0, 1.0)
+    return np.linalg.norm(p - (a + s * d))
+
+
+def _on_body(mesh, body, p) -> float:
+    """Distance from p to the drawn lines, faces and boxes of one body (joint vertices left out)."""
+    best = np.inf
+    for block, cb, part in zip(mesh.cells, mesh.cell_data["body_id"], mesh.cell_data["part_id"]):
+        for cell in block.data[(cb == body) & (part != vtk.PARTS.index("joint"))]:
+            X = mesh.points[cell]
+            if block.type == "vertex":
+                best = min(best, np.linalg.norm(p - X[0]))
+            elif block.type == "line":
+                best = min(best, _segment_distance(p, X[0], X[1]))
+            elif block.type == "hexahedron":
+                # a box (rectangular): the point in its edge frame, clipped to the edges
+                o, axes = X[0], np.stack([X[1] - X[0], X[3] - X[0], X[4] - X[0]])
+                s = np.clip(np.linalg.solve(axes.T, p - o), 0.0, 1.0)
+                best = min(best, np.linalg.norm(p - (o + axes.T @ s)))
+    return best
+
+
 def test_import_keeps_writers_out():
     code = ("import sys, flexmb, flexmb.export, flexmb.viz; "
             "print(*[m in sys.modules for m in ('meshio', 'pyvista', 'matplotlib')])")
@@ -51,7 +90,7 @@ def test_import_keeps_writers_out():
     assert out.split() == ["False", "False", "False"]
 
 
-def test_fourbar_files_match_result(fourbar_result, tmp_path):
+def test_fourbar_without_system_draws_bars_through_the_mass_centres(fourbar_result, tmp_path):
     res = fourbar_result
     pvd = res.export_vtk(tmp_path, prefix="fb")
     assert pvd == tmp_path / "fb.pvd"
@@ -59,17 +98,99 @@ def test_fourbar_files_match_result(fourbar_result, tmp_path):
     _, sets = _read_all(pvd)
     assert len(sets) == len(res.t)
     for i, (t, path) in enumerate(sets):
-        mesh = meshio.read(path)
-        # rigid body k: point 2k is its frame origin, point 2k + 1 its mass centre
+        mesh = vtk.read_vtu(path)
+        # rigid body k: point 2k is its frame origin, point 2k + 1 the origin mirrored through the mass centre
         np.testing.assert_allclose(mesh.points[0::2], res.origins[i], rtol=0, atol=TOL)
-        np.testing.assert_allclose(mesh.points[1::2], res.positions[i], rtol=0, atol=TOL)
-        ref0 = np.stack([res.origins[0], res.positions[0]], axis=1).reshape(-1, 3)
-        np.testing.assert_allclose(mesh.point_data["displacement"], mesh.points - ref0, rtol=0, atol=TOL)
+        np.testing.assert_allclose(mesh.points[1::2], 2 * res.positions[i] - res.origins[i], rtol=0, atol=TOL)
+        assert "displacement" not in mesh.point_data  # the points are where the bodies are
         assert mesh.field_data["time"][0] == res.t[i]
-        assert mesh.cells_dict["line"].shape == (3, 2) and mesh.cells_dict["vertex"].shape == (3, 1)
+        assert [c.type for c in mesh.cells] == ["line"] and len(mesh.cells[0].data) == 3
         np.testing.assert_array_equal(mesh.cell_data_dict["body_id"]["line"], [0, 1, 2])
+        assert list(mesh.cell_data_dict["body"]["line"]) == res.body_names
+        assert list(mesh.field_data["body_names"]) == res.body_names
+        assert list(mesh.field_data["joint_names"]) == []  # a Result keeps no joints
         for name in ("bending_y", "bending_z", "torsion"):
             np.testing.assert_array_equal(mesh.point_data[name], 0.0)
+
+
+def test_fourbar_with_system_meets_at_the_joints(fourbar_result, tmp_path):
+    res = fourbar_result
+    model = fourbar()
+    pvd = res.export_vtk(tmp_path, system=model)  # a Model is built
+    names = ["A", "B", "D", "C"]
+    assert vtk.joint_names(model) == names
+    crank, coupler, rocker = (res.body_names.index(b) for b in ("crank", "coupler", "rocker"))
+    for i, (_, path) in enumerate(_read_all(pvd)[1]):
+        mesh = vtk.read_vtu(path)
+        assert list(mesh.field_data["joint_names"]) == names
+        assert list(mesh.field_data["part_names"]) == list(vtk.PARTS)
+        # each slender bar is one line from its first joint to its second, its real length
+        lines, cd = _cells(mesh, "line")
+        shape = cd["part_id"] == vtk.PARTS.index("shape")
+        np.testing.assert_array_equal(cd["body_id"][shape], [0, 1, 2])
+        lengths = np.linalg.norm(np.diff(mesh.points[lines[shape]], axis=1)[:, 0], axis=1)
+        np.testing.assert_allclose(lengths[[crank, coupler, rocker]], [0.1, 0.3, 0.25], rtol=1e-12)
+        marks = _markers(mesh)
+        # A and D: the ground is not drawn; B: crank and coupler; C (the cut joint): coupler and rocker
+        assert sorted(marks) == sorted([(crank, 0), (crank, 1), (coupler, 1), (rocker, 2), (coupler, 3),
+                                        (rocker, 3)])
+        np.testing.assert_allclose(marks[crank, 1], marks[coupler, 1], rtol=0, atol=TOL)
+        assert np.linalg.norm(marks[coupler, 3] - marks[rocker, 3]) <= res.residual[i] + TOL
+        np.testing.assert_allclose(marks[crank, 0], 0.0, atol=TOL)  # the crank pivot A
+        for (body, _), p in marks.items():
+            assert _on_body(mesh, body, p) < TOL
+        # the joint cells carry the joint's name; the others none
+        verts, vd = _cells(mesh, "vertex")
+        assert [str(s) for s in vd["joint"]] == [names[j] for j in vd["joint_id"]]
+        assert set(map(str, cd["joint"])) == {""}
+
+
+def test_random_trees_meet_at_every_joint(rng):
+    """Boxes of random inertia, joints at random points: levers join every joint point to its body."""
+    model = random_chain(rng)
+    system = model.build()
+    x = rng.normal(scale=0.5, size=system.n_coords)
+    xd = rng.normal(size=system.n_coords)
+    res = vtk._state_result(system, 0.3, x[None], xd[None])
+    mesh = vtk.to_meshio(res, 0, system=system)
+    assert {c.type for c in mesh.cells} == {"hexahedron", "line", "vertex"}
+    marks = _markers(mesh)
+    assert len(marks) == 2 * len(model.joints) - sum(j.parent is model.ground for j in model.joints)
+    by_joint = {}
+    for (body, joint), p in marks.items():
+        assert _on_body(mesh, body, p) < 1e-12
+        by_joint.setdefault(joint, []).append(p)
+    # where a joint slides, a line joins its points on the two bodies; elsewhere they coincide
+    lines, ld = _cells(mesh, "line")
+    slides = {int(j): mesh.points[c] for c, j, q in zip(lines, ld["joint_id"], ld["part_id"])
+              if q == vtk.PARTS.index("joint")}
+    for j, joint in enumerate(model.joints):
+        slide = bool(type(joint).translation_axes)
+        assert (j in slides) == slide, joint.name
+        points = by_joint[j]
+        if slide and joint.parent is model.ground:
+            points = [slides[j][0]] + points  # the slide's start on the ground
+        if slide:
+            np.testing.assert_allclose(sorted(map(tuple, slides[j])), sorted(map(tuple, points)), rtol=0, atol=0)
+        else:
+            np.testing.assert_allclose(points, points[:1] * len(points), rtol=0, atol=1e-12)
+    # each box has its body's inertia: 8 corners, edges a_i with m (a_j^2 + a_k^2) / 12 = I_i
+    hexes, hd = _cells(mesh, "hexahedron")
+    for cell, b in zip(hexes, hd["body_id"]):
+        body = model[res.body_names[b]]
+        X = mesh.points[cell]
+        e = np.stack([X[1] - X[0], X[3] - X[0], X[4] - X[0]])
+        kin = system.kinematics(0.3, x, xd)
+        R = kin.R[res.body_names.index(body.name)]
+        inertia = body.mass / 12 * sum((np.dot(a, a) * np.eye(3) - np.outer(a, a)) for a in e)
+        np.testing.assert_allclose(R.T @ inertia @ R, body.inertia, atol=1e-12 * np.abs(body.inertia).max())
+        np.testing.assert_allclose(X.mean(axis=0), kin.r[res.body_names.index(body.name)], atol=1e-12)
+    # velocities: the partial velocities of each point (eq. 17) times the speeds
+    kin = system.kinematics(0.3, x, xd)
+    layout = vtk._Layout(res, system)
+    rows = np.where(layout.row == layout.n_rows, -1, layout.row)  # the start of a slide on the ground
+    exact = kin.point_partials(rows, mesh.points) @ xd
+    np.testing.assert_allclose(mesh.point_data["velocity"], exact, rtol=0, atol=1e-10 * np.abs(exact).max())
 
 
 def test_cantilever_files_match_result(cantilever, tmp_path):
@@ -80,9 +201,9 @@ def test_cantilever_files_match_result(cantilever, tmp_path):
     assert vtk.body_names(res) == ["beam"]  # segments and clamp frame drawn as one body
     fd_velocity = np.gradient(shape, res.t, axis=0, edge_order=2)
     for i, (t, path) in enumerate(sets):
-        mesh = meshio.read(path)
+        mesh = vtk.read_vtu(path)
         np.testing.assert_allclose(mesh.points, shape[i], rtol=0, atol=TOL)
-        np.testing.assert_allclose(mesh.point_data["displacement"], shape[i] - shape[0], rtol=0, atol=TOL)
+        assert "displacement" not in mesh.point_data
         np.testing.assert_allclose(mesh.point_data["velocity"], fd_velocity[i], rtol=0, atol=TOL)
         # joint j<k> sits at centre-line point k; the tip carries no joint
         for coord, name in (("bend_y", "bending_y"), ("bend_z", "bending_z")):
@@ -92,6 +213,32 @@ def test_cantilever_files_match_result(cantilever, tmp_path):
         assert "axial" not in mesh.point_data
         np.testing.assert_array_equal(mesh.cell_data_dict["segment"]["line"], [0, 1, 2, 3])
     assert np.min(shape[-1, :, 2]) < -1e-3  # it did sag: the comparison is not of zeros
+
+
+def test_cantilever_segments_are_drawn_as_their_sections(cantilever, tmp_path):
+    system, beam, res = cantilever
+    pvd = res.export_vtk(tmp_path, system=system)
+    mesh = vtk.read_vtu(_read_all(pvd)[1][-1][1])
+    shape = res.shape("beam")[-1]
+    np.testing.assert_allclose(mesh.points[:5], shape, rtol=0, atol=TOL)  # the centre line comes first
+    hexes, hd = _cells(mesh, "hexahedron")
+    np.testing.assert_array_equal(hd["segment"], [0, 1, 2, 3])
+    np.testing.assert_array_equal(hd["body_id"], 0)
+    for k, cell in enumerate(hexes):
+        X = mesh.points[cell]
+        edges = np.linalg.norm([X[1] - X[0], X[3] - X[0], X[4] - X[0]], axis=1)
+        np.testing.assert_allclose(edges, [0.25, 0.02, 0.01], rtol=1e-12)  # l, width b, thickness h
+        # the block runs along the segment, centred on its centre line
+        np.testing.assert_allclose(X[[0, 3, 4, 7]].mean(axis=0), shape[k], atol=TOL)
+        np.testing.assert_allclose(X[[1, 2, 5, 6]].mean(axis=0), shape[k + 1], atol=TOL)
+        # its corners carry the elastic coordinate and moment of the joint at their end
+        for field in ("bending_y", "moment_bend_y", "von_mises"):
+            np.testing.assert_array_equal(mesh.point_data[field][cell[[0, 3, 4, 7]]], mesh.point_data[field][k])
+            np.testing.assert_array_equal(mesh.point_data[field][cell[[1, 2, 5, 6]]],
+                                          mesh.point_data[field][k + 1])
+    assert mesh.point_data["von_mises"][0] > 0  # the clamp carries the weight
+    marks = _markers(mesh)
+    assert list(marks) == [(0, 0)] and _on_body(mesh, 0, marks[0, 0]) < TOL  # the clamp, at the root
 
 
 def test_pvd_lists_every_step_in_order(fourbar_result, tmp_path):
@@ -122,33 +269,44 @@ def test_exact_velocities_with_the_system(fourbar_result):
     res = fourbar_result
     system = fourbar().build()
     for i in (0, 7, len(res.t) - 1):
-        exact = vtk.to_meshio(res, i, system=system).point_data["velocity"]
-        # crank origin is the ground pivot A: at rest
-        np.testing.assert_allclose(exact[0], 0.0, atol=1e-12)
+        mesh = vtk.to_meshio(res, i, system=system)
+        exact = mesh.point_data["velocity"]
+        layout = vtk._Layout(res, system)
+        kin = system.kinematics(res.t[i], res.x[i], res.xd[i])
+        np.testing.assert_allclose(exact, kin.point_partials(layout.row, mesh.points) @ res.xd[i], rtol=0,
+                                   atol=1e-10 * np.abs(exact).max())
+        marks = _markers(mesh)
+        np.testing.assert_allclose(exact[_cells(mesh, "vertex")[0][0, 0]], 0.0, atol=1e-12)  # the pivot A
         if 0 < i < len(res.t) - 1:
             # central differences over dt = 5 ms agree to O(dt^2)
-            fd = vtk.to_meshio(res, i).point_data["velocity"]
+            before, after = (vtk.to_meshio(res, k, system=system).points for k in (i - 1, i + 1))
+            fd = (after - before) / (res.t[i + 1] - res.t[i - 1])
             np.testing.assert_allclose(fd, exact, atol=5e-3 * np.max(np.abs(exact)))
+        assert len(marks) == 6
 
 
 def test_triad_adds_body_axes(fourbar_result):
     mesh = vtk.to_meshio(fourbar_result, 3, triad=0.05)
-    pts = mesh.points.reshape(3, 5, 3)  # per body: origin, mass centre, x, y, z tips
-    axes = (pts[:, 2:] - pts[:, :1]) / 0.05
+    pts = mesh.points[6:].reshape(3, 4, 3)  # after the bars: per body its origin and its x, y, z tips
+    axes = (pts[:, 1:] - pts[:, :1]) / 0.05
     np.testing.assert_allclose(axes.transpose(0, 2, 1), fourbar_result.rotations[3], atol=TOL)
-    assert len(mesh.cells_dict["line"]) == 12
+    lines, cd = _cells(mesh, "line")
+    assert len(lines) == 3 + 9 and np.sum(cd["part_id"] == vtk.PARTS.index("triad")) == 9
 
 
 def test_snapshot(cantilever, tmp_path):
     system, beam, res = cantilever
     x, xd = res.x[-1], res.xd[-1]
     path = vtk.export_snapshot(system, x, tmp_path / "snap.vtu", xd=xd, t=0.05)
-    mesh = meshio.read(path)
-    np.testing.assert_allclose(mesh.points, system.shape(beam, x), rtol=0, atol=TOL)
-    np.testing.assert_allclose(mesh.point_data["displacement"], system.shape(beam, x) - system.shape(beam, 0 * x),
-                               rtol=0, atol=TOL)
+    mesh = vtk.read_vtu(path)
+    np.testing.assert_allclose(mesh.points[:5], system.shape(beam, x), rtol=0, atol=TOL)
+    assert "displacement" not in mesh.point_data
     np.testing.assert_allclose(mesh.point_data["velocity"][0], 0.0, atol=TOL)  # clamped root
     assert mesh.field_data["time"][0] == 0.05
+    # with a reference: drawn there, and the displacement carries the points to x
+    ref = vtk.read_vtu(vtk.export_snapshot(system, x, tmp_path / "ref.vtu", reference=0 * x))
+    np.testing.assert_allclose(ref.points[:5], system.shape(beam, 0 * x), rtol=0, atol=TOL)
+    np.testing.assert_allclose(ref.points + ref.point_data["displacement"], mesh.points, rtol=0, atol=TOL)
 
 
 def test_modes(cantilever, tmp_path):
@@ -157,10 +315,32 @@ def test_modes(cantilever, tmp_path):
     paths = vtk.export_modes(system, f, shapes, tmp_path, scale=0.05)
     assert [p.name for p in paths] == ["mode_01.vtu", "mode_02.vtu"]
     for k, path in enumerate(paths):
-        mesh = meshio.read(path)
-        np.testing.assert_allclose(mesh.points, system.shape(beam, 0.05 * shapes[:, k]), rtol=0, atol=TOL)
+        mesh = vtk.read_vtu(path)
+        # the reference configuration, and the displacement to warp it by into the mode shape
+        np.testing.assert_allclose(mesh.points[:5], system.shape(beam, 0 * shapes[:, k]), rtol=0, atol=TOL)
+        np.testing.assert_allclose((mesh.points + mesh.point_data["displacement"])[:5],
+                                   system.shape(beam, 0.05 * shapes[:, k]), rtol=0, atol=TOL)
         assert mesh.field_data["frequency"][0] == f[k]
         assert mesh.field_data["mode"][0] == k + 1
+
+
+def test_files_read_with_vtk_and_meshio_strings_aside(cantilever, tmp_path):
+    """pyvista (VTK) reads the files as they are; meshio 5.3 needs the string arrays taken out."""
+    system, _, res = cantilever
+    path = vtk.write_vtu(res, tmp_path, system=system)[2]
+    mesh = vtk.read_vtu(path)
+    text = path.read_text()
+    for name in ("body_names", "joint_names", "part_names", "body", "joint", "part"):
+        assert f'<Array type="String" Name="{name}"' in text
+    assert list(mesh.field_data["body_names"]) == ["beam"] and list(mesh.field_data["joint_names"]) == ["clamp"]
+    assert {str(s) for values in mesh.cell_data["body"] for s in values} == {"beam"}
+    pv = pytest.importorskip("pyvista")
+    grid = pv.read(path)
+    assert list(grid.field_data["body_names"]) == ["beam"]
+    assert grid.field_data["TimeValue"][0] == res.t[2]
+    np.testing.assert_array_equal(grid.points, mesh.points)
+    np.testing.assert_array_equal(grid.point_data["von_mises"], mesh.point_data["von_mises"])
+    np.testing.assert_array_equal(grid.cell_data["body_id"], np.concatenate(mesh.cell_data["body_id"]))
 
 
 @pytest.mark.parametrize("i", [21, -22, 1.5, "0"])
@@ -179,6 +359,8 @@ def test_bad_results(fourbar_result, cantilever, tmp_path):
         vtk.to_meshio(attrs.evolve(res, flexible={"beam": ([1, 2, 99], 0.25)}), 0)
     with pytest.raises(fm.ExportError, match="system does not match"):
         vtk.to_meshio(fourbar_result, 0, system=cantilever[0])
+    with pytest.raises(fm.ExportError, match="System or Model"):
+        vtk.to_meshio(fourbar_result, 0, system="fourbar")
     with pytest.raises(fm.ExportError, match="triad"):
         vtk.to_meshio(fourbar_result, 0, triad=-1.0)
     with pytest.raises(fm.ExportError, match="prefix"):
@@ -203,11 +385,11 @@ def test_bad_pvd_and_state_input(cantilever, tmp_path):
 
 
 def test_failed_write_leaves_nothing(fourbar_result, tmp_path, monkeypatch):
-    def broken(path, mesh, **kw):
-        Path(path).write_text("<VTKFile")  # half a file, then the disk fills up
+    def broken(path, text):
+        Path(path).write_text(text[: len(text) // 2])  # half a file, then the disk fills up
         raise OSError("disk full")
 
-    monkeypatch.setattr(vtk.meshio, "write", broken)
+    monkeypatch.setattr(vtk, "_write_text", broken)
     with pytest.raises(OSError, match="disk full"):
         vtk.export_vtk(fourbar_result, tmp_path)
     assert list(tmp_path.iterdir()) == []
@@ -225,18 +407,117 @@ def test_mixed_model_layout(tmp_path):
               fm.Revolute("pin", model.ground, rod, parent_point=(0, 1, 0), axis=(0, 0, 1)))
     system = model.build()
     x = np.random.default_rng(1).uniform(-0.05, 0.05, system.n_coords)
-    mesh = meshio.read(vtk.export_snapshot(system, x, tmp_path / "s.vtu"))
-    # hub: origin and mass centre; blade: 4 points; rod: 4 points
-    assert len(mesh.points) == 2 + 4 + 4
-    np.testing.assert_allclose(mesh.points[2:6], system.shape(blade, x), atol=TOL)
-    np.testing.assert_allclose(mesh.points[6:], system.shape(rod, x), atol=TOL)
+    mesh = vtk.read_vtu(vtk.export_snapshot(system, x, tmp_path / "s.vtu"))
+    # flexible bodies in the order of their first segments: the rod hangs from the ground, the blade from the hub
+    assert list(mesh.field_data["body_names"]) == ["hub", "rod", "blade"]
+    # the hub's bar (2 points), the rod's centre line (4) and blocks (3 x 8), the blade's (4 and 3 x 8),
+    # then the joint points: spin on the hub, root on the hub and the blade, pin on the rod
+    assert len(mesh.points) == 2 + 4 + 24 + 4 + 24 + 4
+    np.testing.assert_allclose(mesh.points[2:6], system.shape(rod, x), atol=TOL)
+    np.testing.assert_allclose(mesh.points[30:34], system.shape(blade, x), atol=TOL)
     names = system.coordinate_names
     value = {n: x[k] for k, n in enumerate(names)}
-    np.testing.assert_array_equal(mesh.point_data["bending_z"][2:6], [value[f"blade.j{k}.bend_z"] for k in range(3)]
-                                  + [0.0])
+    np.testing.assert_array_equal(mesh.point_data["bending_z"][30:34],
+                                  [value[f"blade.j{k}.bend_z"] for k in range(3)] + [0.0])
     # the unclamped rod has joints j1, j2 only: its root point carries none
     for coord in ("axial", "torsion"):
-        np.testing.assert_array_equal(mesh.point_data[coord][6:],
+        np.testing.assert_array_equal(mesh.point_data[coord][2:6],
                                       [0.0] + [value[f"rod.j{k}.{coord}"] for k in (1, 2)] + [0.0])
-        np.testing.assert_array_equal(mesh.point_data[coord][:6], 0.0)
-    np.testing.assert_array_equal(mesh.cell_data_dict["body_id"]["line"], [0, 1, 1, 1, 2, 2, 2])
+        np.testing.assert_array_equal(mesh.point_data[coord][30:], 0.0)
+    np.testing.assert_array_equal(mesh.cell_data_dict["body_id"]["line"][:7], [0, 1, 1, 1, 2, 2, 2])
+    marks = _markers(mesh)
+    assert sorted(marks) == [(0, 0), (0, 1), (1, 2), (2, 1)]
+    np.testing.assert_allclose(marks[0, 1], marks[2, 1], rtol=0, atol=TOL)
+    for (body, _), p in marks.items():
+        assert _on_body(mesh, body, p) < TOL
+
+
+# ----------------------------------------------------------------------------- the ParaView script
+
+
+class _FakeParaView:
+    """The few paraview.simple calls open_in_paraview.py makes, recorded (ParaView itself is not a dependency)."""
+
+    def __init__(self):
+        self.calls = []
+
+        class Proxy:
+            def __init__(proxy, **kw):
+                proxy.__dict__.update(kw)
+
+            def __getattr__(proxy, name):  # methods: recorded, return None
+                return lambda *a, **k: self.calls.append((name, a, k))
+
+        self.Proxy = Proxy
+
+    def GetActiveViewOrCreate(self, kind):
+        return self.Proxy(kind=kind)
+
+    def PVDReader(self, registrationName, FileName):
+        _, sets = _read_all(Path(FileName))
+        mesh = vtk.read_vtu(sets[0][1])
+        keys = lambda names: type("Keys", (), {"keys": lambda _: list(names)})()  # noqa: E731
+        return self.Proxy(name=registrationName, TimestepValues=[t for t, _ in sets],
+                          PointData=keys(mesh.point_data), CellData=keys(mesh.cell_data))
+
+    def Show(self, reader, view):
+        return self.Proxy(reader=reader)
+
+    def ColorBy(self, display, what):
+        self.calls.append(("ColorBy", display.reader.name, what))
+
+    def Hide(self, reader, view):
+        self.calls.append(("Hide", reader.name))
+
+    def GetAnimationScene(self):
+        self.scene = self.Proxy()
+        return self.scene
+
+    def SaveScreenshot(self, path, view, **kw):
+        self.calls.append(("SaveScreenshot", path))
+
+    def __getattr__(self, name):
+        return lambda *a, **k: self.Proxy()
+
+
+def test_paraview_script_opens_the_series_coloured_by_stress(cantilever, fourbar_result, tmp_path, monkeypatch):
+    system, _, res = cantilever
+    res.export_vtk(tmp_path / "vtk_beam", prefix="beam", system=system)
+    fourbar_result.export_vtk(tmp_path / "vtk_fourbar", prefix="fourbar", system=fourbar())
+    script = vtk.paraview_script(tmp_path / "open_in_paraview.py")
+    fake = _FakeParaView()
+    paraview = type(sys)("paraview")
+    paraview.simple = fake
+    monkeypatch.setitem(sys.modules, "paraview", paraview)
+    monkeypatch.setitem(sys.modules, "paraview.simple", fake)
+    monkeypatch.setattr(sys, "argv", [str(script), "--time", "0.02", "--screenshot", str(tmp_path / "a.png")])
+    import runpy
+
+    runpy.run_path(str(script), run_name="__main__")  # as pvpython runs it
+    colours = [c for c in fake.calls if c[0] == "ColorBy"]
+    # the beam (section stresses) by von Mises stress, the four-bar (rigid) by body name
+    assert colours == [("ColorBy", "beam.pvd", ("POINTS", "von_mises")), ("ColorBy", "fourbar.pvd", ("CELLS", "body"))]
+    assert ("Hide", "fourbar.pvd") in fake.calls  # the series with stresses is the one shown
+    assert fake.scene.AnimationTime == min(res.t, key=lambda t: abs(t - 0.02))
+    assert ("SaveScreenshot", str(tmp_path / "a.png")) in fake.calls
+    # imported as part of flexmb it does nothing
+    import importlib
+
+    assert importlib.import_module("flexmb.export.open_in_paraview").__all__ == ["main"]
+
+
+def test_paraview_script_in_pvbatch(cantilever, tmp_path):
+    """With ParaView installed (pvbatch) and a display (or xvfb-run): the real thing renders a PNG."""
+    import shutil
+
+    pvbatch = shutil.which("pvbatch")
+    if pvbatch is None:
+        pytest.skip("ParaView (pvbatch) is not installed")
+    prefix = [] if shutil.which("xvfb-run") is None else ["xvfb-run", "-a"]
+    system, _, res = cantilever
+    res.export_vtk(tmp_path / "vtk", prefix="beam", system=system)
+    script = vtk.paraview_script(tmp_path / "open_in_paraview.py")
+    proc = subprocess.run([*prefix, pvbatch, str(script), "--screenshot", str(tmp_path / "beam.png")],
+                          capture_output=True, text=True, timeout=300, cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert (tmp_path / "beam.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -436,7 +436,7 @@ def test_the_summary_names_only_files_that_exist(tmp_path, prefix):
     scene.write_text(pathlib.Path(PENDULUM).read_text() + f"\n[output]\nprefix = {json.dumps(prefix)}\n")
     assert main(_run_argv(tmp_path / "out", 0.1, 5, str(scene))) == 0
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
-    assert sorted(summary["files"]) == ["plot", "result", "vtk"]
+    assert sorted(summary["files"]) == ["paraview", "plot", "result", "vtk"]
     check_complete(tmp_path / "out", prefix)
     hidden = [p.name for p in (tmp_path / "out").rglob(".*") if p.name != ".flexmb-run.json"]
     assert not hidden

@@ -227,3 +227,24 @@ def test_flexmb_run_wiper(tmp_path):
     assert summary["rigid"]["n_dof"] == 0
     assert summary["flexible"]["n_dof"] == 2 * 2 * 6
     assert (out / "wiper.png").stat().st_size > 0
+    # the VTK of the main job: bodies and joints named, exact velocities, the blades' stresses, and the
+    # ParaView script that opens it
+    from flexmb.export import vtk
+
+    script = out / "open_in_paraview.py"
+    assert summary["paraview"] == str(script)
+    compile(script.read_text(), str(script), "exec")
+    for label, flexible in (("rigid", False), ("flexible", True)):
+        res = fm.Result.load(out / f"wiper_{label}.npz")
+        model, _ = wiper(WiperOptions(flexible=flexible))
+        system = model.build()
+        i = len(res.t) // 2
+        mesh = vtk.read_vtu(out / f"vtk_{label}" / f"wiper_{label}_{i:04d}.vtu")
+        assert list(mesh.field_data["body_names"]) == ["crank", "right_arm", "left_arm", "drive_link",
+                                                       "connecting_link", "right_blade", "left_blade"]
+        assert list(mesh.field_data["joint_names"]) == [j.name for j in model.joints]
+        kin = system.kinematics(res.t[i], res.x[i], res.xd[i])
+        exact = kin.point_partials(vtk._Layout(res, system).row, mesh.points) @ res.xd[i]
+        np.testing.assert_allclose(mesh.point_data["velocity"], exact, rtol=0, atol=1e-10)
+        assert ("von_mises" in mesh.point_data) == flexible
+    assert np.max(mesh.point_data["von_mises"]) > 1e5 and np.max(np.abs(mesh.point_data["moment_bend_y"])) > 0

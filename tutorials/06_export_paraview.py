@@ -6,11 +6,12 @@ The flexible cantilever of tutorial 03 (benchmark B1: aluminium strip,
 1 m x 20 mm x 5 mm, 8 segments bending in the x-z plane) is released
 straight from rest under gravity and swings down. The tutorial writes the
 run as a VTK time series (one ``.vtu`` per output time and a ``.pvd``
-collection that ParaView opens), reads the files back to show what they
-hold, turns the elastic coordinate ``bending_y`` stored at every segment
-joint into a bending moment, and, when run as a script, draws the beam
-coloured by its bending moment and writes a GIF animation with pyvista,
-off-screen.
+collection that ParaView opens as one time series), reads the files back to
+show what they hold (the beam as its segments' 20 mm x 5 mm blocks around
+its centre line, the clamp as a joint point, the bending angle, moment and
+stress at every segment joint), turns the elastic coordinate ``bending_y``
+into a bending moment, and, when run as a script, draws the beam coloured
+by its bending moment and writes a GIF animation with pyvista, off-screen.
 
 The numbers to expect: 16 files at t = 0, 0.01, ..., 0.15 s, whose times,
 tip displacements and bending angles read back exactly as computed
@@ -33,11 +34,10 @@ x5) and ``swing.gif`` (the swing coloured by bending moment).
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
-import meshio
 import numpy as np
 
 import flexmb as fm
-from flexmb.export.vtk import export_snapshot
+from flexmb.export.vtk import export_snapshot, read_vtu
 
 # %%
 # The run
@@ -68,12 +68,18 @@ print(f"{res.method}: {res.n_steps} steps, status {res.status}")
 # %%
 # The short form: a VTK time series
 # ---------------------------------
-# ``res.export_vtk(folder)`` writes ``beam_0000.vtu`` ... ``beam_0015.vtu``
-# and ``beam.pvd`` and returns the ``.pvd`` path. Passing ``system=``
-# makes the ``velocity`` point data exact (from the speeds through the
-# kinematics) instead of finite differences over the output times. In
-# ParaView: **File > Open** ``beam.pvd``, **Apply**, then colour by
-# ``bending_y`` or ``displacement``; the time slider shows the real times.
+# ``res.export_vtk(folder, system=system)`` writes ``beam_0000.vtu`` ...
+# ``beam_0015.vtu`` and ``beam.pvd`` and returns the ``.pvd`` path. The
+# system (or the model) lets the export draw the beam as its segments'
+# blocks through its clamp, make the ``velocity`` point data exact (from
+# the speeds through the kinematics) and add the section moments and the
+# von Mises stress; without it a Result alone gives the centre line and
+# finite-difference velocities. In ParaView: **File > Open** ``beam.pvd``,
+# **Apply**, then colour by ``von_mises``, ``moment_bend_y`` or ``body``;
+# the time slider shows the real times. The points are where the beam is at
+# each time: there is no displacement to warp by. ``flexmb run`` also
+# writes ``open_in_paraview.py`` (``flexmb.export.vtk.paraview_script``),
+# which ``pvpython`` runs to open every series coloured by stress.
 
 out = Path("results") / "06_export_paraview"
 pvd = res.export_vtk(out, prefix="beam", system=system)
@@ -96,19 +102,24 @@ print(f"{n_files} files, {files[0].name} ... {files[-1].name}; max |t_pvd - t| =
 # %%
 # What a ``.vtu`` holds
 # ---------------------
-# meshio reads each file back. A flexible body is its deformed centre line:
-# N + 1 points (root, the N - 1 interior segment joints, tip) joined by N
-# line cells. Point data: ``displacement`` and ``velocity`` (m, m/s) and
-# the elastic coordinate ``bending_y`` (rad) of the segment joint at each
-# point (0 at the tip, where there is no joint). The tip displacement read
-# back equals ``res.shape("beam")`` minus the initial shape.
+# ``read_vtu`` reads each file back (a meshio mesh; meshio itself cannot
+# read the string arrays that name the bodies). A flexible body is its
+# deformed centre line, N + 1 points (root, the N - 1 interior segment
+# joints, tip) joined by N line cells, and one 8-corner block per segment,
+# the section's width and height; the clamp is a vertex at the root. Point
+# data: ``velocity`` (m/s), the elastic coordinate ``bending_y`` (rad) of
+# the segment joint at each centre-line point (0 at the tip, where there is
+# no joint) and the section loads there (``moment_bend_y``, N m;
+# ``von_mises``, Pa); a block's corners carry the values of the joint at
+# their end. The tip read back, minus where it started, equals
+# ``res.shape("beam")`` minus the initial shape.
 
-meshes = [meshio.read(f) for f in files]
+meshes = [read_vtu(f) for f in files]
 last = meshes[-1]
 print(f"points {last.points.shape}, cells {[(c.type, len(c.data)) for c in last.cells]}, "
-      f"point data {sorted(last.point_data)}")
+      f"point data {sorted(last.point_data)}, bodies {[str(b) for b in last.field_data['body_names']]}")
 shape = res.shape("beam")  # (n_times, N + 1, 3)
-tip_from_files = np.array([m.point_data["displacement"][-1] for m in meshes])
+tip_from_files = np.array([m.points[N] - meshes[0].points[N] for m in meshes])  # the centre line comes first
 tip_error = float(np.max(np.abs(tip_from_files - (shape[:, -1] - shape[0, -1]))))
 names = [f"beam.j{j}.bend_y" for j in range(N)]
 bending_from_files = np.array([m.point_data["bending_y"][:N] for m in meshes])
@@ -135,7 +146,7 @@ x_joint = np.arange(N) * L / N
 moment_ref = material.density * section.area * g * (L - x_joint) ** 2 / 2
 x_static = fm.linear_statics(system)
 static_file = export_snapshot(system, x_static, out / "static.vtu")
-static_moment = k * meshio.read(static_file).point_data["bending_y"][:N]
+static_moment = k * read_vtu(static_file).point_data["bending_y"][:N]
 static_moment_error = float(np.max(np.abs(static_moment - moment_ref)) / moment_ref[0])
 clamp_moment_ref = float(moment_ref[0])
 print(f"static bending moment [N m]: {static_moment.round(4)}")
@@ -165,7 +176,7 @@ if __name__ == "__main__":
         print("pyvista is not installed (pip install -e '.[viz]'): no pictures")
     else:
         pv.OFF_SCREEN = True
-        viz.animate(res, out / "swing_displacement.gif", scalars="displacement", view="xz", fps=10)
+        viz.animate(res, out / "swing_displacement.gif", system=system, scalars="displacement", view="xz", fps=10)
         print(f"wrote {out / 'swing_displacement.gif'}")
 
         reader = pv.get_reader(str(pvd))
@@ -175,9 +186,10 @@ if __name__ == "__main__":
         def frame(i):
             """The centre line at output i as a tube carrying the bending moment, N m."""
             reader.set_active_time_value(reader.time_values[i])
-            grid = reader.read()[0]  # an UnstructuredGrid of line cells
-            line = pv.PolyData(grid.points, lines=grid.cells)
-            line.point_data["bending moment"] = np.append(k, 0.0) * grid.point_data["bending_y"]
+            grid = reader.read()[0]  # an UnstructuredGrid: the centre line's N + 1 points come first
+            line = pv.PolyData(grid.points[: N + 1], lines=np.column_stack([np.full(N, 2), np.arange(N),
+                                                                            np.arange(1, N + 1)]).ravel())
+            line.point_data["bending moment"] = np.append(k, 0.0) * grid.point_data["bending_y"][: N + 1]
             return line.tube(radius=radius, n_sides=16)
 
         def plotter(first):

@@ -3,8 +3,11 @@
 pyvista and matplotlib come with the ``viz`` extra (``pip install
 flexmb[viz]``) and are imported inside the functions, so ``import flexmb``
 never loads them. The scene is the one :mod:`flexmb.export.vtk` writes:
-rigid bodies as a bar from the body-frame origin to the mass centre with a
-ball at the mass centre, flexible bodies as their deformed centre line.
+with the system the result came from (``system=``), bodies as their shapes
+through their joint points (boxes and bars of their real size, segment
+sections, joints as balls); without it, rigid bodies as lines through the
+frame origin and mass centre and flexible bodies as their centre lines.
+Lines are drawn as tubes.
 """
 
 from __future__ import annotations
@@ -49,10 +52,12 @@ class RenderOptions:
     background : str
         Background colour (any matplotlib/pyvista colour name or hex).
     cmap : str, optional
-        Colour map; default ``'tab10'`` when colouring by ``body_id``,
+        Colour map; default ``'tab10'`` when colouring by body,
         ``'viridis'`` when colouring by ``scalars``.
-    scalars : {None, 'displacement', 'velocity'}
-        Colour by the magnitude of this point data instead of by body.
+    scalars : {None, 'displacement', 'velocity', 'von_mises'}
+        Colour by the magnitude of this point data instead of by body
+        (``displacement``: from the first output; ``von_mises`` needs the
+        system of a model with flexible bodies).
     radius : float, optional
         Tube radius, m; default 1 % of the largest extent of the scene.
     view : {'auto', 'xy', 'xz', 'yz', 'iso'}
@@ -60,6 +65,8 @@ class RenderOptions:
         bodies move least (the normal of a planar mechanism).
     triad : float
         Body-axis line length for rigid bodies, m (0: none).
+    legend : bool
+        When colouring by body, add a legend with the body names.
     """
 
     window_size: tuple = field(default=(800, 600), converter=tuple, validator=_check_window)
@@ -69,11 +76,16 @@ class RenderOptions:
     radius: float | None = field(default=None, validator=_check_radius)
     view: str = field(default="auto", validator=_check_view)
     triad: float = 0.0
+    legend: bool = False
 
     @scalars.validator
     def _check_scalars(self, attribute, value):
-        if value not in (None, "displacement", "velocity"):
-            raise ExportError(f"RenderOptions: scalars must be None, 'displacement' or 'velocity', got {value!r}")
+        if value not in _SCALARS:
+            raise ExportError(f"RenderOptions: scalars must be one of {list(_SCALARS)}, got {value!r}")
+
+
+_SCALARS = (None, "displacement", "velocity", "von_mises")
+_UNITS = {"displacement": "m", "velocity": "m/s", "von_mises": "Pa"}
 
 
 def _options(options, kw) -> RenderOptions:
@@ -94,19 +106,59 @@ def _pyvista():
     return pv
 
 
-def _polydata(pv, mesh, opts):
-    """Lines of the scene as PolyData with per-point body id and scalars."""
+def _parts(pv, mesh, scalars):
+    """The mesh's lines (PolyData), solids (hexahedra and quads), joint balls and other points.
+
+    Cell data ``body_id`` on each; with ``scalars``, point data ``value`` (its magnitude).
+    """
     points = np.asarray(mesh.points, dtype=float)
-    lines = mesh.cells_dict.get("line", np.zeros((0, 2), dtype=int))
-    body = np.zeros(len(points))
-    for cells, ids in zip(mesh.cells, mesh.cell_data["body_id"]):
-        body[cells.data.ravel()] = np.repeat(ids, cells.data.shape[1])
-    poly = pv.PolyData(points, lines=np.hstack([np.full((len(lines), 1), 2), lines]).ravel())
-    poly.point_data["body_id"] = body
-    if opts.scalars:
-        poly.point_data[opts.scalars] = np.linalg.norm(mesh.point_data[opts.scalars], axis=1)
-    centres = mesh.cells_dict.get("vertex", np.zeros((0, 1), dtype=int)).ravel()
-    return poly, centres
+    value = None
+    if scalars:
+        value = np.asarray(mesh.point_data[scalars], dtype=float)
+        value = np.linalg.norm(value, axis=1) if value.ndim == 2 else np.abs(value)
+    lines, solids, joints, dots = [], {}, [], []
+    blocks = list(zip(mesh.cells, mesh.cell_data["body_id"], mesh.cell_data["part_id"]))
+    # a flexible body's centre line runs inside its segments' blocks: draw it only without them
+    centre = not any(b.type == "hexahedron" for b, _, _ in blocks)
+    for block, body, part in blocks:
+        data = np.asarray(block.data)
+        if block.type == "line":
+            keep = centre | (part != _CENTRE_PART)
+            lines.append((data[keep], body[keep]))
+        elif block.type in ("hexahedron", "quad"):
+            solids[(block.type, len(solids))] = (data, body)
+        elif block.type == "vertex":
+            joints.append(data[part == _JOINT_PART].ravel())
+            dots.append((data[part != _JOINT_PART].ravel(), body[part != _JOINT_PART]))
+
+    def with_data(obj, body):
+        obj.cell_data["body_id"] = np.asarray(body, dtype=float)
+        if value is not None:
+            obj.point_data["value"] = value
+        return obj
+
+    out = {}
+    conn = np.concatenate([d for d, _ in lines]) if lines else np.zeros((0, 2), dtype=int)
+    if len(conn):
+        poly = pv.PolyData(points, lines=np.hstack([np.full((len(conn), 1), 2), conn]).ravel())
+        out["lines"] = with_data(poly, np.concatenate([b for _, b in lines]))
+    if solids:
+        vtk_type = {"hexahedron": pv.CellType.HEXAHEDRON, "quad": pv.CellType.QUAD}
+        cells = np.concatenate([np.hstack([np.full((len(d), 1), d.shape[1]), d]).ravel() for d, _ in solids.values()])
+        types = np.concatenate([np.full(len(d), vtk_type[t], dtype=np.uint8) for (t, _), (d, _) in solids.items()])
+        grid = pv.UnstructuredGrid(cells, types, points)
+        out["solids"] = with_data(grid, np.concatenate([b for _, b in solids.values()]))
+    idx = np.concatenate(joints) if joints else np.zeros(0, dtype=int)
+    if len(idx):
+        out["joints"] = pv.PolyData(points[idx])
+    idx = np.concatenate([d for d, _ in dots]) if dots else np.zeros(0, dtype=int)
+    if len(idx):
+        cloud = pv.PolyData(points[idx])
+        cloud.point_data["body_id"] = np.concatenate([b for _, b in dots]).astype(float)
+        if value is not None:
+            cloud.point_data["value"] = value[idx]
+        out["dots"] = cloud
+    return out
 
 
 def _extent(points: np.ndarray) -> tuple[np.ndarray, float]:
@@ -123,10 +175,10 @@ class _Scene:
         allp = np.concatenate([m.points for m in meshes])
         bounds, size = _extent(allp)
         self.radius = opts.radius or 0.01 * size
-        n_bodies = max(int(np.max(np.concatenate(m.cell_data["body_id"]))) for m in meshes) + 1
-        self.clim = [0, max(n_bodies - 1, 1)]
+        self.n_bodies = max(int(np.max(np.concatenate(m.cell_data["body_id"]))) for m in meshes) + 1
         if opts.scalars:
-            vals = [np.linalg.norm(m.point_data[opts.scalars], axis=1) for m in meshes]
+            vals = [np.linalg.norm(np.reshape(m.point_data[opts.scalars], (len(m.points), -1)), axis=1)
+                    for m in meshes]
             top = max(float(np.nanmax(v)) if np.isfinite(v).any() else 0.0 for v in vals)
             self.clim = [0.0, top or 1.0]
         self.plotter = pv.Plotter(off_screen=True, window_size=list(opts.window_size))
@@ -141,33 +193,70 @@ class _Scene:
         pad[1::2] += 3 * self.radius
         self.plotter.reset_camera(bounds=pad)
         self.actors = []
+        self.legend = None
+
+    def _style(self, scalars_name, bar=False):
+        if self.opts.scalars:
+            unit = _UNITS[self.opts.scalars]
+            kw = dict(scalars=scalars_name, cmap=self.opts.cmap or "viridis", clim=self.clim, show_scalar_bar=bar)
+            if bar:
+                kw["scalar_bar_args"] = dict(title=f"|{self.opts.scalars}| ({unit})", fmt="%.3g", n_labels=3,
+                                             color="black")
+            return kw
+        n = max(self.n_bodies, 2)
+        return dict(scalars="body_id", cmap=self.opts.cmap or "tab10", clim=[-0.5, n - 0.5], n_colors=n,
+                    show_scalar_bar=False)
 
     def draw(self, mesh):
+        pv = self.pv
         for actor in self.actors:
             self.plotter.remove_actor(actor)
-        poly, centres = _polydata(self.pv, mesh, self.opts)
-        scalars = self.opts.scalars or "body_id"
-        cmap = self.opts.cmap or ("viridis" if self.opts.scalars else "tab10")
-        kw = dict(scalars=scalars, cmap=cmap, clim=self.clim, show_scalar_bar=bool(self.opts.scalars))
-        if self.opts.scalars:
-            unit = "m" if scalars == "displacement" else "m/s"
-            kw["scalar_bar_args"] = dict(title=f"|{scalars}| ({unit})", fmt="%.3g", n_labels=3, color="black")
-        tubes = poly.tube(radius=self.radius, n_sides=16)
-        self.actors = [self.plotter.add_mesh(tubes, **kw)]
-        if len(centres):
-            balls = self.pv.PolyData(poly.points[centres])
-            balls.point_data[scalars] = poly.point_data[scalars][centres]
-            glyphs = balls.glyph(geom=self.pv.Sphere(radius=2.0 * self.radius), scale=False, orient=False)
-            self.actors.append(self.plotter.add_mesh(glyphs, **{**kw, "show_scalar_bar": False}))
+        self.actors = []
+        parts = _parts(pv, mesh, self.opts.scalars)
+        scalars = "value" if self.opts.scalars else "body_id"
+        bar = True
+        if "lines" in parts:
+            tubes = parts["lines"].tube(radius=self.radius, n_sides=16)
+            self.actors.append(self.plotter.add_mesh(tubes, **self._style(scalars, bar)))
+            bar = False
+        if "solids" in parts:
+            self.actors.append(self.plotter.add_mesh(parts["solids"], **self._style(scalars, bar)))
+        if "dots" in parts:  # bodies drawn as a point (a point mass, a bar without length)
+            glyphs = parts["dots"].glyph(geom=pv.Sphere(radius=2.0 * self.radius), scale=False, orient=False)
+            self.actors.append(self.plotter.add_mesh(glyphs, **self._style(scalars)))
+        if "joints" in parts:
+            glyphs = parts["joints"].glyph(geom=pv.Sphere(radius=1.6 * self.radius), scale=False, orient=False)
+            self.actors.append(self.plotter.add_mesh(glyphs, color="dimgray"))
+        if self.opts.legend and not self.opts.scalars and not self.legend:
+            import matplotlib
+
+            cmap = matplotlib.colormaps[self.opts.cmap or "tab10"].resampled(max(self.n_bodies, 2))
+            names = [str(n) for n in mesh.field_data.get("body_names", [])]
+            self.legend = self.plotter.add_legend([[n, cmap(k)[:3]] for k, n in enumerate(names)],
+                                                  bcolor="white", face="rectangle", loc="lower right",
+                                                  size=(0.2, 0.04 * len(names)))
 
 
-def _frames(result, indices, triad):
+# flexmb.export.vtk.PARTS: the part_id of centre lines and joints
+_CENTRE_PART, _JOINT_PART = 1, 3
+
+
+def _frames(result, indices, opts, system=None):
     from .export.vtk import to_meshio
 
-    return [to_meshio(result, i, triad=triad) for i in indices]
+    meshes = [to_meshio(result, i, system=system, triad=opts.triad) for i in indices]
+    if opts.scalars == "displacement":
+        first = to_meshio(result, 0, system=system, triad=opts.triad).points
+        for mesh in meshes:
+            mesh.point_data["displacement"] = mesh.points - first
+    elif opts.scalars and opts.scalars not in meshes[0].point_data:
+        raise ExportError(f"the result has no {opts.scalars!r} to colour by"
+                          + (": pass system= of a model with flexible bodies" if opts.scalars == "von_mises"
+                             else ""))
+    return meshes
 
 
-def render_state(result, i: int, path, options: RenderOptions | None = None, **kw) -> Path:
+def render_state(result, i: int, path, options: RenderOptions | None = None, *, system=None, **kw) -> Path:
     """Render the bodies at one output time to an image file, off-screen.
 
     Parameters
@@ -180,6 +269,9 @@ def render_state(result, i: int, path, options: RenderOptions | None = None, **k
         Image file (``.png``, ``.jpg``, ...).
     options : RenderOptions, optional
         Drawing options.
+    system : System or Model, optional
+        The model the result came from: bodies drawn through their joints,
+        exact velocities, stresses (see :func:`flexmb.export.vtk.to_meshio`).
     **kw
         Fields of :class:`RenderOptions` to change (``window_size``, ``view``, ...).
 
@@ -199,7 +291,7 @@ def render_state(result, i: int, path, options: RenderOptions | None = None, **k
     back to EGL (or OSMesa) by itself. See ``docs/export.md``.
     """
     opts = _options(options, kw)
-    mesh = _frames(result, [i], opts.triad)[0]
+    mesh = _frames(result, [i], opts, system)[0]
     scene = _Scene([mesh], opts)
     scene.draw(mesh)
     path = Path(os.fspath(path))
@@ -210,7 +302,7 @@ def render_state(result, i: int, path, options: RenderOptions | None = None, **k
 
 
 def animate(result, path, *, fps: float = 10.0, stride: int = 1, options: RenderOptions | None = None,
-            **kw) -> Path:
+            system=None, **kw) -> Path:
     """Write an animated GIF of a result, off-screen.
 
     Parameters
@@ -225,6 +317,8 @@ def animate(result, path, *, fps: float = 10.0, stride: int = 1, options: Render
         Use every ``stride``-th output time.
     options : RenderOptions, optional
         Drawing options.
+    system : System or Model, optional
+        The model the result came from (see :func:`render_state`).
     **kw
         Fields of :class:`RenderOptions` to change.
 
@@ -248,7 +342,7 @@ def animate(result, path, *, fps: float = 10.0, stride: int = 1, options: Render
     except ImportError as exc:
         raise ExportError("animate needs imageio: pip install 'flexmb[viz]'") from exc
     nt = len(np.asarray(getattr(result, "t", [])))
-    meshes = _frames(result, range(0, max(nt, 1), int(stride)), opts.triad)
+    meshes = _frames(result, range(0, max(nt, 1), int(stride)), opts, system)
     scene = _Scene(meshes, opts)
 
     def write(tmp):

@@ -11,6 +11,7 @@ iio = pytest.importorskip("imageio.v3")
 
 import flexmb as fm  # noqa: E402
 from flexmb import viz  # noqa: E402
+from flexmb.export import vtk  # noqa: E402
 
 from conftest import fourbar, fourbar_initial  # noqa: E402
 
@@ -71,3 +72,80 @@ def test_bad_viz_input(result, tmp_path):
     with pytest.raises(fm.ExportError, match="no coordinate or joint"):
         result.plot("nope", path=tmp_path / "b.png")
     assert list(tmp_path.iterdir()) == []
+
+
+# ----------------------------------------------------------------------------- the wiper's VTK files
+
+WIPER_BODIES = ["crank", "right_arm", "left_arm", "drive_link", "connecting_link", "right_blade", "left_blade"]
+
+
+@pytest.fixture(scope="module")
+def wiper_files(tmp_path_factory):
+    """The flexible wiper over 0.3 s, exported with its system: (model, system, result, .pvd)."""
+    from flexmb.scenes.wiper import WiperOptions, wiper
+
+    model, initial = wiper(WiperOptions(flexible=True))
+    system = model.build()
+    res = fm.simulate(system, 0.3, positions=initial, rtol=1e-6, n_out=7)
+    pvd = res.export_vtk(tmp_path_factory.mktemp("wiper"), prefix="wiper", system=system)
+    return model, system, res, pvd
+
+
+def test_wiper_vtk_renders_as_one_connected_mechanism(wiper_files, tmp_path):
+    """At three times: names read back, every joint point of every body lies on that body's drawn cells,
+    the bodies meet at their joints, velocities are the state's, and the render is not blank."""
+    model, system, res, pvd = wiper_files
+    reader = pv.get_reader(str(pvd))
+    np.testing.assert_array_equal(reader.time_values, res.t)  # one time series
+    joint_part = vtk.PARTS.index("joint")
+    cut = {j.name for j in system.topology.cut_joints}
+    assert cut == {"UJ3", "UJ6"}
+    for i in (0, len(res.t) // 2, len(res.t) - 1):
+        reader.set_active_time_value(reader.time_values[i])
+        grid = reader.read()[0]
+        assert list(grid.field_data["body_names"]) == WIPER_BODIES
+        assert list(grid.field_data["joint_names"]) == [j.name for j in model.joints]
+        body_id, part = grid.cell_data["body_id"], grid.cell_data["part_id"]
+        assert [str(s) for s in grid.cell_data["body"]] == [WIPER_BODIES[b] for b in body_id]
+        markers = np.flatnonzero(part == joint_part)
+        ends = {}
+        for c in markers:
+            b, j = int(body_id[c]), int(grid.cell_data["joint_id"][c])
+            p = grid.get_cell(c).points[0]
+            shape = grid.extract_cells(np.flatnonzero((body_id == b) & (part != joint_part)))
+            _, closest = shape.find_closest_cell(p[None], return_closest_point=True)
+            assert np.linalg.norm(closest - p) <= 1e-12, (WIPER_BODIES[b], model.joints[j].name)
+            ends.setdefault(model.joints[j].name, []).append(p)
+        # each joint on both bodies it joins (the ground, not drawn, for RJ1, RJ4, RJ7)
+        assert {k: len(v) for k, v in ends.items()} == {j.name: 1 + (j.parent is not model.ground)
+                                                        for j in model.joints}
+        for name, points in ends.items():
+            gap = np.ptp(np.array(points), axis=0).max()
+            assert gap <= (res.residual[i] + 1e-15 if name in cut else 1e-12), (name, gap)
+        # velocities: the partial velocities of each point times the speeds (eq. 17)
+        layout = vtk._Layout(res, system)
+        kin = system.kinematics(res.t[i], res.x[i], res.xd[i])
+        exact = kin.point_partials(layout.row, grid.points) @ res.xd[i]
+        np.testing.assert_allclose(grid.point_data["velocity"], exact, rtol=0, atol=1e-10)
+        assert np.abs(exact).max() > 0.1  # the mechanism moves
+        # the render: coloured by stress, lines as tubes, joints as balls; not blank
+        plotter = pv.Plotter(off_screen=True, window_size=SIZE)
+        plotter.set_background("white")
+        plotter.add_mesh(grid, scalars="von_mises", render_lines_as_tubes=True, line_width=4,
+                         render_points_as_spheres=True, point_size=8, show_scalar_bar=False)
+        plotter.view_xy()
+        img = plotter.screenshot(str(tmp_path / f"wiper_{i}.png"), return_img=True)
+        plotter.close()
+        fg = _foreground(img)
+        assert 0.002 < fg.mean() < 0.5
+    assert np.nanmax(grid.point_data["von_mises"]) > 1e5  # the blades bend: there is stress to colour by
+
+
+def test_render_state_draws_the_wiper_with_its_system(wiper_files, tmp_path):
+    model, system, res, _ = wiper_files
+    path = viz.render_state(res, -1, tmp_path / "wiper.png", system=system, window_size=SIZE, legend=True)
+    assert _foreground(iio.imread(path)).mean() > 0.002
+    path = viz.render_state(res, -1, tmp_path / "stress.png", system=model, window_size=SIZE, scalars="von_mises")
+    assert _foreground(iio.imread(path)).mean() > 0.002
+    with pytest.raises(fm.ExportError, match="von_mises"):
+        viz.render_state(res, -1, tmp_path / "x.png", scalars="von_mises")  # without the system: no stress

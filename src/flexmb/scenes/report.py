@@ -41,11 +41,23 @@ def _savefig(plt, fig, folder, rel, dpi):
         plt.close(fig)
 
 
-def _vtk(res, folder, sub, prefix):
-    """Write the VTK series into ``sub/`` of the staging folder; return the final ``.pvd`` path or None."""
+#: the ParaView script written beside the VTK series (pvpython open_in_paraview.py)
+PARAVIEW_SCRIPT = "open_in_paraview.py"
+
+
+def _vtk(res, folder, sub, prefix, system):
+    """Write the VTK series into ``sub/`` of the staging folder; return the final ``.pvd`` path or None.
+
+    With the system the run came from: bodies drawn through their joints, exact velocities, section
+    loads and stresses. The ParaView script that opens the series comes along, once per folder.
+    """
     rel = f"{sub}/{prefix}.pvd"
     try:
-        res.export_vtk(folder.stage(rel).parent, prefix=prefix)
+        from ..export.vtk import paraview_script
+
+        res.export_vtk(folder.stage(rel).parent, prefix=prefix, system=system)
+        if not folder.staged(PARAVIEW_SCRIPT):
+            paraview_script(folder.stage(PARAVIEW_SCRIPT))
     except ImportError as exc:  # meshio missing
         print(f"no VTK written: {exc}", file=sys.stderr)
         return None
@@ -57,8 +69,9 @@ def run_fourbar(folder, t_end=None, rtol=1e-8, complement="svd", method="auto", 
     from .fourbar import fourbar
 
     model, initial, fixed = fourbar()
-    res = simulate(model, t_end or 5.0, positions=initial, fixed=fixed, rtol=rtol, complement=complement,
-                   method=method, n_out=n_out, progress=progress)
+    system = model.build(complement=complement)
+    res = simulate(system, t_end or 5.0, positions=initial, fixed=fixed, rtol=rtol, method=method, n_out=n_out,
+                   progress=progress)
     res.save(folder.stage("fourbar.npz"))
     summary = {"scene": "fourbar", "status": res.status, "t_end": float(res.t[-1]), "n_rhs": res.n_rhs,
                "wall_time_s": res.wall_time, "max_residual": float(res.residual.max()),
@@ -76,8 +89,10 @@ def run_fourbar(folder, t_end=None, rtol=1e-8, complement="svd", method="auto", 
         ax[2].set_xlabel("t [s]")
         fig.tight_layout()
         _savefig(plt, fig, folder, "fourbar.png", 120)
-    pvd = _vtk(res, folder, "vtk", "fourbar")
+    pvd = _vtk(res, folder, "vtk", "fourbar", system)
     summary["vtk"] = pvd
+    if pvd:
+        summary["paraview"] = folder.final(PARAVIEW_SCRIPT)
     return summary
 
 
@@ -92,8 +107,9 @@ def run_wiper(folder, t_end=None, rtol=1e-6, complement="svd", method="auto", n_
     for flexible in (False, True):
         label = "flexible" if flexible else "rigid"
         model, initial = wiper(WiperOptions(flexible=flexible, n_segments=n_segments))
-        res = simulate(model, t_end, positions=initial, rtol=rtol, complement=complement, method=method,
-                       n_out=n_out, progress=progress, track_work=True)
+        system = model.build(complement=complement)
+        res = simulate(system, t_end, positions=initial, rtol=rtol, method=method, n_out=n_out, progress=progress,
+                       track_work=True)
         res.save(folder.stage(f"wiper_{label}.npz"))
         runs[label] = res
         work = sum(res.work.values())
@@ -109,7 +125,9 @@ def run_wiper(folder, t_end=None, rtol=1e-6, complement="svd", method="auto", n_
             "driver_work_J": float(res.work["driver motor"][-1]),
             "energy_balance_rel_error": balance,
         }
-        summary[label]["vtk"] = _vtk(res, folder, f"vtk_{label}", f"wiper_{label}")
+        summary[label]["vtk"] = _vtk(res, folder, f"vtk_{label}", f"wiper_{label}", system)
+        if summary[label]["vtk"]:
+            summary["paraview"] = folder.final(PARAVIEW_SCRIPT)
         if res.status == "interrupted":  # Ctrl-C: keep what was written, start no further run
             summary["status"] = "interrupted"
             return summary
@@ -268,9 +286,10 @@ def _write_outputs(scene, res, folder) -> dict:
             _savefig(plt, fig, folder, o.prefix + ".png", 110)
             files["plot"] = folder.final(o.prefix + ".png")
     if o.vtk and len(res.t):
-        pvd = _vtk(res, folder, "vtk", o.prefix)
+        pvd = _vtk(res, folder, "vtk", o.prefix, scene.model)
         if pvd:
             files["vtk"] = pvd
+            files["paraview"] = folder.final(PARAVIEW_SCRIPT)
     summary["files"] = files
     folder.commit(summary if o.summary else None)
     return summary

@@ -14,6 +14,7 @@ give the same table.
 
 from __future__ import annotations
 
+import inspect
 import json
 import os
 import pathlib
@@ -24,6 +25,8 @@ import time
 
 import numpy as np
 import pytest
+from scipy import stats
+from scipy.stats import qmc
 
 import flexmb as fm
 from flexmb.cli import main
@@ -162,6 +165,31 @@ def test_normal_distribution_lhs_matches_its_moments(scene_file):
     # stratified sampling: the mean and spread are far closer than Monte Carlo's 0.5 / sqrt(2000) = 0.011
     assert abs(m.mean() - 5.0) < 2e-3
     assert abs(m.std() - 0.5) < 5e-3
+
+
+@pytest.mark.parametrize("sampling", ["lhs", "mc"])
+def test_samples_follow_their_distributions(scene_file, sampling):
+    """Each marginal passes a Kolmogorov-Smirnov test against its scipy.stats distribution."""
+    vary = {"bodies.bar.mass": "uniform:1:3", "bodies.bar.length": "loguniform:0.1:10",
+            "initial.positions.pin": "normal:0.2:0.05"}
+    cases = Study.from_file(scene_file, vary, samples=400, seed=3, sampling=sampling).cases()
+    dists = {"bodies.bar.mass": stats.uniform(loc=1, scale=2), "bodies.bar.length": stats.loguniform(0.1, 10),
+             "initial.positions.pin": stats.norm(loc=0.2, scale=0.05)}
+    for key, dist in dists.items():
+        values = np.array([c[key] for c in cases])
+        assert stats.kstest(values, dist.cdf).pvalue > 0.01, key
+        if sampling == "lhs":  # one sample in each of the 400 equal-probability strata of every parameter
+            assert np.array_equal(np.sort(np.floor(dist.cdf(values) * 400)), np.arange(400)), key
+
+
+def test_latin_hypercube_is_scipy_qmc_with_the_seed(scene_file):
+    vary = {"bodies.bar.mass": "uniform:1:3", "bodies.bar.length": "uniform:0.5:2.5"}
+    cases = Study.from_file(scene_file, vary, samples=16, seed=11).cases()
+    # the study's generator: numpy's default_rng(seed), handed to scipy.stats.qmc.LatinHypercube
+    key = "rng" if "rng" in inspect.signature(qmc.LatinHypercube).parameters else "seed"
+    u = qmc.LatinHypercube(2, **{key: np.random.default_rng(11)}).random(16)
+    np.testing.assert_allclose([c["bodies.bar.mass"] for c in cases], 1 + 2 * u[:, 0], rtol=1e-15)
+    np.testing.assert_allclose([c["bodies.bar.length"] for c in cases], 0.5 + 2 * u[:, 1], rtol=1e-15)
 
 
 # ----------------------------------------------------------------------------- outputs against closed forms

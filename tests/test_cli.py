@@ -174,3 +174,12 @@ def test_version(capsys):
         main(["--version"])
     assert info.value.code == 0
     assert capsys.readouterr().out.strip() == f"flexmb {fm.__version__}"
+
+
+def test_library_messages_are_silent_unless_logging_is_configured():
+    """flexmb's loggers end at a NullHandler: Python's last-resort handler prints nothing of them."""
+    code = ("import logging, flexmb; logging.getLogger('flexmb.study').warning('not shown'); "
+            "logging.basicConfig(level=logging.INFO, format='%(name)s: %(message)s'); "
+            "logging.getLogger('flexmb.study').info('shown')")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0 and out.stderr == "flexmb.study: shown\n"

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import inspect
 import json
+import logging
 import os
 import pathlib
 import signal
@@ -343,6 +344,18 @@ def test_changed_study_does_not_reuse_case_files(scene_file, tmp_path):
     assert len(res.ran) == 2 and res.skipped == 0
 
 
+def test_a_resumed_study_logs_what_was_done_before(scene_file, tmp_path, caplog, capsys):
+    kw = dict(outputs=["final:pin"], fixed={"solver.t_end": 0.2})
+    Study.from_file(scene_file, {"bodies.bar.mass": [1.0]}, **kw).run(tmp_path, executor="serial", progress=False)
+    with caplog.at_level(logging.INFO, logger="flexmb"):
+        Study.from_file(scene_file, {"bodies.bar.mass": [1.0, 2.0]}, **kw).run(tmp_path, executor="serial",
+                                                                               progress=False)
+    [record] = [r for r in caplog.records if r.name == "flexmb.study"]
+    assert record.levelno == logging.INFO
+    assert record.getMessage() == "study: 1 of 2 cases done before, running the other 1"
+    assert "done before" not in capsys.readouterr().err  # a library prints nothing of it
+
+
 # ----------------------------------------------------------------------------- checked before any case runs
 
 
@@ -394,6 +407,14 @@ def test_cli_study(scene_file, tmp_path, capsys):
     assert "2 cases: 2 finished" in captured.out and "\r" not in captured.err
     assert main(["study", str(scene_file), "--vary", "bodies.bar.mass", "--out", str(tmp_path / "x")]) == 2
     assert "write KEY=VALUE" in capsys.readouterr().err
+    # the command shows the flexmb loggers' messages on stderr, one line each, and not with --quiet
+    again = ["study", str(scene_file), "--vary", "bodies.bar.mass=1.0,2.0,3.0", "--set", "solver.t_end=0.2",
+             "--serial", "--out", str(tmp_path / "ok")]
+    assert main(again + ["--quiet"]) == 0
+    assert "done before" not in capsys.readouterr().err
+    (tmp_path / "ok" / "cases" / next(p.name for p in (tmp_path / "ok" / "cases").glob("*.json"))).unlink()
+    assert main(again) == 0
+    assert "study: 2 of 3 cases done before, running the other 1\n" in capsys.readouterr().err
 
 
 def test_time_series_outputs(scene_file, tmp_path):

@@ -16,7 +16,9 @@ SECONDS`` stops a case that takes longer and records it as failed).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
+import logging
 import os
 import sys
 
@@ -24,6 +26,36 @@ from . import __version__
 from .errors import FlexmbError, SimulationError
 
 __all__ = ["main"]
+
+
+class _Stderr(logging.StreamHandler):
+    """Writes each message alone to the ``sys.stderr`` of the moment (a redirected or captured one too)."""
+
+    def __init__(self):
+        super().__init__()
+        self.setFormatter(logging.Formatter("%(message)s"))
+
+    @property
+    def stream(self):
+        return sys.stderr
+
+    @stream.setter
+    def stream(self, value):
+        pass
+
+
+@contextlib.contextmanager
+def _messages(quiet: bool):
+    """Show the ``flexmb`` loggers' messages on stderr while a command runs: INFO and up, WARNING with --quiet."""
+    logger = logging.getLogger("flexmb")
+    handler, level = _Stderr(), logger.level
+    logger.addHandler(handler)
+    logger.setLevel(logging.WARNING if quiet else logging.INFO)
+    try:
+        yield
+    finally:
+        logger.removeHandler(handler)
+        logger.setLevel(level)
 
 
 def _run(args) -> int:
@@ -183,7 +215,8 @@ def main(argv=None) -> int:
     st.set_defaults(func=_study)
     args = parser.parse_args(argv)
     try:
-        return args.func(args)
+        with _messages(getattr(args, "quiet", False)):
+            return args.func(args)
     except SimulationError as exc:
         print(f"flexmb: error: {exc}".replace("\n", " "), file=sys.stderr)
         return 1

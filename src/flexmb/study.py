@@ -48,13 +48,13 @@ import hashlib
 import inspect
 import io
 import json
+import logging
 import math
 import multiprocessing
 import os
 import select
 import signal
 import socket
-import sys
 import threading
 import time
 import tomllib
@@ -68,6 +68,8 @@ from attrs import define, field, frozen
 from ._files import atomic_write
 from .progress import Progress
 from .errors import FlexmbError, SceneError
+
+log = logging.getLogger(__name__)
 
 __all__ = ["Distribution", "DISTRIBUTIONS", "OUTPUTS", "SAMPLINGS", "Study", "StudyResult", "parse_spec",
            "parse_value", "run_study"]
@@ -731,9 +733,8 @@ class _Progress:
     def __init__(self, total: int, already: int, enabled: bool):
         self.total, self.already, self.enabled = total, already, enabled
         self.done = self.failed = 0
-        if enabled and already:
-            print(f"study: {already} of {total} cases done before, running the other {total - already}",
-                  file=sys.stderr)
+        if already:
+            log.info("study: %d of %d cases done before, running the other %d", already, total, total - already)
         self.bar = Progress(total, "study", "cases", enabled=enabled, initial=already)
 
     def update(self, row: dict) -> None:

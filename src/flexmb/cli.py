@@ -22,7 +22,7 @@ import logging
 import os
 import sys
 
-from . import __version__
+from . import __version__, registry
 from .errors import FlexmbError, SimulationError
 
 __all__ = ["main"]
@@ -177,9 +177,10 @@ def main(argv=None) -> int:
     run.add_argument("--out", default="results", help="output folder")
     run.add_argument("--t-end", type=float, default=None, help="end time, s (default: the scene's)")
     run.add_argument("--rtol", type=float, default=None, help="relative tolerance (default: the scene's)")
-    run.add_argument("--complement", default=None, help="orthogonal complement strategy: svd or eigen "
+    run.add_argument("--complement", default=None, help="orthogonal complement strategy: "
+                     f"{', '.join(registry.names('complements'))} (default: the scene's)")
+    run.add_argument("--integrator", default=None, help=f"auto, {', '.join(registry.names('integrators'))} "
                                                         "(default: the scene's)")
-    run.add_argument("--integrator", default=None, help="auto, DOP853, Radau, BDF, ... (default: the scene's)")
     run.add_argument("--n-out", type=int, default=None, help="number of output times (default: the scene's)")
     run.add_argument("--quiet", action="store_true", help="no progress bar")
     run.set_defaults(func=_run)

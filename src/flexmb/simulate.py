@@ -226,8 +226,9 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         ``AUTO_IMPLICIT_STEPS`` steps just to stay stable, DOP853 otherwise.
     rtol, atol : float
         Integration tolerances (``atol`` defaults to ``rtol / 100``).
-    complement : {'svd', 'eigen'} or ComplementStrategy, optional
-        Orthogonal complement strategy (default: the system's, ``'svd'``).
+    complement : {'svd', 'eigen', 'qr', 'auto'} or ComplementStrategy, optional
+        Orthogonal complement strategy, or a registered plugin's name
+        (default: the system's, ``'svd'``).
     projection_tol : float
         Largest residual ``|phi|`` or ``|psi xd - b|`` tolerated before projecting.
     max_step : float

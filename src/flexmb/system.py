@@ -50,7 +50,8 @@ class System:
     model : Model
         A validated model.
     complement : str or ComplementStrategy
-        Orthogonal complement strategy (``"svd"`` or ``"eigen"``).
+        Orthogonal complement strategy (``"svd"``, ``"eigen"``, ``"qr"``,
+        ``"auto"`` or a registered plugin's name).
     sparse : bool or None
         Solve the equations of an open tree by the articulated-body
         recursion (:mod:`flexmb.kernels.articulated`: O(n) per evaluation,

@@ -85,6 +85,14 @@ def test_unknown_name_fails_at_build_naming_the_element_and_the_known_ones():
     assert "force element 'push': no body named 'crnak'; bodies: ['ground', 'crank']" in problems
 
 
+def test_a_named_joint_is_checked_like_a_given_one():
+    model = fm.Model()
+    crank = fm.RigidBody.slender_bar("crank", 0.5, 0.2)
+    model.add(fm.Revolute("A", model.ground, crank), fm.Driver.constant_speed("motor", "A", speed=1.0, coordinate=1))
+    with pytest.raises(fm.ModelError, match=r"Driver 'motor': coordinate 1 out of range for joint 'A' with 1"):
+        model.build()
+
+
 def test_joint_with_body_names_and_the_object_the_caller_holds():
     model = fm.Model()
     crank = fm.RigidBody.slender_bar("crank", 0.5, 0.2)

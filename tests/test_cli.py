@@ -174,3 +174,41 @@ def test_version(capsys):
         main(["--version"])
     assert info.value.code == 0
     assert capsys.readouterr().out.strip() == f"flexmb {fm.__version__}"
+
+
+def test_library_messages_are_silent_unless_logging_is_configured():
+    """flexmb's loggers end at a NullHandler: Python's last-resort handler prints nothing of them."""
+    code = ("import logging, flexmb; logging.getLogger('flexmb.study').warning('not shown'); "
+            "logging.basicConfig(level=logging.INFO, format='%(name)s: %(message)s'); "
+            "logging.getLogger('flexmb.study').info('shown')")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0 and out.stderr == "flexmb.study: shown\n"
+
+
+def test_run_help_lists_every_registered_complement_and_integrator(capsys):
+    with pytest.raises(SystemExit):
+        main(["run", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    for kind in ("complements", "integrators"):
+        names = fm.registry.names(kind)
+        assert {"svd", "eigen", "qr", "auto"} <= set(names) if kind == "complements" else "IDA" in names
+        assert ", ".join(names) in text
+
+
+def test_docs_list_the_built_in_complements_and_integrators():
+    """docs/plugins.md's table and docs/scenes.md name every complement and integrator pyproject.toml registers."""
+    import tomllib
+
+    root = pathlib.Path(__file__).resolve().parents[1]
+    groups = tomllib.loads((root / "pyproject.toml").read_text())["project"]["entry-points"]
+    plugins = (root / "docs" / "plugins.md").read_text()
+    scenes = (root / "docs" / "scenes.md").read_text()
+    for kind in ("complements", "integrators"):
+        row = next(line for line in plugins.splitlines() if line.startswith(f"| `{kind}` |"))
+        listed = set(row.rsplit("|", 2)[1].replace("`", "").replace(",", " ").split())
+        assert listed == set(groups[f"flexmb.{kind}"]), kind
+    synopsis = next(line for line in scenes.splitlines() if line.startswith("flexmb run SCENE.toml"))
+    choices = synopsis.split("--complement ")[1].split("]")[0].split("|")
+    assert set(choices) == set(groups["flexmb.complements"])
+    for name in groups["flexmb.complements"]:
+        assert f"`{name}`" in scenes, name

@@ -180,7 +180,10 @@ def test_result_save_load_round_trips_every_field(tmp_path):
     res.message = "r\u00e9sum\u00e9 with unicode"
     res.save(tmp_path / "r.npz")
     back = fm.Result.load(tmp_path / "r.npz")
+    assert res.system is not None and back.system is None  # the compiled model is kept, not saved
     for f in attrs.fields(fm.Result):
+        if f.name == "system":
+            continue
         a, b = getattr(res, f.name), getattr(back, f.name)
         if isinstance(a, np.ndarray):
             assert a.dtype == b.dtype and a.shape == b.shape and np.array_equal(a, b), f.name

@@ -14,7 +14,9 @@ give the same table.
 
 from __future__ import annotations
 
+import inspect
 import json
+import logging
 import os
 import pathlib
 import signal
@@ -24,6 +26,8 @@ import time
 
 import numpy as np
 import pytest
+from scipy import stats
+from scipy.stats import qmc
 
 import flexmb as fm
 from flexmb.cli import main
@@ -162,6 +166,31 @@ def test_normal_distribution_lhs_matches_its_moments(scene_file):
     # stratified sampling: the mean and spread are far closer than Monte Carlo's 0.5 / sqrt(2000) = 0.011
     assert abs(m.mean() - 5.0) < 2e-3
     assert abs(m.std() - 0.5) < 5e-3
+
+
+@pytest.mark.parametrize("sampling", ["lhs", "mc"])
+def test_samples_follow_their_distributions(scene_file, sampling):
+    """Each marginal passes a Kolmogorov-Smirnov test against its scipy.stats distribution."""
+    vary = {"bodies.bar.mass": "uniform:1:3", "bodies.bar.length": "loguniform:0.1:10",
+            "initial.positions.pin": "normal:0.2:0.05"}
+    cases = Study.from_file(scene_file, vary, samples=400, seed=3, sampling=sampling).cases()
+    dists = {"bodies.bar.mass": stats.uniform(loc=1, scale=2), "bodies.bar.length": stats.loguniform(0.1, 10),
+             "initial.positions.pin": stats.norm(loc=0.2, scale=0.05)}
+    for key, dist in dists.items():
+        values = np.array([c[key] for c in cases])
+        assert stats.kstest(values, dist.cdf).pvalue > 0.01, key
+        if sampling == "lhs":  # one sample in each of the 400 equal-probability strata of every parameter
+            assert np.array_equal(np.sort(np.floor(dist.cdf(values) * 400)), np.arange(400)), key
+
+
+def test_latin_hypercube_is_scipy_qmc_with_the_seed(scene_file):
+    vary = {"bodies.bar.mass": "uniform:1:3", "bodies.bar.length": "uniform:0.5:2.5"}
+    cases = Study.from_file(scene_file, vary, samples=16, seed=11).cases()
+    # the study's generator: numpy's default_rng(seed), handed to scipy.stats.qmc.LatinHypercube
+    key = "rng" if "rng" in inspect.signature(qmc.LatinHypercube).parameters else "seed"
+    u = qmc.LatinHypercube(2, **{key: np.random.default_rng(11)}).random(16)
+    np.testing.assert_allclose([c["bodies.bar.mass"] for c in cases], 1 + 2 * u[:, 0], rtol=1e-15)
+    np.testing.assert_allclose([c["bodies.bar.length"] for c in cases], 0.5 + 2 * u[:, 1], rtol=1e-15)
 
 
 # ----------------------------------------------------------------------------- outputs against closed forms
@@ -315,6 +344,18 @@ def test_changed_study_does_not_reuse_case_files(scene_file, tmp_path):
     assert len(res.ran) == 2 and res.skipped == 0
 
 
+def test_a_resumed_study_logs_what_was_done_before(scene_file, tmp_path, caplog, capsys):
+    kw = dict(outputs=["final:pin"], fixed={"solver.t_end": 0.2})
+    Study.from_file(scene_file, {"bodies.bar.mass": [1.0]}, **kw).run(tmp_path, executor="serial", progress=False)
+    with caplog.at_level(logging.INFO, logger="flexmb"):
+        Study.from_file(scene_file, {"bodies.bar.mass": [1.0, 2.0]}, **kw).run(tmp_path, executor="serial",
+                                                                               progress=False)
+    [record] = [r for r in caplog.records if r.name == "flexmb.study"]
+    assert record.levelno == logging.INFO
+    assert record.getMessage() == "study: 1 of 2 cases done before, running the other 1"
+    assert "done before" not in capsys.readouterr().err  # a library prints nothing of it
+
+
 # ----------------------------------------------------------------------------- checked before any case runs
 
 
@@ -366,6 +407,14 @@ def test_cli_study(scene_file, tmp_path, capsys):
     assert "2 cases: 2 finished" in captured.out and "\r" not in captured.err
     assert main(["study", str(scene_file), "--vary", "bodies.bar.mass", "--out", str(tmp_path / "x")]) == 2
     assert "write KEY=VALUE" in capsys.readouterr().err
+    # the command shows the flexmb loggers' messages on stderr, one line each, and not with --quiet
+    again = ["study", str(scene_file), "--vary", "bodies.bar.mass=1.0,2.0,3.0", "--set", "solver.t_end=0.2",
+             "--serial", "--out", str(tmp_path / "ok")]
+    assert main(again + ["--quiet"]) == 0
+    assert "done before" not in capsys.readouterr().err
+    (tmp_path / "ok" / "cases" / next(p.name for p in (tmp_path / "ok" / "cases").glob("*.json"))).unlink()
+    assert main(again) == 0
+    assert "study: 2 of 3 cases done before, running the other 1\n" in capsys.readouterr().err
 
 
 def test_time_series_outputs(scene_file, tmp_path):

@@ -233,8 +233,9 @@ def test_universal_axes_not_perpendicular(pair):
 
 
 @pytest.mark.parametrize("cls", ALL_JOINTS)
-@pytest.mark.parametrize("bad", ["ground", None, 1.0])
+@pytest.mark.parametrize("bad", ["", None, 1.0])
 def test_joint_non_body_parent_or_child(cls, bad):
+    # a body's name is accepted (resolved when the model is built); an empty one is not
     link = fm.RigidBody("link")
     kind = type(bad).__name__
     with pytest.raises(fm.ModelError, match=rf"{cls.__name__} 'j': parent must be a Body, got {kind}"):
@@ -317,7 +318,7 @@ def test_force_element_field_checks(pair):
 @pytest.mark.parametrize(
     "make, field, kind",
     [
-        (lambda link, pin: fm.PointForce("f", "bar", (1.0, 0, 0)), "body", "str"),
+        (lambda link, pin: fm.PointForce("f", "", (1.0, 0, 0)), "body", "str"),  # a name is fine, "" is not
         (lambda link, pin: fm.BodyTorque("f", None, (0, 0, 1.0)), "body", "NoneType"),
         (lambda link, pin: fm.SpringDamper("f", link, (0, 0, 0), pin, (0, 0, 0), 1.0), "body2", "Revolute"),
         (lambda link, pin: fm.JointSpringDamper("f", link, stiffness=1.0), "joint", "RigidBody"),
@@ -698,6 +699,8 @@ def same(a, b):
 
 def assert_same_result(a, b):
     for f in attrs.fields(fm.Result):
+        if f.name == "system":
+            continue  # the compiled model the result came from: kept in memory, not saved
         va, vb = getattr(a, f.name), getattr(b, f.name)
         assert same(va, vb), (f.name, va, vb)
         if isinstance(va, list):

@@ -2,7 +2,13 @@
 
 Kane's equations with partial velocity arrays, closed loops eliminated by
 orthogonal complement arrays (Amirouche & Huston 1988).
+
+Messages that are not results (a study resuming, a plot not written) go to
+the ``logging`` loggers ``flexmb.*``: silent unless the application
+configures logging (the ``flexmb`` command shows them on stderr).
 """
+
+import logging as _logging
 
 from .bodies import Body, Ground, Marker, RigidBody
 from .complements import COMPLEMENTS, ComplementStrategy, EigenComplement, SVDComplement, get_complement
@@ -24,6 +30,9 @@ from .scene import Scene, load_scene, loads_scene
 from .complements import AutoComplement, QRComplement
 
 __version__ = "0.1.0"
+
+# a library logs, the application decides what is shown (logging HOWTO, "Configuring Logging for a Library")
+_logging.getLogger(__name__).addHandler(_logging.NullHandler())
 
 __all__ = [
     "Body", "Ground", "Marker", "RigidBody",

@@ -16,14 +16,46 @@ SECONDS`` stops a case that takes longer and records it as failed).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
+import logging
 import os
 import sys
 
-from . import __version__
+from . import __version__, registry
 from .errors import FlexmbError, SimulationError
 
 __all__ = ["main"]
+
+
+class _Stderr(logging.StreamHandler):
+    """Writes each message alone to the ``sys.stderr`` of the moment (a redirected or captured one too)."""
+
+    def __init__(self):
+        super().__init__()
+        self.setFormatter(logging.Formatter("%(message)s"))
+
+    @property
+    def stream(self):
+        return sys.stderr
+
+    @stream.setter
+    def stream(self, value):
+        pass
+
+
+@contextlib.contextmanager
+def _messages(quiet: bool):
+    """Show the ``flexmb`` loggers' messages on stderr while a command runs: INFO and up, WARNING with --quiet."""
+    logger = logging.getLogger("flexmb")
+    handler, level = _Stderr(), logger.level
+    logger.addHandler(handler)
+    logger.setLevel(logging.WARNING if quiet else logging.INFO)
+    try:
+        yield
+    finally:
+        logger.removeHandler(handler)
+        logger.setLevel(level)
 
 
 def _run(args) -> int:
@@ -145,9 +177,10 @@ def main(argv=None) -> int:
     run.add_argument("--out", default="results", help="output folder")
     run.add_argument("--t-end", type=float, default=None, help="end time, s (default: the scene's)")
     run.add_argument("--rtol", type=float, default=None, help="relative tolerance (default: the scene's)")
-    run.add_argument("--complement", default=None, help="orthogonal complement strategy: svd or eigen "
+    run.add_argument("--complement", default=None, help="orthogonal complement strategy: "
+                     f"{', '.join(registry.names('complements'))} (default: the scene's)")
+    run.add_argument("--integrator", default=None, help=f"auto, {', '.join(registry.names('integrators'))} "
                                                         "(default: the scene's)")
-    run.add_argument("--integrator", default=None, help="auto, DOP853, Radau, BDF, ... (default: the scene's)")
     run.add_argument("--n-out", type=int, default=None, help="number of output times (default: the scene's)")
     run.add_argument("--quiet", action="store_true", help="no progress bar")
     run.set_defaults(func=_run)
@@ -183,7 +216,8 @@ def main(argv=None) -> int:
     st.set_defaults(func=_study)
     args = parser.parse_args(argv)
     try:
-        return args.func(args)
+        with _messages(getattr(args, "quiet", False)):
+            return args.func(args)
     except SimulationError as exc:
         print(f"flexmb: error: {exc}".replace("\n", " "), file=sys.stderr)
         return 1

@@ -13,6 +13,7 @@ from typing import Callable
 import numpy as np
 from attrs import field, frozen
 
+from ._names import reference
 from ._validate import label, name_check
 from .errors import ModelError
 from .joints import Joint
@@ -33,8 +34,10 @@ class Driver:
     ----------
     name : str
         Unique name.
-    joint : Joint
-        The driven joint (a tree joint).
+    joint : Joint or str
+        The driven joint (a tree joint), or its name: a name is resolved
+        when the model is built, so the driver may be written before the
+        joint is added.
     position, velocity, acceleration : callable
         ``theta(t)``, ``theta'(t)`` and ``theta''(t)`` (rad or m, and their
         rates); they must be consistent derivatives.
@@ -53,18 +56,15 @@ class Driver:
     """
 
     name: str = field(validator=name_check)
-    joint: Joint = field()
+    joint: Joint = reference(Joint)
     position: Callable[[float], float] = field(validator=_callable)
     velocity: Callable[[float], float] = field(validator=_callable)
     acceleration: Callable[[float], float] = field(validator=_callable)
     coordinate: int = field(default=0, converter=int)
 
-    @joint.validator
-    def _check_joint(self, attribute, value):
-        if not isinstance(value, Joint):
-            raise ModelError(f"{label(self)}: joint must be a Joint, got {type(value).__name__}")
-
     def __attrs_post_init__(self):
+        if isinstance(self.joint, str):  # a name: checked when the model resolves it
+            return
         if not 0 <= self.coordinate < self.joint.n_coords:
             raise ModelError(
                 f"{label(self)}: coordinate {self.coordinate} out of range for joint "
@@ -72,15 +72,15 @@ class Driver:
             )
 
     @classmethod
-    def constant_speed(cls, name: str, joint: Joint, speed: float, start: float = 0.0, coordinate: int = 0):
+    def constant_speed(cls, name: str, joint: Joint | str, speed: float, start: float = 0.0, coordinate: int = 0):
         """``theta(t) = start + speed * t``.
 
         Parameters
         ----------
         name : str
             Driver name.
-        joint : Joint
-            Driven joint.
+        joint : Joint or str
+            Driven joint, or its name.
         speed : float
             Rate, rad/s or m/s.
         start : float
@@ -104,7 +104,7 @@ class Driver:
         )
 
     @classmethod
-    def harmonic(cls, name: str, joint: Joint, amplitude: float, frequency: float,
+    def harmonic(cls, name: str, joint: Joint | str, amplitude: float, frequency: float,
                  offset: float = 0.0, coordinate: int = 0):
         """``theta(t) = offset + amplitude * sin(2 pi frequency t)``.
 
@@ -112,8 +112,8 @@ class Driver:
         ----------
         name : str
             Driver name.
-        joint : Joint
-            Driven joint.
+        joint : Joint or str
+            Driven joint, or its name.
         amplitude : float
             Amplitude, rad or m.
         frequency : float

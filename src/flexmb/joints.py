@@ -24,6 +24,7 @@ from typing import ClassVar
 import numpy as np
 from attrs import field, frozen
 
+from ._names import reference
 from ._validate import as_array, label, name_check, optional_array, rotation_matrix, vector3
 from .bodies import Body
 from .errors import ModelError
@@ -70,9 +71,9 @@ class Joint:
     ----------
     name : str
         Unique name.
-    parent, child : Body
-        The bodies joined; the tree is grown from the ground along
-        parent -> child.
+    parent, child : Body or str
+        The bodies joined, or their names (resolved when the model is
+        built); the tree is grown from the ground along parent -> child.
     parent_point : array_like, shape (3,)
         Joint point in the parent body frame, m.
     child_point : array_like, shape (3,)
@@ -115,23 +116,18 @@ class Joint:
     cut_perpendicular: ClassVar[tuple[tuple[int, int], ...]] = ()
 
     name: str = field(validator=name_check)
-    parent: Body = field()
-    child: Body = field()
+    parent: Body = reference(Body)
+    child: Body = reference(Body)
     parent_point: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
     child_point: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
     parent_frame: np.ndarray | None = field(default=None, converter=optional_array, validator=rotation_matrix)
     child_frame: np.ndarray | None = field(default=None, converter=optional_array, validator=rotation_matrix)
     cut: bool = field(default=False, converter=bool)
 
-    @parent.validator
-    @child.validator
-    def _check_body(self, attribute, value):
-        if not isinstance(value, Body):
-            raise ModelError(f"{label(self)}: {attribute.name} must be a Body, got {type(value).__name__}")
-
     def __attrs_post_init__(self):
-        if self.parent is self.child:
-            raise ModelError(f"{label(self)}: parent and child are the same body {self.parent.name!r}")
+        if self.parent is self.child or (isinstance(self.parent, str) and self.parent == self.child):
+            name = getattr(self.parent, "name", self.parent)
+            raise ModelError(f"{label(self)}: parent and child are the same body {name!r}")
 
     @property
     def n_coords(self) -> int:

@@ -4,7 +4,10 @@ from __future__ import annotations
 
 from collections import Counter
 
+import attrs
+
 from . import memory
+from ._names import REFERENCE, find
 from .bodies import Body, Ground
 from .drivers import Driver
 from .errors import ModelError
@@ -40,6 +43,8 @@ class Model:
         self.joints: list[Joint] = []
         self.forces: list[ForceElement] = []
         self.drivers: list[Driver] = []
+        # elements replaced when their names were resolved: the object a user holds -> the model's
+        self._aliases: dict = {}
 
     def add(self, *items):
         """Add bodies, joints, force elements and drivers (in any order).
@@ -47,7 +52,10 @@ class Model:
         Parameters
         ----------
         *items : Body, Joint, ForceElement or Driver
-            Elements to add; bodies used by a joint are added with it.
+            Elements to add; bodies used by a joint are added with it
+            (those it gives by name are added on their own). An element
+            may name another that is added later: names are resolved by
+            :meth:`validate`.
 
         Returns
         -------
@@ -67,8 +75,8 @@ class Model:
                     self.bodies.append(item)
             elif isinstance(item, Joint):
                 self.joints.append(item)
-                for b in (item.parent, item.child):
-                    if not isinstance(b, Ground) and b not in self.bodies:
+                for b in (item.parent, item.child):  # a body given by name is added on its own
+                    if isinstance(b, Body) and not isinstance(b, Ground) and b not in self.bodies:
                         self.bodies.append(b)
             elif isinstance(item, ForceElement):
                 self.forces.append(item)
@@ -79,6 +87,84 @@ class Model:
                     f"Model {self.name!r}: cannot add {item!r}; expected a Body, Joint, ForceElement or Driver"
                 )
         return self
+
+    def element(self, ref, kind: type = object):
+        """The model's element given by object or by name.
+
+        Parameters
+        ----------
+        ref : Body, Joint, ForceElement, Driver or str
+            The element, or its name.
+        kind : type
+            Look among the elements of this class only (``fm.Joint``,
+            ``fm.FlexibleBody``, ...); default: all, the ground included.
+
+        Returns
+        -------
+        Body, Joint, ForceElement or Driver
+            The element of the model. For an element that named another by
+            name, it is the one the model holds since it resolved the name
+            (:meth:`resolve`).
+
+        Raises
+        ------
+        ModelError
+            If no element of that kind has the name (the message lists the
+            known ones), or the object is not in the model.
+
+        Examples
+        --------
+        >>> import flexmb as fm
+        >>> model = fm.Model()
+        >>> bar = fm.RigidBody.slender_bar("bar", 1.0, 1.0)
+        >>> _ = model.add(fm.Revolute("pin", model.ground, bar))
+        >>> model.element("pin") is model.element(model["pin"], fm.Joint)
+        True
+        """
+        pool = [self.ground, *self.bodies, *self.joints, *self.forces, *self.drivers]
+        return find(ref, kind, pool, f"Model {self.name!r}", self._aliases)
+
+    def resolve(self) -> list[str]:
+        """Replace the names that elements give for other elements by those elements.
+
+        A joint may name its bodies, a driver its joint and a force element
+        its bodies or joint before those are added; each such element is
+        replaced in the model by a copy holding the objects (the object the
+        caller holds keeps working with :meth:`element` and
+        :class:`~flexmb.System`'s look-ups). :meth:`validate` calls this.
+
+        Returns
+        -------
+        list of str
+            One message per name that names no element of the model, each
+            naming the element that gave it (empty when all resolved).
+        """
+        problems = []
+        pool = [self.ground, *self.bodies, *self.joints, *self.forces, *self.drivers]
+        for what, group in (("joint", self.joints), ("force element", self.forces), ("driver", self.drivers)):
+            for i, e in enumerate(group):
+                if not attrs.has(type(e)):
+                    continue
+                changes, bad = {}, False
+                for a in attrs.fields(type(e)):
+                    cls, value = a.metadata.get(REFERENCE), getattr(e, a.name)
+                    if cls is None or not (isinstance(value, str) or value in self._aliases):
+                        continue
+                    try:
+                        found = find(value, cls, pool, f"{what} {e.name!r}", self._aliases)
+                        changes[a.alias] = self._aliases.get(found, found)
+                    except ModelError as exc:
+                        bad = True
+                        problems.append(str(exc))
+                if changes and not bad:
+                    try:
+                        new = attrs.evolve(e, **changes)
+                    except ModelError as exc:
+                        problems.append(str(exc))
+                        continue
+                    group[i] = new
+                    self._aliases[e] = new
+        return problems
 
     def __getitem__(self, name: str):
         for group in (self.bodies, self.joints, self.forces, self.drivers):
@@ -97,7 +183,9 @@ class Model:
         list of str
             One message per problem, each naming the element.
         """
-        out: list[str] = []
+        out: list[str] = self.resolve()
+        unresolved = {e for group in (self.joints, self.forces, self.drivers) for e in group
+                      if _names_left(e)}
         for kind, group in (("body", self.bodies), ("joint", self.joints),
                             ("force element", self.forces), ("driver", self.drivers)):
             for name, count in Counter(e.name for e in group).items():
@@ -116,6 +204,8 @@ class Model:
         joints = set(self.joints)
         bodies = set(self.bodies) | {self.ground}
         for f in self.forces:
+            if f in unresolved:
+                continue
             out.extend(f.check(self))
             for attr in ("body", "body1", "body2"):
                 b = getattr(f, attr, None)
@@ -126,6 +216,8 @@ class Model:
                 out.append(f"force element {f.name!r}: joint {j.name!r} is not in the model")
         seen = {}
         for d in self.drivers:
+            if d in unresolved:
+                continue
             if d.joint not in joints:
                 out.append(f"driver {d.name!r}: joint {d.joint.name!r} is not in the model")
             key = (id(d.joint), d.coordinate)
@@ -140,7 +232,9 @@ class Model:
         Raises
         ------
         ModelError
-            With ``.problems`` holding all messages; a model that would not
+            With ``.problems`` holding all messages (among them, each name
+            an element gives that names nothing in the model:
+            ``driver 'motor': no joint named 'A'; joints: ['pin']``); a model that would not
             fit in the available memory (:func:`flexmb.memory.check`) is
             refused before anything is allocated.
         """
@@ -177,3 +271,10 @@ class Model:
 
         self.validate()
         return System(self, **options)
+
+
+def _names_left(element) -> bool:
+    """Whether a definition still holds a name where it refers to another element."""
+    return attrs.has(type(element)) and any(
+        a.metadata.get(REFERENCE) is not None and isinstance(getattr(element, a.name), str)
+        for a in attrs.fields(type(element)))

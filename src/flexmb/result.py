@@ -8,7 +8,11 @@ import numpy as np
 from attrs import define, field
 
 from ._files import atomic_write
-from .errors import FlexmbError
+from ._names import name_of
+from .bodies import Body
+from .drivers import Driver
+from .errors import ModelError
+from .joints import Joint
 
 __all__ = ["Result"]
 
@@ -76,6 +80,11 @@ class Result:
         Name of the integrator used (after ``'auto'`` chose one).
     complement : str
         Name of the complement strategy used.
+    system : System, optional
+        The compiled model the result came from (set by
+        :func:`~flexmb.simulate`), so that bodies can be given by name to
+        :meth:`section_loads` and the like. Neither saved by :meth:`save`
+        nor pickled.
     """
 
     t: np.ndarray
@@ -107,40 +116,57 @@ class Result:
     message: str = ""
     method: str = ""
     complement: str = ""
+    system: object = field(default=None, repr=False, eq=False)
+
+    def __getstate__(self):
+        # the compiled system holds the model's callables (drivers, loads), often lambdas
+        return {a.name: getattr(self, a.name) for a in type(self).__attrs_attrs__ if a.name != "system"}
+
+    def __setstate__(self, state):
+        for k, v in state.items():
+            object.__setattr__(self, k, v)
+        object.__setattr__(self, "system", None)
 
     @property
     def energy(self) -> np.ndarray:
         """Total mechanical energy (kinetic + potential), J."""
         return self.kinetic + self.potential
 
-    def coordinate(self, name: str) -> np.ndarray:
-        """History of one coordinate by its name (``"joint.coordinate"`` or a joint name).
+    def coordinate(self, name) -> np.ndarray:
+        """History of one coordinate by its name (``"joint.coordinate"``), or a joint's first coordinate.
 
         Parameters
         ----------
-        name : str
-            Coordinate name; a joint name alone selects its first coordinate.
+        name : str or Joint
+            Coordinate name; a joint, or its name alone, selects its first
+            coordinate.
 
         Returns
         -------
         ndarray, shape (nt,)
             Values at the output times.
+
+        Raises
+        ------
+        ModelError
+            If no coordinate has that name; the message lists them.
         """
+        name = name_of(name, Joint, "Result.coordinate")
         names = self.coordinate_names
         if name in names:
             return self.x[:, names.index(name)]
         for i, c in enumerate(names):
             if c.rsplit(".", 1)[0] == name:
                 return self.x[:, i]
-        raise FlexmbError(f"no coordinate {name!r}; known: {names}")
+        raise ModelError(f"no coordinate {name!r}; known: {names}")
 
-    def body_position(self, name: str) -> np.ndarray:
+    def body_position(self, name) -> np.ndarray:
         """Mass-centre position history of a body.
 
         Parameters
         ----------
-        name : str
-            Body name.
+        name : str or Body
+            The body or its name.
 
         Returns
         -------
@@ -149,51 +175,64 @@ class Result:
 
         Raises
         ------
-        FlexmbError
-            If no body has that name.
+        ModelError
+            If no body has that name; the message lists them.
         """
+        name = name_of(name, Body, "Result.body_position")
         try:
             return self.positions[:, self.body_names.index(name)]
         except ValueError:
-            raise FlexmbError(f"no body {name!r}; known: {self.body_names}") from None
+            raise ModelError(f"no body {name!r}; known: {self.body_names}") from None
 
-    def shape(self, name: str) -> np.ndarray:
+    def shape(self, name) -> np.ndarray:
         """Deformed centre line of a flexible body: the segment ends.
 
         Parameters
         ----------
-        name : str
-            Name of a :class:`~flexmb.FlexibleBody`.
+        name : str or FlexibleBody
+            A :class:`~flexmb.FlexibleBody` or its name.
 
         Returns
         -------
         ndarray, shape (nt, n_segments + 1, 3)
             Inertial positions of the root, every segment joint and the tip, m.
+
+        Raises
+        ------
+        ModelError
+            If no flexible body has that name; the message lists them.
         """
+        name = name_of(name, Body, "Result.shape")
         if name not in self.flexible:
-            raise FlexmbError(f"no flexible body {name!r}; flexible bodies: {sorted(self.flexible)}")
+            raise ModelError(f"no flexible body {name!r}; flexible bodies: {sorted(self.flexible)}")
         rows, l = self.flexible[name]
         rows = np.asarray(rows, dtype=int)
         ends = self.origins[:, rows]
         tip = ends[:, -1] + self.rotations[:, rows[-1], :, 0] * l
         return np.concatenate([ends, tip[:, None]], axis=1)
 
-    def driver_effort(self, name: str) -> np.ndarray:
+    def driver_effort(self, name) -> np.ndarray:
         """Torque (N m) or force (N) a driver supplies, shape (nt,).
 
         Parameters
         ----------
-        name : str
-            Driver name.
+        name : str or Driver
+            The driver or its name.
 
         Returns
         -------
         ndarray, shape (nt,)
             The effort applied to the driven coordinate.
+
+        Raises
+        ------
+        ModelError
+            If no driver has that name; the message lists them.
         """
+        name = name_of(name, Driver, "Result.driver_effort")
         label = f"driver {name}"
         if label not in self.constraint_labels:
-            raise FlexmbError(f"no driver {name!r}; known: {self.driver_names}")
+            raise ModelError(f"no driver {name!r}; known: {self.driver_names}")
         return self.reactions[:, self.constraint_labels.index(label)]
 
     def export_vtk(self, folder, **kw):
@@ -220,8 +259,8 @@ class Result:
 
         Parameters
         ----------
-        coords : list of str, optional
-            Coordinate or joint names (default all).
+        coords : list of str or Joint, optional
+            Coordinate names, or joints or their names (default all).
         path : str or path-like, optional
             Save the figure there (PNG, PDF, ... by its ending).
         **kw
@@ -291,7 +330,8 @@ class Result:
         Parameters
         ----------
         body : FlexibleBody or str
-            The body (a name needs ``system``).
+            The body, or its name (looked up in ``system``, else in the
+            system the result came from, ``Result.system``).
         system : System or Model, optional
             With it, also the components the body does not keep.
 
@@ -311,7 +351,8 @@ class Result:
         Parameters
         ----------
         body : FlexibleBody or str
-            The body (a name needs ``system``).
+            The body, or its name (looked up in ``system``, else in the
+            system the result came from, ``Result.system``).
         system : System or Model, optional
             To look the body up by name.
 
@@ -330,7 +371,8 @@ class Result:
         Parameters
         ----------
         body : FlexibleBody or str
-            The body (a name needs ``system``).
+            The body, or its name (looked up in ``system``, else in the
+            system the result came from, ``Result.system``).
         system : System or Model, optional
             With it, the loads the body does not keep count too.
 

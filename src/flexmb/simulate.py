@@ -12,6 +12,7 @@ from . import memory, registry
 from ._validate import simulate_arguments
 from .errors import AssemblyError, FlexmbError, ModelError, SimulationError, StiffnessWarning
 from .genalpha import GeneralizedAlpha
+from .joints import Joint
 from .integrators import IDA, CVODEAdams, CVODEBDF, adapt, capabilities
 from .result import Result
 from .progress import Progress, shown
@@ -42,9 +43,10 @@ def _as_system(model_or_system, complement):
 
 
 def _coordinate_mask(system, names):
-    """Boolean mask of coordinates from names (coordinate or joint names)."""
+    """Boolean mask of coordinates from names (coordinate or joint names) or joints."""
     mask = np.zeros(system.n_coords, bool)
     for name in names:
+        name = name if isinstance(name, str) else system.model.element(name, Joint).name
         hits = [i for i, c in enumerate(system.coordinate_names) if c == name or c.rsplit(".", 1)[0] == name]
         if not hits:
             raise ModelError(f"no coordinate or joint named {name!r}; coordinates are {system.coordinate_names}")
@@ -81,12 +83,13 @@ def initial_state(system, t0: float = 0.0, positions=None, speeds=None, x0=None,
     t0 : float
         Initial time, s.
     positions, speeds : dict, optional
-        ``{name: value}`` with a coordinate name (``"joint.angle"``) or a
-        joint name (all its coordinates).
+        ``{name: value}`` with a coordinate name (``"joint.angle"``), or a
+        joint or its name (all its coordinates).
     x0, xd0 : array_like, shape (n,), optional
         Full initial vectors (override ``positions`` / ``speeds``).
-    fixed : list of str, optional
-        Coordinates (or joints) to hold at their given values during assembly.
+    fixed : list of str or Joint, optional
+        Coordinates (or joints, or their names) to hold at their given values
+        during assembly.
 
     Returns
     -------
@@ -223,8 +226,9 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         ``AUTO_IMPLICIT_STEPS`` steps just to stay stable, DOP853 otherwise.
     rtol, atol : float
         Integration tolerances (``atol`` defaults to ``rtol / 100``).
-    complement : {'svd', 'eigen'} or ComplementStrategy, optional
-        Orthogonal complement strategy (default: the system's, ``'svd'``).
+    complement : {'svd', 'eigen', 'qr', 'auto'} or ComplementStrategy, optional
+        Orthogonal complement strategy, or a registered plugin's name
+        (default: the system's, ``'svd'``).
     projection_tol : float
         Largest residual ``|phi|`` or ``|psi xd - b|`` tolerated before projecting.
     max_step : float
@@ -567,4 +571,5 @@ def _collect(system, t, Y) -> Result:
         driver_names=[d.name for d in system.constraints.drivers],
         flexible={b.name: ([system.topology.index[sg] for sg in segs], b.segment_length)
                   for b, (_, segs, _) in system.topology.flexible.items()},
+        system=system,
     )

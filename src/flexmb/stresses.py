@@ -29,8 +29,10 @@ from __future__ import annotations
 import numpy as np
 from attrs import field, frozen
 
+from ._names import name_of
 from .errors import FlexmbError
 from .flexible import FlexibleBody, segment_joint_class
+from .joints import Joint
 from .rotations import cross
 from .kernels.dynamics import subtree_sums
 
@@ -220,13 +222,13 @@ class JointLoads:
     force: np.ndarray
     moment: np.ndarray
 
-    def joint(self, name: str) -> tuple[np.ndarray, np.ndarray]:
+    def joint(self, name) -> tuple[np.ndarray, np.ndarray]:
         """Force and moment histories of one joint, each shape (nt, 3).
 
         Parameters
         ----------
-        name : str
-            Joint name.
+        name : str or Joint
+            The joint or its name.
 
         Returns
         -------
@@ -238,6 +240,7 @@ class JointLoads:
         FlexmbError
             If there is no such joint.
         """
+        name = name_of(name, Joint, "JointLoads.joint")
         try:
             i = self.names.index(name)
         except ValueError:
@@ -255,6 +258,7 @@ def _resolve(result, body, system=None) -> FlexibleBody:
     """The FlexibleBody named or given, checked against the result."""
     flexible = sorted(result.flexible)
     if isinstance(body, str):
+        system = system if system is not None else getattr(result, "system", None)  # to look the name up
         if system is not None:
             topo = getattr(system, "topology", None)
             if topo is None:  # a Model
@@ -265,7 +269,7 @@ def _resolve(result, body, system=None) -> FlexibleBody:
         if isinstance(body, str):
             if body in result.flexible:
                 raise FlexmbError(f"{body!r}: pass the FlexibleBody itself, or system=, to compute its section "
-                                  "loads (a Result does not store section and material data)")
+                                  "loads (a loaded Result keeps no section and material data)")
             raise FlexmbError(f"{body!r} is not a flexible body of the result; flexible bodies: {flexible}")
     if not isinstance(body, FlexibleBody):
         raise FlexmbError(f"{getattr(body, 'name', body)!r} is not a flexible body "
@@ -327,7 +331,8 @@ def section_loads(result, body, system=None) -> SectionField:
     result : Result
         A simulation result.
     body : FlexibleBody or str
-        The body (a name needs ``system``).
+        The body, or its name (looked up in ``system``, else in the system
+        the result came from, ``result.system``).
     system : System or Model, optional
         The model the result came from. Without it, only the components the
         body keeps are returned (from its springs and dampers); with it, all
@@ -404,7 +409,8 @@ def section_strains(result, body, system=None) -> SectionField:
     result : Result
         A simulation result.
     body : FlexibleBody or str
-        The body (a name needs ``system``).
+        The body, or its name (looked up in ``system``, else in the system
+        the result came from, ``result.system``).
     system : System or Model, optional
         Only to look a body up by name.
 
@@ -440,7 +446,8 @@ def section_stresses(result, body, system=None) -> SectionField:
     result : Result
         A simulation result.
     body : FlexibleBody or str
-        The body (a name needs ``system``).
+        The body, or its name (looked up in ``system``, else in the system
+        the result came from, ``result.system``).
     system : System or Model, optional
         With it the section loads include the components the body does not
         keep (see :func:`section_loads`); without it those contribute 0.
@@ -730,5 +737,5 @@ def state_result(system, x, xd=None, *, xdd=None, t: float = 0.0):
         driver_names=[d.name for d in system.constraints.drivers],
         flexible={b.name: ([topo.index[sg] for sg in segs], b.segment_length)
                   for b, (_, segs, _) in topo.flexible.items()},
-        status="finished", message="given states",
+        status="finished", message="given states", system=system,
     )

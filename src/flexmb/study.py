@@ -45,15 +45,16 @@ from __future__ import annotations
 import csv
 import ctypes
 import hashlib
+import inspect
 import io
 import json
+import logging
 import math
 import multiprocessing
 import os
 import select
 import signal
 import socket
-import sys
 import threading
 import time
 import tomllib
@@ -68,6 +69,8 @@ from ._files import atomic_write
 from .progress import Progress
 from .errors import FlexmbError, SceneError
 
+log = logging.getLogger(__name__)
+
 __all__ = ["Distribution", "DISTRIBUTIONS", "OUTPUTS", "SAMPLINGS", "Study", "StudyResult", "parse_spec",
            "parse_value", "run_study"]
 
@@ -81,25 +84,29 @@ META_COLUMNS = ("case", "case_id", "status", "error", "wall_time_s", "worker")
 # ----------------------------------------------------------------------------- parameter specs
 
 
-def _ppf_uniform(u, a, b):
-    return a + (b - a) * u
+def _uniform(a, b):
+    from scipy import stats
+
+    return stats.uniform(loc=a, scale=b - a)
 
 
-def _ppf_loguniform(u, a, b):
-    return np.exp(np.log(a) + (np.log(b) - np.log(a)) * u)
+def _loguniform(a, b):
+    from scipy import stats
+
+    return stats.loguniform(a, b)
 
 
-def _ppf_normal(u, a, b):
-    from scipy.special import ndtri
+def _normal(a, b):
+    from scipy import stats
 
-    return a + b * ndtri(u)
+    return stats.norm(loc=a, scale=b)
 
 
-#: random distributions: name -> (inverse CDF ``ppf(u, a, b)``, meaning of a and b)
+#: random distributions: name -> (``make(a, b)`` giving the frozen scipy.stats distribution, meaning of a and b)
 DISTRIBUTIONS = {
-    "uniform": (_ppf_uniform, "low, high"),
-    "loguniform": (_ppf_loguniform, "low, high (both > 0)"),
-    "normal": (_ppf_normal, "mean, standard deviation"),
+    "uniform": (_uniform, "low, high"),
+    "loguniform": (_loguniform, "low, high (both > 0)"),
+    "normal": (_normal, "mean, standard deviation"),
 }
 
 
@@ -140,6 +147,17 @@ class Distribution:
         if self.kind == "loguniform" and not self.a > 0:
             raise FlexmbError(f"Distribution 'loguniform': low must be > 0, got {self.a}")
 
+    def as_scipy(self):
+        """The distribution as a frozen :mod:`scipy.stats` distribution.
+
+        Returns
+        -------
+        scipy.stats.rv_continuous_frozen
+            ``uniform(loc=a, scale=b - a)``, ``loguniform(a, b)`` or
+            ``norm(loc=a, scale=b)``: its ``ppf``, ``cdf``, ``mean()``, ...
+        """
+        return DISTRIBUTIONS[self.kind][0](self.a, self.b)
+
     def ppf(self, u) -> np.ndarray:
         """Inverse cumulative distribution: the value at probability ``u``.
 
@@ -153,7 +171,7 @@ class Distribution:
         ndarray
             Values, same shape as ``u``.
         """
-        return DISTRIBUTIONS[self.kind][0](np.asarray(u, dtype=float), self.a, self.b)
+        return np.asarray(self.as_scipy().ppf(np.asarray(u, dtype=float)), dtype=float)
 
 
 def parse_value(text: str):
@@ -715,9 +733,8 @@ class _Progress:
     def __init__(self, total: int, already: int, enabled: bool):
         self.total, self.already, self.enabled = total, already, enabled
         self.done = self.failed = 0
-        if enabled and already:
-            print(f"study: {already} of {total} cases done before, running the other {total - already}",
-                  file=sys.stderr)
+        if already:
+            log.info("study: %d of %d cases done before, running the other %d", already, total, total - already)
         self.bar = Progress(total, "study", "cases", enabled=enabled, initial=already)
 
     def update(self, row: dict) -> None:
@@ -758,6 +775,23 @@ def case_id(parameters: dict) -> str:
     True
     """
     return _hash(parameters)[:16]
+
+
+def _unit_samples(sampling: str, n: int, d: int, seed: int) -> np.ndarray:
+    """``n`` points in the unit cube of dimension ``d``, reproducible by ``seed``.
+
+    ``'lhs'``: a scrambled Latin hypercube (:class:`scipy.stats.qmc.LatinHypercube`),
+    one point in each of the ``n`` equal strata of every dimension;
+    ``'mc'``: independent uniform draws.
+    """
+    rng = np.random.default_rng(seed)
+    if sampling == "mc":
+        return rng.random((n, d))
+    from scipy.stats import qmc
+
+    # scipy >= 1.15 takes the generator as rng (SPEC 7); earlier releases as seed
+    key = "rng" if "rng" in inspect.signature(qmc.LatinHypercube).parameters else "seed"
+    return qmc.LatinHypercube(d, **{key: rng}).random(n)
 
 
 def _check_vary(instance, attribute, value):
@@ -888,15 +922,9 @@ class Study:
         for k in grid:
             rows = [dict(r, **{k: v}) for r in rows for v in self.vary[k]]
         if random:
-            rng = np.random.default_rng(self.seed)
             n = self.samples
-            draws = {}
-            for k in random:
-                if self.sampling == "lhs":  # one point per stratum [i/n, (i+1)/n), strata shuffled
-                    u = (rng.permutation(n) + rng.uniform(size=n)) / n
-                else:
-                    u = rng.uniform(size=n)
-                draws[k] = [float(v) for v in self.vary[k].ppf(u)]
+            u = _unit_samples(self.sampling, n, len(random), self.seed)
+            draws = {k: [float(v) for v in self.vary[k].ppf(u[:, j])] for j, k in enumerate(random)}
             rows = [dict(r, **{k: draws[k][i] for k in random}) for r in rows for i in range(n)]
         return rows
 

@@ -15,7 +15,10 @@ from .forces import Loads
 from .complements import SVDComplement, get_complement
 from .complements.base import PSI_ZERO
 from .constraints import Constraints
+from .bodies import Body
 from .errors import AssemblyError, ModelError
+from .flexible import FlexibleBody
+from .joints import Joint
 from .kinematics import Kinematics
 from .topology import Topology
 from .forces.tables import class_tables, merge
@@ -47,7 +50,8 @@ class System:
     model : Model
         A validated model.
     complement : str or ComplementStrategy
-        Orthogonal complement strategy (``"svd"`` or ``"eigen"``).
+        Orthogonal complement strategy (``"svd"``, ``"eigen"``, ``"qr"``,
+        ``"auto"`` or a registered plugin's name).
     sparse : bool or None
         Solve the equations of an open tree by the articulated-body
         recursion (:mod:`flexmb.kernels.articulated`: O(n) per evaluation,
@@ -70,6 +74,8 @@ class System:
     """
 
     def __init__(self, model, complement="svd", sparse=None):
+        if model.resolve():  # an element names one the model lacks: raise every problem
+            model.validate()
         self.model = model
         memory.check(model, what=f"Model {model.name!r}")  # before Topology allocates its arrays
         self.topology = Topology(model)
@@ -212,9 +218,9 @@ class System:
 
         Parameters
         ----------
-        body : Body
-            A body of the model or the ground (a flexible body gives the row
-            of its first segment).
+        body : Body or str
+            A body of the model or the ground, or its name (a flexible body
+            gives the row of its first segment).
 
         Returns
         -------
@@ -226,6 +232,8 @@ class System:
         ModelError
             If the body is not in the model.
         """
+        if isinstance(body, str):
+            body = self.model.element(body, Body)
         try:
             return self.topology.index[body]
         except KeyError:
@@ -236,15 +244,15 @@ class System:
 
         Parameters
         ----------
-        joint : Joint
-            A tree (not cut) joint of the model.
+        joint : Joint or str
+            A tree (not cut) joint of the model, or its name.
 
         Returns
         -------
         slice
             Its coordinates' positions in x.
         """
-        return self.topology.coordinate_slice(joint)
+        return self.topology.coordinate_slice(self.model.element(joint, Joint))
 
     def complement(self, psi):
         """Orthogonal complement of psi by the system's strategy (eqs. 30-37).
@@ -811,8 +819,8 @@ class System:
 
         Parameters
         ----------
-        body : FlexibleBody
-            A flexible body of the model.
+        body : FlexibleBody or str
+            A flexible body of the model, or its name.
         x : ndarray, shape (n,)
             Coordinates.
         t : float
@@ -823,6 +831,7 @@ class System:
         ndarray, shape (n_segments + 1, 3)
             Root, segment joints and tip, inertial, m.
         """
+        body = self.model.element(body, FlexibleBody)
         if body not in self.topology.flexible:
             raise ModelError(f"{getattr(body, 'name', body)!r} is not a flexible body of the model")
         kin = self.kinematics(t, x, np.zeros_like(x))

@@ -19,7 +19,9 @@ import numpy as np
 from attrs import evolve, field, frozen
 
 from ._files import atomic_write
+from ._names import name_of
 from .errors import ExportError
+from .joints import Joint
 
 __all__ = ["RenderOptions", "render_state", "animate", "plot", "plot_envelope", "plot_station"]
 
@@ -366,10 +368,11 @@ def _columns(result, coords) -> list[int]:
     names = list(result.coordinate_names)
     if coords is None:
         return list(range(len(names)))
-    if isinstance(coords, str):
+    if isinstance(coords, (str, Joint)):
         coords = [coords]
     cols = []
     for c in coords:
+        c = name_of(c, Joint, "plot")
         hits = [names.index(c)] if c in names else [k for k, n in enumerate(names) if n.rsplit(".", 1)[0] == c]
         if not hits:
             raise ExportError(f"no coordinate or joint {c!r}; coordinates are {names}")
@@ -384,9 +387,9 @@ def plot(result, coords=None, path=None, *, energy: bool = False, figsize=(7.0, 
     ----------
     result : Result
         A simulation result.
-    coords : str or list of str, optional
-        Coordinate names (``"joint.angle"``) or joint names (all their
-        coordinates); default all.
+    coords : str, Joint or list of them, optional
+        Coordinate names (``"joint.angle"``), or joints or their names (all
+        their coordinates); default all.
     path : str or path-like, optional
         Save the figure there; the ending picks the format (``.png``,
         ``.pdf``, ``.svg``). Without it the figure is made with pyplot, to

@@ -8,7 +8,8 @@ from typing import Any
 import numpy as np
 from attrs import field, frozen
 
-from .._validate import as_array, is_a, label, name_check, vector3
+from .._names import reference
+from .._validate import as_array, label, name_check, vector3
 from ..bodies import Body
 from ..errors import ModelError
 from . import ForceElement
@@ -51,8 +52,8 @@ class PointForce(ForceElement):
     ----------
     name : str
         Unique name.
-    body : Body
-        Body the force acts on.
+    body : Body or str
+        Body the force acts on, or its name.
     force : array_like, shape (3,), or callable
         Force, N: a constant vector, or ``f(t)`` / ``f(t, state)`` returning one.
     point : array_like, shape (3,)
@@ -80,7 +81,7 @@ class PointForce(ForceElement):
     [-1.]
     """
 
-    body: Body = field(validator=is_a(Body))
+    body: Body = reference(Body)
     force: Any = field(converter=_vector_or_callable, validator=_check_value)
     point: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
     frame: str = field(default="ground", validator=_check_frame)
@@ -135,8 +136,8 @@ class BodyTorque(ForceElement):
     ----------
     name : str
         Unique name.
-    body : Body
-        Body the torque acts on.
+    body : Body or str
+        Body the torque acts on, or its name.
     torque : array_like, shape (3,), or callable
         Torque, N m: a constant vector, or ``f(t)`` / ``f(t, state)``.
     frame : {'ground', 'body'}
@@ -162,7 +163,7 @@ class BodyTorque(ForceElement):
     array([6.])
     """
 
-    body: Body = field(validator=is_a(Body))
+    body: Body = reference(Body)
     torque: Any = field(converter=_vector_or_callable, validator=_check_value)
     frame: str = field(default="ground", validator=_check_frame)
     point: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)

@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 from attrs import field, frozen
 
-from .._validate import as_array, finite_array, is_a, label, name_check, vector3
+from .._names import reference
+from .._validate import as_array, finite_array, label, name_check, vector3
 from ..bodies import Body
 from ..joints import Joint
 from . import ForceElement
@@ -32,12 +33,12 @@ class SpringDamper(ForceElement):
     ----------
     name : str
         Unique name.
-    body1 : Body
-        The first body (it may be the ground).
+    body1 : Body or str
+        The first body (it may be the ground), or its name.
     point1 : array_like, shape (3,)
         Attachment point in the frame of ``body1``, m.
-    body2 : Body
-        The second body (it may be the ground).
+    body2 : Body or str
+        The second body (it may be the ground), or its name.
     point2 : array_like, shape (3,)
         Attachment point in the frame of ``body2``, m.
     stiffness : float
@@ -76,9 +77,9 @@ class SpringDamper(ForceElement):
     array([5.])
     """
 
-    body1: Body = field(validator=is_a(Body))
+    body1: Body = reference(Body)
     point1: np.ndarray = field(converter=as_array, validator=vector3)
-    body2: Body = field(validator=is_a(Body))
+    body2: Body = reference(Body)
     point2: np.ndarray = field(converter=as_array, validator=vector3)
     stiffness: float = field(converter=float, validator=_non_negative)
     damping: float = field(default=0.0, converter=float, validator=_non_negative)
@@ -152,8 +153,8 @@ class JointSpringDamper(ForceElement):
     ----------
     name : str
         Unique name.
-    joint : Joint
-        A tree joint with coordinates.
+    joint : Joint or str
+        A tree joint with coordinates, or its name.
     stiffness : float or array_like, shape (n_coords,)
         N m/rad on angles, N/m on slides.
     damping : float or array_like, shape (n_coords,)
@@ -186,7 +187,7 @@ class JointSpringDamper(ForceElement):
     0.25
     """
 
-    joint: Joint = field(validator=is_a(Joint))
+    joint: Joint = reference(Joint)
     stiffness: np.ndarray = field(converter=as_array, validator=_non_negative)
     damping: np.ndarray = field(default=0.0, converter=as_array, validator=_non_negative)
     rest: np.ndarray = field(default=0.0, converter=as_array, validator=finite_array)

@@ -8,7 +8,7 @@ folder inside it and swapped into place at the end, ``summary.json`` last
 
 from __future__ import annotations
 
-import sys
+import logging
 
 import numpy as np
 
@@ -17,6 +17,8 @@ from ..errors import FlexmbError
 from ..simulate import simulate
 
 __all__ = ["SCENES", "run_scene", "write_outputs"]
+
+log = logging.getLogger(__name__)
 
 SCENES = ("fourbar", "wiper")
 
@@ -28,7 +30,7 @@ def _plt():
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError:
-        print("matplotlib is not installed (pip install -e '.[viz]'): no plots written", file=sys.stderr)
+        log.warning("matplotlib is not installed (pip install -e '.[viz]'): no plots written")
         return None
     return plt
 
@@ -59,7 +61,7 @@ def _vtk(res, folder, sub, prefix, system):
         if not folder.staged(PARAVIEW_SCRIPT):
             paraview_script(folder.stage(PARAVIEW_SCRIPT))
     except ImportError as exc:  # meshio missing
-        print(f"no VTK written: {exc}", file=sys.stderr)
+        log.warning("no VTK written: %s", exc)
         return None
     return folder.final(rel)
 

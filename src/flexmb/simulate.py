@@ -292,19 +292,20 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     else:
         _warn_if_stiff(system, solver_cls, t0, t_end, x, xd)
     n_drv = len(system.constraints.drivers)
-    kin0 = system.kinematics(t0, x, xd)
-    psi_loops = system.constraints.evaluate(kin0, level=1)[1][: system.n_constraints - n_drv]
-    if system.strategy.complement(psi_loops).p == 0:
-        raise ModelError(
-            f"the model has no degree of freedom left: its {system.n_coords} coordinates are all fixed by "
-            f"{system.n_constraints - n_drv} loop-closure rows (a structure, not a mechanism)"
-        )
-    # the rank of psi is judged once, on the assembled state: off the constraint manifold
-    # (integrator stages) redundant rows (Bricard linkage) would look independent
-    c0 = system.strategy.complement(system.constraints.evaluate(kin0, level=1)[1])
-    # and the scale of the singular-position filter (ComplementStrategy.singular_window): the run
-    # works on a calibrated copy, the caller's system is unchanged
-    system = system.calibrated(c0.rank, float(c0.singular_values()[c0.rank - 1]) if c0.rank else None)
+    if system.n_constraints:  # an open tree has no rows to judge (and no n x n complement is formed)
+        kin0 = system.kinematics(t0, x, xd)
+        psi_loops = system.constraints.evaluate(kin0, level=1)[1][: system.n_constraints - n_drv]
+        if system.strategy.complement(psi_loops).p == 0:
+            raise ModelError(
+                f"the model has no degree of freedom left: its {system.n_coords} coordinates are all fixed by "
+                f"{system.n_constraints - n_drv} loop-closure rows (a structure, not a mechanism)"
+            )
+        # the rank of psi is judged once, on the assembled state: off the constraint manifold
+        # (integrator stages) redundant rows (Bricard linkage) would look independent
+        c0 = system.strategy.complement(system.constraints.evaluate(kin0, level=1)[1])
+        # and the scale of the singular-position filter (ComplementStrategy.singular_window): the run
+        # works on a calibrated copy, the caller's system is unchanged
+        system = system.calibrated(c0.rank, float(c0.singular_values()[c0.rank - 1]) if c0.rank else None)
     n = system.n_coords
     times = np.linspace(t0, t_end, n_out) if t_eval is None else np.asarray(t_eval, dtype=float)
     if times.ndim != 1 or np.any(np.diff(times) <= 0) or times[0] < t0 or times[-1] > t_end:
@@ -550,9 +551,12 @@ def _collect(system, t, Y) -> Result:
     for i in range(nt):
         x, xd = Y[i, :n], Y[i, n:]
         kin = system.kinematics(t[i], x, xd)
-        A, f, psi, gamma = system.reduced_parts(t[i], Y[i])
         try:
-            xdd[i], lam_i = system._solve(t[i], A, f, psi, gamma, multipliers=True)
+            if m == 0:  # no reactions: the system's own route (O(n) for an open tree)
+                xdd[i], lam_i = system.accelerations(t[i], x, xd), np.zeros(0)
+            else:
+                A, f, psi, gamma = system.reduced_parts(t[i], Y[i])
+                xdd[i], lam_i = system._solve(t[i], A, f, psi, gamma, multipliers=True)
         except FlexmbError:
             xdd[i], lam_i = np.nan, np.full(m, np.nan)
         pos[i] = kin.r[:-1]

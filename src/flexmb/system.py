@@ -872,6 +872,8 @@ class System:
         int
             Number of independent speeds p.
         """
+        if not self.n_constraints:
+            return self.n_coords
         x = np.zeros(self.n_coords) if x is None else x
         _, psi, _ = self.constraints.evaluate(self.kinematics(t, x, np.zeros_like(x)), level=1)
         return self.strategy.complement(psi).p

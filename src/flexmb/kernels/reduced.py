@@ -76,10 +76,20 @@ def filtered(s, g, w):
     return out
 
 
+#: reduced mass matrices up to this size are factored by the loops below, larger ones by LAPACK
+SMALL_CHOLESKY = 48
+
+
 @njit(cache=True)
 def _cholesky_solve(M, b):
     """``M z = b`` for symmetric positive definite M; (z, True), or (b, False) if M is not positive definite."""
     p = M.shape[0]
+    if p > SMALL_CHOLESKY:
+        try:
+            L = np.linalg.cholesky(M)
+        except Exception:  # not positive definite
+            return b, False
+        return _triangular_solves(L, b), True
     L = np.zeros((p, p))
     for j in range(p):
         d = M[j, j]
@@ -93,6 +103,13 @@ def _cholesky_solve(M, b):
             for k in range(j):
                 v -= L[i, k] * L[j, k]
             L[i, j] = v / L[j, j]
+    return _triangular_solves(L, b), True
+
+
+@njit(cache=True)
+def _triangular_solves(L, b):
+    """``z`` with ``L L^T z = b`` (L lower triangular)."""
+    p = L.shape[0]
     z = b.copy()
     for i in range(p):
         for k in range(i):
@@ -102,7 +119,7 @@ def _cholesky_solve(M, b):
         for k in range(i + 1, p):
             z[i] -= L[k, i] * z[k]
         z[i] /= L[i, i]
-    return z, True
+    return z
 
 
 @njit(cache=True)

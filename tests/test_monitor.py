@@ -240,3 +240,13 @@ def test_numerical_damping_is_the_decay_per_step_of_an_undamped_mode():
     assert numerical_damping(1.0, 5.0) == 0.0
     # the motion far below the step floor is not damped
     assert numerical_damping(monitor.AUTO_RHO_INF, 2 * np.pi * 5.0 / (2 * np.pi * 293.0)) < 1e-5
+
+
+def test_method_reason_is_saved_and_older_files_load(tmp_path, b6_damped):
+    system, initial = b6_damped
+    res = fm.simulate(system, 1e-3, positions=initial, n_out=3, progress=False)
+    res.save(tmp_path / "r.npz")
+    assert fm.Result.load(tmp_path / "r.npz").method_reason == res.method_reason != ""
+    with np.load(tmp_path / "r.npz") as z:  # a file written before the field existed
+        np.savez(tmp_path / "old.npz", **{k: z[k] for k in z.files if k != "method_reason"})
+    assert fm.Result.load(tmp_path / "old.npz").method_reason == ""

@@ -1,4 +1,4 @@
-"""B6, the flexible slider-crank (BENCHMARKS.md): the default settings, and generalized-alpha against the tight references.
+"""B6, the flexible slider-crank (BENCHMARKS.md): the default settings; generalized-alpha against tight references.
 
 Default settings (``--auto``, issue 19): ``fm.simulate(system, 1.0,
 positions=initial)`` on the undamped variant, timed (least CPU and wall

@@ -690,7 +690,7 @@ class GeneralizedAlpha(OdeSolver):
 
 def generalized_alpha(rho_inf: float = DEFAULT_RHO_INF, fixed_step: float | None = None,
                       f_max: float | None = None, min_step: float | None = None) -> type:
-    """A :class:`GeneralizedAlpha` class configured with a spectral radius, and optionally a fixed step, a cutoff or a step floor.
+    """A :class:`GeneralizedAlpha` class with a spectral radius, and optionally a fixed step, a cutoff or a step floor.
 
     Parameters
     ----------

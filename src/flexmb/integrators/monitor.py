@@ -463,7 +463,8 @@ class ResolutionMonitor:
         remaining = (self.t1 - solver.t) / h
         f_low = float(modes.frequency[resolved].min())
         if np.any(resolved & (modes.excitation > EXCITED)):
-            dissipate = f"method=fm.generalized_alpha(rho_inf={AUTO_RHO_INF:g}, min_step={1.0 / (2 * np.pi * f_low):.3g})"
+            floor = 1.0 / (2 * np.pi * f_low)
+            dissipate = f"method=fm.generalized_alpha(rho_inf={AUTO_RHO_INF:g}, min_step={floor:.3g})"
             remedy = ("If these vibrations are not what you need, use "
                       + (f"{dissipate}, which dissipates them" if self.auto
                          else f"method='auto' (it dissipates them) or {dissipate}")

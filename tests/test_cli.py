@@ -52,7 +52,7 @@ def test_info_gives_the_stiffness_hint(capsys):
     assert main(["info", str(TUTORIALS / "04_wiper.toml")]) == 0
     out = capsys.readouterr().out
     assert "degrees of freedom: p = n - rank = 24 (drivers prescribe 1)" in out  # 9 + 2 * 6 * 2 - 9
-    assert "'auto' picks Radau (implicit)" in out
+    assert "'auto' picks CVODE_BDF" in out
 
 
 def test_run_writes_results_summary_plot_and_vtk(tmp_path, capsys):

@@ -132,6 +132,25 @@ def test_f_max_lets_the_steps_skip_a_stiff_mode_and_keeps_the_slow_one():
     assert abs(cut.y[1, -1]) < 1e-4  # the fast mode is dissipated, not resolved
 
 
+def test_min_step_keeps_the_steps_above_it_and_dissipates_a_fast_mode_at_the_predicted_rate():
+    from flexmb.genalpha import numerical_damping
+
+    fun, jac = oscillator([1.0, 300.0])
+    h = 1.0 / 300.0  # h omega = 1 for the fast mode
+    sol = solve_ivp(fun, (0, 1.0), [1.0, 1e-3, 0.0, 0.0], method=generalized_alpha(0.5, f_max=10.0, min_step=h),
+                    rtol=1e-8, atol=1e-10, jac=jac)
+    steps = np.diff(sol.t)
+    assert steps[0] == pytest.approx(h) and np.all(steps[:-1] >= h * (1 - 1e-12))
+    # each step of size h_i takes exp(-zeta(h_i omega) h_i omega) of the fast mode's amplitude
+    hw = 300.0 * steps
+    predicted = 1e-3 * np.exp(-np.sum(numerical_damping(0.5, hw) * hw))
+    assert predicted < 1e-5  # a real loss ...
+    # ... as predicted (the phase at t = 1 s makes hypot(x, v / omega) a rough amplitude at h omega of 1 to 3)
+    assert np.hypot(sol.y[1, -1], sol.y[3, -1] / 300.0) == pytest.approx(predicted, rel=0.15)
+    # the slow mode (h omega <= 1 / 100) is integrated at rtol by the error control above the floor
+    assert abs(sol.y[0, -1] - np.cos(1.0)) < 1e-5
+
+
 def test_finite_difference_jacobian_and_first_order_extra_states():
     # y = (x, v, w) with w' = v^2 (a work-like integral nothing depends on): no jac, n_second given
     w = 1.5
@@ -155,6 +174,10 @@ def test_invalid_options():
         generalized_alpha(0.8, fixed_step=-1.0)
     with pytest.raises(ValueError, match="f_max"):
         generalized_alpha(0.8, f_max=0.0)
+    with pytest.raises(ValueError, match="min_step"):
+        generalized_alpha(0.8, min_step=-1e-3)
+    with pytest.raises(ValueError, match="min_step"):
+        GeneralizedAlpha(lambda t, y: -y, 0.0, np.zeros(2), 1.0, min_step=0.0)
     with pytest.raises(ValueError, match="n_second"):
         GeneralizedAlpha(lambda t, y: y, 0.0, np.zeros(3), 1.0)
 

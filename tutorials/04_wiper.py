@@ -378,7 +378,7 @@ print(f"crank torque: peak {np.abs(torque).max():.4f} N m at t = {rigid.t[np.abs
 # ---------------
 # The same mechanism with 4-segment blades (the ``flexmb run wiper`` command
 # uses 6). The segment springs make the equations stiff, so
-# ``method='auto'`` takes the implicit Radau integrator. The flexible tip
+# ``method='auto'`` takes an implicit integrator (CVODE_BDF). The flexible tip
 # is compared with the rigid one at the same output times: the blade bends
 # under its own inertia and the tip friction. Both act in the glass plane,
 # and every axis of the mechanism is normal to it, so the out-of-plane

@@ -92,13 +92,24 @@ class SceneError(ModelError):
 
 
 class StiffnessWarning(UserWarning):
-    """An explicit integrator was asked for on a scene that is stiff for the time span.
+    """A run spends its steps on stiffness or on vibrations far above the scene's motion.
 
-    Issued by :func:`flexmb.simulate` when ``method`` is an explicit
-    Runge-Kutta method ('RK45', 'RK23', 'DOP853') and the highest natural
-    frequency of the coordinate springs (:meth:`System.highest_frequency`)
-    would force more than ``EXPLICIT_STEP_LIMIT`` steps just to stay stable.
-    The message names the estimated frequency and recommends 'Radau' or
-    ``method='auto'``. Turn it into an error with
+    Issued by :func:`flexmb.simulate` in two cases, each naming the
+    frequency and the remedy:
+
+    - before the run, when ``method`` is an explicit Runge-Kutta method
+      ('RK45', 'RK23', 'DOP853') and the highest natural frequency of the
+      coordinate springs (:meth:`System.highest_frequency`) would force more
+      than ``EXPLICIT_STEP_LIMIT`` steps just to stay stable (remedy:
+      'CVODE_BDF', 'Radau' or ``method='auto'``);
+    - once, early in the run (after 100 steps or a few hundred), when an
+      error-controlled method resolves nearly undamped modes far above the
+      scene's motion and would take over 10 000 steps at that rate
+      (:class:`flexmb.integrators.monitor.ResolutionMonitor`; remedy:
+      ``method='auto'`` or :func:`flexmb.generalized_alpha` with a step
+      floor, which dissipate them, or 'Radau' where they are hardly
+      excited).
+
+    Turn it into an error with
     ``warnings.simplefilter("error", flexmb.StiffnessWarning)``.
     """

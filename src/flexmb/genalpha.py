@@ -31,8 +31,18 @@ its true acceleration would make it. That is not enough when modes a few
 times above the motion are excited (they are partly resolved, and their
 error is real): ``f_max`` then projects the estimate onto the modes of
 ``Jx`` below ``f_max``, and the modes above are integrated stably and
-dissipated, not resolved. The energy this removes is for the caller to
-report (``simulate(..., track_work=True)``: driver work minus the change
+dissipated, not resolved. Projecting is not enough either when such a
+mode is only a few times above the steps' resolution: the estimate of a
+mode integrated at ``h omega`` of about 0.1 is thousands of times the
+tolerance, the projector (built from a Jacobian that lags the state) lets
+a fraction of it through, and a mode that is partly resolved is not
+dissipated at all (the spectral radius is 1 to within ``(h omega)^4``).
+``min_step`` then keeps the error control from reducing the step below
+it: every mode above ``1 / (2 pi min_step)`` Hz is integrated at ``h omega
+>= 1`` and damped by the amplification factor of that step (see
+:func:`numerical_damping`); a step taken at ``min_step`` is accepted even
+when its error estimate exceeds the tolerance. The energy this removes is
+for the caller to report (``simulate(..., track_work=True)``: driver work minus the change
 of kinetic and elastic energy minus the dampers' work).
 
 The step loop is plain Python over numpy right-hand sides (on B6 the
@@ -54,7 +64,7 @@ from scipy.integrate import DenseOutput, OdeSolver
 from scipy.linalg import eig, lu_factor, lu_solve
 
 __all__ = ["GeneralizedAlpha", "generalized_alpha", "alpha_parameters", "amplification_matrix",
-           "DEFAULT_RHO_INF"]
+           "numerical_damping", "DEFAULT_RHO_INF"]
 
 #: spectral radius at infinite frequency used by default
 DEFAULT_RHO_INF = 0.8
@@ -156,6 +166,44 @@ def amplification_matrix(rho_inf: float, h_omega: float) -> np.ndarray:
     return np.linalg.solve(lhs, rhs)
 
 
+def numerical_damping(rho_inf: float, h_omega) -> np.ndarray:
+    """The damping ratio equivalent to the method's dissipation of an undamped mode, per step.
+
+    A mode of angular frequency ``omega`` integrated with steps ``h`` loses
+    the fraction ``1 - r`` of its amplitude per step, ``r`` the spectral
+    radius of :func:`amplification_matrix`; a viscous damping ratio ``zeta``
+    does the same over the time ``h`` when ``exp(-zeta omega h) = r``, so
+    ``zeta = -ln(r) / (h omega)``.
+
+    Parameters
+    ----------
+    rho_inf : float
+        Spectral radius at infinity, in [0, 1].
+    h_omega : float or array_like
+        Step times angular frequency, ``h omega`` (> 0).
+
+    Returns
+    -------
+    ndarray
+        The equivalent damping ratio for each ``h_omega`` (``inf`` where
+        ``rho_inf = 0`` annihilates the mode in one step).
+
+    Examples
+    --------
+    >>> from flexmb.genalpha import numerical_damping
+    >>> float(numerical_damping(1.0, 2.0))
+    0.0
+    >>> round(float(numerical_damping(0.6, 1.0)), 4)
+    0.0051
+    """
+    hw = np.atleast_1d(np.asarray(h_omega, dtype=float))
+    out = np.empty(hw.shape)
+    for i, v in enumerate(hw):
+        r = float(np.max(np.abs(np.linalg.eigvals(amplification_matrix(rho_inf, v)))))
+        out[i] = np.inf if r <= 0.0 else max(0.0, -np.log(min(r, 1.0))) / v
+    return out.reshape(np.shape(h_omega))
+
+
 class GeneralizedAlphaDenseOutput(DenseOutput):
     """Interpolant over one generalized-alpha step.
 
@@ -254,6 +302,13 @@ class GeneralizedAlpha(OdeSolver):
         the modes above are integrated stably and dissipated where
         ``h omega > 1``, never resolved (default: the class's, None: every
         mode counts).
+    min_step : float, optional
+        Smallest step the error control may take, s: a step of this size is
+        accepted even when its error estimate exceeds the tolerance, so every
+        mode above ``1 / (2 pi min_step)`` Hz is integrated at ``h omega >=
+        1`` and dissipated (:func:`numerical_damping`) rather than resolved.
+        Newton failures may still halve the step below it (default: the
+        class's, None: no floor).
     vectorized : bool
         Ignored (accepted for ``solve_ivp``).
     **extraneous
@@ -269,6 +324,8 @@ class GeneralizedAlpha(OdeSolver):
         Rejected steps so far (error test or Newton failure).
     f_max : float or None
         Frequency cutoff of the error estimate in use, Hz.
+    min_step : float or None
+        Floor of the error-controlled steps in use, s.
 
     Notes
     -----
@@ -319,6 +376,7 @@ class GeneralizedAlpha(OdeSolver):
     rho_inf: float = DEFAULT_RHO_INF
     fixed_step: float | None = None
     f_max: float | None = None
+    min_step: float | None = None
     explicit = False
     uses_jacobian = True
     second_order = True
@@ -326,8 +384,8 @@ class GeneralizedAlpha(OdeSolver):
     needs_n_second = True
 
     def __init__(self, fun, t0, y0, t_bound, *, n_second=None, jac=None, rtol=1e-6, atol=1e-8,
-                 max_step=np.inf, first_step=None, rho_inf=None, fixed_step=None, f_max=None, vectorized=False,
-                 **extraneous):
+                 max_step=np.inf, first_step=None, rho_inf=None, fixed_step=None, f_max=None, min_step=None,
+                 vectorized=False, **extraneous):
         if extraneous:
             import warnings
 
@@ -342,6 +400,10 @@ class GeneralizedAlpha(OdeSolver):
             self.f_max = float(f_max)
         if self.f_max is not None and not self.f_max > 0:
             raise ValueError(f"f_max must be > 0, got {self.f_max!r}")
+        if min_step is not None:
+            self.min_step = float(min_step)
+        if self.min_step is not None and not self.min_step > 0:
+            raise ValueError(f"min_step must be > 0, got {self.min_step!r}")
         self.alpha_m, self.alpha_f, self.beta, self.gamma = alpha_parameters(self.rho_inf)
         ratio = (1.0 - self.alpha_f) / (1.0 - self.alpha_m)
         self.beta_p, self.gamma_p = self.beta * ratio, self.gamma * ratio
@@ -398,6 +460,8 @@ class GeneralizedAlpha(OdeSolver):
             self.h_abs = min(float(first_step), self.max_step)
         else:
             self.h_abs = self._initial_step()
+        if self.min_step is not None:
+            self.h_abs = min(max(self.h_abs, self.min_step), self.max_step)
         self._fun_key = fun
         self._dense = None
 
@@ -579,9 +643,13 @@ class GeneralizedAlpha(OdeSolver):
                 est = self.low_pass @ est
             sc = self.atol + self.rtol * np.maximum(np.abs(self.y[:n]), np.abs(x1))
             err = float(np.sqrt(np.mean((est / sc) ** 2))) if n else 0.0
-            if err > 1.0:
+            floor = self.min_step
+            at_floor = floor is not None and h_abs <= floor * (1.0 + 1e-12)
+            if err > 1.0 and not at_floor:
                 self.n_rejected += 1
                 h_abs *= max(MIN_FACTOR, SAFETY * err ** (-1.0 / 3.0))
+                if floor is not None:
+                    h_abs = max(h_abs, floor)
                 continue
             # PI control (Gustafsson): exponents 0.7/3 and 0.4/3 on the order-3 local error
             if err == 0.0:
@@ -609,6 +677,8 @@ class GeneralizedAlpha(OdeSolver):
             if KEEP_BAND[0] <= factor < KEEP_BAND[1]:
                 factor = 1.0
             self.h_abs = min(h_abs * factor, self.max_step)
+            if self.min_step is not None:
+                self.h_abs = min(max(self.h_abs, self.min_step), self.max_step)
         self._remember()
         return True, None
 
@@ -619,8 +689,8 @@ class GeneralizedAlpha(OdeSolver):
 
 
 def generalized_alpha(rho_inf: float = DEFAULT_RHO_INF, fixed_step: float | None = None,
-                      f_max: float | None = None) -> type:
-    """A :class:`GeneralizedAlpha` class configured with a spectral radius, and optionally a fixed step or a cutoff.
+                      f_max: float | None = None, min_step: float | None = None) -> type:
+    """A :class:`GeneralizedAlpha` class with a spectral radius, and optionally a fixed step, a cutoff or a step floor.
 
     Parameters
     ----------
@@ -634,6 +704,10 @@ def generalized_alpha(rho_inf: float = DEFAULT_RHO_INF, fixed_step: float | None
     f_max : float, optional
         Highest frequency resolved by the error control, Hz (see
         :class:`GeneralizedAlpha`); default: all.
+    min_step : float, optional
+        Smallest error-controlled step, s (see :class:`GeneralizedAlpha`):
+        the modes above ``1 / (2 pi min_step)`` Hz are dissipated, never
+        resolved; default: no floor.
 
     Returns
     -------
@@ -644,8 +718,8 @@ def generalized_alpha(rho_inf: float = DEFAULT_RHO_INF, fixed_step: float | None
     Raises
     ------
     ValueError
-        If ``rho_inf`` is not in [0, 1], or ``fixed_step`` or ``f_max`` is
-        not positive.
+        If ``rho_inf`` is not in [0, 1], or ``fixed_step``, ``f_max`` or
+        ``min_step`` is not positive.
 
     Examples
     --------
@@ -662,9 +736,13 @@ def generalized_alpha(rho_inf: float = DEFAULT_RHO_INF, fixed_step: float | None
         raise ValueError(f"fixed_step must be > 0, got {fixed_step!r}")
     if f_max is not None and not float(f_max) > 0:
         raise ValueError(f"f_max must be > 0, got {f_max!r}")
+    if min_step is not None and not float(min_step) > 0:
+        raise ValueError(f"min_step must be > 0, got {min_step!r}")
     label = (f"rho_inf={float(rho_inf):g}" + (f", fixed_step={float(fixed_step):g}" if fixed_step else "")
-             + (f", f_max={float(f_max):g}" if f_max else ""))
+             + (f", f_max={float(f_max):g}" if f_max else "")
+             + (f", min_step={float(min_step):g}" if min_step else ""))
     return type(f"GeneralizedAlpha({label})", (GeneralizedAlpha,),
                 {"rho_inf": float(rho_inf), "fixed_step": None if fixed_step is None else float(fixed_step),
                  "f_max": None if f_max is None else float(f_max),
+                 "min_step": None if min_step is None else float(min_step),
                  "__module__": __name__, "__doc__": f"GeneralizedAlpha with {label}."})

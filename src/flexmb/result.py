@@ -20,7 +20,7 @@ _ARRAYS = ("t", "x", "xd", "xdd", "positions", "origins", "rotations", "kinetic"
            "residual", "velocity_residual", "reactions")
 _LISTS = ("coordinate_names", "body_names", "constraint_labels", "driver_names")
 _SCALARS = ("n_dof", "n_rhs", "n_jac", "n_steps", "n_complements", "n_projections", "wall_time", "status", "message", "method",
-            "complement")
+            "complement", "method_reason")
 
 
 @define
@@ -78,6 +78,10 @@ class Result:
         Why the run ended as it did (``"reached t_end"`` when it finished).
     method : str
         Name of the integrator used (after ``'auto'`` chose one).
+    method_reason : str
+        With ``method='auto'``: why it chose that integrator, and for a
+        dissipative one the step floor and the damping it adds to the modes
+        it dissipates (empty otherwise).
     complement : str
         Name of the complement strategy used.
     system : System, optional
@@ -115,6 +119,7 @@ class Result:
     status: str = "running"
     message: str = ""
     method: str = ""
+    method_reason: str = ""
     complement: str = ""
     system: object = field(default=None, repr=False, eq=False)
 
@@ -318,7 +323,7 @@ class Result:
         with np.load(path) as z:
             kw = {k: z[k] for k in _ARRAYS}
             kw.update({k: [str(s) for s in z[k]] for k in _LISTS})
-            kw.update({k: z[k].item() for k in _SCALARS})
+            kw.update({k: z[k].item() for k in _SCALARS if k in z})  # method_reason: absent from older files
             kw["work"] = {str(k): z[f"work_{i}"] for i, k in enumerate(z["work_names"])} if "work_names" in z else {}
             kw["flexible"] = {str(k): (z[f"flexible_rows_{i}"].tolist(), float(z["flexible_lengths"][i]))
                               for i, k in enumerate(z["flexible_names"])}

@@ -388,7 +388,7 @@ class Scene:
             A text report (what ``flexmb info`` prints).
         """
         from .flexible import FlexibleBody
-        from .simulate import AUTO_IMPLICIT_STEPS
+        from .simulate import _choose_method
 
         system = self.system()
         x0, xd0 = self.initial_state(system)
@@ -431,11 +431,13 @@ class Scene:
         s = self.solver
         if w > 0:
             steps = s.t_end * w / 3.0
-            stiff = steps > AUTO_IMPLICIT_STEPS
+            atol = s.rtol / 100 if s.atol is None else s.atol
+            method, reason = _choose_method(system, 0.0, s.t_end, x0, xd0, s.rtol, atol, log=False)
             lines.append(f"stiffness: highest spring frequency {system.highest_frequency(0.0, x0, xd0):.4g} rad/s, "
                          f"fastest rate with the dampers {w:.4g} rad/s; an explicit integrator needs about "
                          f"{steps:.3g} steps over {s.t_end:g} s to stay stable, so 'auto' picks "
-                         f"{'Radau (implicit)' if stiff else 'DOP853 (explicit)'}")
+                         f"{getattr(method, '__name__', method)}")
+            lines.append(f"  ({reason})")
         else:
             lines.append("stiffness: no springs on coordinates; 'auto' picks DOP853 (explicit)")
         lines.append(f"solver: t_end {s.t_end:g} s, method {s.method}, rtol {s.rtol:g}, n_out {s.n_out}, "

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 import time as _time
 import warnings
 
@@ -14,6 +15,7 @@ from .errors import AssemblyError, FlexmbError, ModelError, SimulationError, Sti
 from .genalpha import GeneralizedAlpha
 from .joints import Joint
 from .integrators import IDA, CVODEAdams, CVODEBDF, adapt, capabilities
+from .integrators.monitor import ResolutionMonitor, stiff_choice
 from .result import Result
 from .progress import Progress, shown
 from .threads import limited_blas
@@ -133,10 +135,9 @@ def _solver_class(method):
 #: explicit steps above which a scene counts as stiff (:class:`StiffnessWarning`)
 EXPLICIT_STEP_LIMIT = 3000
 
-#: explicit steps above which 'auto' takes the implicit Radau: DOP853 spends
-#: about 12 right-hand sides a step, Radau about 8 on steps set by accuracy
-#: alone; measured on B1 over 1 s at rtol 1e-6 (CPU s, DOP853 / Radau / BDF):
-#: N = 4 (227 stable steps) 0.78 / 2.1 / 0.94, N = 8 (1026) 4.0 / 2.1 / 1.0
+#: explicit steps above which 'auto' takes an implicit method; below, DOP853 is as fast as CVODE_BDF
+#: at the same error (B1 N = 2 and 4), and on rigid loops more accurate than CVODE at the same cost
+#: (the four-bar): benchmarks/auto_choice.py, docs/benchmarks.md "Which integrator 'auto' picks"
 AUTO_IMPLICIT_STEPS = 300
 
 
@@ -155,15 +156,34 @@ RESTART_TOL_MAX = 1e-6
 KRYLOV_MIN_COORDS = 48
 
 
-def _choose_method(system, t0, t1, x, xd) -> str:
-    """'Radau' when the springs make an explicit method slow over [t0, t1], else 'DOP853'.
+def _choose_method(system, t0, t1, x, xd, rtol=1e-8, atol=1e-10, log=True):
+    """The integrator for ``method='auto'`` over [t0, t1], and why.
 
-    DOP853's stability bound is about ``h omega_max < 3``; if that needs more
-    than ``AUTO_IMPLICIT_STEPS`` steps, the implicit Radau (with the
-    geometric state Jacobian) is the cheaper choice.
+    DOP853's stability bound is about ``h omega_max < 3``; if that needs no
+    more than ``AUTO_IMPLICIT_STEPS`` steps, DOP853. Otherwise
+    :func:`flexmb.integrators.monitor.stiff_choice`: CVODE_BDF, or Radau
+    where lightly damped modes far above the scene's motion are not
+    excited, or, where nearly undamped ones ring and resolving them would
+    be costly, the generalized-alpha method with a step floor that
+    dissipates them.
+
+    Returns
+    -------
+    method : str or type
+        A registered name or a configured :class:`~flexmb.GeneralizedAlpha` class.
+    reason : str
+        The statement of the choice (also logged to the ``flexmb`` logger if ``log``).
     """
     w = system.fastest_rate(t0, x, xd)
-    return "Radau" if (t1 - t0) * w / 3.0 > AUTO_IMPLICIT_STEPS else "DOP853"
+    steps = (t1 - t0) * w / 3.0
+    if steps <= AUTO_IMPLICIT_STEPS:
+        method, reason = "DOP853", (f"'auto' chose DOP853: an explicit method needs about {steps:.3g} steps over "
+                                    f"{t1 - t0:.4g} s to stay stable (at most {AUTO_IMPLICIT_STEPS})")
+    else:
+        method, reason = stiff_choice(system, t0, t1, x, xd, rtol, atol, steps)
+    if log:  # a choice that removes energy on purpose (a step floor) is logged as a warning
+        logging.getLogger("flexmb").log(logging.WARNING if getattr(method, "min_step", None) else logging.INFO, reason)
+    return method, reason
 
 
 def _warn_if_stiff(system, solver_cls, t0, t1, x, xd):
@@ -178,8 +198,8 @@ def _warn_if_stiff(system, solver_cls, t0, t1, x, xd):
         warnings.warn(StiffnessWarning(
             f"the scene is stiff for {solver_cls.__name__}: its highest natural frequency is about "
             f"{wn:.4g} rad/s ({wn / (2 * np.pi):.4g} Hz){damping}, so an explicit method needs some "
-            f"{n_stable:.3g} steps over {t1 - t0:.4g} s just to stay stable; use method='Radau' "
-            f"(or method='auto')"
+            f"{n_stable:.3g} steps over {t1 - t0:.4g} s just to stay stable; use method='CVODE_BDF' or "
+            f"method='Radau' (or method='auto')"
         ), stacklevel=3)
 
 
@@ -213,17 +233,26 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     t_eval : array_like, optional
         Output times, increasing, within [t0, t_end].
     method : {'auto', 'DOP853', 'RK45', 'RK23', 'Radau', 'BDF', 'LSODA', 'CVODE_BDF', 'CVODE_Adams', 'IDA', 'GeneralizedAlpha'} or OdeSolver class
-        Integrator; explicit ones for non-stiff models, Radau/BDF or
-        SUNDIALS' CVODE_BDF for stiff, GeneralizedAlpha (or a class from
-        :func:`~flexmb.generalized_alpha`) for undamped flexible bodies
+        Integrator; explicit ones for non-stiff models, SUNDIALS'
+        CVODE_BDF (or IDA) or Radau/BDF for stiff, GeneralizedAlpha (or a class
+        from :func:`~flexmb.generalized_alpha`) for undamped flexible bodies
         whose fast modes should be dissipated. A name is looked up in the
         plugin registry (entry-point group ``flexmb.integrators``), so
         installed plugins are accepted too. What the integrator is given
         (the analytic Jacobian, the second-order block structure) follows
         the capabilities its class declares (:mod:`flexmb.integrators.base`).
         ``'auto'`` estimates the highest frequency of the coordinate springs
-        and takes Radau when an explicit method would need more than
-        ``AUTO_IMPLICIT_STEPS`` steps just to stay stable, DOP853 otherwise.
+        and takes DOP853 when an explicit method needs at most
+        ``AUTO_IMPLICIT_STEPS`` steps just to stay stable. On a stiff scene
+        it looks at the modes of the linearised motion
+        (:func:`flexmb.integrators.monitor.stiff_choice`): CVODE_BDF (the
+        fastest on the benchmark scenes, ``benchmarks/auto_choice.py``);
+        Radau where lightly damped modes far above the scene's motion are
+        not excited (it steps over them, CVODE_BDF cannot); and where nearly
+        undamped modes far above the motion ring and would be costly to
+        resolve, the generalized-alpha method with a step floor that
+        dissipates them (``Result.method_reason`` states the floor and the
+        damping it adds; the ``flexmb`` logger too).
     rtol, atol : float
         Integration tolerances (``atol`` defaults to ``rtol / 100``).
     complement : {'svd', 'eigen', 'qr', 'auto'} or ComplementStrategy, optional
@@ -262,7 +291,10 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     -----
     StiffnessWarning
         If ``method`` is explicit ('RK45', 'RK23', 'DOP853') and the scene is
-        stiff over [t0, t_end] (see ``method='auto'``).
+        stiff over [t0, t_end] (see ``method='auto'``), before the run; and
+        once, early in the run, if an error-controlled method spends its
+        steps resolving nearly undamped modes far above the scene's motion
+        (:class:`flexmb.integrators.monitor.ResolutionMonitor`).
 
     Examples
     --------
@@ -285,10 +317,11 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     progress = shown(progress)
 
     x, xd = initial_state(system, t0, positions, speeds, x0, xd0, fixed)
+    reason = ""
     if auto:
-        method = _choose_method(system, t0, t_end, x, xd)
-        name = method
+        method, reason = _choose_method(system, t0, t_end, x, xd, rtol, atol)
         solver_cls = _solver_class(method)
+        name = getattr(method, "__name__", method)
     else:
         _warn_if_stiff(system, solver_cls, t0, t_end, x, xd)
     n_drv = len(system.constraints.drivers)
@@ -349,6 +382,7 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     # what the integrator can use is declared by its class (flexmb.integrators.base)
     solver_cls = adapt(solver_cls)
     caps = capabilities(solver_cls)
+    monitor = ResolutionMonitor.for_run(system, solver_cls, caps, t0, t_end, rtol, atol, name, auto)
     if not caps.has_dense_output:
         raise ModelError(f"integrator {name!r} has no dense output, which simulate needs for its output times")
     if caps.needs_n_second:  # written for y = (x, xd, ...) itself (GeneralizedAlpha)
@@ -394,7 +428,7 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
                 stops = np.union1d(stops, np.linspace(t0, t_end, 101)[1:])
             for t_stop in stops:
                 try:
-                    y_stop = solver.advance(t_stop)
+                    y_stop = solver.advance(t_stop, None if monitor is None else monitor.step)
                 except RuntimeError as exc:
                     raise _NonFinite(solver.t, f"the integrator failed: {exc}") from exc
                 t_now = t_stop
@@ -414,6 +448,8 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
                 raise _NonFinite(solver.t, f"the integrator failed: {msg}")
             if not np.all(np.isfinite(solver.y)):
                 raise _NonFinite(solver.t, "the state became non-finite")
+            if monitor is not None:  # warns once if the steps resolve ringing modes (StiffnessWarning)
+                monitor.step(solver)
             t_now = solver.t
             if k_out < len(times) and times[k_out] <= t_now:
                 dense = solver.dense_output()
@@ -461,6 +497,7 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     result.wall_time = wall
     result.status, result.message = status, message
     result.method = name
+    result.method_reason = reason
     result.complement = system.strategy.name
     if status == "failed":
         raise SimulationError(f"simulation failed {message}", t=t_now, result=result)

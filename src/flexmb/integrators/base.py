@@ -35,9 +35,10 @@ from these class attributes,
     passes one for open trees of ``KRYLOV_MIN_COORDS`` coordinates or more
     (:class:`~flexmb.integrators.CVODEBDF`).
 ``advances``
-    The solver has ``advance(t)``: it steps until ``t`` (at most
-    ``t_bound``) is reached, returns the state at ``t`` and counts its
-    steps in ``n_steps``. simulate uses it between the output times of a
+    The solver has ``advance(t, on_step=None)``: it steps until ``t`` (at
+    most ``t_bound``) is reached, calling ``on_step(solver)`` after each
+    step if given, returns the state at ``t`` and counts its steps in
+    ``n_steps``. simulate uses it between the output times of a
     model without constraints, where nothing is checked or projected after
     a step (:class:`~flexmb.integrators.CVODE`).
 

@@ -182,7 +182,7 @@ class CVODE(OdeSolver):
     def _call(self, t, method):
         return self._mem.step(t, method=method, tstop=self.t_bound)
 
-    def advance(self, t: float) -> np.ndarray:
+    def advance(self, t: float, on_step=None) -> np.ndarray:
         """Step until ``t`` (at most ``t_bound``) is reached; the state there (CVODE's interpolant).
 
         CVODE is stepped one internal step at a time, as by :meth:`step`,
@@ -193,6 +193,9 @@ class CVODE(OdeSolver):
         ----------
         t : float
             Time to reach.
+        on_step : callable, optional
+            Called with the solver after each step (its ``t_old``, ``t``
+            and ``y`` those of the step).
 
         Returns
         -------
@@ -217,6 +220,9 @@ class CVODE(OdeSolver):
                 continue
             self.n_steps += 1
             self.t_old, tn, self.y = tn, float(out.t), out.y
+            if on_step is not None:
+                self.t = tn
+                on_step(self)
         self.t = tn
         if tn >= t_bound:
             self.status = "finished"

@@ -1,0 +1,85 @@
+"""Plots an engineer reads: every axis carries a unit, one unit per axis (issue #20, section 2).
+
+The figures are inspected as matplotlib objects (axes, labels, line data),
+never as pixels:
+
+* ``Result.plot`` puts each kind of coordinate on its own axis, labelled
+  with its unit: joint angles (rad), joint translations (m), elastic
+  rotations (rad) and elastic displacements (m).
+"""
+
+from __future__ import annotations
+
+import re
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+pytest.importorskip("matplotlib")
+
+import flexmb as fm  # noqa: E402
+from flexmb import viz  # noqa: E402
+
+UNIT = re.compile(r"\(([^()]+)\)$")
+
+
+def _unit(label: str) -> str:
+    """The unit in parentheses at the end of an axis label; fails if there is none."""
+    m = UNIT.search(label)
+    assert m, f"axis label {label!r} has no unit"
+    return m.group(1)
+
+
+@pytest.fixture(scope="module")
+def mixed():
+    """A slide-and-turn joint (m and rad) and a flexible beam bending and stretching (rad and m)."""
+    model = fm.Model("mixed")
+    block = fm.RigidBody.box("block", 1.0, (0.1, 0.1, 0.1))
+    beam = fm.FlexibleBody("beam", 0.5, fm.Section.rectangular(0.02, 0.005), fm.Material.aluminium(), 2,
+                           keep=("bend_y", "axial"))
+    model.add(fm.Cylindrical("rail", model.ground, block, axis=(0.0, 0.0, 1.0)),
+              fm.Fixed("clamp", model.ground, beam, parent_point=(1.0, 0.0, 0.0)),
+              fm.Gravity((0.0, 0.0, -9.81)))
+    return fm.simulate(model, 0.01, n_out=5)
+
+
+def test_coordinate_units_from_the_names():
+    res = SimpleNamespace(coordinate_names=["pin.angle", "rail.slide", "ball.rx", "beam.j0.bend_y",
+                                            "beam.j1.axial", "other.j0.bend_y", "custom.q"],
+                          flexible={"beam": ([0, 1], 0.25)})
+    assert viz.coordinate_units(res) == [
+        ("joint angle", "rad"), ("joint translation", "m"), ("joint angle", "rad"), ("elastic rotation", "rad"),
+        ("elastic displacement", "m"),
+        # not a flexible body of the result, and a name no joint class declares: unit unknown
+        ("coordinate", "-"), ("coordinate", "-")]
+
+
+def test_result_plot_makes_one_axis_per_kind_and_unit(mixed, tmp_path):
+    fig = mixed.plot(path=tmp_path / "all.png")
+    assert (tmp_path / "all.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    labels = [ax.get_ylabel() for ax in fig.axes]
+    assert labels == ["joint angle (rad)", "joint translation (m)", "elastic rotation (rad)",
+                      "elastic displacement (m)"]
+    kinds = dict(zip(mixed.coordinate_names, viz.coordinate_units(mixed)))
+    plotted = []
+    for ax in fig.axes:
+        unit = _unit(ax.get_ylabel())
+        for line in ax.lines:
+            # every coordinate sits on the axis of its unit, with its own data
+            assert kinds[line.get_label()][1] == unit
+            k = mixed.coordinate_names.index(line.get_label())
+            np.testing.assert_array_equal(line.get_ydata(), mixed.x[:, k])
+            plotted.append(line.get_label())
+    assert sorted(plotted) == sorted(mixed.coordinate_names)
+    assert fig.axes[-1].get_xlabel() == "time (s)"
+
+
+def test_result_plot_selection_and_energy(mixed, tmp_path):
+    fig = mixed.plot(["rail.angle", "beam.j0"], path=tmp_path / "some.png", energy=True)
+    assert [ax.get_ylabel() for ax in fig.axes] == ["joint angle (rad)", "elastic rotation (rad)",
+                                                    "elastic displacement (m)", "energy (J)"]
+    assert [line.get_label() for line in fig.axes[1].lines] == ["beam.j0.bend_y"]
+    # a single unit: a single axis
+    fig = mixed.plot(["rail.slide"], path=tmp_path / "one.png")
+    assert [ax.get_ylabel() for ax in fig.axes] == ["joint translation (m)"]

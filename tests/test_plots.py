@@ -5,7 +5,12 @@ never as pixels:
 
 * ``Result.plot`` puts each kind of coordinate on its own axis, labelled
   with its unit: joint angles (rad), joint translations (m), elastic
-  rotations (rad) and elastic displacements (m).
+  rotations (rad) and elastic displacements (m);
+* the plot of a scene-file run and ``fourbar.png`` label every axis with
+  one unit.
+
+The wiper's figure (``wiper.png``) and its exact tip speed are tested in
+``tests/test_wiper.py``, next to the wiper's fixtures.
 """
 
 from __future__ import annotations
@@ -20,6 +25,9 @@ pytest.importorskip("matplotlib")
 
 import flexmb as fm  # noqa: E402
 from flexmb import viz  # noqa: E402
+from flexmb.scenes import report  # noqa: E402
+
+from conftest import fourbar, fourbar_initial  # noqa: E402
 
 UNIT = re.compile(r"\(([^()]+)\)$")
 
@@ -83,3 +91,25 @@ def test_result_plot_selection_and_energy(mixed, tmp_path):
     # a single unit: a single axis
     fig = mixed.plot(["rail.slide"], path=tmp_path / "one.png")
     assert [ax.get_ylabel() for ax in fig.axes] == ["joint translation (m)"]
+
+
+def test_scene_plot_labels_every_axis_with_one_unit(tmp_path):
+    scene = fm.load_scene("tutorials/04_wiper_rigid.toml")
+    res = scene.simulate(t_end=0.05, n_out=11, progress=False)
+    tracks = scene.track(res)
+    speeds = {k: np.linalg.norm(np.gradient(p, res.t, axis=0), axis=1) for k, p in tracks.items()}
+    fig = report._scene_figure(scene, res, tracks, speeds)
+    labels = [ax.get_ylabel() for ax in fig.axes]
+    assert labels[0] == "joint angle (rad)"
+    assert "energy change (J)" in labels and "point speed (m/s)" in labels
+    assert "driver torque (N m)" in labels  # the crank motor drives a revolute joint
+    for label in labels:
+        _unit(label)
+    assert fig.axes[-1].get_xlabel() == "time (s)"
+
+
+def test_fourbar_plot_labels():
+    res = fm.simulate(fourbar(), 0.05, positions=fourbar_initial(), n_out=6)
+    fig = report._fourbar_figure(res)
+    assert [ax.get_ylabel() for ax in fig.axes] == ["joint angle (rad)", "energy drift (J)", "loop residual (m)"]
+    assert [line.get_label() for line in fig.axes[0].lines] == res.coordinate_names

@@ -6,8 +6,9 @@ never as pixels:
 * ``Result.plot`` puts each kind of coordinate on its own axis, labelled
   with its unit: joint angles (rad), joint translations (m), elastic
   rotations (rad) and elastic displacements (m);
-* the plot of a scene-file run and ``fourbar.png`` label every axis with
-  one unit.
+* the plot of a scene-file run, ``fourbar.png`` and ``study.png`` label
+  every axis with one unit (``'-'`` in a study where the name does not
+  fix it).
 
 The wiper's figure (``wiper.png``) and its exact tip speed are tested in
 ``tests/test_wiper.py``, next to the wiper's fixtures.
@@ -26,6 +27,7 @@ pytest.importorskip("matplotlib")
 import flexmb as fm  # noqa: E402
 from flexmb import viz  # noqa: E402
 from flexmb.scenes import report  # noqa: E402
+from flexmb.study import StudyResult  # noqa: E402
 
 from conftest import fourbar, fourbar_initial  # noqa: E402
 
@@ -113,3 +115,35 @@ def test_fourbar_plot_labels():
     fig = report._fourbar_figure(res)
     assert [ax.get_ylabel() for ax in fig.axes] == ["joint angle (rad)", "energy drift (J)", "loop residual (m)"]
     assert [line.get_label() for line in fig.axes[0].lines] == res.coordinate_names
+
+
+def _study(rows_params, outputs):
+    rows = [{"case": i, "case_id": str(i), "parameters": p, "outputs": o, "status": "finished", "error": None,
+             "wall_time_s": 0.1, "worker": "w"} for i, (p, o) in enumerate(zip(rows_params, outputs))]
+    return StudyResult(list(rows_params[0]), list(outputs[0]), rows)
+
+
+def test_study_plot_labels_parameters_and_outputs_with_units(tmp_path):
+    params = [{"bodies.bar.mass": m, "drivers.motor.rpm": r} for m in (1.0, 2.0) for r in (60.0, 90.0)]
+    outputs = [{"peak_speed:tip": 0.1 * p["drivers.motor.rpm"], "final:pin.angle": p["bodies.bar.mass"],
+                "peak_effort:motor": 2.0, "energy_balance": 1e-9} for p in params]
+    study = _study(params, outputs)
+    fig = study.figure()
+    axes = np.array(fig.axes).reshape(4, 2)
+    assert [ax.get_xlabel() for ax in axes[-1]] == ["bodies.bar.mass (kg)", "drivers.motor.rpm (rev/min)"]
+    assert [ax.get_ylabel() for ax in axes[:, 0]] == [
+        "peak_speed:tip (m/s)", "final:pin.angle (rad)",
+        # a driver's effort is N m or N by its joint, which the table does not know
+        "peak_effort:motor (-)", "energy_balance (-)"]
+    path = study.plot(tmp_path / "study.png")
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize("name, unit", [
+    ("materials.spring_steel.E", "Pa"), ("sections.blade.b", "m"), ("bodies.blade.damping", "s"),
+    ("forces.right_blade_friction.normal_load+forces.left_blade_friction.normal_load", "N"),
+    ("forces.spring.stiffness", "-"), ("bodies.bar.mass+forces.f.normal_load", "-"), ("solver.t_end", "s"),
+    ("max_displacement:tip", "m"), ("driver_work:motor", "J"), ("max:beam.j0.axial", "m"), ("final:pin", "-"),
+    ("n_rhs", "-"), ("my_output", "-")])
+def test_study_units_from_names(name, unit):
+    assert StudyResult([], [], []).unit(name) == unit

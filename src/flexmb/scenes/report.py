@@ -235,7 +235,7 @@ def wiper_figure(runs, systems, tips, plt=None):
     ax[2, 1].set_ylabel("flexible blade root moment (N m)")
     for a in ax[-1]:
         a.set_xlabel("time (s)")
-    for a, loc in zip(ax.flat, ("upper left", "upper right", None, None, None, "upper right")):
+    for a, loc in zip(ax.flat, ("upper left", "lower right", None, None, None, "upper right")):
         if loc:
             a.legend(fontsize=8, loc=loc)
         a.grid(alpha=0.3)

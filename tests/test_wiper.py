@@ -11,7 +11,11 @@ References the tests use, none computed by the scene itself:
 * the friction law: a force in the glass plane, never doing positive work;
 * the flexible blades' stiffness: tips close to the rigid ones;
 * the degrees of freedom: 0 with the crank driven and rigid blades, two
-  bending angles per segment and blade with flexible ones.
+  bending angles per segment and blade with flexible ones;
+* the plots (``wiper.png``): the exact tip velocity is the limit of
+  central differences of the sampled tip positions (second order in the
+  output step); with the arms driven alike, flexible minus rigid tip
+  position is the blade's own deflection in its clamp frame.
 """
 
 from __future__ import annotations
@@ -21,10 +25,13 @@ import os
 import subprocess
 import sys
 
+import attrs
 import numpy as np
 import pytest
 
 import flexmb as fm
+from flexmb.result import _ARRAYS
+from flexmb.scenes import report
 from flexmb.scenes.wiper import POINTS, PRINTED_POINTS, WiperOptions, glass_normal, wiper
 
 T_RIGID = 1.0
@@ -204,6 +211,76 @@ def test_flexible_blades(flexible, rigid):
     np.testing.assert_allclose(res.shape("right_blade")[:, -1], flex_tips["right"][0], atol=1e-12)
 
 
+# ----------------------------------------------------------------------------- plots (wiper.png)
+
+def test_exact_tip_speed_is_the_limit_of_differences(rigid):
+    model, _, res = rigid
+    p, v = report.point_motion(res, model.build(), "right_blade", (0.25, 0.0, 0.0))
+    np.testing.assert_allclose(p, _tips(model, res)["right"][0], rtol=0, atol=1e-12)
+    # central differences of the sampled positions (interior outputs) approach the exact velocity as the
+    # output step h shrinks, at second order: the error with 2h is about 4 times the error with h
+    errors = []
+    for step in (1, 2, 4):
+        d = np.gradient(p[::step], res.t[::step], axis=0)[1:-1]
+        errors.append(np.abs(d - v[::step][1:-1]).max())
+    speed = np.linalg.norm(v, axis=1)
+    assert errors[0] < 2e-4 * speed.max()  # h = 2 ms
+    for fine, coarse in zip(errors, errors[1:]):
+        assert 3.0 < coarse / fine < 5.0
+
+
+def _head(res, k):
+    """The first k outputs of a result."""
+    return attrs.evolve(res, **{a: getattr(res, a)[:k] for a in _ARRAYS},
+                        work={n: w[:k] for n, w in res.work.items()})
+
+
+@pytest.fixture(scope="module")
+def figure(rigid, flexible):
+    pytest.importorskip("matplotlib")
+    (rigid_model, _, rigid_res), (flex_model, _, flex_res) = rigid, flexible
+    runs = {"rigid": _head(rigid_res, len(flex_res.t)), "flexible": flex_res}
+    systems = {"rigid": rigid_model.build(), "flexible": flex_model.build()}
+    tips = {k: report.point_motion(runs[k], systems[k], "right_blade", (0.25, 0.0, 0.0)) for k in runs}
+    return report.wiper_figure(runs, systems, tips), runs, systems, tips
+
+
+def test_wiper_figure_axes_and_units(figure):
+    fig, runs, _, tips = figure
+    ax = np.array(fig.axes).reshape(3, 2)
+    units = [[ax[i, j].get_ylabel().rsplit("(", 1)[-1].rstrip(")") for j in range(2)] for i in range(3)]
+    assert units == [["m", "mm"], ["m/s", "m/s"], ["N m", "N m"]]
+    # what "displacement" means is on the axis
+    assert "distance from its start point" in ax[0, 0].get_ylabel()
+    assert [a.get_xlabel() for a in ax[-1]] == ["time (s)", "time (s)"]
+    p, v = tips["flexible"]
+    np.testing.assert_allclose(ax[0, 0].lines[1].get_ydata(), np.linalg.norm(p - p[0], axis=1))
+    # the speed panel plots the exact speeds, not differences
+    np.testing.assert_allclose(ax[1, 0].lines[1].get_ydata(), np.linalg.norm(v, axis=1))
+    dv = np.linalg.norm(v, axis=1) - np.linalg.norm(tips["rigid"][1], axis=1)
+    np.testing.assert_allclose(ax[1, 1].lines[0].get_ydata(), dv)
+    assert np.abs(dv).max() > 1e-3  # the blade's vibration shows in the difference
+
+
+def test_wiper_figure_difference_is_the_blade_deflection(figure):
+    fig, runs, systems, tips = figure
+    res = runs["flexible"]
+    # the tip in the frame of the blade's clamp (its body frame "right_blade.base"): the elastic deflection
+    k = res.body_names.index("right_blade.base")
+    local = np.einsum("tji,tj->ti", res.rotations[:, k], tips["flexible"][0] - res.origins[:, k])
+    deflection = local - (0.25, 0.0, 0.0)
+    across = fig.axes[1].lines[0]
+    assert "across" in across.get_label()
+    # the crank drives a linkage without freedom: the arms move alike, and flexible - rigid is the deflection
+    np.testing.assert_allclose(across.get_ydata(), 1e3 * deflection[:, 1], rtol=0, atol=1e-5)
+    assert np.abs(deflection[:, 1]).max() > 1e-5  # bends by a fraction of a millimetre
+    loads = res.section_loads(systems["flexible"].model["right_blade"])
+    moment = fig.axes[5].lines[0]
+    assert moment.get_label().startswith("Mz")
+    np.testing.assert_allclose(moment.get_ydata(), loads.component("Mz")[:, 0])
+    assert np.abs(moment.get_ydata()).max() > 0.01  # N m
+
+
 # ----------------------------------------------------------------------------- the command line
 
 def test_flexmb_run_wiper(tmp_path):
@@ -238,6 +315,9 @@ def test_flexmb_run_wiper(tmp_path):
         res = fm.Result.load(out / f"wiper_{label}.npz")
         model, _ = wiper(WiperOptions(flexible=flexible))
         system = model.build()
+        # the summary's peak tip speed is the exact one (the kinematics of the stored states)
+        _, v = report.point_motion(res, system, "right_blade", (0.25, 0.0, 0.0))
+        assert summary[label]["peak_tip_speed_m_s"] == pytest.approx(np.linalg.norm(v, axis=1).max(), rel=1e-12)
         i = len(res.t) // 2
         mesh = vtk.read_vtu(out / f"vtk_{label}" / f"wiper_{label}_{i:04d}.vtu")
         assert list(mesh.field_data["body_names"]) == ["crank", "right_arm", "left_arm", "drive_link",

@@ -260,7 +260,11 @@ class Result:
         return export_vtk(self, folder, **kw)
 
     def plot(self, coords=None, path=None, **kw):
-        """Time histories of coordinates (matplotlib); see :func:`flexmb.viz.plot`.
+        """Time histories of coordinates (matplotlib), one axis per kind and unit; see :func:`flexmb.viz.plot`.
+
+        Joint angles (rad), joint translations (m) and the elastic rotations
+        (rad) and displacements (m) of flexible bodies each get their own
+        axis, labelled with the unit.
 
         Parameters
         ----------
@@ -269,7 +273,8 @@ class Result:
         path : str or path-like, optional
             Save the figure there (PNG, PDF, ... by its ending).
         **kw
-            Passed to :func:`flexmb.viz.plot`.
+            Passed to :func:`flexmb.viz.plot` (``energy=True`` adds an
+            energy axis, J).
 
         Returns
         -------

@@ -1233,32 +1233,47 @@ class StudyResult:
         files["summary"] = atomic_write(out / "summary.txt", lambda tmp: Path(tmp).write_text(text + "\n"))
         return files
 
-    def plot(self, path):
-        """Each output against each parameter, one panel each (matplotlib, PNG).
+    def unit(self, name: str) -> str:
+        """The unit of a parameter or output column, read from its name (``'-'`` when unknown).
 
         Parameters
         ----------
-        path : str or path-like
-            The PNG file.
+        name : str
+            A parameter (scene key path) or output name.
 
         Returns
         -------
-        pathlib.Path or None
-            The file, or None if matplotlib is not installed or nothing finished.
+        str
+            E.g. ``'kg'`` for ``bodies.bar.mass``, ``'m/s'`` for
+            ``peak_speed:tip``, ``'rad'`` for ``final:pin.angle``; ``'-'``
+            for a dimensionless number, a count, or a unit the name does not
+            fix (``stiffness``, ``peak_effort:<driver>``, a bare joint name).
         """
-        try:
-            import matplotlib
+        return _column_unit(name)
 
-            matplotlib.use("Agg")
-            import matplotlib.pyplot as plt
-        except ImportError:
-            return None
+    def figure(self):
+        """Each output against each parameter, one panel each, axes labelled with units.
+
+        Returns
+        -------
+        matplotlib.figure.Figure or None
+            The figure (not drawn through pyplot), or None if no case
+            finished or there is no scalar output.
+
+        Raises
+        ------
+        ImportError
+            If matplotlib is not installed.
+        """
+        from matplotlib.figure import Figure
+
         ok = np.array([r["status"] == "finished" for r in self.rows])
         outputs = self.scalar_outputs
         if not ok.any() or not outputs:
             return None
         n_o, n_p = len(outputs), len(self.parameters)
-        fig, axes = plt.subplots(n_o, n_p, figsize=(3.4 * n_p + 0.6, 2.6 * n_o + 0.6), squeeze=False)
+        fig = Figure(figsize=(3.4 * n_p + 0.6, 2.6 * n_o + 0.6))
+        axes = fig.subplots(n_o, n_p, squeeze=False)
         for j, p in enumerate(self.parameters):
             x = self.column(p)
             others = [q for q in self.parameters if q != p]
@@ -1267,6 +1282,10 @@ class StudyResult:
             groups = list(dict.fromkeys(combo))
             for i, o in enumerate(outputs):
                 ax = axes[i, j]
+                if i == n_o - 1:
+                    ax.set_xlabel(f"{p} ({self.unit(p)})", fontsize=8)
+                if j == 0:
+                    ax.set_ylabel(f"{o} ({self.unit(o)})", fontsize=8)
                 y = self.column(o)
                 if x.dtype.kind not in "fi" or y.dtype.kind not in "fi":
                     ax.text(0.5, 0.5, "not numeric", ha="center", transform=ax.transAxes)
@@ -1284,19 +1303,35 @@ class StudyResult:
                     ax.plot(x[bad], np.full(bad.sum(), np.nanmin(y[ok])), "rx", label="failed" if i == 0 else None)
                 if np.all(x[np.isfinite(x)] > 0) and np.nanmax(x) / max(np.nanmin(x), 1e-300) > 50:
                     ax.set_xscale("log")
-                if i == n_o - 1:
-                    ax.set_xlabel(p, fontsize=8)
-                if j == 0:
-                    ax.set_ylabel(o, fontsize=8)
                 ax.grid(alpha=0.3)
                 ax.tick_params(labelsize=7)
             if axes[0, j].get_legend_handles_labels()[0]:
                 axes[0, j].legend(fontsize=6)
         fig.suptitle(f"{sum(ok)} of {len(self.rows)} cases finished", fontsize=9)
         fig.tight_layout()
+        return fig
+
+    def plot(self, path):
+        """Each output against each parameter, one panel each (matplotlib, PNG); see :meth:`figure`.
+
+        Parameters
+        ----------
+        path : str or path-like
+            The PNG file.
+
+        Returns
+        -------
+        pathlib.Path or None
+            The file, or None if matplotlib is not installed or nothing finished.
+        """
+        try:
+            fig = self.figure()
+        except ImportError:
+            return None
+        if fig is None:
+            return None
         target = Path(os.fspath(path))
         atomic_write(target, lambda tmp: fig.savefig(tmp, dpi=100), suffix=".png")
-        plt.close(fig)
         return target
 
     def summary(self) -> str:
@@ -1327,6 +1362,51 @@ class StudyResult:
         if wall.size:
             lines.append(f"  wall time per case: median {np.median(wall):.3g} s, total {wall.sum():.3g} s")
         return "\n".join(lines)
+
+
+#: units of scene keys by their last part (``'-'``: dimensionless or a count); a key whose unit
+#: depends on the element (``stiffness``, ``damping`` of a force, a driver's ``speed``) is not here
+_KEY_UNITS = {
+    "E": "Pa", "G": "Pa", "density": "kg/m^3", "nu": "-",
+    "b": "m", "h": "m", "d": "m", "d_out": "m", "d_in": "m", "area": "m^2", "Iy": "m^4", "Iz": "m^4",
+    "J": "m^4", "Ip": "m^4", "c_y": "m", "c_z": "m",
+    "mass": "kg", "length": "m", "size": "m", "vector": "m", "com": "m", "inertia": "kg m^2",
+    "n_segments": "-", "damping_ratio": "-", "frequency": "Hz",
+    "parent_point": "m", "child_point": "m", "point": "m", "point1": "m", "point2": "m", "rest_length": "m",
+    "g": "m/s^2", "normal_load": "N", "mu_static": "-", "mu": "-", "slope": "s/m", "smoothing_speed": "m/s",
+    "force": "N", "torque": "N m",
+    "rpm": "rev/min",
+    "t_end": "s", "max_step": "s", "rtol": "-", "n_out": "-", "time_limit": "s",
+}
+#: keys whose unit depends on their table: (first part, last part) -> unit
+_TABLE_KEY_UNITS = {("bodies", "damping"): "s"}
+#: outputs by kind: a fixed unit, or "coordinate" (the unit of the coordinate named)
+_OUTPUT_UNITS = {"peak_speed": "m/s", "max_displacement": "m", "driver_work": "J", "energy_balance": "-",
+                 "final": "coordinate", "max": "coordinate", "min": "coordinate", "history": "coordinate",
+                 "time": "s", "n_rhs": "-"}
+
+
+def _column_unit(name: str) -> str:
+    """Unit of a study column from its name: a scene key path or an output name; '-' when unknown."""
+    if "." in name and ":" not in name:  # a key path, or several joined by '+'
+        found = set()
+        for path in _paths(name):
+            parts = path.split(".")
+            leaf = parts[-1].split("[", 1)[0]
+            found.add(_TABLE_KEY_UNITS.get((parts[0], leaf), _KEY_UNITS.get(leaf, "-")))
+        return found.pop() if len(found) == 1 else "-"
+    kind, _, arg = name.partition(":")
+    unit = _OUTPUT_UNITS.get(kind, "-")
+    if unit == "coordinate":
+        from .viz import _joint_coordinate_units
+        from .flexible import ELASTIC_COORDINATES
+
+        coord = arg.rpartition(".")[2] if "." in arg else ""
+        if coord in ELASTIC_COORDINATES and ".j" in arg:
+            unit = "m" if ELASTIC_COORDINATES[coord][0] == "t" else "rad"
+        else:
+            unit = _joint_coordinate_units().get(coord) or "-"
+    return unit
 
 
 def run_study(scene, vary: dict, out, *, outputs=(), fixed=None, samples=None, seed: int = 0,

@@ -23,7 +23,8 @@ from ._names import name_of
 from .errors import ExportError
 from .joints import Joint
 
-__all__ = ["RenderOptions", "render_state", "animate", "plot", "plot_envelope", "plot_station"]
+__all__ = ["RenderOptions", "render_state", "animate", "plot", "coordinate_units", "plot_envelope",
+           "plot_station"]
 
 _VIEWS = ("auto", "xy", "xz", "yz", "iso")
 
@@ -380,8 +381,96 @@ def _columns(result, coords) -> list[int]:
     return cols
 
 
-def plot(result, coords=None, path=None, *, energy: bool = False, figsize=(7.0, 4.0)):
-    """Plot time histories of coordinates with matplotlib.
+def _joint_coordinate_units() -> dict[str, str | None]:
+    """Unit of each joint coordinate name, from every joint class loaded (plugins included).
+
+    A joint's coordinates are its translations (m) and then its rotations
+    (rad); a name that is a translation in one class and a rotation in
+    another maps to None (unknown).
+    """
+    from .flexible import SegmentJoint
+    from .joints import Joint
+
+    units: dict[str, str | None] = {}
+    todo = [Joint]
+    while todo:
+        cls = todo.pop()
+        todo.extend(cls.__subclasses__())
+        names = tuple(getattr(cls, "coordinate_names", ()))
+        n_t, n_r = len(cls.translation_axes), len(cls.rotation_axes)
+        if issubclass(cls, SegmentJoint) or not names or len(names) != n_t + n_r:
+            continue
+        for i, name in enumerate(names):
+            unit = "m" if i < n_t else "rad"
+            units[name] = unit if units.get(name, unit) == unit else None
+    return units
+
+
+def coordinate_units(result) -> list[tuple[str, str]]:
+    """What each coordinate of a result is, and its unit.
+
+    Parameters
+    ----------
+    result : Result
+        A simulation result.
+
+    Returns
+    -------
+    list of (str, str)
+        Per column of ``result.x``: the kind of coordinate, one of
+        ``'joint angle'``, ``'joint translation'``, ``'elastic rotation'``,
+        ``'elastic displacement'`` or ``'coordinate'`` (a plugin joint's
+        coordinate of unknown unit), and its unit (``'rad'``, ``'m'`` or
+        ``'-'`` when unknown).
+
+    Notes
+    -----
+    Read from the names: an elastic coordinate is
+    ``<flexible body>.j<i>.<kept coordinate>`` (bending and torsion in
+    rad, axial and shear in m); a joint coordinate is
+    ``<joint>.<coordinate>``, a translation (m) or rotation (rad) of the
+    joint classes loaded.
+    """
+    from .flexible import ELASTIC_COORDINATES
+
+    joint_units = _joint_coordinate_units()
+    flexible = set(getattr(result, "flexible", {}) or {})
+    out = []
+    for name in result.coordinate_names:
+        joint, _, coord = str(name).rpartition(".")
+        body, _, seg = joint.rpartition(".")
+        if body in flexible and seg[:1] == "j" and seg[1:].isdigit() and coord in ELASTIC_COORDINATES:
+            kind = ELASTIC_COORDINATES[coord][0]
+            out.append(("elastic displacement", "m") if kind == "t" else ("elastic rotation", "rad"))
+        elif joint_units.get(coord) == "m":
+            out.append(("joint translation", "m"))
+        elif joint_units.get(coord) == "rad":
+            out.append(("joint angle", "rad"))
+        else:
+            out.append(("coordinate", "-"))
+    return out
+
+
+#: the order of the axes of :func:`plot`
+_KIND_ORDER = ("joint angle", "joint translation", "elastic rotation", "elastic displacement", "coordinate")
+
+
+def _coordinate_groups(result, cols) -> list[tuple[str, str, list[int]]]:
+    """The columns grouped by (kind, unit), in the order of ``_KIND_ORDER``, columns in the order given."""
+    kinds = coordinate_units(result)
+    groups: dict[tuple[str, str], list[int]] = {}
+    for c in cols:
+        groups.setdefault(kinds[c], []).append(c)
+    order = sorted(groups, key=lambda key: _KIND_ORDER.index(key[0]))
+    return [(kind, unit, groups[(kind, unit)]) for kind, unit in order]
+
+
+def plot(result, coords=None, path=None, *, energy: bool = False, figsize=None):
+    """Plot time histories of coordinates with matplotlib, one axis per kind and unit.
+
+    Joint angles (rad), joint translations (m), elastic rotations (rad) and
+    elastic displacements (m) of flexible bodies each get their own axis,
+    labelled with the unit (see :func:`coordinate_units`).
 
     Parameters
     ----------
@@ -395,26 +484,34 @@ def plot(result, coords=None, path=None, *, energy: bool = False, figsize=(7.0, 
         ``.pdf``, ``.svg``). Without it the figure is made with pyplot, to
         show in a notebook or window.
     energy : bool
-        Add a second panel with kinetic, potential and total energy, J.
-    figsize : tuple of float
-        Figure size, inches.
+        Add a last axis with kinetic, potential and total energy, J.
+    figsize : tuple of float, optional
+        Figure size, inches (default 7 wide, 2.5 high per axis, at least 4).
 
     Returns
     -------
     matplotlib.figure.Figure
-        The figure.
+        The figure; its axes share the time axis (s).
 
     Raises
     ------
     ExportError
         If a name matches no coordinate, or matplotlib is not installed.
+
+    Examples
+    --------
+    >>> fig = result.plot(["RJ4", "right_blade.j0"])  # doctest: +SKIP
+    >>> [ax.get_ylabel() for ax in fig.axes]  # doctest: +SKIP
+    ['joint angle (rad)', 'elastic rotation (rad)']
     """
     try:
         import matplotlib  # noqa: F401
     except ImportError as exc:
         raise ExportError("plot needs matplotlib: pip install 'flexmb[viz]'") from exc
-    cols = _columns(result, coords)
-    n_ax = 2 if energy else 1
+    groups = _coordinate_groups(result, _columns(result, coords))
+    n_ax = max(len(groups), 1) + bool(energy)
+    if figsize is None:
+        figsize = (7.0, max(4.0, 1.0 + 2.5 * n_ax))
     if path is None:
         import matplotlib.pyplot as plt
 
@@ -426,17 +523,21 @@ def plot(result, coords=None, path=None, *, energy: bool = False, figsize=(7.0, 
         axes = fig.subplots(n_ax, 1, sharex=True, squeeze=False)
     axes = axes[:, 0]
     t = np.asarray(result.t)
-    for c in cols:
-        axes[0].plot(t, np.asarray(result.x)[:, c], label=result.coordinate_names[c])
-    axes[0].set_ylabel("coordinate (rad or m)")
-    if 0 < len(cols) <= 12:
-        axes[0].legend(fontsize="small")
+    x = np.asarray(result.x)
+    for ax, (kind, unit, cols) in zip(axes, groups):
+        for c in cols:
+            ax.plot(t, x[:, c], label=result.coordinate_names[c])
+        ax.set_ylabel(f"{kind} ({unit})")
+        if len(cols) <= 12:
+            ax.legend(fontsize="small")
+    if not groups:
+        axes[0].set_ylabel("coordinate (-)")
     if energy:
-        axes[1].plot(t, result.kinetic, label="kinetic")
-        axes[1].plot(t, result.potential, label="potential")
-        axes[1].plot(t, np.asarray(result.kinetic) + np.asarray(result.potential), "k--", label="total")
-        axes[1].set_ylabel("energy (J)")
-        axes[1].legend(fontsize="small")
+        axes[-1].plot(t, result.kinetic, label="kinetic")
+        axes[-1].plot(t, result.potential, label="potential")
+        axes[-1].plot(t, np.asarray(result.kinetic) + np.asarray(result.potential), "k--", label="total")
+        axes[-1].set_ylabel("energy (J)")
+        axes[-1].legend(fontsize="small")
     axes[-1].set_xlabel("time (s)")
     fig.tight_layout()
     if path is not None:

@@ -138,8 +138,8 @@ def _power(kin, loads) -> float:
     projections on the partial velocities, whose combination with ``xd``
     is each body's velocity.
     """
-    return float(np.einsum("ki,ki->", loads.force[:-1], kin.v[:-1]) + np.einsum("ki,ki->", loads.torque[:-1],
-                 kin.omega[:-1]) + loads.generalized @ kin.xd)
+    # the ground's row (last) moves not: its loads do no work, so whole arrays can be dotted
+    return float(np.vdot(loads.force, kin.v) + np.vdot(loads.torque, kin.omega) + loads.generalized @ kin.xd)
 
 
 class ForceAssembler:

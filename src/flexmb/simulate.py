@@ -358,10 +358,14 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         xs, vs = y[:n], y[n : 2 * n]
         rates = np.zeros(n_w)
         A, f, psi, gamma = system.reduced_parts(t, y, powers=rates[n_drv:])
-        if not (np.all(np.isfinite(f)) and np.all(np.isfinite(A))):
-            system.accelerations(t, xs, vs)  # raises with the diagnosis
-        xdd, lam = system._solve(t, A, f, psi, gamma, multipliers=True)
+        try:
+            xdd, lam = system._solve(t, A, f, psi, gamma, multipliers=True)
+        except AssemblyError:
+            xdd = np.full(n, np.nan)
         if not np.all(np.isfinite(xdd)):
+            if not (np.all(np.isfinite(f)) and np.all(np.isfinite(A))):
+                system.accelerations(t, xs, vs)  # raises with the diagnosis
+            system._solve(t, A, f, psi, gamma)  # raises if the reduced equations are singular
             bad = [system.coordinate_names[i] for i in np.flatnonzero(~np.isfinite(xdd))[:5]]
             raise _NonFinite(t, f"accelerations became non-finite ({', '.join(bad)})")
         if n_drv:

@@ -356,7 +356,10 @@ class System:
         A, f, _, psi, gamma = tree_equations(*self._fused_equations, y, n, powers, *loads)
         if self.constraints.drivers:
             psi_d, gamma_d = self.constraints.driver_rows(t, n)
-            psi, gamma = np.vstack([psi, psi_d]), np.concatenate([gamma, gamma_d])
+            m = psi.shape[0]
+            full = np.empty((m + psi_d.shape[0], n))
+            full[:m], full[m:] = psi, psi_d
+            psi, gamma = full, np.concatenate((gamma, gamma_d))
         return A, f, psi, gamma
 
     def constraint_residuals(self, t, x, xd) -> tuple[float, float]:
@@ -528,7 +531,7 @@ class System:
 
     def _solve(self, t, A, f, psi, gamma, multipliers=False):
         """xdd from the reduced equations; with ``multipliers``, ``(xdd, lambda)`` (the reactions)."""
-        if type(self.strategy) is SVDComplement and not self.strategy.singular_rtol:
+        if self._svd_kernel:
             # the default strategy: decomposition, particular solution and reduced solve in one call
             self.n_complements += psi.shape[0] > 0
             xdd, lam, status = svd_reduced_solve(
@@ -555,6 +558,11 @@ class System:
         if multipliers:
             return xdd, c.multipliers(A @ xdd - f)
         return xdd
+
+    @property
+    def _svd_kernel(self) -> bool:
+        """Whether the reduced equations are solved by the compiled SVD route (the default strategy)."""
+        return type(self.strategy) is SVDComplement and not self.strategy.singular_rtol
 
     def _particular(self, c, rhs):
         """``psi^+ rhs`` with the strategy's treatment of singular positions.
@@ -964,6 +972,15 @@ class System:
     def _mass_orthogonal_speeds(self, kin, psi, b, xd, c=None):
         """``xd_p + T (T^T A T)^-1 T^T A (xd - xd_p)`` with ``xd_p = psi^+ b``: the consistent speeds
         nearest to ``xd`` in the kinetic-energy metric (``c``: the complement to use)."""
+        if c is None and self._svd_kernel:  # the compiled reduced solve with f = A xd, gamma = b
+            A = mass_matrix(kin)
+            v, _, status = svd_reduced_solve(A, A @ xd, _plain(psi).reshape(psi.shape[0], self.n_coords),
+                                             _plain(b), self.strategy.tol, PSI_ZERO,
+                                             -1 if self._rank_limit is None else self._rank_limit,
+                                             self.singular_window())
+            if status == 0:
+                self.n_complements += 1
+                return v
         c = self.complement(psi) if c is None else c
         vp = self._particular(c, b)
         T = c.T

@@ -112,7 +112,8 @@ def run_wiper(folder, t_end=None, rtol=1e-6, complement="svd", method="auto", n_
         tips[label] = point_motion(res, system, "right_blade", (options.blade_length, 0.0, 0.0))
         speed = np.linalg.norm(tips[label][1], axis=1)
         summary[label] = {
-            "status": res.status, "method": res.method, "n_coords": len(res.coordinate_names),
+            "status": res.status, "method": res.method, "method_reason": res.method_reason,
+            "n_coords": len(res.coordinate_names),
             "n_dof": res.n_dof, "n_rhs": res.n_rhs, "wall_time_s": res.wall_time,
             "max_loop_residual": float(res.residual.max()), "peak_tip_speed_m_s": float(speed.max()),
             "peak_crank_torque_N_m": float(np.abs(res.driver_effort("motor")).max()),
@@ -313,7 +314,7 @@ def _write_outputs(scene, res, folder) -> dict:
     o = scene.output
     summary = {
         "scene": scene.source, "model": scene.name, "status": res.status, "message": res.message,
-        "method": res.method, "complement": res.complement, "t_end": float(res.t[-1]) if len(res.t) else None,
+        "method": res.method, "method_reason": res.method_reason, "complement": res.complement, "t_end": float(res.t[-1]) if len(res.t) else None,
         "n_out": int(len(res.t)), "n_coords": len(res.coordinate_names), "n_dof": res.n_dof,
         "n_rhs": res.n_rhs, "n_steps": res.n_steps, "n_projections": res.n_projections,
         "wall_time_s": res.wall_time,

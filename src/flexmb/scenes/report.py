@@ -12,6 +12,7 @@ import logging
 
 import numpy as np
 
+from .._background import in_background
 from .._files import OutputFolder, atomic_write
 from ..errors import FlexmbError
 from ..simulate import simulate
@@ -47,22 +48,33 @@ def _savefig(plt, fig, folder, rel, dpi):
 PARAVIEW_SCRIPT = "open_in_paraview.py"
 
 
-def _vtk(res, folder, sub, prefix, system):
+def _vtk(res, folder, sub, prefix, system, jobs=None):
     """Write the VTK series into ``sub/`` of the staging folder; return the final ``.pvd`` path or None.
 
     With the system the run came from: bodies drawn through their joints, exact velocities, section
-    loads and stresses. The ParaView script that opens the series comes along, once per folder.
+    loads and stresses. The ParaView script that opens the series comes along, once per folder. Given
+    a list ``jobs``, the series is written by a child process (:mod:`flexmb._background`) appended to
+    it, which the caller waits for before the folder is committed.
     """
     rel = f"{sub}/{prefix}.pvd"
     try:
-        from ..export.vtk import paraview_script
+        import meshio  # noqa: F401  (the export's writer)
 
-        res.export_vtk(folder.stage(rel).parent, prefix=prefix, system=system)
-        if not folder.staged(PARAVIEW_SCRIPT):
-            paraview_script(folder.stage(PARAVIEW_SCRIPT))
+        from ..export.vtk import paraview_script
     except ImportError as exc:  # meshio missing
         log.warning("no VTK written: %s", exc)
         return None
+    if not folder.staged(PARAVIEW_SCRIPT):
+        paraview_script(folder.stage(PARAVIEW_SCRIPT))
+    where = folder.stage(rel).parent
+
+    def export():
+        res.export_vtk(where, prefix=prefix, system=system)
+
+    if jobs is None:
+        export()
+    else:
+        jobs.append(in_background(export))
     return folder.final(rel)
 
 
@@ -90,10 +102,23 @@ def run_fourbar(folder, t_end=None, rtol=1e-8, complement="svd", method="auto", 
 
 def run_wiper(folder, t_end=None, rtol=1e-6, complement="svd", method="auto", n_out=501, progress=True,
               n_segments=6):
-    """The wiper, rigid and flexible blades (Figs. 5-6 of the paper), staged in an open OutputFolder."""
+    """The wiper, rigid and flexible blades (Figs. 5-6 of the paper), staged in an open OutputFolder.
+
+    Each run's VTK series is written by a child process while the next run is simulated and the plots
+    are drawn (:mod:`flexmb._background`); all of it is written before this returns.
+    """
+    jobs = []
+    try:
+        return _wiper_runs(folder, jobs, t_end or 1.0, rtol, complement, method, n_out, progress, n_segments)
+    finally:
+        for job in jobs:
+            job.wait()
+
+
+def _wiper_runs(folder, jobs, t_end, rtol, complement, method, n_out, progress, n_segments):
+    """The body of :func:`run_wiper`; the VTK jobs it starts are appended to ``jobs``."""
     from .wiper import WiperOptions, wiper
 
-    t_end = t_end or 1.0
     runs, tips, systems = {}, {}, {}
     summary = {"scene": "wiper", "t_end": t_end}
     for flexible in (False, True):
@@ -120,7 +145,7 @@ def run_wiper(folder, t_end=None, rtol=1e-6, complement="svd", method="auto", n_
             "driver_work_J": float(res.work["driver motor"][-1]),
             "energy_balance_rel_error": balance,
         }
-        summary[label]["vtk"] = _vtk(res, folder, f"vtk_{label}", f"wiper_{label}", system)
+        summary[label]["vtk"] = _vtk(res, folder, f"vtk_{label}", f"wiper_{label}", system, jobs)
         if summary[label]["vtk"]:
             summary["paraview"] = folder.final(PARAVIEW_SCRIPT)
         if res.status == "interrupted":  # Ctrl-C: keep what was written, start no further run

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+from pathlib import Path
 
 import numpy as np
 from attrs import define, field
@@ -136,6 +137,74 @@ class Result:
     def energy(self) -> np.ndarray:
         """Total mechanical energy (kinetic + potential), J."""
         return self.kinetic + self.potential
+
+    def _summary_rows(self) -> list[tuple[str, str]]:
+        """What a notebook shows of a result: status, integrator, cost, residuals and energy."""
+        t = np.asarray(self.t)
+        span = f"{t[0]:.4g} ... {t[-1]:.4g} s, {len(t)} outputs" if len(t) else "no outputs"
+        rows = [("status", f"{self.status}: {self.message}"), ("time", span),
+                ("integrator", self.method + (f" ({self.method_reason})" if self.method_reason else "")),
+                ("cost", f"{self.n_steps} steps, {self.n_rhs} right-hand sides, {self.n_jac} Jacobians, "
+                         f"{self.n_projections} projections, {self.wall_time:.3g} s"),
+                ("model", f"{len(self.coordinate_names)} coordinates, {self.n_dof} freedoms, "
+                          f"{len(self.body_names)} bodies, {len(self.constraint_labels)} constraint rows")]
+        if len(t) and len(self.constraint_labels):
+            rows.append(("largest residuals", f"positions {np.max(self.residual):.2e}, "
+                                              f"velocities {np.max(self.velocity_residual):.2e}"))
+        if len(t):
+            e = self.energy
+            rows.append(("energy", f"{e[0]:.6g} J at the start, {e[-1]:.6g} J at the end (kinetic + potential; "
+                                   "drivers and dampers change it)"))
+        return rows
+
+    def _repr_html_(self) -> str:
+        """A short table for Jupyter: status, times, integrator, cost, residuals, energy."""
+        from html import escape
+
+        cells = "".join(f"<tr><th style='text-align:left'>{escape(k)}</th><td style='text-align:left'>"
+                        f"{escape(v)}</td></tr>" for k, v in self._summary_rows())
+        return f"<table><caption style='text-align:left'><b>flexmb Result</b></caption>{cells}</table>"
+
+    def show(self, i: int = -1, *, system=None, path=None, **options):
+        """Render the mechanism at output ``i`` (pyvista, off-screen), inline in a notebook.
+
+        Parameters
+        ----------
+        i : int
+            Output index (default: the last).
+        system : System or Model, optional
+            The model the result came from (default: the one that made it,
+            if kept): bodies drawn through their joints, coloured by stress.
+        path : str or path-like, optional
+            Where to write the PNG (default: a temporary file).
+        **options
+            Options of :class:`flexmb.viz.RenderOptions` (``scalars``,
+            ``window``, ...).
+
+        Returns
+        -------
+        IPython.display.Image or pathlib.Path
+            The picture (an Image where IPython is installed), else the
+            PNG's path.
+
+        Raises
+        ------
+        FlexmbError
+            If pyvista is not installed (``pip install -e '.[viz]'``).
+        """
+        import tempfile
+
+        from .viz import render_state
+
+        if path is None:
+            path = Path(tempfile.mkdtemp(prefix="flexmb_show_")) / "state.png"
+        out = render_state(self, i % len(self.t), path, system=self.system if system is None else system,
+                           **options)
+        try:
+            from IPython.display import Image
+        except ImportError:
+            return out
+        return Image(filename=str(out))
 
     def coordinate(self, name) -> np.ndarray:
         """History of one coordinate by its name (``"joint.coordinate"``), or a joint's first coordinate.

@@ -149,3 +149,14 @@ def test_render_state_draws_the_wiper_with_its_system(wiper_files, tmp_path):
     assert _foreground(iio.imread(path)).mean() > 0.002
     with pytest.raises(fm.ExportError, match="von_mises"):
         viz.render_state(res, -1, tmp_path / "x.png", scalars="von_mises")  # without the system: no stress
+
+
+def test_show_renders_the_last_state_with_the_system_that_made_it(result, tmp_path):
+    shown = result.show(path=tmp_path / "shown.png", window_size=SIZE)
+    path = tmp_path / "shown.png"
+    assert path.exists() and getattr(shown, "filename", str(path)).endswith("shown.png")
+    img = iio.imread(path)
+    assert img.shape[:2] == SIZE[::-1] and _foreground(img).any()
+    # the same picture as render_state of the last output with the result's own system
+    ref = viz.render_state(result, len(result.t) - 1, tmp_path / "ref.png", system=result.system, window_size=SIZE)
+    assert np.array_equal(iio.imread(ref), img)

@@ -22,7 +22,7 @@ from .joints import Joint
 from .kinematics import Kinematics
 from .topology import Topology
 from .forces.tables import class_tables, merge
-from .kernels.equations import cut_residual, tree_equations
+from .kernels.equations import cut_residual, cut_rows_at, tree_equations
 from .kernels.reduced import svd_reduced_solve
 from .kernels.articulated import articulated_accelerations, mass_times, open_tree_accelerations, open_tree_rhs
 
@@ -361,6 +361,23 @@ class System:
             full[:m], full[m:] = psi, psi_d
             psi, gamma = full, np.concatenate((gamma, gamma_d))
         return A, f, psi, gamma
+
+    def _rows(self, t, x, xd):
+        """phi, psi and b at a state (all rows: cut joints, then drivers), compiled where it can be."""
+        if self._fused_equations is None:
+            return self.constraints.evaluate(self.kinematics(t, x, xd), level=1)
+        tree, _, cuts = self._fused_equations
+        phi, psi = cut_rows_at(tree, cuts, np.concatenate([x, xd]), self.n_coords)
+        drivers = self.constraints.drivers
+        if not drivers:
+            return phi, psi, np.zeros(phi.shape[0])
+        cols = self.constraints.driver_cols
+        m = phi.shape[0]
+        full = np.empty((m + len(drivers), self.n_coords))
+        full[:m], full[m:] = psi, self.constraints.driver_rows(t, self.n_coords)[0]
+        phi_d = np.array([x[c] - d.position(t) for d, c in zip(drivers, cols)])
+        b = np.concatenate((np.zeros(m), [d.velocity(t) for d in drivers]))
+        return np.concatenate((phi, phi_d)), full, b
 
     def constraint_residuals(self, t, x, xd) -> tuple[float, float]:
         """The largest position and velocity residuals of the constraints, ``max |phi|`` and ``max |psi xd - b|``.
@@ -945,8 +962,7 @@ class System:
             return x, xd
         free = np.ones(self.n_coords, bool) if fixed is None else ~np.asarray(fixed, bool)
         for _ in range(max_iter):
-            kin = self.kinematics(t, x, xd)
-            phi, psi, _ = self.constraints.evaluate(kin, level=1)
+            phi, psi, _ = self._rows(t, x, xd)
             if np.max(np.abs(phi)) <= tol:
                 break
             step = self._min_norm(psi[:, free], phi)
@@ -961,10 +977,9 @@ class System:
                 f"the constraints cannot be closed at t = {t:.6g} s: residual {np.max(np.abs(phi)):.3g} "
                 f"after {max_iter} Newton steps (largest: {rows})"
             )
-        kin = self.kinematics(t, x, xd)
-        phi, psi, b = self.constraints.evaluate(kin, level=1)
+        phi, psi, b = self._rows(t, x, xd)
         if speeds == "mass" and fixed is None:
-            return x, self._mass_orthogonal_speeds(kin, psi, b, xd)
+            return x, self._mass_orthogonal_speeds(self.kinematics(t, x, xd), psi, b, xd)
         step = self._min_norm(psi[:, free], psi @ xd - b)
         xd[free] -= step
         return x, xd

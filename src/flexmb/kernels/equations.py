@@ -21,7 +21,7 @@ from .dynamics import bias_wrenches, composite_inertias, generalized_force, mass
 from .loads import LoadTables, apply_load_tables
 from .tree import TreeArrays, tree_kinematics
 
-__all__ = ["tree_equations", "cut_residual"]
+__all__ = ["tree_equations", "cut_residual", "cut_rows_at"]
 
 
 @njit(cache=True)
@@ -121,3 +121,37 @@ def cut_residual(tree, cuts, y, n):
             s += psi[i, j] * xd[j]
         velocity = max(velocity, abs(s))
     return position, velocity
+
+
+@njit(cache=True)
+def cut_rows_at(tree, cuts, y, n):
+    """The cut joints' residuals phi and rows of psi at the state ``y = (x, xd, ...)`` (eqs. 28-29).
+
+    Parameters
+    ----------
+    tree : tuple
+        The fields of :class:`~flexmb.kernels.tree.TreeArrays`, in order.
+    cuts : tuple
+        The cut joints' rows (see :func:`tree_equations`).
+    y : ndarray, shape (>= 2 n,)
+        Coordinates and speeds first.
+    n : int
+        Number of coordinates.
+
+    Returns
+    -------
+    phi : ndarray, shape (m_cut,)
+        Residuals.
+    psi : ndarray, shape (m_cut, n)
+        Rows of the constraint Jacobian (their b is zero).
+    """
+    tree = TreeArrays(*tree)
+    x = y[:n]
+    xd = y[n : 2 * n]
+    none3 = np.empty((0, 3))
+    R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = tree_kinematics(
+        tree.parent, tree.coord_start, tree.coord_kind, tree.coord_axis, tree.external, tree.parent_frame,
+        tree.child_frame, tree.lever, tree.child_point, tree.com, x, xd, np.empty((0, 3, 3)), none3, none3, none3,
+        none3, none3)
+    phi, psi, _ = cut_rows(1, n, R, origin, r, omega, v, alpha, acc, Sw, Sv, tree.parent, tree.coord_start, *cuts)
+    return phi, psi

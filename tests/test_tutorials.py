@@ -39,7 +39,7 @@ def run():
 def test_every_tutorial_is_tested():
     assert sorted(p.name for p in TUTORIALS.glob("[0-9][0-9]_*.py")) == [
         "01_pendulum.py", "02_fourbar.py", "03_cantilever.py", "04_wiper.py", "05_custom_elements.py",
-        "06_export_paraview.py", "07_speed_vs_error.py", "08_parameter_study.py"]
+        "06_export_paraview.py", "07_speed_vs_error.py", "08_parameter_study.py", "09_notebook.py"]
 
 
 def test_pendulum(run):
@@ -193,3 +193,13 @@ def test_parameter_study(monkeypatch, tmp_path):
     assert np.all(np.diff(ns["torque"]) > 0)
     # sum of the works = change of kinetic energy, in every case
     assert np.all(ns["energy_balance"] < 1e-7)
+
+
+def test_notebook(run):
+    ns = run("09_notebook.py")
+    res = ns["result"]
+    assert res.status == "finished" and len(res.t) == 201
+    assert ns["max_residual"] < 1e-9
+    assert ns["swing"] > 0.1 and ns["energy_drift_rel"] < 1e-7  # it swings, and keeps its energy
+    html = res._repr_html_()
+    assert "flexmb Result" in html and "largest residuals" in html and res.method in html

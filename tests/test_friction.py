@@ -379,7 +379,7 @@ def test_defaults(fr):
     ("VelocityWeakeningFriction", {"mu_min": 0.5}, "mu_min must be <= mu_static"),
     ("VelocityWeakeningFriction", {"mu_min": -0.5}, "mu_min must be >= 0"),
     ("VelocityWeakeningFriction", {"smoothing_speed": 0.0}, "smoothing_speed must be > 0"),
-    ("VelocityWeakeningFriction", {"body": "blade"}, "body must be a Body, got str"),
+    ("VelocityWeakeningFriction", {"body": 3}, "body must be a Body, got int (or give the body's name)"),
     ("VelocityWeakeningFriction", {"point": (0, 0, np.inf)}, "point must be finite"),
     ("VelocityWeakeningFriction", {"point": "tip"}, "point must be numbers"),
     ("CoulombFriction", {"mu": -0.3}, "mu must be >= 0"),
@@ -406,3 +406,19 @@ def test_body_outside_the_model_is_reported(fr):
               fr.CoulombFriction("rub", stranger, (0, 0, 0), (0, 0, 1), normal_load=1.0, mu=0.2))
     with pytest.raises(fm.ModelError, match="'rub'.*'stranger' is not in the model"):
         model.validate()
+
+
+def test_body_given_by_name_is_the_body(fr):
+    """A friction element may name its body (flexmb.reference): the same loads as with the object."""
+
+    def sliding_block(by_name):
+        model = fm.Model("m")
+        block = fm.RigidBody("block", mass=2.0)
+        rub = fr.CoulombFriction("rub", "block" if by_name else block, (0, 0, 0), (0, 0, 1), normal_load=9.81,
+                                 mu=0.3)
+        model.add(fm.Prismatic("slide", model.ground, block, axis=(1, 0, 0)), rub)
+        return fm.simulate(model, 0.2, speeds={"slide": 1.0}, n_out=5, method="DOP853", rtol=1e-9)
+
+    by_name, by_object = sliding_block(True), sliding_block(False)
+    assert np.abs(by_name.xd[-1] - by_object.xd[-1]).max() == 0.0
+    assert by_object.xd[-1, 0] < 1.0 - 0.2 * 0.3 * 9.81 / 2.0 * 0.9  # it is braked

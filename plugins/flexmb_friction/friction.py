@@ -31,7 +31,7 @@ import numpy as np
 from attrs import field, frozen
 from numba import njit
 
-from flexmb import Body, ForceElement, ModelError
+from flexmb import Body, ForceElement, ModelError, reference
 from flexmb.kernels.loads import body_points
 
 __all__ = ["SlidingFriction", "VelocityWeakeningFriction", "CoulombFriction", "ViscousFriction"]
@@ -75,11 +75,6 @@ def _unit(value):
             arr = arr / length
             arr.setflags(write=False)
     return arr
-
-
-def _is_body(instance, attribute, value):
-    if not isinstance(value, Body):
-        raise ModelError(f"{_label(instance)}: {attribute.name} must be a Body, got {type(value).__name__}")
 
 
 def _vector3(instance, attribute, value):
@@ -213,7 +208,7 @@ class SlidingFriction(ForceElement):
 
     parameters: ClassVar[tuple[str, ...]] = ()
 
-    body: Body = field(validator=_is_body)
+    body: Body = reference(Body)  # the body, or its name (resolved when the model is built)
     point: np.ndarray = field(converter=_array, validator=_vector3)
     normal: np.ndarray = field(converter=_unit, validator=_unit_vector)
 

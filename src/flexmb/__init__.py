@@ -28,6 +28,7 @@ from .genalpha import GeneralizedAlpha, generalized_alpha
 from .system import System
 from .scene import Scene, load_scene, loads_scene
 from .complements import AutoComplement, QRComplement
+from ._names import reference
 
 __version__ = "0.1.0"
 
@@ -47,6 +48,7 @@ __all__ = [
     "Scene", "SceneError", "load_scene", "loads_scene",
     "StiffnessWarning", "GeneralizedAlpha", "generalized_alpha",
     "AutoComplement", "QRComplement",
+    "reference",
 ]
 
 from .scene import scene_from_dict

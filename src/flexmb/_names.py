@@ -41,12 +41,45 @@ def _check(cls: type):
     return check
 
 
-def reference(cls: type, **kw):
-    """An attrs field holding an element of class ``cls`` or its name (a non-empty string).
+def reference(kind: type, **kw):
+    """An attrs field holding an element of class ``kind`` or its name (a non-empty string).
 
-    The model replaces a name by the element it names when it is built.
+    The model replaces a name by the element it names when it is built
+    (:meth:`flexmb.Model.validate`); a plugin's element that refers to a
+    body or a joint declares the field with it, as the built-ins do.
+
+    Parameters
+    ----------
+    kind : type
+        The class of the element, e.g. :class:`flexmb.Body` or
+        :class:`flexmb.Joint`.
+    **kw
+        Other arguments of :func:`attrs.field` (``default``, ...).
+
+    Returns
+    -------
+    attrs field
+        Validated: an instance of ``kind`` or a non-empty string.
+
+    Examples
+    --------
+    >>> import flexmb as fm
+    >>> from attrs import frozen
+    >>> @frozen(eq=False)
+    ... class Drag(fm.ForceElement):
+    ...     body: fm.Body = fm.reference(fm.Body)
+    ...     c: float = 0.5
+    ...
+    ...     def apply(self, state, loads):
+    ...         k = state.index(self.body)
+    ...         loads.add_point_force(k, state.r[k], -self.c * state.v[k])
+    >>> drag = Drag("drag", "bar")  # the bar named before it exists
+    >>> model = fm.Model()
+    >>> bar = fm.RigidBody.slender_bar("bar", mass=1.0, length=1.0)
+    >>> _ = model.add(fm.Revolute("pin", model.ground, bar), drag)
+    >>> system = model.build()
     """
-    return field(validator=_check(cls), metadata={REFERENCE: cls}, **kw)
+    return field(validator=_check(kind), metadata={REFERENCE: kind}, **kw)
 
 
 def name_of(ref, cls: type, where: str) -> str:

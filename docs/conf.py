@@ -10,10 +10,11 @@ are generated at build time, into folders that git ignores:
 
 * ``docs/generated/``: one autosummary page per public name of
   ``flexmb.__all__`` (``api.rst``);
-* ``docs/tutorials/``: one page per ``tutorials/NN_*.py`` script, its module
-  docstring as the text and the script itself as a listing. The tutorials
-  are not executed here (the wiper alone takes half a minute); CI runs them
-  in ``tests/test_tutorials.py``.
+* ``docs/tutorials/``: the tutorials' gallery (sphinx-gallery): every
+  ``tutorials/NN_*.py`` script is run, its docstring and comments become
+  the text and its printed output and figures appear below its code (all
+  of them take under a minute; ``tests/test_tutorials.py`` checks their
+  numbers).
 
 Pages that other parts of the project add later (``scenes.md``,
 ``stresses.md``, ``stability.md``, ``benchmarks.md``, or any other
@@ -25,8 +26,6 @@ every toctree when they appear.
 
 from __future__ import annotations
 
-import ast
-import re
 import sys
 from pathlib import Path
 
@@ -51,6 +50,7 @@ extensions = [
     "sphinx.ext.mathjax",
     "sphinx.ext.viewcode",
     "numpydoc",
+    "sphinx_gallery.gen_gallery",
 ]
 
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
@@ -141,56 +141,22 @@ def _reread_index(app, env, added, changed, removed):
 
 
 # ---------------------------------------------------------------------------
-# One page per tutorial script.
-TUTORIALS = ROOT / "tutorials"
-TUTORIAL_PAGES = DOCS / "tutorials"
-
-
-def _tutorial_page(script: Path) -> str:
-    tree = ast.parse(script.read_text(encoding="utf-8"))
-    doc = ast.get_docstring(tree) or script.stem
-    # the listing starts after the module docstring, which is the page's text
-    first = tree.body[0].end_lineno + 1 if ast.get_docstring(tree) else 1
-    lines = doc.strip().splitlines()
-    # the sphinx-gallery title: a line underlined with '='
-    if len(lines) > 1 and re.fullmatch(r"=+", lines[1].strip()):
-        title, body = lines[0].strip(), "\n".join(lines[2:]).strip()
-    else:
-        title, body = script.stem, "\n".join(lines)
-    rel = Path("..", "..", "tutorials", script.name).as_posix()
-    return (f"{title}\n{'=' * len(title)}\n\n"
-            f"``tutorials/{script.name}``: run it with ``python tutorials/{script.name}`` from the "
-            "repository root; its pictures go to ``results/``.\n\n"
-            f"{body}\n\n"
-            "The script\n----------\n\n"
-            f".. literalinclude:: {rel}\n   :language: python\n   :lines: {first}-\n"
-            f"   :lineno-start: {first}\n")
-
-
-def write_tutorial_pages() -> list[str]:
-    """Write ``docs/tutorials/<script>.rst`` for every tutorial and the index; return the page names."""
-    TUTORIAL_PAGES.mkdir(exist_ok=True)
-    names = []
-    for script in sorted(TUTORIALS.glob("[0-9][0-9]_*.py")):
-        page = TUTORIAL_PAGES / f"{script.stem}.rst"
-        text = _tutorial_page(script)
-        if not page.exists() or page.read_text(encoding="utf-8") != text:
-            page.write_text(text, encoding="utf-8")
-        names.append(script.stem)
-    for stale in TUTORIAL_PAGES.glob("[0-9][0-9]_*.rst"):
-        if stale.stem not in names:
-            stale.unlink()
-    index = ("Tutorials\n=========\n\n"
-             "Runnable scripts in ``tutorials/``, each tested in CI (``tests/test_tutorials.py`` runs it and "
-             "checks its numbers). Each states what you should see and the numbers to expect.\n\n"
-             ".. toctree::\n   :maxdepth: 1\n\n" + "".join(f"   {n}\n" for n in names))
-    path = TUTORIAL_PAGES / "index.rst"
-    if not path.exists() or path.read_text(encoding="utf-8") != index:
-        path.write_text(index, encoding="utf-8")
-    return names
-
-
-write_tutorial_pages()
+# The tutorials: sphinx-gallery runs every ``tutorials/NN_*.py`` script (its
+# ``if __name__ == "__main__"`` block included) and shows its text, code,
+# printed output and figures; ``tests/test_tutorials.py`` checks their numbers.
+sphinx_gallery_conf = {
+    "examples_dirs": str(ROOT / "tutorials"),
+    "gallery_dirs": str(DOCS / "tutorials"),
+    "filename_pattern": r"/\d\d_",
+    "ignore_pattern": r"__init__\.py",
+    "within_subsection_order": "FileNameSortKey",
+    "abort_on_example_error": True,
+    "download_all_examples": False,
+    "show_signature": False,
+    "image_scrapers": ("matplotlib",),
+    "matplotlib_animations": False,
+    "run_stale_examples": False,
+}
 
 
 def setup(app):

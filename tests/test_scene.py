@@ -81,8 +81,10 @@ NO_SCENE_FILE = {
     # its scene is a string inside the script: it uses the element classes the script defines
     "05_custom_elements.py",
 }
-# tutorials that use another tutorial's model: 07 measures tutorial 03's beam, 08 varies the wiper's scene files
-REUSES_SCENE = {"07_speed_vs_error.py": "03_cantilever.toml", "08_parameter_study.py": "04_wiper.toml"}
+# tutorials that use another tutorial's model: 07 measures tutorial 03's beam, 08 varies the wiper's scene files,
+# 09 shows the four-bar in a notebook
+REUSES_SCENE = {"07_speed_vs_error.py": "03_cantilever.toml", "08_parameter_study.py": "04_wiper.toml",
+                "09_notebook.py": "02_fourbar.toml"}
 
 
 def test_every_tutorial_has_a_scene_file():

@@ -188,7 +188,7 @@ for strategy in (fm.EigenComplement(), fm.SVDComplement()):
 # residual is checked, and the state is projected back onto the
 # constraints when it exceeds ``projection_tol`` (1e-10 by default); at
 # ``rtol = 1e-10`` the drift stays below that, so neither run projects and
-# the two differ only by round-off. ``res.residual`` is max |phi| at each
+# the two differ only by round-off. ``res.residual`` is max ``|phi|`` at each
 # output time. The motion is undamped, so the total energy must stay
 # constant; we measure its drift against the peak kinetic energy.
 

@@ -218,7 +218,7 @@ x, xd = np.array([-0.3]), np.array([3.0])
 kin, drags, one, batch = loads_both_ways(system, x, xd)
 apply_difference = max(np.abs(one.force - batch.force).max(), np.abs(one.torque - batch.torque).max())
 # by hand: the strip at radius s moves face-on at the speed s w, so its drag 1/2 rho Cd dA (s w)^2
-# has the moment -1/2 rho Cd dA s^3 w |w| about the pin; gravity adds -m g (L / 2) cos q
+# has the moment -1/2 rho Cd dA s^3 w ``|w|`` about the pin; gravity adds -m g (L / 2) cos q
 s = (np.arange(20) + 0.5) * L / 20
 drag_moment_exact = -0.5 * 1.225 * cd_plate * width * L / 20 * np.sum(s**3) * xd[0] ** 2
 drag_moment = (system.forces.active_force(kin) - (-m_paddle * g * L / 2 * np.cos(x[0])))[0]

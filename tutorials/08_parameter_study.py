@@ -45,7 +45,8 @@ import numpy as np
 
 import flexmb as fm
 
-TUTORIALS = Path(__file__).resolve().parent
+# the scene files beside this script (sphinx-gallery runs it in its own folder, without __file__)
+TUTORIALS = Path(__file__).resolve().parent if "__file__" in globals() else Path.cwd()
 
 # %%
 # The short form

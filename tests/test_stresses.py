@@ -344,3 +344,15 @@ def test_stress_plots(b1_run, tmp_path):
     assert (tmp_path / "env.png").stat().st_size > 0 and (tmp_path / "root.png").stat().st_size > 0
     with pytest.raises(fm.ExportError, match="station 9"):
         viz.plot_station(sig, station=9)
+
+
+def test_joint_loads_default_to_the_system_that_made_the_result(tmp_path):
+    model, beam = cantilever(4, loads=[lambda b: fm.Gravity((0.0, 0.0, -9.81))])
+    res = fm.simulate(model, 0.01, n_out=3)
+    own = res.joint_loads()
+    given = res.joint_loads(res.system)
+    assert own.names == given.names
+    np.testing.assert_array_equal(own.moment, given.moment)
+    res.save(tmp_path / "r.npz")
+    with pytest.raises(fm.ModelError, match="needs the system the result came from"):
+        fm.Result.load(tmp_path / "r.npz").joint_loads()

@@ -464,13 +464,14 @@ class Result:
 
         return section_stresses(self, body, system)
 
-    def joint_loads(self, system):
+    def joint_loads(self, system=None):
         """Force and moment every joint transmits; see :func:`flexmb.stresses.joint_loads`.
 
         Parameters
         ----------
-        system : System or Model
-            The model the result came from.
+        system : System or Model, optional
+            The model the result came from (default: the system that made
+            it, which a result loaded from a file does not keep).
 
         Returns
         -------
@@ -480,4 +481,9 @@ class Result:
         """
         from .stresses import joint_loads
 
+        if system is None:
+            system = self.system
+        if system is None:
+            raise ModelError("joint_loads needs the system the result came from (a loaded result does not keep "
+                             "it): res.joint_loads(system)")
         return joint_loads(self, system)

@@ -22,6 +22,7 @@ import os
 import signal
 import sys
 import traceback
+import warnings
 
 __all__ = ["in_background", "Job"]
 
@@ -104,7 +105,11 @@ def in_background(fn) -> Job:
         return Job(None, fn)
     for stream in (sys.stdout, sys.stderr):
         stream.flush()
-    pid = os.fork()
+    with warnings.catch_warnings():
+        # Python 3.12+ warns about forking a process with threads (BLAS pools, tqdm's monitor): the
+        # child only runs numpy and file writes, no lock those threads could hold
+        warnings.simplefilter("ignore", DeprecationWarning)
+        pid = os.fork()
     if pid == 0:  # the child
         code = 1
         try:

@@ -17,7 +17,7 @@ __all__ = ["QRComplement", "complement_from_qr", "pivoted_qr", "qr_rank"]
 #: about twice the flops at lower speed. Measured with
 #: ``benchmarks/complements_speed.py``: the two break even near n = 96,
 #: below which the few extra numpy calls of the WY form cost more than they
-#: save (n = 256: WY 1.8 ms, dorgqr 2.7 ms).
+#: save (the timings: docs/benchmarks.md).
 WY_MIN_N = 96
 
 #: LAPACK block size used to size the work arrays.

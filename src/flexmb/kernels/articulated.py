@@ -21,7 +21,7 @@ from numba import njit
 
 from .dynamics import axis_projections, bias_wrenches, spatial_inertias
 from .loads import LoadTables, apply_load_tables
-from .tree import TreeArrays, tree_kinematics
+from .tree import TreeArrays, tree_state
 
 __all__ = ["articulated_accelerations", "open_tree_accelerations", "open_tree_rhs", "mass_times"]
 
@@ -261,11 +261,7 @@ def open_tree_rhs(tree, tables, y, armature):
     n = armature.shape[0]
     x = y[:n]
     xd = y[n : 2 * n]
-    none3 = np.empty((0, 3))
-    R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = tree_kinematics(
-        tree.parent, tree.coord_start, tree.coord_kind, tree.coord_axis, tree.external, tree.parent_frame,
-        tree.child_frame, tree.lever, tree.child_point, tree.com, x, xd, np.empty((0, 3, 3)), none3, none3, none3,
-        none3, none3)
+    R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = tree_state(tree, x, xd)
     nb1 = R.shape[0]
     force = np.zeros((nb1, 3))
     torque = np.zeros((nb1, 3))

@@ -19,7 +19,7 @@ from numba import njit
 from .constraints import cut_rows
 from .dynamics import bias_wrenches, composite_inertias, generalized_force, mass_matrix, spatial_inertias
 from .loads import LoadTables, apply_load_tables
-from .tree import TreeArrays, tree_kinematics
+from .tree import TreeArrays, tree_state
 
 __all__ = ["tree_equations", "cut_residual", "cut_rows_at"]
 
@@ -65,11 +65,7 @@ def tree_equations(tree, tables, cuts, y, n, powers, force0, torque0, generalize
     tables = LoadTables(*tables)
     x = y[:n]
     xd = y[n : 2 * n]
-    none3 = np.empty((0, 3))
-    R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = tree_kinematics(
-        tree.parent, tree.coord_start, tree.coord_kind, tree.coord_axis, tree.external, tree.parent_frame,
-        tree.child_frame, tree.lever, tree.child_point, tree.com, x, xd, np.empty((0, 3, 3)), none3, none3, none3,
-        none3, none3)
+    R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = tree_state(tree, x, xd)
     force = force0.copy()
     torque = torque0.copy()
     generalized = generalized0.copy()
@@ -103,15 +99,8 @@ def cut_residual(tree, cuts, y, n):
     position, velocity : float
         The residuals (0 without cut joints).
     """
-    tree = TreeArrays(*tree)
-    x = y[:n]
+    phi, psi = cut_rows_at(tree, cuts, y, n)
     xd = y[n : 2 * n]
-    none3 = np.empty((0, 3))
-    R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = tree_kinematics(
-        tree.parent, tree.coord_start, tree.coord_kind, tree.coord_axis, tree.external, tree.parent_frame,
-        tree.child_frame, tree.lever, tree.child_point, tree.com, x, xd, np.empty((0, 3, 3)), none3, none3, none3,
-        none3, none3)
-    phi, psi, _ = cut_rows(1, n, R, origin, r, omega, v, alpha, acc, Sw, Sv, tree.parent, tree.coord_start, *cuts)
     position = 0.0
     velocity = 0.0
     for i in range(phi.shape[0]):
@@ -148,10 +137,6 @@ def cut_rows_at(tree, cuts, y, n):
     tree = TreeArrays(*tree)
     x = y[:n]
     xd = y[n : 2 * n]
-    none3 = np.empty((0, 3))
-    R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = tree_kinematics(
-        tree.parent, tree.coord_start, tree.coord_kind, tree.coord_axis, tree.external, tree.parent_frame,
-        tree.child_frame, tree.lever, tree.child_point, tree.com, x, xd, np.empty((0, 3, 3)), none3, none3, none3,
-        none3, none3)
+    R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = tree_state(tree, x, xd)
     phi, psi, _ = cut_rows(1, n, R, origin, r, omega, v, alpha, acc, Sw, Sv, tree.parent, tree.coord_start, *cuts)
     return phi, psi

@@ -21,7 +21,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-__all__ = ["TreeArrays", "joint_motions", "tree_kinematics", "upstream_rows"]
+__all__ = ["TreeArrays", "joint_motions", "tree_kinematics", "tree_state", "upstream_rows"]
 
 
 class TreeArrays(NamedTuple):
@@ -355,3 +355,25 @@ def upstream_rows(bodies, parent, coord_start, n):
             out[i, coord_start[k]:coord_start[k + 1]] = 1.0
             k = parent[k]
     return out
+
+
+@njit(cache=True)
+def tree_state(tree, x, xd):
+    """:func:`tree_kinematics` of a tree without external joints, from its :class:`TreeArrays`.
+
+    Parameters
+    ----------
+    tree : TreeArrays
+        The tree's layout and body data.
+    x, xd : ndarray, shape (n,)
+        Coordinates and speeds.
+
+    Returns
+    -------
+    tuple
+        What :func:`tree_kinematics` returns.
+    """
+    none3 = np.empty((0, 3))
+    return tree_kinematics(tree.parent, tree.coord_start, tree.coord_kind, tree.coord_axis, tree.external,
+                           tree.parent_frame, tree.child_frame, tree.lever, tree.child_point, tree.com, x, xd,
+                           np.empty((0, 3, 3)), none3, none3, none3, none3, none3)

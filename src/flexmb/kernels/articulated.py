@@ -23,12 +23,25 @@ from .dynamics import axis_projections, bias_wrenches, spatial_inertias
 from .loads import LoadTables, apply_load_tables
 from .tree import TreeArrays, tree_state
 
-__all__ = ["articulated_accelerations", "open_tree_accelerations", "open_tree_rhs", "mass_times"]
+__all__ = ["solve_spd", "articulated_accelerations", "open_tree_accelerations", "open_tree_rhs", "mass_times"]
 
 
 @njit(cache=True)
-def _solve_spd(D, rhs, out):
-    """Solve the small symmetric positive definite ``D z = rhs`` (Cholesky); False if not positive definite."""
+def solve_spd(D, rhs, out):
+    """Solve the small symmetric positive definite ``D Z = rhs`` into ``out`` (Cholesky, column by column).
+
+    Parameters
+    ----------
+    D : ndarray, shape (m, m)
+        The matrix (its lower triangle is read).
+    rhs, out : ndarray, shape (m, k)
+        Right-hand sides and the solutions.
+
+    Returns
+    -------
+    bool
+        False if D is not positive definite (``out`` is then not valid).
+    """
     m = D.shape[0]
     L = np.zeros((m, m))
     for j in range(m):
@@ -143,7 +156,7 @@ def articulated_accelerations(parent, coord_start, spatial, Sw, Sv, r, force, to
                     rhs[a, i] = U[ca, i]
                 rhs[a, 6] = u[ca]
             sol = np.empty((m, 7))
-            if not _solve_spd(D, rhs, sol):
+            if not solve_spd(D, rhs, sol):
                 return np.zeros(n), k
             for a in range(m):
                 for i in range(6):

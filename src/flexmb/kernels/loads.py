@@ -166,15 +166,20 @@ def body_points(rows, local, R, origin, r, omega, v):
     p = np.empty((m, 3))
     vel = np.empty((m, 3))
     for i in range(m):
-        k = rows[i]
-        for a in range(3):
-            p[i, a] = R[k, a, 0] * local[i, 0] + R[k, a, 1] * local[i, 1] + R[k, a, 2] * local[i, 2] + origin[k, a]
-        lx, ly, lz = p[i, 0] - r[k, 0], p[i, 1] - r[k, 1], p[i, 2] - r[k, 2]
-        w = omega[k]
-        vel[i, 0] = v[k, 0] + w[1] * lz - w[2] * ly
-        vel[i, 1] = v[k, 1] + w[2] * lx - w[0] * lz
-        vel[i, 2] = v[k, 2] + w[0] * ly - w[1] * lx
+        _point_motion(R, origin, r, omega, v, rows[i], local[i], p[i], vel[i])
     return p, vel
+
+
+@njit(cache=True, inline="always")
+def _point_motion(R, origin, r, omega, v, k, local, p, vel):
+    """Position ``R_k local + origin_k`` and velocity ``v_k + omega_k x (p - r_k)`` of a body point, in place."""
+    for a in range(3):
+        p[a] = R[k, a, 0] * local[0] + R[k, a, 1] * local[1] + R[k, a, 2] * local[2] + origin[k, a]
+    lx, ly, lz = p[0] - r[k, 0], p[1] - r[k, 1], p[2] - r[k, 2]
+    w = omega[k]
+    vel[0] = v[k, 0] + w[1] * lz - w[2] * ly
+    vel[1] = v[k, 1] + w[2] * lx - w[0] * lz
+    vel[2] = v[k, 2] + w[0] * ly - w[1] * lx
 
 
 @njit(cache=True)
@@ -229,15 +234,7 @@ def apply_load_tables(tables, mass, R, origin, r, omega, v, x, xd, force, torque
         f2 = np.empty(3)
         for i in range(pairs.shape[0]):
             for s in range(2):
-                k = pairs[i, s]
-                loc = tables.pair_local[i, s]
-                for a in range(3):
-                    pts[s, a] = R[k, a, 0] * loc[0] + R[k, a, 1] * loc[1] + R[k, a, 2] * loc[2] + origin[k, a]
-                lx, ly, lz = pts[s, 0] - r[k, 0], pts[s, 1] - r[k, 1], pts[s, 2] - r[k, 2]
-                w = omega[k]
-                vel[s, 0] = v[k, 0] + w[1] * lz - w[2] * ly
-                vel[s, 1] = v[k, 1] + w[2] * lx - w[0] * lz
-                vel[s, 2] = v[k, 2] + w[0] * ly - w[1] * lx
+                _point_motion(R, origin, r, omega, v, pairs[i, s], tables.pair_local[i, s], pts[s], vel[s])
             stiff, damp, rest = tables.pair_par[i, 0], tables.pair_par[i, 1], tables.pair_par[i, 2]
             d0, d1, d2 = pts[1, 0] - pts[0, 0], pts[1, 1] - pts[0, 1], pts[1, 2] - pts[0, 2]
             length = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)

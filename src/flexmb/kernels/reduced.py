@@ -16,6 +16,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .articulated import solve_spd
+
 __all__ = ["svd_parts", "filtered", "svd_reduced_solve"]
 
 
@@ -84,32 +86,15 @@ SMALL_CHOLESKY = 48
 def _cholesky_solve(M, b):
     """``M z = b`` for symmetric positive definite M; (z, True), or (b, False) if M is not positive definite."""
     p = M.shape[0]
-    if p > SMALL_CHOLESKY:
-        try:
-            L = np.linalg.cholesky(M)
-        except Exception:  # not positive definite
+    if p <= SMALL_CHOLESKY:
+        z = np.empty((p, 1))
+        if not solve_spd(M, b.reshape(p, 1), z):
             return b, False
-        return _triangular_solves(L, b), True
-    L = np.zeros((p, p))
-    for j in range(p):
-        d = M[j, j]
-        for k in range(j):
-            d -= L[j, k] * L[j, k]
-        if not d > 0.0:
-            return b, False
-        L[j, j] = np.sqrt(d)
-        for i in range(j + 1, p):
-            v = M[i, j]
-            for k in range(j):
-                v -= L[i, k] * L[j, k]
-            L[i, j] = v / L[j, j]
-    return _triangular_solves(L, b), True
-
-
-@njit(cache=True)
-def _triangular_solves(L, b):
-    """``z`` with ``L L^T z = b`` (L lower triangular)."""
-    p = L.shape[0]
+        return z[:, 0], True
+    try:
+        L = np.linalg.cholesky(M)
+    except Exception:  # not positive definite
+        return b, False
     z = b.copy()
     for i in range(p):
         for k in range(i):
@@ -119,7 +104,7 @@ def _triangular_solves(L, b):
         for k in range(i + 1, p):
             z[i] -= L[k, i] * z[k]
         z[i] /= L[i, i]
-    return z
+    return z, True
 
 
 @njit(cache=True)

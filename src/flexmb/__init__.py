@@ -18,7 +18,7 @@ from .errors import (AssemblyError, ExportError, FlexmbError, ModelError, Plugin
 from .forces import BodyTorque, ForceElement, Gravity, JointSpringDamper, Loads, PointForce, SpringDamper
 from .joints import Cylindrical, Fixed, Free, Joint, PlanarRevolute, Prismatic, Revolute, Spherical, Universal
 from .flexible import FlexibleBody, Segment
-from .linear import Linearization, linear_statics, linearize, modes, static_equilibrium
+from .analysis import Linearization, linear_statics, linearize, modes, static_equilibrium
 from .model import Model
 from .registry import PluginInfo, plugins, register
 from .sections import Material, Section

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from attrs import field, frozen
 
-from . import ForceElement
+from .base import ForceElement
 from .tables import LoadTables, class_tables
 
 __all__ = ["BeamElasticity"]

@@ -6,7 +6,7 @@ import numpy as np
 from attrs import field, frozen
 
 from .._validate import as_array, name_check, vector3
-from . import ForceElement
+from .base import ForceElement
 from .tables import LoadTables
 
 __all__ = ["Gravity"]

@@ -12,7 +12,7 @@ from .._names import reference
 from .._validate import as_array, label, name_check, vector3
 from ..bodies import Body
 from ..errors import ModelError
-from . import ForceElement
+from .base import ForceElement
 from .tables import LoadTables
 
 __all__ = ["PointForce", "BodyTorque"]

@@ -9,7 +9,7 @@ from .._names import reference
 from .._validate import as_array, finite_array, label, name_check, vector3
 from ..bodies import Body
 from ..joints import Joint
-from . import ForceElement
+from .base import ForceElement
 from .tables import LoadTables, class_tables
 
 __all__ = ["SpringDamper", "JointSpringDamper"]

@@ -29,7 +29,7 @@ DOCS = pathlib.Path(__file__).resolve().parents[1] / "docs"
 MODULES = sorted(m.name for m in pkgutil.walk_packages(flexmb.__path__, "flexmb.") if m.name != "flexmb.__main__")
 # modules whose public classes must show a runnable example
 WITH_EXAMPLES = ["flexmb.bodies", "flexmb.joints", "flexmb.sections", "flexmb.flexible", "flexmb.drivers",
-                 "flexmb.forces", "flexmb.forces.gravity", "flexmb.forces.springs", "flexmb.forces.loads",
+                 "flexmb.forces.base", "flexmb.forces.gravity", "flexmb.forces.springs", "flexmb.forces.loads",
                  "flexmb.model"]
 
 

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import flexmb as fm
-from flexmb.export import vtk
+from flexmb.export import snapshots, vtk
 
 from conftest import fourbar, fourbar_initial, random_chain
 
@@ -151,7 +151,7 @@ def test_random_trees_meet_at_every_joint(rng):
     system = model.build()
     x = rng.normal(scale=0.5, size=system.n_coords)
     xd = rng.normal(size=system.n_coords)
-    res = vtk._state_result(system, 0.3, x[None], xd[None])
+    res = fm.Result.from_states(system, x[None], xd[None], xdd=np.zeros((1, system.n_coords)), t=0.3)
     mesh = vtk.to_meshio(res, 0, system=system)
     assert {c.type for c in mesh.cells} == {"hexahedron", "line", "vertex"}
     marks = _markers(mesh)
@@ -297,14 +297,14 @@ def test_triad_adds_body_axes(fourbar_result):
 def test_snapshot(cantilever, tmp_path):
     system, beam, res = cantilever
     x, xd = res.x[-1], res.xd[-1]
-    path = vtk.export_snapshot(system, x, tmp_path / "snap.vtu", xd=xd, t=0.05)
+    path = snapshots.export_snapshot(system, x, tmp_path / "snap.vtu", xd=xd, t=0.05)
     mesh = vtk.read_vtu(path)
     np.testing.assert_allclose(mesh.points[:5], system.shape(beam, x), rtol=0, atol=TOL)
     assert "displacement" not in mesh.point_data
     np.testing.assert_allclose(mesh.point_data["velocity"][0], 0.0, atol=TOL)  # clamped root
     assert mesh.field_data["time"][0] == 0.05
     # with a reference: drawn there, and the displacement carries the points to x
-    ref = vtk.read_vtu(vtk.export_snapshot(system, x, tmp_path / "ref.vtu", reference=0 * x))
+    ref = vtk.read_vtu(snapshots.export_snapshot(system, x, tmp_path / "ref.vtu", reference=0 * x))
     np.testing.assert_allclose(ref.points[:5], system.shape(beam, 0 * x), rtol=0, atol=TOL)
     np.testing.assert_allclose(ref.points + ref.point_data["displacement"], mesh.points, rtol=0, atol=TOL)
 
@@ -312,7 +312,7 @@ def test_snapshot(cantilever, tmp_path):
 def test_modes(cantilever, tmp_path):
     system, beam, _ = cantilever
     f, shapes = fm.modes(system, 2)
-    paths = vtk.export_modes(system, f, shapes, tmp_path, scale=0.05)
+    paths = snapshots.export_modes(system, f, shapes, tmp_path, scale=0.05)
     assert [p.name for p in paths] == ["mode_01.vtu", "mode_02.vtu"]
     for k, path in enumerate(paths):
         mesh = vtk.read_vtu(path)
@@ -378,9 +378,9 @@ def test_bad_pvd_and_state_input(cantilever, tmp_path):
     with pytest.raises(fm.ExportError, match="not found"):
         vtk.write_pvd([tmp_path / "missing.vtu"], [0.0], tmp_path / "a.pvd")
     with pytest.raises(fm.ExportError, match="coordinates"):
-        vtk.export_snapshot(system, np.zeros(3), tmp_path / "s.vtu")
+        snapshots.export_snapshot(system, np.zeros(3), tmp_path / "s.vtu")
     with pytest.raises(fm.ExportError, match="shapes"):
-        vtk.export_modes(system, [1.0, 2.0], np.zeros((system.n_coords, 3)), tmp_path)
+        snapshots.export_modes(system, [1.0, 2.0], np.zeros((system.n_coords, 3)), tmp_path)
     assert not (tmp_path / "a.pvd").exists() and not (tmp_path / "s.vtu").exists()
 
 
@@ -407,7 +407,7 @@ def test_mixed_model_layout(tmp_path):
               fm.Revolute("pin", model.ground, rod, parent_point=(0, 1, 0), axis=(0, 0, 1)))
     system = model.build()
     x = np.random.default_rng(1).uniform(-0.05, 0.05, system.n_coords)
-    mesh = vtk.read_vtu(vtk.export_snapshot(system, x, tmp_path / "s.vtu"))
+    mesh = vtk.read_vtu(snapshots.export_snapshot(system, x, tmp_path / "s.vtu"))
     # flexible bodies in the order of their first segments: the rod hangs from the ground, the blade from the hub
     assert list(mesh.field_data["body_names"]) == ["hub", "rod", "blade"]
     # the hub's bar (2 points), the rod's centre line (4) and blocks (3 x 8), the blade's (4 and 3 x 8),

@@ -36,7 +36,7 @@ def cantilever(n, keep=("bend_y",), damping=0.0, section=None, loads=()):
 
 def statics(model):
     system = model.build()
-    return system, stresses.state_result(system, fm.linear_statics(system))
+    return system, fm.Result.from_states(system, fm.linear_statics(system))
 
 
 # -- statics against closed forms
@@ -121,7 +121,7 @@ def test_joint_loads_hold_the_straight_beam():
     model, beam = cantilever(n, loads=[lambda b: fm.Gravity((0.0, 0.0, -g))])
     system = model.build()
     x0 = np.zeros(system.n_coords)
-    res = stresses.state_result(system, x0, xdd=x0)  # the loads that hold it straight and at rest
+    res = fm.Result.from_states(system, x0, xdd=x0)  # the loads that hold it straight and at rest
     jl = res.joint_loads(system)
     assert jl.names == ["clamp"] + [f"beam.j{i}" for i in range(n)]
     m = 2700.0 * B * H * L
@@ -138,7 +138,7 @@ def test_section_loads_with_system_fill_the_rigid_directions():
     model, beam = cantilever(4, loads=[lambda b: fm.PointForce("tip", b, (0.0, 0.0, -P), point=(L, 0.0, 0.0))])
     system = model.build()
     x = fm.linear_statics(system)
-    res = stresses.state_result(system, x, xdd=np.zeros_like(x))  # held at rest in the deflected shape
+    res = fm.Result.from_states(system, x, xdd=np.zeros_like(x))  # held at rest in the deflected shape
     full = res.section_loads(beam, system)
     assert full.components == ("N", "Vy", "Vz", "Mx", "My", "Mz")
     kept = res.section_loads(beam).component("My")
@@ -241,7 +241,7 @@ def test_pendulum_pin_force_closed_form():
     bar = fm.RigidBody.slender_bar("bar", m, length)
     model.add(fm.Revolute("pin", model.ground, bar, axis=(0, 0, 1)), fm.Gravity((0.0, -g, 0.0)))
     system = model.build()
-    res = stresses.state_result(system, [theta], [w])
+    res = fm.Result.from_states(system, [theta], [w])
     e = np.array([np.cos(theta), np.sin(theta), 0.0])
     rc = 0.5 * length * e
     alpha = -3 * g * np.cos(theta) / (2 * length)
@@ -260,7 +260,7 @@ def test_envelope_and_at():
     model, beam = cantilever(4, loads=[lambda b: fm.Gravity((0.0, 0.0, -9.81))])
     system = model.build()
     x = fm.linear_statics(system)
-    res = stresses.state_result(system, [x, -2 * x, 0.5 * x])
+    res = fm.Result.from_states(system, [x, -2 * x, 0.5 * x])
     loads = res.section_loads(beam)
     env = loads.envelope()
     np.testing.assert_array_equal(env.index, 1)

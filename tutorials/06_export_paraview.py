@@ -37,7 +37,8 @@ from pathlib import Path
 import numpy as np
 
 import flexmb as fm
-from flexmb.export.vtk import export_snapshot, read_vtu
+from flexmb.export.snapshots import export_snapshot
+from flexmb.export.vtk import read_vtu
 
 # %%
 # The run

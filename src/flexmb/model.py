@@ -273,6 +273,38 @@ class Model:
         return System(self, **options)
 
 
+def as_system(model_or_system, error=ModelError):
+    """The System of a Model or System: the one conversion every function that takes either uses.
+
+    Parameters
+    ----------
+    model_or_system : Model or System
+        A model (built here with the default options) or a built system
+        (returned as it is).
+    error : type of Exception
+        Raised when the argument is neither (e.g. the calling module's own
+        error class).
+
+    Returns
+    -------
+    System
+        The built system.
+
+    Raises
+    ------
+    ModelError
+        If the model is invalid (and, by default, if the argument is
+        neither a Model nor a System).
+    """
+    from .system import System
+
+    if isinstance(model_or_system, System):
+        return model_or_system
+    if isinstance(model_or_system, Model):
+        return model_or_system.build()
+    raise error(f"expected a flexmb System or Model, got {type(model_or_system).__name__}")
+
+
 def _names_left(element) -> bool:
     """Whether a definition still holds a name where it refers to another element."""
     return attrs.has(type(element)) and any(

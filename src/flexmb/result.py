@@ -12,7 +12,7 @@ from ._files import atomic_write
 from ._names import name_of
 from .bodies import Body
 from .drivers import Driver
-from .errors import ModelError
+from .errors import FlexmbError, ModelError
 from .joints import Joint
 
 __all__ = ["Result"]
@@ -132,6 +132,85 @@ class Result:
         for k, v in state.items():
             object.__setattr__(self, k, v)
         object.__setattr__(self, "system", None)
+
+    @classmethod
+    def from_states(cls, system, x, xd=None, *, xdd=None, t=0.0, **fields) -> "Result":
+        """A Result holding given states: the one constructor every route uses.
+
+        :func:`~flexmb.simulate` builds its result from the states it
+        stored; statics, snapshots and mode shapes build theirs from the
+        states they found, so that loads, stresses, plots and VTK export
+        apply to them all.
+
+        Parameters
+        ----------
+        system : System or Model
+            The model (a Model is built with the default options).
+        x : array_like, shape (n,) or (m, n)
+            Coordinates of one or m states (e.g. from
+            :func:`flexmb.linear_statics`).
+        xd : array_like, same shape, optional
+            Speeds (default zero).
+        xdd : array_like, same shape, optional
+            Accelerations; default: from the equations of motion (eqs.
+            36-39), with the reactions of the same solve (a state where the
+            solve fails gets NaN accelerations and reactions). Pass zeros for
+            the loads that hold a configuration in equilibrium.
+        t : float or array_like, shape (m,)
+            Time of the states, s: one time for all (the states are then
+            evaluated at ``t`` and labelled ``t, t + 1, ...`` so that they
+            can be told apart and interpolated), or one per state.
+        **fields
+            Other attributes (counters, ``status``, ``message``, ...).
+
+        Returns
+        -------
+        Result
+            With positions, rotations, energies, constraint residuals,
+            accelerations and constraint multipliers filled in; ``status``
+            ``'finished'`` unless given.
+
+        Raises
+        ------
+        FlexmbError
+            If the states do not hold ``n`` finite coordinates each.
+
+        Examples
+        --------
+        >>> import flexmb as fm
+        >>> model = fm.Model("pendulum")
+        >>> bar = fm.RigidBody.slender_bar("bar", mass=1.0, length=1.0)
+        >>> _ = model.add(bar, fm.Revolute("pin", model.ground, bar, axis=(0, 0, 1)),
+        ...               fm.Gravity((0.0, -9.81, 0.0)))
+        >>> res = fm.Result.from_states(model, [[0.0], [-1.5707963267948966]])
+        >>> res.positions.shape, res.t
+        ((2, 1, 3), array([0., 1.]))
+        >>> res.xdd[:, 0].round(3) + 0.0  # horizontal, then hanging
+        array([-14.715,   0.   ])
+        """
+        from .model import as_system
+
+        system = as_system(system)
+        n = system.n_coords
+        X = np.atleast_2d(np.asarray(x, dtype=float))
+        XD = np.zeros_like(X) if xd is None else np.atleast_2d(np.asarray(xd, dtype=float))
+        if X.shape[1:] != (n,) or XD.shape != X.shape or not (np.all(np.isfinite(X)) and np.all(np.isfinite(XD))):
+            raise FlexmbError(f"x and xd must hold {n} finite coordinates per state, got shapes "
+                              f"{X.shape}, {XD.shape}")
+        nt = len(X)
+        at = np.broadcast_to(np.asarray(t, dtype=float), (nt,)).copy()
+        times = at + np.arange(nt) if np.ndim(t) == 0 else at
+        XDD = None if xdd is None else np.atleast_2d(np.asarray(xdd, dtype=float)).reshape(X.shape)
+        arrays = _evaluate_states(system, at, X, XD, XDD)
+        topo = system.topology
+        fields.setdefault("status", "finished")
+        return cls(
+            t=times, x=X.copy(), xd=XD.copy(), **arrays, coordinate_names=list(system.coordinate_names),
+            body_names=list(system.body_names), constraint_labels=list(system.constraints.labels),
+            driver_names=[d.name for d in system.constraints.drivers],
+            flexible={b.name: ([topo.index[sg] for sg in segs], b.segment_length)
+                      for b, (_, segs, _) in topo.flexible.items()},
+            system=system, **fields)
 
     @property
     def energy(self) -> np.ndarray:
@@ -487,3 +566,36 @@ class Result:
             raise ModelError("joint_loads needs the system the result came from (a loaded result does not keep "
                              "it): res.joint_loads(system)")
         return joint_loads(self, system)
+
+
+def _evaluate_states(system, t, X, XD, XDD) -> dict:
+    """The output quantities of :meth:`Result.from_states` at each state."""
+    nt, n = X.shape
+    nb, m = system.topology.n_bodies, system.n_constraints
+    out = {"xdd": np.zeros((nt, n)) if XDD is None else XDD.copy(), "positions": np.zeros((nt, nb, 3)),
+           "origins": np.zeros((nt, nb, 3)), "rotations": np.zeros((nt, nb, 3, 3)), "kinetic": np.zeros(nt),
+           "potential": np.zeros(nt), "residual": np.zeros(nt), "velocity_residual": np.zeros(nt),
+           "reactions": np.zeros((nt, m))}
+    for i in range(nt):
+        x, xd = X[i], XD[i]
+        kin = system.kinematics(t[i], x, xd)
+        try:
+            if XDD is not None:
+                out["reactions"][i] = system.reactions(t[i], x, xd, XDD[i]) if m else 0.0
+            elif m == 0:  # no reactions: the system's own route (O(n) for an open tree)
+                out["xdd"][i] = system.accelerations(t[i], x, xd)
+            else:
+                A, f, psi, gamma = system.reduced_parts(t[i], np.concatenate([x, xd]))
+                out["xdd"][i], out["reactions"][i] = system._solve(t[i], A, f, psi, gamma, multipliers=True)
+        except FlexmbError:
+            if XDD is None:
+                out["xdd"][i] = np.nan
+            out["reactions"][i] = np.nan
+        out["positions"][i] = kin.r[:-1]
+        out["origins"][i] = kin.origin[:-1]
+        out["rotations"][i] = kin.R[:-1]
+        out["kinetic"][i] = kin.kinetic_energy()
+        out["potential"][i] = system.forces.potential_energy(kin)
+        if m:
+            out["residual"][i], out["velocity_residual"][i] = system.constraint_residuals(t[i], x, xd)
+    return out

@@ -11,7 +11,7 @@ from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, Radau
 
 from . import memory, registry
 from ._validate import simulate_arguments
-from .errors import AssemblyError, FlexmbError, ModelError, SimulationError, StiffnessWarning
+from .errors import AssemblyError, ModelError, SimulationError, StiffnessWarning
 from .genalpha import GeneralizedAlpha
 from .joints import Joint
 from .integrators import IDA, CVODEAdams, CVODEBDF, adapt, capabilities
@@ -490,7 +490,7 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         n_steps = solver.n_steps
 
     Y = np.array(out_y).reshape(len(out_y), 2 * n + n_w)
-    result = _collect(system, times[: len(out_y)], Y[:, : 2 * n])
+    result = Result.from_states(system, Y[:, :n], Y[:, n: 2 * n], t=times[: len(out_y)], status="running")
     result.work = {name: Y[:, 2 * n + i].copy() for i, name in enumerate(work_names)}
     result.n_dof = system.dof(t0, x)
     result.n_rhs = counters["rhs"]
@@ -574,47 +574,3 @@ def _project_partial(system, t, x, xd, res, n_iter=3):
     if np.max(np.abs(psi @ vp - b)) >= np.max(np.abs(psi @ xd - b)) or np.max(np.abs(vp - xd)) > limit:
         vp = np.array(xd, dtype=float)
     return xp, vp
-
-
-def _collect(system, t, Y) -> Result:
-    """Evaluate the output quantities at the stored states."""
-    n = system.n_coords
-    nt, nb, m = len(t), system.topology.n_bodies, system.n_constraints
-    xdd = np.zeros((nt, n))
-    pos = np.zeros((nt, nb, 3))
-    org = np.zeros((nt, nb, 3))
-    rot = np.zeros((nt, nb, 3, 3))
-    kin_e = np.zeros(nt)
-    pot_e = np.zeros(nt)
-    res = np.zeros(nt)
-    vres = np.zeros(nt)
-    lam = np.zeros((nt, m))
-    for i in range(nt):
-        x, xd = Y[i, :n], Y[i, n:]
-        kin = system.kinematics(t[i], x, xd)
-        try:
-            if m == 0:  # no reactions: the system's own route (O(n) for an open tree)
-                xdd[i], lam_i = system.accelerations(t[i], x, xd), np.zeros(0)
-            else:
-                A, f, psi, gamma = system.reduced_parts(t[i], Y[i])
-                xdd[i], lam_i = system._solve(t[i], A, f, psi, gamma, multipliers=True)
-        except FlexmbError:
-            xdd[i], lam_i = np.nan, np.full(m, np.nan)
-        pos[i] = kin.r[:-1]
-        org[i] = kin.origin[:-1]
-        rot[i] = kin.R[:-1]
-        kin_e[i] = kin.kinetic_energy()
-        pot_e[i] = system.forces.potential_energy(kin)
-        if m:
-            res[i], vres[i] = system.constraint_residuals(t[i], x, xd)
-            lam[i] = lam_i
-    return Result(
-        t=np.asarray(t, float), x=Y[:, :n].copy(), xd=Y[:, n:].copy(), xdd=xdd, positions=pos, origins=org,
-        rotations=rot, kinetic=kin_e, potential=pot_e, residual=res, velocity_residual=vres,
-        reactions=lam, coordinate_names=list(system.coordinate_names), body_names=list(system.body_names),
-        constraint_labels=list(system.constraints.labels),
-        driver_names=[d.name for d in system.constraints.drivers],
-        flexible={b.name: ([system.topology.index[sg] for sg in segs], b.segment_length)
-                  for b, (_, segs, _) in system.topology.flexible.items()},
-        system=system,
-    )

@@ -27,17 +27,18 @@ fibre at ``z = +c_z`` in tension.
 from __future__ import annotations
 
 import numpy as np
-from attrs import field, frozen
+from attrs import frozen
 
 from ._names import name_of
 from .errors import FlexmbError
 from .flexible import FlexibleBody, segment_joint_class
 from .joints import Joint
+from .model import as_system
 from .rotations import cross
 from .kernels.dynamics import subtree_sums
 
 __all__ = ["SectionField", "Envelope", "JointLoads", "LOAD_COMPONENTS", "section_loads", "section_strains",
-           "section_stresses", "joint_loads", "constraint_loads", "joint_stations", "state_result"]
+           "section_stresses", "joint_loads", "constraint_loads", "joint_stations"]
 
 #: section-load component -> (kept elastic coordinate, unit)
 LOAD_COMPONENTS = {"N": ("axial", "N"), "Vy": ("shear_y", "N"), "Vz": ("shear_z", "N"),
@@ -260,9 +261,7 @@ def _resolve(result, body, system=None) -> FlexibleBody:
     if isinstance(body, str):
         system = system if system is not None else getattr(result, "system", None)  # to look the name up
         if system is not None:
-            topo = getattr(system, "topology", None)
-            if topo is None:  # a Model
-                topo = system.build().topology
+            topo = as_system(system).topology
             found = [b for b in topo.flexible if b.name == body]
             if found:
                 body = found[0]
@@ -669,8 +668,7 @@ def joint_loads(result, system) -> JointLoads:
     :func:`section_loads`. A cut joint's load is its constraint force on
     the parent, moment about the parent's joint point.
     """
-    if not hasattr(system, "topology"):
-        system = system.build()
+    system = as_system(system)
     x = np.asarray(result.x, dtype=float)
     if x.shape[1] != system.n_coords or list(system.body_names) != list(result.body_names):
         raise FlexmbError("the system does not match the result: different bodies or number of coordinates")
@@ -686,56 +684,3 @@ def joint_loads(result, system) -> JointLoads:
         force[i], moment[i] = _loads_at(system, result.t[i], x[i], result.xd[i], result.xdd[i], lam[i])
     names = [j.name for j in system.topology.tree_joints] + [j.name for j in system.topology.cut_joints]
     return JointLoads(np.asarray(result.t, dtype=float), names, force, moment)
-
-
-def state_result(system, x, xd=None, *, xdd=None, t: float = 0.0):
-    """A :class:`Result` holding given states, so that loads and stresses apply to statics too.
-
-    Parameters
-    ----------
-    system : System or Model
-        The model.
-    x : array_like, shape (n,) or (m, n)
-        Coordinates of one or m states (e.g. from :func:`flexmb.linear_statics`).
-    xd : array_like, same shape, optional
-        Speeds (default zero).
-    xdd : array_like, same shape, optional
-        Accelerations; default: from the equations of motion (eqs. 36-39).
-        Pass zeros for the loads that hold a configuration in equilibrium.
-    t : float
-        Time of every state, s.
-
-    Returns
-    -------
-    Result
-        With ``t = [t, t + 1, ...]`` (one output per state), positions,
-        rotations, accelerations and constraint multipliers filled in.
-    """
-    from .result import Result
-
-    if not hasattr(system, "topology"):
-        system = system.build()
-    n = system.n_coords
-    X = np.atleast_2d(np.asarray(x, dtype=float))
-    XD = np.zeros_like(X) if xd is None else np.atleast_2d(np.asarray(xd, dtype=float))
-    if X.shape[1] != n or XD.shape != X.shape:
-        raise FlexmbError(f"x and xd must hold {n} coordinates per state, got shapes {X.shape}, {XD.shape}")
-    nt = len(X)
-    times = float(t) + np.arange(nt, dtype=float)
-    XDD = (np.array([system.accelerations(t, a, b) for a, b in zip(X, XD)]) if xdd is None
-           else np.atleast_2d(np.asarray(xdd, dtype=float)).reshape(X.shape))
-    kins = [system.kinematics(t, a, b) for a, b in zip(X, XD)]
-    lam = np.array([system.reactions(t, a, b, c) for a, b, c in zip(X, XD, XDD)]).reshape(nt, -1)
-    topo = system.topology
-    zeros = np.zeros(nt)
-    return Result(
-        t=times, x=X, xd=XD, xdd=XDD, positions=np.array([k.r[:-1] for k in kins]),
-        origins=np.array([k.origin[:-1] for k in kins]), rotations=np.array([k.R[:-1] for k in kins]),
-        kinetic=zeros, potential=zeros, residual=zeros, velocity_residual=zeros, reactions=lam,
-        coordinate_names=list(system.coordinate_names), body_names=list(system.body_names),
-        constraint_labels=list(system.constraints.labels),
-        driver_names=[d.name for d in system.constraints.drivers],
-        flexible={b.name: ([topo.index[sg] for sg in segs], b.segment_length)
-                  for b, (_, segs, _) in topo.flexible.items()},
-        status="finished", message="given states", system=system,
-    )

@@ -62,10 +62,10 @@ import numpy as np
 
 from .._files import atomic_write
 from ..errors import ExportError, FlexmbError
-from ..result import Result
+from ..model import as_system
 
 __all__ = ["ELASTIC_FIELDS", "SECTION_FIELDS", "PARTS", "body_names", "joint_names", "to_meshio", "write_vtu",
-           "write_pvd", "export_vtk", "export_snapshot", "export_modes", "read_vtu", "paraview_script"]
+           "write_pvd", "export_vtk", "read_vtu", "paraview_script"]
 
 #: elastic coordinate of a segment joint -> point-data name (rad for rotations, m for translations)
 ELASTIC_FIELDS = {"bend_y": "bending_y", "bend_z": "bending_z", "torsion": "torsion",
@@ -447,19 +447,8 @@ class _Layout:
                 "part_names": np.array(PARTS, dtype=str)}
 
 
-def _as_system(system):
-    from ..system import System
-
-    if isinstance(system, System):
-        return system
-    if hasattr(system, "build"):
-        return system.build()
-    raise ExportError(f"expected a flexmb System or Model, got {type(system).__name__}")
-
-
 def _check_system(system, result):
-    if not (hasattr(system, "kinematics") and hasattr(system, "body_names")):
-        system = _as_system(system)  # a Model
+    system = as_system(system, ExportError)
     if list(system.body_names) != list(result.body_names) or system.n_coords != np.shape(result.x)[1]:
         raise ExportError("the system does not match the result: different bodies or number of coordinates")
     if not hasattr(result, "xd") or np.shape(result.xd) != np.shape(result.x):
@@ -1019,145 +1008,3 @@ def paraview_script(path) -> Path:
 
     source = Path(open_in_paraview.__file__).read_text(encoding="utf-8")
     return atomic_write(path, lambda tmp: Path(tmp).write_text(source, encoding="utf-8"), suffix=".py")
-
-
-def _state_result(system, t: float, xs, xds) -> Result:
-    """A Result holding a few states of ``system`` (positions only), for export."""
-    n = system.n_coords
-    frames = []
-    for name, v in (("x", xs), ("xd", xds)):
-        v = np.asarray(v, dtype=float)
-        if v.shape != (len(xs), n) or not np.all(np.isfinite(v)):
-            raise ExportError(f"{name} must be a finite array of {n} coordinates per state, got shape "
-                              f"{v.shape[1:]}")
-        frames.append(v)
-    X, XD = frames
-    kins = [system.kinematics(t, x, xd) for x, xd in zip(X, XD)]
-    nt = len(X)
-    zeros = np.zeros(nt)
-    topo = system.topology
-    return Result(
-        t=np.full(nt, float(t)), x=X, xd=XD, xdd=np.zeros_like(X),
-        positions=np.array([k.r[:-1] for k in kins]), origins=np.array([k.origin[:-1] for k in kins]),
-        rotations=np.array([k.R[:-1] for k in kins]), kinetic=zeros, potential=zeros, residual=zeros,
-        velocity_residual=zeros, reactions=np.zeros((nt, 0)), coordinate_names=list(system.coordinate_names),
-        body_names=list(system.body_names),
-        flexible={b.name: ([topo.index[sg] for sg in segs], b.segment_length)
-                  for b, (_, segs, _) in topo.flexible.items()},
-        status="finished", message="exported state",
-    )
-
-
-def export_snapshot(system, x, path, *, xd=None, t: float = 0.0, reference=None, triad: float = 0.0) -> Path:
-    """Write one state of a system to a ``.vtu`` file.
-
-    Parameters
-    ----------
-    system : System or Model
-        The model (a Model is built with the default complement).
-    x : array_like, shape (n,)
-        Coordinates.
-    path : str or path-like
-        The ``.vtu`` file to write.
-    xd : array_like, shape (n,), optional
-        Speeds (default 0); velocities are exact.
-    t : float
-        Time written to the field data, s.
-    reference : array_like, shape (n,), optional
-        Draw the bodies at these coordinates instead and add the point data
-        ``displacement`` from there to ``x`` (ParaView: Warp By Vector,
-        scale 1, shows the state ``x``). Default: drawn at ``x``, no
-        displacement.
-    triad : float
-        Body-axis line length for rigid bodies, m (0: none).
-
-    Returns
-    -------
-    pathlib.Path
-        ``path``.
-
-    Raises
-    ------
-    ExportError
-        If ``x``, ``xd`` or ``reference`` has the wrong length or is not finite.
-    """
-    system = _as_system(system)
-    n = system.n_coords
-    xd = np.zeros(n) if xd is None else xd
-    ref = np.zeros(n) if reference is None else reference
-    res = _state_result(system, t, _stack(x, ref, n), _stack(xd, np.zeros(n), n))
-    mesh = next(_meshes(res, [0], system, triad, reference=None if reference is None else 1))
-    return _write_mesh(mesh, path)
-
-
-def _stack(a, b, n):
-    try:
-        return np.array([np.asarray(a, dtype=float).reshape(n), np.asarray(b, dtype=float).reshape(n)])
-    except (TypeError, ValueError):
-        raise ExportError(f"a state must have {n} coordinates, got shapes {np.shape(a)} and {np.shape(b)}") from None
-
-
-def export_modes(system, frequencies, shapes, folder, *, scale: float = 0.1, prefix: str = "mode", x0=None,
-                 triad: float = 0.0) -> list[Path]:
-    """Write one ``.vtu`` file per mode shape.
-
-    Each file draws the bodies at ``x0``, the configuration linearised
-    about, with the point data ``displacement`` carrying them to ``x0 +
-    scale * shapes[:, k]``: in ParaView, Warp By Vector on ``displacement``
-    (scale factor 1, or -1 for the other half of the swing) shows the mode.
-
-    Parameters
-    ----------
-    system : System or Model
-        The model the modes belong to.
-    frequencies : array_like, shape (k,)
-        Natural frequencies, Hz (from :func:`flexmb.modes`).
-    shapes : array_like, shape (n, k)
-        Mode shapes in the coordinates x, one per column.
-    folder : str or path-like
-        Output folder (created if missing).
-    scale : float
-        Amplitude of the largest coordinate of each (unit-normalised) mode,
-        rad or m.
-    prefix : str
-        File-name stem: ``<prefix>_01.vtu`` is the first mode.
-    x0 : array_like, shape (n,), optional
-        The configuration linearised about (default 0).
-    triad : float
-        Body-axis line length for rigid bodies, m (0: none).
-
-    Returns
-    -------
-    list of pathlib.Path
-        The files, lowest mode first. Field data: ``frequency`` (Hz) and
-        ``mode`` (1-based); velocities are zero (a still shape); the
-        section loads are those of the displaced shape.
-
-    Raises
-    ------
-    ExportError
-        If ``shapes`` does not have ``n`` rows and one column per frequency,
-        or ``scale`` is not finite.
-    """
-    system = _as_system(system)
-    prefix = _check_prefix(prefix)
-    n = system.n_coords
-    f = np.asarray(frequencies, dtype=float).ravel()
-    S = np.asarray(shapes, dtype=float)
-    if S.ndim == 1:
-        S = S[:, None]
-    if S.shape != (n, f.size):
-        raise ExportError(f"shapes must have shape (n_coords, n_modes) = ({n}, {f.size}), got {S.shape}")
-    if not np.isfinite(scale):
-        raise ExportError(f"scale must be finite, got {scale}")
-    x0 = _stack(np.zeros(n), np.zeros(n) if x0 is None else x0, n)[1]
-    width = max(2, len(str(f.size)))
-    folder = Path(os.fspath(folder))
-    paths = []
-    for k in range(f.size):
-        res = _state_result(system, 0.0, np.array([x0 + scale * S[:, k], x0]), np.zeros((2, n)))
-        mesh = next(_meshes(res, [0], system, triad, extra={"frequency": f[k], "mode": np.int64(k + 1)},
-                            reference=1))
-        del mesh.field_data["time"]
-        paths.append(_write_mesh(mesh, folder / f"{prefix}_{k + 1:0{width}d}.vtu"))
-    return paths

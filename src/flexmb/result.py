@@ -483,7 +483,7 @@ class Result:
         return cls(**kw)
 
     def section_loads(self, body, system=None):
-        """Internal loads at the segment joints of a flexible body; see :func:`flexmb.stresses.section_loads`.
+        """Internal loads at the segment joints of a flexible body; see :func:`flexmb.post.sections.section_loads`.
 
         Parameters
         ----------
@@ -499,12 +499,12 @@ class Result:
             Values shape (nt, n_joints, n_components), ``stations`` (m),
             ``components`` and ``units``; ``.envelope()`` for the peaks.
         """
-        from .stresses import section_loads
+        from .post.sections import section_loads
 
         return section_loads(self, body, system)
 
     def section_strains(self, body, system=None):
-        """Curvatures, twist and axial strain at the segment joints; see :func:`flexmb.stresses.section_strains`.
+        """Curvatures, twist and axial strain at the segment joints; see :func:`flexmb.post.sections.section_strains`.
 
         Parameters
         ----------
@@ -519,12 +519,12 @@ class Result:
         SectionField
             Values shape (nt, n_joints, n_components).
         """
-        from .stresses import section_strains
+        from .post.sections import section_strains
 
         return section_strains(self, body, system)
 
     def section_stresses(self, body, system=None):
-        """Outer-fibre and von Mises stresses at the segment joints; see :func:`flexmb.stresses.section_stresses`.
+        """Outer-fibre and von Mises stresses at the segment joints; see :func:`flexmb.post.sections.section_stresses`.
 
         Parameters
         ----------
@@ -539,12 +539,12 @@ class Result:
         SectionField
             Stresses (Pa), shape (nt, n_joints, 6).
         """
-        from .stresses import section_stresses
+        from .post.sections import section_stresses
 
         return section_stresses(self, body, system)
 
     def joint_loads(self, system=None):
-        """Force and moment every joint transmits; see :func:`flexmb.stresses.joint_loads`.
+        """Force and moment every joint transmits; see :func:`flexmb.post.joint_loads.joint_loads`.
 
         Parameters
         ----------
@@ -558,7 +558,7 @@ class Result:
             ``force`` and ``moment`` (nt, n_joints, 3) in each joint's
             child marker frame, ``names``.
         """
-        from .stresses import joint_loads
+        from .post.joint_loads import joint_loads
 
         if system is None:
             system = self.system

@@ -28,7 +28,7 @@ r)`` of the body that carries the point), the elastic coordinates of the
 segment joints (``bending_y``, ``bending_z``, ``torsion``, plus ``axial``,
 ``shear_y``, ``shear_z`` when a body keeps them) and, with a system, the
 section loads ``moment_torsion``, ``moment_bend_y``, ``moment_bend_z`` (N m)
-and ``von_mises`` (Pa) (:mod:`flexmb.stresses`). Cell data: ``body_id``,
+and ``von_mises`` (Pa) (:mod:`flexmb.post`). Cell data: ``body_id``,
 ``joint_id``, ``segment``, ``part_id`` and, in the files, their names as
 string arrays ``body``, ``joint`` and ``part`` (ParaView colours by them
 category by category). Field data: ``time``, ``TimeValue`` (ParaView's
@@ -460,12 +460,12 @@ def _check_system(system, result):
 def _section_values(layout, result, frames) -> dict[str, np.ndarray]:
     """Section moments and von Mises stress at the points, shape (n_frames, n_points) each.
 
-    From the kept coordinates' springs and dampers (:mod:`flexmb.stresses`),
+    From the kept coordinates' springs and dampers (:mod:`flexmb.post`),
     at the stations of the segment joints (and the corners at that end of
     the segments); 0 at the free ends and for components a body does not
     keep, NaN stress for a section without outer-fibre distances.
     """
-    from ..stresses import _section_loads, _stresses
+    from ..post.sections import _section_loads, _stresses
 
     nf = len(frames)
     out = {name: np.zeros((nf, layout.n_stations)) for name in (*SECTION_FIELDS, "von_mises")}

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import flexmb as fm
-from flexmb import stresses
+from flexmb import post
 from flexmb.export import vtk
 
 from conftest import fourbar, fourbar_initial
@@ -219,7 +219,7 @@ def test_fourbar_constraint_loads_and_body_balance():
     res = fm.simulate(system, 0.3, positions=fourbar_initial(), n_out=61, rtol=1e-10, atol=1e-12)
     i = 30
     kin = system.kinematics(res.t[i], res.x[i], res.xd[i])
-    force, torque, _, _ = stresses.constraint_loads(system, kin, res.reactions[i])
+    force, torque, _, _ = post.constraint_loads(system, kin, res.reactions[i])
     gen = np.einsum("kin,ki->n", kin.V[:-1], force[:-1]) + np.einsum("kin,ki->n", kin.W[:-1], torque[:-1])
     _, psi, _ = system.constraints.evaluate(kin, level=1)
     np.testing.assert_allclose(gen, psi.T @ res.reactions[i], atol=1e-10)

@@ -1,0 +1,27 @@
+"""Post-processing of results: section loads, strains and stresses, joint loads.
+
+Sign convention, for all: the load is the one the outboard side (the
+child, with everything it carries) exerts on the inboard side (the parent)
+at the joint point; equivalently, minus the load the joint applies to the
+child.
+
+Modules
+-------
+fields
+    The named results (:class:`SectionField`, :class:`Envelope`,
+    :class:`JointLoads`).
+sections
+    Section loads, strains and stresses along flexible bodies.
+joint_loads
+    The force and moment every joint transmits.
+
+The package sits below :mod:`flexmb.result` and :mod:`flexmb.export`: it
+reads results and never builds or imports them.
+"""
+
+from .fields import LOAD_COMPONENTS, Envelope, JointLoads, SectionField
+from .joint_loads import constraint_loads, joint_loads
+from .sections import joint_stations, section_loads, section_strains, section_stresses
+
+__all__ = ["SectionField", "Envelope", "JointLoads", "LOAD_COMPONENTS", "section_loads", "section_strains",
+           "section_stresses", "joint_loads", "constraint_loads", "joint_stations"]

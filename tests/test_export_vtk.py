@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 
 import flexmb as fm
-from flexmb.export import snapshots, vtk
+from flexmb.export import snapshots, vtk, vtu
+from flexmb.export.layout import _Layout
 
 from conftest import fourbar, fourbar_initial, random_chain
 
@@ -187,7 +188,7 @@ def test_random_trees_meet_at_every_joint(rng):
         np.testing.assert_allclose(X.mean(axis=0), kin.r[res.body_names.index(body.name)], atol=1e-12)
     # velocities: the partial velocities of each point (eq. 17) times the speeds
     kin = system.kinematics(0.3, x, xd)
-    layout = vtk._Layout(res, system)
+    layout = _Layout(res, system)
     rows = np.where(layout.row == layout.n_rows, -1, layout.row)  # the start of a slide on the ground
     exact = kin.point_partials(rows, mesh.points) @ xd
     np.testing.assert_allclose(mesh.point_data["velocity"], exact, rtol=0, atol=1e-10 * np.abs(exact).max())
@@ -271,7 +272,7 @@ def test_exact_velocities_with_the_system(fourbar_result):
     for i in (0, 7, len(res.t) - 1):
         mesh = vtk.to_meshio(res, i, system=system)
         exact = mesh.point_data["velocity"]
-        layout = vtk._Layout(res, system)
+        layout = _Layout(res, system)
         kin = system.kinematics(res.t[i], res.x[i], res.xd[i])
         np.testing.assert_allclose(exact, kin.point_partials(layout.row, mesh.points) @ res.xd[i], rtol=0,
                                    atol=1e-10 * np.abs(exact).max())
@@ -389,7 +390,7 @@ def test_failed_write_leaves_nothing(fourbar_result, tmp_path, monkeypatch):
         Path(path).write_text(text[: len(text) // 2])  # half a file, then the disk fills up
         raise OSError("disk full")
 
-    monkeypatch.setattr(vtk, "_write_text", broken)
+    monkeypatch.setattr(vtu, "_write_text", broken)
     with pytest.raises(OSError, match="disk full"):
         vtk.export_vtk(fourbar_result, tmp_path)
     assert list(tmp_path.iterdir()) == []

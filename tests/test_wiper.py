@@ -307,6 +307,7 @@ def test_flexmb_run_wiper(tmp_path):
     # the VTK of the main job: bodies and joints named, exact velocities, the blades' stresses, and the
     # ParaView script that opens it
     from flexmb.export import vtk
+    from flexmb.export.layout import _Layout
 
     script = out / "open_in_paraview.py"
     assert summary["paraview"] == str(script)
@@ -324,7 +325,7 @@ def test_flexmb_run_wiper(tmp_path):
                                                        "connecting_link", "right_blade", "left_blade"]
         assert list(mesh.field_data["joint_names"]) == [j.name for j in model.joints]
         kin = system.kinematics(res.t[i], res.x[i], res.xd[i])
-        exact = kin.point_partials(vtk._Layout(res, system).row, mesh.points) @ res.xd[i]
+        exact = kin.point_partials(_Layout(res, system).row, mesh.points) @ res.xd[i]
         np.testing.assert_allclose(mesh.point_data["velocity"], exact, rtol=0, atol=1e-10)
         assert ("von_mises" in mesh.point_data) == flexible
     assert np.max(mesh.point_data["von_mises"]) > 1e5 and np.max(np.abs(mesh.point_data["moment_bend_y"])) > 0

@@ -12,6 +12,7 @@ iio = pytest.importorskip("imageio.v3")
 import flexmb as fm  # noqa: E402
 from flexmb import viz  # noqa: E402
 from flexmb.export import vtk  # noqa: E402
+from flexmb.export.layout import _Layout  # noqa: E402
 
 from conftest import fourbar, fourbar_initial  # noqa: E402
 
@@ -123,7 +124,7 @@ def test_wiper_vtk_renders_as_one_connected_mechanism(wiper_files, tmp_path):
             gap = np.ptp(np.array(points), axis=0).max()
             assert gap <= (res.residual[i] + 1e-15 if name in cut else 1e-12), (name, gap)
         # velocities: the partial velocities of each point times the speeds (eq. 17)
-        layout = vtk._Layout(res, system)
+        layout = _Layout(res, system)
         kin = system.kinematics(res.t[i], res.x[i], res.xd[i])
         exact = kin.point_partials(layout.row, grid.points) @ res.xd[i]
         np.testing.assert_allclose(grid.point_data["velocity"], exact, rtol=0, atol=1e-10)

@@ -15,7 +15,9 @@ import numpy as np
 from ..errors import ExportError
 from ..model import as_system
 from ..result import Result
-from .vtk import _check_prefix, _meshes, _write_mesh
+from .meshes import _meshes
+from .vtk import _check_prefix
+from .vtu import _write_mesh
 
 __all__ = ["export_snapshot", "export_modes"]
 

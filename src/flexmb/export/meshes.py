@@ -1,0 +1,224 @@
+"""The bodies at output times as meshio meshes, with velocities and section data (the VTK export's meshes)."""
+
+from __future__ import annotations
+
+import meshio
+import numpy as np
+
+from ..errors import ExportError, FlexmbError
+from ..model import as_system
+from .layout import SECTION_FIELDS, _check_index, _check_result, _check_triad, _Layout
+
+__all__ = ["body_names", "joint_names", "to_meshio"]
+
+
+def _check_system(system, result):
+    system = as_system(system, ExportError)
+    if list(system.body_names) != list(result.body_names) or system.n_coords != np.shape(result.x)[1]:
+        raise ExportError("the system does not match the result: different bodies or number of coordinates")
+    if not hasattr(result, "xd") or np.shape(result.xd) != np.shape(result.x):
+        raise ExportError(f"result.xd must have the shape of result.x {np.shape(result.x)} "
+                          f"for exact velocities")
+    return system
+
+
+def _section_values(layout, result, frames) -> dict[str, np.ndarray]:
+    """Section moments and von Mises stress at the points, shape (n_frames, n_points) each.
+
+    From the kept coordinates' springs and dampers (:mod:`flexmb.post`),
+    at the stations of the segment joints (and the corners at that end of
+    the segments); 0 at the free ends and for components a body does not
+    keep, NaN stress for a section without outer-fibre distances.
+    """
+    from ..post.sections import _section_loads, _stresses
+
+    nf = len(frames)
+    out = {name: np.zeros((nf, layout.n_stations)) for name in (*SECTION_FIELDS, "von_mises")}
+    sub = _Frames(result, frames)
+    for name, body in layout.bodies.items():
+        loads = _section_loads(sub, body, None)
+        st = layout.station_start[name] + (0 if body.clamped else 1) + np.arange(body.n_joints)
+        for field, comp in SECTION_FIELDS.items():
+            if comp in loads.components:
+                out[field][:, st] = loads.component(comp)
+        try:
+            out["von_mises"][:, st] = _stresses(sub, body, loads).component("von_mises")
+        except FlexmbError:  # no outer-fibre distances: no stress
+            out["von_mises"][:, st] = np.nan
+    return {name: layout.station_values(v) for name, v in out.items()}
+
+
+class _Frames:
+    """The fields of a result the section loads read, at some output indices."""
+
+    def __init__(self, result, frames):
+        self.t = np.asarray(result.t, dtype=float)[frames]
+        self.x = np.asarray(result.x, dtype=float)[frames]
+        self.xd = np.asarray(result.xd, dtype=float)[frames]
+        self.coordinate_names = result.coordinate_names
+        self.flexible = result.flexible
+
+
+def _fd_velocities(result, P_all) -> np.ndarray:
+    """Point velocities by differences of the positions over the output times."""
+    t = np.asarray(result.t, dtype=float)
+    if len(t) < 2:
+        return np.full_like(P_all, np.nan)
+    if np.any(np.diff(t) <= 0):
+        raise ExportError("result.t must be increasing to difference positions into velocities")
+    # second-order central differences inside, second-order one-sided at the ends
+    return np.gradient(P_all, t, axis=0, edge_order=2 if len(t) > 2 else 1)
+
+
+def _meshes(result, frames, system=None, triad=0.0, extra=None, reference=None):
+    """Meshes at the given output indices, sharing one layout and one pass over the history.
+
+    With ``reference`` (an output index), the points are drawn where they
+    are at that output and ``displacement`` carries them to each frame.
+    """
+    _check_result(result)
+    triad = _check_triad(triad)
+    if system is not None:
+        system = _check_system(system, result)
+    frames = np.asarray(list(frames), dtype=int)
+    layout = _Layout(result, system, triad)
+    t = np.asarray(result.t, dtype=float)
+    x = np.asarray(result.x, dtype=float)
+    if system is not None:
+        P = layout.positions(result, frames)
+        V = layout.exact_velocities(system, t[frames], x[frames], np.asarray(result.xd, dtype=float)[frames], P)
+    else:
+        P_all = layout.positions(result)
+        V = _fd_velocities(result, P_all)[frames]
+        P = P_all[frames]
+    point_data = {"velocity": V, **layout.elastic_values(x[frames])}
+    if system is not None and layout.bodies:
+        point_data.update(_section_values(layout, result, frames))
+    cells, cell_data = layout.cell_blocks()
+    tables = layout.tables()
+    base = layout.positions(result, [reference])[0] if reference is not None else None
+    cache: dict = {}  # the XML of what the frames share (see _vtu_text)
+    for n, i in enumerate(frames):
+        field_data = {"time": np.array([t[i]]), **tables}
+        field_data.update({k: np.atleast_1d(np.asarray(v)) for k, v in (extra or {}).items()})
+        pd = {name: v[n] for name, v in point_data.items()}
+        points = P[n]
+        if base is not None:
+            pd = {"displacement": points - base, **pd}
+            points = base
+        mesh = meshio.Mesh(points, cells, point_data=pd, cell_data=cell_data, field_data=field_data)
+        mesh._vtu_cache = cache
+        yield mesh
+
+
+def body_names(result) -> list[str]:
+    """Return the names of the exported bodies, in the order of the ``body_id`` cell data.
+
+    Parameters
+    ----------
+    result : Result
+        A simulation result.
+
+    Returns
+    -------
+    list of str
+        The rigid bodies in result order, then the flexible bodies in the
+        order of their first segments. The segments of a flexible body (and
+        its clamp frame ``"<body>.base"``) are not listed: they are drawn as
+        the flexible body.
+    """
+    _check_result(result)
+    return list(_Layout(result).names)
+
+
+def joint_names(system) -> list[str]:
+    """Return the names of the exported joints, in the order of the ``joint_id`` cell data.
+
+    Parameters
+    ----------
+    system : System or Model
+        The model.
+
+    Returns
+    -------
+    list of str
+        The model's joints in the order they were added (segment joints
+        of flexible bodies are drawn as the points of their centre lines).
+    """
+    model = getattr(system, "model", system)
+    if not hasattr(model, "joints"):
+        raise ExportError(f"expected a flexmb System or Model, got {type(system).__name__}")
+    return [j.name for j in model.joints]
+
+
+def to_meshio(result, i: int, *, system=None, triad: float = 0.0) -> "meshio.Mesh":
+    """The bodies at one output time as a meshio mesh.
+
+    Parameters
+    ----------
+    result : Result
+        A simulation result.
+    i : int
+        Output index (negative counts from the end).
+    system : System or Model, optional
+        The model the result came from. With it, bodies are drawn through
+        their joint points (boxes, segment sections, joints), velocities
+        are exact (from ``result.xd`` through the kinematics, ``v + omega x
+        (p - r)``) and the section loads are added; without it, a rigid
+        body is a line through its frame origin and mass centre and
+        velocities are differences of the positions over the output times
+        (see Notes).
+    triad : float
+        Length of the body-axis lines drawn for each rigid body, m (0: none).
+
+    Returns
+    -------
+    meshio.Mesh
+        Points in m, in the current configuration. Cells: ``"hexahedron"``
+        (rigid boxes, flexible segments), ``"quad"``, ``"line"`` (slender
+        bars, levers to joint points, centre lines, triads), ``"vertex"``
+        (joint points). Point data ``velocity`` (m/s), ``bending_y``,
+        ``bending_z``, ``torsion`` (rad, at the centre-line points of the
+        segment joints and the segment corners at that end, 0 elsewhere) and
+        ``axial``, ``shear_y``, ``shear_z`` (m) if kept; with ``system``,
+        also the section loads ``moment_torsion``, ``moment_bend_y``,
+        ``moment_bend_z`` (N m) and ``von_mises`` (Pa) there. Cell data
+        ``body_id`` (into field data ``body_names``, see :func:`body_names`),
+        ``joint_id`` (into ``joint_names``, -1 for cells that are not a
+        joint's), ``segment`` (-1 for rigid bodies), ``part_id`` (into
+        ``part_names``: :data:`PARTS`). Field data ``time`` (s).
+
+    Raises
+    ------
+    ExportError
+        If ``result`` lacks a field or has inconsistent shapes, ``i`` is
+        out of range or ``system`` does not match the result.
+
+    Notes
+    -----
+    Without a system, velocities are ``np.gradient`` of the point positions
+    over ``result.t``: second-order central differences at interior times,
+    second-order one-sided differences at the first and last (first order
+    with two outputs, NaN with one). Their error is O(dt^2) in the output
+    spacing, not the integrator's; pass ``system`` for exact values.
+
+    Examples
+    --------
+    >>> import flexmb as fm
+    >>> from flexmb.export.vtk import to_meshio
+    >>> model = fm.Model()
+    >>> bar = fm.RigidBody.slender_bar("bar", mass=1.0, length=1.0)
+    >>> _ = model.add(fm.Revolute("pin", model.ground, bar), fm.Gravity((0, -9.81, 0)))
+    >>> res = fm.simulate(model, 0.1, positions={"pin": 0.5}, n_out=3)
+    >>> mesh = to_meshio(res, -1, system=model)
+    >>> [(c.type, len(c.data)) for c in mesh.cells]
+    [('vertex', 1), ('line', 1)]
+    >>> [str(n) for n in mesh.field_data["joint_names"]]
+    ['pin']
+    """
+    nt = _check_result(result)
+    i = _check_index(i, nt)
+    return next(_meshes(result, [i], system, triad))
+
+
+# -- the VTU file

@@ -81,7 +81,7 @@ OBJECTS = public_objects()
 def test_the_walk_finds_the_api():
     # a guard against a walk that silently finds nothing
     assert len(OBJECTS) > 200
-    for name in ("flexmb.system.System.accelerations", "flexmb.simulate.simulate", "flexmb.joints.Revolute",
+    for name in ("flexmb.system.core.System.accelerations", "flexmb.simulate.simulate", "flexmb.joints.Revolute",
                  "flexmb.forces.base.ForceElement.apply", "flexmb.result.Result.energy"):
         assert name in OBJECTS
 

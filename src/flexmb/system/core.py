@@ -1,0 +1,514 @@
+"""The compiled system: topology, assembler, constraints and the reduced equations."""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+
+from .. import memory
+from ..assembly import ForceAssembler, _power, mass_matrix
+from ..forces import Loads
+from ..complements import get_complement
+from ..constraints import Constraints
+from ..bodies import Body
+from ..errors import AssemblyError, ModelError
+from ..joints import Joint
+from ..kinematics import Kinematics
+from ..topology import Topology
+from ..forces.tables import class_tables, merge
+from ..kernels.equations import cut_residual, cut_rows_at, tree_equations
+from .projection import Projection
+from .quantities import StateQuantities
+from .rates import Rates
+from .solve import ReducedSolve, _plain
+from .tangent import Tangent
+from ..kernels.articulated import open_tree_accelerations, open_tree_rhs
+
+
+__all__ = ["System"]
+
+
+class System(ReducedSolve, Tangent, Rates, StateQuantities, Projection):
+    """A model compiled for evaluation: ``A(x, t) xdd = f`` with ``psi xd = b``.
+
+    Parameters
+    ----------
+    model : Model
+        A validated model.
+    complement : str or ComplementStrategy
+        Orthogonal complement strategy (``"svd"``, ``"eigen"``, ``"qr"``,
+        ``"auto"`` or a registered plugin's name).
+    sparse : bool or None
+        Solve the equations of an open tree by the articulated-body
+        recursion (:mod:`flexmb.kernels.articulated`: O(n) per evaluation,
+        A never formed) rather than by a dense Cholesky factorization of A
+        (False). None (default): the recursion for every open tree. Models
+        with loops always use the dense complement path.
+
+    Attributes
+    ----------
+    n_coords : int
+        Number of generalized coordinates n.
+    n_constraints : int
+        Number of constraint rows m.
+    coordinate_names : list of str
+        ``"joint.coordinate"`` per coordinate.
+    n_complements : int
+        Count of complement computations so far.
+    articulated : bool
+        Whether the accelerations come from the articulated-body recursion.
+    """
+
+    def __init__(self, model, complement="svd", sparse=None):
+        if model.resolve():  # an element names one the model lacks: raise every problem
+            model.validate()
+        self.model = model
+        memory.check(model, what=f"Model {model.name!r}")  # before Topology allocates its arrays
+        self.topology = Topology(model)
+        from ..forces.elastic import BeamElasticity
+
+        elastic = [BeamElasticity(f"{b.name}.elasticity", b) for b in self.topology.flexible]
+        self.forces = ForceAssembler(list(model.forces) + elastic)
+        self.constraints = Constraints(self.topology, model.drivers)
+        self.strategy = get_complement(complement)
+        self.n_coords = self.topology.n_coords
+        self.n_constraints = self.constraints.n_rows
+        self.coordinate_names = self.topology.coordinate_names
+        self.body_names = [b.name for b in self.topology.bodies]
+        self.n_complements = 0
+        if sparse and self.n_constraints:
+            raise ModelError("sparse=True needs an open tree: this model has loop or driver constraints")
+        if sparse is None:
+            sparse = self.n_constraints == 0
+        self.articulated = bool(sparse)
+        self._no_armature = np.zeros(self.n_coords)
+        self._rank_limit: int | None = None
+        self._sigma_ref: float | None = None
+        self._trial()
+        # joints and force elements all compiled: one kernel call per evaluation (plain tuples: what
+        # the kernels' dispatch reads fastest)
+        tables = [class_tables(cls, elements, self.topology) for cls, elements in self.forces.groups]
+        compiled = [g for g, t in enumerate(tables) if t is not None]
+        # force-element classes evaluated in Python (plugins), with their group index
+        self._python_groups = [(g, *self.forces.groups[g]) for g, t in enumerate(tables) if t is None]
+        merged = tuple(merge([tables[g] for g in compiled], compiled))
+        self._fused = self._fused_equations = None
+        if not self.topology.external_groups:
+            if self.articulated and not self._python_groups:
+                self._fused = (tuple(self.topology.arrays), merged)
+            self._fused_equations = (tuple(self.topology.arrays), merged, self.constraints.cut_arrays)
+        nb1 = self.topology.n_bodies + 1
+        self._no_loads = (np.zeros((nb1, 3)), np.zeros((nb1, 3)), np.zeros(self.n_coords))
+        self._no_powers = np.zeros(0)
+
+    def _trial(self):
+        """Evaluate every force element once so bad input fails at build time."""
+        x = np.zeros(self.n_coords)
+        kin = self.kinematics(0.0, x, x)
+        for cls, elements in self.forces.groups:
+            for e in elements:
+                try:
+                    cls.apply_all([e], kin, Loads(kin))
+                    cls.potential_all([e], kin)
+                except ModelError as exc:
+                    raise ModelError(f"force element {e.name!r}: {exc}") from exc
+                except Exception as exc:  # a user element failing on the reference state
+                    raise ModelError(
+                        f"force element {e.name!r} ({type(e).__name__}) failed on the reference state: "
+                        f"{type(exc).__name__}: {exc}"
+                    ) from exc
+
+    # -- what a run calibrates: new systems, this one unchanged
+    @property
+    def rank_limit(self) -> int | None:
+        """Largest rank of psi used by :meth:`complement` (None: no cap).
+
+        :func:`~flexmb.simulate` runs on a :meth:`calibrated` copy whose limit is
+        the rank at the assembled initial state.
+        """
+        return self._rank_limit
+
+    @property
+    def sigma_ref(self) -> float | None:
+        """Smallest nonzero singular value of psi at the assembled initial state (None: not judged).
+
+        Scales the strategy's ``singular_window`` (:meth:`singular_window`).
+        """
+        return self._sigma_ref
+
+    def calibrated(self, rank_limit: int | None, sigma_ref: float | None = None) -> "System":
+        """This system with the rank of psi capped and the singular-position filter scaled.
+
+        Parameters
+        ----------
+        rank_limit : int or None
+            Largest rank of psi used by :meth:`complement` (None: no cap).
+            Off the constraint manifold (an integrator's stage states)
+            redundant rows would otherwise look independent.
+        sigma_ref : float, optional
+            Smallest nonzero singular value of psi at the reference state;
+            scales ``singular_window`` (None: no filter).
+
+        Returns
+        -------
+        System
+            A new system sharing this one's compiled model; this one is
+            unchanged.
+        """
+        new = copy.copy(self)
+        new._rank_limit = rank_limit
+        new._sigma_ref = sigma_ref
+        return new
+
+    def with_complement(self, complement) -> "System":
+        """This system with another orthogonal complement strategy.
+
+        Parameters
+        ----------
+        complement : str or ComplementStrategy
+            ``"svd"``, ``"eigen"``, ``"qr"``, ``"auto"``, a registered
+            plugin's name, a class or an instance.
+
+        Returns
+        -------
+        System
+            A new system sharing this one's compiled model; this one is
+            unchanged.
+        """
+        new = copy.copy(self)
+        new.strategy = get_complement(complement)
+        return new
+
+    # -- evaluation
+    def kinematics(self, t: float, x: np.ndarray, xd: np.ndarray) -> Kinematics:
+        """Kinematics of all bodies at a state (eqs. 6-18).
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        x, xd : ndarray, shape (n,)
+            Coordinates and speeds.
+
+        Returns
+        -------
+        Kinematics
+            Rotations, positions, velocities and partial velocities.
+        """
+        # writable, contiguous float arrays: the kernels are compiled for that one layout (a
+        # read-only view, as SUNDIALS hands out, would otherwise compile them all a second time)
+        return Kinematics(self.topology, t, _plain(x), _plain(xd))
+
+    def index(self, body) -> int:
+        """Row of a body in per-body arrays.
+
+        Parameters
+        ----------
+        body : Body or str
+            A body of the model or the ground, or its name (a flexible body
+            gives the row of its first segment).
+
+        Returns
+        -------
+        int
+            Row index (-1 for the ground).
+
+        Raises
+        ------
+        ModelError
+            If the body is not in the model.
+        """
+        if isinstance(body, str):
+            body = self.model.element(body, Body)
+        try:
+            return self.topology.index[body]
+        except KeyError:
+            raise ModelError(f"body {getattr(body, 'name', body)!r} is not in the model") from None
+
+    def coordinate_slice(self, joint) -> slice:
+        """Slice of x holding a joint's coordinates.
+
+        Parameters
+        ----------
+        joint : Joint or str
+            A tree (not cut) joint of the model, or its name.
+
+        Returns
+        -------
+        slice
+            Its coordinates' positions in x.
+        """
+        return self.topology.coordinate_slice(self.model.element(joint, Joint))
+
+    def complement(self, psi):
+        """Orthogonal complement of psi by the system's strategy (eqs. 30-37).
+
+        With ``rank_limit`` set, a numerically higher rank is truncated to it
+        (:meth:`Complement.truncated`): redundant constraints stay redundant
+        at states slightly off the constraint manifold.
+
+        Parameters
+        ----------
+        psi : ndarray, shape (m, n)
+            Constraint Jacobian (eq. 29).
+
+        Returns
+        -------
+        Complement
+            T (n x p) with ``psi T = 0``, ``T^T T = I``, and the particular
+            solver.
+        """
+        self.n_complements += 1
+        c = self.strategy.complement(psi)
+        if self.rank_limit is not None:
+            c = c.truncated(self.rank_limit)
+        return c
+
+    def equations(self, t, x, xd, powers=None):
+        """All the pieces of the equations of motion at one state.
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        x, xd : ndarray, shape (n,)
+            Coordinates and speeds.
+        powers : ndarray, shape (n_groups,), optional
+            If given, filled with each force-element class's power
+            (:meth:`ForceAssembler.group_powers`) from the same evaluation.
+
+        Returns
+        -------
+        kin : Kinematics
+            Kinematics at the state (eqs. 6-18).
+        A : ndarray, shape (n, n)
+            Generalized mass matrix (eq. 2).
+        f : ndarray, shape (n,)
+            Force array (eq. 3).
+        phi, psi, b, gamma : ndarray
+            Constraint residual, Jacobian and right-hand sides (eqs. 28-29).
+        """
+        kin = self.kinematics(t, x, xd)
+        A = mass_matrix(kin)
+        f = self.forces.force_array(kin, powers)
+        phi, psi, b, gamma = self.constraints.evaluate(kin)
+        return kin, A, f, phi, psi, b, gamma
+
+    def reduced_parts(self, t, y, powers=None):
+        """A, f, psi and gamma at the state ``y = (x, xd, ...)``: what the reduced equations need.
+
+        One compiled call (:func:`~flexmb.kernels.equations.tree_equations`)
+        when the model's joints and force elements are all compiled, else
+        :meth:`equations`; the drivers' rows are added here.
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        y : ndarray, shape (>= 2 n,)
+            Coordinates and speeds first.
+        powers : ndarray, shape (n_groups,), optional
+            If given, filled with each force-element class's power.
+
+        Returns
+        -------
+        A : ndarray, shape (n, n)
+            Generalized mass matrix (eq. 2).
+        f : ndarray, shape (n,)
+            Force array (eq. 3).
+        psi : ndarray, shape (m, n)
+            Constraint Jacobian (eq. 29).
+        gamma : ndarray, shape (m,)
+            Right-hand side of ``psi xdd = gamma``.
+        """
+        n = self.n_coords
+        if self._fused_equations is None:
+            _, A, f, _, psi, _, gamma = self.equations(t, y[:n], y[n : 2 * n], powers)
+            return A, f, psi, gamma
+        y = _plain(y)
+        if powers is None:
+            powers = self._no_powers
+        else:
+            powers[:] = 0.0
+        loads = self._no_loads
+        if self._python_groups:  # plugins: called back with the kinematics, their loads added in the kernel
+            kin = self.kinematics(t, y[:n], y[n : 2 * n])
+            acc = Loads(kin)
+            for g, cls, elements in self._python_groups:
+                cls.apply_all(elements, kin, acc)
+                if powers.shape[0]:
+                    powers[g] = _power(kin, acc) - sum(powers[h] for h, _, _ in self._python_groups if h < g)
+            loads = (acc.force, acc.torque, acc.generalized)
+        A, f, _, psi, gamma = tree_equations(*self._fused_equations, y, n, powers, *loads)
+        if self.constraints.drivers:
+            psi_d, gamma_d = self.constraints.driver_rows(t, n)
+            m = psi.shape[0]
+            full = np.empty((m + psi_d.shape[0], n))
+            full[:m], full[m:] = psi, psi_d
+            psi, gamma = full, np.concatenate((gamma, gamma_d))
+        return A, f, psi, gamma
+
+    def _rows(self, t, x, xd):
+        """phi, psi and b at a state (all rows: cut joints, then drivers), compiled where it can be."""
+        if self._fused_equations is None:
+            return self.constraints.evaluate(self.kinematics(t, x, xd), level=1)
+        tree, _, cuts = self._fused_equations
+        phi, psi = cut_rows_at(tree, cuts, np.concatenate([x, xd]), self.n_coords)
+        drivers = self.constraints.drivers
+        if not drivers:
+            return phi, psi, np.zeros(phi.shape[0])
+        cols = self.constraints.driver_cols
+        m = phi.shape[0]
+        full = np.empty((m + len(drivers), self.n_coords))
+        full[:m], full[m:] = psi, self.constraints.driver_rows(t, self.n_coords)[0]
+        phi_d = np.array([x[c] - d.position(t) for d, c in zip(drivers, cols)])
+        b = np.concatenate((np.zeros(m), [d.velocity(t) for d in drivers]))
+        return np.concatenate((phi, phi_d)), full, b
+
+    def constraint_residuals(self, t, x, xd) -> tuple[float, float]:
+        """The largest position and velocity residuals of the constraints, ``max |phi|`` and ``max |psi xd - b|``.
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        x, xd : ndarray, shape (n,)
+            Coordinates and speeds.
+
+        Returns
+        -------
+        position, velocity : float
+            The residuals (eqs. 28-29; 0 without constraints).
+        """
+        if self._fused_equations is None:
+            phi, psi, b = self.constraints.evaluate(self.kinematics(t, x, xd), level=1)
+            if not phi.size:
+                return 0.0, 0.0
+            return float(np.max(np.abs(phi))), float(np.max(np.abs(psi @ xd - b)))
+        tree, _, cuts = self._fused_equations
+        position, velocity = cut_residual(tree, cuts, np.concatenate([x, xd]), self.n_coords)
+        for d, c in zip(self.constraints.drivers, self.constraints.driver_cols):
+            position = max(position, abs(x[c] - d.position(t)))
+            velocity = max(velocity, abs(xd[c] - d.velocity(t)))
+        return float(position), float(velocity)
+
+    def constraint_residual(self, t, x, xd) -> float:
+        """The largest constraint residual at a state: ``max(|phi|, |psi xd - b|)`` (eqs. 28-29).
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        x, xd : ndarray, shape (n,)
+            Coordinates and speeds.
+
+        Returns
+        -------
+        float
+            The residual (m or rad, and per second); 0 without constraints.
+        """
+        return max(self.constraint_residuals(t, x, xd))
+
+    def accelerations(self, t, x, xd) -> np.ndarray:
+        """Generalized accelerations from the reduced equations (eqs. 36-39).
+
+        With ``xdd = T zd + xdd_p`` (``psi T = 0``, ``psi xdd_p = gamma``),
+        ``T^T A T zd = T^T (f - A xdd_p)``; the constraint forces drop out.
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        x, xd : ndarray, shape (n,)
+            Coordinates and speeds.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            xdd.
+
+        Raises
+        ------
+        AssemblyError
+            If the reduced mass matrix is not positive definite.
+        """
+        if self.articulated:  # open tree: A is never formed
+            return self._articulated(t, x, xd)
+        if self.n_constraints or self._fused_equations is not None:
+            A, f, psi, gamma = self.reduced_parts(t, np.concatenate([x, xd]))
+        else:  # an open tree: no constraints to evaluate
+            kin = self.kinematics(t, x, xd)
+            A, f = mass_matrix(kin), self.forces.force_array(kin)
+            psi = gamma = np.zeros((0,))
+        if not (np.all(np.isfinite(f)) and np.all(np.isfinite(A))):
+            self._raise_non_finite(t, x, xd, A, f)
+        return self._solve(t, A, f, psi, gamma)
+
+    def _articulated(self, t, x, xd):
+        """Accelerations of an open tree by the articulated-body recursion (O(n))."""
+        if self._fused is not None:
+            return self.state_rate(t, np.concatenate([x, xd]))[self.n_coords :]
+        kin = self.kinematics(t, x, xd)
+        loads = self.forces.loads(kin)
+        topo = self.topology
+        xdd, bad = open_tree_accelerations(topo.parent, topo.coord_start, kin.R, kin.r, kin.omega, kin.alpha_bias,
+                                           kin.a_bias, kin.mass, topo.inertia, kin.Sw, kin.Sv, loads.force,
+                                           loads.torque, loads.generalized, self._no_armature)
+        if bad < 0 and np.isfinite(xdd).all():  # the common case: one check
+            return xdd
+        self._articulated_failure(t, x, xd, kin, xdd, bad)
+
+    def _articulated_failure(self, t, x, xd, kin, xdd, bad):
+        """Raise the AssemblyError that names why an open tree's accelerations failed."""
+        topo = self.topology
+        if not (np.isfinite(kin.R).all() and np.isfinite(kin.r).all()):
+            self._raise_non_finite(t, x, xd, None, xdd)
+        if bad >= 0:
+            raise AssemblyError(
+                f"the mass matrix is singular at t = {t:.6g} s: joint {topo.tree_joints[bad].name!r} moves no "
+                "mass or inertia along one of its freedoms (a body without mass or inertia on a freedom?)"
+            )
+        self._raise_non_finite(t, x, xd, np.zeros((1, 1)), xdd)
+        return xdd
+
+    def state_rate(self, t, y) -> np.ndarray:
+        """The first-order form's derivative ``(xd, xdd)`` at a state ``y = (x, xd)``.
+
+        An open tree whose joints and force elements are all compiled is
+        evaluated by one kernel call
+        (:func:`~flexmb.kernels.articulated.open_tree_rhs`); any other
+        model by :meth:`accelerations`.
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        y : ndarray, shape (2 n,)
+            Coordinates and speeds.
+
+        Returns
+        -------
+        ndarray, shape (2 n,)
+            ``(xd, xdd)``, finite.
+
+        Raises
+        ------
+        AssemblyError
+            If the equations are singular or not finite (naming the cause).
+        """
+        n = self.n_coords
+        if self._fused is not None:
+            ydot, status = open_tree_rhs(*self._fused, _plain(y), self._no_armature)
+            if status == -1:
+                return ydot
+            x, xd = y[:n], y[n : 2 * n]
+            self._articulated_failure(t, x, xd, self.kinematics(t, x, xd), ydot[n:], status)
+        x, xd = y[:n], y[n : 2 * n]
+        xdd = self.accelerations(t, x, xd)
+        if not np.all(np.isfinite(xdd)):
+            bad = [self.coordinate_names[i] for i in np.flatnonzero(~np.isfinite(xdd))[:5]]
+            err = AssemblyError(f"at t = {t:.9g} s: accelerations became non-finite ({', '.join(bad)})")
+            err.t = t
+            raise err
+        return np.concatenate([xd, xdd])

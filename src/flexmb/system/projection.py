@@ -1,0 +1,116 @@
+"""Projection of a state onto the constraints (eqs. 28-29): positions by Newton, speeds mass-orthogonally."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..assembly import mass_matrix
+from ..complements.base import PSI_ZERO
+from ..errors import AssemblyError
+from ..kernels.reduced import svd_reduced_solve
+from .solve import _plain
+
+
+class Projection:
+    """Projection onto the constraint manifold (mixed into :class:`~flexmb.system.System`)."""
+
+    def _min_norm(self, a, rhs, rcond=1e-12):
+        """Minimum-norm least-squares solution of ``a x = rhs``, rank capped at ``rank_limit``.
+
+        Like ``np.linalg.lstsq(a, rhs, rcond)``, except that singular values
+        beyond ``rank_limit`` count as zero: near (not on) the constraint
+        manifold a redundant row would otherwise be inverted through a
+        singular value of the size of the violation.
+        """
+        U, s, Vt = np.linalg.svd(a, full_matrices=False)
+        r = int(np.sum(s > rcond * s[0])) if s.size else 0
+        if self.rank_limit is not None:
+            r = min(r, self.rank_limit)
+        return Vt[:r].T @ ((U[:, :r].T @ rhs) / s[:r])
+
+    def project(self, t, x, xd, tol=1e-12, max_iter=50, fixed=None, max_step=0.5, speeds="min-norm"):
+        """Project a state onto the constraints (Newton, minimum-norm steps).
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        x, xd : ndarray, shape (n,)
+            State to correct.
+        tol : float
+            Target for max ``|phi|`` (m or rad).
+        max_iter : int
+            Newton iterations allowed.
+        fixed : ndarray of bool, shape (n,), optional
+            Coordinates to leave unchanged.
+        max_step : float
+            Largest change of any coordinate in one Newton step (rad or m),
+            so that rough guesses do not jump to a far branch.
+        speeds : {'min-norm', 'mass'}
+            How the speeds are corrected: the minimum-norm correction of the
+            free speeds (default), or the mass-orthogonal projection onto
+            ``psi xd = b`` (``fixed`` must be None): the correction is
+            A-orthogonal to the consistent speeds, so it changes the kinetic
+            energy only to second order (Bayo & Ledesma's mass-orthogonal
+            projection), also near a singular position where the minimum-norm
+            correction is a large multiple of the residual.
+
+        Returns
+        -------
+        x, xd : ndarray
+            Corrected state with ``phi = 0`` and ``psi xd = b``.
+
+        Raises
+        ------
+        AssemblyError
+            If the constraints cannot be closed; the message names the
+            constraint rows with the largest residual.
+        """
+        x = np.array(x, dtype=float)
+        xd = np.array(xd, dtype=float)
+        if self.n_constraints == 0:
+            return x, xd
+        free = np.ones(self.n_coords, bool) if fixed is None else ~np.asarray(fixed, bool)
+        for _ in range(max_iter):
+            phi, psi, _ = self._rows(t, x, xd)
+            if np.max(np.abs(phi)) <= tol:
+                break
+            step = self._min_norm(psi[:, free], phi)
+            big = np.max(np.abs(step))
+            x[free] -= step * min(1.0, max_step / big) if big > 0 else step
+        else:
+            kin = self.kinematics(t, x, xd)
+            phi = self.constraints.evaluate(kin, level=0)
+            worst = np.argsort(-np.abs(phi))[:3]
+            rows = ", ".join(f"{self.constraints.labels[i]} = {phi[i]:.3g}" for i in worst)
+            raise AssemblyError(
+                f"the constraints cannot be closed at t = {t:.6g} s: residual {np.max(np.abs(phi)):.3g} "
+                f"after {max_iter} Newton steps (largest: {rows})"
+            )
+        phi, psi, b = self._rows(t, x, xd)
+        if speeds == "mass" and fixed is None:
+            return x, self._mass_orthogonal_speeds(self.kinematics(t, x, xd), psi, b, xd)
+        step = self._min_norm(psi[:, free], psi @ xd - b)
+        xd[free] -= step
+        return x, xd
+
+    def _mass_orthogonal_speeds(self, kin, psi, b, xd, c=None):
+        """``xd_p + T (T^T A T)^-1 T^T A (xd - xd_p)`` with ``xd_p = psi^+ b``: the consistent speeds
+        nearest to ``xd`` in the kinetic-energy metric (``c``: the complement to use)."""
+        if c is None and self._svd_kernel:  # the compiled reduced solve with f = A xd, gamma = b
+            A = mass_matrix(kin)
+            v, _, status = svd_reduced_solve(A, A @ xd, _plain(psi).reshape(psi.shape[0], self.n_coords),
+                                             _plain(b), self.strategy.tol, PSI_ZERO,
+                                             -1 if self._rank_limit is None else self._rank_limit,
+                                             self.singular_window())
+            if status == 0:
+                self.n_complements += 1
+                return v
+        c = self.complement(psi) if c is None else c
+        vp = self._particular(c, b)
+        T = c.T
+        if T.shape[1] == 0:
+            return vp
+        A = mass_matrix(kin)
+        return vp + T @ self._cholesky_solve(kin.t, T.T @ A @ T, T.T @ (A @ (xd - vp)))
+

@@ -1,0 +1,108 @@
+"""Quantities of a System at a state: reactions, flexible shapes, energy, degrees of freedom."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import ModelError
+from ..flexible import FlexibleBody
+
+
+class StateQuantities:
+    """Reactions, shapes, energy and degrees of freedom at a state (mixed into :class:`~flexmb.system.System`)."""
+
+    def reactions(self, t, x, xd, xdd=None):
+        """Constraint reactions (Lagrange multipliers) at a state.
+
+        ``A xdd = f + psi^T lambda``; lambda is the minimum-norm solution
+        (unique for independent rows). A driver's row gives the torque or
+        force it supplies; a cut joint's point rows give the force it
+        transmits to its parent body (inertial axes, N).
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        x, xd : ndarray, shape (n,)
+            Coordinates and speeds.
+        xdd : ndarray, shape (n,), optional
+            Accelerations at the state (default: solved here).
+
+        Returns
+        -------
+        ndarray, shape (m,)
+            One multiplier per constraint row, labelled by
+            ``self.constraints.labels``.
+        """
+        _, A, f, _, psi, _, gamma = self.equations(t, x, xd)
+        if xdd is None:
+            xdd = self._solve(t, A, f, psi, gamma)
+        if psi.shape[0] == 0:
+            return np.zeros(0)
+        lam, *_ = np.linalg.lstsq(psi.T, A @ xdd - f, rcond=None)
+        return lam
+
+    def shape(self, body, x, t: float = 0.0) -> np.ndarray:
+        """Deformed centre line of a flexible body at one configuration.
+
+        Parameters
+        ----------
+        body : FlexibleBody or str
+            A flexible body of the model, or its name.
+        x : ndarray, shape (n,)
+            Coordinates.
+        t : float
+            Time, s.
+
+        Returns
+        -------
+        ndarray, shape (n_segments + 1, 3)
+            Root, segment joints and tip, inertial, m.
+        """
+        body = self.model.element(body, FlexibleBody)
+        if body not in self.topology.flexible:
+            raise ModelError(f"{getattr(body, 'name', body)!r} is not a flexible body of the model")
+        kin = self.kinematics(t, x, np.zeros_like(x))
+        rows = np.array([self.topology.index[s] for s in self.topology.flexible[body][1]])
+        tip = kin.origin[rows[-1]] + kin.R[rows[-1], :, 0] * body.segment_length
+        return np.vstack([kin.origin[rows], tip])
+
+    def energy(self, t, x, xd) -> tuple[float, float]:
+        """Kinetic and potential energy at a state.
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        x, xd : ndarray, shape (n,)
+            Coordinates and speeds.
+
+        Returns
+        -------
+        kinetic, potential : float
+            Energies, J.
+        """
+        kin = self.kinematics(t, x, xd)
+        return kin.kinetic_energy(), self.forces.potential_energy(kin)
+
+    def dof(self, t=0.0, x=None) -> int:
+        """Degrees of freedom p = n - rank(psi) at a configuration.
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        x : ndarray, shape (n,), optional
+            Coordinates (default: the reference configuration, zeros).
+
+        Returns
+        -------
+        int
+            Number of independent speeds p.
+        """
+        if not self.n_constraints:
+            return self.n_coords
+        x = np.zeros(self.n_coords) if x is None else x
+        _, psi, _ = self.constraints.evaluate(self.kinematics(t, x, np.zeros_like(x)), level=1)
+        return self.strategy.complement(psi).p
+

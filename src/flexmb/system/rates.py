@@ -1,0 +1,110 @@
+"""The fastest rates of a System's linearised motion (method 'auto', the stiffness warning)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .tangent import NewtonPreconditioner
+from ..kernels.articulated import articulated_accelerations
+
+
+#: open trees with more coordinates estimate their fastest rates (method 'auto', the stiffness warning)
+#: by Arnoldi iteration with O(n) products instead of dense eigenvalues
+DENSE_RATES_MAX = 200
+
+
+class Rates:
+    """The highest frequency and fastest rate at a state (mixed into :class:`~flexmb.system.System`)."""
+
+    def highest_frequency(self, t, x, xd) -> float:
+        """Estimate of the highest natural angular frequency from the coordinate springs, rad/s.
+
+        ``sqrt(max eig(P K))`` (see :meth:`state_jacobian`); 0 if no element
+        puts a stiffness on coordinates.
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        x, xd : ndarray, shape (n,)
+            Coordinates and speeds.
+
+        Returns
+        -------
+        float
+            Angular frequency, rad/s.
+        """
+        return self._rates(t, x, xd)[0]
+
+    def fastest_rate(self, t, x, xd) -> float:
+        """The fastest time scale of the coordinate springs and dampers, rad/s.
+
+        The larger of :meth:`highest_frequency` and the highest damping rate
+        ``max |eig(P C)|``: an overdamped mode decays at about that rate, and
+        limits the step of an explicit method just as a frequency does. Used
+        by ``method='auto'`` and the :class:`~flexmb.StiffnessWarning`.
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        x, xd : ndarray, shape (n,)
+            Coordinates and speeds.
+
+        Returns
+        -------
+        float
+            Rate, rad/s (1/s for a damping rate).
+        """
+        return max(self._rates(t, x, xd))
+
+    def _rates(self, t, x, xd) -> tuple[float, float]:
+        if self.articulated and self.n_coords > DENSE_RATES_MAX:
+            rates = self._rates_iterative(t, x, xd)
+            if rates is not None:
+                return rates
+        J = self.state_jacobian(t, x, xd, geometric=False)
+        if J is None:
+            return 0.0, 0.0
+        n = self.n_coords
+        stiff = np.linalg.eigvals(-J[n:, :n])
+        damp = np.linalg.eigvals(-J[n:, n:])
+        rates = (float(np.sqrt(max(np.max(stiff.real), 0.0))), float(np.max(np.abs(damp))))
+        return tuple(r if np.isfinite(r) else np.inf for r in rates)
+
+    def _rates_iterative(self, t, x, xd):
+        """The largest eigenvalues of ``A^-1 K`` and ``A^-1 C`` by Arnoldi iteration, O(n) per product.
+
+        For open trees whose coordinate springs and dampers are diagonal
+        (None if a velocity-dependent element, such as friction, couples
+        coordinates: the dense path then applies).
+        """
+        kin = self.kinematics(t, x, xd)
+        if any(cls.velocity_tangent_all(el, kin) is not None for cls, el in self.forces.groups):
+            return None
+        from scipy.sparse.linalg import ArpackNoConvergence, LinearOperator, eigs
+
+        pre = NewtonPreconditioner(self)
+        pre.setup(t, x, xd)
+        topo, n = self.topology, self.n_coords
+        spatial, Sw, Sv, r = pre._state
+        zeros = np.zeros((topo.n_bodies + 1, 3))
+
+        def largest(diag):
+            if not np.any(diag):
+                return 0.0
+
+            def apply(v):
+                z, _ = articulated_accelerations(topo.parent, topo.coord_start, spatial, Sw, Sv, r, zeros, zeros,
+                                                 diag * np.ravel(v), self._no_armature)
+                return z
+
+            op = LinearOperator((n, n), matvec=apply, dtype=float)
+            try:
+                return float(np.max(np.abs(eigs(op, k=1, which="LM", tol=1e-3, return_eigenvectors=False))))
+            except ArpackNoConvergence as exc:
+                return float(np.max(np.abs(exc.eigenvalues))) if len(exc.eigenvalues) else np.inf
+
+        rates = (float(np.sqrt(largest(pre.stiffness))), largest(pre.damping))
+        return tuple(v if np.isfinite(v) else np.inf for v in rates)
+

@@ -1,0 +1,181 @@
+"""The state Jacobian of a System and the Newton preconditioner built on it."""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.linalg as sla
+
+from ..assembly import geometric_stiffness, mass_matrix
+from ..errors import AssemblyError, ModelError
+from .solve import _plain
+from ..kernels.articulated import articulated_accelerations, mass_times
+
+
+class Tangent:
+    """The state-following tangent (mixed into :class:`~flexmb.system.System`)."""
+
+    def state_jacobian(self, t, x, xd, geometric: bool = True) -> np.ndarray | None:
+        """Jacobian of the state derivative for implicit integrators.
+
+        ``J = [[0, I], [P (G - K), -P C]]`` with ``P = T (T^T A T)^-1 T^T`` at
+        the current state, K the diagonal spring constants on coordinates
+        (segment joints, joint springs), C their dampers plus
+        ``-sum V_P^T (dF/dv) V_P`` of velocity-dependent point forces
+        (friction), and G the geometric stiffness of the loads and of the
+        inertia forces (:func:`flexmb.assembly.geometric_stiffness`). It
+        follows the state, costs about two right-hand sides instead of 2n,
+        and leaves out the changes of the velocity-product terms and of the
+        constraint forces (the integrator's Newton iteration absorbs them).
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        x, xd : ndarray, shape (n,)
+            Coordinates and speeds.
+        geometric : bool
+            Include G (default); without it, ``J[n:, :n] = -P K``.
+
+        Returns
+        -------
+        ndarray, shape (2n, 2n) or None
+            None if no element contributes a coordinate stiffness.
+        """
+        kin = self.kinematics(t, x, xd)
+        parts = [cls.tangent_all(el, kin) for cls, el in self.forces.groups]
+        parts = [p for p in parts if p is not None]
+        vparts = [cls.velocity_tangent_all(el, kin) for cls, el in self.forces.groups]
+        vparts = [p for p in vparts if p is not None]
+        if not parts and not vparts:
+            return None
+        n = self.n_coords
+        K = np.zeros(n)
+        C = np.zeros((n, n))
+        for cols, k, c in parts:
+            np.add.at(K, cols, k)
+            C[cols, cols] += c
+        for rows, p, D in vparts:
+            VP = kin.point_partials(rows, p)
+            C -= np.einsum("min,mij,mjk->nk", VP, D, VP)
+        # X = [G - K, -C]; J[n:] = P X, by solves with the factorization (no explicit P)
+        X = np.zeros((n, 2 * n))
+        X[:, :n] = -np.diag(K)
+        X[:, n:] = -C
+        # dense even where accelerations use the articulated-body recursion: the
+        # Jacobian is dense, and its 2n right-hand sides share one factorization
+        A = mass_matrix(kin)
+        _, psi, _, gamma = self.constraints.evaluate(kin)
+        if self.n_constraints == 0:
+            cho = sla.cho_factor(A, check_finite=False)
+            solve = lambda rhs: sla.cho_solve(cho, rhs, check_finite=False)  # noqa: E731
+        else:
+            T = self.complement(psi).T
+            cho = sla.cho_factor(T.T @ A @ T, check_finite=False)
+            solve = lambda rhs: T @ sla.cho_solve(cho, T.T @ rhs, check_finite=False)  # noqa: E731
+        if geometric:
+            f = self.forces.force_array(kin)
+            xdd = solve(f) if self.n_constraints == 0 else self._solve(t, A, f, psi, gamma)
+        if geometric:
+            loads = self.forces.loads(kin)
+            X[:, :n] += geometric_stiffness(kin, xdd, loads.force[:-1], loads.torque[:-1])
+        J = np.zeros((2 * n, 2 * n))
+        J[:n, n:] = np.eye(n)
+        J[n:] = solve(X)
+        return J
+
+    def newton_preconditioner(self) -> "NewtonPreconditioner":
+        """An O(n) approximate solver of an implicit integrator's Newton matrix, for open trees.
+
+        Returns
+        -------
+        NewtonPreconditioner
+            See :class:`NewtonPreconditioner`.
+
+        Raises
+        ------
+        ModelError
+            If the model has loops or driver constraints (the articulated-body
+            recursion needs an open tree).
+        """
+        if self.n_constraints or not self.articulated:
+            raise ModelError("the O(n) Newton preconditioner needs an open tree solved by the articulated-body "
+                             "recursion (no loops or drivers, sparse not False)")
+        return NewtonPreconditioner(self)
+
+
+class NewtonPreconditioner:
+    """Solves ``(I - gamma J) z = r`` approximately in O(n), for the implicit integration of an open tree.
+
+    With ``y = (x, xd)`` and ``J ~ [[0, I], [-A^-1 K, -A^-1 C]]`` (K and C
+    the diagonal coordinate springs and dampers: segment joints, joint
+    springs), the second block row of the system becomes
+    ``(A + gamma C + gamma^2 K) z2 = A r2 - gamma K r1`` and
+    ``z1 = r1 + gamma z2``: one product with A
+    (:func:`~flexmb.kernels.articulated.mass_times`) and one articulated-body
+    solve with the diagonal ``gamma C + gamma^2 K`` as armature, both O(n),
+    A never formed. The geometric stiffness and the velocity-dependent
+    terms are left out: a Krylov solver (GMRES) preconditioned by this
+    converges to the exact Newton step in a few iterations.
+
+    Parameters
+    ----------
+    system : System
+        An open tree (see :meth:`System.newton_preconditioner`).
+    """
+
+    def __init__(self, system):
+        self.system = system
+        n = system.n_coords
+        kin = system.kinematics(0.0, np.zeros(n), np.zeros(n))
+        self.stiffness = np.zeros(n)
+        self.damping = np.zeros(n)
+        for cls, elements in system.forces.groups:
+            part = cls.tangent_all(elements, kin)
+            if part is not None:
+                cols, k, c = part
+                np.add.at(self.stiffness, cols, k)
+                np.add.at(self.damping, cols, c)
+        self._state = None
+        self._zeros = np.zeros((system.topology.n_bodies + 1, 3))
+        self.n_setups = 0
+
+    def setup(self, t, x, xd) -> None:
+        """Take the mass distribution at a state (positions matter only).
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        x, xd : ndarray, shape (n,)
+            Coordinates and speeds.
+        """
+        kin = self.system.kinematics(t, x, xd)
+        self._state = (kin.spatial_inertia(), kin.Sw, kin.Sv, kin.r)
+        self.n_setups += 1
+
+    def solve(self, r1, r2, gamma):
+        """``z`` with ``(I - gamma J) z ~ r``, in two halves.
+
+        Parameters
+        ----------
+        r1, r2 : ndarray, shape (n,)
+            The right-hand side's position and speed halves.
+        gamma : float
+            The integrator's coefficient (step size times its method's
+            constant).
+
+        Returns
+        -------
+        z1, z2 : ndarray, shape (n,)
+            The solution's halves.
+        """
+        topo = self.system.topology
+        spatial, Sw, Sv, r = self._state
+        rhs = mass_times(topo.parent, topo.coord_start, topo.coord_body, spatial, Sw, Sv, _plain(r2))
+        rhs -= gamma * self.stiffness * r1
+        armature = gamma * self.damping + gamma * gamma * self.stiffness
+        z2, bad = articulated_accelerations(topo.parent, topo.coord_start, spatial, Sw, Sv, r, self._zeros,
+                                            self._zeros, rhs, armature)
+        if bad >= 0:
+            raise AssemblyError(f"the Newton preconditioner is singular at joint {topo.tree_joints[bad].name!r}")
+        return r1 + gamma * z2, z2

@@ -70,8 +70,8 @@ def test_simulate_reports_progress_and_the_error_starts_a_new_line(monkeypatch):
     stream = Terminal()
     monkeypatch.setattr(progress.sys, "stderr", stream)
     monkeypatch.setattr(progress, "Progress", _eager(progress.Progress))
-    sim = sys.modules["flexmb.simulate"]  # the module (flexmb.simulate is the function)
-    monkeypatch.setattr(sim, "Progress", progress.Progress)
+    stepping = sys.modules["flexmb.stepping"]
+    monkeypatch.setattr(stepping, "Progress", progress.Progress)
     res = fm.simulate(pendulum(), 1.0, positions={"pin": 0.5}, progress=True)
     assert res.status == "finished"
     out = stream.getvalue()

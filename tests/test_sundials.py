@@ -210,7 +210,7 @@ def test_fourbar_loop_with_projection(method):
 def test_multistep_restarts_are_rationed():
     """Projecting CVODE's state at projection_tol restarts it every few steps (order one each time) and a four-bar
     second took minutes; its own state is projected past RESTART_ATOL_FACTOR * atol (at most RESTART_TOL_MAX)."""
-    from flexmb.simulate import RESTART_ATOL_FACTOR, RESTART_TOL_MAX
+    from flexmb.stepping import RESTART_ATOL_FACTOR, RESTART_TOL_MAX
 
     assert RESTART_ATOL_FACTOR * 1e-11 <= RESTART_TOL_MAX
     kw = dict(positions=fourbar_initial(np.pi / 4), fixed=["A"], n_out=21)
@@ -364,7 +364,7 @@ def spatial_beam(n_segments):
 def test_open_tree_from_krylov_size_on_is_solved_without_matrices(method):
     """From KRYLOV_MIN_COORDS on, CVODE_BDF and IDA get the O(n) Newton preconditioner (GMRES) instead of a
     dense Jacobian, and reach the same tip as Radau at a tight tolerance (the B2 beam, 20 ms)."""
-    from flexmb.simulate import KRYLOV_MIN_COORDS
+    from flexmb.stepping import KRYLOV_MIN_COORDS
 
     system = spatial_beam(KRYLOV_MIN_COORDS // 3).build()
     assert system.n_coords >= KRYLOV_MIN_COORDS

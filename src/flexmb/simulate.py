@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import logging
-import time as _time
 import warnings
 
 import numpy as np
@@ -11,13 +10,14 @@ from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, Radau
 
 from . import memory, registry
 from ._validate import simulate_arguments
-from .errors import AssemblyError, ModelError, SimulationError, StiffnessWarning
+from .errors import ModelError, SimulationError, StiffnessWarning
 from .genalpha import GeneralizedAlpha
 from .joints import Joint
 from .integrators import IDA, CVODEAdams, CVODEBDF, adapt, capabilities
-from .integrators.monitor import ResolutionMonitor, stiff_choice
+from .integrators.monitor import stiff_choice
 from .result import Result
-from .progress import Progress, shown
+from .stepping import Run
+from .progress import shown
 from .threads import limited_blas
 
 __all__ = ["simulate", "initial_state", "INTEGRATORS"]
@@ -27,12 +27,6 @@ INTEGRATORS = {"RK45": RK45, "RK23": RK23, "DOP853": DOP853, "Radau": Radau, "BD
 
 #: the SUNDIALS integrators' names, listed apart from scipy's in error messages
 _SUNDIALS = ("CVODE_Adams", "CVODE_BDF", "IDA")
-
-
-class _NonFinite(Exception):
-    def __init__(self, t, what):
-        super().__init__(what)
-        self.t = t
 
 
 def _as_system(model_or_system, complement):
@@ -141,21 +135,6 @@ EXPLICIT_STEP_LIMIT = 3000
 AUTO_IMPLICIT_STEPS = 300
 
 
-#: integrators without a cheap restart (``cheap_restart = False``: CVODE, back to order one) project
-#: their own state when the constraint residual exceeds RESTART_ATOL_FACTOR * atol, at most
-#: RESTART_TOL_MAX (or projection_tol, if larger); their stored outputs are projected to projection_tol.
-#: Measured on the four-bar at rtol 1e-9: projecting at 100 atol restarts CVODE every few steps and
-#: the run collapses; at 1e3 atol it restarts 62 times and loses accuracy; at 1e4 atol once.
-RESTART_ATOL_FACTOR = 1e4
-RESTART_TOL_MAX = 1e-6
-
-#: open trees with at least this many coordinates are integrated by integrators declaring
-#: ``uses_preconditioner`` (CVODE_BDF) with O(n) preconditioned Krylov solves instead of a dense
-#: Jacobian; measured on B1 and B2 (docs/benchmarks.md, "Large open trees"): dense LU is as fast
-#: or faster below
-KRYLOV_MIN_COORDS = 48
-
-
 def _choose_method(system, t0, t1, x, xd, rtol=1e-8, atol=1e-10, log=True):
     """The integrator for ``method='auto'`` over [t0, t1], and why.
 
@@ -201,6 +180,29 @@ def _warn_if_stiff(system, solver_cls, t0, t1, x, xd):
             f"{n_stable:.3g} steps over {t1 - t0:.4g} s just to stay stable; use method='CVODE_BDF' or "
             f"method='Radau' (or method='auto')"
         ), stacklevel=3)
+
+
+def _calibrated(system, t0, x, xd):
+    """The system a run works on: psi's rank and the singular-position filter judged at the assembled state.
+
+    Off the constraint manifold (integrator stages) redundant rows (Bricard
+    linkage) would look independent, so the rank of psi is judged once, on
+    the assembled state, as is the scale of the singular-position filter
+    (:meth:`ComplementStrategy.singular_window`). The run works on a
+    calibrated copy; the caller's system is unchanged. An open tree has no
+    rows to judge (and no n x n complement is formed).
+    """
+    if not system.n_constraints:
+        return system
+    n_drv = len(system.constraints.drivers)
+    psi = system.constraints.evaluate(system.kinematics(t0, x, xd), level=1)[1]
+    if system.strategy.complement(psi[: system.n_constraints - n_drv]).p == 0:
+        raise ModelError(
+            f"the model has no degree of freedom left: its {system.n_coords} coordinates are all fixed by "
+            f"{system.n_constraints - n_drv} loop-closure rows (a structure, not a mechanism)"
+        )
+    c0 = system.strategy.complement(psi)
+    return system.calibrated(c0.rank, float(c0.singular_values()[c0.rank - 1]) if c0.rank else None)
 
 
 @limited_blas
@@ -324,253 +326,18 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         name = getattr(method, "__name__", method)
     else:
         _warn_if_stiff(system, solver_cls, t0, t_end, x, xd)
-    n_drv = len(system.constraints.drivers)
-    if system.n_constraints:  # an open tree has no rows to judge (and no n x n complement is formed)
-        kin0 = system.kinematics(t0, x, xd)
-        psi_loops = system.constraints.evaluate(kin0, level=1)[1][: system.n_constraints - n_drv]
-        if system.strategy.complement(psi_loops).p == 0:
-            raise ModelError(
-                f"the model has no degree of freedom left: its {system.n_coords} coordinates are all fixed by "
-                f"{system.n_constraints - n_drv} loop-closure rows (a structure, not a mechanism)"
-            )
-        # the rank of psi is judged once, on the assembled state: off the constraint manifold
-        # (integrator stages) redundant rows (Bricard linkage) would look independent
-        c0 = system.strategy.complement(system.constraints.evaluate(kin0, level=1)[1])
-        # and the scale of the singular-position filter (ComplementStrategy.singular_window): the run
-        # works on a calibrated copy, the caller's system is unchanged
-        system = system.calibrated(c0.rank, float(c0.singular_values()[c0.rank - 1]) if c0.rank else None)
-    n = system.n_coords
+    system = _calibrated(system, t0, x, xd)
     times = np.linspace(t0, t_end, n_out) if t_eval is None else np.asarray(t_eval, dtype=float)
     if times.ndim != 1 or np.any(np.diff(times) <= 0) or times[0] < t0 or times[-1] > t_end:
         raise ModelError("t_eval must be increasing and within [t0, t_end]")
-
-    counters = {"rhs": 0}
-    start_complements = system.n_complements
-
-    work_names = ([f"driver {d.name}" for d in system.constraints.drivers] + system.forces.group_names()
-                  if track_work else [])
-    n_w = len(work_names)
-
-    def fun(t, y):
-        counters["rhs"] += 1
-        if not n_w:
-            return system.state_rate(t, y)  # finite, or AssemblyError naming the cause
-        xs, vs = y[:n], y[n : 2 * n]
-        rates = np.zeros(n_w)
-        A, f, psi, gamma = system.reduced_parts(t, y, powers=rates[n_drv:])
-        try:
-            xdd, lam = system._solve(t, A, f, psi, gamma, multipliers=True)
-        except AssemblyError:
-            xdd = np.full(n, np.nan)
-        if not np.all(np.isfinite(xdd)):
-            if not (np.all(np.isfinite(f)) and np.all(np.isfinite(A))):
-                system.accelerations(t, xs, vs)  # raises with the diagnosis
-            system._solve(t, A, f, psi, gamma)  # raises if the reduced equations are singular
-            bad = [system.coordinate_names[i] for i in np.flatnonzero(~np.isfinite(xdd))[:5]]
-            raise _NonFinite(t, f"accelerations became non-finite ({', '.join(bad)})")
-        if n_drv:
-            rates[:n_drv] = lam[-n_drv:] * np.array([d.velocity(t) for d in system.constraints.drivers])
-        return np.concatenate([vs, xdd, rates])
-
-    out_y = []
-    n_steps = n_proj = 0
-    t_wall = _time.perf_counter()
-    status, message = "running", ""
-    y = np.concatenate([x, xd, np.zeros(n_w)])
-    k_out = 0
-    if times[0] == t0:
-        out_y.append(y.copy())
-        k_out = 1
-
-    extra = {}
-    # what the integrator can use is declared by its class (flexmb.integrators.base)
-    solver_cls = adapt(solver_cls)
-    caps = capabilities(solver_cls)
-    monitor = ResolutionMonitor.for_run(system, solver_cls, caps, t0, t_end, rtol, atol, name, auto)
-    if not caps.has_dense_output:
+    if not capabilities(adapt(solver_cls)).has_dense_output:
         raise ModelError(f"integrator {name!r} has no dense output, which simulate needs for its output times")
-    if caps.needs_n_second:  # written for y = (x, xd, ...) itself (GeneralizedAlpha)
-        extra["n_second"] = n
-    preconditioner = None
-    if caps.uses_preconditioner and system.articulated and n >= KRYLOV_MIN_COORDS:
-        # an open tree: O(n) Newton solves, no matrix (System.newton_preconditioner)
-        preconditioner = extra["preconditioner"] = system.newton_preconditioner()
-    elif caps.uses_jacobian and system.state_jacobian(t0, x, xd) is not None:
-        counters["jac"] = 0
-
-        def jac(t, y):
-            counters["jac"] += 1
-            J = system.state_jacobian(t, y[:n], y[n : 2 * n])
-            return np.pad(J, ((0, n_w), (0, n_w))) if n_w else J
-
-        extra["jac"] = jac
-        if caps.second_order:
-            # the Jacobian has the block form [[0, I], [Jx, Jv]]: factor n x n only
-            extra["n_second"] = n
-
-    # an integrator whose restart discards a multistep history (CVODE: back to order 1) projects its
-    # own state only past a looser bound tied to its tolerance; the stored outputs are projected to
-    # projection_tol all the same
-    state_tol = (projection_tol if caps.cheap_restart
-                 else max(projection_tol, min(RESTART_ATOL_FACTOR * atol, RESTART_TOL_MAX)))
-
-    def make(tstart, ystart, first_step=None):
-        return solver_cls(fun, tstart, ystart, t_end, rtol=rtol, atol=atol, max_step=max_step,
-                          first_step=first_step, **extra)
-
-    t_now = t0
-    solver = None
-    bar = Progress(t_end - t0, "simulating", "s", enabled=progress)
-    own_loop = caps.advances and not system.n_constraints
-    try:
-        solver = make(t0, y)
-        if own_loop:
-            # nothing to check or project after a step: the solver steps in its own loop from one
-            # output time to the next (and to each percent of the span when showing progress)
-            stops = times[k_out:]
-            if progress:
-                stops = np.union1d(stops, np.linspace(t0, t_end, 101)[1:])
-            for t_stop in stops:
-                try:
-                    y_stop = solver.advance(t_stop, None if monitor is None else monitor.step)
-                except RuntimeError as exc:
-                    raise _NonFinite(solver.t, f"the integrator failed: {exc}") from exc
-                t_now = t_stop
-                if not np.all(np.isfinite(y_stop)):
-                    raise _NonFinite(t_now, "the state became non-finite")
-                if k_out < len(times) and times[k_out] == t_stop:
-                    out_y.append(y_stop)
-                    k_out += 1
-                bar.update_to(t_now - t0)
-        while solver.status == "running" and not own_loop:
-            try:
-                msg = solver.step()
-            except (ValueError, np.linalg.LinAlgError) as exc:  # scipy's checks on a non-finite Jacobian
-                raise _NonFinite(solver.t, f"the integrator failed: {exc}") from exc
-            n_steps += 1
-            if solver.status == "failed":
-                raise _NonFinite(solver.t, f"the integrator failed: {msg}")
-            if not np.all(np.isfinite(solver.y)):
-                raise _NonFinite(solver.t, "the state became non-finite")
-            if monitor is not None:  # warns once if the steps resolve ringing modes (StiffnessWarning)
-                monitor.step(solver)
-            t_now = solver.t
-            if k_out < len(times) and times[k_out] <= t_now:
-                dense = solver.dense_output()
-                while k_out < len(times) and times[k_out] <= t_now:
-                    y_out = dense(times[k_out]) if times[k_out] != t_now else solver.y.copy()
-                    if system.n_constraints:
-                        # the interpolant leaves the constraints by about rtol
-                        # between steps: store consistent states, by the rule
-                        # the steps follow
-                        y_out[:n], y_out[n : 2 * n] = _project_output(
-                            system, times[k_out], y_out[:n], y_out[n : 2 * n], projection_tol)
-                    out_y.append(y_out)
-                    k_out += 1
-            if solver.status == "running" and system.n_constraints:
-                xs, vs = solver.y[:n], solver.y[n : 2 * n]
-                if system.constraint_residual(t_now, xs, vs) > state_tol:
-                    xs, vs = system.project(t_now, xs, vs, tol=min(1e-12, projection_tol), speeds="mass")
-                    n_proj += 1
-                    step = solver.step_size
-                    first = min(max(step, 1e-14), t_end - t_now) if step else None
-                    solver = make(t_now, np.concatenate([xs, vs, solver.y[2 * n :]]), first_step=first)
-            bar.update_to(t_now - t0)
-        status, message = "finished", "reached t_end"
-    except (_NonFinite, AssemblyError) as exc:
-        status = "failed"
-        t_now = getattr(exc, "t", t_now)
-        message = str(exc) if isinstance(exc, AssemblyError) else f"at t = {t_now:.9g} s: {exc}"
-    except KeyboardInterrupt:
-        status, message = "interrupted", f"interrupted by the user at t = {t_now:.9g} s"
-    finally:
-        bar.close()  # the bar's line ends before any message
-    wall = _time.perf_counter() - t_wall
-    if own_loop and solver is not None:
-        n_steps = solver.n_steps
-
-    Y = np.array(out_y).reshape(len(out_y), 2 * n + n_w)
-    result = Result.from_states(system, Y[:, :n], Y[:, n: 2 * n], t=times[: len(out_y)], status="running")
-    result.work = {name: Y[:, 2 * n + i].copy() for i, name in enumerate(work_names)}
-    result.n_dof = system.dof(t0, x)
-    result.n_rhs = counters["rhs"]
-    result.n_jac = counters.get("jac", 0) if preconditioner is None else preconditioner.n_setups
-    result.n_steps = n_steps
-    result.n_complements = system.n_complements - start_complements
-    result.n_projections = n_proj
-    result.wall_time = wall
-    result.status, result.message = status, message
-    result.method = name
+    run = Run(system, solver_cls, name, times, t0=t0, t_end=t_end, rtol=rtol, atol=atol, max_step=max_step,
+              projection_tol=projection_tol, track_work=track_work, progress=progress, auto=auto)
+    run.execute(x, xd)
+    result = run.result(x)
     result.method_reason = reason
-    result.complement = system.strategy.name
+    status, message, t_now = run.status, run.message, run.t_now
     if status == "failed":
         raise SimulationError(f"simulation failed {message}", t=t_now, result=result)
     return result
-
-
-#: largest ratio of an output projection's correction to the residual it removes
-OUTPUT_PROJECTION_GAIN = 1e3
-
-
-def _project_output(system, t, x, xd, tol):
-    """An output state projected onto the constraints, unless that is ill-conditioned.
-
-    Near a singular position (a flattened four-bar) the minimum-norm
-    correction divides the residual by a tiny singular value of psi; such a
-    correction, larger than ``OUTPUT_PROJECTION_GAIN`` times the residual,
-    is refused, and the state is projected in the well-conditioned
-    directions only (:func:`_project_partial`). Speeds are projected
-    mass-orthogonally, as after the steps.
-    """
-    res = system.constraint_residual(t, x, xd)
-    if res <= tol:
-        return x, xd
-    try:
-        xp, vp = system.project(t, x, xd, tol=min(1e-12, tol), speeds="mass")
-    except AssemblyError:
-        return _project_partial(system, t, x, xd, res)
-    if max(np.max(np.abs(xp - x)), np.max(np.abs(vp - xd))) > OUTPUT_PROJECTION_GAIN * res:
-        return _project_partial(system, t, x, xd, res)
-    return xp, vp
-
-
-def _project_partial(system, t, x, xd, res, n_iter=3):
-    """Project a state near a singular position in the well-conditioned directions only.
-
-    The rows of psi along singular values below ``system.singular_window()``
-    are left out (on the flattened parallelogram the violation along them is
-    of second order in the state's error, and correcting it would move the
-    state along the other branch); the speeds are projected
-    mass-orthogonally onto what remains. The positions and the speeds are
-    judged apart: each correction is kept only if it reduces its own
-    residual (``|phi|``, ``|psi xd - b|``) and is no larger than
-    ``OUTPUT_PROJECTION_GAIN`` times the state's residual.
-    """
-    window = system.singular_window()
-    if window <= 0.0:
-        return x, xd
-
-    def well_conditioned(psi):
-        c = system.complement(psi)
-        return c.truncated(int(np.sum(c.scale >= window)))
-
-    limit = OUTPUT_PROJECTION_GAIN * res
-    xp = np.array(x, dtype=float)
-    for _ in range(n_iter):
-        phi, psi, _ = system.constraints.evaluate(system.kinematics(t, xp, xd), level=1)
-        c = well_conditioned(psi)
-        if c.rank:
-            xp -= c.particular(phi)
-    kin = system.kinematics(t, xp, xd)
-    phi, psi, b = system.constraints.evaluate(kin, level=1)
-    phi0 = system.constraints.evaluate(system.kinematics(t, x, xd), level=0)
-    if np.max(np.abs(phi)) >= np.max(np.abs(phi0)) or np.max(np.abs(xp - x)) > limit:
-        xp = np.array(x, dtype=float)  # the positions are kept
-        kin = system.kinematics(t, xp, xd)
-        phi, psi, b = system.constraints.evaluate(kin, level=1)
-    # the speeds, judged apart: a speed residual along the singular direction
-    # (not corrected) must not veto the positions' correction
-    vp = system._mass_orthogonal_speeds(kin, psi, b, xd, c=well_conditioned(psi))
-    if np.max(np.abs(psi @ vp - b)) >= np.max(np.abs(psi @ xd - b)) or np.max(np.abs(vp - xd)) > limit:
-        vp = np.array(xd, dtype=float)
-    return xp, vp

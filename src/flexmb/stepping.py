@@ -1,0 +1,392 @@
+"""The step loop of a simulation: an integrator driven from output time to output time.
+
+:func:`flexmb.simulate` prepares a run (the system, the initial state, the
+integrator) and hands it to :class:`Run`, which integrates the state
+``y = (x, xd[, w])`` with the reduced accelerations (eqs. 36-39), stores the
+states at the output times, projects drifted states back onto the
+constraints (eqs. 28-29) and turns every failure into a status and a
+message with the time it happened.
+"""
+
+from __future__ import annotations
+
+import time as _time
+
+import numpy as np
+
+from .errors import AssemblyError
+from .integrators import adapt, capabilities
+from .integrators.monitor import ResolutionMonitor
+from .progress import Progress
+from .result import Result
+
+__all__ = ["Run"]
+
+#: integrators without a cheap restart (``cheap_restart = False``: CVODE, back to order one) project
+#: their own state when the constraint residual exceeds RESTART_ATOL_FACTOR * atol, at most
+#: RESTART_TOL_MAX (or projection_tol, if larger); their stored outputs are projected to projection_tol.
+#: Measured on the four-bar at rtol 1e-9: projecting at 100 atol restarts CVODE every few steps and
+#: the run collapses; at 1e3 atol it restarts 62 times and loses accuracy; at 1e4 atol once.
+RESTART_ATOL_FACTOR = 1e4
+RESTART_TOL_MAX = 1e-6
+
+#: open trees with at least this many coordinates are integrated by integrators declaring
+#: ``uses_preconditioner`` (CVODE_BDF) with O(n) preconditioned Krylov solves instead of a dense
+#: Jacobian; measured on B1 and B2 (docs/benchmarks.md, "Large open trees"): dense LU is as fast
+#: or faster below
+KRYLOV_MIN_COORDS = 48
+
+#: largest ratio of an output projection's correction to the residual it removes
+OUTPUT_PROJECTION_GAIN = 1e3
+
+
+class NonFinite(Exception):
+    """The state or the integrator failed at time ``t`` (the run stops with status 'failed')."""
+
+    def __init__(self, t, what):
+        super().__init__(what)
+        self.t = t
+
+
+class Run:
+    """One simulation run of a system from its initial state.
+
+    Parameters
+    ----------
+    system : System
+        The (calibrated) system to integrate.
+    solver_cls : type
+        The integrator, an OdeSolver class.
+    name : str
+        The integrator's name, for messages.
+    times : ndarray, shape (k,)
+        Output times, increasing, within ``[t0, t_end]``.
+    t0, t_end : float
+        Span, s.
+    rtol, atol, max_step, projection_tol : float
+        As for :func:`flexmb.simulate`.
+    track_work : bool
+        Integrate the work of the drivers and of each class of force
+        elements along with the state.
+    progress : bool
+        Show a progress bar.
+    auto : bool
+        Whether ``method='auto'`` chose the integrator (the resolution
+        monitor words its warning accordingly).
+
+    Attributes
+    ----------
+    status, message : str
+        How the run ended, after :meth:`execute`.
+    """
+
+    def __init__(self, system, solver_cls, name, times, *, t0, t_end, rtol, atol, max_step, projection_tol,
+                 track_work, progress, auto):
+        self.system = system
+        self.n = system.n_coords
+        self.name = name
+        self.times = times
+        self.t0, self.t_end = t0, t_end
+        self.rtol, self.atol, self.max_step = rtol, atol, max_step
+        self.projection_tol = projection_tol
+        self.progress = progress
+        self.n_drv = len(system.constraints.drivers)
+        self.work_names = ([f"driver {d.name}" for d in system.constraints.drivers] + system.forces.group_names()
+                           if track_work else [])
+        self.n_w = len(self.work_names)
+        self.counters = {"rhs": 0}
+        self.start_complements = system.n_complements
+        # what the integrator can use is declared by its class (flexmb.integrators.base)
+        self.solver_cls = adapt(solver_cls)
+        self.caps = capabilities(self.solver_cls)
+        self.monitor = ResolutionMonitor.for_run(system, self.solver_cls, self.caps, t0, t_end, rtol, atol, name,
+                                                 auto)
+        # an integrator whose restart discards a multistep history (CVODE: back to order 1) projects its
+        # own state only past a looser bound tied to its tolerance; the stored outputs are projected to
+        # projection_tol all the same
+        self.state_tol = (projection_tol if self.caps.cheap_restart
+                          else max(projection_tol, min(RESTART_ATOL_FACTOR * atol, RESTART_TOL_MAX)))
+        self.own_loop = self.caps.advances and not system.n_constraints
+        self.preconditioner = None
+        self.options: dict = {}
+        self.out_y: list = []
+        self.k_out = 0
+        self.n_steps = self.n_proj = 0
+        self.t_now = t0
+        self.status, self.message = "running", ""
+        self.wall = 0.0
+
+    def rhs(self, t, y) -> np.ndarray:
+        """The state rate ``(xd, xdd[, work rates])``; non-finite accelerations raise :class:`NonFinite`.
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        y : ndarray, shape (2 n + n_w,)
+            State.
+
+        Returns
+        -------
+        ndarray, shape (2 n + n_w,)
+            Its rate.
+        """
+        self.counters["rhs"] += 1
+        system, n = self.system, self.n
+        if not self.n_w:
+            return system.state_rate(t, y)  # finite, or AssemblyError naming the cause
+        xs, vs = y[:n], y[n : 2 * n]
+        rates = np.zeros(self.n_w)
+        A, f, psi, gamma = system.reduced_parts(t, y, powers=rates[self.n_drv:])
+        try:
+            xdd, lam = system._solve(t, A, f, psi, gamma, multipliers=True)
+        except AssemblyError:
+            xdd = np.full(n, np.nan)
+        if not np.all(np.isfinite(xdd)):
+            if not (np.all(np.isfinite(f)) and np.all(np.isfinite(A))):
+                system.accelerations(t, xs, vs)  # raises with the diagnosis
+            system._solve(t, A, f, psi, gamma)  # raises if the reduced equations are singular
+            bad = [system.coordinate_names[i] for i in np.flatnonzero(~np.isfinite(xdd))[:5]]
+            raise NonFinite(t, f"accelerations became non-finite ({', '.join(bad)})")
+        if self.n_drv:
+            rates[: self.n_drv] = lam[-self.n_drv:] * np.array([d.velocity(t) for d in system.constraints.drivers])
+        return np.concatenate([vs, xdd, rates])
+
+    def _jac(self, t, y):
+        self.counters["jac"] += 1
+        n = self.n
+        J = self.system.state_jacobian(t, y[:n], y[n : 2 * n])
+        return np.pad(J, ((0, self.n_w), (0, self.n_w))) if self.n_w else J
+
+    def _set_options(self, x, xd) -> None:
+        """What the integrator is given besides the rhs: a Jacobian or a preconditioner, the second-order size."""
+        caps, system, n = self.caps, self.system, self.n
+        if caps.needs_n_second:  # written for y = (x, xd, ...) itself (GeneralizedAlpha)
+            self.options["n_second"] = n
+        if caps.uses_preconditioner and system.articulated and n >= KRYLOV_MIN_COORDS:
+            # an open tree: O(n) Newton solves, no matrix (System.newton_preconditioner)
+            self.preconditioner = self.options["preconditioner"] = system.newton_preconditioner()
+        elif caps.uses_jacobian and system.state_jacobian(self.t0, x, xd) is not None:
+            self.counters["jac"] = 0
+            self.options["jac"] = self._jac
+            if caps.second_order:
+                # the Jacobian has the block form [[0, I], [Jx, Jv]]: factor n x n only
+                self.options["n_second"] = n
+
+    def _make(self, tstart, ystart, first_step=None):
+        return self.solver_cls(self.rhs, tstart, ystart, self.t_end, rtol=self.rtol, atol=self.atol,
+                               max_step=self.max_step, first_step=first_step, **self.options)
+
+    def execute(self, x, xd) -> None:
+        """Integrate from ``(x, xd)`` at ``t0`` to ``t_end``; set :attr:`status` and :attr:`message`.
+
+        Parameters
+        ----------
+        x, xd : ndarray, shape (n,)
+            The assembled initial state.
+        """
+        self._set_options(x, xd)
+        y = np.concatenate([x, xd, np.zeros(self.n_w)])
+        if self.times[0] == self.t0:
+            self.out_y.append(y.copy())
+            self.k_out = 1
+        t_wall = _time.perf_counter()
+        solver = None
+        bar = Progress(self.t_end - self.t0, "simulating", "s", enabled=self.progress)
+        try:
+            solver = self._make(self.t0, y)
+            if self.own_loop:
+                self._advance(solver, bar)
+            else:
+                self._step(solver, bar)
+            self.status, self.message = "finished", "reached t_end"
+        except (NonFinite, AssemblyError) as exc:
+            self.status = "failed"
+            self.t_now = getattr(exc, "t", self.t_now)
+            self.message = str(exc) if isinstance(exc, AssemblyError) else f"at t = {self.t_now:.9g} s: {exc}"
+        except KeyboardInterrupt:
+            self.status, self.message = "interrupted", f"interrupted by the user at t = {self.t_now:.9g} s"
+        finally:
+            bar.close()  # the bar's line ends before any message
+        self.wall = _time.perf_counter() - t_wall
+        if self.own_loop and solver is not None:
+            self.n_steps = solver.n_steps
+
+    def _advance(self, solver, bar) -> None:
+        """Nothing to check or project after a step: the solver steps in its own loop between stops.
+
+        The stops are the output times (and each percent of the span when
+        showing progress).
+        """
+        times, t0 = self.times, self.t0
+        stops = times[self.k_out:]
+        if self.progress:
+            stops = np.union1d(stops, np.linspace(t0, self.t_end, 101)[1:])
+        step = None if self.monitor is None else self.monitor.step
+        for t_stop in stops:
+            try:
+                y_stop = solver.advance(t_stop, step)
+            except RuntimeError as exc:
+                raise NonFinite(solver.t, f"the integrator failed: {exc}") from exc
+            self.t_now = t_stop
+            if not np.all(np.isfinite(y_stop)):
+                raise NonFinite(self.t_now, "the state became non-finite")
+            if self.k_out < len(times) and times[self.k_out] == t_stop:
+                self.out_y.append(y_stop)
+                self.k_out += 1
+            bar.update_to(self.t_now - t0)
+
+    def _step(self, solver, bar) -> None:
+        """Step by step: check each step, store the outputs it passed, project a drifted state."""
+        while solver.status == "running":
+            try:
+                msg = solver.step()
+            except (ValueError, np.linalg.LinAlgError) as exc:  # scipy's checks on a non-finite Jacobian
+                raise NonFinite(solver.t, f"the integrator failed: {exc}") from exc
+            self.n_steps += 1
+            if solver.status == "failed":
+                raise NonFinite(solver.t, f"the integrator failed: {msg}")
+            if not np.all(np.isfinite(solver.y)):
+                raise NonFinite(solver.t, "the state became non-finite")
+            if self.monitor is not None:  # warns once if the steps resolve ringing modes (StiffnessWarning)
+                self.monitor.step(solver)
+            self.t_now = solver.t
+            self._store(solver)
+            if solver.status == "running" and self.system.n_constraints:
+                solver = self._restart_if_drifted(solver)
+            bar.update_to(self.t_now - self.t0)
+
+    def _store(self, solver) -> None:
+        """Store the states at the output times the last step passed."""
+        times, n, system = self.times, self.n, self.system
+        if not (self.k_out < len(times) and times[self.k_out] <= self.t_now):
+            return
+        dense = solver.dense_output()
+        while self.k_out < len(times) and times[self.k_out] <= self.t_now:
+            t_out = times[self.k_out]
+            y_out = dense(t_out) if t_out != self.t_now else solver.y.copy()
+            if system.n_constraints:
+                # the interpolant leaves the constraints by about rtol between steps: store
+                # consistent states, by the rule the steps follow
+                y_out[:n], y_out[n : 2 * n] = project_output(system, t_out, y_out[:n], y_out[n : 2 * n],
+                                                             self.projection_tol)
+            self.out_y.append(y_out)
+            self.k_out += 1
+
+    def _restart_if_drifted(self, solver):
+        """The solver, restarted from the projected state if the constraints drifted past the bound."""
+        n, t_now = self.n, self.t_now
+        xs, vs = solver.y[:n], solver.y[n : 2 * n]
+        if self.system.constraint_residual(t_now, xs, vs) <= self.state_tol:
+            return solver
+        xs, vs = self.system.project(t_now, xs, vs, tol=min(1e-12, self.projection_tol), speeds="mass")
+        self.n_proj += 1
+        step = solver.step_size
+        first = min(max(step, 1e-14), self.t_end - t_now) if step else None
+        return self._make(t_now, np.concatenate([xs, vs, solver.y[2 * n :]]), first_step=first)
+
+    def result(self, x) -> Result:
+        """The Result of the run: the stored states and the run's counters.
+
+        Parameters
+        ----------
+        x : ndarray, shape (n,)
+            The initial coordinates (the degrees of freedom are counted
+            there).
+
+        Returns
+        -------
+        Result
+            With ``status`` and ``message`` of the run.
+        """
+        system, n = self.system, self.n
+        Y = np.array(self.out_y).reshape(len(self.out_y), 2 * n + self.n_w)
+        preconditioner = self.preconditioner
+        return Result.from_states(
+            system, Y[:, :n], Y[:, n : 2 * n], t=self.times[: len(self.out_y)],
+            work={name: Y[:, 2 * n + i].copy() for i, name in enumerate(self.work_names)},
+            n_dof=system.dof(self.t0, x), n_rhs=self.counters["rhs"],
+            n_jac=self.counters.get("jac", 0) if preconditioner is None else preconditioner.n_setups,
+            n_steps=self.n_steps, n_complements=system.n_complements - self.start_complements,
+            n_projections=self.n_proj, wall_time=self.wall, status=self.status, message=self.message,
+            method=self.name, complement=system.strategy.name)
+
+
+def project_output(system, t, x, xd, tol):
+    """An output state projected onto the constraints, unless that is ill-conditioned.
+
+    Near a singular position (a flattened four-bar) the minimum-norm
+    correction divides the residual by a tiny singular value of psi; such a
+    correction, larger than ``OUTPUT_PROJECTION_GAIN`` times the residual,
+    is refused, and the state is projected in the well-conditioned
+    directions only (:func:`_project_partial`). Speeds are projected
+    mass-orthogonally, as after the steps.
+
+    Parameters
+    ----------
+    system : System
+        The system.
+    t : float
+        Time, s.
+    x, xd : ndarray, shape (n,)
+        The state.
+    tol : float
+        Residual below which the state is kept as it is.
+
+    Returns
+    -------
+    x, xd : ndarray, shape (n,)
+        The projected state.
+    """
+    res = system.constraint_residual(t, x, xd)
+    if res <= tol:
+        return x, xd
+    try:
+        xp, vp = system.project(t, x, xd, tol=min(1e-12, tol), speeds="mass")
+    except AssemblyError:
+        return _project_partial(system, t, x, xd, res)
+    if max(np.max(np.abs(xp - x)), np.max(np.abs(vp - xd))) > OUTPUT_PROJECTION_GAIN * res:
+        return _project_partial(system, t, x, xd, res)
+    return xp, vp
+
+
+def _project_partial(system, t, x, xd, res, n_iter=3):
+    """Project a state near a singular position in the well-conditioned directions only.
+
+    The rows of psi along singular values below ``system.singular_window()``
+    are left out (on the flattened parallelogram the violation along them is
+    of second order in the state's error, and correcting it would move the
+    state along the other branch); the speeds are projected
+    mass-orthogonally onto what remains. The positions and the speeds are
+    judged apart: each correction is kept only if it reduces its own
+    residual (``|phi|``, ``|psi xd - b|``) and is no larger than
+    ``OUTPUT_PROJECTION_GAIN`` times the state's residual.
+    """
+    window = system.singular_window()
+    if window <= 0.0:
+        return x, xd
+
+    def well_conditioned(psi):
+        c = system.complement(psi)
+        return c.truncated(int(np.sum(c.scale >= window)))
+
+    limit = OUTPUT_PROJECTION_GAIN * res
+    xp = np.array(x, dtype=float)
+    for _ in range(n_iter):
+        phi, psi, _ = system.constraints.evaluate(system.kinematics(t, xp, xd), level=1)
+        c = well_conditioned(psi)
+        if c.rank:
+            xp -= c.particular(phi)
+    kin = system.kinematics(t, xp, xd)
+    phi, psi, b = system.constraints.evaluate(kin, level=1)
+    phi0 = system.constraints.evaluate(system.kinematics(t, x, xd), level=0)
+    if np.max(np.abs(phi)) >= np.max(np.abs(phi0)) or np.max(np.abs(xp - x)) > limit:
+        xp = np.array(x, dtype=float)  # the positions are kept
+        kin = system.kinematics(t, xp, xd)
+        phi, psi, b = system.constraints.evaluate(kin, level=1)
+    # the speeds, judged apart: a speed residual along the singular direction
+    # (not corrected) must not veto the positions' correction
+    vp = system._mass_orthogonal_speeds(kin, psi, b, xd, c=well_conditioned(psi))
+    if np.max(np.abs(psi @ vp - b)) >= np.max(np.abs(psi @ xd - b)) or np.max(np.abs(vp - xd)) > limit:
+        vp = np.array(xd, dtype=float)
+    return xp, vp

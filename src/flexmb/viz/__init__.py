@@ -1,0 +1,21 @@
+"""Pictures of results: off-screen renders and GIFs (pyvista), time histories (matplotlib).
+
+pyvista and matplotlib come with the ``viz`` extra (``pip install
+flexmb[viz]``) and are imported inside the functions, so ``import flexmb``
+never loads them.
+
+Modules
+-------
+render
+    Off-screen renders of the scene :mod:`flexmb.export.vtk` writes, and
+    GIF animations.
+plots
+    Time histories of coordinates, and section-field envelopes and
+    stations.
+"""
+
+from .plots import _coordinate_groups, _joint_coordinate_units, coordinate_units, plot, plot_envelope, plot_station
+from .render import RenderOptions, animate, render_state
+
+__all__ = ["RenderOptions", "render_state", "animate", "plot", "coordinate_units", "plot_envelope",
+           "plot_station"]

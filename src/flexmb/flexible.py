@@ -316,7 +316,12 @@ class FlexibleBody(Body):
                              f"whole body [0, {L:g}] m")
         # segments: m = int rho A ds, first and second moments of rho A about the segment start
         bounds = np.linspace(0.0, L, N + 1)
-        s, w, seg = _quadrature(_pieces(bounds, p.breaks, 0.0, L), bounds)
+        cuts = _pieces(bounds, p.breaks, 0.0, L)
+        s, w, seg = _quadrature(cuts, bounds)
+        # the piece ends are checked too (not integrated): a stiffness or mass that vanishes at a station
+        s = np.concatenate([s, np.repeat(cuts[:, None], _N_GAUSS, axis=1)])
+        w = np.concatenate([w, np.zeros((cuts.size, _N_GAUSS))])
+        seg = np.concatenate([seg, np.zeros(cuts.size, dtype=seg.dtype)])
         vals = self._evaluate(s)
         col = {name: vals[..., j] for j, name in enumerate(BEAM_PROPERTIES)}
         self._check_values(s, col["rhoA"], "rhoA (mass per length)", strict=True)
@@ -339,14 +344,17 @@ class FlexibleBody(Body):
         spans = (np.arange(N) + 0.5) * l
         if self.clamped:
             spans = np.concatenate([[0.0], spans])
-        s, w, joint = _quadrature(_pieces(spans, p.breaks, spans[0], spans[-1]), spans)
+        cuts = _pieces(spans, p.breaks, spans[0], spans[-1])
+        s, w, joint = _quadrature(cuts, spans)
         vals = self._evaluate(s)
+        ends = self._evaluate(cuts)
         names = segment_joint_class(self.keep).coordinate_names
         k = np.zeros((self.n_joints, len(names)))
         for j, coord in enumerate(names):
             prop = _STIFFNESS_OF[coord]
             stiff = vals[..., BEAM_PROPERTIES.index(prop)]
-            self._check_values(s, stiff, f"{prop} (needed by {coord!r})", strict=True)
+            for where, v in ((s, stiff), (cuts, ends[:, BEAM_PROPERTIES.index(prop)])):
+                self._check_values(where, v, f"{prop} (needed by {coord!r})", strict=True)
             flex = np.bincount(joint, weights=np.sum(w / stiff, axis=1), minlength=self.n_joints)
             if coord in ("shear_y", "shear_z"):
                 k[:, j] = 3.0 * np.diff(spans) / flex / l**3  # 3 EI / l^3 with the span's harmonic-mean EI
@@ -370,7 +378,7 @@ class FlexibleBody(Body):
         if np.any(bad):
             i = np.flatnonzero(bad.ravel())[0]
             raise ModelError(f"{label(self)}: {what} must be finite and {'>' if strict else '>='} 0 along the "
-                             f"body, got {values.ravel()[i]!r} at s = {s.ravel()[i]:.6g} m")
+                             f"body, got {float(values.ravel()[i]):.6g} at s = {float(s.ravel()[i]):.6g} m")
 
     @classmethod
     def uniform_beam(cls, name: str, length: float, section: Section, material: Material,

@@ -35,14 +35,15 @@ def rhoa(s):
     return RHOA0 * (1.0 + (RHOA_TIP - 1.0) * np.asarray(s) / L)
 
 
-def continuum_frequencies(e, r, n_modes=3):
+def continuum_frequencies(e, r, n_modes=3, stations=None):
     """Cantilever frequencies (Hz) of ``(EI0 e w'')'' = omega^2 rhoA0 r w`` by solve_bvp.
 
     Nondimensional in xi = s / L: y = (w, w', M, V) with M = e w'', V = M',
     eigenvalue Lambda = omega^2 rhoA0 L^4 / EI0; the uniform mode shapes are
-    the initial guesses.
+    the initial guesses. With ``stations`` (m), also the mode shapes w there,
+    shape (len(stations), n_modes), scaled to w(L) = 1.
     """
-    out = []
+    out, shapes = [], []
     x = np.linspace(0.0, 1.0, 201)
     for b in BETA_L[:n_modes]:
         sig = (np.cosh(b) + np.cos(b)) / (np.sinh(b) + np.sin(b))
@@ -61,7 +62,9 @@ def continuum_frequencies(e, r, n_modes=3):
         sol = solve_bvp(rhs, bc, x, y, p=[b**4], tol=1e-8, max_nodes=100000)
         assert sol.success, sol.message
         out.append(np.sqrt(sol.p[0] * EI0 / (RHOA0 * L**4)) / (2 * np.pi))
-    return np.array(out)
+        if stations is not None:
+            shapes.append(sol.sol(np.asarray(stations) / L)[0])
+    return np.array(out) if stations is None else (np.array(out), np.array(shapes).T)
 
 
 @pytest.fixture(scope="module")

@@ -87,6 +87,11 @@ def test_free_free_calibration_needs_the_even_terms():
     assert np.all(np.abs(cal.error_before) > 5e-5)
     assert np.all(np.abs(cal.error_after) < 1e-6), cal.summary()
     assert cal.rank == 3  # of 5 parameters: P1 and P3 are left where the solver found them
+    # the same set-up written as a model: its 6 rigid-body modes skipped by hand
+    model = fm.Model("free")
+    model.add(fm.Free("free", model.ground, beam))
+    again = fm.calibrate(model, F_FREE, n_stiffness=5, skip=6)
+    assert again.after == pytest.approx(cal.after, rel=1e-9)
 
 
 def test_stiffness_and_mass_from_frequencies_and_mode_shapes_of_a_taper():
@@ -144,6 +149,7 @@ def test_calibrating_a_model_keeps_its_other_elements():
     ((b1_beam(4), [4.0]), {"configuration": "pinned"}, r"configuration must be one of \['clamped', 'free'\]"),
     ((b1_beam(4), [4.0]), {"configuration": "free"}, r"FlexibleBody 'beam' has clamped = True .* a free-free test needs clamped = False"),
     ((b1_beam(4), [4.0]), {"body": "beam"}, r"body= is for a model"),
+    ((b1_beam(4), [4.0]), {"skip": -1}, r"skip must be an integer >= 0, got -1"),
     (("beam", [4.0]), {}, r"target must be a FlexibleBody or a Model, got str"),
     ((b1_beam(4), [4.0]), {"mode_shapes": [[1.0]]}, r"mode_shapes need the stations"),
     ((b1_beam(4), [4.0, 25.0]), {"mode_shapes": [[1.0, 2.0]], "stations": [0.5, 1.0]},

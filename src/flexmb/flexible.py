@@ -318,16 +318,14 @@ class FlexibleBody(Body):
         bounds = np.linspace(0.0, L, N + 1)
         cuts = _pieces(bounds, p.breaks, 0.0, L)
         s, w, seg = _quadrature(cuts, bounds)
-        # the piece ends are checked too (not integrated): a stiffness or mass that vanishes at a station
-        s = np.concatenate([s, np.repeat(cuts[:, None], _N_GAUSS, axis=1)])
-        w = np.concatenate([w, np.zeros((cuts.size, _N_GAUSS))])
-        seg = np.concatenate([seg, np.zeros(cuts.size, dtype=seg.dtype)])
         vals = self._evaluate(s)
+        # checked at the piece ends too (the Gauss points miss them): data that vanishes at a station
+        for where, v in ((s, vals), (cuts, self._evaluate(cuts))):
+            self._check_values(where, v[..., BEAM_PROPERTIES.index("rhoA")], "rhoA (mass per length)", True)
+            for name in ("rhoIp", "rhoIy", "rhoIz") if self.rotary_inertia else ():
+                self._check_values(where, v[..., BEAM_PROPERTIES.index(name)],
+                                   f"{name} (rotary inertia per length)", False)
         col = {name: vals[..., j] for j, name in enumerate(BEAM_PROPERTIES)}
-        self._check_values(s, col["rhoA"], "rhoA (mass per length)", strict=True)
-        if self.rotary_inertia:
-            for name in ("rhoIp", "rhoIy", "rhoIz"):
-                self._check_values(s, col[name], f"{name} (rotary inertia per length)", strict=False)
         local = s - bounds[seg][:, None]
 
         def per_segment(f):
@@ -539,7 +537,7 @@ class FlexibleBody(Body):
         """
         N = self.n_segments
         if self._data is None:
-            m, inertia, com = self.segment_mass_properties_uniform()
+            m, inertia, com = self._uniform_segment()
             mass = np.full(N, m)
             inertia = np.broadcast_to(inertia, (N, 3, 3)).copy()
             com = np.broadcast_to(com, (N, 3)).copy()
@@ -576,11 +574,11 @@ class FlexibleBody(Body):
         segment_properties : All segments at once, and what they hold.
         """
         if not self.varying:
-            return self.segment_mass_properties_uniform()
+            return self._uniform_segment()
         m, inertia, com = self.segment_properties()
         return float(m[index]), inertia[index], com[index]
 
-    def segment_mass_properties_uniform(self) -> tuple[float, np.ndarray, np.ndarray]:
+    def _uniform_segment(self) -> tuple[float, np.ndarray, np.ndarray]:
         """Mass, central inertia and mass centre of a segment of the uniform beam of ``section``, ``material``.
 
         Returns
@@ -648,7 +646,7 @@ class FlexibleBody(Body):
             segs = [Segment(f"{self.name}[{i}]", float(m[i]), inertia[i], com[i], self, i)
                     for i in range(self.n_segments)]
         else:
-            m, inertia, com = self.segment_mass_properties_uniform()
+            m, inertia, com = self._uniform_segment()
             segs = [Segment(f"{self.name}[{i}]", m, inertia, com, self, i) for i in range(self.n_segments)]
         cls = segment_joint_class(self.keep)
         l = self.segment_length

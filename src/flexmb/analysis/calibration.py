@@ -223,7 +223,7 @@ def _station_matrix(system, body: FlexibleBody, stations: np.ndarray, h: float =
 
 
 def calibrate(target, frequencies, mode_shapes=None, *, stations=None, body=None, configuration: str | None = None,
-              fit=("stiffness",), n_stiffness: int | None = None, n_mass: int | None = None,
+              fit=("stiffness",), n_stiffness: int | None = None, n_mass: int | None = None, skip: int | None = None,
               shape_weight: float = 1.0, regularization: float = 0.0, tol: float = 1e-12,
               max_nfev: int = 200) -> Calibration:
     """Fit a flexible body's joint stiffnesses (and segment masses) to natural frequencies.
@@ -263,6 +263,10 @@ def calibrate(target, frequencies, mode_shapes=None, *, stations=None, body=None
         Number q of Legendre terms of the log mass profile, without the
         constant (default, with 'mass': m - 1 with mode shapes, else
         m - p).
+    skip : int, optional
+        How many of the model's lowest modes to leave out before pairing
+        (its rigid-body modes): default 6 for the 'free' configuration,
+        else 0.
     shape_weight : float
         Weight of the shape residuals against the relative frequency errors.
     regularization : float
@@ -331,14 +335,17 @@ def calibrate(target, frequencies, mode_shapes=None, *, stations=None, body=None
             raise ModelError(f"{where}: configuration must be one of {list(CONFIGURATIONS)}, got {configuration!r}")
         if body is not None:
             raise ModelError(f"{where}: body= is for a model; a body was given")
-        body0, model0, skip = target, _test_model(target, configuration), CONFIGURATIONS[configuration]
+        body0, model0, rigid = target, _test_model(target, configuration), CONFIGURATIONS[configuration]
     elif isinstance(target, Model):
         if configuration is not None:
             raise ModelError(f"{where}: configuration is for a bare body; a model is its own test set-up")
-        body0, model0, skip = _which_body(target, body), target, 0
+        body0, model0, rigid = _which_body(target, body), target, 0
     else:
         raise ModelError(f"{where}: target must be a FlexibleBody or a Model, got {type(target).__name__}")
 
+    skip = rigid if skip is None else skip
+    if isinstance(skip, bool) or not isinstance(skip, (int, np.integer)) or skip < 0:
+        raise ModelError(f"{where}: skip must be an integer >= 0, got {skip!r}")
     L = body0.length
     shapes = None
     if mode_shapes is not None:

@@ -147,7 +147,8 @@ def test_calibrating_a_model_keeps_its_other_elements():
     ((b1_beam(4), "4 Hz"), {}, r"frequencies must be finite numbers > 0"),
     ((b1_beam(4), [4.0]), {"fit": ("mass",)}, r"fit must be \('stiffness',\) or \('stiffness', 'mass'\)"),
     ((b1_beam(4), [4.0]), {"configuration": "pinned"}, r"configuration must be one of \['clamped', 'free'\]"),
-    ((b1_beam(4), [4.0]), {"configuration": "free"}, r"FlexibleBody 'beam' has clamped = True .* a free-free test needs clamped = False"),
+    ((b1_beam(4), [4.0]), {"configuration": "free"},
+     r"FlexibleBody 'beam' has clamped = True .* a free-free test needs clamped = False"),
     ((b1_beam(4), [4.0]), {"body": "beam"}, r"body= is for a model"),
     ((b1_beam(4), [4.0]), {"skip": -1}, r"skip must be an integer >= 0, got -1"),
     (("beam", [4.0]), {}, r"target must be a FlexibleBody or a Model, got str"),
@@ -160,7 +161,8 @@ def test_calibrating_a_model_keeps_its_other_elements():
                                                                                r"non-zero"),
     ((fm.FlexibleBody("beam", 1.0, SECTION, MATERIAL, 4, keep=("bend_y", "bend_z")), [4.0]),
      {"mode_shapes": [0.5, 1.0], "stations": [0.5, 1.0]},
-     r"mode shapes are transverse displacements in one plane; FlexibleBody 'beam' must keep exactly one of 'bend_y', 'bend_z'"),
+     r"mode shapes are transverse displacements in one plane; FlexibleBody 'beam' must keep exactly one of "
+     r"'bend_y', 'bend_z'"),
     ((b1_beam(4), [4.0, 25.0]), {"fit": ("stiffness", "mass"), "n_stiffness": 2}, r"need n_stiffness >= 1 \(and "
                                                                                   r"n_mass >= 1 to fit masses\)"),
 ])

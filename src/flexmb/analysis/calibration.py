@@ -211,9 +211,9 @@ def _station_matrix(system, body: FlexibleBody, stations: np.ndarray, h: float =
         kin = system.kinematics(0.0, x, np.zeros(n))
         return np.array([kin.origin[k] + kin.R[k] @ local for k, local in where]), kin
 
-    p0, kin0 = points(np.zeros(n))
-    k_root = where[0][0]
-    direction = kin0.R[k_root][:, 2 if bends[0] == "bend_y" else 1]
+    _, kin0 = points(np.zeros(n))
+    root = system.topology.index[system.topology.flexible[body][1][0]]  # the first segment, along the body frame
+    direction = kin0.R[root][:, 2 if bends[0] == "bend_y" else 1]
     out = np.zeros((len(stations), n))
     for j in range(n):
         e = np.zeros(n)
@@ -402,36 +402,37 @@ def calibrate(target, frequencies, mode_shapes=None, *, stations=None, body=None
         f, phi = modes(system, skip + m)
         return new, model, system, f[skip:], phi[:, skip:]
 
-    count = [0]
+    p0 = np.zeros(n_stiffness + n_mass)
+    body_p0, _, sys0, f_before, phi0 = evaluate(p0)
+    # the stations' displacements are linear in x with a map fixed by the geometry, not by k or m
+    S = None if shapes is None else _station_matrix(sys0, body_p0, st)
+
+    count = [0]  # modal analyses, the Jacobian's included (least_squares' nfev leaves those out)
 
     def residuals(p):
         count[0] += 1
         _, _, system, f, phi = evaluate(p)
         r = [f / f_target - 1.0]
         if shapes is not None:
-            v = _station_matrix(system, _body_in(system), st) @ phi
+            v = S @ phi
             alpha = np.sum(shapes * v, axis=0) / np.sum(v * v, axis=0)
             r.append(shape_weight * (shapes - alpha * v).ravel())
-        r.append(regularization * p)  # the smallest change wins where the data leaves a direction free
+        if regularization:
+            r.append(regularization * p)  # the smallest change wins where the data leave a direction free
         return np.concatenate(r)
 
-    def _body_in(system):
-        return [b for b in system.model.bodies if b.name == body0.name][0]
-
-    def mac(system, phi):
+    def mac(phi):
         if shapes is None:
             return None
-        v = _station_matrix(system, _body_in(system), st) @ phi
+        v = S @ phi
         return np.sum(shapes * v, axis=0) ** 2 / np.sum(v * v, axis=0)
 
-    p0 = np.zeros(n_stiffness + n_mass)
-    _, _, sys0, f_before, phi0 = evaluate(p0)
     sol = least_squares(residuals, p0, method="trf", x_scale=1.0, diff_step=1e-6, ftol=tol, xtol=tol, gtol=tol,
                         max_nfev=max_nfev)
-    new, model, sys1, f_after, phi1 = evaluate(sol.x)
+    new, model, _, f_after, phi1 = evaluate(sol.x)
     ks, ms = scales(sol.x)
     return Calibration(body=new, model=model, stiffness_scale=ks, mass_scale=ms if with_mass else np.ones_like(ms),
                        parameters=sol.x, target=f_target, before=f_before, after=f_after,
-                       mac_before=mac(sys0, phi0), mac_after=mac(sys1, phi1),
-                       residual=float(np.linalg.norm(sol.fun[:n_res])), rank=_rank(sol.jac[:n_res]), success=bool(sol.success), message=sol.message,
-                       nfev=count[0])
+                       mac_before=mac(phi0), mac_after=mac(phi1),
+                       residual=float(np.linalg.norm(sol.fun[:n_res])), rank=_rank(sol.jac[:n_res]),
+                       success=bool(sol.success), message=sol.message, nfev=count[0])

@@ -18,10 +18,10 @@ from .errors import (AssemblyError, ExportError, FlexmbError, ModelError, Plugin
 from .forces import BodyTorque, ForceElement, Gravity, JointSpringDamper, Loads, PointForce, SpringDamper
 from .joints import Cylindrical, Fixed, Free, Joint, PlanarRevolute, Prismatic, Revolute, Spherical, Universal
 from .flexible import FlexibleBody, Segment
-from .analysis import Linearization, linear_statics, linearize, modes, static_equilibrium
+from .analysis import Calibration, Linearization, calibrate, linear_statics, linearize, modes, static_equilibrium
 from .model import Model
 from .registry import PluginInfo, plugins, register
-from .sections import Material, Section
+from .sections import BeamProfile, Material, Section
 from .result import Result
 from .simulate import INTEGRATORS, initial_state, simulate
 from .genalpha import GeneralizedAlpha, generalized_alpha
@@ -42,8 +42,8 @@ __all__ = [
     "AssemblyError", "ExportError", "FlexmbError", "ModelError", "PluginError", "SimulationError",
     "BodyTorque", "ForceElement", "Gravity", "JointSpringDamper", "Loads", "PointForce", "SpringDamper",
     "Cylindrical", "Fixed", "Free", "Joint", "PlanarRevolute", "Prismatic", "Revolute", "Spherical", "Universal",
-    "FlexibleBody", "Segment", "Material", "Section",
-    "Linearization", "linear_statics", "linearize", "modes", "static_equilibrium",
+    "FlexibleBody", "Segment", "Material", "Section", "BeamProfile",
+    "Linearization", "linear_statics", "linearize", "modes", "static_equilibrium", "Calibration", "calibrate",
     "Model", "PluginInfo", "plugins", "register", "Result", "INTEGRATORS", "initial_state", "simulate", "System",
     "Scene", "SceneError", "load_scene", "loads_scene",
     "StiffnessWarning", "GeneralizedAlpha", "generalized_alpha",

@@ -15,6 +15,19 @@ Each interior joint lumps half a segment of flexibility on either side; a
 clamped root joint sees only half a segment, so its spring is 2k. With that
 the tip deflection and frequencies of a cantilever converge to
 Euler-Bernoulli as 1/N^2.
+
+A body whose section or material varies along it (a tapered or stepped
+beam) takes a :class:`~flexmb.BeamProfile`: segment j's mass, mass centre
+and inertia are integrated over the segment, and joint i's spring is the
+flexibility of its span, the half segments on either side::
+
+    1 / k_i = integral over [s_i - l/2, s_i + l/2] of ds / EI(s)
+
+(over ``[0, l/2]`` at a clamped root), which is ``EI / l`` for a uniform
+beam and ``2 EI / l`` at its clamp. Measured data enters through
+per-joint and per-segment scale factors (``stiffness_scale``,
+``mass_scale``), which :func:`flexmb.calibrate` fits to natural
+frequencies.
 """
 
 from __future__ import annotations
@@ -24,11 +37,11 @@ from typing import ClassVar
 import numpy as np
 from attrs import field, frozen
 
-from ._validate import as_count, count, label, positive
+from ._validate import as_count, count, label, optional_array, positive
 from .bodies import Body
 from .errors import ModelError
 from .joints import Joint
-from .sections import Material, Section
+from .sections import BEAM_PROPERTIES, BeamProfile, Material, Section, _at
 
 __all__ = ["FlexibleBody", "Segment", "SegmentJoint", "ELASTIC_COORDINATES"]
 
@@ -139,6 +152,57 @@ def _non_negative(instance, attribute, value):
         raise ModelError(f"{label(instance)}: {attribute.name} must be finite and >= 0, got {value!r}")
 
 
+#: the property of a BeamProfile that sets each kept coordinate's spring
+_STIFFNESS_OF = {"torsion": "GJ", "bend_y": "EIy", "bend_z": "EIz", "axial": "EA", "shear_y": "EIz",
+                 "shear_z": "EIy"}
+#: Gauss-Legendre points per quadrature piece (exact for polynomials of degree 7)
+_N_GAUSS = 4
+
+
+def _scale_factors(instance, attribute, value):
+    if value is None:
+        return
+    if not (isinstance(value, np.ndarray) and value.dtype == float and value.ndim in (1, 2)):
+        raise ModelError(f"{label(instance)}: {attribute.name} must be an array of numbers, got {value!r}")
+    if not np.all(np.isfinite(value)) or np.any(value <= 0):
+        raise ModelError(f"{label(instance)}: {attribute.name} must be finite and > 0, got {value.tolist()}")
+
+
+class _PerSegment:
+    """One item per segment as a function of the arclength s (a step function; picklable)."""
+
+    def __init__(self, stations: np.ndarray, items: tuple):
+        self.stations, self.items = stations, items
+
+    def __repr__(self):
+        return f"<one per segment: {len(self.items)} {type(self.items[0]).__name__}>"
+
+    def __call__(self, s: float):
+        i = int(np.clip(np.searchsorted(self.stations, s, side="right") - 1, 0, len(self.items) - 1))
+        return self.items[i]
+
+
+def _pieces(cuts: np.ndarray, breaks: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    """The points cutting [lo, hi] into quadrature pieces: ``cuts`` and the breaks strictly inside."""
+    inner = breaks[(breaks > lo) & (breaks < hi)]
+    pts = np.union1d(cuts, inner)
+    tol = 1e-12 * (hi - lo)
+    return pts[np.concatenate([[True], np.diff(pts) > tol])]
+
+
+def _quadrature(points: np.ndarray, bounds: np.ndarray):
+    """Gauss points, weights and owning interval of the pieces between ``points``.
+
+    Returns s, w with shape (n_pieces, _N_GAUSS) and, per piece, the index
+    of the interval of ``bounds`` (increasing) that holds it.
+    """
+    a, b = points[:-1], points[1:]
+    xi, wi = np.polynomial.legendre.leggauss(_N_GAUSS)
+    mid, half = 0.5 * (a + b), 0.5 * (b - a)
+    owner = np.clip(np.searchsorted(bounds, mid) - 1, 0, len(bounds) - 2)
+    return mid[:, None] + half[:, None] * xi, half[:, None] * wi, owner
+
+
 @frozen(eq=False)
 class FlexibleBody(Body):
     """A beam modelled by finite rigid segments with elastic joints.
@@ -177,6 +241,20 @@ class FlexibleBody(Body):
     rotary_inertia : bool
         Include the section's rotary inertia (``rho l I``) in the segment
         inertia; False gives slender bars (``m l^2 / 12`` transverse only).
+    profile : BeamProfile, optional
+        Section and material data varying along the body (a tapered or
+        stepped beam; :meth:`varying_beam` builds one from functions or
+        tables). The segments' mass data and the joint springs then come
+        from it (:meth:`segment_properties`, :meth:`joint_stiffness`), and
+        ``section`` and ``material`` only serve as a reference (drawing,
+        default damping frequency). It must cover ``[0, length]``; its
+        stiffness for every kept coordinate and its ``rhoA`` must be finite
+        and > 0 there.
+    stiffness_scale : array_like, shape (n_joints,) or (n_joints, len(keep)), optional
+        Factors (> 0) on the joint springs (and so on their dampers), e.g.
+        fitted by :func:`flexmb.calibrate`.
+    mass_scale : array_like, shape (N,), optional
+        Factors (> 0) on each segment's mass and inertia.
 
     Examples
     --------
@@ -195,6 +273,10 @@ class FlexibleBody(Body):
     damping: float = field(default=0.0, converter=float, validator=_non_negative)
     clamped: bool = field(default=True, converter=bool)
     rotary_inertia: bool = field(default=True, converter=bool)
+    profile: BeamProfile | None = field(default=None)
+    stiffness_scale: np.ndarray | None = field(default=None, converter=optional_array, validator=_scale_factors)
+    mass_scale: np.ndarray | None = field(default=None, converter=optional_array, validator=_scale_factors)
+    _data: dict | None = field(default=None, init=False, repr=False)
 
     @section.validator
     def _check_section(self, attribute, value):
@@ -206,10 +288,95 @@ class FlexibleBody(Body):
         if not isinstance(value, Material):
             raise ModelError(f"{label(self)}: material must be a Material, got {type(value).__name__}")
 
+    @profile.validator
+    def _check_profile(self, attribute, value):
+        if value is not None and not isinstance(value, BeamProfile):
+            raise ModelError(f"{label(self)}: profile must be a BeamProfile or None, got {type(value).__name__}")
+
     def __attrs_post_init__(self):
         if not self.clamped and self.n_segments < 2:
             raise ModelError(f"{label(self)}: an unclamped flexible body needs n_segments >= 2 (one segment has "
                              "no elastic joint); use a RigidBody, or clamped = True")
+        for name, scale, shapes in (("stiffness_scale", self.stiffness_scale,
+                                     [(self.n_joints,), (self.n_joints, len(self.keep))]),
+                                    ("mass_scale", self.mass_scale, [(self.n_segments,)])):
+            if scale is not None and scale.shape not in shapes:
+                raise ModelError(f"{label(self)}: {name} must have shape "
+                                 f"{' or '.join(str(s) for s in shapes)}, got {scale.shape}")
+        if self.profile is not None:
+            object.__setattr__(self, "_data", self._integrate_profile())
+
+    def _integrate_profile(self) -> dict:
+        """Segment mass data and joint springs integrated over the profile; checks the data on the way."""
+        p, L, N = self.profile, self.length, self.n_segments
+        l = L / N
+        lo, hi = p.domain
+        if lo > 1e-9 * L or hi < L * (1 - 1e-9):
+            raise ModelError(f"{label(self)}: its profile {p.name!r} covers s in [{lo:g}, {hi:g}] m, not the "
+                             f"whole body [0, {L:g}] m")
+        # segments: m = int rho A ds, first and second moments of rho A about the segment start
+        bounds = np.linspace(0.0, L, N + 1)
+        cuts = _pieces(bounds, p.breaks, 0.0, L)
+        s, w, seg = _quadrature(cuts, bounds)
+        vals = self._evaluate(s)
+        # checked at the piece ends too (the Gauss points miss them): data that vanishes at a station
+        for where, v in ((s, vals), (cuts, self._evaluate(cuts))):
+            self._check_values(where, v[..., BEAM_PROPERTIES.index("rhoA")], "rhoA (mass per length)", True)
+            for name in ("rhoIp", "rhoIy", "rhoIz") if self.rotary_inertia else ():
+                self._check_values(where, v[..., BEAM_PROPERTIES.index(name)],
+                                   f"{name} (rotary inertia per length)", False)
+        col = {name: vals[..., j] for j, name in enumerate(BEAM_PROPERTIES)}
+        local = s - bounds[seg][:, None]
+
+        def per_segment(f):
+            return np.bincount(seg, weights=np.sum(w * f, axis=1), minlength=N)
+
+        m = per_segment(col["rhoA"])
+        c = per_segment(col["rhoA"] * local) / m
+        second = per_segment(col["rhoA"] * local**2) - m * c**2  # about the mass centre
+        moments = np.zeros((N, 3))
+        moments[:, 1:] = second[:, None]
+        if self.rotary_inertia:
+            moments += np.stack([per_segment(col["rhoIp"]), per_segment(col["rhoIy"]), per_segment(col["rhoIz"])], 1)
+        # joint spans: [s_i - l/2, s_i + l/2], [0, l/2] at a clamped root
+        spans = (np.arange(N) + 0.5) * l
+        if self.clamped:
+            spans = np.concatenate([[0.0], spans])
+        cuts = _pieces(spans, p.breaks, spans[0], spans[-1])
+        s, w, joint = _quadrature(cuts, spans)
+        vals = self._evaluate(s)
+        ends = self._evaluate(cuts)
+        names = segment_joint_class(self.keep).coordinate_names
+        k = np.zeros((self.n_joints, len(names)))
+        for j, coord in enumerate(names):
+            prop = _STIFFNESS_OF[coord]
+            stiff = vals[..., BEAM_PROPERTIES.index(prop)]
+            for where, v in ((s, stiff), (cuts, ends[:, BEAM_PROPERTIES.index(prop)])):
+                self._check_values(where, v, f"{prop} (needed by {coord!r})", strict=True)
+            flex = np.bincount(joint, weights=np.sum(w / stiff, axis=1), minlength=self.n_joints)
+            if coord in ("shear_y", "shear_z"):
+                k[:, j] = 3.0 * np.diff(spans) / flex / l**3  # 3 EI / l^3 with the span's harmonic-mean EI
+                if self.clamped:
+                    k[0, j] *= 2.0
+            else:
+                k[:, j] = 1.0 / flex
+        com = np.zeros((N, 3))
+        com[:, 0] = c
+        return {"mass": m, "inertia": moments, "com": com, "stiffness": k}
+
+    def _evaluate(self, s: np.ndarray) -> np.ndarray:
+        try:
+            vals = self.profile.evaluate(s.ravel())
+        except ModelError as exc:
+            raise ModelError(f"{label(self)}: profile {self.profile.name!r}: {exc}") from exc
+        return vals.reshape(*s.shape, len(BEAM_PROPERTIES))
+
+    def _check_values(self, s, values, what: str, strict: bool):
+        bad = ~np.isfinite(values) | ((values <= 0) if strict else (values < 0))
+        if np.any(bad):
+            i = np.flatnonzero(bad.ravel())[0]
+            raise ModelError(f"{label(self)}: {what} must be finite and {'>' if strict else '>='} 0 along the "
+                             f"body, got {float(values.ravel()[i]):.6g} at s = {float(s.ravel()[i]):.6g} m")
 
     @classmethod
     def uniform_beam(cls, name: str, length: float, section: Section, material: Material,
@@ -244,6 +411,77 @@ class FlexibleBody(Body):
             beta = 2.0 * damping_ratio / (2.0 * np.pi * frequency)
         return cls(name, length, section, material, n_segments, keep, beta, **kw)
 
+    @classmethod
+    def varying_beam(cls, name: str, length: float, section, material, n_segments: int, keep=("bend_y",),
+                     breaks=(), **kw) -> "FlexibleBody":
+        """Beam whose section or material varies along it (tapered or stepped).
+
+        Parameters
+        ----------
+        name, length, n_segments, keep
+            As for the class.
+        section : Section, callable or sequence of Section
+            Fixed; ``section(s)`` returning a :class:`~flexmb.Section` at
+            arclength s (m) from the root; or one per segment (a beam
+            stepped at the segment ends).
+        material : Material, callable or sequence of Material
+            Likewise.
+        breaks : sequence of float
+            Arclengths where a function jumps or kinks (steps inside
+            segments), m; the integrals over segments and joint spans are
+            split there.
+        **kw
+            Other fields (``damping``, ``clamped``, ``rotary_inertia``,
+            ``stiffness_scale``, ``mass_scale``).
+
+        Returns
+        -------
+        FlexibleBody
+            With ``profile = BeamProfile.from_sections(section, material)``;
+            its ``section`` and ``material`` are those at the root (s = 0).
+
+        Raises
+        ------
+        ModelError
+            Naming the body and the problem: a function that fails or
+            returns something else than a Section (Material), a list of the
+            wrong length, non-positive stiffness or mass.
+
+        Examples
+        --------
+        >>> import flexmb as fm
+        >>> beam = fm.FlexibleBody.varying_beam(
+        ...     "taper", 1.0, lambda s: fm.Section.rectangular(0.02, 0.005 * (1 - s / 2)),
+        ...     fm.Material.aluminium(), 4)
+        >>> beam.joint_stiffness().ravel().round(3)  # 1 / int ds / EI over each joint's span
+        array([105.847,  38.681,  24.269,  13.958])
+        >>> round(beam.mass, 6)  # rho b h0 (1 - 1/4) L
+        0.2025
+        """
+        where = f"FlexibleBody {name!r}"
+        n = as_count(n_segments)
+        stations = np.linspace(0.0, float(length), n + 1) if isinstance(n, int) and n >= 1 else None
+        parts = []
+        for what, value, kind in (("section", section, Section), ("material", material, Material)):
+            if isinstance(value, (list, tuple)):
+                if stations is None or len(value) != n or not all(isinstance(v, kind) for v in value):
+                    raise ModelError(f"{where}: {what} as a list needs one {kind.__name__} per segment "
+                                     f"({n_segments!r}), got {len(value)} items")
+                value = _PerSegment(stations, tuple(value))
+                breaks = tuple(breaks) + tuple(stations)
+            elif not (isinstance(value, kind) or callable(value)):
+                raise ModelError(f"{where}: {what} must be a {kind.__name__}, a function of s returning one, "
+                                 f"or a list with one per segment; got {type(value).__name__}")
+            parts.append(value)
+        profile = BeamProfile.from_sections(*parts, breaks=breaks, name=f"{name} profile")
+        root = []
+        for what, value, kind in (("section", parts[0], Section), ("material", parts[1], Material)):
+            try:
+                root.append(_at(value, kind, what, 0.0))
+            except ModelError as exc:
+                raise ModelError(f"{where}: {exc}") from exc
+        return cls(name, length, root[0], root[1], n_segments, keep, profile=profile, **kw)
+
     # -- derived data
     @property
     def segment_length(self) -> float:
@@ -262,11 +500,86 @@ class FlexibleBody(Body):
 
     @property
     def mass(self) -> float:
-        """Total mass rho A L, kg."""
-        return self.material.density * self.section.area * self.length
+        """Total mass, kg: rho A L, or the sum of the segment masses of a varying or scaled body."""
+        if self.profile is None and self.mass_scale is None:
+            return self.material.density * self.section.area * self.length
+        return float(np.sum(self.segment_properties()[0]))
 
-    def segment_mass_properties(self) -> tuple[float, np.ndarray, np.ndarray]:
+    @property
+    def varying(self) -> bool:
+        """Whether the body has a profile or scale factors (its segments or joints differ)."""
+        return self.profile is not None or self.stiffness_scale is not None or self.mass_scale is not None
+
+    def segment_properties(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Mass, central inertia and mass centre of every segment.
+
+        Returns
+        -------
+        mass : ndarray, shape (N,)
+            kg; with a profile ``int rho A ds`` over each segment.
+        inertia : ndarray, shape (N, 3, 3)
+            Central inertia in the segment frame, kg m^2; with a profile,
+            ``diag(int rho Ip, int rho Iy + rho A (s - c)^2, int rho Iz +
+            rho A (s - c)^2)`` over the segment (the rotary terms only if
+            ``rotary_inertia``).
+        com : ndarray, shape (N, 3)
+            Mass centre in the segment frame, m: ``(l/2, 0, 0)`` for a
+            uniform body, the centroid of rho A along the segment with a
+            profile.
+
+        Notes
+        -----
+        The integrals use 4-point Gauss-Legendre quadrature on each
+        segment, split at the profile's breaks: exact for piecewise-linear
+        tables and stepped data, and far more accurate than the O(l^2)
+        error of the segment model itself for smooth functions.
+        ``mass_scale`` multiplies mass and inertia (it scales the density).
+        """
+        N = self.n_segments
+        if self._data is None:
+            m, inertia, com = self._uniform_segment()
+            mass = np.full(N, m)
+            inertia = np.broadcast_to(inertia, (N, 3, 3)).copy()
+            com = np.broadcast_to(com, (N, 3)).copy()
+        else:
+            mass = self._data["mass"].copy()
+            inertia = np.zeros((N, 3, 3))
+            inertia[:, [0, 1, 2], [0, 1, 2]] = self._data["inertia"]
+            com = self._data["com"].copy()
+        if self.mass_scale is not None:
+            mass = mass * self.mass_scale
+            inertia = inertia * self.mass_scale[:, None, None]
+        return mass, inertia, com
+
+    def segment_mass_properties(self, index: int = 0) -> tuple[float, np.ndarray, np.ndarray]:
         """Mass, central inertia (segment frame) and mass centre of one segment.
+
+        Parameters
+        ----------
+        index : int
+            Segment number from the root (all segments of a uniform,
+            unscaled body are alike).
+
+        Returns
+        -------
+        m : float
+            kg.
+        inertia : ndarray, shape (3, 3)
+            kg m^2.
+        com : ndarray, shape (3,)
+            m.
+
+        See Also
+        --------
+        segment_properties : All segments at once, and what they hold.
+        """
+        if not self.varying:
+            return self._uniform_segment()
+        m, inertia, com = self.segment_properties()
+        return float(m[index]), inertia[index], com[index]
+
+    def _uniform_segment(self) -> tuple[float, np.ndarray, np.ndarray]:
+        """Mass, central inertia and mass centre of a segment of the uniform beam of ``section``, ``material``.
 
         Returns
         -------
@@ -293,15 +606,27 @@ class FlexibleBody(Body):
         -------
         ndarray, shape (n_joints, len(keep))
             In the order of the joint coordinates (translations, then
-            rotations); the clamped root joint has 2k.
+            rotations); the clamped root joint has 2k. With a profile,
+            rotational and axial springs are ``1 / int ds / P(s)`` over the
+            joint's span (the half segments on either side, ``[0, l/2]`` at a
+            clamped root; P the matching ``GJ``, ``EIy``, ``EIz``, ``EA``),
+            the flexibility of that piece of beam; shear springs are
+            ``3 P_h / l^3`` with P_h the harmonic mean of ``EIz`` or ``EIy``
+            over the span (doubled at a clamp). Each is multiplied by
+            ``stiffness_scale``.
         """
         l, E, G, s = self.segment_length, self.material.E, self.material.G, self.section
         per = {"torsion": G * s.J / l, "bend_y": E * s.Iy / l, "bend_z": E * s.Iz / l,
                "axial": E * s.area / l, "shear_y": 3 * E * s.Iz / l**3, "shear_z": 3 * E * s.Iy / l**3}
         names = segment_joint_class(self.keep).coordinate_names
-        k = np.tile([per[c] for c in names], (self.n_joints, 1))
-        if self.clamped:
-            k[0] *= 2.0
+        if self._data is not None:
+            k = self._data["stiffness"].copy()
+        else:
+            k = np.tile([per[c] for c in names], (self.n_joints, 1))
+            if self.clamped:
+                k[0] *= 2.0
+        if self.stiffness_scale is not None:
+            k = k * (self.stiffness_scale if self.stiffness_scale.ndim == 2 else self.stiffness_scale[:, None])
         return k
 
     def expand(self):
@@ -316,8 +641,13 @@ class FlexibleBody(Body):
         joints : list of SegmentJoint
             The elastic joints, root to tip.
         """
-        m, inertia, com = self.segment_mass_properties()
-        segs = [Segment(f"{self.name}[{i}]", m, inertia, com, self, i) for i in range(self.n_segments)]
+        if self.varying:
+            m, inertia, com = self.segment_properties()
+            segs = [Segment(f"{self.name}[{i}]", float(m[i]), inertia[i], com[i], self, i)
+                    for i in range(self.n_segments)]
+        else:
+            m, inertia, com = self._uniform_segment()
+            segs = [Segment(f"{self.name}[{i}]", m, inertia, com, self, i) for i in range(self.n_segments)]
         cls = segment_joint_class(self.keep)
         l = self.segment_length
         joints = []

@@ -263,6 +263,9 @@ def section_stresses(result, body, system=None) -> SectionField:
 def _stresses(result, body, loads) -> SectionField:
     """Stresses from the section loads of a resolved body."""
     s = body.section
+    if body.profile is not None:
+        raise FlexmbError(f"flexible body {body.name!r}: its section varies along it (a BeamProfile); stresses "
+                          "use one section per body and are not available for it (section loads are)")
     if s.c_y <= 0 or s.c_z <= 0:
         raise FlexmbError(f"flexible body {body.name!r}: its section {s.name!r} has no outer-fibre distances "
                           f"(c_y = {s.c_y}, c_z = {s.c_z}); give them to compute stresses")

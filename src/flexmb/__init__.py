@@ -21,7 +21,8 @@ from .flexible import FlexibleBody, Segment
 from .analysis import Calibration, Linearization, calibrate, linear_statics, linearize, modes, static_equilibrium
 from .model import Model
 from .registry import PluginInfo, plugins, register
-from .sections import BeamProfile, Material, Section
+from .profiles import BeamProfile
+from .sections import Material, Section
 from .result import Result
 from .simulate import INTEGRATORS, initial_state, simulate
 from .genalpha import GeneralizedAlpha, generalized_alpha

@@ -41,7 +41,8 @@ from ._validate import as_count, count, label, optional_array, positive
 from .bodies import Body
 from .errors import ModelError
 from .joints import Joint
-from .sections import BEAM_PROPERTIES, BeamProfile, Material, Section, _at
+from .profiles import BeamProfile, _at, _PerSegment, segment_data
+from .sections import Material, Section
 
 __all__ = ["FlexibleBody", "Segment", "SegmentJoint", "ELASTIC_COORDINATES"]
 
@@ -153,12 +154,6 @@ def _non_negative(instance, attribute, value):
 
 
 #: the property of a BeamProfile that sets each kept coordinate's spring
-_STIFFNESS_OF = {"torsion": "GJ", "bend_y": "EIy", "bend_z": "EIz", "axial": "EA", "shear_y": "EIz",
-                 "shear_z": "EIy"}
-#: Gauss-Legendre points per quadrature piece (exact for polynomials of degree 7)
-_N_GAUSS = 4
-
-
 def _scale_factors(instance, attribute, value):
     if value is None:
         return
@@ -166,41 +161,6 @@ def _scale_factors(instance, attribute, value):
         raise ModelError(f"{label(instance)}: {attribute.name} must be an array of numbers, got {value!r}")
     if not np.all(np.isfinite(value)) or np.any(value <= 0):
         raise ModelError(f"{label(instance)}: {attribute.name} must be finite and > 0, got {value.tolist()}")
-
-
-class _PerSegment:
-    """One item per segment as a function of the arclength s (a step function; picklable)."""
-
-    def __init__(self, stations: np.ndarray, items: tuple):
-        self.stations, self.items = stations, items
-
-    def __repr__(self):
-        return f"<one per segment: {len(self.items)} {type(self.items[0]).__name__}>"
-
-    def __call__(self, s: float):
-        i = int(np.clip(np.searchsorted(self.stations, s, side="right") - 1, 0, len(self.items) - 1))
-        return self.items[i]
-
-
-def _pieces(cuts: np.ndarray, breaks: np.ndarray, lo: float, hi: float) -> np.ndarray:
-    """The points cutting [lo, hi] into quadrature pieces: ``cuts`` and the breaks strictly inside."""
-    inner = breaks[(breaks > lo) & (breaks < hi)]
-    pts = np.union1d(cuts, inner)
-    tol = 1e-12 * (hi - lo)
-    return pts[np.concatenate([[True], np.diff(pts) > tol])]
-
-
-def _quadrature(points: np.ndarray, bounds: np.ndarray):
-    """Gauss points, weights and owning interval of the pieces between ``points``.
-
-    Returns s, w with shape (n_pieces, _N_GAUSS) and, per piece, the index
-    of the interval of ``bounds`` (increasing) that holds it.
-    """
-    a, b = points[:-1], points[1:]
-    xi, wi = np.polynomial.legendre.leggauss(_N_GAUSS)
-    mid, half = 0.5 * (a + b), 0.5 * (b - a)
-    owner = np.clip(np.searchsorted(bounds, mid) - 1, 0, len(bounds) - 2)
-    return mid[:, None] + half[:, None] * xi, half[:, None] * wi, owner
 
 
 @frozen(eq=False)
@@ -308,75 +268,8 @@ class FlexibleBody(Body):
 
     def _integrate_profile(self) -> dict:
         """Segment mass data and joint springs integrated over the profile; checks the data on the way."""
-        p, L, N = self.profile, self.length, self.n_segments
-        l = L / N
-        lo, hi = p.domain
-        if lo > 1e-9 * L or hi < L * (1 - 1e-9):
-            raise ModelError(f"{label(self)}: its profile {p.name!r} covers s in [{lo:g}, {hi:g}] m, not the "
-                             f"whole body [0, {L:g}] m")
-        # segments: m = int rho A ds, first and second moments of rho A about the segment start
-        bounds = np.linspace(0.0, L, N + 1)
-        cuts = _pieces(bounds, p.breaks, 0.0, L)
-        s, w, seg = _quadrature(cuts, bounds)
-        vals = self._evaluate(s)
-        # checked at the piece ends too (the Gauss points miss them): data that vanishes at a station
-        for where, v in ((s, vals), (cuts, self._evaluate(cuts))):
-            self._check_values(where, v[..., BEAM_PROPERTIES.index("rhoA")], "rhoA (mass per length)", True)
-            for name in ("rhoIp", "rhoIy", "rhoIz") if self.rotary_inertia else ():
-                self._check_values(where, v[..., BEAM_PROPERTIES.index(name)],
-                                   f"{name} (rotary inertia per length)", False)
-        col = {name: vals[..., j] for j, name in enumerate(BEAM_PROPERTIES)}
-        local = s - bounds[seg][:, None]
-
-        def per_segment(f):
-            return np.bincount(seg, weights=np.sum(w * f, axis=1), minlength=N)
-
-        m = per_segment(col["rhoA"])
-        c = per_segment(col["rhoA"] * local) / m
-        second = per_segment(col["rhoA"] * local**2) - m * c**2  # about the mass centre
-        moments = np.zeros((N, 3))
-        moments[:, 1:] = second[:, None]
-        if self.rotary_inertia:
-            moments += np.stack([per_segment(col["rhoIp"]), per_segment(col["rhoIy"]), per_segment(col["rhoIz"])], 1)
-        # joint spans: [s_i - l/2, s_i + l/2], [0, l/2] at a clamped root
-        spans = (np.arange(N) + 0.5) * l
-        if self.clamped:
-            spans = np.concatenate([[0.0], spans])
-        cuts = _pieces(spans, p.breaks, spans[0], spans[-1])
-        s, w, joint = _quadrature(cuts, spans)
-        vals = self._evaluate(s)
-        ends = self._evaluate(cuts)
-        names = segment_joint_class(self.keep).coordinate_names
-        k = np.zeros((self.n_joints, len(names)))
-        for j, coord in enumerate(names):
-            prop = _STIFFNESS_OF[coord]
-            stiff = vals[..., BEAM_PROPERTIES.index(prop)]
-            for where, v in ((s, stiff), (cuts, ends[:, BEAM_PROPERTIES.index(prop)])):
-                self._check_values(where, v, f"{prop} (needed by {coord!r})", strict=True)
-            flex = np.bincount(joint, weights=np.sum(w / stiff, axis=1), minlength=self.n_joints)
-            if coord in ("shear_y", "shear_z"):
-                k[:, j] = 3.0 * np.diff(spans) / flex / l**3  # 3 EI / l^3 with the span's harmonic-mean EI
-                if self.clamped:
-                    k[0, j] *= 2.0
-            else:
-                k[:, j] = 1.0 / flex
-        com = np.zeros((N, 3))
-        com[:, 0] = c
-        return {"mass": m, "inertia": moments, "com": com, "stiffness": k}
-
-    def _evaluate(self, s: np.ndarray) -> np.ndarray:
-        try:
-            vals = self.profile.evaluate(s.ravel())
-        except ModelError as exc:
-            raise ModelError(f"{label(self)}: profile {self.profile.name!r}: {exc}") from exc
-        return vals.reshape(*s.shape, len(BEAM_PROPERTIES))
-
-    def _check_values(self, s, values, what: str, strict: bool):
-        bad = ~np.isfinite(values) | ((values <= 0) if strict else (values < 0))
-        if np.any(bad):
-            i = np.flatnonzero(bad.ravel())[0]
-            raise ModelError(f"{label(self)}: {what} must be finite and {'>' if strict else '>='} 0 along the "
-                             f"body, got {float(values.ravel()[i]):.6g} at s = {float(s.ravel()[i]):.6g} m")
+        return segment_data(self.profile, self.length, self.n_segments, self.clamped, self.rotary_inertia,
+                            segment_joint_class(self.keep).coordinate_names, label(self))
 
     @classmethod
     def uniform_beam(cls, name: str, length: float, section: Section, material: Material,

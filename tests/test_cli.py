@@ -18,7 +18,7 @@ import pytest
 import flexmb as fm
 from flexmb.cli import main
 
-SIMULATE = sys.modules["flexmb.simulate"]
+STEPPING = sys.modules["flexmb.stepping"]  # the step loop shows the progress bar
 
 TUTORIALS = pathlib.Path(__file__).resolve().parents[1] / "tutorials"
 PENDULUM = str(TUTORIALS / "01_pendulum.toml")
@@ -104,7 +104,7 @@ def interrupt_after(t_stop):
 
 
 def test_interrupted_run_writes_what_it_computed(tmp_path, monkeypatch, capsys):
-    monkeypatch.setattr(SIMULATE, "Progress", interrupt_after(0.1))
+    monkeypatch.setattr(STEPPING, "Progress", interrupt_after(0.1))
     out = tmp_path / "partial"
     assert main(["run", PENDULUM, "--out", str(out), "--t-end", "1.0", "--n-out", "101"]) == 130
     assert "interrupted" in capsys.readouterr().err
@@ -161,7 +161,7 @@ def test_the_real_command_in_a_subprocess(tmp_path):
 
 
 def test_interrupted_builtin_wiper_keeps_the_first_run(tmp_path, monkeypatch, capsys):
-    monkeypatch.setattr(SIMULATE, "Progress", interrupt_after(0.02))
+    monkeypatch.setattr(STEPPING, "Progress", interrupt_after(0.02))
     assert main(["run", "wiper", "--out", str(tmp_path), "--t-end", "0.5", "--n-out", "51"]) == 130
     res = fm.Result.load(tmp_path / "wiper_rigid.npz")
     assert res.status == "interrupted" and 0.02 <= res.t[-1] < 0.5

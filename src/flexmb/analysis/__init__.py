@@ -7,9 +7,17 @@ linear
     linear statics.
 statics
     Nonlinear static equilibrium.
+statespace
+    State-space models with named inputs and outputs.
+frequency
+    Frequency responses (Bode).
+campbell
+    Campbell diagrams: frequencies and damping against a parameter.
 """
 
-from .linear import Linearization, linear_statics, linearize, modes
+from .linear import Linearization, linear_statics, linearize, modes, tangent_gap
 from .statics import static_equilibrium
+from .statespace import Input, Output, StateSpace, state_space
 
-__all__ = ["Linearization", "linearize", "modes", "linear_statics", "static_equilibrium"]
+__all__ = ["Linearization", "linearize", "modes", "linear_statics", "tangent_gap", "static_equilibrium",
+           "Input", "Output", "StateSpace", "state_space"]

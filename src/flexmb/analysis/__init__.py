@@ -11,13 +11,16 @@ statespace
     State-space models with named inputs and outputs.
 frequency
     Frequency responses (Bode).
-campbell
+campbell_diagram
     Campbell diagrams: frequencies and damping against a parameter.
 """
 
 from .linear import Linearization, linear_statics, linearize, modes, tangent_gap
 from .statics import static_equilibrium
 from .statespace import Input, Output, StateSpace, state_space
+from .frequency import FrequencyResponse, frequency_response
+from .campbell_diagram import Campbell, campbell
 
 __all__ = ["Linearization", "linearize", "modes", "linear_statics", "tangent_gap", "static_equilibrium",
-           "Input", "Output", "StateSpace", "state_space"]
+           "Input", "Output", "StateSpace", "state_space", "FrequencyResponse", "frequency_response",
+           "Campbell", "campbell"]

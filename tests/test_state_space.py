@@ -261,7 +261,7 @@ def test_campbell_of_the_spinning_beam_follows_southwell():
 
 
 def test_campbell_slope_at_low_rate_converges_to_southwell_coefficient():
-    """``(w^2 - w0^2) / Omega^2`` at 0.5 rad/s, N = 32: within 1 % of K1 - 1 = 0.1933 (measured 0.7 % below)."""
+    """``(w^2 - w0^2) / Omega^2`` at 0.5 rad/s, N = 32: within 1 % of K1 - 1 = 0.1933 (measured 0.5 % below)."""
     c = fm.campbell(spinning_b3(32), [0.0, 0.5], n_modes=1)
     w = 2 * np.pi * c.frequencies[:, 0]
     slope = (w[1] ** 2 - w[0] ** 2) / 0.5**2

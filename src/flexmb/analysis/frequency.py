@@ -35,7 +35,7 @@ class FrequencyResponse:
     >>> system = m.add(pin, fm.JointSpringDamper("spring", pin, 3.0, 0.1)).build()
     >>> fr = fm.frequency_response(fm.state_space(system, ["pin"], ["pin"]), w=[0.0, 3.0])
     >>> fr.magnitude[:, 0].round(4)  # 1 / |k - I w^2 + j c w|, I = 1/3: 1 / k, then 1 / (c w) at resonance
-    array([0.3333, 0.4944])
+    array([0.3333, 3.3333])
     >>> fr.pairs
     [('pin', 'pin')]
     """
@@ -76,6 +76,7 @@ class FrequencyResponse:
         Returns
         -------
         ndarray, shape (n_w,), complex
+            ``H(j w)`` of that pair.
 
         Raises
         ------

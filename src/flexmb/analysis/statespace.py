@@ -389,6 +389,7 @@ class StateSpace:
         Returns
         -------
         int
+            Its position in ``inputs`` or ``outputs``.
 
         Raises
         ------
@@ -447,6 +448,7 @@ class StateSpace:
         Returns
         -------
         scipy.signal.StateSpace
+            The continuous-time model A, B, C, D.
         """
         from scipy.signal import StateSpace as ScipyStateSpace
 
@@ -458,6 +460,7 @@ class StateSpace:
         Returns
         -------
         control.StateSpace
+            A, B, C, D with ``inputs``, ``outputs`` and ``states`` as its signal labels.
 
         Raises
         ------

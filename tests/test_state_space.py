@@ -406,3 +406,38 @@ def test_to_control():
     assert cs.input_labels == ["pin"] and cs.output_labels == ["pin"]
     assert np.allclose(np.sort_complex(control.poles(cs)), np.sort_complex(ss.poles()))
     assert control.dcgain(cs) == pytest.approx(1.0 / G_ACC, rel=1e-10)
+
+
+def test_point_outputs_about_a_moving_state():
+    """A bar of length L turning freely at Omega about z, at angle 0: tip velocity and acceleration.
+
+    With the tip at ``L (cos q, sin q)``: ``v_x = -L sin q qd`` gives
+    ``dv_x/dq = -L Omega``; ``a_x = -L (cos q qd^2 + sin q qdd)`` gives
+    ``da_x/dqd = -2 L Omega``; ``a_y = L (cos q qdd - sin q qd^2)`` gives
+    ``da_y/dq = -L Omega^2`` and, through ``qdd = u / I``, ``D = L / I``.
+    """
+    L, omega = 1.0, 3.0
+    model = fm.Model()
+    bar = fm.RigidBody.slender_bar("bar", 1.0, L)
+    system = model.add(fm.Revolute("pin", model.ground, bar, axis=(0, 0, 1))).build()
+    outs = [fm.Output.point("bar", (L, 0, 0), (1, 0, 0), derivative=1, name="vx"),
+            fm.Output.point("bar", (L, 0, 0), (1, 0, 0), derivative=2, name="ax"),
+            fm.Output.point("bar", (L, 0, 0), (0, 1, 0), derivative=2, name="ay")]
+    ss = fm.state_space(system, ["pin"], outs, about=(np.zeros(1), np.array([omega])))
+    inertia = 1.0 * L**2 / 3
+    assert ss.linearization.method == "fd"
+    assert np.allclose(ss.C, [[-L * omega, 0.0], [0.0, -2 * L * omega], [-L * omega**2, 0.0]], atol=1e-8)
+    assert np.allclose(ss.D[:, 0], [0.0, 0.0, L / inertia], rtol=1e-10, atol=1e-12)
+
+
+def test_state_space_of_a_closed_loop_mechanism():
+    """The four-bar has one degree of freedom: one state pair, named z0 (T mixes the coordinates)."""
+    from conftest import fourbar, fourbar_initial
+
+    system = fourbar().build()
+    x0, xd0 = fm.initial_state(system, positions=fourbar_initial())
+    with pytest.warns(UserWarning, match="not an equilibrium"):
+        ss = fm.state_space(system, ["A"], ["A"], about=(x0, 0 * xd0))
+    assert ss.states == ["z0", "z0'"] and ss.linearization.method == "fd"
+    assert "closed loops" in ss.linearization.reason
+    assert ss.A.shape == (2, 2)

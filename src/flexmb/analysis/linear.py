@@ -22,8 +22,9 @@ __all__ = ["Linearization", "linearize", "modes", "linear_statics", "tangent_gap
 LINEARIZE_METHODS = ("auto", "analytic", "fd")
 
 #: force-element classes whose whole dependence on the state the analytic tangent holds: coordinate
-#: springs and dampers (their ``tangent_all``), and loads of fixed inertial direction and size, whose
-#: generalized forces change only through the partial velocities (the geometric stiffness)
+#: springs and dampers (their ``tangent_all``), and gravity, whose generalized forces change only through
+#: the partial velocities (the geometric stiffness); constant point forces and torques are accepted
+#: too (:func:`_exact_element`, with :func:`_turning_loads`)
 _EXACT_CLASSES = (Gravity, BeamElasticity, JointSpringDamper)
 
 

@@ -328,6 +328,24 @@ def test_closed_loop_simulation_agrees_with_the_linear_prediction():
 
 # ----------------------------------------------------------------------------- 6. API
 
+def test_loads_across_a_joint():
+    """A torque across a revolute about its axis is the joint's generalized force; a force there does nothing.
+
+    Across the Fixed joint that clamps the arm to the hub, a torque about z
+    is the generalized force of the arm's root bending coordinate.
+    """
+    system = pendulum().build()
+    ss = fm.state_space(system, [fm.Input.joint_load("pin", (1.0, 0, 0)), "pin",
+                                 fm.Input.joint_load("pin", (0, 1.0, 1.0), torque=False)], ["pin"])
+    assert np.allclose(ss.B[:, 0], ss.B[:, 1], rtol=1e-14, atol=0) and np.any(ss.B[:, 0])
+    assert np.allclose(ss.B[:, 2], 0.0, atol=1e-14)
+    arm = flexible_arm().build()
+    ss = fm.state_space(arm, [fm.Input.joint_load("clamp", (0, 0, 1.0)), "arm.j0.bend_z",
+                              fm.Input.joint_load("clamp", (0, 1.0, 0), torque=False)], [])
+    assert np.allclose(ss.B[:, 0], ss.B[:, 1], rtol=1e-12, atol=1e-12 * np.max(np.abs(ss.B)))
+    assert np.allclose(ss.B[:, 2], 0.0, atol=1e-12 * np.max(np.abs(ss.B)))
+
+
 def test_names_resolve_and_bad_names_are_listed():
     system = pendulum().build()
     a = fm.state_space(system, [fm.Input.joint(system.model.element("pin"))], ["pin.angle"])

@@ -63,15 +63,17 @@ def _element_name(e) -> str:
 class Input:
     """An input of a state-space model: a load on the model, per unit input.
 
-    Build one with :meth:`joint` or :meth:`point_force`; a string given
+    Build one with :meth:`joint`, :meth:`point_force` or
+    :meth:`joint_load`; a string given
     to :func:`state_space` as an input is taken as :meth:`joint` (a joint's
     name, or a coordinate's name such as ``"hub.angle"``).
 
     Parameters
     ----------
-    kind : {'joint', 'point'}
-        A generalized force on one joint coordinate, or a force at a point
-        of a body.
+    kind : {'joint', 'point', 'joint_torque', 'joint_force'}
+        A generalized force on one joint coordinate, a force at a point
+        of a body, or a torque or force across a joint (on its child, the
+        reaction on its parent).
     element : Joint, Body or str
         The joint or body, or its name.
     coord : int or str
@@ -79,8 +81,8 @@ class Input:
     location : array_like, shape (3,)
         Point of application in the body frame, m (``'point'`` only).
     direction : array_like, shape (3,)
-        Force per unit input, inertial axes (``'point'`` only): the input
-        is in N for a unit direction.
+        Force (or torque) per unit input, inertial axes (not for
+        ``'joint'``): the input is in N (N m) for a unit direction.
     name : str
         Label of the input (default from the element).
 
@@ -93,12 +95,42 @@ class Input:
     'beam@(1, 0, 0).F(0, 0, 1)'
     """
 
-    kind: str = field(validator=_check_kind(("joint", "point")))
+    kind: str = field(validator=_check_kind(("joint", "point", "joint_force", "joint_torque")))
     element: object = field()
     coord: int | str = 0
     location: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
     direction: np.ndarray = field(default=(0.0, 0.0, 1.0), converter=as_array, validator=vector3)
     name: str = ""
+
+    @classmethod
+    def joint_load(cls, joint, direction, torque: bool = True, name: str = "") -> "Input":
+        """Equal and opposite loads across a joint: on its child, and the reaction on its parent.
+
+        A torque (or a force at the joint point) along a fixed inertial
+        direction, per unit input, on the child body, with its opposite on
+        the parent: an actuator between the two bodies. Any joint works, a
+        cut joint (closing a loop) or a :class:`~flexmb.Fixed` joint
+        included; for a torque about a revolute's axis it equals
+        :meth:`joint`.
+
+        Parameters
+        ----------
+        joint : Joint or str
+            The joint, or its name.
+        direction : array_like, shape (3,)
+            Torque (N m) or force (N) per unit input, inertial.
+        torque : bool
+            A torque (default) or a force at the joint point.
+        name : str
+            Label (default: joint, kind and direction).
+
+        Returns
+        -------
+        Input
+        """
+        kind = "joint_torque" if torque else "joint_force"
+        label = name or f"{_element_name(joint)}.{'T' if torque else 'F'}{_fmt(direction)}"
+        return cls(kind, joint, 0, direction=direction, name=label)
 
     @classmethod
     def joint(cls, joint, coordinate: int | str = 0, name: str = "") -> "Input":
@@ -552,9 +584,21 @@ def _input_force(system, kin, spec: Input) -> np.ndarray:
     Q = np.zeros(system.n_coords)
     if spec.kind == "joint":
         Q[_coordinate_column(system, spec.element, spec.coord, where)] = 1.0
-    else:
+    elif spec.kind == "point":
         k, p = _point(system, kin, spec.element, spec.location, where)
         Q = kin.point_partials(np.array([k]), p[None])[0].T @ spec.direction
+    else:  # across a joint: on the child, the reaction on the parent (eq. 5 for each)
+        joint = system.model.element(spec.element, Joint)
+        kc, local = kin.locate(joint.child, joint.child_point)
+        kp = kin.locate(joint.parent, joint.parent_point)[0]
+        rows = np.array([kc, kp])
+        if spec.kind == "joint_torque":
+            W = kin.angular_partials(rows)
+            Q = (W[0] - W[1]).T @ spec.direction
+        else:
+            p = kin.point_position(kc, local)
+            V = kin.point_partials(rows, np.array([p, p]))
+            Q = (V[0] - V[1]).T @ spec.direction
     return Q
 
 
@@ -643,8 +687,9 @@ def state_space(system, inputs=(), outputs=(), about=None, *, method: str = "aut
         What to linearise (a Model is built first).
     inputs : sequence of Input, Joint or str
         Loads, per unit input: :meth:`Input.joint` (a generalized force on a
-        joint coordinate; a joint or a coordinate name is taken as that) or
-        :meth:`Input.point_force`.
+        joint coordinate; a joint or a coordinate name is taken as that),
+        :meth:`Input.point_force` (a force at a body point) or
+        :meth:`Input.joint_load` (a torque or force across a joint).
     outputs : sequence of Output, Joint or str
         :meth:`Output.coordinate` (a joint or a coordinate name is taken
         as that), :meth:`Output.point` or :meth:`Output.section_load`:

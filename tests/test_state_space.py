@@ -11,14 +11,15 @@ The references come from outside the code:
   against statics (``M = P L``);
 * the B3 beam (L = 10 m, E I = 1.4e4 N m^2, rho A = 1.2 kg/m) spinning about
   the axis through its clamp, bending in the plane of rotation, against
-  Southwell's ``w^2 = w0^2 + (K1 - 1) Omega^2``. K1 = 1.1933 is the Southwell
-  coefficient of a uniform cantilever's first mode with zero hub radius (out
-  of the plane of rotation; Southwell & Gough, ARC R&M 766, 1921; tabulated
-  e.g. by Bhat, J. Sound Vib. 105 (1986) 199, and Hodges & Rutkowski, AIAA J.
-  19 (1981) 1459). It is the Rayleigh quotient ``int N phi'^2 / (Omega^2 int
-  rho A phi^2)`` of the centrifugal tension ``N = rho A Omega^2 (L^2 - x^2) / 2``
-  with the non-rotating mode phi, recomputed below by quadrature. In the plane
-  of rotation the spin softening ``-Omega^2`` subtracts 1: K1 - 1 = 0.1933;
+  Southwell's ``w^2 = w0^2 + (K1 - 1) Omega^2`` (Southwell & Gough, "The free
+  transverse vibration of airscrew blades", ARC R&M 766, 1921). K1 = 1.193 is
+  the classical Southwell coefficient of a uniform cantilever's first mode
+  with zero hub radius, out of the plane of rotation: the Rayleigh quotient
+  ``int N phi'^2 / (Omega^2 int rho A phi^2)`` of the centrifugal tension
+  ``N = rho A Omega^2 (L^2 - x^2) / 2`` with the non-rotating mode phi (so the
+  exact slope of w^2 against Omega^2 at Omega = 0, by first-order
+  perturbation), recomputed below by quadrature: 1.19334. In the plane of
+  rotation the spin softening ``-Omega^2`` subtracts 1: K1 - 1 = 0.19334;
 * a PD-controlled flexible arm simulated with the nonlinear model against
   ``scipy.signal.lsim`` of the closed-loop state space.
 """

@@ -118,7 +118,7 @@ suppress_warnings = ["myst.xref_missing"]
 # they should appear once they exist.
 FIXED_PAGES = ["getting_started", "guide", "tutorials/index", "theory", "export", "plugins", "validation",
                "api"]
-LATER_PAGES = ["scenes", "stresses", "stability", "benchmarks"]
+LATER_PAGES = ["scenes", "stresses", "linear", "stability", "benchmarks"]
 MARKER = "<!-- more-pages -->"
 
 

@@ -9,11 +9,24 @@ statics
     Nonlinear static equilibrium.
 calibration
     Segment data fitted to measured natural frequencies and mode shapes.
+signals
+    Named inputs (loads) and outputs (motions) of a linearised model.
+statespace
+    State-space models with named inputs and outputs.
+frequency
+    Frequency responses (Bode).
+campbell_diagram
+    Campbell diagrams: frequencies and damping against a parameter.
 """
 
-from .linear import Linearization, linear_statics, linearize, modes
+from .linear import Linearization, linear_statics, linearize, modes, tangent_gap
 from .statics import static_equilibrium
 from .calibration import Calibration, calibrate
+from .signals import Input, Output
+from .statespace import StateSpace, state_space
+from .frequency import FrequencyResponse, frequency_response
+from .campbell_diagram import Campbell, campbell
 
-__all__ = ["Linearization", "linearize", "modes", "linear_statics", "static_equilibrium", "Calibration",
-           "calibrate"]
+__all__ = ["Linearization", "linearize", "modes", "linear_statics", "tangent_gap", "static_equilibrium",
+           "Calibration", "calibrate", "Input", "Output", "StateSpace", "state_space", "FrequencyResponse",
+           "frequency_response", "Campbell", "campbell"]

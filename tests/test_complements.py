@@ -79,7 +79,7 @@ def test_get_complement_by_name_class_instance(name):
     inst = cls(rtol=1e-6)
     assert fm.get_complement(inst) is inst
     assert inst.tol == 1e-6
-    assert by_name.tol == cls.default_rtol
+    assert by_name.tol == cls.default_rank_tol
     # a built system uses the requested strategy
     system = fourbar(fm.Revolute).build(complement=name)
     assert type(system.strategy) is cls
@@ -244,7 +244,7 @@ def test_rtol_decides_what_counts_as_zero(name):
     V, _ = np.linalg.qr(np.random.default_rng(3).normal(size=(4, 4)))
     psi = np.diag([2.0, 1.0, 1e-4]) @ V[:3]  # singular values 2, 1, 1e-4 (squares 4, 1, 1e-8)
     assert cls().complement(psi).rank == 3
-    loose = cls(rtol=1e-6 if name == "eigen" else 1e-3).complement(psi)
+    loose = cls(rank_tol=1e-6 if name == "eigen" else 1e-3).complement(psi)
     assert loose.rank == 2 and loose.p == 2
     np.testing.assert_allclose(loose.T @ loose.T.T, V[2:].T @ V[2:], rtol=0, atol=1e-12)
 
@@ -475,10 +475,10 @@ def test_auto_chooses_by_size_and_conditioning():
 
 
 def test_auto_and_qr_construction_and_repr():
-    assert repr(fm.AutoComplement()) == ("AutoComplement(rtol=None, singular_rtol=0.0, singular_window=0.1, "
+    assert repr(fm.AutoComplement()) == ("AutoComplement(rank_tol=None, singular_rtol=0.0, singular_window=0.1, "
                                          "min_n=20, band=100.0)")
-    assert repr(fm.QRComplement(rtol=1e-8)) == "QRComplement(rtol=1e-08, singular_rtol=0.0, singular_window=0.1)"
-    assert fm.QRComplement().tol == 1e-10 and fm.AutoComplement(rtol=1e-6).tol == 1e-6
+    assert repr(fm.QRComplement(rank_tol=1e-8)) == "QRComplement(rank_tol=1e-08, singular_rtol=0.0, singular_window=0.1)"
+    assert fm.QRComplement().tol == 1e-10 and fm.AutoComplement(rank_tol=1e-6).tol == 1e-6
     for bad in ({"min_n": 0}, {"band": 0.0}, {"band": -2.0}):
         (key, value), = bad.items()
         with pytest.raises(ValueError, match=f"AutoComplement: {key} must be > 0, got {value!r}"):

@@ -29,7 +29,7 @@ class AutoComplement(ComplementStrategy):
     2. otherwise factor ``psi^T P = Q R`` (:class:`~flexmb.complements.QRComplement`)
        and look at the diagonal ratios ``rho_i = |R_ii| / |R_00|``. If none
        lies within a factor ``band`` (default 100) of the tolerance, i.e.
-       in ``[rtol / band, rtol * band]``, the rank is clear and the QR
+       in ``[rank_tol / band, rank_tol * band]``, the rank is clear and the QR
        result is returned;
     3. else the rank is ambiguous (the ratios only estimate the singular
        value ratios ``s_i / s_0``) and the SVD decides.
@@ -47,13 +47,13 @@ class AutoComplement(ComplementStrategy):
 
     Parameters
     ----------
-    rtol : float, optional
+    rank_tol : float, optional
         Relative zero tolerance of both the QR diagonal and the singular
         values (default ``1e-10``).
     min_n : int
         Number of coordinates from which QR is tried first.
     band : float
-        Factor around ``rtol`` within which a QR diagonal ratio is
+        Factor around ``rank_tol`` within which a QR diagonal ratio is
         ambiguous.
     singular_rtol : float
         Relative floor of the singular values used in particular solutions;
@@ -76,7 +76,7 @@ class AutoComplement(ComplementStrategy):
     """
 
     name = "auto"
-    default_rtol = 1e-10
+    default_rank_tol = 1e-10
 
     min_n: int = field(default=20, validator=_positive)
     band: float = field(default=100.0, validator=_positive)
@@ -114,4 +114,4 @@ class AutoComplement(ComplementStrategy):
         which, qr = self._decide(psi)
         if which == "qr":
             return complement_from_qr(psi, *qr)
-        return SVDComplement(rtol=self.rtol)._complement_impl(psi)
+        return SVDComplement(rank_tol=self.rank_tol)._complement_impl(psi)

@@ -173,7 +173,7 @@ class ComplementStrategy:
 
     Parameters
     ----------
-    rtol : float, optional
+    rank_tol : float, optional
         Relative zero tolerance; default per strategy.
     singular_window : float
         Default treatment of singular positions (e.g. a parallelogram
@@ -206,9 +206,9 @@ class ComplementStrategy:
     """
 
     name = "base"
-    default_rtol = 1e-10
+    default_rank_tol = 1e-10
 
-    rtol: float | None = None
+    rank_tol: float | None = None
     singular_rtol: float = field(default=0.0, kw_only=True)
     singular_window: float = field(default=0.1, kw_only=True)
 
@@ -225,7 +225,7 @@ class ComplementStrategy:
     @property
     def tol(self) -> float:
         """The relative zero tolerance in use."""
-        return self.default_rtol if self.rtol is None else self.rtol
+        return self.default_rank_tol if self.rank_tol is None else self.rank_tol
 
     def complement(self, psi: np.ndarray) -> Complement:
         """Return the orthogonal complement of ``psi``.

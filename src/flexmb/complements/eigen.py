@@ -13,13 +13,13 @@ class EigenComplement(ComplementStrategy):
     """Eigenvectors of ``S = psi^T psi`` with zero eigenvalues.
 
     S is symmetric positive semi-definite; its eigenvectors for eigenvalues
-    below ``rtol * lambda_max`` (default ``rtol = 1e-13``, i.e. singular
+    below ``rank_tol * lambda_max`` (default ``rank_tol = 1e-13``, i.e. singular
     values below about 3e-7 of the largest, as squaring halves the digits)
     span the null space of psi (eqs. 30-37).
 
     Parameters
     ----------
-    rtol : float, optional
+    rank_tol : float, optional
         Relative zero tolerance of the eigenvalues of S (default ``1e-13``).
     singular_rtol : float
         Relative floor of the singular values used in particular solutions;
@@ -38,7 +38,7 @@ class EigenComplement(ComplementStrategy):
     """
 
     name = "eigen"
-    default_rtol = 1e-13
+    default_rank_tol = 1e-13
 
     def _complement_impl(self, psi):
         lam, vec = np.linalg.eigh(psi.T @ psi)

@@ -151,7 +151,7 @@ class QRComplement(ComplementStrategy):
 
     ``psi^T P = Q R`` with P a permutation chosen so that ``|R_ii|``
     decreases (rank-revealing QR). The rank r is the count of diagonal
-    entries with ``|R_ii| > rtol |R_00|`` (default ``rtol = 1e-10``, as for
+    entries with ``|R_ii| > rank_tol |R_00|`` (default ``rank_tol = 1e-10``, as for
     the SVD; ``|R_00|`` is the largest row norm of psi, within a factor
     ``sqrt(m)`` of its largest singular value). Then ``T = Q[:, r:]`` is an
     orthonormal basis of the null space of psi (eqs. 30-39) and
@@ -169,11 +169,11 @@ class QRComplement(ComplementStrategy):
     loops, where Python overhead dominates
     (``benchmarks/complements_speed.py``). Pivoted QR reveals the rank
     reliably in practice but not always (Kahan's matrix); when a diagonal
-    ratio lies near ``rtol``, prefer ``svd`` or ``auto``.
+    ratio lies near ``rank_tol``, prefer ``svd`` or ``auto``.
 
     Parameters
     ----------
-    rtol : float, optional
+    rank_tol : float, optional
         Relative zero tolerance of the diagonal of R (default ``1e-10``).
     singular_rtol : float
         Relative floor of the singular values used in particular solutions;
@@ -192,7 +192,7 @@ class QRComplement(ComplementStrategy):
     """
 
     name = "qr"
-    default_rtol = 1e-10
+    default_rank_tol = 1e-10
 
     def _complement_impl(self, psi):
         Q, R, piv = pivoted_qr(psi)

@@ -13,13 +13,13 @@ __all__ = ["SVDComplement"]
 class SVDComplement(ComplementStrategy):
     """Right singular vectors of the zero singular values of psi.
 
-    ``psi = U S V^T``; singular values below ``rtol * s_max`` count as zero
-    (default ``rtol = 1e-10``). Better conditioned than the eigen strategy,
+    ``psi = U S V^T``; singular values below ``rank_tol * s_max`` count as zero
+    (default ``rank_tol = 1e-10``). Better conditioned than the eigen strategy,
     which squares the condition number.
 
     Parameters
     ----------
-    rtol : float, optional
+    rank_tol : float, optional
         Relative zero tolerance of the singular values (default ``1e-10``).
     singular_rtol : float
         Relative floor of the singular values used in particular solutions;
@@ -38,7 +38,7 @@ class SVDComplement(ComplementStrategy):
     """
 
     name = "svd"
-    default_rtol = 1e-10
+    default_rank_tol = 1e-10
 
     def _complement_impl(self, psi):
         U, s, Vt, r = svd_parts(np.asarray(psi, dtype=float), self.tol)

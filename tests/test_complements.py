@@ -5,7 +5,7 @@ What is checked
 * Selection: every strategy in ``flexmb.COMPLEMENTS`` is reachable through
   ``fm.get_complement`` by name, by class and by instance (the instance is
   returned as is); an unknown name (or an unhashable/foreign object) raises
-  ``fm.ModelError`` listing the valid names; ``rtol`` overrides the
+  ``fm.ModelError`` listing the valid names; ``rank_tol`` overrides the
   per-strategy default zero tolerance.
 * For each strategy, on random constraint Jacobians psi that are full rank
   (``m < n``, ``m = n``) and rank deficient (duplicate rows, linear
@@ -28,7 +28,7 @@ What is checked
   on larger ones (9 x 33 up to 70 x 60, redundant rows) and on a Sarrus
   6R loop (two triples of parallel axes: rank 5 by construction); Q from
   LAPACK ``dorgqr`` and from the compact WY product agree; ``auto`` picks
-  the SVD for small n and for diagonal ratios near ``rtol``; four-bar
+  the SVD for small n and for diagonal ratios near ``rank_tol``; four-bar
   runs with ``qr`` and ``auto`` follow the ``svd`` run to ``1e-8``.
 * The planar four-bar with a spatial revolute cut joint has 3 coordinates,
   5 constraint rows and ``rank(psi) = 2`` (three rows are redundant), so
@@ -76,7 +76,7 @@ def test_get_complement_by_name_class_instance(name):
     by_name = fm.get_complement(name)
     by_class = fm.get_complement(cls)
     assert type(by_name) is cls and type(by_class) is cls
-    inst = cls(rtol=1e-6)
+    inst = cls(rank_tol=1e-6)
     assert fm.get_complement(inst) is inst
     assert inst.tol == 1e-6
     assert by_name.tol == cls.default_rank_tol
@@ -239,7 +239,7 @@ def test_round_off_does_not_raise_rank(name):
 
 
 @pytest.mark.parametrize("name", STRATEGIES)
-def test_rtol_decides_what_counts_as_zero(name):
+def test_rank_tol_decides_what_counts_as_zero(name):
     cls = fm.COMPLEMENTS[name]
     V, _ = np.linalg.qr(np.random.default_rng(3).normal(size=(4, 4)))
     psi = np.diag([2.0, 1.0, 1e-4]) @ V[:3]  # singular values 2, 1, 1e-4 (squares 4, 1, 1e-8)

@@ -56,7 +56,7 @@ def wiper_psi():
     model, initial = wiper()
     system = model.build()
     x0, xd0 = fm.initial_state(system, positions=initial)
-    _, psi, _ = system.constraints.evaluate(system.kinematics(0.0, x0, xd0), level=1)
+    psi = system.constraints.evaluate(system.kinematics(0.0, x0, xd0), level=1).psi
     return psi
 
 

@@ -296,7 +296,7 @@ def test_fourbar_spatial_revolute_cut_is_rank_two(name, theta):
     assert system.n_coords == 3 and system.n_constraints == 5
     x = fourbar_state(system, theta)
     kin = system.kinematics(0.0, x, np.zeros(3))
-    phi, psi, b = system.constraints.evaluate(kin, level=1)
+    phi, psi, b, _ = system.constraints.evaluate(kin, level=1)
     assert np.abs(phi).max() < 1e-14  # closed
     assert psi.shape == (5, 3)
     c = system.complement(psi)
@@ -309,7 +309,7 @@ def test_fourbar_spatial_revolute_cut_is_rank_two(name, theta):
     assert abs(abs(c.T[:, 0] @ tangent) - 1.0) < 1e-8  # O(h^2) difference error
     # the planar cut writes only the two independent rows, with the same null space
     planar = fourbar(fm.PlanarRevolute).build(complement=name)
-    _, psi2, _ = planar.constraints.evaluate(planar.kinematics(0.0, x, np.zeros(3)), level=1)
+    psi2 = planar.constraints.evaluate(planar.kinematics(0.0, x, np.zeros(3)), level=1).psi
     assert psi2.shape == (2, 3)
     c2 = planar.complement(psi2)
     check_complement(c2, psi2, 2)

@@ -162,7 +162,7 @@ def test_bricard_stage_states_do_not_lock_the_linkage():
     """
     system = bricard().build()
     x = np.array([0.3, 0.2, -0.2, 0.3, -0.2])  # near, not on, the motion
-    _, psi, _ = system.constraints.evaluate(system.kinematics(0.0, x, 0 * x), level=1)
+    psi = system.constraints.evaluate(system.kinematics(0.0, x, 0 * x), level=1).psi
     assert np.linalg.svd(psi, compute_uv=False)[-1] > 1e-6 * np.linalg.norm(psi, 2)
     assert system.calibrated(rank_limit=4).complement(psi).p == 1
     assert system.complement(psi).p == 0

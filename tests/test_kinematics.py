@@ -419,12 +419,12 @@ def test_constraint_jacobian_and_bias(make, rows):
     assert np.max(np.abs(phi)) > 1e-3  # really evaluated off the closed configuration
     np.testing.assert_array_equal(b, np.zeros(rows))
     # level 0 and 1 give the same rows
-    np.testing.assert_array_equal(system.constraints.evaluate(kin, level=0), phi)
-    _, psi1, _ = system.constraints.evaluate(kin, level=1)
+    np.testing.assert_array_equal(system.constraints.evaluate(kin, level=0).phi, phi)
+    psi1 = system.constraints.evaluate(kin, level=1).psi
     np.testing.assert_array_equal(psi1, psi)
 
     def phi_at(k):
-        return system.constraints.evaluate(k, level=0)
+        return system.constraints.evaluate(k, level=0).phi
 
     psi_fd = np.empty((rows, n))
     for i in range(n):
@@ -434,7 +434,7 @@ def test_constraint_jacobian_and_bias(make, rows):
     assert_close(psi, psi_fd, TOL1, "psi = dphi/dx")
 
     ks = path(system, x, xd)
-    psi_dot = stencil([system.constraints.evaluate(k, level=1)[1] for k in ks], D1)
+    psi_dot = stencil([system.constraints.evaluate(k, level=1).psi for k in ks], D1)
     assert_close(gamma, -psi_dot @ xd, TOL1, "gamma = -(d/dt psi) xd")
     # equivalently phi'' = psi xdd - gamma along x + xd t + xdd t^2 / 2
     phi_dd = stencil([phi_at(k) for k in path(system, x, xd, xdd)], D2)
@@ -449,7 +449,7 @@ def test_fourbar_closed_configuration(joint):
     names = [c.split(".")[0] for c in system.coordinate_names]
     x = np.array([ang[nm] for nm in names])
     kin = system.kinematics(0.0, x, np.zeros(3))
-    phi, psi, _ = system.constraints.evaluate(kin, level=1)
+    phi, psi, _, _ = system.constraints.evaluate(kin, level=1)
     assert_close(phi, np.zeros_like(phi), 1e-14, "phi at closure")
     # crank-angle derivative of the closed angles by differences of the analytic solution
     dang = [fourbar_initial(0.7 + o * H) for o in OFFSETS]
@@ -503,7 +503,7 @@ def test_cut_rows_remove_the_joint_constrained_freedoms(cls):
     model.add(fm.Free("free", model.ground, b), cut)
     system = model.build()
     x = rng.uniform(-1, 1, 6)
-    _, psi, _ = system.constraints.evaluate(system.kinematics(0.0, x, np.zeros(6)), level=1)
+    psi = system.constraints.evaluate(system.kinematics(0.0, x, np.zeros(6)), level=1).psi
     s = np.linalg.svd(psi, compute_uv=False)
     rank = int(np.sum(s > 1e-10 * s[0]))
     expected = 2 if cls is fm.PlanarRevolute else 6 - cut.n_coords

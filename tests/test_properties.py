@@ -74,7 +74,7 @@ def test_eigen_and_svd_complements_agree_on_random_loops(loop):
     model, x_star = loop
     system = model.build()
     kin = system.kinematics(0.0, x_star, np.zeros_like(x_star))
-    phi, psi, _ = system.constraints.evaluate(kin, level=1)
+    phi, psi, _, _ = system.constraints.evaluate(kin, level=1)
     assert np.abs(phi).max() < 1e-9  # consistent by construction
     svd, eig = fm.SVDComplement().complement(psi), fm.EigenComplement().complement(psi)
     s = np.linalg.svd(psi, compute_uv=False)

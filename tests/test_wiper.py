@@ -110,11 +110,11 @@ def test_rigid_model_structure(rigid):
     assert system.n_coords == 9
     assert system.n_constraints == 9
     x0, xd0 = fm.initial_state(system, positions=initial)
-    phi = system.constraints.evaluate(system.kinematics(0.0, x0, xd0), level=0)
+    phi = system.constraints.evaluate(system.kinematics(0.0, x0, xd0), level=0).phi
     assert np.abs(phi).max() < 1e-10
     assert system.dof(0.0, x0) == 0
     # without the driver row the mechanism keeps exactly one freedom
-    _, psi, _ = system.constraints.evaluate(system.kinematics(0.0, x0, xd0), level=1)
+    psi = system.constraints.evaluate(system.kinematics(0.0, x0, xd0), level=1).psi
     assert system.strategy.complement(psi[:-1]).p == 1
 
 

@@ -114,7 +114,7 @@ chain.add(
 chain_system = chain.build()
 a, b, d = angles["A.angle"], angles["B.angle"], angles["D.angle"]
 x_chain = np.array([a, b, d - a - b])  # C: the rocker's angle relative to the coupler
-phi_chain = chain_system.constraints.evaluate(chain_system.kinematics(0.0, x_chain, np.zeros(3)), level=0)
+phi_chain = chain_system.constraints.evaluate(chain_system.kinematics(0.0, x_chain, np.zeros(3)), level=0).phi
 print(f"D cut: coordinates {chain_system.coordinate_names}, rows {chain_system.constraints.labels}, "
       f"residual of the same configuration {np.abs(phi_chain).max():.1e} m")
 
@@ -126,7 +126,7 @@ print(f"D cut: coordinates {chain_system.coordinate_names}, rows {chain_system.c
 # speed constraints ``psi xd = b`` (eq. 29; b = 0 without drivers). Each row
 # of psi is built from the partial velocities of the two joint points.
 
-phi, psi, b = system.constraints.evaluate(kin, level=1)
+phi, psi, b, _ = system.constraints.evaluate(kin, level=1)
 print(f"phi = {phi}, b = {b}")
 print(f"psi ({psi.shape[0]} rows x {psi.shape[1]} coordinates) =\n{psi}")
 
@@ -171,7 +171,7 @@ print(f"|T_eigen T_eigen^T - T_svd T_svd^T| = {np.abs(T_e @ T_e.T - T_s @ T_s.T)
 # only the two independent rows.
 
 spatial = fourbar(fm.Revolute).build()
-_, psi_spatial, _ = spatial.constraints.evaluate(spatial.kinematics(0.0, x0, xd0), level=1)
+psi_spatial = spatial.constraints.evaluate(spatial.kinematics(0.0, x0, xd0), level=1).psi
 singular_values = np.linalg.svd(psi_spatial, compute_uv=False)
 print(f"spatial revolute cut: rows {spatial.constraints.labels}")
 print(f"psi {psi_spatial.shape}, singular values {singular_values}")

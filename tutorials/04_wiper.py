@@ -309,7 +309,7 @@ print(f"friction: N = {friction.normal_load} N, mu_s = {friction.mu_static}, slo
 system = rigid_model.build()
 x0, xd0 = fm.initial_state(system, positions=initial)
 kin0 = system.kinematics(0.0, x0, xd0)
-phi, psi, _ = system.constraints.evaluate(kin0, level=1)
+phi, psi, _, _ = system.constraints.evaluate(kin0, level=1)
 assembly_residual = np.abs(phi).max()
 loop_dof = system.strategy.complement(psi[:-1]).p  # without the driver row
 print(f"assembly residual {assembly_residual:.1e} m")

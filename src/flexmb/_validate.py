@@ -94,12 +94,6 @@ def positive(instance, attribute, value):
         raise ModelError(f"{label(instance)}: {attribute.name} must be > 0, got {value!r}")
 
 
-def optional_vector3(instance, attribute, value):
-    """None or a finite 3-vector."""
-    if value is not None:
-        vector3(instance, attribute, value)
-
-
 def rotation_matrix(instance, attribute, value):
     """None or a proper orthonormal 3x3 matrix."""
     if value is None:

@@ -8,11 +8,36 @@ acceleration right-hand side ``gamma`` of ``psi xdd = gamma``.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from .kernels.constraints import cut_rows
 
-__all__ = ["Constraints"]
+__all__ = ["Constraints", "ConstraintRows"]
+
+
+class ConstraintRows(NamedTuple):
+    """The constraint rows at a state (eqs. 28-29); what a lower ``level`` does not compute is None.
+
+    Each parameter is kept as the attribute of the same name.
+
+    Parameters
+    ----------
+    phi : ndarray, shape (m,)
+        Position residuals (eq. 28), m or rad.
+    psi : ndarray, shape (m, n), optional
+        Constraint Jacobian (eq. 29).
+    b : ndarray, shape (m,), optional
+        Right-hand side of ``psi xd = b``.
+    gamma : ndarray, shape (m,), optional
+        Right-hand side of ``psi xdd = gamma``.
+    """
+
+    phi: np.ndarray
+    psi: np.ndarray | None = None
+    b: np.ndarray | None = None
+    gamma: np.ndarray | None = None
 
 
 class Constraints:
@@ -101,14 +126,10 @@ class Constraints:
 
         Returns
         -------
-        phi : ndarray, shape (m,)
-            Position residuals (eq. 28), m or rad.
-        psi : ndarray, shape (m, n_coords)
-            Constraint Jacobian (eq. 29). Only for level >= 1.
-        b : ndarray, shape (m,)
-            Right-hand side of ``psi xd = b``. Only for level >= 1.
-        gamma : ndarray, shape (m,)
-            Right-hand side of ``psi xdd = gamma``. Only for level 2.
+        ConstraintRows
+            ``phi`` (eq. 28, m or rad); ``psi`` (eq. 29) and ``b`` (``psi xd
+            = b``) for level >= 1; ``gamma`` (``psi xdd = gamma``) for level
+            2; None for what the level leaves out.
         """
         n = kin.x.shape[0]
         topo = self.topology
@@ -130,9 +151,9 @@ class Constraints:
         cat = (lambda parts, shape: np.concatenate(parts) if parts else np.zeros(shape))
         phi = cat(phis, (0,))
         if level == 0:
-            return phi
+            return ConstraintRows(phi)
         psi = np.vstack(psis) if psis else np.zeros((0, n))
         b = cat(bs, (0,))
         if level == 1:
-            return phi, psi, b
-        return phi, psi, b, cat(gammas, (0,))
+            return ConstraintRows(phi, psi, b)
+        return ConstraintRows(phi, psi, b, cat(gammas, (0,)))

@@ -393,7 +393,7 @@ class Scene:
         system = self.system()
         x0, xd0 = self.initial_state(system)
         kin = system.kinematics(0.0, x0, xd0)
-        _, psi, _ = system.constraints.evaluate(kin, level=1)
+        psi = system.constraints.evaluate(kin, level=1).psi
         c = system.strategy.complement(psi)
         names = system.coordinate_names
         lines = [f"scene {self.source}: model {self.name!r}", f"bodies ({len(self.model.bodies)}):"]

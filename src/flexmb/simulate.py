@@ -195,7 +195,7 @@ def _calibrated(system, t0, x, xd):
     if not system.n_constraints:
         return system
     n_drv = len(system.constraints.drivers)
-    psi = system.constraints.evaluate(system.kinematics(t0, x, xd), level=1)[1]
+    psi = system.constraints.evaluate(system.kinematics(t0, x, xd), level=1).psi
     if system.strategy.complement(psi[: system.n_constraints - n_drv]).p == 0:
         raise ModelError(
             f"the model has no degree of freedom left: its {system.n_coords} coordinates are all fixed by "

@@ -261,7 +261,8 @@ def linearize(system, x0=None, xd0=None, t: float = 0.0, h: float = 1e-6, method
     n = system.n_coords
     x0 = np.zeros(n) if x0 is None else np.asarray(x0, dtype=float)
     xd0 = np.zeros(n) if xd0 is None else np.asarray(xd0, dtype=float)
-    kin, A, f, _, psi, _, gamma = system.equations(t, x0, xd0)
+    eq = system.equations(t, x0, xd0)
+    kin, A, f, psi, gamma = eq.kin, eq.A, eq.f, eq.psi, eq.gamma
     c = system.complement(psi)
     T = c.T
     p = T.shape[1]

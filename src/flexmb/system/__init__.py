@@ -17,7 +17,7 @@ quantities
     Reactions, flexible shapes, energy and degrees of freedom at a state.
 """
 
-from .core import System
+from .core import Equations, System
 from .tangent import NewtonPreconditioner
 
-__all__ = ["System", "NewtonPreconditioner"]
+__all__ = ["System", "Equations", "NewtonPreconditioner"]

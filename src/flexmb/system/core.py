@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+from typing import NamedTuple
 
 import numpy as np
 
@@ -10,7 +11,7 @@ from .. import memory
 from ..assembly import ForceAssembler, _power, mass_matrix
 from ..forces import Loads
 from ..complements import get_complement
-from ..constraints import Constraints
+from ..constraints import ConstraintRows, Constraints
 from ..bodies import Body
 from ..errors import AssemblyError, ModelError
 from ..joints import Joint
@@ -27,6 +28,38 @@ from ..kernels.articulated import open_tree_accelerations, open_tree_rhs
 
 
 __all__ = ["System"]
+
+
+class Equations(NamedTuple):
+    """The pieces of the equations of motion at one state (:meth:`System.equations`).
+
+    Each parameter is kept as the attribute of the same name.
+
+    Parameters
+    ----------
+    kin : Kinematics
+        Kinematics at the state (eqs. 6-18).
+    A : ndarray, shape (n, n)
+        Generalized mass matrix (eq. 2).
+    f : ndarray, shape (n,)
+        Force array (eq. 3).
+    phi : ndarray, shape (m,)
+        Constraint residual (eq. 28).
+    psi : ndarray, shape (m, n)
+        Constraint Jacobian (eq. 29).
+    b : ndarray, shape (m,)
+        Right-hand side of ``psi xd = b``.
+    gamma : ndarray, shape (m,)
+        Right-hand side of ``psi xdd = gamma``.
+    """
+
+    kin: Kinematics
+    A: np.ndarray
+    f: np.ndarray
+    phi: np.ndarray
+    psi: np.ndarray
+    b: np.ndarray
+    gamma: np.ndarray
 
 
 class System(ReducedSolve, Tangent, Rates, StateQuantities, Projection):
@@ -265,7 +298,7 @@ class System(ReducedSolve, Tangent, Rates, StateQuantities, Projection):
             c = c.truncated(self.rank_limit)
         return c
 
-    def equations(self, t, x, xd, powers=None):
+    def equations(self, t, x, xd, powers=None) -> Equations:
         """All the pieces of the equations of motion at one state.
 
         Parameters
@@ -280,20 +313,13 @@ class System(ReducedSolve, Tangent, Rates, StateQuantities, Projection):
 
         Returns
         -------
-        kin : Kinematics
-            Kinematics at the state (eqs. 6-18).
-        A : ndarray, shape (n, n)
-            Generalized mass matrix (eq. 2).
-        f : ndarray, shape (n,)
-            Force array (eq. 3).
-        phi, psi, b, gamma : ndarray
-            Constraint residual, Jacobian and right-hand sides (eqs. 28-29).
+        Equations
+            The kinematics (eqs. 6-18), A (eq. 2), f (eq. 3) and the
+            constraint rows phi, psi, b, gamma (eqs. 28-29).
         """
         kin = self.kinematics(t, x, xd)
-        A = mass_matrix(kin)
-        f = self.forces.force_array(kin, powers)
-        phi, psi, b, gamma = self.constraints.evaluate(kin)
-        return kin, A, f, phi, psi, b, gamma
+        rows = self.constraints.evaluate(kin)
+        return Equations(kin, mass_matrix(kin), self.forces.force_array(kin, powers), *rows)
 
     def reduced_parts(self, t, y, powers=None):
         """A, f, psi and gamma at the state ``y = (x, xd, ...)``: what the reduced equations need.
@@ -324,7 +350,8 @@ class System(ReducedSolve, Tangent, Rates, StateQuantities, Projection):
         """
         n = self.n_coords
         if self._fused_equations is None:
-            _, A, f, _, psi, _, gamma = self.equations(t, y[:n], y[n : 2 * n], powers)
+            eq = self.equations(t, y[:n], y[n : 2 * n], powers)
+            A, f, psi, gamma = eq.A, eq.f, eq.psi, eq.gamma
             return A, f, psi, gamma
         y = _plain(y)
         if powers is None:
@@ -349,7 +376,7 @@ class System(ReducedSolve, Tangent, Rates, StateQuantities, Projection):
             psi, gamma = full, np.concatenate((gamma, gamma_d))
         return A, f, psi, gamma
 
-    def _rows(self, t, x, xd):
+    def _rows(self, t, x, xd) -> ConstraintRows:
         """phi, psi and b at a state (all rows: cut joints, then drivers), compiled where it can be."""
         if self._fused_equations is None:
             return self.constraints.evaluate(self.kinematics(t, x, xd), level=1)
@@ -357,14 +384,14 @@ class System(ReducedSolve, Tangent, Rates, StateQuantities, Projection):
         phi, psi = cut_rows_at(tree, cuts, np.concatenate([x, xd]), self.n_coords)
         drivers = self.constraints.drivers
         if not drivers:
-            return phi, psi, np.zeros(phi.shape[0])
+            return ConstraintRows(phi, psi, np.zeros(phi.shape[0]))
         cols = self.constraints.driver_cols
         m = phi.shape[0]
         full = np.empty((m + len(drivers), self.n_coords))
         full[:m], full[m:] = psi, self.constraints.driver_rows(t, self.n_coords)[0]
         phi_d = np.array([x[c] - d.position(t) for d, c in zip(drivers, cols)])
         b = np.concatenate((np.zeros(m), [d.velocity(t) for d in drivers]))
-        return np.concatenate((phi, phi_d)), full, b
+        return ConstraintRows(np.concatenate((phi, phi_d)), full, b)
 
     def constraint_residuals(self, t, x, xd) -> tuple[float, float]:
         """The largest position and velocity residuals of the constraints, ``max |phi|`` and ``max |psi xd - b|``.
@@ -382,7 +409,7 @@ class System(ReducedSolve, Tangent, Rates, StateQuantities, Projection):
             The residuals (eqs. 28-29; 0 without constraints).
         """
         if self._fused_equations is None:
-            phi, psi, b = self.constraints.evaluate(self.kinematics(t, x, xd), level=1)
+            phi, psi, b, _ = self.constraints.evaluate(self.kinematics(t, x, xd), level=1)
             if not phi.size:
                 return 0.0, 0.0
             return float(np.max(np.abs(phi))), float(np.max(np.abs(psi @ xd - b)))

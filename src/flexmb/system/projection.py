@@ -72,7 +72,7 @@ class Projection:
             return x, xd
         free = np.ones(self.n_coords, bool) if fixed is None else ~np.asarray(fixed, bool)
         for _ in range(max_iter):
-            phi, psi, _ = self._rows(t, x, xd)
+            phi, psi = self._rows(t, x, xd)[:2]
             if np.max(np.abs(phi)) <= tol:
                 break
             step = self._min_norm(psi[:, free], phi)
@@ -80,14 +80,14 @@ class Projection:
             x[free] -= step * min(1.0, max_step / big) if big > 0 else step
         else:
             kin = self.kinematics(t, x, xd)
-            phi = self.constraints.evaluate(kin, level=0)
+            phi = self.constraints.evaluate(kin, level=0).phi
             worst = np.argsort(-np.abs(phi))[:3]
             rows = ", ".join(f"{self.constraints.labels[i]} = {phi[i]:.3g}" for i in worst)
             raise AssemblyError(
                 f"the constraints cannot be closed at t = {t:.6g} s: residual {np.max(np.abs(phi)):.3g} "
                 f"after {max_iter} Newton steps (largest: {rows})"
             )
-        phi, psi, b = self._rows(t, x, xd)
+        phi, psi, b = self._rows(t, x, xd)[:3]
         if speeds == "mass" and fixed is None:
             return x, self._mass_orthogonal_speeds(self.kinematics(t, x, xd), psi, b, xd)
         step = self._min_norm(psi[:, free], psi @ xd - b)

@@ -34,7 +34,8 @@ class StateQuantities:
             One multiplier per constraint row, labelled by
             ``self.constraints.labels``.
         """
-        _, A, f, _, psi, _, gamma = self.equations(t, x, xd)
+        eq = self.equations(t, x, xd)
+        A, f, psi, gamma = eq.A, eq.f, eq.psi, eq.gamma
         if xdd is None:
             xdd = self._solve(t, A, f, psi, gamma)
         if psi.shape[0] == 0:
@@ -103,6 +104,6 @@ class StateQuantities:
         if not self.n_constraints:
             return self.n_coords
         x = np.zeros(self.n_coords) if x is None else x
-        _, psi, _ = self.constraints.evaluate(self.kinematics(t, x, np.zeros_like(x)), level=1)
+        psi = self.constraints.evaluate(self.kinematics(t, x, np.zeros_like(x)), level=1).psi
         return self.strategy.complement(psi).p
 

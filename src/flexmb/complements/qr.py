@@ -137,7 +137,7 @@ def complement_from_qr(psi: np.ndarray, Q: np.ndarray, R: np.ndarray, piv: np.nd
     """
     m = psi.shape[0]
     r = rank
-    # thin QR R[:r]^T = left_p K through LAPACK (numpy's qr costs 30 µs on a 2 x 2)
+    # thin QR R[:r]^T = left_p K through LAPACK directly (numpy's qr wrapper dominates on small matrices)
     qr2, tau2, _, _ = lapack.dgeqrf(np.array(R[:r].T, order="F"), lwork=max(1, r * _NB), overwrite_a=1)
     K = qr2[:r] * _upper(r, r)
     left_p, _, _ = lapack.dorgqr(qr2, tau2, lwork=max(1, r * _NB), overwrite_a=1)  # (m, r)

@@ -88,10 +88,8 @@ EXCITED = 1.0
 STEPS_PER_PERIOD = 100
 
 #: modes far above the motion with a smaller damping ratio, none of them excited, make 'auto' take
-#: Radau rather than CVODE_BDF, which cannot step over them: on a stiff pinned beam swinging from
-#: quasi-static balance CVODE_BDF is 30 times slower than Radau below 0.5 %, 2 to 3 times at 0.5 to
-#: 1 %, as fast at 2 %; on the wiper (blade modes of 2 %, not excited) 3 times faster
-#: (benchmarks/stiff_pendulum.py, benchmarks/auto_choice.py, docs/benchmarks.md)
+#: Radau rather than CVODE_BDF, which cannot step over them (the crossover is measured by
+#: benchmarks/stiff_pendulum.py and benchmarks/auto_choice.py; the numbers are in docs/benchmarks.md)
 BDF_ZETA = 0.01
 
 

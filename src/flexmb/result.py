@@ -137,9 +137,8 @@ class Result:
     def from_states(cls, system, x, xd=None, *, xdd=None, t=0.0, **fields) -> "Result":
         """A Result holding given states: the one constructor every route uses.
 
-        :func:`~flexmb.simulate` builds its result from the states it
-        stored; statics, snapshots and mode shapes build theirs from the
-        states they found, so that loads, stresses, plots and VTK export
+        :func:`~flexmb.simulate`, statics, snapshots and mode shapes build
+        their results here, so that loads, stresses, plots and VTK export
         apply to them all.
 
         Parameters

@@ -63,16 +63,32 @@ class Topology:
     """
 
     def __init__(self, model):
+        self.model = model
+        self.cache: dict = {}
+        all_joints = self._expand(model)
+        tree, problems = self._spanning_tree(model, all_joints)
+        self._cut_joints(model, all_joints, set(tree.values()), problems)
+        self._number_bodies(model.ground, list(tree), tree)
+        self._number_coordinates()
+        self._joint_motions()
+        self._body_data()
+
+    def _place(self, body, point, as_child):
+        """Where a joint point of a flexible body lands: its root (as a child) or the segment carrying it."""
+        if body not in self.flexible:
+            return body, point
+        root, segs, _ = self.flexible[body]
+        if as_child:
+            return root, point
+        i, local = body.locate(point)
+        return segs[i], local
+
+    def _expand(self, model) -> list:
+        """Flexible bodies expanded into segments and elastic joints; the model's joints redirected to them."""
         from attrs import evolve
 
         from .flexible import FlexibleBody
 
-        self.model = model
-        self.cache: dict = {}
-        ground = model.ground
-        problems = []
-
-        # flexible bodies expand into segments and elastic joints
         self.flexible = {}
         internal = []
         for b in model.bodies:
@@ -80,35 +96,30 @@ class Topology:
                 root, segs, joints = b.expand()
                 self.flexible[b] = (root, segs, joints)
                 internal += joints
-
-        def place(body, point, as_child):
-            if body not in self.flexible:
-                return body, point
-            root, segs, _ = self.flexible[body]
-            if as_child:
-                return root, point
-            i, local = body.locate(point)
-            return segs[i], local
-
         self.joint_map = {}
         redirected = []
         for j in model.joints:
-            parent, pp = place(j.parent, j.parent_point, False)
-            child, cp = place(j.child, j.child_point, j.child in self.flexible and not j.cut)
+            parent, pp = self._place(j.parent, j.parent_point, False)
+            child, cp = self._place(j.child, j.child_point, j.child in self.flexible and not j.cut)
             if parent is not j.parent or child is not j.child:
                 j2 = evolve(j, parent=parent, child=child, parent_point=pp, child_point=cp)
             else:
                 j2 = j
             self.joint_map[j] = j2
             redirected.append(j2)
-        all_joints = redirected + internal
+        return redirected + internal
 
+    def _spanning_tree(self, model, all_joints) -> tuple[dict, list[str]]:
+        """The tree joint of each body reached from the ground (breadth first), in the order reached.
+
+        Also returns the problems found: bodies the ground does not reach.
+        """
+        ground = model.ground
         named_cut = {self.joint_map[j] for j in model.joints if j.cut}
         children = defaultdict(list)
         for j in all_joints:
             if j not in named_cut:
                 children[j.parent].append(j)
-        order: list = []
         tree: dict = {}
         seen = {ground}
         queue = deque([ground])
@@ -119,8 +130,8 @@ class Topology:
                     continue
                 seen.add(j.child)
                 tree[j.child] = j
-                order.append(j.child)
                 queue.append(j.child)
+        problems = []
         for b in model.bodies:
             carrier = self.flexible[b][0] if b in self.flexible else b
             if carrier not in seen:
@@ -128,7 +139,12 @@ class Topology:
                     f"body {b.name!r} is not connected to the ground through tree joints "
                     "(joints run parent -> child from the ground)"
                 )
-        tree_set = set(tree.values())
+        return tree, problems
+
+    def _cut_joints(self, model, all_joints, tree_set, problems) -> None:
+        """The joints that close loops; every problem of the structure (``problems`` and more) raised at once."""
+        from attrs import evolve
+
         for j in model.joints:
             j2 = self.joint_map[j]
             if j.child in self.flexible and j2 in tree_set and np.any(j.child_point != 0):
@@ -138,7 +154,7 @@ class Topology:
                 )
             if j2 not in tree_set and j.child in self.flexible and not j.cut:
                 # closes a loop: attach at the segment carrying the point
-                child, cp = place(j.child, j.child_point, False)
+                child, cp = self._place(j.child, j.child_point, False)
                 j3 = evolve(j2, child=child, child_point=cp)
                 self.joint_map[j] = j3
                 all_joints[all_joints.index(j2)] = j3
@@ -153,6 +169,8 @@ class Topology:
         if problems:
             raise ModelError("; ".join(problems), problems)
 
+    def _number_bodies(self, ground, order, tree) -> None:
+        """Body indices in tree order, parents and the tree's depth."""
         self.bodies = order
         self.tree_joints = [tree[b] for b in order]
         self.index = {b: k for k, b in enumerate(order)}
@@ -168,7 +186,8 @@ class Topology:
             depth[k] = 1 + (depth[p] if p >= 0 else 0)
         self.depth = int(depth.max()) if nb else 0
 
-        # coordinates: contiguous per tree joint, in body order
+    def _number_coordinates(self) -> None:
+        """Coordinates: contiguous per tree joint, in body order."""
         self.joint_slice = {}
         names, coord_body = [], []
         start = 0
@@ -186,9 +205,14 @@ class Topology:
             starts[sl] = sl.start
         self.coord_joint_start = starts
 
-        # joint motions: the generic one (translations along fixed axes, then
-        # rotations about moving axes) is compiled; a class overriding
-        # motion() is called back, one batched call per class
+    def _joint_motions(self) -> None:
+        """Joint motions: the generic one is compiled; a class overriding motion() is called back.
+
+        The generic motion is translations along fixed axes, then rotations
+        about moving axes; a class with its own ``motion()`` is called back,
+        one batched call per class.
+        """
+        nb = self.n_bodies
         kind, axis = [], []
         self.external = np.zeros(nb, dtype=np.bool_)
         groups = defaultdict(list)
@@ -212,7 +236,9 @@ class Topology:
                             dtype=np.int64).reshape(len(ks), -1)
             self.external_groups.append((cls, ks, cols))
 
-        # per-body constant data
+    def _body_data(self) -> None:
+        """Per-body constant data and the flat arrays of the compiled kernels (:class:`TreeArrays`)."""
+        order, nb = self.bodies, self.n_bodies
         self.mass = np.array([b.mass for b in order], dtype=float)
         self.inertia = np.array([b.inertia for b in order], dtype=float).reshape(nb, 3, 3)
         self.com = np.array([b.com for b in order], dtype=float).reshape(nb, 3)

@@ -225,7 +225,7 @@ class LoadPath:
         elif y is None:
             values = np.linalg.norm(self.x - self.x[0], axis=1)
             lims = [float(np.linalg.norm(p.x - self.x[0])) for p in self.limit_points]
-            xlabel = "|x - x0|"
+            xlabel = "|x - x0| (rad, m)"
         else:
             values = self.coordinate(y)
             col = self.coordinate_names.index(y) if isinstance(y, str) else int(y)
@@ -247,7 +247,7 @@ class LoadPath:
         if lims:
             ax.plot(lims, [p.lam for p in self.limit_points], "rv", label="limit points")
         ax.set_xlabel(xlabel)
-        ax.set_ylabel("load factor")
+        ax.set_ylabel("load factor (-)")
         ax.legend(fontsize="small")
         if path is not None:
             fig.savefig(path)
@@ -792,8 +792,9 @@ def static_equilibrium(system, x0=None, t: float = 0.0, tol: float = 1e-10, max_
         return (x_eq, None) if full_output else x_eq
     except _NotConverged as exc:
         if not continuation:
+            why = "" if exc.why.startswith("no convergence") else f" ({exc.why})"
             raise AssemblyError(
-                f"static equilibrium did not converge in {max_iter} Newton steps ({exc.why}): last step "
+                f"static equilibrium did not converge in {max_iter} Newton steps{why}: last step "
                 f"{exc.step:.3g}, force residual {exc.residual:.3g}") from None
     path = _follow(eq, x, 0.0, 1.0, PathOptions() if options is None else options, tol, "static equilibrium")
     path.n_iterations += counts["iterations"]

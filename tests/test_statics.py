@@ -104,7 +104,7 @@ def _frames(direction):
     return parent, child
 
 
-def von_mises_truss(p_ref, n=8, a=1.0, h=0.05, depth=0.06):
+def von_mises_truss(p_ref, n=8, a=1.0, h=0.05, depth=0.06, complement="svd"):
     """Two flexible steel bars (axial and bending flexibility) pinned at the ground and at the apex."""
     section = fm.Section.rectangular(depth, depth)
     L0 = np.hypot(a, h)
@@ -120,7 +120,7 @@ def von_mises_truss(p_ref, n=8, a=1.0, h=0.05, depth=0.06):
                                 axis=(0, 1, 0)),
               fm.PointForce("P", left, (0.0, 0.0, -p_ref), point=(L0, 0.0, 0.0)))
     k = 1.0 / np.sum(1.0 / left.joint_stiffness()[:, 0])
-    return model.build(), left, k
+    return model.build(complement=complement), left, k
 
 
 def apex_drop(system, left, x, h):
@@ -257,6 +257,15 @@ def test_truss_path_passes_the_limit_point_and_snaps_through(truss):
     assert path.n_steps < 40 and path.n_rejected <= 2
 
 
+@pytest.mark.parametrize("complement", ["eigen", "qr"])
+def test_truss_limit_load_does_not_depend_on_the_complement(truss, complement):
+    # the tangent is formed from g + psi^T mu, smooth in x, whatever basis of the null space T is
+    system, _, _ = von_mises_truss(2.0 * truss["p_lim"], a=truss["a"], h=truss["h"], complement=complement)
+    path = fm.load_path(system, "P")
+    assert [p.lam for p in path.limit_points] == pytest.approx([p.lam for p in truss["path"].limit_points],
+                                                               abs=1e-9)
+
+
 def test_static_equilibrium_beyond_the_limit_load_finds_the_inverted_truss(truss):
     system, left, h = truss["system"], truss["left"], truss["h"]
     x = fm.static_equilibrium(system)
@@ -293,7 +302,7 @@ def test_a_mechanism_without_stiffness_is_reported():
     block = fm.RigidBody.box("block", 1.0, (0.1, 0.1, 0.1))
     model.add(fm.Prismatic("rail", model.ground, block, axis=(1, 0, 0)), fm.PointForce("push", block, (1.0, 0, 0)))
     with pytest.raises(fm.AssemblyError, match=r"tangent stiffness is singular at the start \(load factor 0, "
-                                               r"residual 0\): a mechanism"):
+                                               r"residual 0, load to carry 1\): a mechanism"):
         fm.static_equilibrium(model.build())
 
 

@@ -310,20 +310,22 @@ class _Equations:
         return g, g_lam, psi
 
     def project(self, x):
-        return self.system.project(self.t, x, self.zero)[0]
+        try:
+            return self.system.project(self.t, x, self.zero)[0]
+        except AssemblyError as exc:  # a step too long for the loops to close: a failed step, not the end
+            raise _NotConverged(f"the constraints cannot be closed ({exc})", np.inf, np.inf, 0) from None
 
     def __call__(self, x, lam, tangent=True) -> _Point:
         g, g_lam, psi = self._forces(x, lam)
         n = x.shape[0]
+        mu = None
         if psi is None:
             T = np.eye(n)
-            full = g
         else:
             T = self.system.complement(psi).T
             # constraint forces psi^T mu: the least-squares balance of g, held fixed in the
             # differences below so that their geometric stiffness enters J
             mu = self.system._min_norm(psi.T, -g)
-            full = g + psi.T @ mu
         R, R_lam = T.T @ g, T.T @ g_lam
         if not tangent:
             return _Point(T, R, R_lam, None)
@@ -332,9 +334,7 @@ class _Equations:
         J = np.empty((T.shape[1], T.shape[1]))
         for i in range(T.shape[1]):
             d = self.h * T[:, i]
-            up, down = self._balance(x + d, lam, mu if psi is not None else None), \
-                self._balance(x - d, lam, mu if psi is not None else None)
-            J[:, i] = T.T @ (up - down) / (2 * self.h)
+            J[:, i] = T.T @ (self._balance(x + d, lam, mu) - self._balance(x - d, lam, mu)) / (2 * self.h)
         return _Point(T, R, R_lam, J)
 
     def _balance(self, x, lam, mu):
@@ -484,9 +484,9 @@ def _follow(eq, x, lam, lam_end, options, tol_end, who="load path"):
     try:
         tx, tl = _tangent(pt, None, 1.0)
     except np.linalg.LinAlgError:
-        raise _fail(f"{who}: the tangent stiffness is singular at the start (load factor {lam:.6g}, "
-                    f"residual {_norm(pt.R):.3g}): a mechanism with no stiffness against the load "
-                    f"({eq.name})?", path) from None
+        raise _fail(f"{who}: the tangent stiffness is singular at the start (load factor {lam:.6g}, residual "
+                    f"{_norm(pt.R):.3g}, load to carry {_norm(pt.R_lam):.3g}): a mechanism with no stiffness "
+                    f"against the load ({eq.name})?", path) from None
     c = float(np.linalg.norm(tx)) / abs(tl) if tl else 1.0
     c = c if c > 0 and np.isfinite(c) else 1.0
     tx, tl = _tangent(pt, None, c)
@@ -662,6 +662,13 @@ def load_path(system, load=None, x0=None, t: float = 0.0, *, lam_end: float = 1.
     g) held fixed, so the geometric stiffness of the constraint forces (the
     axial force of a truss bar held by a loop joint) is in J; it is the
     exact reduced tangent, whatever basis the complement strategy picks.
+    It costs ``2 p`` evaluations of the forces (no mass matrix). The
+    analytic tangent of :meth:`System.state_jacobian` is not used: made
+    for implicit integrators, it leaves out the constraint forces' change,
+    and its geometric stiffness keeps the resultant wrench at each mass
+    centre fixed in direction, which misses the turning lever arm of a
+    force applied off the mass centre (a tip force); Newton's method would
+    then converge only linearly.
 
     A limit point is found where ``dlambda/ds`` changes sign between two
     path points, and located by a secant iteration on the length of the

@@ -189,7 +189,7 @@ class LoadPath:
             name = self.coordinate_names.index(name)
         return self.x[:, int(name)]
 
-    def plot(self, y=None, ax=None, path=None):
+    def plot(self, y=None, ax=None, path=None, xlabel: str | None = None):
         """Plot the load factor against a measure of the deformation (matplotlib).
 
         Parameters
@@ -203,6 +203,9 @@ class LoadPath:
             Axes to draw in (default: a new figure).
         path : str or path-like, optional
             Save the figure there (format from the suffix).
+        xlabel : str, optional
+            Label of the horizontal axis (default: the coordinate's name,
+            the function's name, or ``|x - x0| (rad, m)``).
 
         Returns
         -------
@@ -221,16 +224,17 @@ class LoadPath:
         if callable(y):
             values = np.array([float(y(x)) for x in self.x])
             lims = [float(y(p.x)) for p in self.limit_points]
-            xlabel = getattr(y, "__name__", "y(x)")
+            axis_name = getattr(y, "__name__", "<")
+            axis_name = "y(x)" if axis_name.startswith("<") else axis_name
         elif y is None:
             values = np.linalg.norm(self.x - self.x[0], axis=1)
             lims = [float(np.linalg.norm(p.x - self.x[0])) for p in self.limit_points]
-            xlabel = "|x - x0| (rad, m)"
+            axis_name = "|x - x0| (rad, m)"
         else:
             values = self.coordinate(y)
             col = self.coordinate_names.index(y) if isinstance(y, str) else int(y)
             lims = [float(p.x[col]) for p in self.limit_points]
-            xlabel = self.coordinate_names[col]
+            axis_name = self.coordinate_names[col]
         if ax is None:
             if path is None:
                 import matplotlib.pyplot as plt
@@ -246,7 +250,7 @@ class LoadPath:
         ax.plot(values, self.lam, ".-", label=f"load path ({self.load})")
         if lims:
             ax.plot(lims, [p.lam for p in self.limit_points], "rv", label="limit points")
-        ax.set_xlabel(xlabel)
+        ax.set_xlabel(axis_name if xlabel is None else xlabel)
         ax.set_ylabel("load factor (-)")
         ax.legend(fontsize="small")
         if path is not None:
@@ -380,6 +384,8 @@ def _tangent(pt, prev, c):
     """Unit tangent (t_x, t_lam) of the path, oriented along ``prev`` (or towards growing lambda)."""
     p = pt.J.shape[0]
     if prev is None:
+        if p and np.linalg.cond(pt.J) > 1e13:
+            raise np.linalg.LinAlgError("singular tangent stiffness")
         v = -np.linalg.solve(pt.J, pt.R_lam)
         tx, tl = pt.T @ v, 1.0
     else:
@@ -441,6 +447,7 @@ class _Path:
         h00, h10, h01, h11 = 2 * u**3 - 3 * u**2 + 1, u**3 - 2 * u**2 + u, -2 * u**3 + 3 * u**2, u**3 - u**2
         x = h00 * x_a + h10 * h * tx_a + h01 * self.x[i + 1] + h11 * h * self.t_x[i + 1]
         lo, f_lo, hi, f_hi = 0.0, tl_a, h, self.t_lam[i + 1]
+        kept = 0  # which end the last two brackets kept (Illinois: halve a stuck end's value)
         try:
             for _ in range(20):
                 x_s, lam_s, pt, _ = _corrector(self.eq, x_a, lam_a, tx_a, tl_a, s, c, options, self.counts)
@@ -448,7 +455,12 @@ class _Path:
                 x, lam = x_s, lam_s
                 if abs(f) < 1e-10 or hi - lo < options.tol:
                     break
-                lo, f_lo, hi, f_hi = (s, f, hi, f_hi) if f * f_lo > 0 else (lo, f_lo, s, f)
+                if f * f_lo > 0:
+                    lo, f_lo = s, f
+                    f_hi, kept = (f_hi / 2 if kept == 1 else f_hi), 1
+                else:
+                    hi, f_hi = s, f
+                    f_lo, kept = (f_lo / 2 if kept == -1 else f_lo), -1
                 s = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
         except (_NotConverged, np.linalg.LinAlgError):
             pass

@@ -343,6 +343,8 @@ def test_path_options_are_checked():
         fm.PathOptions(step=-1.0)
     with pytest.raises(fm.ModelError, match="max_iter must be >= 1"):
         fm.PathOptions(max_iter=0)
+    with pytest.raises(fm.ModelError, match="max_turn must be a cosine"):
+        fm.PathOptions(max_turn=1.0)
 
 
 def test_load_path_repr_and_coordinate(truss):

@@ -32,6 +32,11 @@ def _positive(instance, attribute, value):
         raise ModelError(f"PathOptions: {attribute.name} must be > 0, got {value!r}")
 
 
+def _cosine(instance, attribute, value):
+    if not -1.0 <= value < 1.0:
+        raise ModelError(f"PathOptions: {attribute.name} must be a cosine in [-1, 1), got {value!r}")
+
+
 def _at_least_one(instance, attribute, value):
     if value < 1:
         raise ModelError(f"PathOptions: {attribute.name} must be >= 1, got {value!r}")
@@ -67,6 +72,10 @@ class PathOptions:
         coordinate (rad or m) and of the load factor below ``tol``. The
         point where the path meets its target load factor is converged to
         the caller's own tolerance.
+    max_turn : float
+        Smallest cosine of the angle between the path's tangents at the two
+        ends of a step; a step that turns more is halved, so that the
+        corrector does not jump to another branch of the path.
     max_limit_points : int
         Limit points passed before the path is given up: a path that turns
         back and forth (a mechanism that goes round and round, as a
@@ -86,6 +95,7 @@ class PathOptions:
     iterations: int = field(default=4, converter=int, validator=_at_least_one)
     max_iter: int = field(default=10, converter=int, validator=_at_least_one)
     tol: float = field(default=1e-8, converter=float, validator=_positive)
+    max_turn: float = field(default=0.5, converter=float, validator=_cosine)
     max_limit_points: int = field(default=8, converter=int, validator=_at_least_one)
 
 
@@ -538,12 +548,19 @@ def _follow(eq, x, lam, lam_end, options, tol_end, who="load path"):
             path.add(x_end, float(lam_end), _norm(pt_end.R),
                      ds * u, *_tangent_or(pt_new, tx, tl, c))
             return path.result(True)
-        path.add(x_new, lam_new, _norm(pt_new.R), ds, None, None)
         try:
-            tx, tl = _tangent(pt_new, (tx, tl), c)
+            tx_new, tl_new = _tangent(pt_new, (tx, tl), c)
         except np.linalg.LinAlgError:
             raise _fail(f"{who}: the path's tangent is undefined at load step {path.counts['steps']}, load "
                         f"factor {lam_new:.6g} (a bifurcation?); residual {_norm(pt_new.R):.3g}", path) from None
+        if tx_new @ tx / c**2 + tl_new * tl < options.max_turn and ds / 2 >= options.min_step:
+            # the path turned too much in one step: it may have jumped to another branch
+            path.counts["steps"] -= 1
+            path.counts["rejected"] += 1
+            ds /= 2
+            continue
+        tx, tl = tx_new, tl_new
+        path.add(x_new, lam_new, _norm(pt_new.R), ds, None, None)
         path.set_tangent(tx, tl)
         if path.turned():
             path.add_limit(options, c)

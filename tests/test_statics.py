@@ -12,9 +12,9 @@ References, all from outside the code:
       v_tip / L = 1 - 2 (E(m) - E(phi_1, m)) / sqrt(alpha)
 
   (Bisshopp and Drucker 1945). Checked below against scipy's solve_bvp and
-  against the published table (to its five digits): alpha = 1: v/L =
-  0.30172, u/L = 1 - x/L = 0.05643; 2: 0.49346, 0.16064; 5: 0.71379,
-  0.38763; 10: 0.81061, 0.55500.
+  against the published table of the elliptic-integral solution
+  (Mattiasson 1981, five digits): alpha = 1: v/L = 0.30172, u/L = 1 - x/L =
+  0.05643; 2: 0.49346, 0.16064; 5: 0.71379, 0.38763; 10: 0.81061, 0.55500.
 * the von Mises truss (two bars of axial stiffness k pinned to the ground at
   x = 0 and 2a and to each other at the apex, rise h, bar length
   ``L0 = sqrt(a^2 + h^2)``, a dead load P down at the apex): with the apex
@@ -264,6 +264,14 @@ def test_truss_limit_load_does_not_depend_on_the_complement(truss, complement):
     path = fm.load_path(system, "P")
     assert [p.lam for p in path.limit_points] == pytest.approx([p.lam for p in truss["path"].limit_points],
                                                                abs=1e-9)
+
+
+def test_static_equilibrium_below_the_limit_load_stays_on_the_near_branch(truss):
+    a, h, k = truss["a"], truss["h"], truss["k"]
+    system, left, _ = von_mises_truss(0.9 * truss["p_lim"], a=a, h=h)
+    w = apex_drop(system, left, fm.static_equilibrium(system), h)
+    w_ref = brentq(lambda w: truss_load(w, k, a, h) - 0.9 * truss["p_lim"], 0.0, truss["w_lim"], xtol=1e-15)
+    assert w == pytest.approx(w_ref, rel=1e-8)
 
 
 def test_static_equilibrium_beyond_the_limit_load_finds_the_inverted_truss(truss):

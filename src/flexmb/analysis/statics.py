@@ -793,6 +793,12 @@ def static_equilibrium(system, x0=None, t: float = 0.0, tol: float = 1e-10, max_
 
     Notes
     -----
+    Newton's method from ``x0`` is given up as soon as the largest force
+    residual grows from one iteration to the next (unless the step is
+    already within ``1000 tol``): from a far start it would wander, and the
+    continuation is cheap. Where it converges, the result is the one
+    Newton's method alone gives.
+
     Newton's homotopy at an unstressed ``x0`` (straight beams, springs at
     their free lengths) starts from the loads alone, so the continuation is
     load stepping of all the loads at once, with no need to tell loads from
@@ -802,9 +808,10 @@ def static_equilibrium(system, x0=None, t: float = 0.0, tol: float = 1e-10, max_
 
     Examples
     --------
-    A cantilever bent by a tip force ``P = 10 E I / L^2``, far beyond the
+    A cantilever bent by a tip force ``P = 20 E I / L^2``, beyond the
     reach of Newton's method from the straight beam: the tip ends about
-    0.81 L below the clamp (Bisshopp and Drucker 1945: 0.8106 L).
+    0.87 L below the clamp (the elastica, Bisshopp and Drucker 1945:
+    0.8687 L).
 
     >>> import numpy as np
     >>> import flexmb as fm
@@ -812,11 +819,13 @@ def static_equilibrium(system, x0=None, t: float = 0.0, tol: float = 1e-10, max_
     >>> beam = fm.FlexibleBody("beam", 1.0, section, steel, n_segments=16, keep=("bend_y",))
     >>> m = fm.Model()
     >>> _ = m.add(fm.Fixed("clamp", m.ground, beam),
-    ...           fm.PointForce("P", beam, (0, 0, -10 * steel.E * section.Iy), point=(1, 0, 0)))
+    ...           fm.PointForce("P", beam, (0, 0, -20 * steel.E * section.Iy), point=(1, 0, 0)))
     >>> system = m.build()
-    >>> x = fm.static_equilibrium(system)
+    >>> x, path = fm.static_equilibrium(system, full_output=True)
     >>> round(float(np.sum(np.sin(np.cumsum(x))) / 16), 2)
-    0.81
+    0.87
+    >>> path.reached, len(path.limit_points)
+    (True, 0)
     """
     x = _start(system, x0)
     zero = np.zeros_like(x)

@@ -312,12 +312,22 @@ def test_a_mechanism_without_stiffness_is_reported():
     with pytest.raises(fm.AssemblyError, match=r"tangent stiffness is singular at the start \(load factor 0, "
                                                r"residual 0, load to carry 1\): a mechanism"):
         fm.static_equilibrium(model.build())
+    with pytest.raises(fm.AssemblyError, match=r"Newton's method stopped at step 1: the tangent stiffness is "
+                                               r"singular \(a mechanism with an unloaded free motion\?\)"):
+        fm.static_equilibrium(model.build(), continuation=False)
 
 
 def test_a_failed_step_names_the_load_step_and_the_residual():
     options = fm.PathOptions(step=0.1, min_step=0.06, max_iter=1)
-    with pytest.raises(fm.AssemblyError, match=r"load path stopped at load step 1 from load factor 0 .*residual"):
+    with pytest.raises(fm.AssemblyError, match=r"load path stopped at load step 1 from load factor 0 .*residual") \
+            as info:
         fm.load_path(elastica(16, 10.0), "P", options=options)
+    assert info.value.path.lam.tolist() == [0.0] and info.value.path.n_rejected == 1
+
+
+def test_a_start_of_the_wrong_shape_is_refused():
+    with pytest.raises(fm.ModelError, match=r"x0 must have shape \(16,\), got \(3,\)"):
+        fm.static_equilibrium(elastica(16, 1.0), x0=np.zeros(3))
 
 
 # ----------------------------------------------------------------------------- 4. the API

@@ -524,8 +524,8 @@ def _follow(eq, x, lam, lam_end, options, tol_end, who="load path"):
             if ds / 2 < options.min_step:
                 raise _fail(
                     f"{who} stopped at load step {path.counts['steps'] + 1} from load factor {lam_a:.6g} "
-                    f"(target {lam_end:.6g}; {eq.name}): {exc.why} with the step at its minimum "
-                    f"{options.min_step:.3g}; residual {exc.residual:.3g}, last correction {exc.step:.3g}",
+                    f"(target {lam_end:.6g}; {eq.name}): {exc.why} in a step of {ds:.3g}, and half of it is below "
+                    f"the minimum {options.min_step:.3g}; residual {exc.residual:.3g}, last correction {exc.step:.3g}",
                     path) from None
             ds /= 2
             continue
@@ -837,10 +837,14 @@ def static_equilibrium(system, x0=None, t: float = 0.0, tol: float = 1e-10, max_
         return (x_eq, None) if full_output else x_eq
     except _NotConverged as exc:
         if not continuation:
-            why = "" if exc.why.startswith("no convergence") else f" ({exc.why})"
+            if exc.why.startswith("no convergence"):
+                raise AssemblyError(
+                    f"static equilibrium did not converge in {max_iter} Newton steps: last step {exc.step:.3g}, "
+                    f"force residual {exc.residual:.3g}") from None
+            hint = " (a mechanism with an unloaded free motion?)" if "singular" in exc.why else ""
             raise AssemblyError(
-                f"static equilibrium did not converge in {max_iter} Newton steps{why}: last step "
-                f"{exc.step:.3g}, force residual {exc.residual:.3g}") from None
+                f"static equilibrium: Newton's method stopped at step {exc.iterations + 1}: {exc.why}{hint}; "
+                f"last step {exc.step:.3g}, force residual {exc.residual:.3g}") from None
     path = _follow(eq, x, 0.0, 1.0, PathOptions() if options is None else options, tol, "static equilibrium")
     path.n_iterations += counts["iterations"]
     path.n_tangents += counts["tangents"]

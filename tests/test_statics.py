@@ -31,6 +31,7 @@ References, all from outside the code:
   (``clamped=False``) has N - 1 axial joint springs EA / l in series, its
   segments rigid: ``k = EA / ((N - 1) l)``, read from the body's joint
   stiffness.
+* Euler's clamped-free column buckles at ``P_E = pi^2 E I / (4 L^2)``.
 """
 
 from __future__ import annotations
@@ -180,7 +181,8 @@ def test_elastica_alpha_10_and_20_take_the_load_path_in_a_few_steps():
     for alpha in (10.0, 20.0):
         x, path = fm.static_equilibrium(elastica(32, alpha), full_output=True)
         assert path.reached and path.lam[0] == 0.0 and path.lam[-1] == 1.0
-        assert np.all(np.diff(path.lam) > 0) and not path.limit_points
+        assert np.all(np.diff(path.lam) > 0) and not path.limit_points and not path.bifurcations
+        assert path.stable.all()
         assert np.array_equal(path.x[-1], x)
         assert np.max(path.residual) < 1e-6 * alpha * EI
         assert path.n_steps < 20 and path.n_rejected == 0 and path.n_iterations < 60
@@ -255,6 +257,10 @@ def test_truss_path_passes_the_limit_point_and_snaps_through(truss):
     assert w_end > 2 * h
     assert w_end == pytest.approx(w_ref, rel=1e-8)
     assert path.n_steps < 40 and path.n_rejected <= 2
+    # stable up to the limit load, unstable (one direction) between the limit points, stable when inverted
+    assert not path.bifurcations
+    assert path.stable[:first.index + 1].all() and path.stable[second.index + 1:].all()
+    assert np.all(path.n_unstable[first.index + 1:second.index + 1] == 1)
 
 
 @pytest.mark.parametrize("complement", ["eigen", "qr"])
@@ -281,7 +287,34 @@ def test_static_equilibrium_beyond_the_limit_load_finds_the_inverted_truss(truss
                                                           rel=1e-8)
 
 
-# ----------------------------------------------------------------------------- 3. failures that say why
+# ----------------------------------------------------------------------------- 3. buckling: a bifurcation
+
+def _column(n, p_ref):
+    """The strip as a column: clamped, a dead compressive force p_ref at its tip along -x."""
+    model = fm.Model("column")
+    beam = fm.FlexibleBody("column", 1.0, SECTION, STEEL, n_segments=n, keep=("bend_y",))
+    model.add(fm.Fixed("clamp", model.ground, beam), fm.PointForce("P", beam, (-p_ref, 0.0, 0.0), point=(1, 0, 0)))
+    return model.build()
+
+
+def test_column_buckling_is_found_as_a_bifurcation_at_the_euler_load():
+    # Euler's clamped-free column buckles at P_E = pi^2 E I / (4 L^2); loaded to 2 P_E the straight
+    # path (no limit point) loses stability at a bifurcation, lambda = P_E / (2 P_E) = 1/2, and the
+    # segment model's buckling load converges to P_E as 1/N^2
+    p_e = np.pi**2 * EI / 4
+    errs = []
+    for n in (16, 32):
+        path = fm.load_path(_column(n, 2 * p_e), "P")
+        assert path.reached and not path.limit_points and np.max(np.abs(path.x)) == 0.0
+        (bif,) = path.bifurcations
+        assert bif.kind == "bifurcation" and path.lam[bif.index] < bif.lam < path.lam[bif.index + 1]
+        assert path.stable[:bif.index + 1].all() and np.all(path.n_unstable[bif.index + 1:] == 1)
+        errs.append(2 * bif.lam - 1)
+    assert abs(errs[1]) < 3e-4, errs
+    assert 3.8 < errs[0] / errs[1] < 4.2, errs
+
+
+# ----------------------------------------------------------------------------- 4. failures that say why
 
 def _pendulum(torque):
     """A 1 kg, 1 m bar hanging from a pin (gravity along +x) and a torque about the pin: it holds m g L / 2."""
@@ -330,7 +363,7 @@ def test_a_start_of_the_wrong_shape_is_refused():
         fm.static_equilibrium(elastica(16, 1.0), x0=np.zeros(3))
 
 
-# ----------------------------------------------------------------------------- 4. the API
+# ----------------------------------------------------------------------------- 5. the API
 
 def test_load_given_by_name_object_or_list_gives_the_same_path():
     system = _pendulum(9.81)

@@ -19,7 +19,7 @@ from .forces import BodyTorque, ForceElement, Gravity, JointSpringDamper, Loads,
 from .joints import Cylindrical, Fixed, Free, Joint, PlanarRevolute, Prismatic, Revolute, Spherical, Universal
 from .flexible import FlexibleBody, Segment
 from .analysis import Linearization, linear_statics, linearize, modes, static_equilibrium
-from .analysis.statics import LimitPoint, LoadPath, PathOptions, load_path
+from .analysis.statics import CriticalPoint, LoadPath, PathOptions, load_path
 from .model import Model
 from .registry import PluginInfo, plugins, register
 from .sections import Material, Section
@@ -45,7 +45,7 @@ __all__ = [
     "Cylindrical", "Fixed", "Free", "Joint", "PlanarRevolute", "Prismatic", "Revolute", "Spherical", "Universal",
     "FlexibleBody", "Segment", "Material", "Section",
     "Linearization", "linear_statics", "linearize", "modes", "static_equilibrium",
-    "LimitPoint", "LoadPath", "PathOptions", "load_path",
+    "CriticalPoint", "LoadPath", "PathOptions", "load_path",
     "Model", "PluginInfo", "plugins", "register", "Result", "INTEGRATORS", "initial_state", "simulate", "System",
     "Scene", "SceneError", "load_scene", "loads_scene",
     "StiffnessWarning", "GeneralizedAlpha", "generalized_alpha",

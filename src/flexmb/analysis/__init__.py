@@ -11,7 +11,7 @@ statics
 """
 
 from .linear import Linearization, linear_statics, linearize, modes
-from .statics import LimitPoint, LoadPath, PathOptions, load_path, static_equilibrium
+from .statics import CriticalPoint, LoadPath, PathOptions, load_path, static_equilibrium
 
 __all__ = ["Linearization", "linearize", "modes", "linear_statics", "static_equilibrium", "load_path", "LoadPath",
-           "LimitPoint", "PathOptions"]
+           "CriticalPoint", "PathOptions"]

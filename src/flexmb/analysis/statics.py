@@ -8,7 +8,8 @@ never appear. A load factor lambda turns them into a one-parameter family
 ``R(x, lambda) = 0`` whose solutions form the load path; it is followed from
 ``lambda = 0`` by a predictor along the path's tangent and a Newton
 corrector on the normal plane (Riks' arc-length method), which passes limit
-points where a load-controlled Newton iteration fails.
+points where a load-controlled Newton iteration fails, and reports the
+limit points, the bifurcations and the stability of each state.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
+import scipy.linalg as sla
 from attrs import define, field, frozen
 
 from .._validate import label
@@ -24,7 +26,7 @@ from ..errors import AssemblyError, ExportError, ModelError
 from ..forces import ForceElement
 from ..threads import limited_blas
 
-__all__ = ["static_equilibrium", "load_path", "LoadPath", "LimitPoint", "PathOptions"]
+__all__ = ["static_equilibrium", "load_path", "LoadPath", "CriticalPoint", "PathOptions"]
 
 
 def _positive(instance, attribute, value):
@@ -100,23 +102,28 @@ class PathOptions:
 
 
 @define
-class LimitPoint:
-    """A limit point of a load path: the load factor is extreme and the tangent stiffness singular.
+class CriticalPoint:
+    """A critical point of a load path: a limit point or a bifurcation point.
+
+    At both the tangent stiffness is singular. At a limit point the load
+    factor is extreme (the path turns back: snap-through under load
+    control); at a bifurcation point it is not, and another equilibrium
+    path crosses this one (buckling of a perfect structure).
 
     Each parameter is kept as the attribute of the same name.
 
     Parameters
     ----------
     lam : float
-        Load factor at the limit point.
+        Load factor at the point.
     x : ndarray, shape (n,)
         Coordinates there.
     arc : float
         Arc length along the path (load-factor units, see :class:`PathOptions`).
     index : int
-        The limit point lies between path points ``index`` and ``index + 1``.
-    kind : {'maximum', 'minimum'}
-        Whether the load factor peaks or dips there.
+        The point lies between path points ``index`` and ``index + 1``.
+    kind : {'maximum', 'minimum', 'bifurcation'}
+        Whether the load factor peaks or dips there, or a bifurcation.
     """
 
     lam: float
@@ -143,9 +150,19 @@ class LoadPath:
         (N or N m).
     arc : ndarray, shape (m,)
         Arc length of each point (load-factor units, see :class:`PathOptions`).
-    limit_points : list of LimitPoint
+    limit_points : list of CriticalPoint
         Where the load factor passes through an extreme (the path's tangent
         ``dlambda/ds`` changes sign), located between the path points.
+    bifurcations : list of CriticalPoint
+        Where the tangent stiffness changes its number of unstable
+        directions while the load factor goes on in the same direction: an
+        eigenvalue crossed zero with no limit point, so another path
+        branches off (buckling). Located by linear interpolation of that
+        eigenvalue between the two path points.
+    n_unstable : ndarray of int, shape (m,)
+        Number of negative eigenvalues of the (symmetric part of the)
+        reduced tangent stiffness at each point: 0 where the equilibrium is
+        stable under conservative loads.
     load : str
         What the load factor scales.
     coordinate_names : list of str
@@ -162,6 +179,8 @@ class LoadPath:
     residual: np.ndarray
     arc: np.ndarray
     limit_points: list
+    bifurcations: list
+    n_unstable: np.ndarray
     load: str
     coordinate_names: list
     reached: bool = False
@@ -172,8 +191,20 @@ class LoadPath:
 
     def __repr__(self) -> str:
         lims = _list_limits(self.limit_points) or "none"
+        bifs = f", bifurcations at lambda = {_list_limits(self.bifurcations)}" if self.bifurcations else ""
         return (f"LoadPath(load={self.load!r}, {len(self.lam)} points, lambda {self.lam[0]:.6g} -> "
-                f"{self.lam[-1]:.6g}, limit points at lambda = {lims}, reached={self.reached})")
+                f"{self.lam[-1]:.6g}, limit points at lambda = {lims}{bifs}, reached={self.reached})")
+
+    @property
+    def stable(self) -> np.ndarray:
+        """Whether each path point is a stable equilibrium (``n_unstable == 0``).
+
+        Returns
+        -------
+        ndarray of bool, shape (m,)
+            True where the tangent stiffness is positive definite.
+        """
+        return self.n_unstable == 0
 
     def coordinate(self, name) -> np.ndarray:
         """One coordinate along the path.
@@ -426,19 +457,51 @@ def _hermite_extreme(s0, s1, l0, l1, d0, d1):
 class _Path:
     """Accumulates the accepted points of a path and finds its limit points."""
 
-    def __init__(self, eq, x, lam, residual):
+    def __init__(self, eq, x, lam, residual, J):
         self.eq = eq
         self.lam, self.x, self.residual, self.arc, self.t_lam, self.t_x = [lam], [x], [residual], [0.0], [None], [None]
-        self.limits = []
+        self.eigs = [_stiffness_eigenvalues(J)]
+        self.J = [None, J]  # the tangents at the last two points
+        self.limits, self.bifurcations = [], []
         self.counts = {"iterations": 0, "tangents": 0, "steps": 0, "rejected": 0}
 
-    def add(self, x, lam, residual, ds, tx, tl):
+    def add(self, x, lam, residual, ds, tx, tl, J):
         self.lam.append(lam)
         self.x.append(x)
         self.residual.append(residual)
         self.arc.append(self.arc[-1] + ds)
         self.t_lam.append(tl)
         self.t_x.append(tx)
+        self.eigs.append(_stiffness_eigenvalues(J))
+        self.J = [self.J[1], J]
+
+    def n_unstable(self) -> np.ndarray:
+        return np.array([_count_negative(e) for e in self.eigs], dtype=int)
+
+    def check_bifurcation(self):
+        """Record a bifurcation if the last step changed the number of unstable directions without turning."""
+        i = len(self.lam) - 2
+        k0, k1 = _count_negative(self.eigs[i]), _count_negative(self.eigs[i + 1])
+        if k0 == k1 or (self.limits and self.limits[-1].index == i):
+            return
+        # the eigenvalue that crossed zero: sorted ascending, it is number min(k0, k1)
+        j = min(k0, k1)
+        e0, e1 = self.eigs[i][j], self.eigs[i + 1][j]
+        u = e0 / (e0 - e1) if e0 != e1 else 0.5
+        # refined with the tangent stiffness interpolated linearly over the step (exact where it is
+        # linear in lambda, as on the straight path of a perfect column): K0 + u (K1 - K0) singular
+        K0, K1 = (-0.5 * (J + J.T) for J in self.J)
+        try:
+            roots = sla.eigvals(K0, K0 - K1)
+            roots = roots.real[(np.abs(roots.imag) < 1e-9) & (roots.real >= 0) & (roots.real <= 1)]
+            if roots.size:
+                u = float(roots[np.argmin(np.abs(roots - u))])
+        except (ValueError, np.linalg.LinAlgError):
+            pass
+        self.bifurcations.append(CriticalPoint(
+            lam=float(self.lam[i] + u * (self.lam[i + 1] - self.lam[i])),
+            x=self.x[i] + u * (self.x[i + 1] - self.x[i]), arc=float(self.arc[i] + u * (self.arc[i + 1] - self.arc[i])),
+            index=i, kind="bifurcation"))
 
     def set_tangent(self, tx, tl):
         self.t_x[-1], self.t_lam[-1] = tx, tl
@@ -474,16 +537,27 @@ class _Path:
                 s = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
         except (_NotConverged, np.linalg.LinAlgError):
             pass
-        self.limits.append(LimitPoint(lam=float(lam), x=np.asarray(x), arc=float(self.arc[i] + s), index=i,
+        self.limits.append(CriticalPoint(lam=float(lam), x=np.asarray(x), arc=float(self.arc[i] + s), index=i,
                                       kind="maximum" if tl_a > 0 else "minimum"))
 
     def result(self, reached) -> LoadPath:
         c = self.counts
         return LoadPath(lam=np.array(self.lam), x=np.array(self.x), residual=np.array(self.residual),
-                        arc=np.array(self.arc), limit_points=list(self.limits), load=self.eq.name,
+                        arc=np.array(self.arc), limit_points=list(self.limits),
+                        bifurcations=list(self.bifurcations), n_unstable=self.n_unstable(), load=self.eq.name,
                         coordinate_names=list(self.eq.system.coordinate_names), reached=reached,
                         n_steps=c["steps"], n_rejected=c["rejected"], n_iterations=c["iterations"],
                         n_tangents=c["tangents"])
+
+
+def _stiffness_eigenvalues(J) -> np.ndarray:
+    """Eigenvalues, ascending, of the symmetric part of the tangent stiffness ``K = -J``."""
+    return np.linalg.eigvalsh(-0.5 * (J + J.T)) if J.size else np.zeros(0)
+
+
+def _count_negative(eigs) -> int:
+    # negative beyond round-off, relative to the largest stiffness
+    return int(np.sum(eigs < -1e-9 * np.max(np.abs(eigs)))) if eigs.size else 0
 
 
 def _list_limits(limits, most=4) -> str:
@@ -500,7 +574,7 @@ def _fail(message, path):
 def _follow(eq, x, lam, lam_end, options, tol_end, who="load path"):
     """Follow the path from the equilibrium (x, lam) until lambda reaches lam_end."""
     pt = eq(x, lam)
-    path = _Path(eq, x, lam, _norm(pt.R))
+    path = _Path(eq, x, lam, _norm(pt.R), pt.J)
     path.counts["tangents"] += 1
     direction = 1.0 if lam_end >= lam else -1.0
     try:
@@ -545,8 +619,10 @@ def _follow(eq, x, lam, lam_end, options, tol_end, who="load path"):
                                 f"near load step {path.counts['steps']}", path) from None
                 path.counts["steps"] -= 1
                 continue
-            path.add(x_end, float(lam_end), _norm(pt_end.R),
-                     ds * u, *_tangent_or(pt_new, tx, tl, c))
+            pt_end = eq(x_end, lam_end)
+            path.counts["tangents"] += 1
+            path.add(x_end, float(lam_end), _norm(pt_end.R), ds * u, *_tangent_or(pt_end, tx, tl, c), pt_end.J)
+            path.check_bifurcation()
             return path.result(True)
         try:
             tx_new, tl_new = _tangent(pt_new, (tx, tl), c)
@@ -560,8 +636,7 @@ def _follow(eq, x, lam, lam_end, options, tol_end, who="load path"):
             ds /= 2
             continue
         tx, tl = tx_new, tl_new
-        path.add(x_new, lam_new, _norm(pt_new.R), ds, None, None)
-        path.set_tangent(tx, tl)
+        path.add(x_new, lam_new, _norm(pt_new.R), ds, tx, tl, pt_new.J)
         if path.turned():
             path.add_limit(options, c)
             if len(path.limits) >= options.max_limit_points:
@@ -571,6 +646,7 @@ def _follow(eq, x, lam, lam_end, options, tol_end, who="load path"):
                             f"by load step {path.counts['steps']}, residual {path.residual[-1]:.3g}; the "
                             f"structure carries load factors up to {direction * max(direction * v for v in peaks):.6g}",
                             path)
+        path.check_bifurcation()
         ds = min(options.max_step, ds * (1.5 if k < options.iterations else 0.7 if k > options.iterations else 1.0))
     raise _fail(f"{who}: load factor {lam_end:.6g} not reached in {options.max_steps} load steps ({eq.name}); "
                 f"reached {path.lam[-1]:.6g} (largest {max(path.lam, key=lambda v: direction * v):.6g}"
@@ -611,6 +687,7 @@ def _corrector(eq, x_a, lam_a, tx, tl, ds, c, options, counts):
         lam = lam + sol[p]
         step = max(_norm(sol[:p]), abs(sol[p]))
         if step < options.tol:
+            counts["tangents"] += 1
             return x, lam, eq(x, lam), k
     raise _NotConverged(f"no convergence in {options.max_iter} Newton steps", step, res, options.max_iter)
 
@@ -661,7 +738,8 @@ def load_path(system, load=None, x0=None, t: float = 0.0, *, lam_end: float = 1.
     Returns
     -------
     LoadPath
-        Load factors, coordinates, residuals and limit points along the path.
+        Load factors, coordinates, residuals, stability, limit points and
+        bifurcations along the path.
 
     Raises
     ------
@@ -698,6 +776,15 @@ def load_path(system, load=None, x0=None, t: float = 0.0, *, lam_end: float = 1.
     centre fixed in direction, which misses the turning lever arm of a
     force applied off the mass centre (a tip force); Newton's method would
     then converge only linearly.
+
+    Stability: at each point the eigenvalues of the symmetric part of the
+    reduced tangent stiffness ``-J`` are counted (``LoadPath.n_unstable``,
+    the negative ones). Where that count changes over a step with no limit
+    point, the path has crossed a bifurcation (buckling); it is located
+    where the tangent stiffness, interpolated linearly over the step,
+    turns singular (a generalized eigenvalue problem; exact on the straight
+    path of a perfect column), and reported, not followed: the path goes on
+    along the branch it is on.
 
     A limit point is found where ``dlambda/ds`` changes sign between two
     path points, and located by a secant iteration on the length of the

@@ -422,3 +422,6 @@ def test_load_path_plot(truss, tmp_path):
     assert np.allclose(line.get_ydata(), path.lam)
     assert np.allclose(marks.get_ydata(), [0.5, -0.5], atol=1e-6)
     assert path.plot("pin_left.angle", path=tmp_path / "angle.png").axes[0].get_xlabel() == "pin_left.angle"
+    column = fm.load_path(_column(8, np.pi**2 * EI / 2), "P")
+    line, marks = column.plot(0, path=tmp_path / "column.png", xlabel="rotation (rad)").axes[0].lines
+    assert marks.get_label() == "bifurcations" and np.allclose(marks.get_ydata(), [column.bifurcations[0].lam])

@@ -251,7 +251,7 @@ class LoadPath:
         Returns
         -------
         matplotlib.figure.Figure
-            The figure; limit points are marked.
+            The figure; limit points and bifurcations are marked.
 
         Raises
         ------
@@ -262,19 +262,20 @@ class LoadPath:
             import matplotlib  # noqa: F401
         except ImportError as exc:
             raise ExportError("plot needs matplotlib: pip install 'flexmb[viz]'") from exc
+        critical = [*self.limit_points, *self.bifurcations]
         if callable(y):
             values = np.array([float(y(x)) for x in self.x])
-            lims = [float(y(p.x)) for p in self.limit_points]
+            at = [float(y(p.x)) for p in critical]
             axis_name = getattr(y, "__name__", "<")
             axis_name = "y(x)" if axis_name.startswith("<") else axis_name
         elif y is None:
             values = np.linalg.norm(self.x - self.x[0], axis=1)
-            lims = [float(np.linalg.norm(p.x - self.x[0])) for p in self.limit_points]
+            at = [float(np.linalg.norm(p.x - self.x[0])) for p in critical]
             axis_name = "|x - x0| (rad, m)"
         else:
             values = self.coordinate(y)
             col = self.coordinate_names.index(y) if isinstance(y, str) else int(y)
-            lims = [float(p.x[col]) for p in self.limit_points]
+            at = [float(p.x[col]) for p in critical]
             axis_name = self.coordinate_names[col]
         if ax is None:
             if path is None:
@@ -289,8 +290,11 @@ class LoadPath:
         else:
             fig = ax.figure
         ax.plot(values, self.lam, ".-", label=f"load path ({self.load})")
-        if lims:
-            ax.plot(lims, [p.lam for p in self.limit_points], "rv", label="limit points")
+        n_lim = len(self.limit_points)
+        if n_lim:
+            ax.plot(at[:n_lim], [p.lam for p in self.limit_points], "rv", label="limit points")
+        if self.bifurcations:
+            ax.plot(at[n_lim:], [p.lam for p in self.bifurcations], "ks", label="bifurcations")
         ax.set_xlabel(axis_name if xlabel is None else xlabel)
         ax.set_ylabel("load factor (-)")
         ax.legend(fontsize="small")

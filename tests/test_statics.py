@@ -396,6 +396,8 @@ def test_path_options_are_checked():
         fm.PathOptions(max_iter=0)
     with pytest.raises(fm.ModelError, match="max_turn must be a cosine"):
         fm.PathOptions(max_turn=1.0)
+    with pytest.raises(fm.ModelError, match="need min_step <= step <= max_step, got 1e-06, 0.6, 0.5"):
+        fm.PathOptions(step=0.6)
 
 
 def test_load_path_repr_and_coordinate(truss):

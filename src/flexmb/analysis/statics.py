@@ -100,6 +100,11 @@ class PathOptions:
     max_turn: float = field(default=0.5, converter=float, validator=_cosine)
     max_limit_points: int = field(default=8, converter=int, validator=_at_least_one)
 
+    def __attrs_post_init__(self):
+        if not self.min_step <= self.step <= self.max_step:
+            raise ModelError(f"PathOptions: need min_step <= step <= max_step, got {self.min_step!r}, "
+                             f"{self.step!r}, {self.max_step!r}")
+
 
 @define
 class CriticalPoint:

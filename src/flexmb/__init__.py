@@ -18,9 +18,9 @@ from .errors import (AssemblyError, ExportError, FlexmbError, ModelError, Plugin
 from .forces import BodyTorque, ForceElement, Gravity, JointSpringDamper, Loads, PointForce, SpringDamper
 from .joints import Cylindrical, Fixed, Free, Joint, PlanarRevolute, Prismatic, Revolute, Spherical, Universal
 from .flexible import FlexibleBody, Segment
-from .analysis import (Calibration, Campbell, FrequencyResponse, Input, Linearization, Output, StateSpace,
-                       calibrate, campbell, frequency_response, linear_statics, linearize, modes, state_space,
-                       static_equilibrium)
+from .analysis import (Calibration, Campbell, CriticalPoint, FrequencyResponse, Input, Linearization, LoadPath,
+                       Output, PathOptions, StateSpace, calibrate, campbell, frequency_response, linear_statics,
+                       linearize, load_path, modes, state_space, static_equilibrium)
 from .model import Model
 from .registry import PluginInfo, plugins, register
 from .profiles import BeamProfile
@@ -49,6 +49,7 @@ __all__ = [
     "Linearization", "linear_statics", "linearize", "modes", "static_equilibrium", "Calibration", "calibrate",
     "Input", "Output", "StateSpace", "state_space", "FrequencyResponse", "frequency_response", "Campbell",
     "campbell",
+    "CriticalPoint", "LoadPath", "PathOptions", "load_path",
     "Model", "PluginInfo", "plugins", "register", "Result", "INTEGRATORS", "initial_state", "simulate", "System",
     "Scene", "SceneError", "load_scene", "loads_scene",
     "StiffnessWarning", "GeneralizedAlpha", "generalized_alpha",

@@ -6,7 +6,9 @@ linear
     Linearised equations in independent coordinates, natural modes,
     linear statics.
 statics
-    Nonlinear static equilibrium.
+    Nonlinear static equilibrium (Newton's method, then load continuation).
+path_following
+    Arc-length path following through limit points and snap-through.
 calibration
     Segment data fitted to measured natural frequencies and mode shapes.
 signals
@@ -20,7 +22,7 @@ campbell_diagram
 """
 
 from .linear import Linearization, linear_statics, linearize, modes, tangent_gap
-from .statics import static_equilibrium
+from .statics import CriticalPoint, LoadPath, PathOptions, load_path, static_equilibrium
 from .calibration import Calibration, calibrate
 from .signals import Input, Output
 from .statespace import StateSpace, state_space
@@ -28,5 +30,5 @@ from .frequency import FrequencyResponse, frequency_response
 from .campbell_diagram import Campbell, campbell
 
 __all__ = ["Linearization", "linearize", "modes", "linear_statics", "tangent_gap", "static_equilibrium",
-           "Calibration", "calibrate", "Input", "Output", "StateSpace", "state_space", "FrequencyResponse",
-           "frequency_response", "Campbell", "campbell"]
+           "load_path", "LoadPath", "CriticalPoint", "PathOptions", "Calibration", "calibrate", "Input", "Output",
+           "StateSpace", "state_space", "FrequencyResponse", "frequency_response", "Campbell", "campbell"]

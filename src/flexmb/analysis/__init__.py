@@ -9,6 +9,8 @@ statics
     Nonlinear static equilibrium (Newton's method, then load continuation).
 path_following
     Arc-length path following through limit points and snap-through.
+paths
+    The load path, its critical points and the follower's options.
 calibration
     Segment data fitted to measured natural frequencies and mode shapes.
 signals
@@ -22,7 +24,9 @@ campbell_diagram
 """
 
 from .linear import Linearization, linear_statics, linearize, modes, tangent_gap
-from .statics import CriticalPoint, LoadPath, PathOptions, load_path, static_equilibrium
+from .path_following import load_path
+from .paths import CriticalPoint, LoadPath, PathOptions
+from .statics import static_equilibrium
 from .calibration import Calibration, calibrate
 from .signals import Input, Output
 from .statespace import StateSpace, state_space

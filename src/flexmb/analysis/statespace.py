@@ -25,7 +25,7 @@ from attrs import define, field
 from ..errors import ModelError
 from ..threads import limited_blas
 from .linear import Linearization, linearize
-from .signals import Input, Output, _as_input, _as_output, _input_force, _output_rows
+from .signals import _as_input, _as_output, _input_force, _output_rows
 
 __all__ = ["StateSpace", "state_space", "EQUILIBRIUM_TOL"]
 

@@ -14,6 +14,7 @@ References
 
 from __future__ import annotations
 
+import functools
 import math
 import weakref
 
@@ -30,6 +31,27 @@ __all__ = ["GeneralizedAlpha", "GeneralizedAlphaDenseOutput", "generalized_alpha
 _EPS = np.finfo(float).eps
 #: the error estimate's projector when there is none (``f_max`` not set, or no mode above it)
 _NO_LOW_PASS = np.empty((0, 0))
+
+
+@functools.lru_cache(maxsize=64)
+def _settings(rho_inf, rtol, atol, n, n_state, max_step, min_step):
+    """The method's parameters, the positions' atol and the kernels' parameter array (``P_*``).
+
+    Returns ``(alpha_m, alpha_f, beta, gamma, beta', gamma', error constant,
+    Newton's tolerance, atol, par)``; the arrays are shared by the solvers
+    of one configuration and never written.
+    """
+    alpha_m, alpha_f, beta, gamma = alpha_parameters(rho_inf)
+    ratio = (1.0 - alpha_f) / (1.0 - alpha_m)
+    beta_p, gamma_p = beta * ratio, gamma * ratio
+    error_constant = 1.0 / 6.0 - beta - 0.5 * (alpha_m - alpha_f)
+    atol = np.broadcast_to(np.asarray(atol, dtype=float), (n_state,))[:n].copy()
+    if np.any(atol < 0):
+        raise ValueError("atol must be >= 0")
+    newton_tol = max(10 * _EPS / rtol, min(0.03, rtol**0.5))
+    par = np.array([alpha_m, alpha_f, beta, gamma, beta_p, gamma_p, error_constant, rtol, newton_tol,
+                    min_step or 0.0, max_step])
+    return alpha_m, alpha_f, beta, gamma, beta_p, gamma_p, error_constant, newton_tol, atol, par
 
 
 class GeneralizedAlphaDenseOutput(DenseOutput):
@@ -261,10 +283,6 @@ class GeneralizedAlpha(OdeSolver):
             self.min_step = float(min_step)
         if self.min_step is not None and not self.min_step > 0:
             raise ValueError(f"min_step must be > 0, got {self.min_step!r}")
-        self.alpha_m, self.alpha_f, self.beta, self.gamma = alpha_parameters(self.rho_inf)
-        ratio = (1.0 - self.alpha_f) / (1.0 - self.alpha_m)
-        self.beta_p, self.gamma_p = self.beta * ratio, self.gamma * ratio
-        self.error_constant = 1.0 / 6.0 - self.beta - 0.5 * (self.alpha_m - self.alpha_f)
         if n_second is None:
             if self.n % 2:
                 raise ValueError("GeneralizedAlpha needs n_second when len(y0) is odd")
@@ -272,17 +290,16 @@ class GeneralizedAlpha(OdeSolver):
         self.n_pos = n = int(n_second)
         if not 0 < 2 * n <= self.n:
             raise ValueError(f"n_second must be in [1, len(y0) / 2], got {n_second}")
-        self.rtol = max(float(rtol), 100 * _EPS)
-        self.atol = np.broadcast_to(np.asarray(atol, dtype=float), (self.n,))[:n].copy()
-        if np.any(self.atol < 0):
-            raise ValueError("atol must be >= 0")
         if not max_step > 0:
             raise ValueError("max_step must be > 0")
+        self.rtol = max(float(rtol), 100 * _EPS)
         self.max_step = float(max_step)
-        self.newton_tol = max(10 * _EPS / self.rtol, min(0.03, self.rtol**0.5))
-        self._par = np.array([self.alpha_m, self.alpha_f, self.beta, self.gamma, self.beta_p, self.gamma_p,
-                              self.error_constant, self.rtol, self.newton_tol, self.min_step or 0.0,
-                              self.max_step])
+        # cached for a scalar atol: simulate makes a new solver after every projection
+        settings = (_settings(self.rho_inf, self.rtol, float(atol), n, self.n, self.max_step, self.min_step)
+                    if np.ndim(atol) == 0 else
+                    _settings.__wrapped__(self.rho_inf, self.rtol, atol, n, self.n, self.max_step, self.min_step))
+        (self.alpha_m, self.alpha_f, self.beta, self.gamma, self.beta_p, self.gamma_p, self.error_constant,
+         self.newton_tol, self.atol, self._par) = settings
 
     def _start(self, fun, t0):
         """Accelerations at the start: from the previous instance's memory, or a right-hand side.

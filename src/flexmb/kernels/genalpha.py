@@ -180,6 +180,18 @@ def mean(a):
 
 
 @njit(cache=True)
+def _matvec(M, v):
+    """``M @ v`` by rows (numba's ``np.dot`` binds BLAS, which lengthens the kernels' first compilation)."""
+    out = np.empty(M.shape[0])
+    for i in range(M.shape[0]):
+        s = 0.0
+        for j in range(M.shape[1]):
+            s += M[i, j] * v[j]
+        out[i] = s
+    return out
+
+
+@njit(cache=True)
 def predict(y, a0, abar0, h, n, par, base, a1, y1):
     """The parts of a step's end known before it, and the first Newton iterate ``a1 = a0``.
 
@@ -410,7 +422,7 @@ def error_control(lu, piv, low_pass, abar0, abar1, y0, y1, n, h, h_abs, err_old,
     ch2 = par[P_ERROR_CONSTANT] * h * h
     for i in range(n):
         sol[i] = ch2 * sol[i]
-    est = np.dot(low_pass, sol) if low_pass.shape[0] else sol
+    est = _matvec(low_pass, sol) if low_pass.shape[0] else sol
     err = 0.0
     if n:
         rtol = par[P_RTOL]
@@ -459,7 +471,7 @@ def restart_accelerations(y, y_end, a_end, Jx, Jv, offset, n):
     for i in range(n):
         dx[i] = y[i] - y_end[i]
         dv[i] = y[n + i] - y_end[n + i]
-    jx, jv = np.dot(Jx, dx), np.dot(Jv, dv)
+    jx, jv = _matvec(Jx, dx), _matvec(Jv, dv)
     a = np.empty(n)
     abar = np.empty(n)
     for i in range(n):

@@ -20,6 +20,12 @@ commit 5fe978b::
     OPENBLAS_NUM_THREADS=1 PYTHONPATH=/tmp/before/src python benchmarks/genalpha_loop.py --label "numpy loop"
     OPENBLAS_NUM_THREADS=1 python benchmarks/genalpha_loop.py --label "compiled loop"
 
+``--compile`` instead times the first generalized-alpha solve of a
+session (an oscillator) against a second one: with an empty numba cache,
+the kernels' compilation (``flexmb.kernels.genalpha``)::
+
+    NUMBA_CACHE_DIR=$(mktemp -d) OPENBLAS_NUM_THREADS=1 python benchmarks/genalpha_loop.py --compile
+
 Appends a row to ``results/genalpha_loop.jsonl``.
 """
 
@@ -94,12 +100,32 @@ class OwnTime:
                         setattr(module, attr, self.timed(f, key))
 
 
+def first_run():
+    """Wall and CPU time of the first and of a second generalized-alpha solve of an oscillator."""
+    import numpy as np
+    from scipy.integrate import solve_ivp
+
+    def solve():
+        w0, c0 = time.perf_counter(), time.process_time()
+        solve_ivp(lambda t, y: np.array([y[1], -4.0 * y[0]]), (0.0, 1.0), [1.0, 0.0], method=genalpha.GeneralizedAlpha,
+                  jac=lambda t, y: np.array([[0.0, 1.0], [-4.0, 0.0]]), rtol=1e-6)
+        return time.perf_counter() - w0, time.process_time() - c0
+
+    (w1, c1), (w2, c2) = solve(), solve()
+    return {"scene": "oscillator", "what": "first generalized-alpha solve of a session against a second",
+            "numba_cache_dir": os.environ.get("NUMBA_CACHE_DIR"), "first_wall_s": w1, "first_cpu_s": c1,
+            "second_wall_s": w2, "second_cpu_s": c2}
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--label", default="")
+    ap.add_argument("--compile", action="store_true", help="only time the first solve of a session (see above)")
     ap.add_argument("--out", default=os.path.join(RESULTS, "genalpha_loop.jsonl"))
     args = ap.parse_args(argv)
+    if args.compile:
+        return emit(dict(first_run(), label=args.label, flexmb=fm.__file__), args.out)
     model, initial = scenes.b6(damped=False)
     system = model.build()
     fm.simulate(system, 0.05, positions=initial, progress=False)  # warm-up
@@ -123,11 +149,17 @@ def main(argv=None):
            "projections": res.n_projections, "repeats": args.repeat,
            "wall_s": min(walls), "cpu_s": min(cpus), "wall_s_all": walls, "cpu_s_all": cpus,
            "own_cpu_s": min(owns), "own_cpu_us_per_step": 1e6 * min(owns) / res.n_steps,
-           "own_cpu_s_all": owns, "rhs_cpu_us_per_call": 1e6 * min(rhs) / res.n_rhs,
-           "load_avg_1min": os.getloadavg()[0], "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())}
+           "own_cpu_s_all": owns, "rhs_cpu_us_per_call": 1e6 * min(rhs) / res.n_rhs}
+    return emit(row, args.out)
+
+
+def emit(row, out):
+    """Print a row and append it to ``out``."""
+    row["load_avg_1min"] = os.getloadavg()[0]
+    row["date"] = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
     print(json.dumps(row), flush=True)
-    os.makedirs(os.path.dirname(args.out), exist_ok=True)
-    with open(args.out, "a") as fh:
+    os.makedirs(os.path.dirname(out), exist_ok=True)
+    with open(out, "a") as fh:
         fh.write(json.dumps(row) + "\n")
     return row
 

@@ -1,53 +1,10 @@
-"""Generalized-alpha integration (Chung & Hulbert 1993) with error-controlled steps.
+"""The generalized-alpha solver: :class:`GeneralizedAlpha`, its dense output, and configured classes.
 
-For mechanical state ``y = (x, xd, w)`` with ``xdd = a(t, x, xd)`` (and
-``w`` optional first-order states that nothing depends on, such as the
-integrated work of ``simulate(..., track_work=True)``). The scheme is the
-generalized-alpha method in the form of Arnold & Bruels (2007) [2]_, which
-satisfies the equations of motion at every step end and keeps, for
-nonlinear problems, the second order of Chung & Hulbert [1]_::
-
-    x1 = x0 + h xd0 + h^2 (1/2 - beta) abar0 + h^2 beta abar1
-    xd1 = xd0 + h (1 - gamma) abar0 + h gamma abar1
-    (1 - alpha_m) abar1 + alpha_m abar0 = (1 - alpha_f) a1 + alpha_f a0
-    a1 = a(t1, x1, xd1)
-
-``abar`` is the algorithmic acceleration, a filtered ``a`` that lags by
-``(alpha_m - alpha_f) h``. The unknown is ``a1``; Newton's method on
-``r(a1) = a1 - a(t1, x1, xd1)`` uses the iteration matrix
-``I - gamma' h Jv - beta' h^2 Jx`` with ``beta' = beta (1 - alpha_f) / (1 -
-alpha_m)``, ``gamma' = gamma (1 - alpha_f) / (1 - alpha_m)`` and the blocks
-of the state Jacobian ``[[0, I], [Jx, Jv]]``, reused over steps while
-Newton converges fast.
-
-The step size follows a local error estimate of the positions,
-``(1/6 - beta - (alpha_m - alpha_f) / 2) h^2 (abar1 - abar0)`` (the
-Zienkiewicz-Xie estimate written for generalized-alpha: the leading term
-of the local error when ``abar`` lags ``a`` by ``(alpha_m - alpha_f) h``),
-under a PI controller (exponents 0.7/3 and 0.4/3). It is built from the
-algorithmic accelerations, and filtered by the iteration matrix as Radau
-filters its estimate, so a mode far above ``1 / h`` counts far less than
-its true acceleration would make it. That is not enough when modes a few
-times above the motion are excited (they are partly resolved, and their
-error is real): ``f_max`` then projects the estimate onto the modes of
-``Jx`` below ``f_max``, and the modes above are integrated stably and
-dissipated, not resolved. Projecting is not enough either when such a
-mode is only a few times above the steps' resolution: the estimate of a
-mode integrated at ``h omega`` of about 0.1 is thousands of times the
-tolerance, the projector (built from a Jacobian that lags the state) lets
-a fraction of it through, and a mode that is partly resolved is not
-dissipated at all (the spectral radius is 1 to within ``(h omega)^4``).
-``min_step`` then keeps the error control from reducing the step below
-it: every mode above ``1 / (2 pi min_step)`` Hz is integrated at ``h omega
->= 1`` and damped by the amplification factor of that step (see
-:func:`numerical_damping`); a step taken at ``min_step`` is accepted even
-when its error estimate exceeds the tolerance. The energy this removes is
-for the caller to report (``simulate(..., track_work=True)``: driver work minus the change
-of kinetic and elastic energy minus the dampers' work).
-
-The step loop is plain Python over numpy right-hand sides (on B6 the
-integrator's own work is under a tenth of a run's time); it is worth
-compiling together with the right-hand side once that is.
+The method, its error estimate and step control are described in
+:mod:`flexmb.genalpha`; the arithmetic of a step is compiled
+(:mod:`flexmb.kernels.genalpha`), this module calls the right-hand side
+and keeps the bookkeeping: Jacobians, LU factors, the memory across
+restarts, rejections and counts.
 
 References
 ----------
@@ -57,161 +14,44 @@ References
 
 from __future__ import annotations
 
+import functools
+import math
 import weakref
 
 import numpy as np
 from scipy.integrate import DenseOutput, OdeSolver
 from scipy.linalg import eig, lu_factor
-from scipy.linalg.lapack import dgetrs as _getrs
 
-__all__ = ["GeneralizedAlpha", "generalized_alpha", "alpha_parameters", "amplification_matrix",
-           "numerical_damping", "DEFAULT_RHO_INF"]
+from ..kernels import genalpha as kernels
+from ..kernels.genalpha import NEWTON_MAXITER
+from .parameters import DEFAULT_RHO_INF, alpha_parameters
 
-#: spectral radius at infinite frequency used by default
-DEFAULT_RHO_INF = 0.8
-
-#: Newton iterations before a step is retried
-NEWTON_MAXITER = 6
-#: step-size change factors: smallest, largest, and the band in which the step is kept
-MIN_FACTOR, MAX_FACTOR = 0.2, 5.0
-KEEP_BAND = (1.0, 1.2)
-SAFETY = 0.9
+__all__ = ["GeneralizedAlpha", "GeneralizedAlphaDenseOutput", "generalized_alpha"]
 
 _EPS = np.finfo(float).eps
+#: the error estimate's projector when there is none (``f_max`` not set, or no mode above it)
+_NO_LOW_PASS = np.empty((0, 0))
 
 
-def _lu_solve(lu, b):
-    """``S x = b`` from ``lu_factor``'s factors, by LAPACK getrs directly (scipy's ``lu_solve`` wrapper
-    costs more than the solve at a few dozen coordinates)."""
-    x, info = _getrs(lu[0], lu[1], b)
-    if info != 0:
-        raise ValueError(f"getrs failed (info {info})")
-    return x
+@functools.lru_cache(maxsize=64)
+def _settings(rho_inf, rtol, atol, n, n_state, max_step, min_step):
+    """The method's parameters, the positions' atol and the kernels' parameter array (``P_*``).
 
-
-def alpha_parameters(rho_inf: float) -> tuple[float, float, float, float]:
-    """The parameters of Chung & Hulbert's generalized-alpha method for a spectral radius ``rho_inf``.
-
-    Parameters
-    ----------
-    rho_inf : float
-        Spectral radius of the amplification matrix as ``h omega -> inf``,
-        in [0, 1]: 1 keeps all frequencies (no dissipation, the trapezoidal
-        rule), 0 annihilates the highest in one step.
-
-    Returns
-    -------
-    alpha_m, alpha_f, beta, gamma : float
-        ``alpha_m = (2 rho - 1) / (rho + 1)``, ``alpha_f = rho / (rho + 1)``,
-        ``gamma = 1/2 + alpha_f - alpha_m``, ``beta = (gamma + 1/2)^2 / 4``.
-
-    Raises
-    ------
-    ValueError
-        If ``rho_inf`` is not in [0, 1].
-
-    Notes
-    -----
-    Eqs. 25 and 17-18 of Chung & Hulbert (1993) [1]_ (their ``alpha_m``,
-    ``alpha_f`` weight the old step end): second-order accurate,
-    unconditionally stable for linear problems, with the high-frequency
-    dissipation maximal for the low-frequency dissipation it costs.
-
-    References
-    ----------
-    .. [1] J. Chung, G. M. Hulbert, "A time integration algorithm for
-       structural dynamics with improved numerical dissipation: the
-       generalized-alpha method", J. Appl. Mech. 60 (1993) 371-375.
-
-    Examples
-    --------
-    >>> from flexmb.genalpha import alpha_parameters
-    >>> alpha_parameters(1.0)
-    (0.5, 0.5, 0.25, 0.5)
+    Returns ``(alpha_m, alpha_f, beta, gamma, beta', gamma', error constant,
+    Newton's tolerance, atol, par)``; the arrays are shared by the solvers
+    of one configuration and never written.
     """
-    rho = float(rho_inf)
-    if not 0.0 <= rho <= 1.0:
-        raise ValueError(f"rho_inf must be in [0, 1], got {rho_inf!r}")
-    alpha_m = (2.0 * rho - 1.0) / (rho + 1.0)
-    alpha_f = rho / (rho + 1.0)
-    gamma = 0.5 + alpha_f - alpha_m
-    beta = 0.25 * (gamma + 0.5) ** 2
-    return alpha_m, alpha_f, beta, gamma
-
-
-def amplification_matrix(rho_inf: float, h_omega: float) -> np.ndarray:
-    """One step of the method on the undamped oscillator ``xdd = -omega^2 x``, as a matrix.
-
-    Parameters
-    ----------
-    rho_inf : float
-        Spectral radius at infinity, in [0, 1].
-    h_omega : float
-        Step times angular frequency, ``h omega``.
-
-    Returns
-    -------
-    ndarray, shape (3, 3)
-        ``A`` with ``(x1, h xd1, h^2 abar1) = A (x0, h xd0, h^2 abar0)``;
-        its spectral radius is the method's amplitude ratio per step, and
-        tends to ``rho_inf`` as ``h_omega -> inf``.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from flexmb.genalpha import amplification_matrix
-    >>> round(float(np.max(np.abs(np.linalg.eigvals(amplification_matrix(0.6, 1e8))))), 4)
-    0.6
-    """
-    am, af, b, g = alpha_parameters(rho_inf)
-    w2 = float(h_omega) ** 2
-    # unknowns scaled by h: X = x, V = h xd, B = h^2 abar, a = -omega^2 x  (h^2 a = -w2 x)
-    # abar1 = ((1 - af) a1 + af a0 - am abar0) / (1 - am); x1 = x0 + V0 + (1/2 - b) B0 + b B1
-    # with h^2 a1 = -w2 x1: solve the linear 3 x 3 step equations for (x1, V1, B1)
-    # rows: x1 - b B1 = x0 + V0 + (1/2 - b) B0
-    #       V1 - g B1 = V0 + (1 - g) B0
-    #       (1 - am) B1 + (1 - af) w2 x1 = -af w2 x0 - am B0
-    lhs = np.array([[1.0, 0.0, -b], [0.0, 1.0, -g], [(1 - af) * w2, 0.0, 1 - am]])
-    rhs = np.array([[1.0, 1.0, 0.5 - b], [0.0, 1.0, 1 - g], [-af * w2, 0.0, -am]])
-    return np.linalg.solve(lhs, rhs)
-
-
-def numerical_damping(rho_inf: float, h_omega) -> np.ndarray:
-    """The damping ratio equivalent to the method's dissipation of an undamped mode, per step.
-
-    A mode of angular frequency ``omega`` integrated with steps ``h`` loses
-    the fraction ``1 - r`` of its amplitude per step, ``r`` the spectral
-    radius of :func:`amplification_matrix`; a viscous damping ratio ``zeta``
-    does the same over the time ``h`` when ``exp(-zeta omega h) = r``, so
-    ``zeta = -ln(r) / (h omega)``.
-
-    Parameters
-    ----------
-    rho_inf : float
-        Spectral radius at infinity, in [0, 1].
-    h_omega : float or array_like
-        Step times angular frequency, ``h omega`` (> 0).
-
-    Returns
-    -------
-    ndarray
-        The equivalent damping ratio for each ``h_omega`` (``inf`` where
-        ``rho_inf = 0`` annihilates the mode in one step).
-
-    Examples
-    --------
-    >>> from flexmb.genalpha import numerical_damping
-    >>> float(numerical_damping(1.0, 2.0))
-    0.0
-    >>> round(float(numerical_damping(0.6, 1.0)), 4)
-    0.0051
-    """
-    hw = np.atleast_1d(np.asarray(h_omega, dtype=float))
-    out = np.empty(hw.shape)
-    for i, v in enumerate(hw):
-        r = float(np.max(np.abs(np.linalg.eigvals(amplification_matrix(rho_inf, v)))))
-        out[i] = np.inf if r <= 0.0 else max(0.0, -np.log(min(r, 1.0))) / v
-    return out.reshape(np.shape(h_omega))
+    alpha_m, alpha_f, beta, gamma = alpha_parameters(rho_inf)
+    ratio = (1.0 - alpha_f) / (1.0 - alpha_m)
+    beta_p, gamma_p = beta * ratio, gamma * ratio
+    error_constant = 1.0 / 6.0 - beta - 0.5 * (alpha_m - alpha_f)
+    atol = np.broadcast_to(np.asarray(atol, dtype=float), (n_state,))[:n].copy()
+    if np.any(atol < 0):
+        raise ValueError("atol must be >= 0")
+    newton_tol = max(10 * _EPS / rtol, min(0.03, rtol**0.5))
+    par = np.array([alpha_m, alpha_f, beta, gamma, beta_p, gamma_p, error_constant, rtol, newton_tol,
+                    min_step or 0.0, max_step])
+    return alpha_m, alpha_f, beta, gamma, beta_p, gamma_p, error_constant, newton_tol, atol, par
 
 
 class GeneralizedAlphaDenseOutput(DenseOutput):
@@ -402,64 +242,18 @@ class GeneralizedAlpha(OdeSolver):
             warnings.warn(f"the following arguments have no effect for GeneralizedAlpha: "
                           f"{', '.join(sorted(extraneous))}", stacklevel=2)
         super().__init__(fun, t0, y0, t_bound, vectorized=False)
-        if rho_inf is not None:
-            self.rho_inf = float(rho_inf)
-        if fixed_step is not None:
-            self.fixed_step = float(fixed_step)
-        if f_max is not None:
-            self.f_max = float(f_max)
-        if self.f_max is not None and not self.f_max > 0:
-            raise ValueError(f"f_max must be > 0, got {self.f_max!r}")
-        if min_step is not None:
-            self.min_step = float(min_step)
-        if self.min_step is not None and not self.min_step > 0:
-            raise ValueError(f"min_step must be > 0, got {self.min_step!r}")
-        self.alpha_m, self.alpha_f, self.beta, self.gamma = alpha_parameters(self.rho_inf)
-        ratio = (1.0 - self.alpha_f) / (1.0 - self.alpha_m)
-        self.beta_p, self.gamma_p = self.beta * ratio, self.gamma * ratio
-        d_alpha = self.alpha_m - self.alpha_f
-        self.error_constant = 1.0 / 6.0 - self.beta - 0.5 * d_alpha
-        if n_second is None:
-            if self.n % 2:
-                raise ValueError("GeneralizedAlpha needs n_second when len(y0) is odd")
-            n_second = self.n // 2
-        self.n_pos = n = int(n_second)
-        if not 0 < 2 * n <= self.n:
-            raise ValueError(f"n_second must be in [1, len(y0) / 2], got {n_second}")
-        self.rtol = max(float(rtol), 100 * _EPS)
-        self.atol = np.broadcast_to(np.asarray(atol, dtype=float), (self.n,))[:n].copy()
-        if np.any(self.atol < 0):
-            raise ValueError("atol must be >= 0")
-        if not max_step > 0:
-            raise ValueError("max_step must be > 0")
-        self.max_step = float(max_step)
+        self._configure(n_second, rtol, atol, max_step, rho_inf, fixed_step, f_max, min_step)
         self._jac_fun = jac
-        self.newton_tol = max(10 * _EPS / self.rtol, min(0.03, self.rtol**0.5))
         self.n_newton = 0
         self.n_rejected = 0
-
         self.J = None  # (Jx, Jv)
         self.low_pass = None  # projector of the error estimate onto the modes below f_max
         self.jac_current = False
-        self.lu = None
+        self.lu = None  # (LU factors, C-contiguous; row interchanges) of the iteration matrix
         self.lu_h = None
         self.err_old = None
         self.h_abs_old = None
-        memory = self._recall(fun, t0)
-        h_next = None
-        if memory is not None and memory[0] is not None:
-            (self.J, self.low_pass, self.lu, self.lu_h, self.err_old, self.h_abs_old, offset, h_next,
-             y_end, a_end, g_end) = memory
-            # the state was moved by a projection (about the tolerance): a to first order in the move
-            Jx, Jv = self.J
-            self.a = a_end + Jx @ (self.y[:n] - y_end[:n]) + Jv @ (self.y[n : 2 * n] - y_end[n : 2 * n])
-            self.g = g_end.copy()
-            self.abar = self.a + offset
-        else:
-            f0 = self.fun(self.t, self.y)
-            self.a = f0[n : 2 * n].copy()
-            self.g = f0[2 * n :].copy()
-            self.abar = self.a.copy()
+        h_next = self._start(fun, t0)
         if self.fixed_step is not None:
             self.h_abs = min(abs(self.fixed_step), self.max_step)
         elif h_next is not None:
@@ -474,6 +268,59 @@ class GeneralizedAlpha(OdeSolver):
             self.h_abs = min(max(self.h_abs, self.min_step), self.max_step)
         self._fun_key = fun
         self._dense = None
+
+    def _configure(self, n_second, rtol, atol, max_step, rho_inf, fixed_step, f_max, min_step):
+        """Check and set the options, the method's parameters and the kernels' parameter array."""
+        if rho_inf is not None:
+            self.rho_inf = float(rho_inf)
+        if fixed_step is not None:
+            self.fixed_step = float(fixed_step)
+        if f_max is not None:
+            self.f_max = float(f_max)
+        if self.f_max is not None and not self.f_max > 0:
+            raise ValueError(f"f_max must be > 0, got {self.f_max!r}")
+        if min_step is not None:
+            self.min_step = float(min_step)
+        if self.min_step is not None and not self.min_step > 0:
+            raise ValueError(f"min_step must be > 0, got {self.min_step!r}")
+        if n_second is None:
+            if self.n % 2:
+                raise ValueError("GeneralizedAlpha needs n_second when len(y0) is odd")
+            n_second = self.n // 2
+        self.n_pos = n = int(n_second)
+        if not 0 < 2 * n <= self.n:
+            raise ValueError(f"n_second must be in [1, len(y0) / 2], got {n_second}")
+        if not max_step > 0:
+            raise ValueError("max_step must be > 0")
+        self.rtol = max(float(rtol), 100 * _EPS)
+        self.max_step = float(max_step)
+        # cached for a scalar atol: simulate makes a new solver after every projection
+        settings = (_settings(self.rho_inf, self.rtol, float(atol), n, self.n, self.max_step, self.min_step)
+                    if np.ndim(atol) == 0 else
+                    _settings.__wrapped__(self.rho_inf, self.rtol, atol, n, self.n, self.max_step, self.min_step))
+        (self.alpha_m, self.alpha_f, self.beta, self.gamma, self.beta_p, self.gamma_p, self.error_constant,
+         self.newton_tol, self.atol, self._par) = settings
+
+    def _start(self, fun, t0):
+        """Accelerations at the start: from the previous instance's memory, or a right-hand side.
+
+        Returns the previous instance's next step size (None without memory).
+        """
+        n = self.n_pos
+        memory = self._recall(fun, t0)
+        if memory is not None and memory[0] is not None:
+            (self.J, self.low_pass, self.lu, self.lu_h, self.err_old, self.h_abs_old, offset, h_next,
+             y_end, a_end, g_end) = memory
+            # the state was moved by a projection (about the tolerance): a to first order in the move
+            Jx, Jv = self.J
+            self.a, self.abar = kernels.restart_accelerations(self.y, y_end, a_end, Jx, Jv, offset, n)
+            self.g = g_end.copy()
+            return h_next
+        f0 = self.fun(self.t, self.y)
+        self.a = f0[n : 2 * n].copy()
+        self.g = f0[2 * n :].copy()
+        self.abar = self.a.copy()
+        return None
 
     @property
     def step_size(self):
@@ -500,14 +347,11 @@ class GeneralizedAlpha(OdeSolver):
             pass
 
     # -- helpers
-    def _scale(self, x):
-        return self.atol + self.rtol * np.abs(x)
-
     def _initial_step(self) -> float:
         """From the accelerations: the position error constant times h^3 a-dot at about the tolerance."""
         n = self.n_pos
         x, v = self.y[:n], self.y[n : 2 * n]
-        sc = self._scale(x)
+        sc = self.atol + self.rtol * np.abs(x)
         d1 = np.sqrt(np.mean((v / sc) ** 2)) if n else 0.0
         d2 = np.sqrt(np.mean((self.a / sc) ** 2)) if n else 0.0
         # a step over which the second-order terms stay near the tolerance
@@ -538,6 +382,13 @@ class GeneralizedAlpha(OdeSolver):
                 Jv[:, k - n] = col
         return Jx, Jv
 
+    def _new_jacobian(self, t, y):
+        """A Jacobian at the step start, the low-pass projector from it; the LU factors to redo."""
+        self.J = self._jacobian(t, y)
+        self.low_pass = self._low_pass()
+        self.jac_current = True
+        self.lu = None
+
     def _low_pass(self):
         """``I - sum v_k w_k^H / (w_k^H v_k)`` over the eigenpairs of Jx above f_max (None if none).
 
@@ -560,81 +411,57 @@ class GeneralizedAlpha(OdeSolver):
         Jx, Jv = self.J
         n = self.n_pos
         S = np.eye(n) - (self.gamma_p * h) * Jv - (self.beta_p * h * h) * Jx
-        self.lu = lu_factor(S, overwrite_a=True, check_finite=False)
+        lu, piv = lu_factor(S, overwrite_a=True, check_finite=False)
+        self.lu = (np.ascontiguousarray(lu), piv)
         self.lu_h = h
         self.nlu += 1
 
     def _newton(self, t1, h):
-        """Solve for a1 at t1 = t + h; returns (converged, x1, v1, a1, abar1, g1, n_iter, rate)."""
+        """Solve for a1 at t1 = t + h: ((y1, a1, abar1, g1) or None if it failed, iterations, last rate).
+
+        Python calls the right-hand side; the arithmetic between two calls
+        is one compiled :func:`~flexmb.kernels.genalpha.newton_update`.
+        """
         n = self.n_pos
-        x0, v0, w0 = self.y[:n], self.y[n : 2 * n], self.y[2 * n :]
-        am, af, b, g = self.alpha_m, self.alpha_f, self.beta, self.gamma
-        a0, abar0 = self.a, self.abar
-        # the parts of x1, v1, abar1 known before the step; a1 enters through beta', gamma'
-        abar_c = (af * a0 - am * abar0) / (1 - am)
-        c = (1 - af) / (1 - am)
-        x_c = x0 + h * v0 + h * h * ((0.5 - b) * abar0 + b * abar_c)
-        v_c = v0 + h * ((1 - g) * abar0 + g * abar_c)
-        a1 = a0.copy()
-        sx, sv = None, None
-        rate, d_old = None, None
-        y1 = np.empty(self.n)
-        y1[2 * n :] = w0
+        base, a1, y1 = np.empty((3, n)), np.empty(n), np.empty(self.n)
+        abar1, scale = np.empty(n), np.empty((2, n))
+        kernels.predict(self.y, self.a, self.abar, h, n, self._par, base, a1, y1)
+        lu, piv = self.lu
+        d, rate = -1.0, -1.0
         for k in range(NEWTON_MAXITER):
-            x1 = x_c + self.beta_p * h * h * a1
-            v1 = v_c + self.gamma_p * h * a1
-            y1[:n], y1[n : 2 * n] = x1, v1
             f = self.fun(t1, y1)
             self.n_newton += 1
-            if not np.all(np.isfinite(f)):
-                return False, None, None, None, None, None, k + 1, None
-            da = -_lu_solve(self.lu, a1 - f[n : 2 * n])
-            a1 = a1 + da
-            if sx is None:
-                sx, sv = self._scale(x1), self._scale(v1)
-            d = np.sqrt(0.5 * (np.mean((self.beta_p * h * h * da / sx) ** 2)
-                               + np.mean((self.gamma_p * h * da / sv) ** 2))) if n else 0.0
-            if d_old is not None:
-                rate = d / d_old if d_old > 0 else 0.0
-                if rate >= 1.0 or rate ** (NEWTON_MAXITER - k) / (1 - rate) * d > self.newton_tol:
-                    return False, None, None, None, None, None, k + 1, rate
-            if d == 0.0 or (rate is not None and rate / (1 - rate) * d < self.newton_tol):
-                x1 = x_c + self.beta_p * h * h * a1
-                v1 = v_c + self.gamma_p * h * a1
-                abar1 = abar_c + c * a1
-                return True, x1, v1, a1, abar1, f[2 * n :], k + 1, rate
-            d_old = d
-        return False, None, None, None, None, None, NEWTON_MAXITER, rate
+            outcome, d, rate = kernels.newton_update(f, lu, piv, h, n, k, d, self._par, self.atol, base, self.g,
+                                                     a1, y1, abar1, scale)
+            if outcome == kernels.CONVERGED:
+                return (y1, a1, abar1, f[2 * n :]), k + 1, rate
+            if outcome == kernels.FAILED:
+                return None, k + 1, rate
+        return None, NEWTON_MAXITER, rate
 
     def _step_impl(self):
-        t, n = self.t, self.n_pos
+        t, direction = self.t, float(self.direction)
         fixed = self.fixed_step is not None
         h_abs = min(self.h_abs, self.max_step)
-        min_step = 10 * np.abs(np.nextafter(t, self.direction * np.inf) - t)
+        smallest = 10 * abs(math.nextafter(t, direction * math.inf) - t)
         while True:
-            if h_abs < min_step:
+            if h_abs < smallest:
                 return False, "the step size fell below the smallest step (Newton or error test fails)"
-            h = h_abs * self.direction
+            h = h_abs * direction
             t1 = t + h
             # a remainder of round-off size after this step is taken into it
-            if self.direction * (t1 - self.t_bound) > -1e-9 * h_abs:
+            if direction * (t1 - self.t_bound) > -1e-9 * h_abs:
                 t1 = self.t_bound
                 h = t1 - t
                 h_abs = abs(h)
             if self.J is None:
-                self.J = self._jacobian(t, self.y)
-                self.low_pass = self._low_pass()
-                self.jac_current = True
-                self.lu = None
+                self._new_jacobian(t, self.y)
             if self.lu is None or self.lu_h != h:
                 self._factor(h)
-            ok, x1, v1, a1, abar1, g1, n_iter, rate = self._newton(t1, h)
-            if not ok:
+            end, n_iter, rate = self._newton(t1, h)
+            if end is None:
                 if not self.jac_current:
-                    self.J = self._jacobian(t, self.y)
-                    self.low_pass = self._low_pass()
-                    self.jac_current = True
-                    self.lu = None
+                    self._new_jacobian(t, self.y)
                     continue
                 if fixed:
                     return False, f"Newton's method failed at t = {t1:.9g} with the fixed step {h_abs:.3g}"
@@ -643,54 +470,34 @@ class GeneralizedAlpha(OdeSolver):
                 self.lu = None
                 continue
             if fixed:
-                err = 0.0
-                factor = 1.0
                 break
             # filtered by the iteration matrix (as Radau filters its estimate): modes far above 1 / h,
             # which the method dissipates instead of resolving, do not set the step
-            est = self.error_constant * h * h * _lu_solve(self.lu, abar1 - self.abar)
-            if self.low_pass is not None:
-                est = self.low_pass @ est
-            sc = self.atol + self.rtol * np.maximum(np.abs(self.y[:n]), np.abs(x1))
-            err = float(np.sqrt(np.mean((est / sc) ** 2))) if n else 0.0
-            floor = self.min_step
-            at_floor = floor is not None and h_abs <= floor * (1.0 + 1e-12)
-            if err > 1.0 and not at_floor:
-                self.n_rejected += 1
-                h_abs *= max(MIN_FACTOR, SAFETY * err ** (-1.0 / 3.0))
-                if floor is not None:
-                    h_abs = max(h_abs, floor)
-                continue
-            # PI control (Gustafsson): exponents 0.7/3 and 0.4/3 on the order-3 local error
-            if err == 0.0:
-                factor = MAX_FACTOR
-            elif self.err_old is None or self.err_old == 0.0:
-                factor = SAFETY * err ** (-1.0 / 3.0)
-            else:
-                factor = SAFETY * err ** (-0.7 / 3.0) * self.err_old ** (0.4 / 3.0)
-            factor = min(MAX_FACTOR, max(MIN_FACTOR, factor))
-            break
+            accepted, err, h_next = kernels.error_control(
+                *self.lu, _NO_LOW_PASS if self.low_pass is None else self.low_pass, self.abar, end[2], self.y,
+                end[0], self.n_pos, h, h_abs, self.err_old or 0.0, self._par, self.atol)
+            if accepted:
+                break
+            self.n_rejected += 1
+            h_abs = h_next
+        self._accept(t1, h_abs, end, n_iter, rate, None if fixed else err, None if fixed else h_next)
+        return True, None
 
-        y_old, abar_old, g_old = self.y, self.abar, self.g
-        y1 = np.concatenate([x1, v1, self.y[2 * n :] + 0.5 * h * (self.g + g1)])
-        self._dense = (y_old, abar_old, g_old)
-        self.y, self.t = y1, t1
-        self.a, self.abar, self.g = a1, abar1, g1
+    def _accept(self, t1, h_abs, end, n_iter, rate, err, h_next):
+        """Take the step to t1: the new state, the error history, the Jacobian's fate, the next step size."""
+        self._dense = (self.y, self.abar, self.g)
+        self.y, self.a, self.abar, self.g = end
+        self.t = t1
         self.h_abs_old = h_abs
-        self.err_old = max(err, 1e-10) if not fixed else None
+        self.err_old = None if err is None else max(err, 1e-10)
         # a Jacobian that let Newton converge slowly is refreshed before the next step
         if self.jac_current:
             self.jac_current = False
-        elif n_iter > 2 and rate is not None and rate > 1e-3:
+        elif n_iter > 2 and rate > 1e-3:
             self.J = None
-        if not fixed:
-            if KEEP_BAND[0] <= factor < KEEP_BAND[1]:
-                factor = 1.0
-            self.h_abs = min(h_abs * factor, self.max_step)
-            if self.min_step is not None:
-                self.h_abs = min(max(self.h_abs, self.min_step), self.max_step)
+        if h_next is not None:
+            self.h_abs = h_next
         self._remember()
-        return True, None
 
     def _dense_output_impl(self):
         y_old, abar_old, g_old = self._dense

@@ -1,0 +1,70 @@
+"""Generalized-alpha integration (Chung & Hulbert 1993) with error-controlled steps.
+
+For mechanical state ``y = (x, xd, w)`` with ``xdd = a(t, x, xd)`` (and
+``w`` optional first-order states that nothing depends on, such as the
+integrated work of ``simulate(..., track_work=True)``). The scheme is the
+generalized-alpha method in the form of Arnold & Bruels (2007) [2]_, which
+satisfies the equations of motion at every step end and keeps, for
+nonlinear problems, the second order of Chung & Hulbert [1]_::
+
+    x1 = x0 + h xd0 + h^2 (1/2 - beta) abar0 + h^2 beta abar1
+    xd1 = xd0 + h (1 - gamma) abar0 + h gamma abar1
+    (1 - alpha_m) abar1 + alpha_m abar0 = (1 - alpha_f) a1 + alpha_f a0
+    a1 = a(t1, x1, xd1)
+
+``abar`` is the algorithmic acceleration, a filtered ``a`` that lags by
+``(alpha_m - alpha_f) h``. The unknown is ``a1``; Newton's method on
+``r(a1) = a1 - a(t1, x1, xd1)`` uses the iteration matrix
+``I - gamma' h Jv - beta' h^2 Jx`` with ``beta' = beta (1 - alpha_f) / (1 -
+alpha_m)``, ``gamma' = gamma (1 - alpha_f) / (1 - alpha_m)`` and the blocks
+of the state Jacobian ``[[0, I], [Jx, Jv]]``, reused over steps while
+Newton converges fast.
+
+The step size follows a local error estimate of the positions,
+``(1/6 - beta - (alpha_m - alpha_f) / 2) h^2 (abar1 - abar0)`` (the
+Zienkiewicz-Xie estimate written for generalized-alpha: the leading term
+of the local error when ``abar`` lags ``a`` by ``(alpha_m - alpha_f) h``),
+under a PI controller (exponents 0.7/3 and 0.4/3). It is built from the
+algorithmic accelerations, and filtered by the iteration matrix as Radau
+filters its estimate, so a mode far above ``1 / h`` counts far less than
+its true acceleration would make it. That is not enough when modes a few
+times above the motion are excited (they are partly resolved, and their
+error is real): ``f_max`` then projects the estimate onto the modes of
+``Jx`` below ``f_max``, and the modes above are integrated stably and
+dissipated, not resolved. Projecting is not enough either when such a
+mode is only a few times above the steps' resolution: the estimate of a
+mode integrated at ``h omega`` of about 0.1 is thousands of times the
+tolerance, the projector (built from a Jacobian that lags the state) lets
+a fraction of it through, and a mode that is partly resolved is not
+dissipated at all (the spectral radius is 1 to within ``(h omega)^4``).
+``min_step`` then keeps the error control from reducing the step below
+it: every mode above ``1 / (2 pi min_step)`` Hz is integrated at ``h omega
+>= 1`` and damped by the amplification factor of that step (see
+:func:`numerical_damping`); a step taken at ``min_step`` is accepted even
+when its error estimate exceeds the tolerance. The energy this removes is
+for the caller to report (``simulate(..., track_work=True)``: driver work minus the change
+of kinetic and elastic energy minus the dampers' work).
+
+The step's arithmetic is compiled (:mod:`flexmb.kernels.genalpha`, numba):
+per Newton iteration, Python calls the right-hand side and one kernel that
+updates ``a1``, tests convergence and gives the next iterate or the step's
+end; per step, one kernel predicts and one estimates the error and sets
+the next step size. Python keeps the bookkeeping (Jacobians, LU factors,
+restarts, counts). The right-hand side (:meth:`flexmb.System.state_rate`,
+compiled kernels with Python glue) is not called from compiled code.
+
+The solver is in :mod:`flexmb.genalpha.solver`, the method's parameters
+and amplification in :mod:`flexmb.genalpha.parameters`; their public names
+are importable from here.
+
+References
+----------
+.. [1] J. Chung, G. M. Hulbert, J. Appl. Mech. 60 (1993) 371-375.
+.. [2] M. Arnold, O. Bruels, Multibody Syst. Dyn. 18 (2007) 185-202.
+"""
+
+from .parameters import DEFAULT_RHO_INF, alpha_parameters, amplification_matrix, numerical_damping
+from .solver import GeneralizedAlpha, GeneralizedAlphaDenseOutput, generalized_alpha
+
+__all__ = ["GeneralizedAlpha", "generalized_alpha", "alpha_parameters", "amplification_matrix",
+           "numerical_damping", "DEFAULT_RHO_INF"]

@@ -318,17 +318,44 @@ def calibrate(target, frequencies, mode_shapes=None, *, stations=None, body=None
     >>> cal.body.stiffness_scale.shape
     (8,)
     """
-    from ..model import Model
-
     where = "calibrate"
+    f_target, with_mass = _check_targets(where, frequencies, fit)
+    m = f_target.size
+    body0, model0, skip = _test_setup(where, target, body, configuration, skip)
+    st, shapes = _check_shapes(where, mode_shapes, stations, m, body0.length)
+    n_res = m + (0 if shapes is None else shapes.size)
+    fitter = _Fit(body0, model0, skip, f_target, shapes, with_mass, shape_weight, regularization,
+                  *_basis_sizes(where, body0, m, with_mass, shapes is not None, n_stiffness, n_mass))
+    p0 = np.zeros(fitter.n_parameters)
+    body_p0, _, sys0, f_before, phi0 = fitter.evaluate(p0)
+    # the stations' displacements are linear in x with a map fixed by the geometry, not by k or m
+    fitter.S = None if shapes is None else _station_matrix(sys0, body_p0, st)
+    sol = least_squares(fitter.residuals, p0, method="trf", x_scale=1.0, diff_step=1e-6, ftol=tol, xtol=tol,
+                        gtol=tol, max_nfev=max_nfev)
+    new, model, _, f_after, phi1 = fitter.evaluate(sol.x)
+    ks, ms = fitter.scales(sol.x)
+    return Calibration(body=new, model=model, stiffness_scale=ks, mass_scale=ms if with_mass else np.ones_like(ms),
+                       parameters=sol.x, target=f_target, before=f_before, after=f_after,
+                       mac_before=fitter.mac(phi0), mac_after=fitter.mac(phi1),
+                       residual=float(np.linalg.norm(sol.fun[:n_res])), rank=_rank(sol.jac[:n_res]),
+                       success=bool(sol.success), message=sol.message, nfev=fitter.count)
+
+
+def _check_targets(where, frequencies, fit):
+    """The target frequencies and whether masses are fitted too."""
     f_target = np.array(frequencies, dtype=float).ravel() if not isinstance(frequencies, str) else np.array([])
     if f_target.size == 0 or not np.all(np.isfinite(f_target)) or np.any(f_target <= 0):
         raise ModelError(f"{where}: frequencies must be finite numbers > 0, got {frequencies!r}")
-    m = f_target.size
     fit = (fit,) if isinstance(fit, str) else tuple(fit)
     if fit not in (("stiffness",), ("stiffness", "mass"), ("mass", "stiffness")):
         raise ModelError(f"{where}: fit must be ('stiffness',) or ('stiffness', 'mass'), got {fit!r}")
-    with_mass = "mass" in fit
+    return f_target, "mass" in fit
+
+
+def _test_setup(where, target, body, configuration, skip):
+    """The body fitted, the model of the test and the rigid-body modes to skip."""
+    from ..model import Model
+
     if isinstance(target, FlexibleBody):
         configuration = "clamped" if configuration is None else configuration
         if configuration not in CONFIGURATIONS:
@@ -342,97 +369,102 @@ def calibrate(target, frequencies, mode_shapes=None, *, stations=None, body=None
         body0, model0, rigid = _which_body(target, body), target, 0
     else:
         raise ModelError(f"{where}: target must be a FlexibleBody or a Model, got {type(target).__name__}")
-
     skip = rigid if skip is None else skip
     if isinstance(skip, bool) or not isinstance(skip, (int, np.integer)) or skip < 0:
         raise ModelError(f"{where}: skip must be an integer >= 0, got {skip!r}")
-    L = body0.length
-    shapes = None
-    if mode_shapes is not None:
-        if stations is None:
-            raise ModelError(f"{where}: mode_shapes need the stations (arclengths) where they were measured")
-        st = np.array(stations, dtype=float).ravel()
-        shapes = np.array(mode_shapes, dtype=float)
-        if shapes.ndim == 1:
-            shapes = shapes[:, None]
-        if shapes.shape != (st.size, m):
-            raise ModelError(f"{where}: mode_shapes must have shape (len(stations), len(frequencies)) = "
-                             f"{(st.size, m)}, got {shapes.shape}")
-        if (not np.all(np.isfinite(shapes)) or not np.all(np.isfinite(st)) or np.any(st < 0) or np.any(st > L)
-                or np.any(np.linalg.norm(shapes, axis=0) == 0)):
-            raise ModelError(f"{where}: mode shapes must be finite and non-zero, stations within [0, {L:g}] m")
-        shapes = shapes / np.linalg.norm(shapes, axis=0)
-    n_res = m + (0 if shapes is None else shapes.size)
+    return body0, model0, skip
 
+
+def _check_shapes(where, mode_shapes, stations, m, L):
+    """The stations and the measured mode shapes, each normalised (None without shapes)."""
+    if mode_shapes is None:
+        return None, None
+    if stations is None:
+        raise ModelError(f"{where}: mode_shapes need the stations (arclengths) where they were measured")
+    st = np.array(stations, dtype=float).ravel()
+    shapes = np.array(mode_shapes, dtype=float)
+    if shapes.ndim == 1:
+        shapes = shapes[:, None]
+    if shapes.shape != (st.size, m):
+        raise ModelError(f"{where}: mode_shapes must have shape (len(stations), len(frequencies)) = "
+                         f"{(st.size, m)}, got {shapes.shape}")
+    if (not np.all(np.isfinite(shapes)) or not np.all(np.isfinite(st)) or np.any(st < 0) or np.any(st > L)
+            or np.any(np.linalg.norm(shapes, axis=0) == 0)):
+        raise ModelError(f"{where}: mode shapes must be finite and non-zero, stations within [0, {L:g}] m")
+    return st, shapes / np.linalg.norm(shapes, axis=0)
+
+
+def _basis_sizes(where, body0, m, with_mass, with_shapes, n_stiffness, n_mass):
+    """The Legendre bases of the stiffness and mass scale profiles, at the joints and the segments."""
     # joint stations (the clamp joint at a quarter segment: the middle of its span) and segment mid-points
-    l = body0.segment_length
+    l, L = body0.segment_length, body0.length
     s_joint = np.arange(0 if body0.clamped else 1, body0.n_segments) * l
     if body0.clamped:
         s_joint[0] = 0.25 * l
     s_seg = (np.arange(body0.n_segments) + 0.5) * l
     if n_stiffness is None:
-        n_stiffness = m if (not with_mass or shapes is not None) else (m + 1) // 2
+        n_stiffness = m if (not with_mass or with_shapes) else (m + 1) // 2
     n_stiffness = int(min(n_stiffness, body0.n_joints))
     if not with_mass:
         n_mass = 0
     elif n_mass is None:
-        n_mass = m - 1 if shapes is not None else m - n_stiffness
+        n_mass = m - 1 if with_shapes else m - n_stiffness
     n_mass = int(min(n_mass, body0.n_segments - 1))
     if n_stiffness < 1 or n_mass < 0 or (with_mass and n_mass < 1):
         raise ModelError(f"{where}: need n_stiffness >= 1 (and n_mass >= 1 to fit masses), got "
                          f"{n_stiffness}, {n_mass}")
-    Pk = _legendre(s_joint, L, n_stiffness - 1)
-    Pm = _legendre(s_seg, L, n_mass)[:, 1:]
-    m_seg = body0.segment_properties()[0]
-    k0 = body0.stiffness_scale
-    m0 = body0.mass_scale
+    return _legendre(s_joint, L, n_stiffness - 1), _legendre(s_seg, L, n_mass)[:, 1:]
 
-    def scales(p):
-        ks = np.exp(Pk @ p[:n_stiffness])
-        ms = np.exp(Pm @ p[n_stiffness:])
-        ms *= np.sum(m_seg) / np.sum(m_seg * ms)  # keep the total mass
+
+class _Fit:
+    """The least-squares problem of :func:`calibrate`: scale profiles, modal analysis, residuals."""
+
+    def __init__(self, body0, model0, skip, f_target, shapes, with_mass, shape_weight, regularization, Pk, Pm):
+        self.body0, self.model0, self.skip = body0, model0, skip
+        self.f_target, self.shapes, self.with_mass = f_target, shapes, with_mass
+        self.shape_weight, self.regularization = shape_weight, regularization
+        self.Pk, self.Pm = Pk, Pm
+        self.n_stiffness = Pk.shape[1]
+        self.n_parameters = Pk.shape[1] + Pm.shape[1]
+        self.m_seg = body0.segment_properties()[0]
+        self.S = None
+        self.count = 0  # modal analyses, the Jacobian's included (least_squares' nfev leaves those out)
+
+    def scales(self, p):
+        """Stiffness and mass scale factors of parameters ``p`` (the total mass kept)."""
+        ks = np.exp(self.Pk @ p[: self.n_stiffness])
+        ms = np.exp(self.Pm @ p[self.n_stiffness:])
+        ms *= np.sum(self.m_seg) / np.sum(self.m_seg * ms)  # keep the total mass
         return ks, ms
 
-    def evaluate(p):
-        ks, ms = scales(p)
-        new = attrs.evolve(body0, stiffness_scale=ks if k0 is None else (k0.T * ks).T,
-                           mass_scale=None if not with_mass else (ms if m0 is None else m0 * ms))
-        model = _with_body(model0, body0, new)
+    def evaluate(self, p):
+        """The scaled body, its model and system, and the frequencies and shapes of the fitted modes."""
+        ks, ms = self.scales(p)
+        k0, m0 = self.body0.stiffness_scale, self.body0.mass_scale
+        new = attrs.evolve(self.body0, stiffness_scale=ks if k0 is None else (k0.T * ks).T,
+                           mass_scale=None if not self.with_mass else (ms if m0 is None else m0 * ms))
+        model = _with_body(self.model0, self.body0, new)
         system = model.build()
-        f, phi = modes(system, skip + m)
-        return new, model, system, f[skip:], phi[:, skip:]
+        m = self.f_target.size
+        f, phi = modes(system, self.skip + m)
+        return new, model, system, f[self.skip:], phi[:, self.skip:]
 
-    p0 = np.zeros(n_stiffness + n_mass)
-    body_p0, _, sys0, f_before, phi0 = evaluate(p0)
-    # the stations' displacements are linear in x with a map fixed by the geometry, not by k or m
-    S = None if shapes is None else _station_matrix(sys0, body_p0, st)
-
-    count = [0]  # modal analyses, the Jacobian's included (least_squares' nfev leaves those out)
-
-    def residuals(p):
-        count[0] += 1
-        _, _, system, f, phi = evaluate(p)
-        r = [f / f_target - 1.0]
-        if shapes is not None:
-            v = S @ phi
-            alpha = np.sum(shapes * v, axis=0) / np.sum(v * v, axis=0)
-            r.append(shape_weight * (shapes - alpha * v).ravel())
-        if regularization:
-            r.append(regularization * p)  # the smallest change wins where the data leave a direction free
+    def residuals(self, p):
+        """Relative frequency errors, weighted mode-shape misfits and the regularisation rows."""
+        self.count += 1
+        _, _, _, f, phi = self.evaluate(p)
+        r = [f / self.f_target - 1.0]
+        if self.shapes is not None:
+            v = self.S @ phi
+            alpha = np.sum(self.shapes * v, axis=0) / np.sum(v * v, axis=0)
+            r.append(self.shape_weight * (self.shapes - alpha * v).ravel())
+        if self.regularization:
+            r.append(self.regularization * p)  # the smallest change wins where the data leave a direction free
         return np.concatenate(r)
 
-    def mac(phi):
-        if shapes is None:
+    def mac(self, phi):
+        """The modal assurance criterion of each fitted mode against the measured shape (None without shapes)."""
+        if self.shapes is None:
             return None
-        v = S @ phi
-        return np.sum(shapes * v, axis=0) ** 2 / np.sum(v * v, axis=0)
-
-    sol = least_squares(residuals, p0, method="trf", x_scale=1.0, diff_step=1e-6, ftol=tol, xtol=tol, gtol=tol,
-                        max_nfev=max_nfev)
-    new, model, _, f_after, phi1 = evaluate(sol.x)
-    ks, ms = scales(sol.x)
-    return Calibration(body=new, model=model, stiffness_scale=ks, mass_scale=ms if with_mass else np.ones_like(ms),
-                       parameters=sol.x, target=f_target, before=f_before, after=f_after,
-                       mac_before=mac(phi0), mac_after=mac(phi1),
-                       residual=float(np.linalg.norm(sol.fun[:n_res])), rank=_rank(sol.jac[:n_res]),
-                       success=bool(sol.success), message=sol.message, nfev=count[0])
+        v = self.S @ phi
+        return np.sum(self.shapes * v, axis=0) ** 2 / np.sum(v * v, axis=0)

@@ -38,7 +38,7 @@ Examples
 
 from .settings import SECTIONS, InitialState, OutputSettings, SolverSettings
 from .scene import Scene
-from .load import load_scene, loads_scene, scene_from_dict
+from .load import builtin_scenes, load_builtin, load_scene, loads_scene, scene_from_dict
 
 __all__ = ["Scene", "SolverSettings", "OutputSettings", "InitialState", "load_scene", "loads_scene", "SECTIONS"]
-__all__ += ["scene_from_dict"]
+__all__ += ["scene_from_dict", "builtin_scenes", "load_builtin"]

@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import os
 import tomllib
+from importlib import resources
 from pathlib import Path
 
 from ..errors import SceneError
 from .loader import _Loader
 from .scene import Scene
 
-__all__ = ["load_scene", "loads_scene", "scene_from_dict"]
+__all__ = ["builtin_scenes", "load_builtin", "load_scene", "loads_scene", "scene_from_dict"]
 
 
 def loads_scene(text: str, source: str = "<scene>") -> Scene:
@@ -134,3 +135,51 @@ def scene_from_dict(data: dict, source: str = "<scene>") -> Scene:
         raise SceneError(f"{source}: a scene must be a table (dict), got {type(data).__name__}")
     stem = Path(source).stem if source != "<scene>" else "scene"
     return _Loader(copy.deepcopy(data), source, stem).load()
+
+
+def _builtin_folder():
+    return resources.files("flexmb.scene") / "builtin"
+
+
+def builtin_scenes() -> list[str]:
+    """Names of the built-in scenes: the scene files shipped in ``flexmb/scene/builtin/``.
+
+    Returns
+    -------
+    list of str
+        Sorted names (``'fourbar'``, ``'wiper'``), each runnable as ``flexmb run NAME``.
+
+    Examples
+    --------
+    >>> from flexmb.scene import builtin_scenes
+    >>> builtin_scenes()
+    ['fourbar', 'wiper']
+    """
+    return sorted(f.name.removesuffix(".toml") for f in _builtin_folder().iterdir() if f.name.endswith(".toml"))
+
+
+def load_builtin(name: str) -> Scene:
+    """Read a built-in scene (what ``flexmb run NAME`` runs), named by its name in messages and summaries.
+
+    Parameters
+    ----------
+    name : str
+        One of :func:`builtin_scenes`.
+
+    Returns
+    -------
+    Scene
+        The scene of ``flexmb/scene/builtin/<name>.toml``.
+
+    Raises
+    ------
+    SceneError
+        If there is no built-in scene of that name (the message lists them).
+
+    See Also
+    --------
+    load_scene : Read any scene file.
+    """
+    if name not in builtin_scenes():
+        raise SceneError(f"no built-in scene {name!r}; pick one of {', '.join(builtin_scenes())}")
+    return loads_scene((_builtin_folder() / f"{name}.toml").read_text(encoding="utf-8"), source=name)

@@ -11,6 +11,8 @@ import numpy as np
 
 from .. import memory, registry
 from ..errors import FlexmbError, ModelError, PluginError, SceneError
+from .figures import FIGURES
+from .keys import key_paths, set_key
 from .scene import Scene
 from .settings import (SECTIONS, STUDY_KEYS, InitialState, OutputSettings, SolverSettings, _is_number,
                        _prefix_problem, _toml_type)
@@ -23,10 +25,11 @@ _BODY_KEYS = {"parent", "child", "body", "body1", "body2"}
 class _Loader:
     """Turns the parsed TOML document into a :class:`Scene`, raising SceneError with key paths."""
 
-    def __init__(self, data: dict, source: str, stem: str):
+    def __init__(self, data: dict, source: str, stem: str, run: str | None = None):
         self.data = data
         self.source = source
         self.stem = stem
+        self.run = run  # the label of the run being built, for one of the [runs] of a scene
         self.materials: dict = {}
         self.sections: dict = {}
         self.bodies: dict = {}
@@ -230,7 +233,40 @@ class _Loader:
             memory.check(system, solver.n_out, what=f"{solver.n_out} output times", model=False)
         except ModelError as exc:
             self.fail("solver.n_out", str(exc))
+        self.check_metrics(scene, system)
+        scene.runs = self.load_runs()
+        if self.run is None and FIGURES[output.figure][0] == "runs" and not scene.runs:
+            self.fail("output.figure", f"figure {output.figure!r} draws the [runs] of a scene, and this one has none")
         return scene
+
+    def check_metrics(self, scene, system) -> None:
+        """Refuse an ``[output.metrics]`` entry that names no output of this scene."""
+        from ..study.metrics import _check_output
+
+        for key, spec in scene.output.metrics.items():
+            try:
+                _check_output(spec, scene, system)
+            except FlexmbError as exc:
+                self.fail(f"output.metrics.{key}", str(exc))
+
+    def load_runs(self) -> dict:
+        """The scenes of ``[runs]``: for each, this document with the run's key paths replaced, loaded."""
+        import copy
+
+        runs = {}
+        for label, keys in self.named("runs", "runs").items():
+            doc = copy.deepcopy({k: v for k, v in self.data.items() if k != "runs"})
+            for key, value in keys.items():
+                for path in key_paths(key):
+                    try:
+                        set_key(doc, path, value, self.source, what=f"key of run {label!r}")
+                    except SceneError as exc:
+                        self.fail(f"runs.{label}", str(exc).removeprefix(f"{self.source}: "))
+            try:
+                runs[label] = _Loader(doc, self.source, self.stem, run=label).load()
+            except SceneError as exc:
+                self.fail(f"runs.{label}", str(exc).removeprefix(f"{self.source}: "))
+        return runs
 
     def check_memory(self, model) -> None:
         """Refuse a model too large for memory at the key that sizes it (the finest flexible body's n_segments)."""
@@ -296,8 +332,6 @@ class _Loader:
                 self.fail(path, f"values out of range ({type(exc).__name__}: {exc})")
 
     def load_bodies(self, model):
-        from ..bodies import RigidBody
-
         for name, t in self.named("bodies", "bodies").items():
             path = f"bodies.{name}"
             if name == "ground":
@@ -308,8 +342,6 @@ class _Loader:
             if "shape" in t:
                 shape = self.string(f"{path}.shape", t["shape"])
                 shapes = _constructors(cls)
-                if issubclass(cls, RigidBody):
-                    shapes["bar"] = _bar
                 if shape not in shapes:
                     self.fail(f"{path}.shape", f"unknown shape {shape!r} for {type_name}; pick one of "
                                                f"{', '.join(sorted(shapes)) or 'none'}")
@@ -430,7 +462,7 @@ class _Loader:
 
     def load_output(self, name: str) -> OutputSettings:
         t = self.table("output", self.data.get("output", {}))
-        self.keys("output", t, optional=("npz", "summary", "plots", "vtk", "prefix", "points"))
+        self.keys("output", t, optional=("npz", "summary", "plots", "vtk", "prefix", "points", "figure", "metrics"))
         kw = {k: self.boolean(f"output.{k}", t[k]) for k in ("npz", "summary", "plots", "vtk") if k in t}
         default = re.sub(r"^[.\-]+", "", re.sub(r"[^\w.\-]+", "_", name))[:200] or "scene"
         prefix = self.string("output.prefix", t.get("prefix", default))
@@ -449,7 +481,14 @@ class _Loader:
             if not (isinstance(point, list) and len(point) == 3 and all(_is_number(x) for x in point)):
                 self.fail(f"{path}.point", f"must be 3 numbers (m, in the body frame), got {point!r}")
             points[label] = (body.name, tuple(float(x) for x in point))
-        return OutputSettings(prefix=prefix, points=points, **kw)
+        if "figure" in t:
+            kw["figure"] = self.string("output.figure", t["figure"])
+            if kw["figure"] not in FIGURES:
+                self.fail("output.figure", f"unknown figure {kw['figure']!r}; pick one of {', '.join(FIGURES)}")
+        metrics = self.table("output.metrics", t.get("metrics", {}))
+        for key, spec in metrics.items():
+            self.string(f"output.metrics.{key}", spec)
+        return OutputSettings(prefix=prefix, points=points, metrics=dict(metrics), **kw)
 
 
 def _flatten(table: dict, prefix: str = "") -> dict:
@@ -489,32 +528,3 @@ def _constructors(cls) -> dict:
         if first == "name":
             out[k] = method
     return out
-
-
-def _bar(name: str, mass: float, vector):
-    """A uniform slender bar from the body origin to ``vector`` (m): ``m L^2 / 12`` transverse.
-
-    Parameters
-    ----------
-    name : str
-        Body name.
-    mass : float
-        Mass, kg.
-    vector : array_like, shape (3,)
-        The bar's far end in the body frame, m.
-
-    Returns
-    -------
-    RigidBody
-        Mass centre at ``vector / 2``, central inertia ``m L^2 / 12 (I - e e^T)``.
-    """
-    from ..bodies import RigidBody
-
-    v = np.asarray(vector, dtype=float)
-    if v.shape != (3,):
-        raise ModelError(f"vector must have 3 components, got {v.size}")
-    L = np.linalg.norm(v)
-    if not L > 0:
-        raise ModelError("vector must not be a zero-length vector")
-    e = v / L
-    return RigidBody(name, mass, mass * L * L / 12.0 * (np.eye(3) - np.outer(e, e)), v / 2)

@@ -7,7 +7,6 @@ from typing import Any
 import numpy as np
 from attrs import define, evolve, field
 
-from ..errors import SimulationError
 from .settings import InitialState, OutputSettings, SolverSettings
 
 __all__ = ["Scene"]
@@ -35,6 +34,10 @@ class Scene:
         The file the scene came from (for messages).
     types : dict of str to str
         Plugin name of each body, joint and force element, by element name.
+    runs : dict of str to Scene
+        The scene's ``[runs]``, in file order: each the scene with some keys
+        replaced. :meth:`run` runs each of them in turn into one folder
+        (empty: the scene runs once).
 
     See Also
     --------
@@ -48,6 +51,7 @@ class Scene:
     output: OutputSettings
     source: str = "<scene>"
     types: dict = field(factory=dict)
+    runs: dict = field(factory=dict)
 
     def settings(self, **overrides) -> SolverSettings:
         """The solver settings with some replaced (``None`` values are ignored).
@@ -158,6 +162,8 @@ class Scene:
     def run(self, out, progress: bool = True, **overrides) -> dict:
         """Simulate and write the outputs: ``.npz`` result, ``summary.json``, plots and VTK.
 
+        A scene with ``[runs]`` runs each of them in turn, with the same
+        overrides, into the one folder (see ``docs/scenes.md``, "Runs").
         A run stopped with Ctrl-C writes what it computed so far (the summary
         says ``"status": "interrupted"``); a failed run writes its partial
         result and then raises. The folder is locked for the whole run (a
@@ -187,19 +193,9 @@ class Scene:
         ExportError
             If another run is writing into ``out`` (the message names its pid).
         """
-        from .._files import OutputFolder
-        from ..scenes.report import _write_outputs
+        from .outputs import run_into
 
-        failure = None
-        with OutputFolder(out) as folder:  # locked before simulating: a second run is refused at once
-            try:
-                result = self.simulate(progress=progress, **overrides)
-            except SimulationError as exc:
-                failure, result = exc, exc.result
-            summary = _write_outputs(self, result, folder)
-        if failure is not None:
-            raise failure
-        return summary
+        return run_into(self, out, progress, overrides)
 
     def info(self) -> str:
         """Describe the scene: bodies, joints, coordinates, constraints, redundancy, freedoms.

@@ -24,6 +24,7 @@ SECTIONS = {
     "solver": "end time, integrator, tolerances, outputs times, complement",
     "output": "files to write and points to track",
     "study": "settings of parameter studies of the scene (time_limit per case)",
+    "runs": "named runs of the scene, each with some keys replaced, written side by side into one folder",
 }
 
 #: keys of the ``[study]`` table (read by :mod:`flexmb.study`; a plain run ignores them)
@@ -113,6 +114,13 @@ class OutputSettings:
         ``.`` and ``-``, starting with a letter, digit or ``_``.
     points : dict of str to (str, tuple of float)
         Points to track: ``{label: (body name, point in the body frame, m)}``.
+    figure : str
+        The plot drawn, a name of :data:`flexmb.scene.figures.FIGURES`
+        (default ``'scene'``).
+    metrics : dict of str to str
+        Named outputs of :data:`flexmb.study.OUTPUTS` written into the
+        summary of each run: ``{summary key: output}``, e.g.
+        ``{"peak_crank_torque_N_m": "peak_effort:motor"}``.
 
     Raises
     ------
@@ -126,6 +134,8 @@ class OutputSettings:
     vtk: bool = True
     prefix: str = field(default="scene", validator=_check_prefix)
     points: dict = field(factory=dict)
+    figure: str = "scene"
+    metrics: dict = field(factory=dict)
 
 
 @frozen

@@ -63,13 +63,6 @@ def glass_normal() -> np.ndarray:
     return n if n[2] > 0 else -n
 
 
-def _bar(name, mass, vec):
-    """Slender bar from the body origin along ``vec`` (m): mass centre mid-way, m L^2/12 transverse."""
-    L = np.linalg.norm(vec)
-    e = vec / L
-    return RigidBody(name, mass, mass * L * L / 12.0 * (np.eye(3) - np.outer(e, e)), vec / 2)
-
-
 @frozen
 class WiperOptions:
     """Parameters of the wiper scene (SI units).
@@ -144,9 +137,9 @@ def wiper(options: WiperOptions | None = None, friction_cls=None):
     model = Model("wiper")
     g = model.ground
     m = o.masses
-    crank = _bar("crank", m["crank"], P["SJ2"] - P["RJ1"])
-    drive = _bar("drive_link", m["drive_link"], P["UJ3"] - P["SJ2"])
-    link = _bar("connecting_link", m["connecting_link"], P["UJ6"] - P["SJ5"])
+    crank = RigidBody.bar("crank", m["crank"], P["SJ2"] - P["RJ1"])
+    drive = RigidBody.bar("drive_link", m["drive_link"], P["UJ3"] - P["SJ2"])
+    link = RigidBody.bar("connecting_link", m["connecting_link"], P["UJ6"] - P["SJ5"])
     pivots = P["RJ7"] - P["RJ4"]
     pivots -= n * (pivots @ n)
     e_p = pivots / np.linalg.norm(pivots)
@@ -154,8 +147,8 @@ def wiper(options: WiperOptions | None = None, friction_cls=None):
     rest = np.radians(5.0)
     up = np.cos(rest) * e_p + np.sin(rest) * np.cross(n, e_p)
     arm_vec = o.arm_length * up
-    right = _bar("right_arm", m["arm"], arm_vec)
-    left = _bar("left_arm", m["arm"], arm_vec)
+    right = RigidBody.bar("right_arm", m["arm"], arm_vec)
+    left = RigidBody.bar("left_arm", m["arm"], arm_vec)
     axis_frame = frame_from_axis(n)
 
     def ujoint(name, parent, child, pp, cp, along):

@@ -11,7 +11,7 @@ import threading
 import time
 
 from .metrics import _evaluate, _output_name
-from .spec import _paths, _set
+from ..scene.keys import key_paths as _paths, set_key as _set
 
 __all__ = []
 

@@ -19,6 +19,14 @@ def _peak_speed(scene, res, label):
     return float(np.linalg.norm(np.gradient(p, res.t, axis=0), axis=1).max())
 
 
+def _peak_speed_exact(scene, res, label):
+    from ..scene.motion import point_motion
+
+    body, point = scene.output.points[label]
+    _, v = point_motion(res, scene.system(), body, point)
+    return float(np.linalg.norm(v, axis=1).max())
+
+
 def _max_displacement(scene, res, label):
     p = _tracked(scene, res, label)
     return float(np.linalg.norm(p - p[0], axis=1).max())
@@ -77,6 +85,8 @@ def _n_rhs(scene, res, _=None):
 #: built-in outputs: name -> (function(scene, result, argument), what the argument names or None, description)
 OUTPUTS = {
     "peak_speed": (_peak_speed, "point", "largest speed of a tracked point ([output.points]), m/s"),
+    "peak_speed_exact": (_peak_speed_exact, "point", "largest speed of a tracked point, exact from the kinematics "
+                                                     "of each output state (eq. 17), m/s"),
     "max_displacement": (_max_displacement, "point", "largest distance of a tracked point from its start, m"),
     "peak_effort": (_peak_effort, "driver", "largest |torque| (N m) or |force| (N) a driver supplies"),
     "driver_work": (_driver_work, "driver", "work of a driver over the run, J (needs track_work)"),

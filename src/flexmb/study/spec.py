@@ -6,7 +6,7 @@ import tomllib
 
 import numpy as np
 
-from ..errors import FlexmbError, SceneError
+from ..errors import FlexmbError
 from .sampling import DISTRIBUTIONS, Distribution
 
 __all__ = ['parse_spec', 'parse_value']
@@ -149,25 +149,3 @@ def _plain(v):
     if isinstance(v, np.ndarray):
         return v.tolist()
     return v
-
-
-def _paths(key: str) -> list[str]:
-    """The key paths one parameter sets: ``a.b+c.d`` sets both to the same value."""
-    return [p.strip() for p in key.split("+") if p.strip()]
-
-
-def _set(data: dict, path: str, value, source: str) -> None:
-    """Set ``data[a][b][c] = value`` for the key path ``a.b.c``; every table on the way must exist."""
-    keys = path.split(".")
-    node, walked = data, []
-    for k in keys[:-1]:
-        walked.append(k)
-        child = node.get(k) if isinstance(node, dict) else None
-        if not isinstance(child, dict):
-            here = ".".join(walked)
-            known = ", ".join(sorted(k2 for k2, v in node.items() if isinstance(v, dict))) or "none"
-            what = "no such table" if child is None else "not a table"
-            raise SceneError(f"{source}: {here}: {what} in the scene (varied key {path!r}); tables here: {known}",
-                             here)
-        node = child
-    node[keys[-1]] = value

@@ -17,7 +17,8 @@ from .cases import _build
 from .executors import _execute_dask, _execute_pool, _execute_serial, _Progress, default_workers
 from .metrics import _check_output, _is_real, _output_name, default_outputs
 from .sampling import SAMPLINGS, Distribution, _unit_samples
-from .spec import _as_spec, _paths
+from ..scene.keys import key_paths as _paths
+from .spec import _as_spec
 from .table import META_COLUMNS, StudyResult
 
 __all__ = ['Study', 'case_id', 'run_study']

@@ -15,7 +15,7 @@ from attrs import define, field
 from .._files import atomic_write
 from ..errors import FlexmbError
 from .metrics import _is_real
-from .spec import _paths
+from ..scene.keys import key_paths as _paths
 
 #: columns of the table that are not parameters or outputs
 META_COLUMNS = ("case", "case_id", "status", "error", "wall_time_s", "worker")
@@ -306,7 +306,7 @@ _KEY_UNITS = {
 #: keys whose unit depends on their table: (first part, last part) -> unit
 _TABLE_KEY_UNITS = {("bodies", "damping"): "s"}
 #: outputs by kind: a fixed unit, or "coordinate" (the unit of the coordinate named)
-_OUTPUT_UNITS = {"peak_speed": "m/s", "max_displacement": "m", "driver_work": "J", "energy_balance": "-",
+_OUTPUT_UNITS = {"peak_speed": "m/s", "peak_speed_exact": "m/s", "max_displacement": "m", "driver_work": "J", "energy_balance": "-",
                  "final": "coordinate", "max": "coordinate", "min": "coordinate", "history": "coordinate",
                  "time": "s", "n_rhs": "-"}
 

@@ -111,6 +111,19 @@ class WiperOptions:
                                           "connecting_link": 0.40})
 
 
+def _blade(o: WiperOptions, name: str):
+    """One blade: finite segments bending in the glass plane and out of it, or a rigid steel strip."""
+    steel = Material(210e9, 7850.0, 0.3, name="spring steel")
+    # Section.rectangular(b, h): b along the blade's y (in the glass plane), h along z (its normal)
+    section = Section.rectangular(o.blade_width, o.blade_thickness)
+    if o.flexible:
+        return FlexibleBody.uniform_beam(name, o.blade_length, section, steel, o.n_segments,
+                                         keep=("bend_y", "bend_z"), damping_ratio=o.damping_ratio)
+    mass = steel.density * section.area * o.blade_length
+    return RigidBody.box(name, mass, (o.blade_length, o.blade_width, o.blade_thickness),
+                         com=(o.blade_length / 2, 0.0, 0.0))
+
+
 def wiper(options: WiperOptions | None = None, friction_cls=None):
     """Build the wiper model.
 
@@ -169,19 +182,10 @@ def wiper(options: WiperOptions | None = None, friction_cls=None):
     model.add(*joints)
     model.add(Driver.constant_speed("motor", joints[0], speed=2 * np.pi * o.rpm / 60.0))
     blade_frame = np.column_stack([up, np.cross(n, up), n])
-    steel = Material(210e9, 7850.0, 0.3, name="spring steel")
-    # Section.rectangular(b, h): b along the blade's y (in the glass plane), h along z (its normal)
-    section = Section.rectangular(o.blade_width, o.blade_thickness)
     tips = []
     for side, arm in (("right", right), ("left", left)):
         name = f"{side}_blade"
-        if o.flexible:
-            blade = FlexibleBody.uniform_beam(name, o.blade_length, section, steel, o.n_segments,
-                                              keep=("bend_y", "bend_z"), damping_ratio=o.damping_ratio)
-        else:
-            mass = steel.density * section.area * o.blade_length
-            blade = RigidBody.box(name, mass, (o.blade_length, o.blade_width, o.blade_thickness),
-                                  com=(o.blade_length / 2, 0.0, 0.0))
+        blade = _blade(o, name)
         model.add(Fixed(f"{side}_clamp", arm, blade, parent_point=arm_vec, parent_frame=blade_frame,
                         child_frame=np.eye(3)))
         tips.append((name, blade))

@@ -308,11 +308,7 @@ class Study:
             _execute(executor, tasks, record, workers, client, scheduler)
         finally:
             bar.close()
-        rows = []
-        for i, cid in enumerate(ids):
-            row = dict(done[cid])
-            row["case"] = i
-            rows.append(row)
+        rows = [dict(done[cid], case=i) for i, cid in enumerate(ids)]
         result = StudyResult(self.parameters, [_output_name(o) for o in outputs], rows, ran=ran,
                              skipped=len(set(ids)) - len(set(ran)), out=out)
         result.write(out)

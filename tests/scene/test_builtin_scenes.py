@@ -15,6 +15,8 @@ from importlib import resources
 
 import pytest
 
+import flexmb as fm
+
 from flexmb.cli import main
 from flexmb.scene import builtin_scenes, load_builtin
 
@@ -68,3 +70,22 @@ def test_each_run_reports_what_its_tutorial_scene_file_reports(tmp_path, capsys)
         shared = set(single) - {"scene", "model", "wall_time_s", "vtk", "files"}
         assert shared <= set(run)
         assert {k: run[k] for k in shared} == {k: single[k] for k in shared}, label
+
+
+@pytest.mark.parametrize("edit, expected", [
+    (("[runs.flexible]", "[runs.flex]"), "w.toml: output.figure: figure 'wiper' draws the [runs] of a scene "
+                                         "(rigid, flexible); this one has rigid, flex"),
+    (('figure = "wiper"', 'figure = "plot"'), "w.toml: output.figure: unknown figure 'plot'; pick one of"),
+    (('"bodies.right_blade" =', '"bodies.right_blades.mass" ='), "w.toml: runs.rigid: bodies.right_blades: no such "
+                                                                 "table in the scene (key of run 'rigid'"),
+    (('"bodies.left_blade" = { shape = "box", mass = 0.03925',
+      '"bodies.left_blade" = { shape = "box", mass = -1.0'), "w.toml: runs.rigid: bodies.left_blade.mass: must be > 0"),
+    (('"peak_effort:motor"', '"peak_effort:crank"'), "w.toml: output.metrics.peak_crank_torque_N_m: output "
+                                                     "'peak_effort:crank': write peak_effort:<driver>"),
+])
+def test_runs_figure_and_metrics_errors_name_the_key(edit, expected):
+    text = WIPER.read_text()
+    assert edit[0] in text
+    with pytest.raises(fm.SceneError) as err:
+        fm.loads_scene(text.replace(*edit), source="w.toml")
+    assert str(err.value).startswith(expected)

@@ -11,7 +11,7 @@ import numpy as np
 
 from .motion import point_motion
 
-__all__ = ["FIGURES", "wiper_figure"]
+__all__ = ["FIGURES", "RUNS_OF_FIGURES", "wiper_figure"]
 
 
 def _subplots(plt, n, figsize, **kw):
@@ -196,3 +196,6 @@ FIGURES = {
     "wiper": ("runs", _wiper_runs_figure, "the paper's Figs. 5-6: runs 'rigid' and 'flexible' side by side "
                                           "(the first tracked point is the blade tip; the driver is 'motor')"),
 }
+
+#: the runs a ``'runs'`` figure draws, by label
+RUNS_OF_FIGURES = {"wiper": ("rigid", "flexible")}

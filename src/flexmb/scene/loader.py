@@ -11,7 +11,7 @@ import numpy as np
 
 from .. import memory, registry
 from ..errors import FlexmbError, ModelError, PluginError, SceneError
-from .figures import FIGURES
+from .figures import FIGURES, RUNS_OF_FIGURES
 from .keys import key_paths, set_key
 from .scene import Scene
 from .settings import (SECTIONS, STUDY_KEYS, InitialState, OutputSettings, SolverSettings, _is_number,
@@ -235,8 +235,12 @@ class _Loader:
             self.fail("solver.n_out", str(exc))
         self.check_metrics(scene, system)
         scene.runs = self.load_runs()
-        if self.run is None and FIGURES[output.figure][0] == "runs" and not scene.runs:
-            self.fail("output.figure", f"figure {output.figure!r} draws the [runs] of a scene, and this one has none")
+        if self.run is None and FIGURES[output.figure][0] == "runs":
+            needs = RUNS_OF_FIGURES.get(output.figure, ())
+            if not scene.runs or not set(needs) <= set(scene.runs):
+                self.fail("output.figure", f"figure {output.figure!r} draws the [runs] of a scene "
+                                           f"({', '.join(needs) or 'any'}); this one has "
+                                           f"{', '.join(scene.runs) or 'none'}")
         return scene
 
     def check_metrics(self, scene, system) -> None:

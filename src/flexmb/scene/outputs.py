@@ -237,7 +237,7 @@ def _write_runs(scene, folder, progress: bool, overrides: dict):
                 res = run.simulate(progress=progress, **overrides)
             except SimulationError as exc:
                 failure, res = exc, exc.result
-            system = run.system(run.settings(**overrides).complement)
+            system = res.system if res.system is not None else run.system(run.settings(**overrides).complement)
             done[label] = (run, res, system)
             summary[label] = _write_run(run, res, system, folder, label, files, jobs)
             if res.status != "finished":  # Ctrl-C or a failure: keep what was written, start no further run

@@ -23,7 +23,8 @@ def _peak_speed_exact(scene, res, label):
     from ..scene.motion import point_motion
 
     body, point = scene.output.points[label]
-    _, v = point_motion(res, scene.system(), body, point)
+    # the system the result came from, kept on it (a loaded result has none: compile the scene's)
+    _, v = point_motion(res, res.system if res.system is not None else scene.system(), body, point)
     return float(np.linalg.norm(v, axis=1).max())
 
 

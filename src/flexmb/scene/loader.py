@@ -234,7 +234,7 @@ class _Loader:
         except ModelError as exc:
             self.fail("solver.n_out", str(exc))
         self.check_metrics(scene, system)
-        scene.runs = self.load_runs()
+        scene.runs = self.load_runs(scene)
         if self.run is None and FIGURES[output.figure][0] == "runs":
             needs = RUNS_OF_FIGURES.get(output.figure, ())
             if not scene.runs or not set(needs) <= set(scene.runs):
@@ -253,12 +253,18 @@ class _Loader:
             except FlexmbError as exc:
                 self.fail(f"output.metrics.{key}", str(exc))
 
-    def load_runs(self) -> dict:
-        """The scenes of ``[runs]``: for each, this document with the run's key paths replaced, loaded."""
+    def load_runs(self, scene: Scene) -> dict:
+        """The scenes of ``[runs]``: for each, this document with the run's key paths replaced, loaded.
+
+        A run that replaces no key is ``scene`` itself (as a scene without runs), not loaded again.
+        """
         import copy
 
         runs = {}
         for label, keys in self.named("runs", "runs").items():
+            if not keys:
+                runs[label] = attrs.evolve(scene, runs={})
+                continue
             doc = copy.deepcopy({k: v for k, v in self.data.items() if k != "runs"})
             for key, value in keys.items():
                 for path in key_paths(key):

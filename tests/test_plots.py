@@ -26,7 +26,7 @@ pytest.importorskip("matplotlib")
 
 import flexmb as fm  # noqa: E402
 from flexmb import viz  # noqa: E402
-from flexmb.scenes import report  # noqa: E402
+from flexmb.scene import figures  # noqa: E402
 from flexmb.study import StudyResult  # noqa: E402
 
 from conftest import fourbar, fourbar_initial  # noqa: E402
@@ -100,7 +100,7 @@ def test_scene_plot_labels_every_axis_with_one_unit(tmp_path):
     res = scene.simulate(t_end=0.05, n_out=11, progress=False)
     tracks = scene.track(res)
     speeds = {k: np.linalg.norm(np.gradient(p, res.t, axis=0), axis=1) for k, p in tracks.items()}
-    fig = report._scene_figure(scene, res, tracks, speeds)
+    fig = figures._scene_figure(scene, res, tracks, speeds)
     labels = [ax.get_ylabel() for ax in fig.axes]
     assert labels[0] == "joint angle (rad)"
     assert "energy change (J)" in labels and "point speed (m/s)" in labels
@@ -112,7 +112,7 @@ def test_scene_plot_labels_every_axis_with_one_unit(tmp_path):
 
 def test_fourbar_plot_labels():
     res = fm.simulate(fourbar(), 0.05, positions=fourbar_initial(), n_out=6)
-    fig = report._fourbar_figure(res)
+    fig = figures._fourbar_figure(res)
     assert [ax.get_ylabel() for ax in fig.axes] == ["joint angle (rad)", "energy drift (J)", "loop residual (m)"]
     assert [line.get_label() for line in fig.axes[0].lines] == res.coordinate_names
 

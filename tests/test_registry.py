@@ -10,17 +10,25 @@ from __future__ import annotations
 
 import importlib.metadata
 import os
+import pathlib
 import subprocess
 import sys
 import textwrap
+import tomllib
 
 import numpy as np
 import pytest
-from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, OdeSolver, Radau, trapezoid
+from scipy.integrate import RK45, OdeSolver, trapezoid
 
 import flexmb as fm
 from flexmb import registry
 from flexmb.errors import FlexmbError, ModelError, PluginError
+
+
+#: flexmb's entry points as pyproject.toml declares them: the one list of built-in names
+PYPROJECT = tomllib.loads((pathlib.Path(__file__).parents[1] / "pyproject.toml").read_text())
+DECLARED = {kind: dict(PYPROJECT["project"]["entry-points"][f"flexmb.{kind}"]) for kind in registry.KINDS}
+BUILTIN_NAMES = [(kind, name) for kind, table in DECLARED.items() for name in table]
 
 
 @pytest.fixture(autouse=True)
@@ -64,13 +72,18 @@ class OtherDrag(fm.ForceElement):
 
 @pytest.fixture
 def fake_eps(monkeypatch):
-    """Install fake entry points: ``install(*eps)``; returns the list of groups read."""
-    reads = []
+    """Install fake entry points beside flexmb's own: ``install(*eps)``; returns the list of groups read.
 
-    def install(*eps):
+    ``install(*eps, flexmb=False)`` leaves flexmb's own out, as if flexmb were not installed.
+    """
+    reads = []
+    real = importlib.metadata.entry_points
+
+    def install(*eps, flexmb=True):
         def entry_points(*, group=None, **kwargs):
             reads.append(group)
-            return [ep for ep in eps if ep.group == group]
+            own = [e for e in real(group=group) if e.dist is not None and e.dist.name == "flexmb"] if flexmb else []
+            return own + [ep for ep in eps if ep.group == group]
 
         monkeypatch.setattr(importlib.metadata, "entry_points", entry_points)
         registry.refresh()
@@ -95,7 +108,7 @@ def test_discovery_records_origin_and_import_path(fake_eps):
 def test_loading_is_lazy_and_entry_points_are_read_once(fake_eps):
     plugin = ep("drag", "drag_pkg:Drag", obj=Drag)
     reads = fake_eps(plugin)
-    assert registry.names("forces") == sorted(["drag", *registry.BUILTINS["forces"]])
+    assert registry.names("forces") == sorted(["drag", *DECLARED["forces"]])
     assert plugin.n_loads == 0  # listing names imports nothing
     for _ in range(3):
         assert registry.get("forces", "drag") is Drag
@@ -162,13 +175,11 @@ def test_one_distribution_found_twice_is_not_a_conflict(fake_eps):
     assert [p.status for p in fm.plugins("forces") if p.name == "drag"] == ["ok"]
 
 
-def test_builtins_fall_back_to_the_static_tables_without_metadata(fake_eps):
-    fake_eps()  # flexmb not installed: no entry points at all
-    rows = fm.plugins()
-    assert {(p.kind, p.name) for p in rows} == {(k, n) for k, t in registry.BUILTINS.items() for n in t}
-    assert {p.origin for p in rows} == {"flexmb (source tree)"} and {p.status for p in rows} == {"ok"}
-    assert registry.get("joints", "revolute") is fm.Revolute
-    assert isinstance(fm.get_complement("eigen"), fm.EigenComplement)
+def test_without_flexmb_metadata_a_lookup_says_to_install(fake_eps):
+    fake_eps(ep("drag", "drag_pkg:Drag", obj=Drag), flexmb=False)  # flexmb not installed: only another plugin
+    for lookup in (fm.plugins, lambda: registry.get("joints", "revolute"), lambda: len(fm.COMPLEMENTS)):
+        with pytest.raises(PluginError, match=r"flexmb is not installed.*pip install -e \."):
+            lookup()
 
 
 def test_register_for_the_session():
@@ -257,50 +268,55 @@ def test_import_flexmb_reads_no_entry_points():
 
 # --------------------------------------------------------------------------- real installed metadata
 
-import flexmb_friction  # noqa: E402  (shipped plugin, installed with flexmb)
-
-EXPECTED = {
-    "bodies": {"rigid_body": fm.RigidBody, "flexible_body": fm.FlexibleBody},
-    "joints": {"revolute": fm.Revolute, "planar_revolute": fm.PlanarRevolute, "prismatic": fm.Prismatic,
-               "cylindrical": fm.Cylindrical, "universal": fm.Universal, "spherical": fm.Spherical,
-               "fixed": fm.Fixed, "free": fm.Free},
-    "forces": {"gravity": fm.Gravity, "spring_damper": fm.SpringDamper,
-               "joint_spring_damper": fm.JointSpringDamper, "point_force": fm.PointForce,
-               "body_torque": fm.BodyTorque,
-               "velocity_weakening_friction": flexmb_friction.VelocityWeakeningFriction,
-               "coulomb_friction": flexmb_friction.CoulombFriction,
-               "viscous_friction": flexmb_friction.ViscousFriction},
-    "complements": {"eigen": fm.EigenComplement, "svd": fm.SVDComplement, "qr": fm.QRComplement,
-                    "auto": fm.AutoComplement},
-    "integrators": {"RK45": RK45, "RK23": RK23, "DOP853": DOP853, "Radau": Radau, "BDF": BDF, "LSODA": LSODA,
-                    "CVODE_BDF": fm.integrators.CVODEBDF, "CVODE_Adams": fm.integrators.CVODEAdams,
-                    "IDA": fm.integrators.IDA,
-                    "GeneralizedAlpha": fm.GeneralizedAlpha},
-}
-BUILTIN_NAMES = [(kind, name) for kind, table in EXPECTED.items() for name in table]
-
-
 def _flexmb_entry_points(kind):
     return {e.name: e.value for e in importlib.metadata.entry_points(group=f"flexmb.{kind}")
             if e.dist is not None and e.dist.name == "flexmb"}
 
 
+def _import(value):
+    module, _, qualname = value.partition(":")
+    obj = importlib.import_module(module)
+    for attr in qualname.split("."):
+        obj = getattr(obj, attr)
+    return obj
+
+
 @pytest.mark.parametrize("kind, name", BUILTIN_NAMES)
 def test_every_builtin_resolves_through_installed_metadata(kind, name):
-    assert registry.get(kind, name) is EXPECTED[kind][name]
+    assert registry.get(kind, name) is _import(DECLARED[kind][name])
 
 
-@pytest.mark.parametrize("kind", list(EXPECTED))
-def test_installed_entry_points_match_the_fallback_and_static_tables(kind):
+@pytest.mark.parametrize("kind", list(DECLARED))
+def test_installed_entry_points_are_the_ones_pyproject_declares(kind):
     installed = _flexmb_entry_points(kind)
     assert installed, f"no flexmb.{kind} entry points installed: rerun `pip install -e .`"
-    assert installed == registry.BUILTINS[kind]
-    assert set(installed) == set(EXPECTED[kind])
+    assert installed == DECLARED[kind], "the installed metadata is stale: rerun `pip install -e .`"
     assert {p.origin for p in fm.plugins(kind) if p.name in installed} == {f"flexmb {fm.__version__}"}
-    assert fm.COMPLEMENTS == EXPECTED["complements"] and fm.INTEGRATORS == EXPECTED["integrators"]
     base = registry._base(kind)
-    assert all(issubclass(cls, base) for cls in EXPECTED[kind].values())
+    assert all(issubclass(_import(value), base) for value in DECLARED[kind].values())
     assert registry._base("integrators") is OdeSolver
+    assert dict(registry.builtin_table(kind)) == {name: _import(value) for name, value in DECLARED[kind].items()}
+
+
+def test_complements_and_integrators_are_read_only_views_of_the_builtins():
+    for table, kind in ((fm.COMPLEMENTS, "complements"), (fm.INTEGRATORS, "integrators")):
+        assert table == {name: _import(value) for name, value in DECLARED[kind].items()}
+        assert sorted(table) == sorted(DECLARED[kind]) and len(table) == len(DECLARED[kind])
+        with pytest.raises(TypeError):
+            table["mine"] = fm.SVDComplement
+        with pytest.raises(KeyError):
+            table["no such method"]
+    assert fm.COMPLEMENTS["svd"] is fm.SVDComplement and fm.INTEGRATORS["RK45"] is RK45
+
+
+def test_session_plugins_stay_out_of_the_builtin_views():
+    class Mine(fm.SVDComplement):
+        """A session strategy."""
+
+    registry.register("complements", "mine", Mine)
+    registry.register("complements", "svd", Mine, replace=True)
+    assert "mine" not in fm.COMPLEMENTS and fm.COMPLEMENTS["svd"] is fm.SVDComplement
+    assert registry.get("complements", "svd") is Mine
 
 
 def _cli_plugins(tmp_path, pythonpath=None):
@@ -316,6 +332,7 @@ def _cli_plugins(tmp_path, pythonpath=None):
 
 
 def test_cli_lists_the_builtins(tmp_path):
+    assert BUILTIN_NAMES
     rows = _cli_plugins(tmp_path)
     for key in BUILTIN_NAMES:
         assert rows[key] == ["flexmb", fm.__version__, "ok"], key

@@ -7,8 +7,8 @@ our reading of the OCR; see ``docs/paper_figures.md``). Left, Fig. 5, rigid
 blades; right, Fig. 6, flexible blades; each panel shows both tips (the
 paper does not say which tip it plots) and, dotted, the other panel's
 right tip. Speeds are exact, from the kinematics of the stored
-states (:func:`flexmb.scenes.report.point_motion`). ``wiper_main_job.png``
-is the ``wiper.png`` of the same runs (:func:`flexmb.scenes.report.wiper_figure`),
+states (:func:`flexmb.scene.motion.point_motion`). ``wiper_main_job.png``
+is the ``wiper.png`` of the same runs (:func:`flexmb.scene.figures.wiper_figure`),
 at a lower resolution. The script prints the numbers the page quotes. Run
 from the repository::
 
@@ -25,7 +25,8 @@ matplotlib.use("Agg")
 from matplotlib.figure import Figure  # noqa: E402
 
 import flexmb as fm  # noqa: E402
-from flexmb.scenes.report import point_motion, wiper_figure  # noqa: E402
+from flexmb.scene.figures import wiper_figure  # noqa: E402
+from flexmb.scene.motion import point_motion  # noqa: E402
 from flexmb.scenes.wiper import WiperOptions, wiper  # noqa: E402
 
 HERE = Path(__file__).resolve().parent

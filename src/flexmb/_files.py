@@ -2,7 +2,7 @@
 
 :func:`atomic_write` writes one file through a temporary name in the same
 folder, then renames it into place. :class:`OutputFolder` is what ``flexmb
-run`` (:meth:`flexmb.scene.Scene.run`, :func:`flexmb.scenes.report.run_scene`)
+run`` (:meth:`flexmb.scene.Scene.run`, for a scene file and a built-in scene alike)
 writes through:
 
 1. a lock file, ``.flexmb.lock``, holding the pid of the run that owns the

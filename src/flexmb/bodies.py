@@ -168,6 +168,49 @@ class RigidBody(Body):
         return cls(name, mass, moments, com)
 
     @classmethod
+    def bar(cls, name: str, mass: float, vector):
+        """A uniform slender bar from the body origin to ``vector``, along any direction.
+
+        Parameters
+        ----------
+        name : str
+            Body name.
+        mass : float
+            Mass, kg.
+        vector : array_like, shape (3,)
+            The bar's far end in the body frame, m.
+
+        Returns
+        -------
+        RigidBody
+            Mass centre at ``vector / 2``, central inertia
+            ``m L^2 / 12 (I - e e^T)`` with ``L = |vector|``, ``e = vector / L``.
+
+        Raises
+        ------
+        ModelError
+            If ``vector`` does not have 3 components or has length zero.
+
+        See Also
+        --------
+        slender_bar : A bar along a body axis.
+
+        Examples
+        --------
+        >>> import flexmb as fm
+        >>> fm.RigidBody.bar("link", 2.0, (0.0, 0.3, 0.4)).com
+        array([0.  , 0.15, 0.2 ])
+        """
+        v = np.asarray(vector, dtype=float)
+        if v.shape != (3,):
+            raise ModelError(f"vector must have 3 components, got {v.size}")
+        L = np.linalg.norm(v)
+        if not L > 0:
+            raise ModelError("vector must not be a zero-length vector")
+        e = v / L
+        return cls(name, mass, mass * L * L / 12.0 * (np.eye(3) - np.outer(e, e)), v / 2)
+
+    @classmethod
     def box(cls, name: str, mass: float, size, com=(0.0, 0.0, 0.0)):
         """A uniform solid block.
 

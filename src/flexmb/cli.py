@@ -1,7 +1,9 @@
 """The ``flexmb`` command line.
 
-``flexmb run SCENE.toml --out DIR`` simulates a scene file (or the built-in
-``fourbar`` / ``wiper``) and writes results, plots and VTK; ``flexmb info
+``flexmb run SCENE.toml --out DIR`` simulates a scene file (or a built-in
+scene, ``fourbar`` or ``wiper``: the scene files shipped in
+``flexmb/scene/builtin/``, run by the same code) and writes results, plots
+and VTK; ``flexmb info
 SCENE.toml`` describes a scene; ``flexmb plugins`` lists the plugins. A bad
 scene gives exit status 2 and one line ``flexmb: error: <file>: <key path>:
 <what>``; a failed simulation gives 1 (after writing its partial outputs); a
@@ -68,29 +70,18 @@ def _run(args) -> int:
         return 130
 
 
+def _scene(name):
+    """The scene named on the command line: a scene file, or a built-in scene (when no such file exists)."""
+    from .scene import builtin_scenes, load_builtin, load_scene
+
+    if name in builtin_scenes() and not os.path.exists(name):
+        return load_builtin(name)
+    return load_scene(name)
+
+
 def _run_scene(args) -> int:
-    from .scenes.report import SCENES, run_scene
-
-    if args.scene in SCENES and not os.path.exists(args.scene):
-        kw = dict(t_end=args.t_end, complement=args.complement or "svd", method=args.integrator or "auto",
-                  n_out=args.n_out or 501, progress=not args.quiet)
-        if args.rtol is not None:
-            kw["rtol"] = args.rtol
-        summary = run_scene(args.scene, args.out, **kw)
-        print(json.dumps(summary, indent=2))
-        print(f"wrote {args.out}/ (results .npz, summary.json, plots .png, VTK series)")
-        if summary.get("status") == "interrupted":
-            print("flexmb: interrupted: the outputs hold the run up to then", file=sys.stderr)
-            return 130
-        return 0
-    return _run_file(args)
-
-
-def _run_file(args) -> int:
-    """Run a TOML scene file; an interrupted run keeps (and writes) what it computed."""
-    from .scene import load_scene
-
-    scene = load_scene(args.scene)
+    """Run a scene file or a built-in scene; an interrupted run keeps (and writes) what it computed."""
+    scene = _scene(args.scene)
     summary = scene.run(args.out, progress=not args.quiet, t_end=args.t_end, rtol=args.rtol,
                         complement=args.complement, method=args.integrator, n_out=args.n_out)
     print(json.dumps(summary, indent=2))
@@ -104,9 +95,7 @@ def _run_file(args) -> int:
 
 def _info(args) -> int:
     """Print what a scene file builds: bodies, joints, coordinates, constraints, freedoms."""
-    from .scene import load_scene
-
-    print(load_scene(args.scene).info())
+    print(_scene(args.scene).info())
     return 0
 
 
@@ -185,7 +174,7 @@ def main(argv=None) -> int:
     run.add_argument("--quiet", action="store_true", help="no progress bar")
     run.set_defaults(func=_run)
     info = sub.add_parser("info", help="describe a scene file: bodies, coordinates, constraints, freedoms")
-    info.add_argument("scene", help="a scene file SCENE.toml")
+    info.add_argument("scene", help="a scene file SCENE.toml, or a built-in scene: fourbar or wiper")
     info.set_defaults(func=_info)
     plug = sub.add_parser("plugins", help="list bodies, joints, forces, complements and integrators by name")
     plug.add_argument("--kind", default=None, help="bodies, joints, forces, complements or integrators")

@@ -14,9 +14,12 @@ naming it, its distribution and the cause, without disturbing the other
 plugins. A name claimed by two distributions is an error too: looking it up
 raises a ``PluginError`` naming both (pluggy would silently keep one).
 
-When the installed metadata of flexmb is missing (running from a source tree
-without ``pip install -e .``), the built-ins of :data:`BUILTINS` stand in for
-flexmb's own entry points.
+flexmb's own names are its entry points in ``pyproject.toml``, read from the
+installed metadata like anyone else's: that is the one list of built-in
+names. flexmb is always installed (``pip install -e .`` in a checkout); if its
+metadata is missing, a lookup raises a ``PluginError`` saying so.
+:func:`builtin_table` gives read-only views of the built-ins of a kind
+(``flexmb.COMPLEMENTS``, ``flexmb.INTEGRATORS``).
 """
 
 from __future__ import annotations
@@ -25,13 +28,14 @@ import importlib
 import importlib.metadata
 import re
 import threading
+from collections.abc import Mapping
 from typing import Any
 
 from attrs import define, field, frozen
 
 from .errors import PluginError
 
-__all__ = ["BUILTINS", "KINDS", "PluginInfo", "get", "names", "plugins", "refresh", "register"]
+__all__ = ["KINDS", "BuiltinTable", "PluginInfo", "builtin_table", "get", "names", "plugins", "refresh", "register"]
 
 #: Plugin kinds and the base class (``module:qualname``) a plugin must subclass.
 #: The entry-point group of a kind is ``flexmb.<kind>``.
@@ -46,35 +50,6 @@ KINDS = {
 _ALIASES = {"body": "bodies", "joint": "joints", "force": "forces", "complement": "complements",
             "integrator": "integrators"}
 
-#: flexmb's own entry points, as declared in ``pyproject.toml``; used only when
-#: the installed metadata of flexmb declares none for a kind (source tree).
-BUILTINS = {
-    "bodies": {"rigid_body": "flexmb.bodies:RigidBody", "flexible_body": "flexmb.flexible:FlexibleBody"},
-    "joints": {
-        "revolute": "flexmb.joints:Revolute", "planar_revolute": "flexmb.joints:PlanarRevolute",
-        "prismatic": "flexmb.joints:Prismatic", "cylindrical": "flexmb.joints:Cylindrical",
-        "universal": "flexmb.joints:Universal", "spherical": "flexmb.joints:Spherical",
-        "fixed": "flexmb.joints:Fixed", "free": "flexmb.joints:Free",
-    },
-    "forces": {
-        "gravity": "flexmb.forces:Gravity", "spring_damper": "flexmb.forces:SpringDamper",
-        "joint_spring_damper": "flexmb.forces:JointSpringDamper", "point_force": "flexmb.forces:PointForce",
-        "body_torque": "flexmb.forces:BodyTorque",
-        # shipped in plugins/flexmb_friction, installed with flexmb
-        "velocity_weakening_friction": "flexmb_friction:VelocityWeakeningFriction",
-        "coulomb_friction": "flexmb_friction:CoulombFriction",
-        "viscous_friction": "flexmb_friction:ViscousFriction",
-    },
-    "complements": {"eigen": "flexmb.complements:EigenComplement", "svd": "flexmb.complements:SVDComplement",
-                    "qr": "flexmb.complements:QRComplement", "auto": "flexmb.complements:AutoComplement"},
-    "integrators": {**{name: f"scipy.integrate:{name}" for name in ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")},
-                    "CVODE_BDF": "flexmb.integrators.sundials:CVODEBDF",
-                    "CVODE_Adams": "flexmb.integrators.sundials:CVODEAdams",
-                    "IDA": "flexmb.integrators.sundials:IDA",
-                    "GeneralizedAlpha": "flexmb.genalpha:GeneralizedAlpha"},
-}
-
-_SOURCE_TREE = "flexmb (source tree)"
 _SESSION = "session"
 _UNKNOWN = "an unknown distribution"
 
@@ -94,9 +69,8 @@ class PluginInfo:
     value : str
         Import path of the object, ``module:qualname``.
     origin : str
-        Distribution and version (``"flexmb 0.1.0"``), ``"session"`` for
-        :func:`register`, or ``"flexmb (source tree)"`` for a built-in used
-        without installed metadata.
+        Distribution and version (``"flexmb 0.1.0"``), or ``"session"`` for
+        :func:`register`.
     status : {'ok', 'broken', 'conflict'}
         Whether it loads; ``'conflict'`` when several distributions claim
         the name (one row each).
@@ -137,7 +111,7 @@ _session: dict[str, dict[str, _Entry]] = {}
 
 
 def _from(origin: str) -> str:
-    return origin if origin in (_SESSION, _SOURCE_TREE, _UNKNOWN) else f"distribution {origin}"
+    return origin if origin in (_SESSION, _UNKNOWN) else f"distribution {origin}"
 
 
 def _normalize(dist_name: str | None) -> str | None:
@@ -177,7 +151,13 @@ def _not_subclass(kind: str, obj) -> str | None:
 
 
 def _read(kind: str) -> dict[str, list[_Entry]]:
-    """Read the entry-point group of ``kind`` (the only place entry points are read)."""
+    """Read the entry-point group of ``kind`` (the only place entry points are read).
+
+    Raises
+    ------
+    PluginError
+        If flexmb's own entry points are missing (flexmb is not installed).
+    """
     table: dict[str, list[_Entry]] = {}
     flexmb_seen = False
     for ep in importlib.metadata.entry_points(group=f"flexmb.{kind}"):
@@ -191,9 +171,9 @@ def _read(kind: str) -> dict[str, list[_Entry]]:
             continue
         claimants.append(_Entry(kind, ep.name, ep.value, origin, _normalize(dist_name), ep.load))
     if not flexmb_seen:
-        for name, value in BUILTINS[kind].items():
-            claimants = table.setdefault(name, [])
-            claimants.append(_Entry(kind, name, value, _SOURCE_TREE, "flexmb", lambda v=value: _import(v)))
+        raise PluginError(f"flexmb's own {kind} (entry-point group flexmb.{kind}) are not in the installed "
+                          "metadata: flexmb is not installed. Install it, in a checkout with "
+                          "`python -m pip install -e .` (rerun it after editing the entry points in pyproject.toml)")
     return table
 
 
@@ -404,3 +384,71 @@ def refresh() -> None:
     """
     with _lock:
         _groups.clear()
+
+
+def _builtin_entries(kind: str) -> dict[str, _Entry]:
+    """flexmb's own claimant of each of its names of ``kind`` (a session override does not hide it)."""
+    with _lock:
+        if kind not in _groups:
+            _groups[kind] = _read(kind)
+        return {name: e for name, entries in _groups[kind].items() for e in entries if e.dist == "flexmb"}
+
+
+class BuiltinTable(Mapping):
+    """Read-only view of flexmb's own plugins of one kind: name -> class, from its installed entry points.
+
+    Parameters
+    ----------
+    kind : {'bodies', 'joints', 'forces', 'complements', 'integrators'}
+        Plugin kind.
+
+    See Also
+    --------
+    builtin_table : The view of a kind.
+    """
+
+    def __init__(self, kind: str):
+        self._kind = _kind(kind)
+
+    def __getitem__(self, name: str) -> type:
+        entry = _builtin_entries(self._kind).get(name) if isinstance(name, str) else None
+        if entry is None:
+            raise KeyError(name)
+        with _lock:
+            _load(entry)
+        if entry.error:
+            raise PluginError(entry.error) from entry.cause
+        return entry.obj
+
+    def __iter__(self):
+        return iter(sorted(_builtin_entries(self._kind)))
+
+    def __len__(self) -> int:
+        return len(_builtin_entries(self._kind))
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({self._kind!r}: {', '.join(self)})"
+
+
+def builtin_table(kind: str) -> BuiltinTable:
+    """The built-ins of a kind as a read-only mapping (what ``flexmb.COMPLEMENTS`` is for complements).
+
+    Parameters
+    ----------
+    kind : {'bodies', 'joints', 'forces', 'complements', 'integrators'}
+        Plugin kind (the singular is accepted too).
+
+    Returns
+    -------
+    BuiltinTable
+        ``{name: class}`` of flexmb's own entry points of the kind, read
+        lazily from the installed metadata; plugins of other distributions
+        and session registrations are not in it.
+
+    Examples
+    --------
+    >>> from flexmb import registry
+    >>> sorted(registry.builtin_table("complements"))
+    ['auto', 'eigen', 'qr', 'svd']
+    """
+    return BuiltinTable(kind)

@@ -6,14 +6,12 @@ import logging
 import warnings
 
 import numpy as np
-from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, Radau
 
 from . import memory, registry
 from ._validate import simulate_arguments
 from .errors import ModelError, SimulationError, StiffnessWarning
-from .genalpha import GeneralizedAlpha
 from .joints import Joint
-from .integrators import IDA, CVODEAdams, CVODEBDF, adapt, capabilities
+from .integrators import adapt, capabilities
 from .integrators.monitor import stiff_choice
 from .result import Result
 from .stepping import Run
@@ -22,8 +20,8 @@ from .threads import limited_blas
 
 __all__ = ["simulate", "initial_state", "INTEGRATORS"]
 
-INTEGRATORS = {"RK45": RK45, "RK23": RK23, "DOP853": DOP853, "Radau": Radau, "BDF": BDF, "LSODA": LSODA,
-               "CVODE_BDF": CVODEBDF, "CVODE_Adams": CVODEAdams, "IDA": IDA, "GeneralizedAlpha": GeneralizedAlpha}
+#: the built-in integrators by name: a read-only view of flexmb's ``flexmb.integrators`` entry points
+INTEGRATORS = registry.builtin_table("integrators")
 
 #: the SUNDIALS integrators' names, listed apart from scipy's in error messages
 _SUNDIALS = ("CVODE_Adams", "CVODE_BDF", "IDA")

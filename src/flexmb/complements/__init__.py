@@ -13,7 +13,8 @@ from .auto import AutoComplement
 __all__ = ["Complement", "ComplementStrategy", "EigenComplement", "SVDComplement", "COMPLEMENTS", "get_complement",
            "QRComplement", "AutoComplement"]
 
-COMPLEMENTS = {"eigen": EigenComplement, "svd": SVDComplement, "qr": QRComplement, "auto": AutoComplement}
+#: the built-in strategies by name: a read-only view of flexmb's ``flexmb.complements`` entry points
+COMPLEMENTS = registry.builtin_table("complements")
 
 
 def get_complement(strategy) -> ComplementStrategy:
@@ -41,7 +42,7 @@ def get_complement(strategy) -> ComplementStrategy:
         return strategy
     if isinstance(strategy, type) and issubclass(strategy, ComplementStrategy):
         return strategy()
-    # names come from the plugin registry (entry points, COMPLEMENTS' built-ins among them)
+    # names come from the plugin registry (entry points, the built-ins of COMPLEMENTS among them)
     if isinstance(strategy, str) and strategy in registry.names("complements"):
         return registry.get("complements", strategy)()
     raise ModelError(f"unknown complement strategy {strategy!r}; pick one of {registry.names('complements')}")

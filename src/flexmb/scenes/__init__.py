@@ -1,1 +1,5 @@
-"""Built-in scenes: ready-made models used by the CLI, tutorials and benchmarks."""
+"""Ready-made models built in Python (the wiper, the B5 four-bar), used by the tutorials, tests and benchmarks.
+
+The built-in scenes of the command line (``flexmb run wiper``) are scene
+files shipped in ``flexmb/scene/builtin/``, run by :mod:`flexmb.scene`.
+"""

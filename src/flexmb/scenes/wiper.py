@@ -63,13 +63,6 @@ def glass_normal() -> np.ndarray:
     return n if n[2] > 0 else -n
 
 
-def _bar(name, mass, vec):
-    """Slender bar from the body origin along ``vec`` (m): mass centre mid-way, m L^2/12 transverse."""
-    L = np.linalg.norm(vec)
-    e = vec / L
-    return RigidBody(name, mass, mass * L * L / 12.0 * (np.eye(3) - np.outer(e, e)), vec / 2)
-
-
 @frozen
 class WiperOptions:
     """Parameters of the wiper scene (SI units).
@@ -118,6 +111,19 @@ class WiperOptions:
                                           "connecting_link": 0.40})
 
 
+def _blade(o: WiperOptions, name: str):
+    """One blade: finite segments bending in the glass plane and out of it, or a rigid steel strip."""
+    steel = Material(210e9, 7850.0, 0.3, name="spring steel")
+    # Section.rectangular(b, h): b along the blade's y (in the glass plane), h along z (its normal)
+    section = Section.rectangular(o.blade_width, o.blade_thickness)
+    if o.flexible:
+        return FlexibleBody.uniform_beam(name, o.blade_length, section, steel, o.n_segments,
+                                         keep=("bend_y", "bend_z"), damping_ratio=o.damping_ratio)
+    mass = steel.density * section.area * o.blade_length
+    return RigidBody.box(name, mass, (o.blade_length, o.blade_width, o.blade_thickness),
+                         com=(o.blade_length / 2, 0.0, 0.0))
+
+
 def wiper(options: WiperOptions | None = None, friction_cls=None):
     """Build the wiper model.
 
@@ -144,9 +150,9 @@ def wiper(options: WiperOptions | None = None, friction_cls=None):
     model = Model("wiper")
     g = model.ground
     m = o.masses
-    crank = _bar("crank", m["crank"], P["SJ2"] - P["RJ1"])
-    drive = _bar("drive_link", m["drive_link"], P["UJ3"] - P["SJ2"])
-    link = _bar("connecting_link", m["connecting_link"], P["UJ6"] - P["SJ5"])
+    crank = RigidBody.bar("crank", m["crank"], P["SJ2"] - P["RJ1"])
+    drive = RigidBody.bar("drive_link", m["drive_link"], P["UJ3"] - P["SJ2"])
+    link = RigidBody.bar("connecting_link", m["connecting_link"], P["UJ6"] - P["SJ5"])
     pivots = P["RJ7"] - P["RJ4"]
     pivots -= n * (pivots @ n)
     e_p = pivots / np.linalg.norm(pivots)
@@ -154,8 +160,8 @@ def wiper(options: WiperOptions | None = None, friction_cls=None):
     rest = np.radians(5.0)
     up = np.cos(rest) * e_p + np.sin(rest) * np.cross(n, e_p)
     arm_vec = o.arm_length * up
-    right = _bar("right_arm", m["arm"], arm_vec)
-    left = _bar("left_arm", m["arm"], arm_vec)
+    right = RigidBody.bar("right_arm", m["arm"], arm_vec)
+    left = RigidBody.bar("left_arm", m["arm"], arm_vec)
     axis_frame = frame_from_axis(n)
 
     def ujoint(name, parent, child, pp, cp, along):
@@ -176,19 +182,10 @@ def wiper(options: WiperOptions | None = None, friction_cls=None):
     model.add(*joints)
     model.add(Driver.constant_speed("motor", joints[0], speed=2 * np.pi * o.rpm / 60.0))
     blade_frame = np.column_stack([up, np.cross(n, up), n])
-    steel = Material(210e9, 7850.0, 0.3, name="spring steel")
-    # Section.rectangular(b, h): b along the blade's y (in the glass plane), h along z (its normal)
-    section = Section.rectangular(o.blade_width, o.blade_thickness)
     tips = []
     for side, arm in (("right", right), ("left", left)):
         name = f"{side}_blade"
-        if o.flexible:
-            blade = FlexibleBody.uniform_beam(name, o.blade_length, section, steel, o.n_segments,
-                                              keep=("bend_y", "bend_z"), damping_ratio=o.damping_ratio)
-        else:
-            mass = steel.density * section.area * o.blade_length
-            blade = RigidBody.box(name, mass, (o.blade_length, o.blade_width, o.blade_thickness),
-                                  com=(o.blade_length / 2, 0.0, 0.0))
+        blade = _blade(o, name)
         model.add(Fixed(f"{side}_clamp", arm, blade, parent_point=arm_vec, parent_frame=blade_frame,
                         child_frame=np.eye(3)))
         tips.append((name, blade))

@@ -14,7 +14,7 @@ plots
     stations.
 """
 
-from .plots import _coordinate_groups, _joint_coordinate_units, coordinate_units, plot, plot_envelope, plot_station
+from .plots import coordinate_units, plot, plot_envelope, plot_station
 from .render import RenderOptions, animate, render_state
 
 __all__ = ["RenderOptions", "render_state", "animate", "plot", "coordinate_units", "plot_envelope",

@@ -29,7 +29,7 @@ import pytest
 import flexmb as fm
 from flexmb.cli import main
 
-TUTORIALS = pathlib.Path(__file__).resolve().parents[1] / "tutorials"
+TUTORIALS = pathlib.Path(__file__).resolve().parents[2] / "tutorials"
 PENDULUM = str(TUTORIALS / "01_pendulum.toml")
 ENV = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(pathlib.Path(fm.__file__).parents[1]),
                                                                  os.environ.get("PYTHONPATH")])))

@@ -1,460 +1,35 @@
-"""TOML scene files: a model, its initial state, solver settings and outputs in one file.
-
-A scene file (read with the standard library's :mod:`tomllib`) describes
-everything the Python API builds: materials, cross-sections, rigid and
-flexible bodies, joints, force elements, drivers, initial conditions, the
-solver and the outputs. Bodies, joints and force elements are looked up *by
-plugin name* in :mod:`flexmb.registry` (``type = "revolute"``), and the other
-keys of their table are passed to the class as keyword arguments, so a
-third-party plugin is usable from a scene without any change here. Every
-error is a :class:`~flexmb.errors.SceneError` whose message starts with the
-file and the key path (``scene.toml: joints.pin.axis: must have 3
-components, got 2``). Units are SI throughout. The format is documented in
-``docs/scenes.md``.
-
-Examples
---------
->>> import flexmb as fm
->>> scene = fm.loads_scene('''
-... [bodies.bar]
-... shape = "slender_bar"
-... mass = 1.0
-... length = 1.0
-... [joints.pin]
-... type = "revolute"
-... parent = "ground"
-... child = "bar"
-... [forces.gravity]
-... type = "gravity"
-... g = [0.0, -9.81, 0.0]
-... [initial]
-... positions = { pin = 0.5 }
-... [solver]
-... t_end = 1.0
-... ''')
->>> scene.system().coordinate_names
-['pin.angle']
-"""
+"""The loader: turns a parsed scene document into a :class:`~flexmb.scene.Scene`, with key paths in every error."""
 
 from __future__ import annotations
 
 import inspect
 import math
-import os
 import re
-import tomllib
-from pathlib import Path
-from typing import Any
 
 import attrs
 import numpy as np
-from attrs import define, evolve, field, frozen
 
-from . import memory, registry
-from .errors import FlexmbError, ModelError, PluginError, SceneError, SimulationError
+from .. import memory, registry
+from ..errors import FlexmbError, ModelError, PluginError, SceneError
+from .figures import FIGURES, RUNS_OF_FIGURES
+from .keys import key_paths, set_key
+from .scene import Scene
+from .settings import (SECTIONS, STUDY_KEYS, InitialState, OutputSettings, SolverSettings, _is_number,
+                       _prefix_problem, _toml_type)
 
-__all__ = ["Scene", "SolverSettings", "OutputSettings", "InitialState", "load_scene", "loads_scene", "SECTIONS"]
-__all__ += ["scene_from_dict"]
-
-#: top-level tables of a scene file and what each holds
-SECTIONS = {
-    "model": "name and default complement strategy",
-    "materials": "named materials for flexible bodies",
-    "sections": "named beam cross-sections",
-    "bodies": "rigid and flexible bodies by plugin name",
-    "joints": "joints by plugin name",
-    "forces": "force elements by plugin name",
-    "drivers": "prescribed joint motions",
-    "initial": "initial positions, speeds and held coordinates",
-    "solver": "end time, integrator, tolerances, outputs times, complement",
-    "output": "files to write and points to track",
-    "study": "settings of parameter studies of the scene (time_limit per case)",
-}
-
-#: keys of the ``[study]`` table (read by :mod:`flexmb.study`; a plain run ignores them)
-STUDY_KEYS = ("time_limit",)
+__all__: list[str] = []
 
 _BODY_KEYS = {"parent", "child", "body", "body1", "body2"}
-_TOML_TYPES = {bool: "a boolean", int: "an integer", float: "a float", str: "a string", list: "an array",
-               dict: "a table"}
-
-
-def _toml_type(value) -> str:
-    return _TOML_TYPES.get(type(value), f"a {type(value).__name__}")
-
-
-def _is_number(value) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
-
-
-@frozen
-class SolverSettings:
-    """Settings of :func:`flexmb.simulate` read from ``[solver]``.
-
-    Parameters
-    ----------
-    t_end : float
-        End time, s.
-    method : str
-        Integrator name (``'auto'``, ``'DOP853'``, ``'Radau'``, ... or a plugin).
-    rtol : float
-        Relative tolerance.
-    atol : float or None
-        Absolute tolerance (default ``rtol / 100``).
-    n_out : int
-        Number of equally spaced output times.
-    complement : str
-        Orthogonal complement strategy (``'svd'``, ``'eigen'`` or a plugin).
-    projection_tol : float
-        Largest constraint residual tolerated before projecting.
-    max_step : float
-        Largest step, s.
-    track_work : bool
-        Integrate the work of drivers and force classes (``Result.work``).
-    """
-
-    t_end: float
-    method: str = "auto"
-    rtol: float = 1e-8
-    atol: float | None = None
-    n_out: int = 201
-    complement: str = "svd"
-    projection_tol: float = 1e-10
-    max_step: float = math.inf
-    track_work: bool = False
-
-
-def _prefix_problem(prefix) -> str | None:
-    """What is wrong with an output file-name stem, or None.
-
-    A stem starts with a letter, digit or underscore and holds only those and
-    ``.`` and ``-``: no folder, no hidden file (``.x``, ``..``), nothing a
-    shell would read as an option.
-    """
-    if not isinstance(prefix, str):
-        return f"must be a string, got {_toml_type(prefix)}"
-    if len(prefix) > 200 or not re.fullmatch(r"\w[\w.\-]*", prefix):
-        return (f"must be a plain file-name stem (letters, digits, _ . -, starting with a letter, digit or _), "
-                f"got {prefix!r}")
-    return None
-
-
-def _check_prefix(instance, attribute, value) -> None:
-    problem = _prefix_problem(value)
-    if problem:
-        raise SceneError(f"output.prefix: {problem}", "output.prefix")
-
-
-@frozen
-class OutputSettings:
-    """What ``Scene.run`` writes, read from ``[output]``.
-
-    Parameters
-    ----------
-    npz, summary, plots, vtk : bool
-        Write the result (``<name>.npz``), ``summary.json``, ``<name>.png``
-        and the VTK series (``vtk/<name>.pvd``).
-    prefix : str
-        File-name stem (default: the model name): letters, digits, ``_``,
-        ``.`` and ``-``, starting with a letter, digit or ``_``.
-    points : dict of str to (str, tuple of float)
-        Points to track: ``{label: (body name, point in the body frame, m)}``.
-
-    Raises
-    ------
-    SceneError
-        If ``prefix`` is not a plain file-name stem (the message names it).
-    """
-
-    npz: bool = True
-    summary: bool = True
-    plots: bool = True
-    vtk: bool = True
-    prefix: str = field(default="scene", validator=_check_prefix)
-    points: dict = field(factory=dict)
-
-
-@frozen
-class InitialState:
-    """Initial conditions read from ``[initial]`` (see :func:`flexmb.initial_state`).
-
-    Parameters
-    ----------
-    positions, speeds : dict
-        ``{coordinate or joint name: value}``, rad or m and rad/s or m/s.
-    fixed : tuple of str
-        Coordinates held at their given values while the loops are closed.
-    """
-
-    positions: dict = field(factory=dict)
-    speeds: dict = field(factory=dict)
-    fixed: tuple = ()
-
-
-@define
-class Scene:
-    """A model with its initial state, solver settings and outputs, as read from a scene file.
-
-    Each parameter is kept as the attribute of the same name.
-
-    Parameters
-    ----------
-    name : str
-        Scene name (``[model] name``).
-    model : Model
-        The model.
-    initial : InitialState
-        Initial conditions.
-    solver : SolverSettings
-        Solver settings.
-    output : OutputSettings
-        What :meth:`run` writes.
-    source : str
-        The file the scene came from (for messages).
-    types : dict of str to str
-        Plugin name of each body, joint and force element, by element name.
-
-    See Also
-    --------
-    load_scene : Read a scene file.
-    """
-
-    name: str
-    model: Any
-    initial: InitialState
-    solver: SolverSettings
-    output: OutputSettings
-    source: str = "<scene>"
-    types: dict = field(factory=dict)
-
-    def settings(self, **overrides) -> SolverSettings:
-        """The solver settings with some replaced (``None`` values are ignored).
-
-        Parameters
-        ----------
-        **overrides
-            Fields of :class:`SolverSettings`.
-
-        Returns
-        -------
-        SolverSettings
-            The settings used.
-        """
-        return evolve(self.solver, **{k: v for k, v in overrides.items() if v is not None})
-
-    def system(self, complement: str | None = None):
-        """Compile the model (:meth:`flexmb.Model.build`).
-
-        Parameters
-        ----------
-        complement : str, optional
-            Complement strategy (default: the scene's).
-
-        Returns
-        -------
-        System
-            The compiled system.
-        """
-        return self.model.build(complement=complement or self.solver.complement)
-
-    def initial_state(self, system=None):
-        """Consistent initial coordinates and speeds (:func:`flexmb.initial_state`).
-
-        Parameters
-        ----------
-        system : System, optional
-            Compiled model (default: :meth:`system`).
-
-        Returns
-        -------
-        x0, xd0 : ndarray, shape (n,)
-            The assembled state.
-        """
-        from .simulate import initial_state
-
-        system = system or self.system()
-        return initial_state(system, 0.0, self.initial.positions, self.initial.speeds,
-                             fixed=list(self.initial.fixed) or None)
-
-    def simulate(self, progress: bool | None = False, **overrides):
-        """Simulate the scene.
-
-        Parameters
-        ----------
-        progress : bool, optional
-            Progress bar on stderr.
-        **overrides
-            Fields of :class:`SolverSettings` to replace (``t_end``, ``rtol``,
-            ``method``, ``complement``, ``n_out``, ...).
-
-        Returns
-        -------
-        Result
-            The result; ``status`` is ``'interrupted'`` if the run was
-            stopped with Ctrl-C (the outputs computed so far are kept).
-
-        Raises
-        ------
-        SimulationError
-            If the run fails; ``.result`` holds the partial result.
-        """
-        from .simulate import simulate
-
-        s = self.settings(**overrides)
-        return simulate(self.model, s.t_end, positions=self.initial.positions, speeds=self.initial.speeds,
-                        fixed=list(self.initial.fixed) or None, n_out=s.n_out, method=s.method, rtol=s.rtol,
-                        atol=s.atol, complement=s.complement, projection_tol=s.projection_tol,
-                        max_step=s.max_step, progress=progress, track_work=s.track_work)
-
-    def track(self, result) -> dict:
-        """Trajectories of the ``[output.points]`` of the scene.
-
-        Parameters
-        ----------
-        result : Result
-            A result of this scene.
-
-        Returns
-        -------
-        dict of str to ndarray, shape (nt, 3)
-            Inertial positions of each tracked point, m.
-        """
-        from .flexible import FlexibleBody
-
-        out = {}
-        for label, (body_name, point) in self.output.points.items():
-            body = self.model[body_name]
-            p = np.asarray(point, dtype=float)
-            if isinstance(body, FlexibleBody):
-                i, local = body.locate(p)
-                row = result.flexible[body_name][0][i]
-            else:
-                row, local = result.body_names.index(body_name), p
-            out[label] = result.origins[:, row] + result.rotations[:, row] @ local
-        return out
-
-    def run(self, out, progress: bool = True, **overrides) -> dict:
-        """Simulate and write the outputs: ``.npz`` result, ``summary.json``, plots and VTK.
-
-        A run stopped with Ctrl-C writes what it computed so far (the summary
-        says ``"status": "interrupted"``); a failed run writes its partial
-        result and then raises. The folder is locked for the whole run (a
-        second run into it is refused) and the new files replace the previous
-        run's only once all are written, ``summary.json`` last; files of the
-        previous run that this one does not write are removed (see
-        ``docs/scenes.md``, "Output folders").
-
-        Parameters
-        ----------
-        out : str or path-like
-            Output folder (created).
-        progress : bool
-            Progress bar on stderr.
-        **overrides
-            Fields of :class:`SolverSettings` to replace.
-
-        Returns
-        -------
-        dict
-            The summary (also written to ``out/summary.json``).
-
-        Raises
-        ------
-        SimulationError
-            If the run fails (after writing the partial outputs).
-        ExportError
-            If another run is writing into ``out`` (the message names its pid).
-        """
-        from ._files import OutputFolder
-        from .scenes.report import _write_outputs
-
-        failure = None
-        with OutputFolder(out) as folder:  # locked before simulating: a second run is refused at once
-            try:
-                result = self.simulate(progress=progress, **overrides)
-            except SimulationError as exc:
-                failure, result = exc, exc.result
-            summary = _write_outputs(self, result, folder)
-        if failure is not None:
-            raise failure
-        return summary
-
-    def info(self) -> str:
-        """Describe the scene: bodies, joints, coordinates, constraints, redundancy, freedoms.
-
-        Returns
-        -------
-        str
-            A text report (what ``flexmb info`` prints).
-        """
-        from .flexible import FlexibleBody
-        from .simulate import _choose_method
-
-        system = self.system()
-        x0, xd0 = self.initial_state(system)
-        kin = system.kinematics(0.0, x0, xd0)
-        psi = system.constraints.evaluate(kin, level=1).psi
-        c = system.strategy.complement(psi)
-        names = system.coordinate_names
-        lines = [f"scene {self.source}: model {self.name!r}", f"bodies ({len(self.model.bodies)}):"]
-        for b in self.model.bodies:
-            extra = ""
-            if isinstance(b, FlexibleBody):
-                extra = (f", {b.n_segments} segments keeping {', '.join(b.keep)} "
-                         f"({b.n_elastic} elastic coordinates)")
-            lines.append(f"  {b.name}: {self.types.get(b.name, type(b).__name__)}, mass {b.mass:.6g} kg{extra}")
-        cuts = set(system.topology.cut_joints)
-        lines.append(f"joints ({len(self.model.joints)}):")
-        for j in self.model.joints:
-            mine = [n for n in names if n.rsplit(".", 1)[0] == j.name]
-            if j in cuts:
-                rows = sum(1 for lab in system.constraints.labels if lab.split(".", 1)[0] == j.name)
-                what = f"cut joint closing a loop, {rows} constraint rows"
-            else:
-                what = "coordinates " + (", ".join(mine) if mine else "none")
-            lines.append(f"  {j.name}: {self.types.get(j.name, type(j).__name__)} "
-                         f"{j.parent.name} -> {j.child.name}; {what}")
-        if self.model.forces:
-            lines.append("forces: " + ", ".join(f"{f.name} ({self.types.get(f.name, type(f).__name__)})"
-                                                for f in self.model.forces))
-        for d in self.model.drivers:
-            lines.append(f"driver {d.name}: drives {names[system.coordinate_slice(d.joint).start + d.coordinate]}")
-        m = system.n_constraints
-        lines += [
-            f"coordinates: n = {system.n_coords}",
-            f"constraint rows: m = {m}" + (f" ({', '.join(system.constraints.labels)})" if 0 < m <= 12 else ""),
-            f"rank of psi at the initial state: {c.rank}; redundant rows: {m - c.rank}",
-            f"degrees of freedom: p = n - rank = {c.p}"
-            + (f" (drivers prescribe {len(self.model.drivers)})" if self.model.drivers else ""),
-        ]
-        w = system.fastest_rate(0.0, x0, xd0)
-        s = self.solver
-        if w > 0:
-            steps = s.t_end * w / 3.0
-            atol = s.rtol / 100 if s.atol is None else s.atol
-            method, reason = _choose_method(system, 0.0, s.t_end, x0, xd0, s.rtol, atol, log=False)
-            lines.append(f"stiffness: highest spring frequency {system.highest_frequency(0.0, x0, xd0):.4g} rad/s, "
-                         f"fastest rate with the dampers {w:.4g} rad/s; an explicit integrator needs about "
-                         f"{steps:.3g} steps over {s.t_end:g} s to stay stable, so 'auto' picks "
-                         f"{getattr(method, '__name__', method)}")
-            lines.append(f"  ({reason})")
-        else:
-            lines.append("stiffness: no springs on coordinates; 'auto' picks DOP853 (explicit)")
-        lines.append(f"solver: t_end {s.t_end:g} s, method {s.method}, rtol {s.rtol:g}, n_out {s.n_out}, "
-                     f"complement {s.complement}")
-        return "\n".join(lines)
-
-
-# ----------------------------------------------------------------------------- parsing helpers
 
 
 class _Loader:
     """Turns the parsed TOML document into a :class:`Scene`, raising SceneError with key paths."""
 
-    def __init__(self, data: dict, source: str, stem: str):
+    def __init__(self, data: dict, source: str, stem: str, run: str | None = None):
         self.data = data
         self.source = source
         self.stem = stem
+        self.run = run  # the label of the run being built, for one of the [runs] of a scene
         self.materials: dict = {}
         self.sections: dict = {}
         self.bodies: dict = {}
@@ -626,7 +201,7 @@ class _Loader:
 
     # -- sections of the file
     def load(self) -> Scene:
-        from .model import Model
+        from ..model import Model
 
         for k in self.data:
             if k not in SECTIONS:
@@ -658,11 +233,54 @@ class _Loader:
             memory.check(system, solver.n_out, what=f"{solver.n_out} output times", model=False)
         except ModelError as exc:
             self.fail("solver.n_out", str(exc))
+        self.check_metrics(scene, system)
+        scene.runs = self.load_runs(scene)
+        if self.run is None and FIGURES[output.figure][0] == "runs":
+            needs = RUNS_OF_FIGURES.get(output.figure, ())
+            if not scene.runs or not set(needs) <= set(scene.runs):
+                self.fail("output.figure", f"figure {output.figure!r} draws the [runs] of a scene "
+                                           f"({', '.join(needs) or 'any'}); this one has "
+                                           f"{', '.join(scene.runs) or 'none'}")
         return scene
+
+    def check_metrics(self, scene, system) -> None:
+        """Refuse an ``[output.metrics]`` entry that names no output of this scene."""
+        from ..study.metrics import _check_output
+
+        for key, spec in scene.output.metrics.items():
+            try:
+                _check_output(spec, scene, system)
+            except FlexmbError as exc:
+                self.fail(f"output.metrics.{key}", str(exc))
+
+    def load_runs(self, scene: Scene) -> dict:
+        """The scenes of ``[runs]``: for each, this document with the run's key paths replaced, loaded.
+
+        A run that replaces no key is ``scene`` itself (as a scene without runs), not loaded again.
+        """
+        import copy
+
+        runs = {}
+        for label, keys in self.named("runs", "runs").items():
+            if not keys:
+                runs[label] = attrs.evolve(scene, runs={})
+                continue
+            doc = copy.deepcopy({k: v for k, v in self.data.items() if k != "runs"})
+            for key, value in keys.items():
+                for path in key_paths(key):
+                    try:
+                        set_key(doc, path, value, self.source, what=f"key of run {label!r}")
+                    except SceneError as exc:
+                        self.fail(f"runs.{label}", str(exc).removeprefix(f"{self.source}: "))
+            try:
+                runs[label] = _Loader(doc, self.source, self.stem, run=label).load()
+            except SceneError as exc:
+                self.fail(f"runs.{label}", str(exc).removeprefix(f"{self.source}: "))
+        return runs
 
     def check_memory(self, model) -> None:
         """Refuse a model too large for memory at the key that sizes it (the finest flexible body's n_segments)."""
-        from .flexible import FlexibleBody
+        from ..flexible import FlexibleBody
 
         try:
             memory.check(model, what=f"Model {model.name!r}")
@@ -681,7 +299,7 @@ class _Loader:
         return out
 
     def load_materials(self):
-        from .sections import Material
+        from ..sections import Material
 
         for name, t in self.named("materials", "materials").items():
             path = f"materials.{name}"
@@ -703,7 +321,7 @@ class _Loader:
                 self.fail(path, f"values out of range ({type(exc).__name__}: {exc})")
 
     def load_sections(self):
-        from .sections import Section
+        from ..sections import Section
 
         kinds = {"rectangular": ("b", "h"), "circular": ("d",), "tube": ("d_out", "d_in"),
                  "general": ("area", "Iy", "Iz", "J")}
@@ -724,8 +342,6 @@ class _Loader:
                 self.fail(path, f"values out of range ({type(exc).__name__}: {exc})")
 
     def load_bodies(self, model):
-        from .bodies import RigidBody
-
         for name, t in self.named("bodies", "bodies").items():
             path = f"bodies.{name}"
             if name == "ground":
@@ -736,8 +352,6 @@ class _Loader:
             if "shape" in t:
                 shape = self.string(f"{path}.shape", t["shape"])
                 shapes = _constructors(cls)
-                if issubclass(cls, RigidBody):
-                    shapes["bar"] = _bar
                 if shape not in shapes:
                     self.fail(f"{path}.shape", f"unknown shape {shape!r} for {type_name}; pick one of "
                                                f"{', '.join(sorted(shapes)) or 'none'}")
@@ -766,7 +380,7 @@ class _Loader:
         self._load_plugins(model, "forces", "force")
 
     def load_drivers(self, model):
-        from .drivers import Driver
+        from ..drivers import Driver
 
         kinds = _constructors(Driver)
         for name, t in self.named("drivers", "drivers").items():
@@ -858,7 +472,7 @@ class _Loader:
 
     def load_output(self, name: str) -> OutputSettings:
         t = self.table("output", self.data.get("output", {}))
-        self.keys("output", t, optional=("npz", "summary", "plots", "vtk", "prefix", "points"))
+        self.keys("output", t, optional=("npz", "summary", "plots", "vtk", "prefix", "points", "figure", "metrics"))
         kw = {k: self.boolean(f"output.{k}", t[k]) for k in ("npz", "summary", "plots", "vtk") if k in t}
         default = re.sub(r"^[.\-]+", "", re.sub(r"[^\w.\-]+", "_", name))[:200] or "scene"
         prefix = self.string("output.prefix", t.get("prefix", default))
@@ -877,7 +491,14 @@ class _Loader:
             if not (isinstance(point, list) and len(point) == 3 and all(_is_number(x) for x in point)):
                 self.fail(f"{path}.point", f"must be 3 numbers (m, in the body frame), got {point!r}")
             points[label] = (body.name, tuple(float(x) for x in point))
-        return OutputSettings(prefix=prefix, points=points, **kw)
+        if "figure" in t:
+            kw["figure"] = self.string("output.figure", t["figure"])
+            if kw["figure"] not in FIGURES:
+                self.fail("output.figure", f"unknown figure {kw['figure']!r}; pick one of {', '.join(FIGURES)}")
+        metrics = self.table("output.metrics", t.get("metrics", {}))
+        for key, spec in metrics.items():
+            self.string(f"output.metrics.{key}", spec)
+        return OutputSettings(prefix=prefix, points=points, metrics=dict(metrics), **kw)
 
 
 def _flatten(table: dict, prefix: str = "") -> dict:
@@ -917,155 +538,3 @@ def _constructors(cls) -> dict:
         if first == "name":
             out[k] = method
     return out
-
-
-def _bar(name: str, mass: float, vector):
-    """A uniform slender bar from the body origin to ``vector`` (m): ``m L^2 / 12`` transverse.
-
-    Parameters
-    ----------
-    name : str
-        Body name.
-    mass : float
-        Mass, kg.
-    vector : array_like, shape (3,)
-        The bar's far end in the body frame, m.
-
-    Returns
-    -------
-    RigidBody
-        Mass centre at ``vector / 2``, central inertia ``m L^2 / 12 (I - e e^T)``.
-    """
-    from .bodies import RigidBody
-
-    v = np.asarray(vector, dtype=float)
-    if v.shape != (3,):
-        raise ModelError(f"vector must have 3 components, got {v.size}")
-    L = np.linalg.norm(v)
-    if not L > 0:
-        raise ModelError("vector must not be a zero-length vector")
-    e = v / L
-    return RigidBody(name, mass, mass * L * L / 12.0 * (np.eye(3) - np.outer(e, e)), v / 2)
-
-
-def loads_scene(text: str, source: str = "<scene>") -> Scene:
-    """Read a scene from TOML text.
-
-    Parameters
-    ----------
-    text : str
-        The TOML document.
-    source : str
-        Name used in messages (normally the file name).
-
-    Returns
-    -------
-    Scene
-        The scene, its model validated and compiled once.
-
-    Raises
-    ------
-    SceneError
-        On invalid TOML (with its line and column) or an invalid entry (with
-        its key path).
-
-    See Also
-    --------
-    load_scene : Read a scene file.
-    """
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        msg = str(exc)
-        if msg.endswith("(at end of document)"):  # tomllib gives no line there: name the last one
-            msg = f"{msg[:-1]}, line {max(len(text.splitlines()), 1)})"
-        raise SceneError(f"{source}: invalid TOML: {msg}") from exc
-    stem = Path(source).stem if source != "<scene>" else "scene"
-    return _Loader(data, source, stem).load()
-
-
-def load_scene(path) -> Scene:
-    """Read a scene file (TOML, SI units; the format is described in ``docs/scenes.md``).
-
-    Parameters
-    ----------
-    path : str or path-like
-        The ``.toml`` file.
-
-    Returns
-    -------
-    Scene
-        With ``.model``, ``.initial``, ``.solver`` and ``.output``;
-        ``scene.simulate()`` runs it and ``scene.run(out)`` writes its
-        outputs.
-
-    Raises
-    ------
-    SceneError
-        If the file cannot be read, is not valid TOML, or an entry is
-        invalid; the message starts with ``<file>: <key path>:``.
-
-    Examples
-    --------
-    >>> import flexmb as fm
-    >>> scene = fm.load_scene("tutorials/02_fourbar.toml")  # doctest: +SKIP
-    >>> scene.simulate().status  # doctest: +SKIP
-    'finished'
-    """
-    path = os.fspath(path)
-    try:
-        with open(path, "rb") as fh:
-            raw = fh.read()
-    except OSError as exc:
-        raise SceneError(f"{path}: cannot read the scene file: {exc.strerror or exc}") from exc
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise SceneError(f"{path}: not a UTF-8 text file ({exc.reason} at byte {exc.start})") from exc
-    return loads_scene(text, source=path)
-
-
-
-def scene_from_dict(data: dict, source: str = "<scene>") -> Scene:
-    """Build a scene from an already parsed TOML document (a nested dict).
-
-    This is what :func:`loads_scene` does after parsing; parameter studies
-    (:mod:`flexmb.study`) use it to build each case from the scene's
-    document with some key paths replaced.
-
-    Parameters
-    ----------
-    data : dict
-        The document, as :func:`tomllib.loads` returns it (not modified).
-    source : str
-        Name used in messages (normally the file name).
-
-    Returns
-    -------
-    Scene
-        The scene, its model validated and compiled once.
-
-    Raises
-    ------
-    SceneError
-        On an invalid entry, with its key path.
-
-    See Also
-    --------
-    loads_scene : Read a scene from TOML text.
-
-    Examples
-    --------
-    >>> import flexmb as fm
-    >>> doc = {"bodies": {"bar": {"shape": "slender_bar", "mass": 2.0, "length": 1.0}},
-    ...        "joints": {"pin": {"type": "revolute", "parent": "ground", "child": "bar"}},
-    ...        "solver": {"t_end": 1.0}}
-    >>> fm.scene_from_dict(doc).model["bar"].mass
-    2.0
-    """
-    import copy
-
-    if not isinstance(data, dict):
-        raise SceneError(f"{source}: a scene must be a table (dict), got {type(data).__name__}")
-    stem = Path(source).stem if source != "<scene>" else "scene"
-    return _Loader(copy.deepcopy(data), source, stem).load()

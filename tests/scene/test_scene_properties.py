@@ -40,7 +40,7 @@ from hypothesis import strategies as st
 import flexmb as fm
 from strategies import memory_limit
 
-TUTORIALS = Path(__file__).resolve().parent.parent / "tutorials"
+TUTORIALS = Path(__file__).resolve().parents[2] / "tutorials"
 BASES = {name: tomllib.loads((TUTORIALS / name).read_text(encoding="utf-8"))
          for name in ("01_pendulum.toml", "02_fourbar.toml", "03_cantilever.toml")}
 #: top-level tables whose sub-tables are named elements

@@ -1,0 +1,201 @@
+"""The figures a scene run draws, by name: ``[output] figure`` picks one of :data:`FIGURES`.
+
+A figure of kind ``'run'`` is drawn for one run, ``f(scene, result, tracks,
+speeds, plt)``; one of kind ``'runs'`` once for all the runs of a scene with
+``[runs]``, ``f(runs, plt)`` with ``runs = {label: (scene, result, system)}``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .motion import point_motion
+
+__all__ = ["FIGURES", "RUNS_OF_FIGURES", "wiper_figure"]
+
+
+def _subplots(plt, n, figsize, **kw):
+    """A column of ``n`` axes sharing the time axis: with pyplot, or a bare Figure without it."""
+    if plt is None:
+        from matplotlib.figure import Figure
+
+        fig = Figure(figsize=figsize)
+        return fig, fig.subplots(n, 1, sharex=True, squeeze=False, **kw)[:, 0]
+    fig, ax = plt.subplots(n, 1, figsize=figsize, sharex=True, squeeze=False, **kw)
+    return fig, ax[:, 0]
+
+
+def _plot_coordinates(axes, res, groups, fontsize=7):
+    """One axis per (kind, unit) group of coordinates, labelled with the unit."""
+    for ax, (kind, unit, cols) in zip(axes, groups):
+        for c in cols:
+            ax.plot(res.t, res.x[:, c], label=res.coordinate_names[c])
+        ax.set_ylabel(f"{kind} ({unit})")
+        if len(cols) <= 12:
+            ax.legend(fontsize=fontsize, loc="upper right")
+
+
+def _fourbar_figure(res, plt=None):
+    """``fourbar.png``: coordinates (one axis per unit), energy drift (J), loop residual (m)."""
+    from ..viz.plots import _coordinate_groups
+
+    groups = _coordinate_groups(res, range(len(res.coordinate_names)))
+    fig, ax = _subplots(plt, len(groups) + 2, (7, 2.6 * (len(groups) + 2) + 0.2))
+    _plot_coordinates(ax, res, groups, fontsize=8)
+    ax[-2].plot(res.t, res.energy - res.energy[0])
+    ax[-2].set_ylabel("energy drift (J)")
+    ax[-1].semilogy(res.t, np.maximum(res.residual, 1e-18))
+    ax[-1].set_ylabel("loop residual (m)")
+    ax[-1].set_xlabel("time (s)")
+    fig.tight_layout()
+    return fig
+
+
+def _effort_unit(driver) -> str:
+    """N m for a driven rotation, N for a driven translation, '-' when the joint does not say."""
+    joint = type(driver.joint)
+    n_t, n_r = len(joint.translation_axes), len(joint.rotation_axes)
+    if len(joint.coordinate_names) != n_t + n_r:
+        return "-"
+    return "N" if driver.coordinate < n_t else "N m"
+
+
+def _scene_figure(scene, res, tracks, speeds, plt=None):
+    """The plot of a scene-file run: coordinates and driver efforts one axis per unit, energy, residual, speeds."""
+    from ..viz.plots import _coordinate_groups
+
+    groups = _coordinate_groups(res, range(len(res.coordinate_names)))
+    drivers = {}
+    for d in scene.model.drivers:
+        if d.name in res.driver_names:
+            drivers.setdefault(_effort_unit(d), []).append(d.name)
+    panels = len(groups) + 2 + bool(tracks) + len(drivers)
+    fig, ax = _subplots(plt, panels, (7, 2.6 * panels))
+    _plot_coordinates(ax, res, groups)
+    i = len(groups)
+    ax[i].plot(res.t, res.energy - res.energy[0])
+    ax[i].set_ylabel("energy change (J)")
+    ax[i + 1].semilogy(res.t, np.maximum(res.residual, 1e-18))
+    ax[i + 1].set_ylabel("loop residual (m or rad)")
+    i += 2
+    if tracks:
+        for k in tracks:
+            ax[i].plot(res.t, speeds[k], label=k)
+        ax[i].set_ylabel("point speed (m/s)")
+        ax[i].legend(fontsize=8)
+        i += 1
+    for unit, names in drivers.items():
+        for d in names:
+            ax[i].plot(res.t, res.driver_effort(d), label=d)
+        what = {"N m": "driver torque", "N": "driver force"}.get(unit, "driver effort")
+        ax[i].set_ylabel(f"{what} ({unit})")
+        ax[i].legend(fontsize=8)
+        i += 1
+    ax[-1].set_xlabel("time (s)")
+    fig.suptitle(f"{scene.name}: {res.status}")
+    fig.tight_layout()
+    return fig
+
+
+def wiper_figure(runs, systems, tips, plt=None):
+    """The figure of ``wiper.png``: rigid and flexible blades, and what differs between them.
+
+    Left column, both runs: the right tip's distance from its start point
+    (m), its speed (m/s) and the crank torque (N m). Right column, what the
+    flexible blade adds: the flexible minus rigid tip position in the
+    blade frame (mm; the crank drives a linkage without freedom, so the
+    arms move alike and this is the blade's elastic tip deflection), the
+    flexible minus rigid tip speed (m/s), and the bending moments at the
+    flexible blade's root (N m, from its section loads).
+
+    Parameters
+    ----------
+    runs : dict of str to Result
+        ``'rigid'`` and ``'flexible'`` results at the same output times.
+    systems : dict of str to System
+        The systems they came from.
+    tips : dict of str to (ndarray, ndarray)
+        Per run, the right tip's positions and velocities, shape (nt, 3)
+        (:func:`point_motion`).
+    plt : module, optional
+        ``matplotlib.pyplot`` (else a bare Figure is made).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Six axes, every one labelled with its unit.
+    """
+    if plt is None:
+        from matplotlib.figure import Figure
+
+        fig = Figure(figsize=(11, 8.5))
+        ax = fig.subplots(3, 2, sharex=True)
+    else:
+        fig, ax = plt.subplots(3, 2, figsize=(11, 8.5), sharex=True)
+    rigid, flexible = runs["rigid"], runs["flexible"]
+    # the flexible curves thin and dark over the rigid ones wide and light: at this scale they coincide
+    for (label, res), style in zip(runs.items(), (dict(color="C0", lw=3.0, alpha=0.45), dict(color="k", lw=0.9))):
+        p, v = tips[label]
+        ax[0, 0].plot(res.t, np.linalg.norm(p - p[0], axis=1), label=f"{label} blades", **style)
+        ax[1, 0].plot(res.t, np.linalg.norm(v, axis=1), **style)
+        ax[2, 0].plot(res.t, res.driver_effort("motor"), **style)
+    ax[0, 0].set_ylabel("right tip: distance from its start point (m)")
+    ax[1, 0].set_ylabel("right tip speed (m/s)")
+    ax[2, 0].set_ylabel("crank torque (N m)")
+    same = len(rigid.t) == len(flexible.t) and np.allclose(rigid.t, flexible.t, rtol=0, atol=1e-12)
+    if same:
+        # the tip's offset in the rigid blade's frame: x along the blade, y across it in the glass, z normal
+        k = rigid.body_names.index("right_blade")
+        d = np.einsum("tji,tj->ti", rigid.rotations[:, k], tips["flexible"][0] - tips["rigid"][0])
+        for j, name in ((1, "across the blade, in the glass (its elastic deflection)"), (0, "along the blade"),
+                        (2, "normal to the glass")):
+            ax[0, 1].plot(flexible.t, 1e3 * d[:, j], label=name)
+        dv = np.linalg.norm(tips["flexible"][1], axis=1) - np.linalg.norm(tips["rigid"][1], axis=1)
+        ax[1, 1].plot(flexible.t, dv, color="k", lw=0.9)
+    else:
+        for a in ax[:2, 1]:
+            a.text(0.5, 0.5, "runs at different output times", ha="center", transform=a.transAxes)
+    ax[0, 1].set_ylabel("flexible - rigid tip position (mm)")
+    ax[1, 1].set_ylabel("flexible - rigid tip speed (m/s)")
+    loads = flexible.section_loads(systems["flexible"].model["right_blade"])
+    for c, name in (("Mz", "Mz, in the glass plane"), ("My", "My, out of the plane")):
+        if c in loads.components:
+            ax[2, 1].plot(loads.t, loads.component(c)[:, 0], label=name)
+    ax[2, 1].set_ylabel("flexible blade root moment (N m)")
+    for a in ax[-1]:
+        a.set_xlabel("time (s)")
+    for a, loc in zip(ax.flat, ("upper left", "lower right", None, None, None, "upper right")):
+        if loc:
+            a.legend(fontsize=8, loc=loc)
+        a.grid(alpha=0.3)
+    fig.suptitle("Windshield wiper at 60 rpm, right blade: rigid vs flexible (cf. the paper's Figs. 5-6)")
+    fig.subplots_adjust(left=0.08, right=0.98, bottom=0.07, top=0.94, hspace=0.12, wspace=0.22)
+    return fig
+
+
+def _fourbar_run_figure(scene, res, tracks, speeds, plt=None):
+    """``fourbar.png`` of a scene run."""
+    return _fourbar_figure(res, plt)
+
+
+def _wiper_runs_figure(runs, plt=None):
+    """``wiper.png`` from the runs ``rigid`` and ``flexible``: the tip is the scene's first tracked point."""
+    scene = next(iter(runs.values()))[0]
+    body, point = next(iter(scene.output.points.values()))
+    results = {label: res for label, (_, res, _) in runs.items()}
+    systems = {label: system for label, (_, _, system) in runs.items()}
+    tips = {label: point_motion(results[label], systems[label], body, point) for label in runs}
+    return wiper_figure(results, systems, tips, plt=plt)
+
+
+#: named figures: name -> (kind, function, what it shows); ``'runs'`` figures need ``[runs]``
+FIGURES = {
+    "scene": ("run", _scene_figure, "coordinates and driver efforts one axis per unit, energy, residual, "
+                                    "tracked point speeds"),
+    "fourbar": ("run", _fourbar_run_figure, "coordinates, energy drift and loop residual (benchmark B5)"),
+    "wiper": ("runs", _wiper_runs_figure, "the paper's Figs. 5-6: runs 'rigid' and 'flexible' side by side "
+                                          "(the first tracked point is the blade tip; the driver is 'motor')"),
+}
+
+#: the runs a ``'runs'`` figure draws, by label
+RUNS_OF_FIGURES = {"wiper": ("rigid", "flexible")}

@@ -1,0 +1,263 @@
+"""The :class:`Scene`: a model with its initial state, solver settings and outputs."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from attrs import define, evolve, field
+
+from .settings import InitialState, OutputSettings, SolverSettings
+
+__all__ = ["Scene"]
+
+
+@define
+class Scene:
+    """A model with its initial state, solver settings and outputs, as read from a scene file.
+
+    Each parameter is kept as the attribute of the same name.
+
+    Parameters
+    ----------
+    name : str
+        Scene name (``[model] name``).
+    model : Model
+        The model.
+    initial : InitialState
+        Initial conditions.
+    solver : SolverSettings
+        Solver settings.
+    output : OutputSettings
+        What :meth:`run` writes.
+    source : str
+        The file the scene came from (for messages).
+    types : dict of str to str
+        Plugin name of each body, joint and force element, by element name.
+    runs : dict of str to Scene
+        The scene's ``[runs]``, in file order: each the scene with some keys
+        replaced. :meth:`run` runs each of them in turn into one folder
+        (empty: the scene runs once).
+
+    See Also
+    --------
+    load_scene : Read a scene file.
+    """
+
+    name: str
+    model: Any
+    initial: InitialState
+    solver: SolverSettings
+    output: OutputSettings
+    source: str = "<scene>"
+    types: dict = field(factory=dict)
+    runs: dict = field(factory=dict)
+
+    def settings(self, **overrides) -> SolverSettings:
+        """The solver settings with some replaced (``None`` values are ignored).
+
+        Parameters
+        ----------
+        **overrides
+            Fields of :class:`SolverSettings`.
+
+        Returns
+        -------
+        SolverSettings
+            The settings used.
+        """
+        return evolve(self.solver, **{k: v for k, v in overrides.items() if v is not None})
+
+    def system(self, complement: str | None = None):
+        """Compile the model (:meth:`flexmb.Model.build`).
+
+        Parameters
+        ----------
+        complement : str, optional
+            Complement strategy (default: the scene's).
+
+        Returns
+        -------
+        System
+            The compiled system.
+        """
+        return self.model.build(complement=complement or self.solver.complement)
+
+    def initial_state(self, system=None):
+        """Consistent initial coordinates and speeds (:func:`flexmb.initial_state`).
+
+        Parameters
+        ----------
+        system : System, optional
+            Compiled model (default: :meth:`system`).
+
+        Returns
+        -------
+        x0, xd0 : ndarray, shape (n,)
+            The assembled state.
+        """
+        from ..simulate import initial_state
+
+        system = system or self.system()
+        return initial_state(system, 0.0, self.initial.positions, self.initial.speeds,
+                             fixed=list(self.initial.fixed) or None)
+
+    def simulate(self, progress: bool | None = False, **overrides):
+        """Simulate the scene.
+
+        Parameters
+        ----------
+        progress : bool, optional
+            Progress bar on stderr.
+        **overrides
+            Fields of :class:`SolverSettings` to replace (``t_end``, ``rtol``,
+            ``method``, ``complement``, ``n_out``, ...).
+
+        Returns
+        -------
+        Result
+            The result; ``status`` is ``'interrupted'`` if the run was
+            stopped with Ctrl-C (the outputs computed so far are kept).
+
+        Raises
+        ------
+        SimulationError
+            If the run fails; ``.result`` holds the partial result.
+        """
+        from ..simulate import simulate
+
+        s = self.settings(**overrides)
+        return simulate(self.model, s.t_end, positions=self.initial.positions, speeds=self.initial.speeds,
+                        fixed=list(self.initial.fixed) or None, n_out=s.n_out, method=s.method, rtol=s.rtol,
+                        atol=s.atol, complement=s.complement, projection_tol=s.projection_tol,
+                        max_step=s.max_step, progress=progress, track_work=s.track_work)
+
+    def track(self, result) -> dict:
+        """Trajectories of the ``[output.points]`` of the scene.
+
+        Parameters
+        ----------
+        result : Result
+            A result of this scene.
+
+        Returns
+        -------
+        dict of str to ndarray, shape (nt, 3)
+            Inertial positions of each tracked point, m.
+        """
+        from ..flexible import FlexibleBody
+
+        out = {}
+        for label, (body_name, point) in self.output.points.items():
+            body = self.model[body_name]
+            p = np.asarray(point, dtype=float)
+            if isinstance(body, FlexibleBody):
+                i, local = body.locate(p)
+                row = result.flexible[body_name][0][i]
+            else:
+                row, local = result.body_names.index(body_name), p
+            out[label] = result.origins[:, row] + result.rotations[:, row] @ local
+        return out
+
+    def run(self, out, progress: bool = True, **overrides) -> dict:
+        """Simulate and write the outputs: ``.npz`` result, ``summary.json``, plots and VTK.
+
+        A scene with ``[runs]`` runs each of them in turn, with the same
+        overrides, into the one folder (see ``docs/scenes.md``, "Runs").
+        A run stopped with Ctrl-C writes what it computed so far (the summary
+        says ``"status": "interrupted"``); a failed run writes its partial
+        result and then raises. The folder is locked for the whole run (a
+        second run into it is refused) and the new files replace the previous
+        run's only once all are written, ``summary.json`` last; files of the
+        previous run that this one does not write are removed (see
+        ``docs/scenes.md``, "Output folders").
+
+        Parameters
+        ----------
+        out : str or path-like
+            Output folder (created).
+        progress : bool
+            Progress bar on stderr.
+        **overrides
+            Fields of :class:`SolverSettings` to replace.
+
+        Returns
+        -------
+        dict
+            The summary (also written to ``out/summary.json``).
+
+        Raises
+        ------
+        SimulationError
+            If the run fails (after writing the partial outputs).
+        ExportError
+            If another run is writing into ``out`` (the message names its pid).
+        """
+        from .outputs import run_into
+
+        return run_into(self, out, progress, overrides)
+
+    def info(self) -> str:
+        """Describe the scene: bodies, joints, coordinates, constraints, redundancy, freedoms.
+
+        Returns
+        -------
+        str
+            A text report (what ``flexmb info`` prints).
+        """
+        from ..flexible import FlexibleBody
+        from ..simulate import _choose_method
+
+        system = self.system()
+        x0, xd0 = self.initial_state(system)
+        kin = system.kinematics(0.0, x0, xd0)
+        psi = system.constraints.evaluate(kin, level=1).psi
+        c = system.strategy.complement(psi)
+        names = system.coordinate_names
+        lines = [f"scene {self.source}: model {self.name!r}", f"bodies ({len(self.model.bodies)}):"]
+        for b in self.model.bodies:
+            extra = ""
+            if isinstance(b, FlexibleBody):
+                extra = (f", {b.n_segments} segments keeping {', '.join(b.keep)} "
+                         f"({b.n_elastic} elastic coordinates)")
+            lines.append(f"  {b.name}: {self.types.get(b.name, type(b).__name__)}, mass {b.mass:.6g} kg{extra}")
+        cuts = set(system.topology.cut_joints)
+        lines.append(f"joints ({len(self.model.joints)}):")
+        for j in self.model.joints:
+            mine = [n for n in names if n.rsplit(".", 1)[0] == j.name]
+            if j in cuts:
+                rows = sum(1 for lab in system.constraints.labels if lab.split(".", 1)[0] == j.name)
+                what = f"cut joint closing a loop, {rows} constraint rows"
+            else:
+                what = "coordinates " + (", ".join(mine) if mine else "none")
+            lines.append(f"  {j.name}: {self.types.get(j.name, type(j).__name__)} "
+                         f"{j.parent.name} -> {j.child.name}; {what}")
+        if self.model.forces:
+            lines.append("forces: " + ", ".join(f"{f.name} ({self.types.get(f.name, type(f).__name__)})"
+                                                for f in self.model.forces))
+        for d in self.model.drivers:
+            lines.append(f"driver {d.name}: drives {names[system.coordinate_slice(d.joint).start + d.coordinate]}")
+        m = system.n_constraints
+        lines += [
+            f"coordinates: n = {system.n_coords}",
+            f"constraint rows: m = {m}" + (f" ({', '.join(system.constraints.labels)})" if 0 < m <= 12 else ""),
+            f"rank of psi at the initial state: {c.rank}; redundant rows: {m - c.rank}",
+            f"degrees of freedom: p = n - rank = {c.p}"
+            + (f" (drivers prescribe {len(self.model.drivers)})" if self.model.drivers else ""),
+        ]
+        w = system.fastest_rate(0.0, x0, xd0)
+        s = self.solver
+        if w > 0:
+            steps = s.t_end * w / 3.0
+            atol = s.rtol / 100 if s.atol is None else s.atol
+            method, reason = _choose_method(system, 0.0, s.t_end, x0, xd0, s.rtol, atol, log=False)
+            lines.append(f"stiffness: highest spring frequency {system.highest_frequency(0.0, x0, xd0):.4g} rad/s, "
+                         f"fastest rate with the dampers {w:.4g} rad/s; an explicit integrator needs about "
+                         f"{steps:.3g} steps over {s.t_end:g} s to stay stable, so 'auto' picks "
+                         f"{getattr(method, '__name__', method)}")
+            lines.append(f"  ({reason})")
+        else:
+            lines.append("stiffness: no springs on coordinates; 'auto' picks DOP853 (explicit)")
+        lines.append(f"solver: t_end {s.t_end:g} s, method {s.method}, rtol {s.rtol:g}, n_out {s.n_out}, "
+                     f"complement {s.complement}")
+        return "\n".join(lines)

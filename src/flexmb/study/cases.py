@@ -1,0 +1,144 @@
+"""One case of a study: built from the scene document, simulated, reduced to its outputs; time limits."""
+
+from __future__ import annotations
+
+import ctypes
+import os
+import select
+import signal
+import socket
+import threading
+import time
+
+from .metrics import _evaluate, _output_name
+from ..scene.keys import key_paths as _paths, set_key as _set
+
+__all__ = []
+
+
+def _build(data: dict, source: str, fixed: dict, params: dict):
+    from ..scene import scene_from_dict
+
+    import copy
+
+    doc = copy.deepcopy(data)
+    for key, value in list(fixed.items()) + list(params.items()):
+        for path in _paths(key):
+            _set(doc, path, value, source)
+    return scene_from_dict(doc, source)
+
+
+def _run_case(task: dict) -> dict:
+    """Build, simulate and reduce one case; never raises for a failing case (module level: picklable)."""
+    t0 = time.perf_counter()
+    row = {"case": task["case"], "case_id": task["case_id"], "parameters": task["parameters"], "outputs": {},
+           "status": "failed", "error": "", "worker": f"{socket.gethostname()}:{os.getpid()}"}
+    try:
+        scene = _build(task["data"], task["source"], task["fixed"], task["parameters"])
+        res = scene.simulate(progress=False)
+        row["status"] = res.status
+        if res.status != "finished":
+            row["error"] = res.message
+        for spec in task["outputs"]:
+            row["outputs"][_output_name(spec)] = _evaluate(spec, scene, res)
+    except Exception as exc:  # recorded, and the study goes on
+        row["status"] = "failed"
+        row["error"] = f"{type(exc).__name__}: {exc}".replace("\n", " ")
+    row["wall_time_s"] = time.perf_counter() - t0
+    return row
+
+
+def _failed_row(task: dict, message: str) -> dict:
+    return {"case": task["case"], "case_id": task["case_id"], "parameters": task["parameters"], "outputs": {},
+            "status": "failed", "error": message, "wall_time_s": float("nan"), "worker": ""}
+
+
+class _CaseTimeout(BaseException):
+    """Raised in the thread of a case that passed its time limit (a BaseException: no ``except Exception`` stops it)."""
+
+
+def _timeout_message(limit: float) -> str:
+    return f"exceeded the time limit of {limit:g} s per case; stopped"
+
+
+def _run_case_limited(task: dict) -> dict:
+    """:func:`_run_case` in this thread, stopped at ``task["time_limit"]`` seconds (serial and Dask executors).
+
+    A timer thread raises :class:`_CaseTimeout` in this thread
+    (``PyThreadState_SetAsyncExc``); it takes effect at the next Python
+    bytecode, so a case stuck inside one long call of compiled code stops
+    when that call returns. The process executor kills the case's process
+    instead (:func:`_execute_pool`).
+    """
+    limit = task.get("time_limit")
+    if not limit:
+        return _run_case(task)
+    t0 = time.perf_counter()
+    tid, lock, state = threading.get_ident(), threading.Lock(), {"done": False}
+
+    def fire():
+        with lock:  # never after the case has ended: the exception would hit the caller
+            if not state["done"]:
+                ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(tid), ctypes.py_object(_CaseTimeout))
+
+    timer = threading.Timer(limit, fire)
+    timer.daemon = True
+    try:
+        try:
+            timer.start()
+            return _run_case(task)
+        finally:
+            with lock:
+                state["done"] = True
+            timer.cancel()
+    except _CaseTimeout:
+        row = _failed_row(task, _timeout_message(limit))
+        row.update(wall_time_s=time.perf_counter() - t0, worker=f"{socket.gethostname()}:{os.getpid()}")
+        return row
+
+
+def _watch_study(pid: int) -> None:
+    """End this process (a case's) as soon as the study process ``pid`` ends, even by SIGKILL.
+
+    A daemon thread waits on a pidfd of the study process (Linux >= 5.3;
+    elsewhere it polls ``os.kill(pid, 0)`` twice a second), then calls
+    ``os._exit``. ``PR_SET_PDEATHSIG`` would not do: under the ``forkserver``
+    start method the parent of a case's process is the fork server, not
+    the study, and the fork server lives on while any case process holds its
+    liveness pipe. Once the cases end, the fork server and the resource
+    tracker see their pipes close and end too.
+    """
+    try:
+        fd = os.pidfd_open(pid)
+    except ProcessLookupError:
+        os._exit(70)
+    except (AttributeError, OSError):
+        fd = None
+
+    def watch():
+        if fd is not None:
+            select.select([fd], [], [])  # readable once the process has ended
+        else:
+            while True:
+                try:
+                    os.kill(pid, 0)
+                except ProcessLookupError:
+                    break
+                except PermissionError:
+                    pass
+                time.sleep(0.5)
+        os._exit(70)
+
+    threading.Thread(target=watch, name="flexmb-study-watchdog", daemon=True).start()
+
+
+def _case_process(task: dict, conn, study_pid: int) -> None:
+    """Body of the process of one case (process executor): run it, send its row back."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the study's: it stops its cases
+    _watch_study(study_pid)
+    row = _run_case(task)
+    try:
+        conn.send(row)
+    except Exception as exc:  # e.g. an output that cannot be pickled
+        conn.send(_failed_row(task, f"{type(exc).__name__}: {exc}"))
+    conn.close()

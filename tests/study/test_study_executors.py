@@ -1,0 +1,193 @@
+"""Executors (:mod:`flexmb.study.executors`): serial, process pool and Dask give one table; a dead worker; time limits; orphans."""
+
+from __future__ import annotations
+
+import os
+import pathlib
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from flexmb.cli import main
+from flexmb.errors import FlexmbError
+from flexmb.study import Study
+
+from pendulum_study import _assert_same_table, LENGTHS, OUTPUTS, scene_file, serial, _study  # noqa: F401  (fixtures: scene_file, serial)
+
+
+# ----------------------------------------------------------------------------- three executors, one table
+
+
+def test_process_pool_and_dask_give_the_serial_table(scene_file, serial, tmp_path):
+    pool = _study(scene_file).run(tmp_path / "pool", executor="process", workers=2, progress=False)
+    _assert_same_table(pool, serial)
+    assert len(pool.rows) == 6
+    assert all(r["worker"].split(":")[1] != str(os.getpid()) for r in pool.rows)
+
+    pytest.importorskip("distributed")
+    from distributed import Client, LocalCluster
+
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                      dashboard_address=None) as cluster, Client(cluster) as client:
+        dask = _study(scene_file).run(tmp_path / "dask", client=client, progress=False)
+        # the command line, pointed at the same cluster by its address
+        args = ["study", str(scene_file), "--vary", "bodies.bar.length=0.5,1.0,2.0", "--vary",
+                f"initial.positions.pin=0.0,{np.pi / 6!r}", "--set", "solver.t_end=1.0", "--quiet",
+                "--out", str(tmp_path / "cli")]
+        for o in OUTPUTS:
+            args += ["--output", o]
+        assert main(args + ["--scheduler", cluster.scheduler_address]) == 0
+    _assert_same_table(dask, serial)
+    _assert_same_table(dask, pool)
+    cli = Study.from_file(scene_file, {"bodies.bar.length": LENGTHS, "initial.positions.pin": [0.0, np.pi / 6]},
+                          outputs=OUTPUTS, fixed={"solver.t_end": 1.0}).run(tmp_path / "cli", progress=False)
+    assert cli.ran == [] and cli.skipped == 6  # same study: found done, read back from the case files
+    _assert_same_table(cli, serial)
+    assert all(r["worker"].split(":")[1] != str(os.getpid()) for r in dask.rows)
+
+def _exit_for_heavy_bars(scene, result):
+    """An output that kills its worker process for the 3 kg bar (a crashing extension module)."""
+    if scene.model["bar"].mass == 3.0:
+        os._exit(13)
+    return float(result.t[-1])
+
+
+def test_dead_worker_process_is_recorded_and_the_others_finish(scene_file, tmp_path):
+    study = Study.from_file(scene_file, {"bodies.bar.mass": [1.0, 3.0, 2.0]},
+                            outputs=[("t_end", _exit_for_heavy_bars)], fixed={"solver.t_end": 0.2})
+    res = study.run(tmp_path, executor="process", workers=2, progress=False)
+    status = {r["parameters"]["bodies.bar.mass"]: (r["status"], r["error"]) for r in res.rows}
+    assert status[3.0] == ("failed", "worker process died while running this case")
+    assert [status[m][0] for m in (1.0, 2.0)] == ["finished"] * 2
+    assert res.column("t_end")[[0, 2]] == pytest.approx([0.2] * 2, rel=1e-14)
+
+# ----------------------------------------------------------------------------- issue 18 section 4: time limits, orphans
+
+#: t_end of the case that "never ends": at max_step 1e-3 it would take days
+ENDLESS = 1.0e7
+#: seconds per case; the short cases take well under a second of CPU (but the test machine may be loaded)
+LIMIT = 5.0
+
+
+def _limited(scene_file, **kw):
+    return Study.from_file(scene_file, {"solver.t_end": [0.01, ENDLESS, 0.02]}, outputs=["final:pin"],
+                           fixed={"solver.max_step": 1e-3}, **kw)
+
+
+def _assert_only_the_endless_case_failed(res, limit):
+    status = {r["parameters"]["solver.t_end"]: (r["status"], r["error"]) for r in res.rows}
+    assert status[ENDLESS] == ("failed", f"exceeded the time limit of {limit:g} s per case; stopped")
+    assert [status[t][0] for t in (0.01, 0.02)] == ["finished"] * 2
+    wall = {r["parameters"]["solver.t_end"]: r["wall_time_s"] for r in res.rows}
+    assert limit <= wall[ENDLESS] < limit + 30.0
+
+
+@pytest.mark.parametrize("executor", ["serial", "process"])
+def test_a_case_past_its_time_limit_is_recorded_and_the_study_goes_on(scene_file, tmp_path, executor):
+    """One case that never ends used to hang the whole study."""
+    t = time.perf_counter()
+    res = _limited(scene_file).run(tmp_path, executor=executor, workers=2, progress=False, time_limit=LIMIT)
+    assert time.perf_counter() - t < 120.0
+    _assert_only_the_endless_case_failed(res, LIMIT)
+    assert "exceeded the time limit of 5 s per case" in (tmp_path / "table.csv").read_text()
+    # a timed-out case is a failed case: rerun only with retry_failed
+    again = _limited(scene_file).run(tmp_path, executor="serial", progress=False, time_limit=LIMIT)
+    assert again.ran == []
+
+
+def test_time_limit_on_dask(scene_file, tmp_path):
+    pytest.importorskip("distributed")
+    from distributed import Client, LocalCluster
+
+    with LocalCluster(n_workers=1, threads_per_worker=2, processes=True, host="127.0.0.1", dashboard_address=None) \
+            as cluster, Client(cluster) as client:
+        # the worker loads flexmb and its compiled kernels before the clock of a case starts (on a
+        # loaded machine that alone can take seconds; see the session notes)
+        client.run(_warm_up)
+        res = _limited(scene_file).run(tmp_path, client=client, progress=False, time_limit=LIMIT)
+    _assert_only_the_endless_case_failed(res, LIMIT)
+
+
+def _warm_up():
+    import flexmb as fm
+
+    model = fm.Model()
+    bar = fm.RigidBody.slender_bar("bar", 1.0, 1.0)
+    model.add(fm.Revolute("pin", model.ground, bar), fm.Gravity((0.0, -9.81, 0.0)))
+    return fm.simulate(model, 0.01, n_out=2).status
+
+
+def test_time_limit_from_the_scene_and_the_cli(scene_file, tmp_path, capsys):
+    text = scene_file.read_text() + "\n[study]\ntime_limit = 4.5\n"
+    path = tmp_path / "limited.toml"
+    path.write_text(text)
+    study = Study.from_file(path, {"solver.t_end": [0.01, ENDLESS, 0.02]}, outputs=["final:pin"],
+                            fixed={"solver.max_step": 1e-3})
+    _assert_only_the_endless_case_failed(study.run(tmp_path / "scene", executor="serial", progress=False), 4.5)
+    code = main(["study", str(scene_file), "--vary", f"solver.t_end=0.01,{ENDLESS},0.02", "--set",
+                 "solver.max_step=1e-3", "--output", "final:pin", "--time-limit", "4", "--workers", "2", "--quiet",
+                 "--out", str(tmp_path / "cli")])
+    assert code == 1
+    assert "exceeded the time limit of 4 s per case; stopped" in capsys.readouterr().out
+    with pytest.raises(FlexmbError, match=r"time_limit must be a finite number of seconds > 0, got -1"):
+        _limited(scene_file).run(tmp_path / "bad", executor="serial", progress=False, time_limit=-1)
+
+
+def _descendants(pid: int) -> set[int]:
+    """Process ids below ``pid`` (children, grandchildren, ...), from /proc."""
+    parent = {}
+    for d in pathlib.Path("/proc").iterdir():
+        if d.name.isdigit():
+            try:
+                stat = (d / "stat").read_text()
+            except OSError:
+                continue
+            parent[int(d.name)] = int(stat.rsplit(")", 1)[1].split()[1])
+    out, todo = set(), [pid]
+    while todo:
+        p = todo.pop()
+        kids = [c for c, pp in parent.items() if pp == p]
+        out.update(kids)
+        todo += kids
+    return out
+
+
+def _alive(pid: int) -> bool:
+    try:
+        state = pathlib.Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state not in ("Z", "X")
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_case_processes_end_when_the_study_is_killed(scene_file, tmp_path):
+    """After SIGKILL of `flexmb study`, two pool workers, the forkserver and the resource tracker stayed alive."""
+    args = [sys.executable, "-m", "flexmb", "study", str(scene_file), "--vary", f"solver.t_end={ENDLESS},{2 * ENDLESS}",
+            "--set", "solver.max_step=1e-3", "--output", "final:pin", "--workers", "2", "--quiet",
+            "--out", str(tmp_path / "out")]
+    proc = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        below: set[int] = set()
+        for _ in range(600):  # the cases are running: resource tracker, fork server and 2 cases (at least)
+            below = _descendants(proc.pid)
+            if len(below) >= 4 or proc.poll() is not None:
+                break
+            time.sleep(0.1)
+        assert len(below) >= 4, f"the study did not start its cases: {below}"
+        time.sleep(0.5)
+        below = _descendants(proc.pid)
+        os.kill(proc.pid, signal.SIGKILL)
+    finally:
+        proc.wait()
+    deadline = time.monotonic() + 10.0
+    while time.monotonic() < deadline and any(_alive(p) for p in below):
+        time.sleep(0.1)
+    left = [p for p in below if _alive(p)]
+    for p in left:  # leave nothing behind, even when the test fails
+        os.kill(p, signal.SIGKILL)
+    assert not left, f"processes left after the study was killed: {left}"

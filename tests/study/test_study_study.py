@@ -1,0 +1,154 @@
+"""The Study (:mod:`flexmb.study.study`): failures, resuming, checks before any case runs, the command line."""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from flexmb.cli import main
+from flexmb.errors import FlexmbError, SceneError
+from flexmb.study import Study, case_id
+
+from pendulum_study import G, scene_file  # noqa: F401  (fixtures: scene_file)
+
+
+# ----------------------------------------------------------------------------- failures and resuming
+
+
+def test_failing_case_is_recorded_and_the_others_finish(scene_file, tmp_path):
+    res = Study.from_file(scene_file, {"bodies.bar.mass": [1.0, -1.0, 2.0]}, outputs=["final:pin"],
+                          fixed={"solver.t_end": 0.3}).run(tmp_path, executor="serial", progress=False)
+    assert [r["status"] for r in res.rows] == ["finished", "failed", "finished"]
+    assert "bodies.bar.mass: must be > 0, got -1.0" in res.rows[1]["error"]
+    assert np.isnan(res.column("final:pin")[1]) and np.all(np.isfinite(res.column("final:pin")[[0, 2]]))
+    assert "bodies.bar.mass: must be > 0" in (tmp_path / "table.csv").read_text()
+    assert "1 failed" in res.summary()
+    # a failed case is done: running again runs nothing, unless asked to retry the failures
+    again = Study.from_file(scene_file, {"bodies.bar.mass": [1.0, -1.0, 2.0]}, outputs=["final:pin"],
+                            fixed={"solver.t_end": 0.3}).run(tmp_path, executor="serial", progress=False)
+    assert again.ran == [] and again.skipped == 3
+    retry = Study.from_file(scene_file, {"bodies.bar.mass": [1.0, -1.0, 2.0]}, outputs=["final:pin"],
+                            fixed={"solver.t_end": 0.3}).run(tmp_path, executor="serial", progress=False,
+                                                             retry_failed=True)
+    assert retry.ran == [case_id({"bodies.bar.mass": -1.0})]
+
+def test_interrupted_study_resumes_with_only_the_missing_cases(scene_file, tmp_path):
+    out = tmp_path / "out"
+    masses = [1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 4.5]
+    args = [sys.executable, "-m", "flexmb", "study", str(scene_file), "--vary",
+            "bodies.bar.mass=" + ",".join(map(str, masses)), "--output", "final:pin", "--set", "solver.t_end=0.6",
+            "--serial", "--quiet", "--out", str(out)]
+    proc = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        for _ in range(6000):  # kill it as soon as two cases are written
+            if len(list((out / "cases").glob("*.json"))) >= 2 or proc.poll() is not None:
+                break
+            time.sleep(0.01)
+        os.kill(proc.pid, signal.SIGKILL)
+    finally:
+        proc.wait()
+    before = {p.name: p.read_bytes() for p in (out / "cases").glob("*.json")}
+    assert not any(p.name.startswith(".") for p in (out / "cases").iterdir() if p.suffix == ".json")
+    assert 2 <= len(before) < len(masses), "the study finished before it could be killed"
+    res = Study.from_file(scene_file, {"bodies.bar.mass": masses}, outputs=["final:pin"],
+                          fixed={"solver.t_end": 0.6}).run(out, executor="serial", progress=False)
+    # only the missing cases ran, and the files of the others are untouched
+    assert len(res.ran) == len(masses) - len(before)
+    assert set(res.ran).isdisjoint({n[:-5] for n in before})
+    assert res.skipped == len(before)
+    assert {n: (out / "cases" / n).read_bytes() for n in before} == before
+    assert [r["status"] for r in res.rows] == ["finished"] * len(masses)
+    # the swing does not depend on the mass
+    assert np.ptp(res.column("final:pin")) < 1e-8
+
+
+def test_changed_study_does_not_reuse_case_files(scene_file, tmp_path):
+    kw = dict(outputs=["final:pin"], fixed={"solver.t_end": 0.2})
+    Study.from_file(scene_file, {"bodies.bar.mass": [1.0]}, **kw).run(tmp_path, executor="serial", progress=False)
+    res = Study.from_file(scene_file, {"bodies.bar.mass": [1.0, 2.0]}, **kw).run(tmp_path, executor="serial",
+                                                                                   progress=False)
+    assert len(res.ran) == 1 and res.skipped == 1
+    res = Study.from_file(scene_file, {"bodies.bar.mass": [1.0, 2.0]}, outputs=["final:pin"],
+                          fixed={"solver.t_end": 0.3}).run(tmp_path, executor="serial", progress=False)
+    assert len(res.ran) == 2 and res.skipped == 0
+
+
+def test_a_resumed_study_logs_what_was_done_before(scene_file, tmp_path, caplog, capsys):
+    kw = dict(outputs=["final:pin"], fixed={"solver.t_end": 0.2})
+    Study.from_file(scene_file, {"bodies.bar.mass": [1.0]}, **kw).run(tmp_path, executor="serial", progress=False)
+    with caplog.at_level(logging.INFO, logger="flexmb"):
+        Study.from_file(scene_file, {"bodies.bar.mass": [1.0, 2.0]}, **kw).run(tmp_path, executor="serial",
+                                                                               progress=False)
+    [record] = [r for r in caplog.records if r.name == "flexmb.study"]
+    assert record.levelno == logging.INFO
+    assert record.getMessage() == "study: 1 of 2 cases done before, running the other 1"
+    assert "done before" not in capsys.readouterr().err  # a library prints nothing of it
+
+
+# ----------------------------------------------------------------------------- checked before any case runs
+
+
+def test_bad_key_path_fails_before_any_case_runs(scene_file, tmp_path):
+    with pytest.raises(SceneError, match=r"bodies\.blade: no such table .* tables here: bar"):
+        Study.from_file(scene_file, {"bodies.blade.E": [1.0, 2.0]}).run(tmp_path, executor="serial")
+    with pytest.raises(SceneError, match=r"bodies\.bar\.stiffness: unknown key"):
+        Study.from_file(scene_file, {"bodies.bar.stiffness": [1.0]}).run(tmp_path, executor="serial")
+    with pytest.raises(FlexmbError, match="unknown output 'peak'; pick one of peak_speed"):
+        Study.from_file(scene_file, {"bodies.bar.mass": [1.0]}, outputs=["peak"]).run(tmp_path)
+    with pytest.raises(FlexmbError, match="points of this scene: tip"):
+        Study.from_file(scene_file, {"bodies.bar.mass": [1.0]}, outputs=["peak_speed:toe"]).run(tmp_path)
+    with pytest.raises(FlexmbError, match="both varied and fixed"):
+        Study.from_file(scene_file, {"solver.t_end": [1.0]}, fixed={"solver.t_end": 2.0})
+    assert not (tmp_path / "cases").exists()
+
+
+def test_linked_keys_set_one_value(scene_file, tmp_path):
+    # a+b sets the release angle and the initial speed to one value w: omega_bottom^2 = 3 g (1 + sin w) / L + w^2
+    w = np.array([0.25, 0.5])
+    res = Study.from_file(scene_file, {"initial.positions.pin+initial.speeds.pin": w.tolist()},
+                          outputs=["peak_speed:tip"]).run(tmp_path, executor="serial", progress=False)
+    assert res.parameters == ["initial.positions.pin+initial.speeds.pin"]
+    assert res.column("peak_speed:tip") == pytest.approx(np.sqrt(3 * G * (1 + np.sin(w)) + w**2), rel=2e-4)
+    # the tracked point moved with the bar's length: the true tip, v = L omega
+    res = Study.from_file(scene_file, {"bodies.bar.length": [2.0]}, fixed={"output.points.tip.point": [2.0, 0, 0]},
+                          outputs=["peak_speed:tip"]).run(tmp_path / "b", executor="serial", progress=False)
+    assert res.column("peak_speed:tip")[0] == pytest.approx(2.0 * np.sqrt(3 * G / 2.0), rel=2e-4)
+
+
+# ----------------------------------------------------------------------------- command line
+
+
+def test_cli_study(scene_file, tmp_path, capsys):
+    out = tmp_path / "cli"
+    code = main(["study", str(scene_file), "--vary", "bodies.bar.mass=1.0,-2.0", "--vary",
+                 "initial.positions.pin=lin:0:0.5:2", "--set", "solver.t_end=0.2", "--output", "final:pin",
+                 "--serial", "--quiet", "--out", str(out)])
+    assert code == 1  # one mass is invalid
+    text = capsys.readouterr().out
+    assert "4 cases: 2 finished, 2 failed" in text
+    assert "bodies.bar.mass: must be > 0, got -2.0" in text
+    manifest = json.loads((out / "study.json").read_text())
+    assert manifest["parameters"] == ["bodies.bar.mass", "initial.positions.pin"]
+    assert main(["study", str(scene_file), "--vary", "bodies.bar.mass=1.0,2.0", "--set", "solver.t_end=0.2",
+                 "--serial", "--out", str(tmp_path / "ok")]) == 0
+    captured = capsys.readouterr()
+    # the progress goes to a log as whole lines, every half minute only (flexmb.progress); the summary stays
+    assert "2 cases: 2 finished" in captured.out and "\r" not in captured.err
+    assert main(["study", str(scene_file), "--vary", "bodies.bar.mass", "--out", str(tmp_path / "x")]) == 2
+    assert "write KEY=VALUE" in capsys.readouterr().err
+    # the command shows the flexmb loggers' messages on stderr, one line each, and not with --quiet
+    again = ["study", str(scene_file), "--vary", "bodies.bar.mass=1.0,2.0,3.0", "--set", "solver.t_end=0.2",
+             "--serial", "--out", str(tmp_path / "ok")]
+    assert main(again + ["--quiet"]) == 0
+    assert "done before" not in capsys.readouterr().err
+    (tmp_path / "ok" / "cases" / next(p.name for p in (tmp_path / "ok" / "cases").glob("*.json"))).unlink()
+    assert main(again) == 0
+    assert "study: 2 of 3 cases done before, running the other 1\n" in capsys.readouterr().err

@@ -71,7 +71,7 @@ def solve_spd(D, rhs, out):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _minus_bias_wrenches(nb, r, force, torque):
     """Minus the wrenches ``B_k`` about the origin (eq. 3's loads and velocity terms, Plucker form)."""
     pA = np.empty((nb, 6))
@@ -85,7 +85,7 @@ def _minus_bias_wrenches(nb, r, force, torque):
     return pA
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _joint_projections(k, c0, c1, IA, pA, Sw, Sv, generalized, U, u):
     """``U_c = I^A_k S_c`` and ``u_c = Q_c - S_c . p^A_k`` for the coordinates of body k's joint."""
     for c in range(c0, c1):
@@ -96,42 +96,7 @@ def _joint_projections(k, c0, c1, IA, pA, Sw, Sv, generalized, U, u):
                                  + Sv[c, 0] * pA[k, 3] + Sv[c, 1] * pA[k, 4] + Sv[c, 2] * pA[k, 5])
 
 
-@njit(cache=True)
-def _joint_inverse(c0, c1, Sw, Sv, U, u, armature, DinvUT, Dinv_u):
-    """``D^-1 U^T`` and ``D^-1 u`` with ``D = S^T I^A S + diag(armature)`` of one joint; False if D is singular."""
-    m = c1 - c0
-    if m == 1:  # one freedom (most joints): D is a number, nothing to factor
-        d = (Sw[c0, 0] * U[c0, 0] + Sw[c0, 1] * U[c0, 1] + Sw[c0, 2] * U[c0, 2]
-             + Sv[c0, 0] * U[c0, 3] + Sv[c0, 1] * U[c0, 4] + Sv[c0, 2] * U[c0, 5]) + armature[c0]
-        if not d > 0.0:
-            return False
-        for i in range(6):
-            DinvUT[c0, i] = U[c0, i] / d
-        Dinv_u[c0] = u[c0] / d
-    elif m:
-        D = np.empty((m, m))
-        rhs = np.empty((m, 7))
-        for a in range(m):
-            ca = c0 + a
-            for b in range(m):
-                cb = c0 + b
-                D[a, b] = (Sw[ca, 0] * U[cb, 0] + Sw[ca, 1] * U[cb, 1] + Sw[ca, 2] * U[cb, 2]
-                           + Sv[ca, 0] * U[cb, 3] + Sv[ca, 1] * U[cb, 4] + Sv[ca, 2] * U[cb, 5])
-            D[a, a] += armature[ca]
-            for i in range(6):
-                rhs[a, i] = U[ca, i]
-            rhs[a, 6] = u[ca]
-        sol = np.empty((m, 7))
-        if not solve_spd(D, rhs, sol):
-            return False
-        for a in range(m):
-            for i in range(6):
-                DinvUT[c0 + a, i] = sol[a, i]
-            Dinv_u[c0 + a] = sol[a, 6]
-    return True
-
-
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _condense(k, p, c0, c1, IA, pA, U, DinvUT, Dinv_u):
     """Add body k's subtree, condensed onto its joint, to its parent.
 
@@ -149,7 +114,7 @@ def _condense(k, p, c0, c1, IA, pA, U, DinvUT, Dinv_u):
         pA[p, i] += s
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _outward_accelerations(parent, coord_start, Sw, Sv, DinvUT, Dinv_u):
     """From the ground out: ``xdd = D^-1 (u - U^T dA_P)`` and ``dA_k = dA_P + S_k xdd_k``."""
     nb = parent.shape[0]
@@ -221,9 +186,37 @@ def articulated_accelerations(parent, coord_start, spatial, Sw, Sv, r, force, to
     u = np.empty(n)
     for k in range(nb - 1, -1, -1):
         c0, c1 = coord_start[k], coord_start[k + 1]
+        m = c1 - c0
         _joint_projections(k, c0, c1, IA, pA, Sw, Sv, generalized, U, u)
-        if not _joint_inverse(c0, c1, Sw, Sv, U, u, armature, DinvUT, Dinv_u):
-            return np.zeros(n), k
+        # D^-1 stays in this loop: moved into a helper (inlined or not), it slowed the recursion
+        if m == 1:  # one freedom (most joints): D is a number, nothing to factor
+            d = (Sw[c0, 0] * U[c0, 0] + Sw[c0, 1] * U[c0, 1] + Sw[c0, 2] * U[c0, 2]
+                 + Sv[c0, 0] * U[c0, 3] + Sv[c0, 1] * U[c0, 4] + Sv[c0, 2] * U[c0, 5]) + armature[c0]
+            if not d > 0.0:
+                return np.zeros(n), k
+            for i in range(6):
+                DinvUT[c0, i] = U[c0, i] / d
+            Dinv_u[c0] = u[c0] / d
+        elif m:
+            D = np.empty((m, m))
+            rhs = np.empty((m, 7))
+            for a in range(m):
+                ca = c0 + a
+                for b in range(m):
+                    cb = c0 + b
+                    D[a, b] = (Sw[ca, 0] * U[cb, 0] + Sw[ca, 1] * U[cb, 1] + Sw[ca, 2] * U[cb, 2]
+                               + Sv[ca, 0] * U[cb, 3] + Sv[ca, 1] * U[cb, 4] + Sv[ca, 2] * U[cb, 5])
+                D[a, a] += armature[ca]
+                for i in range(6):
+                    rhs[a, i] = U[ca, i]
+                rhs[a, 6] = u[ca]
+            sol = np.empty((m, 7))
+            if not solve_spd(D, rhs, sol):
+                return np.zeros(n), k
+            for a in range(m):
+                for i in range(6):
+                    DinvUT[c0 + a, i] = sol[a, i]
+                Dinv_u[c0 + a] = sol[a, 6]
         if parent[k] >= 0:
             _condense(k, parent[k], c0, c1, IA, pA, U, DinvUT, Dinv_u)
     return _outward_accelerations(parent, coord_start, Sw, Sv, DinvUT, Dinv_u), -1

@@ -83,7 +83,7 @@ def _velocity(out, k, p, r, omega, v):
         out[i] += v[k, i]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _point_rows(level, row, phi, psi, gamma, R, origin, r, omega, alpha_bias, a_bias, Sw, Sv, parent, coord_start,
                 pt_i, pt_pi, pt_j, pt_pj):
     """Point rows ``P_i - P_j = 0`` (eq. 28), their psi (eq. 29) and gamma, from ``row`` on; returns the next row."""
@@ -112,7 +112,7 @@ def _point_rows(level, row, phi, psi, gamma, R, origin, r, omega, alpha_bias, a_
     return row
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _direction_bias(i, j, Pi, Pj, d, e, de, r, omega, v, alpha_bias, a_bias):
     """The velocity-dependent part of ``d/dt^2 (d . e)`` of a direction row, ``e = P_j - P_i`` (minus gamma)."""
     t1 = np.empty(3)
@@ -139,7 +139,7 @@ def _direction_bias(i, j, Pi, Pj, d, e, de, r, omega, v, alpha_bias, a_bias):
     return bias
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _direction_rows(level, row, phi, psi, gamma, R, origin, r, omega, v, alpha_bias, a_bias, Sw, Sv, parent,
                     coord_start, dr_i, dr_pi, dr_ai, dr_j, dr_pj):
     """Direction rows ``d . (P_j - P_i) = 0`` (eq. 28), their psi (eq. 29) and gamma; returns the next row."""
@@ -167,7 +167,7 @@ def _direction_rows(level, row, phi, psi, gamma, R, origin, r, omega, v, alpha_b
     return row
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _perpendicular_rows(level, row, phi, psi, gamma, R, omega, alpha_bias, Sw, parent, coord_start,
                         pp_i, pp_ai, pp_j, pp_bj):
     """Perpendicularity rows ``a . b = 0`` (eq. 28), their psi (eq. 29) and gamma; returns the next row."""

@@ -182,7 +182,7 @@ def _point_motion(R, origin, r, omega, v, k, local, p, vel):
     vel[2] = v[k, 2] + w[0] * ly - w[1] * lx
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _gravity_loads(tables, mass, v, force, powers, track):
     """Uniform gravity ``m_k g`` at the mass centres."""
     g = tables.gravity
@@ -194,7 +194,7 @@ def _gravity_loads(tables, mass, v, force, powers, track):
                     powers[tables.gravity_group[0]] += mass[k] * g[a] * v[k, a]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _coordinate_springs(tables, x, xd, generalized, powers, track):
     """Coordinate springs and dampers ``-k (q - q0) - c qdot`` (eqs. 21, 25-27)."""
     cols = tables.coord_cols
@@ -206,7 +206,7 @@ def _coordinate_springs(tables, x, xd, generalized, powers, track):
             powers[tables.coord_group[i]] -= q * xd[c]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _pair_force(stiff, damp, rest, pts, vel, f2):
     """Force on the second end of a point-to-point spring-damper, into ``f2``."""
     d0, d1, d2 = pts[1, 0] - pts[0, 0], pts[1, 1] - pts[0, 1], pts[1, 2] - pts[0, 2]
@@ -222,7 +222,7 @@ def _pair_force(stiff, damp, rest, pts, vel, f2):
         f2[2] -= damp * rate * e2
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _pair_loads(tables, R, origin, r, omega, v, force, torque, powers, track):
     """Point-to-point spring-dampers: equal and opposite forces at their two ends."""
     pairs = tables.pair_rows
@@ -250,7 +250,7 @@ def _pair_loads(tables, R, origin, r, omega, v, force, torque, powers, track):
                 torque[k, 2] += lx * fy - ly * fx
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _point_force_loads(tables, R, origin, r, omega, v, force, torque, powers, track):
     """Constant point forces, in inertial or body axes."""
     rows = tables.force_rows
@@ -280,7 +280,7 @@ def _point_force_loads(tables, R, origin, r, omega, v, force, torque, powers, tr
                                               + f[2] * (v[k, 2] + w[0] * ly - w[1] * lx))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _body_torque_loads(tables, R, omega, torque, powers, track):
     """Constant body torques, in inertial or body axes."""
     rows = tables.torque_rows

@@ -171,7 +171,7 @@ def joint_motions(x, xd, coord_start, coord_kind, coord_axis, external, Rj, d, h
                 R[i, j1] = cq * R[i, j1] - sq * ci[i]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _external_motions(coord_start, external, ext_Rj, ext_d, ext_hw, ext_hv, ext_aw, ext_av, Rj, d, hw, hv, aw, av):
     """Copy the motions of the external joints (computed in Python) into the joint-motion arrays."""
     for k in range(coord_start.shape[0] - 1):
@@ -185,7 +185,7 @@ def _external_motions(coord_start, external, ext_Rj, ext_d, ext_hw, ext_hv, ext_
                 hv[c] = ext_hv[c]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _place_body(k, p, R, RM, s, jp, origin, r, parent_frame, child_frame, lever, child_point, com, Rj, d, F, G,
                 t1, t2, u):
     """Rotation ``R_k = R_P F_p R_j F_c^T``, joint point ``o'_k = o'_P + s``, origin and mass centre (eqs. 6-8).
@@ -209,7 +209,7 @@ def _place_body(k, p, R, RM, s, jp, origin, r, parent_frame, child_frame, lever,
         r[k, i] = origin[k, i] + u[i]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _body_velocity(k, p, c0, c1, RM, hw, hv, xd, jp, r, omega, v_o, v, Sw, Sv, Gw, Gv, v_rel, t1):
     """Plucker axes ``S_c`` of the joint's coordinates, then the body's angular and mass-centre velocities (eqs. 7, 17).
 
@@ -237,7 +237,7 @@ def _body_velocity(k, p, c0, c1, RM, hw, hv, xd, jp, r, omega, v_o, v, Sw, Sv, G
         v[k, i] = vo[i] + t1[i]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _body_bias_accelerations(k, p, RM, s, v_rel, aw, av, omega, jp, r, alpha, a_jp, acc, t1, t2, u):
     """Angular and mass-centre accelerations of body k at ``xdd = 0`` (eqs. 13, 18)."""
     w = omega[k]

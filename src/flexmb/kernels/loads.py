@@ -183,27 +183,25 @@ def _point_motion(R, origin, r, omega, v, k, local, p, vel):
 
 
 @njit(cache=True, inline="always")
-def _gravity_loads(tables, mass, v, force, powers, track):
+def _gravity_loads(g, group, mass, v, force, powers, track):
     """Uniform gravity ``m_k g`` at the mass centres."""
-    g = tables.gravity
     if g[0] != 0.0 or g[1] != 0.0 or g[2] != 0.0:
         for k in range(mass.shape[0]):
             for a in range(3):
                 force[k, a] += mass[k] * g[a]
                 if track:
-                    powers[tables.gravity_group[0]] += mass[k] * g[a] * v[k, a]
+                    powers[group[0]] += mass[k] * g[a] * v[k, a]
 
 
 @njit(cache=True, inline="always")
-def _coordinate_springs(tables, x, xd, generalized, powers, track):
+def _coordinate_springs(cols, stiff, damp, rest, group, x, xd, generalized, powers, track):
     """Coordinate springs and dampers ``-k (q - q0) - c qdot`` (eqs. 21, 25-27)."""
-    cols = tables.coord_cols
     for i in range(cols.shape[0]):
         c = cols[i]
-        q = tables.coord_k[i] * (x[c] - tables.coord_rest[i]) + tables.coord_c[i] * xd[c]
+        q = stiff[i] * (x[c] - rest[i]) + damp[i] * xd[c]
         generalized[c] -= q
         if track:
-            powers[tables.coord_group[i]] -= q * xd[c]
+            powers[group[i]] -= q * xd[c]
 
 
 @njit(cache=True, inline="always")
@@ -223,19 +221,18 @@ def _pair_force(stiff, damp, rest, pts, vel, f2):
 
 
 @njit(cache=True, inline="always")
-def _pair_loads(tables, R, origin, r, omega, v, force, torque, powers, track):
+def _pair_loads(pairs, local, par, group, R, origin, r, omega, v, force, torque, powers, track):
     """Point-to-point spring-dampers: equal and opposite forces at their two ends."""
-    pairs = tables.pair_rows
     if pairs.shape[0]:
         pts = np.empty((2, 3))
         vel = np.empty((2, 3))
         f2 = np.empty(3)
         for i in range(pairs.shape[0]):
             for s in range(2):
-                _point_motion(R, origin, r, omega, v, pairs[i, s], tables.pair_local[i, s], pts[s], vel[s])
-            _pair_force(tables.pair_par[i, 0], tables.pair_par[i, 1], tables.pair_par[i, 2], pts, vel, f2)
+                _point_motion(R, origin, r, omega, v, pairs[i, s], local[i, s], pts[s], vel[s])
+            _pair_force(par[i, 0], par[i, 1], par[i, 2], pts, vel, f2)
             if track:
-                powers[tables.pair_group[i]] += (f2[0] * (vel[1, 0] - vel[0, 0]) + f2[1] * (vel[1, 1] - vel[0, 1])
+                powers[group[i]] += (f2[0] * (vel[1, 0] - vel[0, 0]) + f2[1] * (vel[1, 1] - vel[0, 1])
                                                  + f2[2] * (vel[1, 2] - vel[0, 2]))
             for s in range(2):
                 k = pairs[i, s]
@@ -251,19 +248,18 @@ def _pair_loads(tables, R, origin, r, omega, v, force, torque, powers, track):
 
 
 @njit(cache=True, inline="always")
-def _point_force_loads(tables, R, origin, r, omega, v, force, torque, powers, track):
+def _point_force_loads(rows, local, vec, in_body, group, R, origin, r, omega, v, force, torque, powers, track):
     """Constant point forces, in inertial or body axes."""
-    rows = tables.force_rows
     f = np.empty(3)
     for i in range(rows.shape[0]):
         k = rows[i]
-        loc = tables.force_local[i]
+        loc = local[i]
         for a in range(3):
-            f[a] = tables.force_vec[i, a]
-        if tables.force_in_body[i]:
+            f[a] = vec[i, a]
+        if in_body[i]:
             for a in range(3):
-                f[a] = R[k, a, 0] * tables.force_vec[i, 0] + R[k, a, 1] * tables.force_vec[i, 1] \
-                    + R[k, a, 2] * tables.force_vec[i, 2]
+                f[a] = R[k, a, 0] * vec[i, 0] + R[k, a, 1] * vec[i, 1] \
+                    + R[k, a, 2] * vec[i, 2]
         lx = R[k, 0, 0] * loc[0] + R[k, 0, 1] * loc[1] + R[k, 0, 2] * loc[2] + origin[k, 0] - r[k, 0]
         ly = R[k, 1, 0] * loc[0] + R[k, 1, 1] * loc[1] + R[k, 1, 2] * loc[2] + origin[k, 1] - r[k, 1]
         lz = R[k, 2, 0] * loc[0] + R[k, 2, 1] * loc[1] + R[k, 2, 2] * loc[2] + origin[k, 2] - r[k, 2]
@@ -275,28 +271,27 @@ def _point_force_loads(tables, R, origin, r, omega, v, force, torque, powers, tr
         torque[k, 2] += lx * f[1] - ly * f[0]
         if track:  # f . (v_k + omega_k x (p - r_k))
             w = omega[k]
-            powers[tables.force_group[i]] += (f[0] * (v[k, 0] + w[1] * lz - w[2] * ly)
+            powers[group[i]] += (f[0] * (v[k, 0] + w[1] * lz - w[2] * ly)
                                               + f[1] * (v[k, 1] + w[2] * lx - w[0] * lz)
                                               + f[2] * (v[k, 2] + w[0] * ly - w[1] * lx))
 
 
 @njit(cache=True, inline="always")
-def _body_torque_loads(tables, R, omega, torque, powers, track):
+def _body_torque_loads(rows, vec, in_body, group, R, omega, torque, powers, track):
     """Constant body torques, in inertial or body axes."""
-    rows = tables.torque_rows
     f = np.empty(3)
     for i in range(rows.shape[0]):
         k = rows[i]
         for a in range(3):
-            f[a] = tables.torque_vec[i, a]
-        if tables.torque_in_body[i]:
+            f[a] = vec[i, a]
+        if in_body[i]:
             for a in range(3):
-                f[a] = R[k, a, 0] * tables.torque_vec[i, 0] + R[k, a, 1] * tables.torque_vec[i, 1] \
-                    + R[k, a, 2] * tables.torque_vec[i, 2]
+                f[a] = R[k, a, 0] * vec[i, 0] + R[k, a, 1] * vec[i, 1] \
+                    + R[k, a, 2] * vec[i, 2]
         for a in range(3):
             torque[k, a] += f[a]
             if track:
-                powers[tables.torque_group[i]] += f[a] * omega[k, a]
+                powers[group[i]] += f[a] * omega[k, a]
 
 
 @njit(cache=True)
@@ -330,8 +325,12 @@ def apply_load_tables(tables, mass, R, origin, r, omega, v, x, xd, force, torque
         added to the entry of its group.
     """
     track = powers.shape[0] > 0
-    _gravity_loads(tables, mass, v, force, powers, track)
-    _coordinate_springs(tables, x, xd, generalized, powers, track)
-    _pair_loads(tables, R, origin, r, omega, v, force, torque, powers, track)
-    _point_force_loads(tables, R, origin, r, omega, v, force, torque, powers, track)
-    _body_torque_loads(tables, R, omega, torque, powers, track)
+    _gravity_loads(tables.gravity, tables.gravity_group, mass, v, force, powers, track)
+    _coordinate_springs(tables.coord_cols, tables.coord_k, tables.coord_c, tables.coord_rest, tables.coord_group, x, xd,
+                        generalized, powers, track)
+    _pair_loads(tables.pair_rows, tables.pair_local, tables.pair_par, tables.pair_group, R, origin, r, omega, v, force,
+                torque, powers, track)
+    _point_force_loads(tables.force_rows, tables.force_local, tables.force_vec, tables.force_in_body,
+                       tables.force_group, R, origin, r, omega, v, force, torque, powers, track)
+    _body_torque_loads(tables.torque_rows, tables.torque_vec, tables.torque_in_body, tables.torque_group, R, omega,
+                       torque, powers, track)

@@ -71,7 +71,7 @@ def solve_spd(D, rhs, out):
     return True
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _minus_bias_wrenches(nb, r, force, torque):
     """Minus the wrenches ``B_k`` about the origin (eq. 3's loads and velocity terms, Plucker form)."""
     pA = np.empty((nb, 6))
@@ -114,7 +114,7 @@ def _condense(k, p, c0, c1, IA, pA, U, DinvUT, Dinv_u):
         pA[p, i] += s
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _outward_accelerations(parent, coord_start, Sw, Sv, DinvUT, Dinv_u):
     """From the ground out: ``xdd = D^-1 (u - U^T dA_P)`` and ``dA_k = dA_P + S_k xdd_k``."""
     nb = parent.shape[0]

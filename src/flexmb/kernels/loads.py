@@ -184,7 +184,7 @@ def _point_motion(R, origin, r, omega, v, k, local, p, vel):
 
 @njit(cache=True, inline="always")
 def _gravity_loads(g, group, mass, v, force, powers, track):
-    """Uniform gravity ``m_k g`` at the mass centres."""
+    """Uniform gravity ``m_k g`` at the mass centres (into F, eq. 5)."""
     if g[0] != 0.0 or g[1] != 0.0 or g[2] != 0.0:
         for k in range(mass.shape[0]):
             for a in range(3):
@@ -222,7 +222,7 @@ def _pair_force(stiff, damp, rest, pts, vel, f2):
 
 @njit(cache=True, inline="always")
 def _pair_loads(pairs, local, par, group, R, origin, r, omega, v, force, torque, powers, track):
-    """Point-to-point spring-dampers: equal and opposite forces at their two ends."""
+    """Point-to-point spring-dampers: equal and opposite forces at their two ends (into F, eq. 5)."""
     if pairs.shape[0]:
         pts = np.empty((2, 3))
         vel = np.empty((2, 3))
@@ -249,7 +249,7 @@ def _pair_loads(pairs, local, par, group, R, origin, r, omega, v, force, torque,
 
 @njit(cache=True, inline="always")
 def _point_force_loads(rows, local, vec, in_body, group, R, origin, r, omega, v, force, torque, powers, track):
-    """Constant point forces, in inertial or body axes."""
+    """Constant point forces, in inertial or body axes (into F, eq. 5)."""
     f = np.empty(3)
     for i in range(rows.shape[0]):
         k = rows[i]
@@ -278,7 +278,7 @@ def _point_force_loads(rows, local, vec, in_body, group, R, origin, r, omega, v,
 
 @njit(cache=True, inline="always")
 def _body_torque_loads(rows, vec, in_body, group, R, omega, torque, powers, track):
-    """Constant body torques, in inertial or body axes."""
+    """Constant body torques, in inertial or body axes (into F, eq. 5)."""
     f = np.empty(3)
     for i in range(rows.shape[0]):
         k = rows[i]

@@ -72,6 +72,73 @@ def solve_spd(D, rhs, out):
 
 
 @njit(cache=True)
+def _minus_bias_wrenches(nb, r, force, torque):
+    """Minus the wrenches ``B_k`` about the origin (eq. 3's loads and velocity terms, Plucker form)."""
+    pA = np.empty((nb, 6))
+    for k in range(nb):
+        pA[k, 0] = -(torque[k, 0] + r[k, 1] * force[k, 2] - r[k, 2] * force[k, 1])
+        pA[k, 1] = -(torque[k, 1] + r[k, 2] * force[k, 0] - r[k, 0] * force[k, 2])
+        pA[k, 2] = -(torque[k, 2] + r[k, 0] * force[k, 1] - r[k, 1] * force[k, 0])
+        pA[k, 3] = -force[k, 0]
+        pA[k, 4] = -force[k, 1]
+        pA[k, 5] = -force[k, 2]
+    return pA
+
+
+@njit(cache=True, inline="always")
+def _joint_projections(k, c0, c1, IA, pA, Sw, Sv, generalized, U, u):
+    """``U_c = I^A_k S_c`` and ``u_c = Q_c - S_c . p^A_k`` for the coordinates of body k's joint."""
+    for c in range(c0, c1):
+        for i in range(6):
+            U[c, i] = (IA[k, i, 0] * Sw[c, 0] + IA[k, i, 1] * Sw[c, 1] + IA[k, i, 2] * Sw[c, 2]
+                       + IA[k, i, 3] * Sv[c, 0] + IA[k, i, 4] * Sv[c, 1] + IA[k, i, 5] * Sv[c, 2])
+        u[c] = generalized[c] - (Sw[c, 0] * pA[k, 0] + Sw[c, 1] * pA[k, 1] + Sw[c, 2] * pA[k, 2]
+                                 + Sv[c, 0] * pA[k, 3] + Sv[c, 1] * pA[k, 4] + Sv[c, 2] * pA[k, 5])
+
+
+@njit(cache=True, inline="always")
+def _condense(k, p, c0, c1, IA, pA, U, DinvUT, Dinv_u):
+    """Add body k's subtree, condensed onto its joint, to its parent.
+
+    ``I^a = I^A - U D^-1 U^T`` and ``p^a = p^A + U D^-1 u`` (Featherstone's articulated-body inertia).
+    """
+    for i in range(6):
+        for j in range(6):
+            s = IA[k, i, j]
+            for c in range(c0, c1):
+                s -= U[c, i] * DinvUT[c, j]
+            IA[p, i, j] += s
+        s = pA[k, i]
+        for c in range(c0, c1):
+            s += U[c, i] * Dinv_u[c]
+        pA[p, i] += s
+
+
+@njit(cache=True)
+def _outward_accelerations(parent, coord_start, Sw, Sv, DinvUT, Dinv_u):
+    """From the ground out: ``xdd = D^-1 (u - U^T dA_P)`` and ``dA_k = dA_P + S_k xdd_k``."""
+    nb = parent.shape[0]
+    xdd = np.empty(Sw.shape[0])
+    dA = np.zeros((nb + 1, 6))
+    for k in range(nb):
+        p = parent[k]
+        if p < 0:
+            p = nb
+        for i in range(6):
+            dA[k, i] = dA[p, i]
+        for c in range(coord_start[k], coord_start[k + 1]):
+            s = Dinv_u[c]
+            for i in range(6):
+                s -= DinvUT[c, i] * dA[p, i]
+            xdd[c] = s
+        for c in range(coord_start[k], coord_start[k + 1]):
+            for i in range(3):
+                dA[k, i] += Sw[c, i] * xdd[c]
+                dA[k, 3 + i] += Sv[c, i] * xdd[c]
+    return xdd
+
+
+@njit(cache=True)
 def articulated_accelerations(parent, coord_start, spatial, Sw, Sv, r, force, torque, generalized, armature):
     """Solve ``(A + diag(armature)) xdd = f`` of an open tree by the articulated-body recursion.
 
@@ -112,15 +179,7 @@ def articulated_accelerations(parent, coord_start, spatial, Sw, Sv, r, force, to
     nb = parent.shape[0]
     n = Sw.shape[0]
     IA = spatial.copy()
-    pA = np.empty((nb, 6))
-    for k in range(nb):
-        # minus the wrench B_k about the origin
-        pA[k, 0] = -(torque[k, 0] + r[k, 1] * force[k, 2] - r[k, 2] * force[k, 1])
-        pA[k, 1] = -(torque[k, 1] + r[k, 2] * force[k, 0] - r[k, 0] * force[k, 2])
-        pA[k, 2] = -(torque[k, 2] + r[k, 0] * force[k, 1] - r[k, 1] * force[k, 0])
-        pA[k, 3] = -force[k, 0]
-        pA[k, 4] = -force[k, 1]
-        pA[k, 5] = -force[k, 2]
+    pA = _minus_bias_wrenches(nb, r, force, torque)
     U = np.empty((n, 6))  # IA S, one row per coordinate
     DinvUT = np.empty((n, 6))  # D^-1 U^T, one row per coordinate
     Dinv_u = np.empty(n)
@@ -128,12 +187,8 @@ def articulated_accelerations(parent, coord_start, spatial, Sw, Sv, r, force, to
     for k in range(nb - 1, -1, -1):
         c0, c1 = coord_start[k], coord_start[k + 1]
         m = c1 - c0
-        for c in range(c0, c1):
-            for i in range(6):
-                U[c, i] = (IA[k, i, 0] * Sw[c, 0] + IA[k, i, 1] * Sw[c, 1] + IA[k, i, 2] * Sw[c, 2]
-                           + IA[k, i, 3] * Sv[c, 0] + IA[k, i, 4] * Sv[c, 1] + IA[k, i, 5] * Sv[c, 2])
-            u[c] = generalized[c] - (Sw[c, 0] * pA[k, 0] + Sw[c, 1] * pA[k, 1] + Sw[c, 2] * pA[k, 2]
-                                     + Sv[c, 0] * pA[k, 3] + Sv[c, 1] * pA[k, 4] + Sv[c, 2] * pA[k, 5])
+        _joint_projections(k, c0, c1, IA, pA, Sw, Sv, generalized, U, u)
+        # D^-1 stays in this loop: moved into a helper (inlined or not), it slowed the recursion
         if m == 1:  # one freedom (most joints): D is a number, nothing to factor
             d = (Sw[c0, 0] * U[c0, 0] + Sw[c0, 1] * U[c0, 1] + Sw[c0, 2] * U[c0, 2]
                  + Sv[c0, 0] * U[c0, 3] + Sv[c0, 1] * U[c0, 4] + Sv[c0, 2] * U[c0, 5]) + armature[c0]
@@ -162,39 +217,9 @@ def articulated_accelerations(parent, coord_start, spatial, Sw, Sv, r, force, to
                 for i in range(6):
                     DinvUT[c0 + a, i] = sol[a, i]
                 Dinv_u[c0 + a] = sol[a, 6]
-        p = parent[k]
-        if p < 0:
-            continue
-        # condensed onto the joint: I^a = IA - U D^-1 U^T, p^a = pA + U D^-1 u
-        for i in range(6):
-            for j in range(6):
-                s = IA[k, i, j]
-                for c in range(c0, c1):
-                    s -= U[c, i] * DinvUT[c, j]
-                IA[p, i, j] += s
-            s = pA[k, i]
-            for c in range(c0, c1):
-                s += U[c, i] * Dinv_u[c]
-            pA[p, i] += s
-    xdd = np.empty(n)
-    dA = np.zeros((nb + 1, 6))
-    for k in range(nb):
-        p = parent[k]
-        if p < 0:
-            p = nb
-        for i in range(6):
-            dA[k, i] = dA[p, i]
-        for c in range(coord_start[k], coord_start[k + 1]):
-            # xdd = D^-1 (u - U^T dA_P)
-            s = Dinv_u[c]
-            for i in range(6):
-                s -= DinvUT[c, i] * dA[p, i]
-            xdd[c] = s
-        for c in range(coord_start[k], coord_start[k + 1]):
-            for i in range(3):
-                dA[k, i] += Sw[c, i] * xdd[c]
-                dA[k, 3 + i] += Sv[c, i] * xdd[c]
-    return xdd, -1
+        if parent[k] >= 0:
+            _condense(k, parent[k], c0, c1, IA, pA, U, DinvUT, Dinv_u)
+    return _outward_accelerations(parent, coord_start, Sw, Sv, DinvUT, Dinv_u), -1
 
 
 @njit(cache=True)

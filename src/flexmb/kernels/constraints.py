@@ -83,6 +83,123 @@ def _velocity(out, k, p, r, omega, v):
         out[i] += v[k, i]
 
 
+@njit(cache=True, inline="always")
+def _point_rows(level, row, phi, psi, gamma, R, origin, r, omega, alpha_bias, a_bias, Sw, Sv, parent, coord_start,
+                pt_i, pt_pi, pt_j, pt_pj):
+    """Point rows ``P_i - P_j = 0`` (eq. 28), their psi (eq. 29) and gamma, from ``row`` on; returns the next row."""
+    Pi = np.empty(3)
+    Pj = np.empty(3)
+    t1 = np.empty(3)
+    t2 = np.empty(3)
+    unit = np.zeros((3, 3))
+    for a in range(3):
+        unit[a, a] = 1.0
+    for q in range(pt_i.shape[0]):
+        i, j = pt_i[q], pt_j[q]
+        _point(Pi, R, origin, i, pt_pi[q])
+        _point(Pj, R, origin, j, pt_pj[q])
+        if level >= 2:
+            _bias_acceleration(t1, i, Pi, r, omega, alpha_bias, a_bias)
+            _bias_acceleration(t2, j, Pj, r, omega, alpha_bias, a_bias)
+        for a in range(3):
+            phi[row + a] = Pi[a] - Pj[a]
+            if level >= 1:
+                _add_point_partials(psi, row + a, 1.0, i, Pi, unit[a], parent, coord_start, Sw, Sv)
+                _add_point_partials(psi, row + a, -1.0, j, Pj, unit[a], parent, coord_start, Sw, Sv)
+            if level >= 2:
+                gamma[row + a] = -(t1[a] - t2[a])
+        row += 3
+    return row
+
+
+@njit(cache=True, inline="always")
+def _direction_bias(i, j, Pi, Pj, d, e, de, r, omega, v, alpha_bias, a_bias):
+    """The velocity-dependent part of ``d/dt^2 (d . e)`` of a direction row, ``e = P_j - P_i`` (minus gamma)."""
+    t1 = np.empty(3)
+    t2 = np.empty(3)
+    t3 = np.empty(3)
+    t4 = np.empty(3)
+    wi = omega[i]
+    # edot, ebias: relative velocity and bias acceleration of the points
+    _velocity(t1, j, Pj, r, omega, v)
+    _velocity(t2, i, Pi, r, omega, v)
+    for a in range(3):
+        t1[a] -= t2[a]  # edot
+    _bias_acceleration(t2, j, Pj, r, omega, alpha_bias, a_bias)
+    _bias_acceleration(t3, i, Pi, r, omega, alpha_bias, a_bias)
+    for a in range(3):
+        t2[a] -= t3[a]  # ebias
+    _cross_to(t3, wi, d)  # wd = w_i x d
+    bias = _dot3(alpha_bias[i], de) + _dot3(t3, t1) + _dot3(d, t2)
+    _cross_to(t4, t3, e)
+    _cross_to(t2, d, t1)
+    for a in range(3):
+        t4[a] += t2[a]
+    bias += _dot3(wi, t4)
+    return bias
+
+
+@njit(cache=True, inline="always")
+def _direction_rows(level, row, phi, psi, gamma, R, origin, r, omega, v, alpha_bias, a_bias, Sw, Sv, parent,
+                    coord_start, dr_i, dr_pi, dr_ai, dr_j, dr_pj):
+    """Direction rows ``d . (P_j - P_i) = 0`` (eq. 28), their psi (eq. 29) and gamma; returns the next row."""
+    Pi = np.empty(3)
+    Pj = np.empty(3)
+    e = np.empty(3)
+    d = np.empty(3)
+    de = np.empty(3)
+    for q in range(dr_i.shape[0]):
+        i, j = dr_i[q], dr_j[q]
+        _point(Pi, R, origin, i, dr_pi[q])
+        _point(Pj, R, origin, j, dr_pj[q])
+        _mv_to(d, R[i], dr_ai[q])
+        for a in range(3):
+            e[a] = Pj[a] - Pi[a]
+        phi[row] = _dot3(d, e)
+        _cross_to(de, d, e)
+        if level >= 1:
+            _add_angular_partials(psi, row, 1.0, i, de, parent, coord_start, Sw)
+            _add_point_partials(psi, row, 1.0, j, Pj, d, parent, coord_start, Sw, Sv)
+            _add_point_partials(psi, row, -1.0, i, Pi, d, parent, coord_start, Sw, Sv)
+        if level >= 2:
+            gamma[row] = -_direction_bias(i, j, Pi, Pj, d, e, de, r, omega, v, alpha_bias, a_bias)
+        row += 1
+    return row
+
+
+@njit(cache=True, inline="always")
+def _perpendicular_rows(level, row, phi, psi, gamma, R, omega, alpha_bias, Sw, parent, coord_start,
+                        pp_i, pp_ai, pp_j, pp_bj):
+    """Perpendicularity rows ``a . b = 0`` (eq. 28), their psi (eq. 29) and gamma; returns the next row."""
+    va = np.empty(3)
+    vb = np.empty(3)
+    ab = np.empty(3)
+    t1 = np.empty(3)
+    t2 = np.empty(3)
+    t3 = np.empty(3)
+    for q in range(pp_i.shape[0]):
+        i, j = pp_i[q], pp_j[q]
+        _mv_to(va, R[i], pp_ai[q])
+        _mv_to(vb, R[j], pp_bj[q])
+        phi[row] = _dot3(va, vb)
+        _cross_to(ab, va, vb)
+        if level >= 1:
+            _add_angular_partials(psi, row, 1.0, i, ab, parent, coord_start, Sw)
+            _add_angular_partials(psi, row, -1.0, j, ab, parent, coord_start, Sw)
+        if level >= 2:
+            wi, wj = omega[i], omega[j]
+            _cross_to(t1, wi, va)
+            _cross_to(t2, t1, vb)  # (w_i x a) x b
+            _cross_to(t1, wj, vb)
+            _cross_to(t3, va, t1)  # a x (w_j x b)
+            bias = 0.0
+            for a in range(3):
+                bias += ab[a] * (alpha_bias[i, a] - alpha_bias[j, a]) + (t2[a] + t3[a]) * (wi[a] - wj[a])
+            gamma[row] = -bias
+        row += 1
+    return row
+
+
 @njit(cache=True)
 def cut_rows(level, n, R, origin, r, omega, v, alpha_bias, a_bias, Sw, Sv, parent, coord_start,
              pt_i, pt_pi, pt_j, pt_pj, dr_i, dr_pi, dr_ai, dr_j, dr_pj, pp_i, pp_ai, pp_j, pp_bj):
@@ -122,88 +239,10 @@ def cut_rows(level, n, R, origin, r, omega, v, alpha_bias, a_bias, Sw, Sv, paren
     phi = np.zeros(m)
     psi = np.zeros((m if level >= 1 else 0, n))
     gamma = np.zeros(m)
-    Pi = np.empty(3)
-    Pj = np.empty(3)
-    e = np.empty(3)
-    t1 = np.empty(3)
-    t2 = np.empty(3)
-    t3 = np.empty(3)
-    t4 = np.empty(3)
-    unit = np.zeros((3, 3))
-    for a in range(3):
-        unit[a, a] = 1.0
-    row = 0
-    for q in range(pt_i.shape[0]):
-        i, j = pt_i[q], pt_j[q]
-        _point(Pi, R, origin, i, pt_pi[q])
-        _point(Pj, R, origin, j, pt_pj[q])
-        if level >= 2:
-            _bias_acceleration(t1, i, Pi, r, omega, alpha_bias, a_bias)
-            _bias_acceleration(t2, j, Pj, r, omega, alpha_bias, a_bias)
-        for a in range(3):
-            phi[row + a] = Pi[a] - Pj[a]
-            if level >= 1:
-                _add_point_partials(psi, row + a, 1.0, i, Pi, unit[a], parent, coord_start, Sw, Sv)
-                _add_point_partials(psi, row + a, -1.0, j, Pj, unit[a], parent, coord_start, Sw, Sv)
-            if level >= 2:
-                gamma[row + a] = -(t1[a] - t2[a])
-        row += 3
-    d = np.empty(3)
-    de = np.empty(3)
-    for q in range(dr_i.shape[0]):
-        i, j = dr_i[q], dr_j[q]
-        _point(Pi, R, origin, i, dr_pi[q])
-        _point(Pj, R, origin, j, dr_pj[q])
-        _mv_to(d, R[i], dr_ai[q])
-        for a in range(3):
-            e[a] = Pj[a] - Pi[a]
-        phi[row] = _dot3(d, e)
-        _cross_to(de, d, e)
-        if level >= 1:
-            _add_angular_partials(psi, row, 1.0, i, de, parent, coord_start, Sw)
-            _add_point_partials(psi, row, 1.0, j, Pj, d, parent, coord_start, Sw, Sv)
-            _add_point_partials(psi, row, -1.0, i, Pi, d, parent, coord_start, Sw, Sv)
-        if level >= 2:
-            wi = omega[i]
-            # edot, ebias: relative velocity and bias acceleration of the points
-            _velocity(t1, j, Pj, r, omega, v)
-            _velocity(t2, i, Pi, r, omega, v)
-            for a in range(3):
-                t1[a] -= t2[a]  # edot
-            _bias_acceleration(t2, j, Pj, r, omega, alpha_bias, a_bias)
-            _bias_acceleration(t3, i, Pi, r, omega, alpha_bias, a_bias)
-            for a in range(3):
-                t2[a] -= t3[a]  # ebias
-            _cross_to(t3, wi, d)  # wd = w_i x d
-            bias = _dot3(alpha_bias[i], de) + _dot3(t3, t1) + _dot3(d, t2)
-            _cross_to(t4, t3, e)
-            _cross_to(t2, d, t1)
-            for a in range(3):
-                t4[a] += t2[a]
-            bias += _dot3(wi, t4)
-            gamma[row] = -bias
-        row += 1
-    va = np.empty(3)
-    vb = np.empty(3)
-    ab = np.empty(3)
-    for q in range(pp_i.shape[0]):
-        i, j = pp_i[q], pp_j[q]
-        _mv_to(va, R[i], pp_ai[q])
-        _mv_to(vb, R[j], pp_bj[q])
-        phi[row] = _dot3(va, vb)
-        _cross_to(ab, va, vb)
-        if level >= 1:
-            _add_angular_partials(psi, row, 1.0, i, ab, parent, coord_start, Sw)
-            _add_angular_partials(psi, row, -1.0, j, ab, parent, coord_start, Sw)
-        if level >= 2:
-            wi, wj = omega[i], omega[j]
-            _cross_to(t1, wi, va)
-            _cross_to(t2, t1, vb)  # (w_i x a) x b
-            _cross_to(t1, wj, vb)
-            _cross_to(t3, va, t1)  # a x (w_j x b)
-            bias = 0.0
-            for a in range(3):
-                bias += ab[a] * (alpha_bias[i, a] - alpha_bias[j, a]) + (t2[a] + t3[a]) * (wi[a] - wj[a])
-            gamma[row] = -bias
-        row += 1
+    row = _point_rows(level, 0, phi, psi, gamma, R, origin, r, omega, alpha_bias, a_bias, Sw, Sv, parent, coord_start,
+                      pt_i, pt_pi, pt_j, pt_pj)
+    row = _direction_rows(level, row, phi, psi, gamma, R, origin, r, omega, v, alpha_bias, a_bias, Sw, Sv, parent,
+                          coord_start, dr_i, dr_pi, dr_ai, dr_j, dr_pj)
+    _perpendicular_rows(level, row, phi, psi, gamma, R, omega, alpha_bias, Sw, parent, coord_start, pp_i, pp_ai, pp_j,
+                        pp_bj)
     return phi, psi, gamma

@@ -182,6 +182,118 @@ def _point_motion(R, origin, r, omega, v, k, local, p, vel):
     vel[2] = v[k, 2] + w[0] * ly - w[1] * lx
 
 
+@njit(cache=True, inline="always")
+def _gravity_loads(g, group, mass, v, force, powers, track):
+    """Uniform gravity ``m_k g`` at the mass centres (into F, eq. 5)."""
+    if g[0] != 0.0 or g[1] != 0.0 or g[2] != 0.0:
+        for k in range(mass.shape[0]):
+            for a in range(3):
+                force[k, a] += mass[k] * g[a]
+                if track:
+                    powers[group[0]] += mass[k] * g[a] * v[k, a]
+
+
+@njit(cache=True, inline="always")
+def _coordinate_springs(cols, stiff, damp, rest, group, x, xd, generalized, powers, track):
+    """Coordinate springs and dampers ``-k (q - q0) - c qdot`` (eqs. 21, 25-27)."""
+    for i in range(cols.shape[0]):
+        c = cols[i]
+        q = stiff[i] * (x[c] - rest[i]) + damp[i] * xd[c]
+        generalized[c] -= q
+        if track:
+            powers[group[i]] -= q * xd[c]
+
+
+@njit(cache=True, inline="always")
+def _pair_force(stiff, damp, rest, pts, vel, f2):
+    """Force on the second end of a point-to-point spring-damper, into ``f2``."""
+    d0, d1, d2 = pts[1, 0] - pts[0, 0], pts[1, 1] - pts[0, 1], pts[1, 2] - pts[0, 2]
+    length = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+    scale = stiff if rest == 0.0 else stiff * (length - rest) / max(length, 1e-300)
+    f2[0], f2[1], f2[2] = -scale * d0, -scale * d1, -scale * d2
+    if damp != 0.0 and length > 1e-12:
+        e0, e1, e2 = d0 / length, d1 / length, d2 / length
+        rate = (e0 * (vel[1, 0] - vel[0, 0]) + e1 * (vel[1, 1] - vel[0, 1])
+                + e2 * (vel[1, 2] - vel[0, 2]))
+        f2[0] -= damp * rate * e0
+        f2[1] -= damp * rate * e1
+        f2[2] -= damp * rate * e2
+
+
+@njit(cache=True, inline="always")
+def _pair_loads(pairs, local, par, group, R, origin, r, omega, v, force, torque, powers, track):
+    """Point-to-point spring-dampers: equal and opposite forces at their two ends (into F, eq. 5)."""
+    if pairs.shape[0]:
+        pts = np.empty((2, 3))
+        vel = np.empty((2, 3))
+        f2 = np.empty(3)
+        for i in range(pairs.shape[0]):
+            for s in range(2):
+                _point_motion(R, origin, r, omega, v, pairs[i, s], local[i, s], pts[s], vel[s])
+            _pair_force(par[i, 0], par[i, 1], par[i, 2], pts, vel, f2)
+            if track:
+                powers[group[i]] += (f2[0] * (vel[1, 0] - vel[0, 0]) + f2[1] * (vel[1, 1] - vel[0, 1])
+                                                 + f2[2] * (vel[1, 2] - vel[0, 2]))
+            for s in range(2):
+                k = pairs[i, s]
+                sign = -1.0 if s == 0 else 1.0
+                lx, ly, lz = pts[s, 0] - r[k, 0], pts[s, 1] - r[k, 1], pts[s, 2] - r[k, 2]
+                fx, fy, fz = sign * f2[0], sign * f2[1], sign * f2[2]
+                force[k, 0] += fx
+                force[k, 1] += fy
+                force[k, 2] += fz
+                torque[k, 0] += ly * fz - lz * fy
+                torque[k, 1] += lz * fx - lx * fz
+                torque[k, 2] += lx * fy - ly * fx
+
+
+@njit(cache=True, inline="always")
+def _point_force_loads(rows, local, vec, in_body, group, R, origin, r, omega, v, force, torque, powers, track):
+    """Constant point forces, in inertial or body axes (into F, eq. 5)."""
+    f = np.empty(3)
+    for i in range(rows.shape[0]):
+        k = rows[i]
+        loc = local[i]
+        for a in range(3):
+            f[a] = vec[i, a]
+        if in_body[i]:
+            for a in range(3):
+                f[a] = R[k, a, 0] * vec[i, 0] + R[k, a, 1] * vec[i, 1] \
+                    + R[k, a, 2] * vec[i, 2]
+        lx = R[k, 0, 0] * loc[0] + R[k, 0, 1] * loc[1] + R[k, 0, 2] * loc[2] + origin[k, 0] - r[k, 0]
+        ly = R[k, 1, 0] * loc[0] + R[k, 1, 1] * loc[1] + R[k, 1, 2] * loc[2] + origin[k, 1] - r[k, 1]
+        lz = R[k, 2, 0] * loc[0] + R[k, 2, 1] * loc[1] + R[k, 2, 2] * loc[2] + origin[k, 2] - r[k, 2]
+        force[k, 0] += f[0]
+        force[k, 1] += f[1]
+        force[k, 2] += f[2]
+        torque[k, 0] += ly * f[2] - lz * f[1]
+        torque[k, 1] += lz * f[0] - lx * f[2]
+        torque[k, 2] += lx * f[1] - ly * f[0]
+        if track:  # f . (v_k + omega_k x (p - r_k))
+            w = omega[k]
+            powers[group[i]] += (f[0] * (v[k, 0] + w[1] * lz - w[2] * ly)
+                                              + f[1] * (v[k, 1] + w[2] * lx - w[0] * lz)
+                                              + f[2] * (v[k, 2] + w[0] * ly - w[1] * lx))
+
+
+@njit(cache=True, inline="always")
+def _body_torque_loads(rows, vec, in_body, group, R, omega, torque, powers, track):
+    """Constant body torques, in inertial or body axes (into F, eq. 5)."""
+    f = np.empty(3)
+    for i in range(rows.shape[0]):
+        k = rows[i]
+        for a in range(3):
+            f[a] = vec[i, a]
+        if in_body[i]:
+            for a in range(3):
+                f[a] = R[k, a, 0] * vec[i, 0] + R[k, a, 1] * vec[i, 1] \
+                    + R[k, a, 2] * vec[i, 2]
+        for a in range(3):
+            torque[k, a] += f[a]
+            if track:
+                powers[group[i]] += f[a] * omega[k, a]
+
+
 @njit(cache=True)
 def apply_load_tables(tables, mass, R, origin, r, omega, v, x, xd, force, torque, generalized, powers):
     """Add the loads of the compiled built-in force elements (:class:`flexmb.forces.tables.LoadTables`).
@@ -213,89 +325,12 @@ def apply_load_tables(tables, mass, R, origin, r, omega, v, x, xd, force, torque
         added to the entry of its group.
     """
     track = powers.shape[0] > 0
-    g = tables.gravity
-    if g[0] != 0.0 or g[1] != 0.0 or g[2] != 0.0:
-        for k in range(mass.shape[0]):
-            for a in range(3):
-                force[k, a] += mass[k] * g[a]
-                if track:
-                    powers[tables.gravity_group[0]] += mass[k] * g[a] * v[k, a]
-    cols = tables.coord_cols
-    for i in range(cols.shape[0]):
-        c = cols[i]
-        q = tables.coord_k[i] * (x[c] - tables.coord_rest[i]) + tables.coord_c[i] * xd[c]
-        generalized[c] -= q
-        if track:
-            powers[tables.coord_group[i]] -= q * xd[c]
-    pairs = tables.pair_rows
-    if pairs.shape[0]:
-        pts = np.empty((2, 3))
-        vel = np.empty((2, 3))
-        f2 = np.empty(3)
-        for i in range(pairs.shape[0]):
-            for s in range(2):
-                _point_motion(R, origin, r, omega, v, pairs[i, s], tables.pair_local[i, s], pts[s], vel[s])
-            stiff, damp, rest = tables.pair_par[i, 0], tables.pair_par[i, 1], tables.pair_par[i, 2]
-            d0, d1, d2 = pts[1, 0] - pts[0, 0], pts[1, 1] - pts[0, 1], pts[1, 2] - pts[0, 2]
-            length = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-            scale = stiff if rest == 0.0 else stiff * (length - rest) / max(length, 1e-300)
-            f2[0], f2[1], f2[2] = -scale * d0, -scale * d1, -scale * d2
-            if damp != 0.0 and length > 1e-12:
-                e0, e1, e2 = d0 / length, d1 / length, d2 / length
-                rate = (e0 * (vel[1, 0] - vel[0, 0]) + e1 * (vel[1, 1] - vel[0, 1])
-                        + e2 * (vel[1, 2] - vel[0, 2]))
-                f2[0] -= damp * rate * e0
-                f2[1] -= damp * rate * e1
-                f2[2] -= damp * rate * e2
-            if track:
-                powers[tables.pair_group[i]] += (f2[0] * (vel[1, 0] - vel[0, 0]) + f2[1] * (vel[1, 1] - vel[0, 1])
-                                                 + f2[2] * (vel[1, 2] - vel[0, 2]))
-            for s in range(2):
-                k = pairs[i, s]
-                sign = -1.0 if s == 0 else 1.0
-                lx, ly, lz = pts[s, 0] - r[k, 0], pts[s, 1] - r[k, 1], pts[s, 2] - r[k, 2]
-                fx, fy, fz = sign * f2[0], sign * f2[1], sign * f2[2]
-                force[k, 0] += fx
-                force[k, 1] += fy
-                force[k, 2] += fz
-                torque[k, 0] += ly * fz - lz * fy
-                torque[k, 1] += lz * fx - lx * fz
-                torque[k, 2] += lx * fy - ly * fx
-    rows = tables.force_rows
-    f = np.empty(3)
-    for i in range(rows.shape[0]):
-        k = rows[i]
-        loc = tables.force_local[i]
-        for a in range(3):
-            f[a] = tables.force_vec[i, a]
-        if tables.force_in_body[i]:
-            for a in range(3):
-                f[a] = R[k, a, 0] * tables.force_vec[i, 0] + R[k, a, 1] * tables.force_vec[i, 1] \
-                    + R[k, a, 2] * tables.force_vec[i, 2]
-        lx = R[k, 0, 0] * loc[0] + R[k, 0, 1] * loc[1] + R[k, 0, 2] * loc[2] + origin[k, 0] - r[k, 0]
-        ly = R[k, 1, 0] * loc[0] + R[k, 1, 1] * loc[1] + R[k, 1, 2] * loc[2] + origin[k, 1] - r[k, 1]
-        lz = R[k, 2, 0] * loc[0] + R[k, 2, 1] * loc[1] + R[k, 2, 2] * loc[2] + origin[k, 2] - r[k, 2]
-        force[k, 0] += f[0]
-        force[k, 1] += f[1]
-        force[k, 2] += f[2]
-        torque[k, 0] += ly * f[2] - lz * f[1]
-        torque[k, 1] += lz * f[0] - lx * f[2]
-        torque[k, 2] += lx * f[1] - ly * f[0]
-        if track:  # f . (v_k + omega_k x (p - r_k))
-            w = omega[k]
-            powers[tables.force_group[i]] += (f[0] * (v[k, 0] + w[1] * lz - w[2] * ly)
-                                              + f[1] * (v[k, 1] + w[2] * lx - w[0] * lz)
-                                              + f[2] * (v[k, 2] + w[0] * ly - w[1] * lx))
-    rows = tables.torque_rows
-    for i in range(rows.shape[0]):
-        k = rows[i]
-        for a in range(3):
-            f[a] = tables.torque_vec[i, a]
-        if tables.torque_in_body[i]:
-            for a in range(3):
-                f[a] = R[k, a, 0] * tables.torque_vec[i, 0] + R[k, a, 1] * tables.torque_vec[i, 1] \
-                    + R[k, a, 2] * tables.torque_vec[i, 2]
-        for a in range(3):
-            torque[k, a] += f[a]
-            if track:
-                powers[tables.torque_group[i]] += f[a] * omega[k, a]
+    _gravity_loads(tables.gravity, tables.gravity_group, mass, v, force, powers, track)
+    _coordinate_springs(tables.coord_cols, tables.coord_k, tables.coord_c, tables.coord_rest, tables.coord_group, x, xd,
+                        generalized, powers, track)
+    _pair_loads(tables.pair_rows, tables.pair_local, tables.pair_par, tables.pair_group, R, origin, r, omega, v, force,
+                torque, powers, track)
+    _point_force_loads(tables.force_rows, tables.force_local, tables.force_vec, tables.force_in_body,
+                       tables.force_group, R, origin, r, omega, v, force, torque, powers, track)
+    _body_torque_loads(tables.torque_rows, tables.torque_vec, tables.torque_in_body, tables.torque_group, R, omega,
+                       torque, powers, track)

@@ -36,6 +36,118 @@ def _skew(a):
 
 
 @njit(cache=True)
+def _net_wrenches(parent, coord_start, Sx, r, omega, v, alpha_bias, a_bias, inertia_world, mass, force, torque):
+    """Spatial accelerations (about the origin) of the bodies and their net wrenches, loads minus inertia (eq. 19).
+
+    Returns the accelerations ``acc`` (one row per body and the ground),
+    the net wrenches ``W`` and the applied loads ``Fe``, ``Te`` and
+    ``Ge = [r]x [F]x`` of each body, not yet summed over subtrees.
+    """
+    nb = parent.shape[0]
+    acc = np.zeros((nb + 1, 6))
+    up = np.zeros((nb + 1, 6))
+    W = np.empty((nb, 6))
+    Fe = np.empty((nb, 3))
+    Te = np.empty((nb, 3))
+    Ge = np.empty((nb, 3, 3))
+    for k in range(nb):
+        p = parent[k]
+        if p < 0:
+            p = nb
+        up[k] = up[p]
+        for c in range(coord_start[k], coord_start[k + 1]):
+            up[k] += Sx[c]
+        acc[k, :3] = alpha_bias[k] + up[k, :3]
+        acc[k, 3:] = a_bias[k] - _cross(alpha_bias[k], r[k]) - _cross(omega[k], v[k]) + up[k, 3:]
+        alpha = acc[k, :3]
+        a_r = acc[k, 3:] + _cross(alpha, r[k]) + _cross(omega[k], v[k])
+        net_f = force[k] - mass[k] * a_r
+        net_t = (torque[k] - _mv(inertia_world[k], alpha)
+                 - _cross(omega[k], _mv(inertia_world[k], omega[k])))
+        W[k, :3] = net_t + _cross(r[k], net_f)
+        W[k, 3:] = net_f
+        Fe[k] = force[k]
+        Te[k] = torque[k]
+        Ge[k] = _skew(r[k]) @ _skew(force[k])
+    return acc, W, Fe, Te, Ge
+
+
+@njit(cache=True)
+def _subtree_sums(parent, W, Fe, Te, Ge):
+    """Sum the wrenches and loads over each subtree, from the leaves in."""
+    for k in range(parent.shape[0] - 1, -1, -1):
+        p = parent[k]
+        if p >= 0:
+            W[p] += W[k]
+            Fe[p] += Fe[k]
+            Te[p] += Te[k]
+            Ge[p] += Ge[k]
+
+
+@njit(cache=True)
+def _coordinate_terms(parent, coord_start, Sw, Sv, Sx, IC, acc, W, Fe, Te, Ge):
+    """Per coordinate: ``u = S x a_pre``, ``hs = H S``, ``qs = Q^T S`` and ``y = S x* W + H u - Q S_w``."""
+    nb = parent.shape[0]
+    n = Sw.shape[0]
+    u = np.empty((n, 6))
+    hs = np.empty((n, 6))
+    qs = np.empty((n, 3))
+    y = np.empty((n, 6))
+    S = np.empty(6)
+    a_pre = np.empty(6)
+    for k in range(nb):
+        p = parent[k]
+        if p < 0:
+            p = nb
+        Q = np.empty((6, 3))
+        Q[:3] = -Ge[k] - _skew(Te[k])
+        Q[3:] = -_skew(Fe[k])
+        a_pre[:] = acc[p]
+        H = IC[k]
+        for c in range(coord_start[k], coord_start[k + 1]):
+            a_pre += Sx[c]
+            S[:3] = Sw[c]
+            S[3:] = Sv[c]
+            u[c, :3] = _cross(Sw[c], a_pre[:3])
+            u[c, 3:] = _cross(Sw[c], a_pre[3:]) + _cross(Sv[c], a_pre[:3])
+            hs[c] = H @ S
+            qs[c] = Q.T @ S
+            Hu = H @ u[c]
+            QS = Q @ Sw[c]
+            y[c, :3] = _cross(Sw[c], W[k, :3]) + _cross(Sv[c], W[k, 3:]) + Hu[:3] - QS[:3]
+            y[c, 3:] = _cross(Sw[c], W[k, 3:]) + Hu[3:] - QS[3:]
+    return u, hs, qs, y
+
+
+@njit(cache=True)
+def _assemble(parent, coord_start, coord_body, Sw, Sv, u, hs, qs, y):
+    """G from the coordinate terms, each coordinate d against those on its path from the ground."""
+    n = Sw.shape[0]
+    G = np.zeros((n, n))
+    for d in range(n):
+        k = coord_body[d]
+        j = k
+        while j >= 0:
+            for c in range(coord_start[j], coord_start[j + 1]):
+                if j == k and c >= d:
+                    # c after d (within the joint, later or the same coordinate)
+                    G[c, d] = (hs[c, 0] * u[d, 0] + hs[c, 1] * u[d, 1] + hs[c, 2] * u[d, 2]
+                               + hs[c, 3] * u[d, 3] + hs[c, 4] * u[d, 4] + hs[c, 5] * u[d, 5]
+                               - qs[c, 0] * Sw[d, 0] - qs[c, 1] * Sw[d, 1] - qs[c, 2] * Sw[d, 2])
+                    continue
+                # d after c: G[c, d] = S_c . y_d
+                G[c, d] = (Sw[c, 0] * y[d, 0] + Sw[c, 1] * y[d, 1] + Sw[c, 2] * y[d, 2]
+                           + Sv[c, 0] * y[d, 3] + Sv[c, 1] * y[d, 4] + Sv[c, 2] * y[d, 5])
+                if j != k:
+                    # and d after c, seen from d's row: G[d, c] = S_d . (H_d u_c - Q_d S_wc)
+                    G[d, c] = (hs[d, 0] * u[c, 0] + hs[d, 1] * u[c, 1] + hs[d, 2] * u[c, 2]
+                               + hs[d, 3] * u[c, 3] + hs[d, 4] * u[c, 4] + hs[d, 5] * u[c, 5]
+                               - qs[d, 0] * Sw[c, 0] - qs[d, 1] * Sw[c, 1] - qs[d, 2] * Sw[c, 2])
+            j = parent[j]
+    return G
+
+
+@njit(cache=True)
 def geometric_stiffness(parent, coord_start, coord_body, Sw, Sv, xdd, r, omega, v, alpha_bias, a_bias,
                         inertia_world, mass, IC, force, torque):
     """``G[c, d] = d g_c / d x_d`` at fixed speeds and accelerations.
@@ -68,92 +180,13 @@ def geometric_stiffness(parent, coord_start, coord_body, Sw, Sv, xdd, r, omega, 
     ndarray, shape (n, n)
         G (see :func:`flexmb.assembly.geometric_stiffness`).
     """
-    nb = parent.shape[0]
     n = Sw.shape[0]
     Sx = np.empty((n, 6))
     for c in range(n):
         Sx[c, :3] = Sw[c] * xdd[c]
         Sx[c, 3:] = Sv[c] * xdd[c]
-    # spatial accelerations (about the origin) of the bodies, and the net wrenches
-    acc = np.zeros((nb + 1, 6))
-    up = np.zeros((nb + 1, 6))
-    W = np.empty((nb, 6))
-    Fe = np.empty((nb, 3))
-    Te = np.empty((nb, 3))
-    Ge = np.empty((nb, 3, 3))
-    for k in range(nb):
-        p = parent[k]
-        if p < 0:
-            p = nb
-        up[k] = up[p]
-        for c in range(coord_start[k], coord_start[k + 1]):
-            up[k] += Sx[c]
-        acc[k, :3] = alpha_bias[k] + up[k, :3]
-        acc[k, 3:] = a_bias[k] - _cross(alpha_bias[k], r[k]) - _cross(omega[k], v[k]) + up[k, 3:]
-        alpha = acc[k, :3]
-        a_r = acc[k, 3:] + _cross(alpha, r[k]) + _cross(omega[k], v[k])
-        net_f = force[k] - mass[k] * a_r
-        net_t = (torque[k] - _mv(inertia_world[k], alpha)
-                 - _cross(omega[k], _mv(inertia_world[k], omega[k])))
-        W[k, :3] = net_t + _cross(r[k], net_f)
-        W[k, 3:] = net_f
-        Fe[k] = force[k]
-        Te[k] = torque[k]
-        Ge[k] = _skew(r[k]) @ _skew(force[k])
-    for k in range(nb - 1, -1, -1):
-        p = parent[k]
-        if p >= 0:
-            W[p] += W[k]
-            Fe[p] += Fe[k]
-            Te[p] += Te[k]
-            Ge[p] += Ge[k]
-    # per coordinate: u = S x a_pre, hs = H S, qs = Q^T S, y = S x* W + H u - Q S_w
-    u = np.empty((n, 6))
-    hs = np.empty((n, 6))
-    qs = np.empty((n, 3))
-    y = np.empty((n, 6))
-    S = np.empty(6)
-    a_pre = np.empty(6)
-    for k in range(nb):
-        p = parent[k]
-        if p < 0:
-            p = nb
-        Q = np.empty((6, 3))
-        Q[:3] = -Ge[k] - _skew(Te[k])
-        Q[3:] = -_skew(Fe[k])
-        a_pre[:] = acc[p]
-        H = IC[k]
-        for c in range(coord_start[k], coord_start[k + 1]):
-            a_pre += Sx[c]
-            S[:3] = Sw[c]
-            S[3:] = Sv[c]
-            u[c, :3] = _cross(Sw[c], a_pre[:3])
-            u[c, 3:] = _cross(Sw[c], a_pre[3:]) + _cross(Sv[c], a_pre[:3])
-            hs[c] = H @ S
-            qs[c] = Q.T @ S
-            Hu = H @ u[c]
-            QS = Q @ Sw[c]
-            y[c, :3] = _cross(Sw[c], W[k, :3]) + _cross(Sv[c], W[k, 3:]) + Hu[:3] - QS[:3]
-            y[c, 3:] = _cross(Sw[c], W[k, 3:]) + Hu[3:] - QS[3:]
-    G = np.zeros((n, n))
-    for d in range(n):
-        k = coord_body[d]
-        j = k
-        while j >= 0:
-            for c in range(coord_start[j], coord_start[j + 1]):
-                if j == k and c >= d:
-                    # c after d (within the joint, later or the same coordinate)
-                    G[c, d] = (hs[c, 0] * u[d, 0] + hs[c, 1] * u[d, 1] + hs[c, 2] * u[d, 2]
-                               + hs[c, 3] * u[d, 3] + hs[c, 4] * u[d, 4] + hs[c, 5] * u[d, 5]
-                               - qs[c, 0] * Sw[d, 0] - qs[c, 1] * Sw[d, 1] - qs[c, 2] * Sw[d, 2])
-                    continue
-                # d after c: G[c, d] = S_c . y_d
-                G[c, d] = (Sw[c, 0] * y[d, 0] + Sw[c, 1] * y[d, 1] + Sw[c, 2] * y[d, 2]
-                           + Sv[c, 0] * y[d, 3] + Sv[c, 1] * y[d, 4] + Sv[c, 2] * y[d, 5])
-                if j != k:
-                    # and d after c, seen from d's row: G[d, c] = S_d . (H_d u_c - Q_d S_wc)
-                    G[d, c] = (hs[d, 0] * u[c, 0] + hs[d, 1] * u[c, 1] + hs[d, 2] * u[c, 2]
-                               + hs[d, 3] * u[c, 3] + hs[d, 4] * u[c, 4] + hs[d, 5] * u[c, 5]
-                               - qs[d, 0] * Sw[c, 0] - qs[d, 1] * Sw[c, 1] - qs[d, 2] * Sw[c, 2])
-            j = parent[j]
-    return G
+    acc, W, Fe, Te, Ge = _net_wrenches(parent, coord_start, Sx, r, omega, v, alpha_bias, a_bias, inertia_world, mass,
+                                       force, torque)
+    _subtree_sums(parent, W, Fe, Te, Ge)
+    u, hs, qs, y = _coordinate_terms(parent, coord_start, Sw, Sv, Sx, IC, acc, W, Fe, Te, Ge)
+    return _assemble(parent, coord_start, coord_body, Sw, Sv, u, hs, qs, y)

@@ -171,6 +171,107 @@ def joint_motions(x, xd, coord_start, coord_kind, coord_axis, external, Rj, d, h
                 R[i, j1] = cq * R[i, j1] - sq * ci[i]
 
 
+@njit(cache=True, inline="always")
+def _external_motions(coord_start, external, ext_Rj, ext_d, ext_hw, ext_hv, ext_aw, ext_av, Rj, d, hw, hv, aw, av):
+    """Copy the motions of the external joints (computed in Python) into the joint-motion arrays."""
+    for k in range(coord_start.shape[0] - 1):
+        if external[k]:
+            Rj[k] = ext_Rj[k]
+            d[k] = ext_d[k]
+            aw[k] = ext_aw[k]
+            av[k] = ext_av[k]
+            for c in range(coord_start[k], coord_start[k + 1]):
+                hw[c] = ext_hw[c]
+                hv[c] = ext_hv[c]
+
+
+@njit(cache=True, inline="always")
+def _place_body(k, p, R, RM, s, jp, origin, r, parent_frame, child_frame, lever, child_point, com, Rj, d, F, G,
+                t1, t2, u):
+    """Rotation ``R_k = R_P F_p R_j F_c^T``, joint point ``o'_k = o'_P + s``, origin and mass centre (eqs. 6-8).
+
+    Also leaves the parent marker frame ``R_M = R_P F_p`` in ``RM`` and ``s = R_P lever + R_M d`` in ``s``.
+    """
+    RP = R[p]
+    _mm_to(RM, RP, parent_frame[k])
+    _mm_to(F, parent_frame[k], Rj[k])
+    _mmt_to(G, F, child_frame[k])
+    _mm_to(R[k], RP, G)
+    # s = R_P lever + R_M d; o'_k = o'_P + s; origin and mass centre
+    _mv_to(s, RP, lever[k])
+    _mv_to(t1, RM, d[k])
+    _mv_to(t2, R[k], child_point[k])
+    _mv_to(u, R[k], com[k])
+    for i in range(3):
+        s[i] += t1[i]
+        jp[k, i] = jp[p, i] + s[i]
+        origin[k, i] = jp[k, i] - t2[i]
+        r[k, i] = origin[k, i] + u[i]
+
+
+@njit(cache=True, inline="always")
+def _body_velocity(k, p, c0, c1, RM, hw, hv, xd, jp, r, omega, v_o, v, Sw, Sv, Gw, Gv, v_rel, t1):
+    """Plucker axes ``S_c`` of the joint's coordinates, then the body's angular and mass-centre velocities (eqs. 7, 17).
+
+    ``v_rel`` receives the joint's relative velocity ``sum G_v qd`` at the joint point.
+    """
+    w = omega[k]
+    vo = v_o[k]
+    for i in range(3):
+        w[i] = omega[p, i]
+        vo[i] = v_o[p, i]
+        v_rel[i] = 0.0
+    for c in range(c0, c1):
+        _mv_to(Gw[c], RM, hw[c])
+        _mv_to(Gv[c], RM, hv[c])
+        _cross_to(t1, Gw[c], jp[k])
+        q = xd[c]
+        for i in range(3):
+            Sw[c, i] = Gw[c, i]
+            Sv[c, i] = Gv[c, i] - t1[i]
+            w[i] += Gw[c, i] * q
+            vo[i] += Sv[c, i] * q
+            v_rel[i] += Gv[c, i] * q
+    _cross_to(t1, w, r[k])
+    for i in range(3):
+        v[k, i] = vo[i] + t1[i]
+
+
+@njit(cache=True, inline="always")
+def _body_bias_accelerations(k, p, RM, s, v_rel, aw, av, omega, jp, r, alpha, a_jp, acc, t1, t2, u):
+    """Angular and mass-centre accelerations of body k at ``xdd = 0`` (eqs. 13, 18)."""
+    w = omega[k]
+    wP = omega[p]
+    # alpha_k = alpha_P + wP x (w - wP) + R_M aw
+    for i in range(3):
+        t2[i] = w[i] - wP[i]
+    _cross_to(t1, wP, t2)
+    _mv_to(t2, RM, aw[k])
+    for i in range(3):
+        alpha[k, i] = alpha[p, i] + t1[i] + t2[i]
+    # a_jp,k = a_jp,P + alpha_P x s + wP x (wP x s + 2 v_rel) + R_M av
+    _cross_to(t1, alpha[p], s)
+    for i in range(3):
+        a_jp[k, i] = a_jp[p, i] + t1[i]
+    _cross_to(t1, wP, s)
+    for i in range(3):
+        t1[i] += 2.0 * v_rel[i]
+    _cross_to(t2, wP, t1)
+    _mv_to(t1, RM, av[k])
+    for i in range(3):
+        a_jp[k, i] += t2[i] + t1[i]
+    # acc_k = a_jp,k + alpha_k x u + w x (w x u), u = r_k - o'_k
+    for i in range(3):
+        u[i] = r[k, i] - jp[k, i]
+    _cross_to(t1, alpha[k], u)
+    for i in range(3):
+        acc[k, i] = a_jp[k, i] + t1[i]
+    _cross_to(t1, w, u)
+    _cross_to(t2, w, t1)
+    for i in range(3):
+        acc[k, i] += t2[i]
+
+
 @njit(cache=True)
 def tree_kinematics(parent, coord_start, coord_kind, coord_axis, external, parent_frame, child_frame, lever,
                     child_point, com, x, xd, ext_Rj, ext_d, ext_hw, ext_hv, ext_aw, ext_av):
@@ -224,15 +325,7 @@ def tree_kinematics(parent, coord_start, coord_kind, coord_axis, external, paren
     hw = np.empty((n, 3))
     hv = np.empty((n, 3))
     joint_motions(x, xd, coord_start, coord_kind, coord_axis, external, Rj, d, hw, hv, aw, av)
-    for k in range(nb):
-        if external[k]:
-            Rj[k] = ext_Rj[k]
-            d[k] = ext_d[k]
-            aw[k] = ext_aw[k]
-            av[k] = ext_av[k]
-            for c in range(coord_start[k], coord_start[k + 1]):
-                hw[c] = ext_hw[c]
-                hv[c] = ext_hv[c]
+    _external_motions(coord_start, external, ext_Rj, ext_d, ext_hw, ext_hv, ext_aw, ext_av, Rj, d, hw, hv, aw, av)
     R = np.empty((nb + 1, 3, 3))
     R[nb] = np.eye(3)
     origin = np.zeros((nb + 1, 3))
@@ -260,70 +353,11 @@ def tree_kinematics(parent, coord_start, coord_kind, coord_axis, external, paren
         p = parent[k]
         if p < 0:
             p = nb
-        RP = R[p]
-        _mm_to(RM, RP, parent_frame[k])
-        _mm_to(F, parent_frame[k], Rj[k])
-        _mmt_to(G, F, child_frame[k])
-        _mm_to(R[k], RP, G)
-        # s = R_P lever + R_M d; o'_k = o'_P + s; origin and mass centre
-        _mv_to(s, RP, lever[k])
-        _mv_to(t1, RM, d[k])
-        _mv_to(t2, R[k], child_point[k])
-        _mv_to(u, R[k], com[k])
-        for i in range(3):
-            s[i] += t1[i]
-            jp[k, i] = jp[p, i] + s[i]
-            origin[k, i] = jp[k, i] - t2[i]
-            r[k, i] = origin[k, i] + u[i]
-        w = omega[k]
-        vo = v_o[k]
-        for i in range(3):
-            w[i] = omega[p, i]
-            vo[i] = v_o[p, i]
-            v_rel[i] = 0.0
-        for c in range(coord_start[k], coord_start[k + 1]):
-            _mv_to(Gw[c], RM, hw[c])
-            _mv_to(Gv[c], RM, hv[c])
-            _cross_to(t1, Gw[c], jp[k])
-            q = xd[c]
-            for i in range(3):
-                Sw[c, i] = Gw[c, i]
-                Sv[c, i] = Gv[c, i] - t1[i]
-                w[i] += Gw[c, i] * q
-                vo[i] += Sv[c, i] * q
-                v_rel[i] += Gv[c, i] * q
-        _cross_to(t1, w, r[k])
-        for i in range(3):
-            v[k, i] = vo[i] + t1[i]
-        wP = omega[p]
-        # alpha_k = alpha_P + wP x (w - wP) + R_M aw
-        for i in range(3):
-            t2[i] = w[i] - wP[i]
-        _cross_to(t1, wP, t2)
-        _mv_to(t2, RM, aw[k])
-        for i in range(3):
-            alpha[k, i] = alpha[p, i] + t1[i] + t2[i]
-        # a_jp,k = a_jp,P + alpha_P x s + wP x (wP x s + 2 v_rel) + R_M av
-        _cross_to(t1, alpha[p], s)
-        for i in range(3):
-            a_jp[k, i] = a_jp[p, i] + t1[i]
-        _cross_to(t1, wP, s)
-        for i in range(3):
-            t1[i] += 2.0 * v_rel[i]
-        _cross_to(t2, wP, t1)
-        _mv_to(t1, RM, av[k])
-        for i in range(3):
-            a_jp[k, i] += t2[i] + t1[i]
-        # acc_k = a_jp,k + alpha_k x u + w x (w x u), u = r_k - o'_k
-        for i in range(3):
-            u[i] = r[k, i] - jp[k, i]
-        _cross_to(t1, alpha[k], u)
-        for i in range(3):
-            acc[k, i] = a_jp[k, i] + t1[i]
-        _cross_to(t1, w, u)
-        _cross_to(t2, w, t1)
-        for i in range(3):
-            acc[k, i] += t2[i]
+        _place_body(k, p, R, RM, s, jp, origin, r, parent_frame, child_frame, lever, child_point, com, Rj, d, F, G,
+                    t1, t2, u)
+        _body_velocity(k, p, coord_start[k], coord_start[k + 1], RM, hw, hv, xd, jp, r, omega, v_o, v, Sw, Sv, Gw, Gv,
+                       v_rel, t1)
+        _body_bias_accelerations(k, p, RM, s, v_rel, aw, av, omega, jp, r, alpha, a_jp, acc, t1, t2, u)
     return R, origin, r, omega, v, alpha, acc, jp[:nb].copy(), Sw, Sv
 
 

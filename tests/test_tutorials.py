@@ -244,6 +244,7 @@ def test_linear_control(run):
     assert ns["closed"].static_gain()[0, 0] == pytest.approx(1 / kp, rel=1e-8)
     assert ns["closed"].static_gain()[2, 0] == pytest.approx(1.05 / kp, rel=1e-6)
     assert ns["closed_damping"][0] > 0.6 and ns["closed_damping"][1] > 0.1
+    assert np.all(ns["closed_damping"][1:4] >= ns["open_damping"][:3] - 1e-6)  # collocated: damping only added
     # the same law on the non-collocated tip is unstable
     assert np.all(ns["tip_feedback_growth"] > 0)
     # the nonlinear simulation with the PD force element against lsim of the closed loop

@@ -211,10 +211,11 @@ order = np.argsort(np.abs(open_poles))
 rigid_poles = open_poles[order[:2]]
 flexible_poles = open_poles[order[2:]][open_poles[order[2:]].imag > 0]
 f_flexible = np.abs(flexible_poles) / (2 * np.pi)
+open_damping = -flexible_poles.real / np.abs(flexible_poles)
 print(f"\nflexible arm: {ss.A.shape[0]} states {ss.states[:2]} ...; inputs {ss.inputs}, outputs {ss.outputs}; "
       f"linearised by {ss.linearization.method}")
 print(f"open-loop poles: two rigid at 0 (largest |p| {np.abs(rigid_poles).max():.0e} 1/s); "
-      f"flexible modes {f_flexible[:3].round(3)} Hz ..., damping ratios {(-flexible_poles.real / np.abs(flexible_poles))[:3].round(4)}")
+      f"flexible modes {f_flexible[:3].round(3)} Hz ..., damping ratios {open_damping[:3].round(4)}")
 
 # %%
 # The double pole at 0 is the free rotation of the whole arm: torque to

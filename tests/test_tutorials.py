@@ -9,7 +9,10 @@ two complement strategies, Euler-Bernoulli beam theory with its
 1/N^2 convergence, and the wiper's assembly, sweep, tip speed (the paper's
 Fig. 6) and energy balance; a user's quadratic drag law (a falling ball's
 tanh law, energy lost = drag work) and screw joint (finite differences, a
-falling nut's constant acceleration), used from a scene by plugin name.
+falling nut's constant acceleration), used from a scene by plugin name;
+Southwell's coefficient of a spinning beam, the rigid inertia of a flexible
+arm and its clamped-blade zeros, and a PD loop's static gain and its
+nonlinear simulation against the linear prediction.
 """
 
 from __future__ import annotations
@@ -39,7 +42,8 @@ def run():
 def test_every_tutorial_is_tested():
     assert sorted(p.name for p in TUTORIALS.glob("[0-9][0-9]_*.py")) == [
         "01_pendulum.py", "02_fourbar.py", "03_cantilever.py", "04_wiper.py", "05_custom_elements.py",
-        "06_export_paraview.py", "07_speed_vs_error.py", "08_parameter_study.py", "09_notebook.py"]
+        "06_export_paraview.py", "07_speed_vs_error.py", "08_parameter_study.py", "09_notebook.py",
+        "10_linear_control.py"]
 
 
 def test_pendulum(run):
@@ -203,3 +207,51 @@ def test_notebook(run):
     assert ns["swing"] > 0.1 and ns["energy_drift_rel"] < 1e-7  # it swings, and keeps its energy
     html = res._repr_html_()
     assert "flexmb Result" in html and "largest residuals" in html and res.method in html
+
+
+def test_linear_control(run):
+    ns = run("10_linear_control.py")
+    # Southwell & Gough (1921): K1 = 1.193 for a uniform cantilever's first mode, no hub radius;
+    # in the plane of rotation the spin softening subtracts 1
+    assert ns["K_southwell"][0] == pytest.approx(1.1933, abs=1e-4)
+    assert ns["K_in_plane"][0] == pytest.approx(0.1933, abs=1e-4)
+    # the B3 model at rest against Euler-Bernoulli, w_i = (beta_i L)^2 sqrt(E I / (rho A L^4))
+    eb = np.array([1.8751041, 4.6940911, 7.8547574]) ** 2 * np.sqrt(1.4e4 / (1.2 * 10.0**4))
+    assert np.all(np.abs(ns["omega"][0] / eb - 1) < 0.015)
+    # frequencies rise with the rate; the first stays below Southwell's Rayleigh quotient, within 3 %
+    omega, dev = ns["omega"], ns["deviation"]
+    assert np.all(np.diff(omega, axis=0) > 0) and np.min(ns["campbell_b3"].mac) > 0.99
+    assert np.all(dev[:, 0] <= 1e-7) and np.all(dev[:, 0] > -3.0) and dev[-1, 0] < -2.0
+    assert np.all(np.abs(dev[:, 1:]) < 0.1)
+    # the slope of w1^2 against Omega^2 near rest is K1 - 1, up to the 16-segment model's O(1/N^2) error
+    assert ns["slope"][0] == pytest.approx(0.1933, rel=0.025)
+    # flexible arm, open loop: the free rotation is a double pole at 0, the flexible modes are damped
+    assert np.all(np.abs(ns["rigid_poles"]) < 1e-6)
+    others = ns["open_poles"][np.abs(ns["open_poles"]) > 1e-6]
+    assert len(others) == len(ns["open_poles"]) - 2 and np.all(others.real < 0)
+    # torque -> angle is 1 / (J s^2) at low frequency: J = hub 0.05 + blade rho A ((R0 + L)^3 - R0^3) / 3
+    # + m b^2 / 12 (aluminium 2700 kg/m^3, 5 mm x 20 mm, R0 = 0.05 m, L = 1 m)
+    rho_a = 2700.0 * 0.005 * 0.02
+    assert ns["J_rigid"] == pytest.approx(0.05 + rho_a * (1.05**3 - 0.05**3) / 3 + rho_a * 0.005**2 / 12, rel=1e-6)
+    # collocated zeros are the clamped blade's modes: Euler-Bernoulli f1 = 1.8751^2 / (2 pi) sqrt(E I / (rho A L^4))
+    f_clamped = 1.8751041**2 / (2 * np.pi) * np.sqrt(70e9 * 0.02 * 0.005**3 / 12 / rho_a)
+    assert ns["f_hub_zeros"][0] == pytest.approx(f_clamped, rel=0.01) and f_clamped == pytest.approx(4.1126, abs=1e-3)
+    assert ns["f_hub_zeros"][0] < ns["f_flexible"][0]  # zeros and poles interlace
+    assert ns["tip_zero_rhp"] > 0  # non-minimum phase to the tip
+    # closed loop: stable, settles at theta_ref (static gain 1 / kp to the hub, (R0 + L) / kp to the tip)
+    assert np.all(ns["closed_poles"].real < 0)
+    kp = ns["kp"]
+    assert ns["closed"].static_gain()[0, 0] == pytest.approx(1 / kp, rel=1e-8)
+    assert ns["closed"].static_gain()[2, 0] == pytest.approx(1.05 / kp, rel=1e-6)
+    assert ns["closed_damping"][0] > 0.6 and ns["closed_damping"][1] > 0.1
+    assert np.all(ns["closed_damping"][1:4] >= ns["open_damping"][:3] - 1e-6)  # collocated: damping only added
+    # the same law on the non-collocated tip is unstable
+    assert np.all(ns["tip_feedback_growth"] > 0)
+    # the nonlinear simulation with the PD force element against lsim of the closed loop
+    assert ns["res_small"].status == "finished" and ns["res_large"].status == "finished"
+    assert max(ns["small_step_error"].values()) < 1e-6
+    # a 1 rad step: the tip runs on a circle, (R0 + L) sin(theta), 1 - sin(1) = 16 % short of the tangent
+    large = ns["large_step_error"]
+    assert 0.15 < large["tip y"] < 0.25 and large["tip bending"] < 1e-2 and large["hub angle"] < 1e-3
+    theta, tip_y = ns["large"]["hub angle"][0], ns["large"]["tip y"][0]
+    assert tip_y[-1] == pytest.approx(1.05 * np.sin(theta[-1]), abs=1e-3)

@@ -73,6 +73,8 @@ SCENES = {
 NO_SCENE_FILE = {
     # its scene is a string inside the script: it uses the element classes the script defines
     "05_custom_elements.py",
+    # its models are built in Python for a sweep (a spin rate per model) and with a controller the script defines
+    "10_linear_control.py",
 }
 # tutorials that use another tutorial's model: 07 measures tutorial 03's beam, 08 varies the wiper's scene files,
 # 09 shows the four-bar in a notebook

@@ -29,15 +29,8 @@ MAX_FUNCTION_LINES = 80
 #: modules over MAX_MODULE_LINES (none left: an entry here must say why the module cannot be split)
 LONG_MODULES: set[str] = set()
 
-#: functions over MAX_FUNCTION_LINES, as "module path:qualified name"
-LONG_FUNCTIONS = {
-    # numba kernels: one compiled loop each, split only where it costs no speed (in progress)
-    "kernels/tree.py:tree_kinematics",
-    "kernels/articulated.py:articulated_accelerations",
-    "kernels/constraints.py:cut_rows",
-    "kernels/loads.py:apply_load_tables",
-    "kernels/tangent.py:geometric_stiffness",
-}
+#: functions over MAX_FUNCTION_LINES, as "module path:qualified name" (none left: an entry must say why)
+LONG_FUNCTIONS: set[str] = set()
 
 #: import cycles among flexmb's modules (strongly connected components), each a set of module names
 IMPORT_CYCLES: set[frozenset[str]] = set()

@@ -108,6 +108,9 @@ class Run:
                           else max(projection_tol, min(RESTART_ATOL_FACTOR * atol, RESTART_TOL_MAX)))
         self.own_loop = self.caps.advances and not system.n_constraints
         self.preconditioner = None
+        # one function object for every solver of the run: an integrator may remember its state across
+        # restarts by its right-hand side (GeneralizedAlpha)
+        self._fun = self.rhs
         self.options: dict = {}
         self.out_y: list = []
         self.k_out = 0
@@ -174,7 +177,7 @@ class Run:
                 self.options["n_second"] = n
 
     def _make(self, tstart, ystart, first_step=None):
-        return self.solver_cls(self.rhs, tstart, ystart, self.t_end, rtol=self.rtol, atol=self.atol,
+        return self.solver_cls(self._fun, tstart, ystart, self.t_end, rtol=self.rtol, atol=self.atol,
                                max_step=self.max_step, first_step=first_step, **self.options)
 
     def execute(self, x, xd) -> None:

@@ -109,3 +109,23 @@ def test_the_jacobian_saves_newton_iterations(monkeypatch):
     # counts, not times: fewer evaluations and far fewer Jacobians
     assert counts[True][0] < counts[False][0]
     assert counts[True][1] < 0.75 * counts[False][1]
+
+
+@pytest.mark.parametrize("frame", ["ground", "body"])
+def test_state_jacobian_turns_constant_loads_with_their_bodies(frame):
+    """A constant force off the mass centre (and a body-axis torque) turns with its body: exact at rest."""
+    model = fm.Model()
+    box = fm.RigidBody.box("box", 2.0, (1.0, 0.2, 0.1), com=(0.5, 0.0, 0.0))
+    arm = fm.FlexibleBody("arm", 1.0, fm.Section.rectangular(0.02, 0.005), fm.Material.aluminium(), 4,
+                          keep=("bend_y", "bend_z"))
+    model.add(fm.Spherical("ball", model.ground, box), fm.Fixed("clamp", box, arm, parent_point=(1.0, 0.0, 0.0)),
+              fm.PointForce("tip", arm, (3.0, -20.0, 40.0), point=(1.0, 0.01, 0.0), frame=frame),
+              fm.PointForce("side", box, (0.0, 5.0, -8.0), point=(0.3, 0.1, 0.05), frame=frame),
+              fm.BodyTorque("twist", box, (0.5, 0.2, -0.3), frame=frame))
+    system = model.build()
+    n = system.n_coords
+    rng = np.random.default_rng(3)
+    x, xd = 0.2 * rng.standard_normal(n), np.zeros(n)
+    fd = d_accel_dx(system, 0.0, x, xd)
+    J = system.state_jacobian(0.0, x, xd)[n:, :n]
+    assert np.abs(J - fd).max() < 1e-6 * np.abs(fd).max()

@@ -11,7 +11,6 @@ import numpy as np
 import scipy.linalg as sla
 from attrs import define
 
-from ..assembly import geometric_stiffness
 from ..errors import ModelError
 from ..forces import BeamElasticity, BodyTorque, Gravity, JointSpringDamper, PointForce
 from ..threads import limited_blas
@@ -24,7 +23,7 @@ LINEARIZE_METHODS = ("auto", "analytic", "fd")
 #: force-element classes whose whole dependence on the state the analytic tangent holds: coordinate
 #: springs and dampers (their ``tangent_all``), and gravity, whose generalized forces change only through
 #: the partial velocities (the geometric stiffness); constant point forces and torques are accepted
-#: too (:func:`_exact_element`, with :func:`_turning_loads`)
+#: too (:func:`_exact_element`; their turning with the body is in :meth:`flexmb.System.load_stiffness`)
 _EXACT_CLASSES = (Gravity, BeamElasticity, JointSpringDamper)
 
 
@@ -75,44 +74,6 @@ def _exact_element(e) -> bool:
     if type(e) is BodyTorque:
         return not callable(e.torque)
     return False
-
-
-def _skew(v):
-    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
-
-
-def _turning_loads(system, kin) -> np.ndarray:
-    """Stiffness of constant point forces and torques beyond what :func:`geometric_stiffness` holds.
-
-    The assembler moves a point force to the mass centre with the moment
-    ``l x F`` (``l`` from the mass centre to the point), and the geometric
-    stiffness takes that moment, like every torque, as fixed in inertial
-    axes. The arm turns with the body, ``dl = (W dx) x l``, which adds
-    ``W^T [F]x [l]x W``; a force given in body axes turns too,
-    ``dF = (W dx) x F``, adding ``-V_P^T [F]x W``; a torque given in body
-    axes adds ``-W^T [tau]x W``.
-    """
-    n = system.n_coords
-    G = np.zeros((n, n))
-    for _, elements in system.forces.groups:
-        for e in elements:
-            if type(e) is PointForce:
-                k, local = kin.locate(e.body, e.point)
-                if k < 0:
-                    continue
-                p = kin.point_position(k, local)
-                F = kin.R[k] @ e.force if e.frame == "body" else np.asarray(e.force)
-                W = kin.angular_partials(np.array([k]))[0]
-                G += W.T @ _skew(F) @ _skew(p - kin.r[k]) @ W
-                if e.frame == "body":
-                    G -= kin.point_partials(np.array([k]), p[None])[0].T @ _skew(F) @ W
-            elif type(e) is BodyTorque and e.frame == "body":
-                k = kin.locate(e.body, e.point)[0]
-                if k < 0:
-                    continue
-                W = kin.angular_partials(np.array([k]))[0]
-                G -= W.T @ _skew(kin.R[k] @ e.torque) @ W
-    return G
 
 
 def tangent_gap(system, x0, xd0, t: float = 0.0) -> str:
@@ -173,28 +134,18 @@ def tangent_gap(system, x0, xd0, t: float = 0.0) -> str:
 
 
 def _analytic(system, kin, T, xdd):
-    """``K = T^T (K_c - G) T`` and ``C = T^T C_c T`` from the coordinate springs, dampers and geometric stiffness.
+    """``K = T^T (K_c - G) T`` and ``C = T^T C_c T`` from the terms of the state-following tangent.
 
     With ``J = [[0, I], [P (G - K_c), -P C_c]]`` the state Jacobian
     (:meth:`flexmb.System.state_jacobian`, ``P = T M^-1 T^T``), these are
-    ``-T^T A J T`` in independent coordinates.
+    ``-T^T A J T`` in independent coordinates; K_c, C_c and G are the
+    system's own (:meth:`flexmb.System.coordinate_terms`,
+    :meth:`flexmb.System.load_stiffness`).
     """
     n = system.n_coords
-    Kc = np.zeros((n, n))
-    Cc = np.zeros((n, n))
-    for cls, elements in system.forces.groups:
-        part = cls.tangent_all(elements, kin)
-        if part is not None:
-            cols, k, c = part
-            np.add.at(Kc, (cols, cols), k)
-            np.add.at(Cc, (cols, cols), c)
-        vpart = cls.velocity_tangent_all(elements, kin)
-        if vpart is not None:
-            rows, p, D = vpart
-            VP = kin.point_partials(rows, p)
-            Cc -= np.einsum("min,mij,mjk->nk", VP, D, VP)
-    loads = system.forces.loads(kin)
-    G = geometric_stiffness(kin, xdd, loads.force[:-1], loads.torque[:-1]) + _turning_loads(system, kin)
+    terms = system.coordinate_terms(kin)
+    Kc, Cc = terms if terms is not None else (np.zeros((n, n)), np.zeros((n, n)))
+    G = system.load_stiffness(kin, xdd)
     return T.T @ (Kc - G) @ T, T.T @ Cc @ T
 
 

@@ -7,8 +7,48 @@ import scipy.linalg as sla
 
 from ..assembly import geometric_stiffness, mass_matrix
 from ..errors import AssemblyError, ModelError
+from ..forces import BodyTorque, PointForce
 from .solve import _plain
 from ..kernels.articulated import articulated_accelerations, mass_times
+
+
+def _skew(v):
+    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+
+
+def _turning_loads(system, kin) -> np.ndarray:
+    """Stiffness of constant point forces and torques beyond what :func:`geometric_stiffness` holds.
+
+    The assembler moves a point force to the mass centre with the moment
+    ``l x F`` (``l`` from the mass centre to the point), and the geometric
+    stiffness takes that moment, like every torque, as fixed in inertial
+    axes. The arm turns with the body, ``dl = (W dx) x l``, which adds
+    ``W^T [F]x [l]x W``; a force given in body axes turns too,
+    ``dF = (W dx) x F``, adding ``-V_P^T [F]x W``; a torque given in body
+    axes adds ``-W^T [tau]x W``. Loads given as functions of time are left
+    out (what they are at a state is known only by calling them).
+    """
+    n = system.n_coords
+    G = np.zeros((n, n))
+    for _, elements in system.forces.groups:
+        for e in elements:
+            if type(e) is PointForce and not callable(e.force):
+                k, local = kin.locate(e.body, e.point)
+                if k < 0:
+                    continue
+                p = kin.point_position(k, local)
+                F = kin.R[k] @ e.force if e.frame == "body" else np.asarray(e.force)
+                W = kin.angular_partials(np.array([k]))[0]
+                G += W.T @ _skew(F) @ _skew(p - kin.r[k]) @ W
+                if e.frame == "body":
+                    G -= kin.point_partials(np.array([k]), p[None])[0].T @ _skew(F) @ W
+            elif type(e) is BodyTorque and e.frame == "body" and not callable(e.torque):
+                k = kin.locate(e.body, e.point)[0]
+                if k < 0:
+                    continue
+                W = kin.angular_partials(np.array([k]))[0]
+                G -= W.T @ _skew(kin.R[k] @ e.torque) @ W
+    return G
 
 
 class Tangent:
@@ -22,7 +62,8 @@ class Tangent:
         (segment joints, joint springs), C their dampers plus
         ``-sum V_P^T (dF/dv) V_P`` of velocity-dependent point forces
         (friction), and G the geometric stiffness of the loads and of the
-        inertia forces (:func:`flexmb.assembly.geometric_stiffness`). It
+        inertia forces, constant loads turning with their bodies included
+        (:meth:`load_stiffness`). It
         follows the state, costs about two right-hand sides instead of 2n,
         and leaves out the changes of the velocity-product terms and of the
         constraint forces (the integrator's Newton iteration absorbs them).
@@ -42,24 +83,14 @@ class Tangent:
             None if no element contributes a coordinate stiffness.
         """
         kin = self.kinematics(t, x, xd)
-        parts = [cls.tangent_all(el, kin) for cls, el in self.forces.groups]
-        parts = [p for p in parts if p is not None]
-        vparts = [cls.velocity_tangent_all(el, kin) for cls, el in self.forces.groups]
-        vparts = [p for p in vparts if p is not None]
-        if not parts and not vparts:
+        terms = self.coordinate_terms(kin)
+        if terms is None:
             return None
         n = self.n_coords
-        K = np.zeros(n)
-        C = np.zeros((n, n))
-        for cols, k, c in parts:
-            np.add.at(K, cols, k)
-            C[cols, cols] += c
-        for rows, p, D in vparts:
-            VP = kin.point_partials(rows, p)
-            C -= np.einsum("min,mij,mjk->nk", VP, D, VP)
+        K, C = terms
         # X = [G - K, -C]; J[n:] = P X, by solves with the factorization (no explicit P)
         X = np.zeros((n, 2 * n))
-        X[:, :n] = -np.diag(K)
+        X[:, :n] = -K
         X[:, n:] = -C
         # dense even where accelerations use the articulated-body recursion: the
         # Jacobian is dense, and its 2n right-hand sides share one factorization
@@ -76,12 +107,69 @@ class Tangent:
             f = self.forces.force_array(kin)
             xdd = solve(f) if self.n_constraints == 0 else self._solve(t, A, f, psi, gamma)
         if geometric:
-            loads = self.forces.loads(kin)
-            X[:, :n] += geometric_stiffness(kin, xdd, loads.force[:-1], loads.torque[:-1])
+            X[:, :n] += self.load_stiffness(kin, xdd)
         J = np.zeros((2 * n, 2 * n))
         J[:n, n:] = np.eye(n)
         J[n:] = solve(X)
         return J
+
+    def coordinate_terms(self, kin) -> tuple[np.ndarray, np.ndarray] | None:
+        """The coordinate stiffness and damping of the state-following tangent.
+
+        K holds the springs on coordinates (segment joints, joint springs)
+        on its diagonal; C their dampers plus ``-sum V_P^T (dF/dv) V_P`` of
+        velocity-dependent point forces (friction).
+
+        Parameters
+        ----------
+        kin : Kinematics
+            The kinematic state.
+
+        Returns
+        -------
+        tuple of ndarray, shape (n, n), or None
+            K and C; None if no element contributes either.
+        """
+        parts = [cls.tangent_all(el, kin) for cls, el in self.forces.groups]
+        parts = [p for p in parts if p is not None]
+        vparts = [cls.velocity_tangent_all(el, kin) for cls, el in self.forces.groups]
+        vparts = [p for p in vparts if p is not None]
+        if not parts and not vparts:
+            return None
+        n = self.n_coords
+        K = np.zeros((n, n))
+        C = np.zeros((n, n))
+        for cols, k, c in parts:
+            np.add.at(K, (cols, cols), k)
+            np.add.at(C, (cols, cols), c)
+        for rows, p, D in vparts:
+            VP = kin.point_partials(rows, p)
+            C -= np.einsum("min,mij,mjk->nk", VP, D, VP)
+        return K, C
+
+    def load_stiffness(self, kin, xdd) -> np.ndarray:
+        """G: how the generalized loads and inertia forces change with the coordinates at fixed speeds.
+
+        The geometric stiffness of the loads and of the inertia forces
+        (:func:`flexmb.assembly.geometric_stiffness`, every load fixed in
+        inertial axes at the mass centre), plus the turning with the body of
+        constant point forces off the mass centre and of loads given in body
+        axes (:func:`_turning_loads`).
+
+        Parameters
+        ----------
+        kin : Kinematics
+            The kinematic state.
+        xdd : ndarray, shape (n,)
+            Accelerations at the state.
+
+        Returns
+        -------
+        ndarray, shape (n, n)
+            ``G[c, d] = d g_c / d x_d``.
+        """
+        loads = self.forces.loads(kin)
+        return geometric_stiffness(kin, xdd, loads.force[:-1], loads.torque[:-1]) + _turning_loads(self, kin)
 
     def newton_preconditioner(self) -> "NewtonPreconditioner":
         """An O(n) approximate solver of an implicit integrator's Newton matrix, for open trees.

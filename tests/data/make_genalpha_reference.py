@@ -19,27 +19,12 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent.parent / "benchmarks"))
+sys.path.insert(0, str(HERE.parent))  # the tests: the oscillator of test_generalized_alpha
 
 import flexmb as fm  # noqa: E402
 from flexmb.genalpha import GeneralizedAlpha, generalized_alpha  # noqa: E402
 from flexmb.scenes.fourbar import fourbar  # noqa: E402
-
-
-def oscillator(omega):
-    """``xdd = -omega^2 x`` for each omega (uncoupled), y = (x, xd): (fun, jac)."""
-    w2 = np.asarray(omega, dtype=float) ** 2
-    n = w2.size
-
-    def fun(t, y):
-        return np.concatenate([y[n:], -w2 * y[:n]])
-
-    def jac(t, y):
-        J = np.zeros((2 * n, 2 * n))
-        J[:n, n:] = np.eye(n)
-        J[n:, :n] = -np.diag(w2)
-        return J
-
-    return fun, jac
+from test_generalized_alpha import oscillator  # noqa: E402
 
 
 def duffing(t, y):

@@ -460,3 +460,20 @@ def test_state_space_of_a_closed_loop_mechanism():
     assert ss.states == ["z0", "z0'"] and ss.linearization.method == "fd"
     assert "closed loops" in ss.linearization.reason
     assert ss.A.shape == (2, 2)
+
+
+def test_to_control_with_the_default_names():
+    """python-control refuses '.' in signal names; flexmb's default names have it: '.' becomes '_'."""
+    control = pytest.importorskip("control", reason="python-control is optional: pip install 'flexmb[control]'")
+    tip = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0))
+    ss = fm.state_space(flexible_arm().build(), ["motor", fm.Input.point_force("arm", *tip)],
+                        ["motor.angle", fm.Output.point("arm", *tip), fm.Output.section_load("arm", 0, "Mz")])
+    assert all("." in name for name in ss.outputs)
+    cs = ss.to_control()
+    assert cs.input_labels == [n.replace(".", "_") for n in ss.inputs]
+    assert cs.output_labels == ["motor_angle", "arm@(1, 0, 0)_(0, 1, 0)", "arm_j0_Mz"]
+    assert cs.state_labels == ss.states
+    assert np.array_equal(cs.A, ss.A) and np.array_equal(cs.D, ss.D)
+    same = fm.state_space(pendulum().build(), ["pin"], ["pin.angle", fm.Output.coordinate("pin", name="pin_angle")])
+    with pytest.raises(fm.ModelError, match="not unique once '.' becomes '_'"):
+        same.to_control()

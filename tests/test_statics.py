@@ -358,6 +358,23 @@ def test_a_failed_step_names_the_load_step_and_the_residual():
     assert info.value.path.lam.tolist() == [0.0] and info.value.path.n_rejected == 1
 
 
+def test_a_failed_solve_at_the_target_names_the_load_step_and_the_residual(monkeypatch):
+    # the last step crosses lambda = 1 and Newton's method there fails however short the step gets
+    from flexmb.analysis import path_following
+
+    newton = path_following._newton
+
+    def failing_at_the_target(eq, x, lam, *args, **kw):
+        if lam == 1.0:
+            raise path_following._NotConverged("no convergence in 20 Newton steps", 1e-3, 2.5, 20)
+        return newton(eq, x, lam, *args, **kw)
+
+    monkeypatch.setattr(path_following, "_newton", failing_at_the_target)
+    with pytest.raises(fm.AssemblyError, match=r"no equilibrium found at the target load factor 1 near load step "
+                                               r"\d+: no convergence in 20 Newton steps; residual 2.5$"):
+        fm.load_path(elastica(8, 1.0), "P")
+
+
 def test_a_start_of_the_wrong_shape_is_refused():
     with pytest.raises(fm.ModelError, match=r"x0 must have shape \(16,\), got \(3,\)"):
         fm.static_equilibrium(elastica(16, 1.0), x0=np.zeros(3))

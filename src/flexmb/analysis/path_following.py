@@ -335,12 +335,12 @@ def _follow(eq, x, lam, lam_end, options, tol_end, who="load path"):
             try:
                 x_end, pt_end = _newton(eq, eq.project(x_a + u * (x_new - x_a)), lam_end, tol_end,
                                         max(options.max_iter, 20), path.counts)
-            except _NotConverged:
+            except _NotConverged as exc:
                 path.counts["rejected"] += 1
                 ds /= 2
                 if ds < options.min_step:
-                    raise _fail(f"{who}: no equilibrium found at the target load factor {lam_end:.6g} "
-                                f"near load step {path.counts['steps']}", path) from None
+                    raise _fail(f"{who}: no equilibrium found at the target load factor {lam_end:.6g} near load step "
+                                f"{path.counts['steps']}: {exc.why}; residual {exc.residual:.3g}", path) from None
                 path.counts["steps"] -= 1
                 continue
             pt_end = eq(x_end, lam_end)

@@ -218,6 +218,11 @@ class StateSpace:
     def to_control(self):
         """As python-control's ``StateSpace``, with the signal names (``pip install 'flexmb[control]'``).
 
+        python-control reserves ``'.'`` in input and output names (it
+        separates a subsystem from its signal in ``interconnect``), while
+        flexmb's default names use it (``'arm.j0.My'``, ``'hub.angle'``):
+        there each ``'.'`` becomes ``'_'``. The state names keep theirs.
+
         Returns
         -------
         control.StateSpace
@@ -226,13 +231,20 @@ class StateSpace:
         Raises
         ------
         ModelError
-            If python-control is not installed.
+            If python-control is not installed, or two input or two output
+            names become the same once ``'.'`` is replaced (name them).
         """
         try:
             import control
         except ImportError as exc:
             raise ModelError("to_control needs python-control: pip install 'flexmb[control]'") from exc
-        return control.ss(self.A, self.B, self.C, self.D, inputs=list(self.inputs), outputs=list(self.outputs),
+        labels = {}
+        for kind, names in (("input", self.inputs), ("output", self.outputs)):
+            labels[kind] = [n.replace(".", "_") for n in names]
+            if len(set(labels[kind])) < len(labels[kind]):
+                raise ModelError(f"to_control: the {kind} names {list(names)} are not unique once '.' becomes '_' "
+                                 f"(python-control does not allow '.'); give them names")
+        return control.ss(self.A, self.B, self.C, self.D, inputs=labels["input"], outputs=labels["output"],
                           states=list(self.states))
 
 

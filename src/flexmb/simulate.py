@@ -11,6 +11,7 @@ from . import memory, registry
 from ._validate import simulate_arguments
 from .errors import ModelError, SimulationError, StiffnessWarning
 from .joints import Joint
+from .model import as_system
 from .integrators import adapt, capabilities
 from .integrators.monitor import stiff_choice
 from .result import Result
@@ -25,15 +26,6 @@ INTEGRATORS = registry.builtin_table("integrators")
 
 #: the SUNDIALS integrators' names, listed apart from scipy's in error messages
 _SUNDIALS = ("CVODE_Adams", "CVODE_BDF", "IDA")
-
-
-def _as_system(model_or_system, complement):
-    from .system import System
-
-    if isinstance(model_or_system, System):
-        # a run never changes the caller's system: another strategy gives a new one
-        return model_or_system if complement is None else model_or_system.with_complement(complement)
-    return model_or_system.build(complement=complement or "svd")
 
 
 def _coordinate_mask(system, names):
@@ -308,7 +300,8 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     """
     t0, t_end, n_out, t_eval, rtol, atol, max_step, projection_tol = simulate_arguments(
         t0, t_end, n_out, t_eval, rtol, atol, max_step, projection_tol)
-    system = _as_system(model, complement)
+    # a run never changes the caller's system: another strategy gives a new one
+    system = as_system(model, complement=complement)
     auto = method == "auto"
     solver_cls = None if auto else _solver_class(method)
     name = method if isinstance(method, str) else getattr(method, "__name__", str(method))

@@ -24,8 +24,8 @@ __all__ = ["simulate", "initial_state", "INTEGRATORS"]
 #: the built-in integrators by name: a read-only view of flexmb's ``flexmb.integrators`` entry points
 INTEGRATORS = registry.builtin_table("integrators")
 
-#: the SUNDIALS integrators' names, listed apart from scipy's in error messages
-_SUNDIALS = ("CVODE_Adams", "CVODE_BDF", "IDA")
+#: the module of the SUNDIALS integrators, whose names an error message lists apart from scipy's
+_SUNDIALS = "flexmb.integrators.sundials"
 
 
 def _coordinate_mask(system, names):
@@ -109,8 +109,9 @@ def _solver_class(method):
         return method
     known = registry.names("integrators")
     if method not in known:
-        others = [m for m in known if m not in _SUNDIALS]
-        sundials = [m for m in known if m in _SUNDIALS]
+        # the names come from the entry points; their import paths tell SUNDIALS's apart
+        sundials = sorted({p.name for p in registry.plugins("integrators") if p.value.startswith(_SUNDIALS + ":")})
+        others = [m for m in known if m not in sundials]
         raise ModelError(f"unknown integrator {method!r}; pick one of {others}"
                          + (f" or, from SUNDIALS, {sundials}" if sundials else ""))
     return registry.get("integrators", method)

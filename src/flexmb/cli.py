@@ -158,11 +158,14 @@ def main(argv=None) -> int:
     int
         Exit status.
     """
+    from .scene import builtin_scenes
+
+    scene_help = f"a scene file SCENE.toml, or a built-in scene: {' or '.join(builtin_scenes())}"
     parser = argparse.ArgumentParser(prog="flexmb", description="flexible multibody dynamics")
     parser.add_argument("--version", action="version", version=f"flexmb {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     run = sub.add_parser("run", help="simulate a scene file (or a built-in scene) and write results, plots and VTK")
-    run.add_argument("scene", help="a scene file SCENE.toml, or a built-in scene: fourbar or wiper")
+    run.add_argument("scene", help=scene_help)
     run.add_argument("--out", default="results", help="output folder")
     run.add_argument("--t-end", type=float, default=None, help="end time, s (default: the scene's)")
     run.add_argument("--rtol", type=float, default=None, help="relative tolerance (default: the scene's)")
@@ -174,7 +177,7 @@ def main(argv=None) -> int:
     run.add_argument("--quiet", action="store_true", help="no progress bar")
     run.set_defaults(func=_run)
     info = sub.add_parser("info", help="describe a scene file: bodies, coordinates, constraints, freedoms")
-    info.add_argument("scene", help="a scene file SCENE.toml, or a built-in scene: fourbar or wiper")
+    info.add_argument("scene", help=scene_help)
     info.set_defaults(func=_info)
     plug = sub.add_parser("plugins", help="list bodies, joints, forces, complements and integrators by name")
     plug.add_argument("--kind", default=None, help="bodies, joints, forces, complements or integrators")

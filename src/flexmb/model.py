@@ -273,17 +273,22 @@ class Model:
         return System(self, **options)
 
 
-def as_system(model_or_system, error=ModelError):
+def as_system(model_or_system, error=ModelError, *, complement=None):
     """The System of a Model or System: the one conversion every function that takes either uses.
 
     Parameters
     ----------
     model_or_system : Model or System
-        A model (built here with the default options) or a built system
-        (returned as it is).
+        A model (built here, with the default options but ``complement``)
+        or a built system (returned as it is, or with ``complement``).
     error : type of Exception
         Raised when the argument is neither (e.g. the calling module's own
         error class).
+    complement : str or ComplementStrategy, optional
+        Orthogonal complement strategy (default: a model's default, a
+        system's own); a system given with one is left unchanged and a new
+        one returned (:meth:`System.with_complement
+        <flexmb.system.System.with_complement>`).
 
     Returns
     -------
@@ -299,9 +304,9 @@ def as_system(model_or_system, error=ModelError):
     from .system import System
 
     if isinstance(model_or_system, System):
-        return model_or_system
+        return model_or_system if complement is None else model_or_system.with_complement(complement)
     if isinstance(model_or_system, Model):
-        return model_or_system.build()
+        return model_or_system.build() if complement is None else model_or_system.build(complement=complement)
     raise error(f"expected a flexmb System or Model, got {type(model_or_system).__name__}")
 
 

@@ -11,6 +11,7 @@ from . import memory, registry
 from ._validate import simulate_arguments
 from .errors import ModelError, SimulationError, StiffnessWarning
 from .joints import Joint
+from .model import as_system
 from .integrators import adapt, capabilities
 from .integrators.monitor import stiff_choice
 from .result import Result
@@ -23,17 +24,8 @@ __all__ = ["simulate", "initial_state", "INTEGRATORS"]
 #: the built-in integrators by name: a read-only view of flexmb's ``flexmb.integrators`` entry points
 INTEGRATORS = registry.builtin_table("integrators")
 
-#: the SUNDIALS integrators' names, listed apart from scipy's in error messages
-_SUNDIALS = ("CVODE_Adams", "CVODE_BDF", "IDA")
-
-
-def _as_system(model_or_system, complement):
-    from .system import System
-
-    if isinstance(model_or_system, System):
-        # a run never changes the caller's system: another strategy gives a new one
-        return model_or_system if complement is None else model_or_system.with_complement(complement)
-    return model_or_system.build(complement=complement or "svd")
+#: the module of the SUNDIALS integrators, whose names an error message lists apart from scipy's
+_SUNDIALS = "flexmb.integrators.sundials"
 
 
 def _coordinate_mask(system, names):
@@ -117,8 +109,9 @@ def _solver_class(method):
         return method
     known = registry.names("integrators")
     if method not in known:
-        others = [m for m in known if m not in _SUNDIALS]
-        sundials = [m for m in known if m in _SUNDIALS]
+        # the names come from the entry points; their import paths tell SUNDIALS's apart
+        sundials = sorted({p.name for p in registry.plugins("integrators") if p.value.startswith(_SUNDIALS + ":")})
+        others = [m for m in known if m not in sundials]
         raise ModelError(f"unknown integrator {method!r}; pick one of {others}"
                          + (f" or, from SUNDIALS, {sundials}" if sundials else ""))
     return registry.get("integrators", method)
@@ -308,7 +301,8 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     """
     t0, t_end, n_out, t_eval, rtol, atol, max_step, projection_tol = simulate_arguments(
         t0, t_end, n_out, t_eval, rtol, atol, max_step, projection_tol)
-    system = _as_system(model, complement)
+    # a run never changes the caller's system: another strategy gives a new one
+    system = as_system(model, complement=complement)
     auto = method == "auto"
     solver_cls = None if auto else _solver_class(method)
     name = method if isinstance(method, str) else getattr(method, "__name__", str(method))

@@ -23,6 +23,7 @@ import scipy.linalg as sla
 from attrs import define, field
 
 from ..errors import ModelError
+from ..model import as_system
 from ..threads import limited_blas
 from .linear import Linearization, linearize
 from .signals import _as_input, _as_output, _input_force, _output_rows
@@ -363,8 +364,7 @@ def state_space(system, inputs=(), outputs=(), about=None, *, method: str = "aut
     >>> round(float(ss.static_gain()[0, 0]), 6)
     0.022902
     """
-    if not hasattr(system, "n_coords"):
-        system = system.build()
+    system = as_system(system)
     x0, xd0, t = _about(system, about)
     ins = [_as_input(s) for s in inputs]
     outs = [_as_output(s) for s in outputs]

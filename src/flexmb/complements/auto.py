@@ -34,11 +34,10 @@ class AutoComplement(ComplementStrategy):
     3. else the rank is ambiguous (the ratios only estimate the singular
        value ratios ``s_i / s_0``) and the SVD decides.
 
-    Both thresholds are measured (``benchmarks/complements_speed.py``,
-    single-threaded BLAS, two runs on a loaded 2-core machine): with
-    ``m = n/3 + 1`` the QR and the SVD cost the same (20-50 µs) up to
-    n = 16, and the QR is faster from n = 24 on (51 against 71 µs), 2.7-3
-    times faster at 30 x 300 and 7.5-11 times at 100 x 1000. Over 340 random
+    Both thresholds are measured (``benchmarks/complements_speed.py``; the
+    timings: docs/benchmarks.md, "Complement strategies"): with
+    ``m = n/3 + 1`` the QR and the SVD cost the same up to n = 16, and the
+    QR is faster from n = 24 on, the more so the larger psi. Over 340 random
     psi up to 200 x 800 with graded spectra (singular values down to 1e-16)
     and row scalings from 0.1 to 10,
     ``rho_i`` differed from ``s_i / s_0`` by at most a factor 7.1, so a band

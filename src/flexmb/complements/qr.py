@@ -17,7 +17,7 @@ __all__ = ["QRComplement", "complement_from_qr", "pivoted_qr", "qr_rank"]
 #: about twice the flops at lower speed. Measured with
 #: ``benchmarks/complements_speed.py``: the two break even near n = 96,
 #: below which the few extra numpy calls of the WY form cost more than they
-#: save (the timings: docs/benchmarks.md).
+#: save (the timings: docs/benchmarks.md, "Complement strategies").
 WY_MIN_N = 96
 
 #: LAPACK block size used to size the work arrays.
@@ -26,7 +26,7 @@ _NB = 32
 
 @lru_cache(maxsize=64)
 def _upper(k: int, m: int) -> np.ndarray:
-    """Mask of the upper trapezoid of a k x m array (np.triu costs 5 µs per call on tiny arrays)."""
+    """Mask of the upper trapezoid of a k x m array (cached: np.triu per call is slow on tiny arrays)."""
     mask = np.triu(np.ones((k, m)))
     mask.flags.writeable = False
     return mask
@@ -74,8 +74,8 @@ def pivoted_qr(psi: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     Notes
     -----
     Q is the n x n orthogonal factor whose trailing columns span the null
-    space of psi (eqs. 30-39). Calls LAPACK ``dgeqp3`` directly (scipy.linalg.qr would add about 25 µs
-    of checks per call on the tiny matrices of rigid loops).
+    space of psi (eqs. 30-39). Calls LAPACK ``dgeqp3`` directly (scipy.linalg.qr adds checks that cost
+    more than the factorization on the tiny matrices of rigid loops).
     """
     m, n = psi.shape
     qr, jpvt, tau, _, _ = lapack.dgeqp3(np.array(psi.T, order="F"), lwork=2 * m + (m + 1) * _NB, overwrite_a=1)
@@ -163,11 +163,11 @@ class QRComplement(ComplementStrategy):
     redundant constraints are handled.
 
     It needs no iteration, unlike the SVD, and forms Q with one matrix
-    product for large n (see :data:`WY_MIN_N`): 2.7-3 and 7.5-11 times
-    faster than ``svd`` for psi of 30 x 300 and 100 x 1000, as fast on
-    the wiper's 9 x 33 (about 40 µs), and up to 8 µs (20 %) slower on the tiny psi of rigid
-    loops, where Python overhead dominates
-    (``benchmarks/complements_speed.py``). Pivoted QR reveals the rank
+    product for large n (see :data:`WY_MIN_N`): faster than ``svd`` on
+    large psi, as fast on the wiper's 9 x 33, and a little slower on the
+    tiny psi of rigid loops, where Python overhead dominates
+    (``benchmarks/complements_speed.py``; the timings: docs/benchmarks.md,
+    "Complement strategies"). Pivoted QR reveals the rank
     reliably in practice but not always (Kahan's matrix); when a diagonal
     ratio lies near ``rank_tol``, prefer ``svd`` or ``auto``.
 

@@ -1,4 +1,4 @@
-"""How a study names its parameters: values and specs from text, and key paths set in a scene document."""
+"""How a study names its parameters: values and specs from text (the key paths they set: :mod:`flexmb.scene.keys`)."""
 
 from __future__ import annotations
 

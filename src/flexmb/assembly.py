@@ -205,7 +205,7 @@ class ForceAssembler:
             loads = self.loads(kin)
         return generalized_force(kin, loads.force[:-1], loads.torque[:-1]) + loads.generalized
 
-    def force_array(self, kin, powers: np.ndarray | None = None) -> np.ndarray:
+    def force_array(self, kin, powers: np.ndarray | None = None, loads: Loads | None = None) -> np.ndarray:
         """Force array f of eq. 3: F minus the velocity-dependent inertia forces.
 
         Parameters
@@ -215,13 +215,17 @@ class ForceAssembler:
         powers : ndarray, shape (n_groups,), optional
             If given, filled with each force-element class's power
             (:meth:`group_powers`) from the same evaluation.
+        loads : Loads, optional
+            The applied loads, if already computed (then ``powers`` is not
+            filled).
 
         Returns
         -------
         ndarray, shape (n_coords,)
             ``f = F - sum_k [m_k V_k^T (Vdot_k xd) + W_k^T (I_k Wdot_k xd + w_k x I_k w_k)]``.
         """
-        loads = self.loads(kin, powers)
+        if loads is None:
+            loads = self.loads(kin, powers)
         force, torque = _dyn.bias_wrenches(kin.mass, kin.inertia_world(), kin.omega, kin.alpha_bias, kin.a_bias,
                                            loads.force, loads.torque)
         return generalized_force(kin, force, torque) + loads.generalized

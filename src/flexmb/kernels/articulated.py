@@ -20,8 +20,9 @@ import numpy as np
 from numba import njit
 
 from .dynamics import axis_projections, bias_wrenches, spatial_inertias
-from .loads import LoadTables, apply_load_tables
-from .tree import TreeArrays, tree_state
+from .loads import apply_load_tables
+from .packing import unpack
+from .tree import tree_state
 
 __all__ = ["solve_spd", "articulated_accelerations", "open_tree_accelerations", "open_tree_rhs", "mass_times"]
 
@@ -265,7 +266,7 @@ def open_tree_accelerations(parent, coord_start, R, r, omega, alpha_bias, a_bias
 
 
 @njit(cache=True)
-def open_tree_rhs(tree, tables, y, armature):
+def open_tree_rhs(packed, y, armature):
     """The state derivative of an open tree whose loads are all compiled, in one call.
 
     :func:`~flexmb.kernels.tree.tree_kinematics`, the built-in loads
@@ -275,12 +276,10 @@ def open_tree_rhs(tree, tables, y, armature):
 
     Parameters
     ----------
-    tree : tuple
-        The fields of :class:`~flexmb.kernels.tree.TreeArrays`, in order (a
-        plain tuple: numba's dispatch of a named one costs more than this
-        kernel at a few bodies).
-    tables : tuple
-        The fields of :class:`~flexmb.forces.tables.LoadTables`, in order.
+    packed : tuple
+        The model's constant arrays (:func:`~flexmb.kernels.packing.pack`:
+        four buffers, where numba's dispatch of the separate arrays would
+        cost more than this kernel at a few bodies).
     y : ndarray, shape (2 n + k,)
         The state ``(x, xd, ...)``; entries past ``2 n`` are not read.
     armature : ndarray, shape (n,)
@@ -294,8 +293,7 @@ def open_tree_rhs(tree, tables, y, armature):
         -1 if ``ydot`` is finite, -2 if not, or the body whose joint has a
         singular articulated inertia.
     """
-    tree = TreeArrays(*tree)
-    tables = LoadTables(*tables)
+    tree, tables, _ = unpack(packed)
     n = armature.shape[0]
     x = y[:n]
     xd = y[n : 2 * n]

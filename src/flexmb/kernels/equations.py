@@ -18,25 +18,24 @@ from numba import njit
 
 from .constraints import cut_rows
 from .dynamics import bias_wrenches, composite_inertias, generalized_force, mass_matrix, spatial_inertias
-from .loads import LoadTables, apply_load_tables
-from .tree import TreeArrays, tree_state
+from .loads import apply_load_tables
+from .packing import unpack
+from .tree import tree_state
 
 __all__ = ["tree_equations", "cut_residual", "cut_rows_at"]
 
 
 @njit(cache=True)
-def tree_equations(tree, tables, cuts, y, n, powers, force0, torque0, generalized0):
+def tree_equations(packed, y, n, powers, force0, torque0, generalized0):
     """A, f and the cut joints' rows at the state ``y = (x, xd, ...)``.
 
     Parameters
     ----------
-    tree : tuple
-        The fields of :class:`~flexmb.kernels.tree.TreeArrays`, in order.
-    tables : tuple
-        The fields of :class:`~flexmb.kernels.loads.LoadTables`, in order.
-    cuts : tuple
-        The cut joints' rows, the arguments of
-        :func:`~flexmb.kernels.constraints.cut_rows` after ``coord_start``.
+    packed : tuple
+        The model's constant arrays (:func:`~flexmb.kernels.packing.pack`):
+        the tree, the compiled force elements' tables and the cut joints'
+        rows (the arguments of :func:`~flexmb.kernels.constraints.cut_rows`
+        after ``coord_start``).
     y : ndarray, shape (>= 2 n,)
         Coordinates and speeds first.
     n : int
@@ -61,8 +60,7 @@ def tree_equations(tree, tables, cuts, y, n, powers, force0, torque0, generalize
     psi : ndarray, shape (m_cut, n)
         Their rows of the constraint Jacobian (eq. 29).
     """
-    tree = TreeArrays(*tree)
-    tables = LoadTables(*tables)
+    tree, tables, cuts = unpack(packed)
     x = y[:n]
     xd = y[n : 2 * n]
     R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = tree_state(tree, x, xd)
@@ -80,15 +78,13 @@ def tree_equations(tree, tables, cuts, y, n, powers, force0, torque0, generalize
 
 
 @njit(cache=True)
-def cut_residual(tree, cuts, y, n):
+def cut_residual(packed, y, n):
     """The cut joints' largest position and velocity residuals, ``max |phi|`` and ``max |psi xd|`` (eqs. 28-29).
 
     Parameters
     ----------
-    tree : tuple
-        The fields of :class:`~flexmb.kernels.tree.TreeArrays`, in order.
-    cuts : tuple
-        The cut joints' rows (see :func:`tree_equations`).
+    packed : tuple
+        The model's constant arrays (:func:`~flexmb.kernels.packing.pack`).
     y : ndarray, shape (>= 2 n,)
         Coordinates and speeds first.
     n : int
@@ -99,7 +95,7 @@ def cut_residual(tree, cuts, y, n):
     position, velocity : float
         The residuals (0 without cut joints).
     """
-    phi, psi = cut_rows_at(tree, cuts, y, n)
+    phi, psi = cut_rows_at(packed, y, n)
     xd = y[n : 2 * n]
     position = 0.0
     velocity = 0.0
@@ -113,15 +109,13 @@ def cut_residual(tree, cuts, y, n):
 
 
 @njit(cache=True)
-def cut_rows_at(tree, cuts, y, n):
+def cut_rows_at(packed, y, n):
     """The cut joints' residuals phi and rows of psi at the state ``y = (x, xd, ...)`` (eqs. 28-29).
 
     Parameters
     ----------
-    tree : tuple
-        The fields of :class:`~flexmb.kernels.tree.TreeArrays`, in order.
-    cuts : tuple
-        The cut joints' rows (see :func:`tree_equations`).
+    packed : tuple
+        The model's constant arrays (:func:`~flexmb.kernels.packing.pack`).
     y : ndarray, shape (>= 2 n,)
         Coordinates and speeds first.
     n : int
@@ -134,7 +128,7 @@ def cut_rows_at(tree, cuts, y, n):
     psi : ndarray, shape (m_cut, n)
         Rows of the constraint Jacobian (their b is zero).
     """
-    tree = TreeArrays(*tree)
+    tree, _, cuts = unpack(packed)
     x = y[:n]
     xd = y[n : 2 * n]
     R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = tree_state(tree, x, xd)

@@ -19,6 +19,7 @@ from ..kinematics import Kinematics
 from ..topology import Topology
 from ..forces.tables import class_tables, merge
 from ..kernels.equations import cut_residual, cut_rows_at, tree_equations
+from ..kernels.packing import pack
 from .projection import Projection
 from .quantities import StateQuantities
 from .rates import Rates
@@ -119,18 +120,19 @@ class System(ReducedSolve, Tangent, Rates, StateQuantities, Projection):
         self._rank_limit: int | None = None
         self._sigma_ref: float | None = None
         self._trial()
-        # joints and force elements all compiled: one kernel call per evaluation (plain tuples: what
-        # the kernels' dispatch reads fastest)
+        # joints and force elements all compiled: one kernel call per evaluation
         tables = [class_tables(cls, elements, self.topology) for cls, elements in self.forces.groups]
         compiled = [g for g, t in enumerate(tables) if t is not None]
         # force-element classes evaluated in Python (plugins), with their group index
         self._python_groups = [(g, *self.forces.groups[g]) for g, t in enumerate(tables) if t is None]
         merged = tuple(merge([tables[g] for g in compiled], compiled))
-        self._fused = self._fused_equations = None
+        # the constant arrays packed once (four buffers: what the kernels' dispatch reads fastest);
+        # _packed_open: the same, for open trees whose right-hand side is one kernel call
+        self._packed = self._packed_open = None
         if not self.topology.external_groups:
+            self._packed = pack(self.topology.arrays, merged, self.constraints.cut_arrays)
             if self.articulated and not self._python_groups:
-                self._fused = (tuple(self.topology.arrays), merged)
-            self._fused_equations = (tuple(self.topology.arrays), merged, self.constraints.cut_arrays)
+                self._packed_open = self._packed
         nb1 = self.topology.n_bodies + 1
         self._no_loads = (np.zeros((nb1, 3)), np.zeros((nb1, 3)), np.zeros(self.n_coords))
         self._no_powers = np.zeros(0)
@@ -349,7 +351,7 @@ class System(ReducedSolve, Tangent, Rates, StateQuantities, Projection):
             Right-hand side of ``psi xdd = gamma``.
         """
         n = self.n_coords
-        if self._fused_equations is None:
+        if self._packed is None:
             eq = self.equations(t, y[:n], y[n : 2 * n], powers)
             A, f, psi, gamma = eq.A, eq.f, eq.psi, eq.gamma
             return A, f, psi, gamma
@@ -367,7 +369,7 @@ class System(ReducedSolve, Tangent, Rates, StateQuantities, Projection):
                 if powers.shape[0]:
                     powers[g] = _power(kin, acc) - sum(powers[h] for h, _, _ in self._python_groups if h < g)
             loads = (acc.force, acc.torque, acc.generalized)
-        A, f, _, psi, gamma = tree_equations(*self._fused_equations, y, n, powers, *loads)
+        A, f, _, psi, gamma = tree_equations(self._packed, y, n, powers, *loads)
         if self.constraints.drivers:
             psi_d, gamma_d = self.constraints.driver_rows(t, n)
             m = psi.shape[0]
@@ -378,10 +380,9 @@ class System(ReducedSolve, Tangent, Rates, StateQuantities, Projection):
 
     def _rows(self, t, x, xd) -> ConstraintRows:
         """phi, psi and b at a state (all rows: cut joints, then drivers), compiled where it can be."""
-        if self._fused_equations is None:
+        if self._packed is None:
             return self.constraints.evaluate(self.kinematics(t, x, xd), level=1)
-        tree, _, cuts = self._fused_equations
-        phi, psi = cut_rows_at(tree, cuts, np.concatenate([x, xd]), self.n_coords)
+        phi, psi = cut_rows_at(self._packed, np.concatenate([x, xd]), self.n_coords)
         drivers = self.constraints.drivers
         if not drivers:
             return ConstraintRows(phi, psi, np.zeros(phi.shape[0]))
@@ -408,13 +409,12 @@ class System(ReducedSolve, Tangent, Rates, StateQuantities, Projection):
         position, velocity : float
             The residuals (eqs. 28-29; 0 without constraints).
         """
-        if self._fused_equations is None:
+        if self._packed is None:
             phi, psi, b, _ = self.constraints.evaluate(self.kinematics(t, x, xd), level=1)
             if not phi.size:
                 return 0.0, 0.0
             return float(np.max(np.abs(phi))), float(np.max(np.abs(psi @ xd - b)))
-        tree, _, cuts = self._fused_equations
-        position, velocity = cut_residual(tree, cuts, np.concatenate([x, xd]), self.n_coords)
+        position, velocity = cut_residual(self._packed, np.concatenate([x, xd]), self.n_coords)
         for d, c in zip(self.constraints.drivers, self.constraints.driver_cols):
             position = max(position, abs(x[c] - d.position(t)))
             velocity = max(velocity, abs(xd[c] - d.velocity(t)))
@@ -462,7 +462,7 @@ class System(ReducedSolve, Tangent, Rates, StateQuantities, Projection):
         """
         if self.articulated:  # open tree: A is never formed
             return self._articulated(t, x, xd)
-        if self.n_constraints or self._fused_equations is not None:
+        if self.n_constraints or self._packed is not None:
             A, f, psi, gamma = self.reduced_parts(t, np.concatenate([x, xd]))
         else:  # an open tree: no constraints to evaluate
             kin = self.kinematics(t, x, xd)
@@ -474,7 +474,7 @@ class System(ReducedSolve, Tangent, Rates, StateQuantities, Projection):
 
     def _articulated(self, t, x, xd):
         """Accelerations of an open tree by the articulated-body recursion (O(n))."""
-        if self._fused is not None:
+        if self._packed_open is not None:
             return self.state_rate(t, np.concatenate([x, xd]))[self.n_coords :]
         kin = self.kinematics(t, x, xd)
         loads = self.forces.loads(kin)
@@ -525,8 +525,8 @@ class System(ReducedSolve, Tangent, Rates, StateQuantities, Projection):
             If the equations are singular or not finite (naming the cause).
         """
         n = self.n_coords
-        if self._fused is not None:
-            ydot, status = open_tree_rhs(*self._fused, _plain(y), self._no_armature)
+        if self._packed_open is not None:
+            ydot, status = open_tree_rhs(self._packed_open, _plain(y), self._no_armature)
             if status == -1:
                 return ydot
             x, xd = y[:n], y[n : 2 * n]

@@ -7,7 +7,7 @@ import scipy.linalg as sla
 
 from ..assembly import geometric_stiffness, mass_matrix
 from ..errors import AssemblyError, ModelError
-from ..forces import BodyTorque, PointForce
+from ..forces import BodyTorque, Loads, PointForce
 from .solve import _plain
 from ..kernels.articulated import articulated_accelerations, mass_times
 
@@ -95,19 +95,19 @@ class Tangent:
         # dense even where accelerations use the articulated-body recursion: the
         # Jacobian is dense, and its 2n right-hand sides share one factorization
         A = mass_matrix(kin)
-        _, psi, _, gamma = self.constraints.evaluate(kin)
         if self.n_constraints == 0:
             cho = sla.cho_factor(A, check_finite=False)
             solve = lambda rhs: sla.cho_solve(cho, rhs, check_finite=False)  # noqa: E731
         else:
+            _, psi, _, gamma = self.constraints.evaluate(kin)
             T = self.complement(psi).T
             cho = sla.cho_factor(T.T @ A @ T, check_finite=False)
             solve = lambda rhs: T @ sla.cho_solve(cho, T.T @ rhs, check_finite=False)  # noqa: E731
         if geometric:
-            f = self.forces.force_array(kin)
+            loads = self.forces.loads(kin)  # once, for f and for G
+            f = self.forces.force_array(kin, loads=loads)
             xdd = solve(f) if self.n_constraints == 0 else self._solve(t, A, f, psi, gamma)
-        if geometric:
-            X[:, :n] += self.load_stiffness(kin, xdd)
+            X[:, :n] += self.load_stiffness(kin, xdd, loads)
         J = np.zeros((2 * n, 2 * n))
         J[:n, n:] = np.eye(n)
         J[n:] = solve(X)
@@ -147,7 +147,7 @@ class Tangent:
             C -= np.einsum("min,mij,mjk->nk", VP, D, VP)
         return K, C
 
-    def load_stiffness(self, kin, xdd) -> np.ndarray:
+    def load_stiffness(self, kin, xdd, loads: Loads | None = None) -> np.ndarray:
         """G: how the generalized loads and inertia forces change with the coordinates at fixed speeds.
 
         The geometric stiffness of the loads and of the inertia forces
@@ -162,13 +162,16 @@ class Tangent:
             The kinematic state.
         xdd : ndarray, shape (n,)
             Accelerations at the state.
+        loads : Loads, optional
+            The applied loads at the state, if already computed.
 
         Returns
         -------
         ndarray, shape (n, n)
             ``G[c, d] = d g_c / d x_d``.
         """
-        loads = self.forces.loads(kin)
+        if loads is None:
+            loads = self.forces.loads(kin)
         return geometric_stiffness(kin, xdd, loads.force[:-1], loads.torque[:-1]) + _turning_loads(self, kin)
 
     def newton_preconditioner(self) -> "NewtonPreconditioner":

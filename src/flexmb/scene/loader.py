@@ -245,7 +245,7 @@ class _Loader:
 
     def check_metrics(self, scene, system) -> None:
         """Refuse an ``[output.metrics]`` entry that names no output of this scene."""
-        from ..study.metrics import _check_output
+        from .metrics import _check_output
 
         for key, spec in scene.output.metrics.items():
             try:

@@ -187,7 +187,7 @@ def run_summary(scene, res, tracks: dict, speeds: dict) -> dict:
     summary["points"] = {k: {"max_displacement_m": float(np.linalg.norm(p - p[0], axis=1).max()),
                              "peak_speed_m_s": float(speeds[k].max())} for k, p in tracks.items()}
     if scene.output.metrics and len(res.t):
-        from ..study.metrics import _evaluate
+        from .metrics import _evaluate
 
         summary.update({key: _evaluate(spec, scene, res) for key, spec in scene.output.metrics.items()})
     return summary

@@ -42,7 +42,7 @@ Examples
 
 from .sampling import DISTRIBUTIONS, SAMPLINGS, Distribution
 from .spec import parse_spec, parse_value
-from .metrics import OUTPUTS, default_outputs
+from ..scene.metrics import OUTPUTS, default_outputs
 from .executors import WORKER_ENV, default_workers
 from .table import StudyResult
 from .study import Study, case_id, run_study

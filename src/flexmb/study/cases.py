@@ -10,7 +10,7 @@ import socket
 import threading
 import time
 
-from .metrics import _evaluate, _output_name
+from ..scene.metrics import _evaluate, _output_name
 from ..scene.keys import key_paths as _paths, set_key as _set
 
 __all__ = []

@@ -7,6 +7,7 @@ import tomllib
 import numpy as np
 
 from ..errors import FlexmbError
+from ..scene.metrics import _plain
 from .sampling import DISTRIBUTIONS, Distribution
 
 __all__ = ['parse_spec', 'parse_value']
@@ -140,12 +141,3 @@ def _as_spec(key: str, spec):
     if not values:
         raise FlexmbError(f"parameter {key!r}: no values")
     return [_plain(v) for v in values]
-
-
-def _plain(v):
-    """numpy scalars to Python numbers (TOML-like and JSON-serialisable)."""
-    if isinstance(v, np.generic):
-        return v.item()
-    if isinstance(v, np.ndarray):
-        return v.tolist()
-    return v

@@ -15,7 +15,7 @@ from .._files import atomic_write
 from ..errors import FlexmbError, SceneError
 from .cases import _build
 from .executors import _execute_dask, _execute_pool, _execute_serial, _Progress, default_workers
-from .metrics import _check_output, _is_real, _output_name, default_outputs
+from ..scene.metrics import _check_output, _is_real, _output_name, default_outputs
 from .sampling import SAMPLINGS, Distribution, _unit_samples
 from ..scene.keys import key_paths as _paths
 from .spec import _as_spec

@@ -14,7 +14,7 @@ from attrs import define, field
 
 from .._files import atomic_write
 from ..errors import FlexmbError
-from .metrics import _is_real
+from ..scene.metrics import _is_real
 from ..scene.keys import key_paths as _paths
 
 #: columns of the table that are not parameters or outputs

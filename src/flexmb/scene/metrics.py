@@ -1,11 +1,14 @@
-"""The named outputs of a study case: scalars (and time series) reduced from a scene's result."""
+"""The named outputs of a scene run: scalars (and time series) reduced from its result.
+
+A scene file's ``[output.metrics]`` writes them into ``summary.json``; a
+parameter study (:mod:`flexmb.study`) tabulates them over its cases.
+"""
 
 from __future__ import annotations
 
 import numpy as np
 
 from ..errors import FlexmbError
-from .spec import _plain
 
 __all__ = ['OUTPUTS', 'default_outputs']
 
@@ -20,7 +23,7 @@ def _peak_speed(scene, res, label):
 
 
 def _peak_speed_exact(scene, res, label):
-    from ..scene.motion import point_motion
+    from .motion import point_motion
 
     body, point = scene.output.points[label]
     # the system the result came from, kept on it (a loaded result has none: compile the scene's)
@@ -157,3 +160,12 @@ def default_outputs(scene) -> list[str]:
     """
     return ([f"peak_speed:{p}" for p in scene.output.points] + [f"peak_effort:{d.name}" for d in scene.model.drivers]
             + ["energy_balance", "max_residual", "n_rhs"])
+
+
+def _plain(v):
+    """numpy scalars to Python numbers (TOML-like and JSON-serialisable)."""
+    if isinstance(v, np.generic):
+        return v.item()
+    if isinstance(v, np.ndarray):
+        return v.tolist()
+    return v

@@ -376,17 +376,18 @@ def _project_partial(system, t, x, xd, res, n_iter=3):
     limit = OUTPUT_PROJECTION_GAIN * res
     xp = np.array(x, dtype=float)
     for _ in range(n_iter):
-        phi, psi, _, _ = system.constraints.evaluate(system.kinematics(t, xp, xd), level=1)
-        c = well_conditioned(psi)
+        rows = system.constraints.evaluate(system.kinematics(t, xp, xd), level=1)
+        c = well_conditioned(rows.psi)
         if c.rank:
-            xp -= c.particular(phi)
+            xp -= c.particular(rows.phi)
     kin = system.kinematics(t, xp, xd)
-    phi, psi, b, _ = system.constraints.evaluate(kin, level=1)
+    rows = system.constraints.evaluate(kin, level=1)
     phi0 = system.constraints.evaluate(system.kinematics(t, x, xd), level=0).phi
-    if np.max(np.abs(phi)) >= np.max(np.abs(phi0)) or np.max(np.abs(xp - x)) > limit:
+    if np.max(np.abs(rows.phi)) >= np.max(np.abs(phi0)) or np.max(np.abs(xp - x)) > limit:
         xp = np.array(x, dtype=float)  # the positions are kept
         kin = system.kinematics(t, xp, xd)
-        phi, psi, b, _ = system.constraints.evaluate(kin, level=1)
+        rows = system.constraints.evaluate(kin, level=1)
+    psi, b = rows.psi, rows.b
     # the speeds, judged apart: a speed residual along the singular direction
     # (not corrected) must not veto the positions' correction
     vp = system._mass_orthogonal_speeds(kin, psi, b, xd, c=well_conditioned(psi))

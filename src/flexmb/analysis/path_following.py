@@ -80,7 +80,7 @@ class _Equations:
         else:
             g_lam = self.load.active_force(kin)
             g = F + lam * g_lam
-        psi = self.system.constraints.evaluate(kin, level=1)[1] if self.system.n_constraints else None
+        psi = self.system.constraints.evaluate(kin, level=1).psi if self.system.n_constraints else None
         return g, g_lam, psi
 
     def project(self, x):

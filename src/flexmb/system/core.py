@@ -410,10 +410,10 @@ class System(ReducedSolve, Tangent, Rates, StateQuantities, Projection):
             The residuals (eqs. 28-29; 0 without constraints).
         """
         if self._packed is None:
-            phi, psi, b, _ = self.constraints.evaluate(self.kinematics(t, x, xd), level=1)
-            if not phi.size:
+            rows = self.constraints.evaluate(self.kinematics(t, x, xd), level=1)
+            if not rows.phi.size:
                 return 0.0, 0.0
-            return float(np.max(np.abs(phi))), float(np.max(np.abs(psi @ xd - b)))
+            return float(np.max(np.abs(rows.phi))), float(np.max(np.abs(rows.psi @ xd - rows.b)))
         position, velocity = cut_residual(self._packed, np.concatenate([x, xd]), self.n_coords)
         for d, c in zip(self.constraints.drivers, self.constraints.driver_cols):
             position = max(position, abs(x[c] - d.position(t)))

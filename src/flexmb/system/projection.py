@@ -72,10 +72,10 @@ class Projection:
             return x, xd
         free = np.ones(self.n_coords, bool) if fixed is None else ~np.asarray(fixed, bool)
         for _ in range(max_iter):
-            phi, psi = self._rows(t, x, xd)[:2]
-            if np.max(np.abs(phi)) <= tol:
+            rows = self._rows(t, x, xd)
+            if np.max(np.abs(rows.phi)) <= tol:
                 break
-            step = self._min_norm(psi[:, free], phi)
+            step = self._min_norm(rows.psi[:, free], rows.phi)
             big = np.max(np.abs(step))
             x[free] -= step * min(1.0, max_step / big) if big > 0 else step
         else:
@@ -87,7 +87,8 @@ class Projection:
                 f"the constraints cannot be closed at t = {t:.6g} s: residual {np.max(np.abs(phi)):.3g} "
                 f"after {max_iter} Newton steps (largest: {rows})"
             )
-        phi, psi, b = self._rows(t, x, xd)[:3]
+        rows = self._rows(t, x, xd)
+        psi, b = rows.psi, rows.b
         if speeds == "mass" and fixed is None:
             return x, self._mass_orthogonal_speeds(self.kinematics(t, x, xd), psi, b, xd)
         step = self._min_norm(psi[:, free], psi @ xd - b)

@@ -99,7 +99,8 @@ class Tangent:
             cho = sla.cho_factor(A, check_finite=False)
             solve = lambda rhs: sla.cho_solve(cho, rhs, check_finite=False)  # noqa: E731
         else:
-            _, psi, _, gamma = self.constraints.evaluate(kin)
+            rows = self.constraints.evaluate(kin)
+            psi, gamma = rows.psi, rows.gamma
             T = self.complement(psi).T
             cho = sla.cho_factor(T.T @ A @ T, check_finite=False)
             solve = lambda rhs: T @ sla.cho_solve(cho, T.T @ rhs, check_finite=False)  # noqa: E731

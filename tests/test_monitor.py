@@ -128,6 +128,16 @@ def test_auto_keeps_explicit_for_a_rigid_pendulum():
     assert res.method == "DOP853" and "'auto' chose DOP853" in res.method_reason
 
 
+def test_auto_says_a_fully_driven_scene_has_nothing_to_keep_stable():
+    model = fm.Model()
+    bar = fm.RigidBody.slender_bar("bar", mass=1.0, length=1.0)
+    pin = fm.Revolute("pin", model.ground, bar)
+    model.add(pin, fm.Gravity((0, -9.81, 0)), fm.Driver.constant_speed("motor", pin, speed=2 * np.pi))
+    res = fm.simulate(model, 0.5, progress=False)
+    assert res.method == "DOP853"
+    assert res.method_reason == "'auto' chose DOP853: the scene has no vibration to keep stable (its fastest rate is 0 rad/s)"
+
+
 def stiff_pendulum():
     """A stiff beam (E x 1e6, modes from 18 kHz) pinned, hanging, swinging at 4 rad/s: in quasi-static balance."""
     s, mat = fm.Section.rectangular(0.02, 0.005), fm.Material.aluminium()

@@ -146,7 +146,10 @@ def _choose_method(system, t0, t1, x, xd, rtol=1e-8, atol=1e-10, log=True):
     """
     w = system.fastest_rate(t0, x, xd)
     steps = (t1 - t0) * w / 3.0 + 0.0  # + 0.0: a rate of -0.0 (no motion to integrate) reads 0
-    if steps <= AUTO_IMPLICIT_STEPS:
+    if steps == 0:  # no freedom left to vibrate (every coordinate driven or locked by the loops), or no stiffness
+        method, reason = "DOP853", ("'auto' chose DOP853: the scene has no vibration to keep stable (its fastest "
+                                    "rate is 0 rad/s)")
+    elif steps <= AUTO_IMPLICIT_STEPS:
         method, reason = "DOP853", (f"'auto' chose DOP853: an explicit method needs about {steps:.3g} steps over "
                                     f"{t1 - t0:.4g} s to stay stable (at most {AUTO_IMPLICIT_STEPS})")
     else:

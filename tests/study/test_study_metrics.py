@@ -1,4 +1,4 @@
-"""Study outputs (:mod:`flexmb.scene.metrics`) against the pendulum's closed form; time-series outputs."""
+"""Study outputs (the named outputs of :mod:`flexmb.scene.metrics`) against the pendulum's closed form; time-series outputs."""
 
 from __future__ import annotations
 

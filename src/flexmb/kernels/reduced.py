@@ -90,7 +90,7 @@ def _cholesky_solve(M, b):
         z = np.empty((p, 1))
         if not solve_spd(M, b.reshape(p, 1), z):
             return b, False
-        return z[:, 0], True
+        return z.reshape(p), True  # a contiguous view (z[:, 0] would type the result non-contiguous)
     try:
         L = np.linalg.cholesky(M)
     except Exception:  # not positive definite

@@ -20,8 +20,8 @@ array grows as n^2: ``benchmarks/large_structures.py``); a model with loops
 (m > 0) forms the dense mass matrix and the reduced one with their
 factors (the ``DENSE_NN`` term) and the constraint Jacobian psi (the
 ``DENSE_MN`` term). ``PER_BODY`` and ``PER_COORD`` bound what was measured
-on B1 up to 100,000 segments (about 2.8 kB per segment with its
-coordinate). Not counted: the dense state Jacobian ``(2n)^2`` of an
+on B1 up to 100,000 segments (about 3.2 kB per segment with its
+coordinate, the packed copy of the tree's arrays included). Not counted: the dense state Jacobian ``(2n)^2`` of an
 implicit integrator that uses one (Radau, BDF, CVODE with a dense linear
 solver), formed when a run starts.
 

@@ -134,6 +134,13 @@ def test_missing_scene_file_exits_2(tmp_path, capsys):
     assert "cannot read the scene file" in capsys.readouterr().err
 
 
+def test_an_unknown_scene_name_lists_the_built_in_scenes(capsys):
+    assert main(["run", "wipper", "--out", "unused"]) == 2
+    err = capsys.readouterr().err
+    assert err == ("flexmb: error: wipper: cannot read the scene file: no such file, and no built-in scene of "
+                   "that name (the built-in scenes: fourbar, wiper)\n")
+
+
 def test_builtin_scene_names_still_run(tmp_path, capsys):
     assert main(["run", "fourbar", "--out", str(tmp_path), "--t-end", "0.05", "--n-out", "3", "--quiet"]) == 0
     assert json.loads((tmp_path / "summary.json").read_text())["scene"] == "fourbar"

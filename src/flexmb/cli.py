@@ -25,7 +25,7 @@ import os
 import sys
 
 from . import __version__, registry
-from .errors import FlexmbError, SimulationError
+from .errors import FlexmbError, SceneError, SimulationError
 
 __all__ = ["main"]
 
@@ -74,8 +74,11 @@ def _scene(name):
     """The scene named on the command line: a scene file, or a built-in scene (when no such file exists)."""
     from .scene import builtin_scenes, load_builtin, load_scene
 
-    if name in builtin_scenes() and not os.path.exists(name):
-        return load_builtin(name)
+    if not os.path.exists(name):
+        if name in builtin_scenes():
+            return load_builtin(name)
+        raise SceneError(f"{name}: cannot read the scene file: no such file, and no built-in scene of that "
+                         f"name (the built-in scenes: {', '.join(builtin_scenes())})")
     return load_scene(name)
 
 

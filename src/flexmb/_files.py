@@ -366,12 +366,12 @@ class OutputFolder:
         self._lock = _Lock(self.path)
 
     def __enter__(self) -> "OutputFolder":
+        if self.path.exists() and not self.path.is_dir():
+            raise ExportError(f"the output folder {self.path} is a file, not a folder")
         try:
             self.path.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
             raise ExportError(f"cannot create the output folder {self.path}: {exc.strerror or exc}") from None
-        if not self.path.is_dir():
-            raise ExportError(f"the output folder {self.path} is not a folder")
         try:
             self._lock.acquire()
         except OSError as exc:

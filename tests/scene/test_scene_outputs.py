@@ -159,6 +159,16 @@ def test_the_lock_is_held_in_process_too(tmp_path, capsys):
     check_complete(tmp_path)
 
 
+def test_an_output_folder_that_is_a_file_is_refused_by_name(tmp_path):
+    from flexmb._files import OutputFolder
+
+    (tmp_path / "out").write_text("a file")
+    with pytest.raises(fm.ExportError, match="the output folder .*out is a file, not a folder$"):
+        with OutputFolder(tmp_path / "out"):
+            pass
+    assert (tmp_path / "out").read_text() == "a file"
+
+
 def test_a_stale_lock_is_taken_over(tmp_path, capsys):
     dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
     (tmp_path / ".flexmb.lock").write_text(dead.stdout)

@@ -248,7 +248,7 @@ def test_a_commit_cut_short_is_finished_by_the_next_run(tmp_path, monkeypatch):
 
     out = tmp_path / "out"
     assert main(_run_argv(out, 0.3, 31)) == 0
-    real, calls = os.replace, []
+    real, calls = os.rename, []
 
     def dying(src, dst):
         if ".flexmb-commit" in str(src):  # a file moved by the commit (the staging folder is renamed first)
@@ -257,10 +257,10 @@ def test_a_commit_cut_short_is_finished_by_the_next_run(tmp_path, monkeypatch):
                 raise SystemExit("killed")
         return real(src, dst)
 
-    monkeypatch.setattr(_files.os, "replace", dying)
+    monkeypatch.setattr(_files.os, "rename", dying)
     with pytest.raises(SystemExit):
         main(_run_argv(out, 0.2, 21))
-    monkeypatch.setattr(_files.os, "replace", real)
+    monkeypatch.setattr(_files.os, "rename", real)
     assert (out / ".flexmb-commit").is_dir() and not (out / "summary.json").exists()
     with _files.OutputFolder(out):  # entering finishes the commit
         pass

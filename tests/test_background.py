@@ -11,7 +11,7 @@ import time
 
 import pytest
 
-from flexmb._background import in_background
+from flexmb._background import in_background, start_worker
 
 linux = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="the child is a fork on Linux only")
 
@@ -86,3 +86,91 @@ def test_the_child_dies_with_its_parent(tmp_path):
         time.sleep(0.05)
     else:
         pytest.fail("the child outlived its killed parent")
+
+
+# --------------------------------------------------------------------------- the worker: prepared now, called later
+
+
+def _write(path, text):
+    """A module-level call (sent to the worker by name)."""
+    with open(path, "w") as fh:
+        fh.write(text)
+
+
+def _fail(path):
+    with open(path, "a") as fh:
+        fh.write(f"{os.getpid()}\n")
+    raise ValueError("no backend")
+
+
+def _write_size(path, payload):
+    with open(path, "w") as fh:
+        fh.write(str(payload.nbytes))
+
+
+@linux
+def test_a_worker_prepares_in_another_process_and_makes_the_call_sent(tmp_path):
+    ready = tmp_path / "ready"
+    worker = start_worker(lambda: ready.write_text(str(os.getpid())))
+    child = worker.pid
+    assert child is not None and child != os.getpid()
+    job = worker.run(_write, str(tmp_path / "out.txt"), "drawn")
+    assert job.wait()
+    assert (tmp_path / "out.txt").read_text() == "drawn"
+    assert int(ready.read_text()) == child  # prepared in the child, not here
+
+
+@linux
+def test_a_cancelled_worker_leaves_without_a_call(tmp_path):
+    worker = start_worker(lambda: None)
+    pid = worker.pid
+    worker.cancel()
+    with pytest.raises(ChildProcessError):  # reaped: no zombie left
+        os.waitpid(pid, os.WNOHANG)
+    worker.cancel()  # twice is harmless
+    assert list(tmp_path.iterdir()) == []
+
+
+@linux
+def test_a_message_larger_than_the_pipe_arrives_whole(tmp_path):
+    np = pytest.importorskip("numpy")
+    payload = np.arange(1_000_000, dtype=float)  # 8 MB: sent in pieces as the child reads
+
+    def slow_prepare():
+        time.sleep(0.2)  # the parent writes while the child is still preparing
+
+    job = start_worker(slow_prepare).run(_write_size, str(tmp_path / "n"), payload)
+    assert job.wait()
+    assert (tmp_path / "n").read_text() == str(payload.nbytes)
+
+
+@linux
+def test_a_failed_call_in_the_worker_raises_its_error_here(tmp_path, capfd):
+    calls = tmp_path / "calls"
+    job = start_worker(lambda: None).run(_fail, str(calls))
+    with pytest.raises(ValueError, match="no backend"):
+        job.wait()
+    pids = calls.read_text().split()
+    assert len(pids) == 2 and pids[1] == str(os.getpid()) != pids[0]  # the child, then again here
+    assert "ValueError: no backend" in capfd.readouterr().err
+
+
+@linux
+def test_a_failed_preparation_still_serves_the_call(tmp_path):
+    def broken():
+        raise ImportError("matplotlib")
+
+    job = start_worker(broken).run(_write, str(tmp_path / "out.txt"), "drawn")
+    assert job.wait(rerun_on_failure=False)
+    assert (tmp_path / "out.txt").read_text() == "drawn"
+
+
+def test_without_fork_the_worker_calls_inline(tmp_path, monkeypatch):
+    from flexmb import _background
+
+    monkeypatch.setattr(_background, "_can_fork", lambda: False)
+    worker = start_worker(lambda: None)
+    assert worker.pid is None
+    job = worker.run(_write, str(tmp_path / "out.txt"), "inline")
+    assert (tmp_path / "out.txt").read_text() == "inline"  # before run() returned
+    assert job.wait() and job.pid is None

@@ -12,19 +12,30 @@ and the plots are drawn, on the machine's second core. The child:
   process writing on;
 * leaves by ``os._exit``, running none of the parent's clean-up.
 
+The plot of the main job is drawn by a :class:`Worker`: a child forked
+before the first run, which imports matplotlib at once (on the second core,
+while the runs compute) and then waits for the one call the parent sends it
+once the figure's data are ready.
+
 Where ``os.fork`` is not available or safe (Windows, macOS) the function
-runs inline, before :func:`in_background` returns.
+runs inline, before :func:`in_background` (or :meth:`Worker.run`) returns.
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
+import pickle
 import signal
+import struct
 import sys
 import traceback
 import warnings
 
-__all__ = ["in_background", "Job"]
+__all__ = ["in_background", "Job", "Worker", "start_worker"]
+
+#: pipe capacity asked for the worker's message (Linux; a larger message is sent in pieces as the child reads)
+_PIPE_SIZE = 1 << 20
 
 
 def _die_with_parent() -> None:
@@ -86,6 +97,25 @@ class Job:
         return False
 
 
+def _can_fork() -> bool:
+    return sys.platform.startswith("linux") and hasattr(os, "fork")
+
+
+def _fork():
+    """``os.fork()`` with the streams flushed first; in the child, Ctrl-C ignored and death with the parent."""
+    for stream in (sys.stdout, sys.stderr):
+        stream.flush()
+    with warnings.catch_warnings():
+        # Python 3.12+ warns about forking a process with threads (BLAS pools, tqdm's monitor): the
+        # child only runs numpy, matplotlib and file writes, no lock those threads could hold
+        warnings.simplefilter("ignore", DeprecationWarning)
+        pid = os.fork()
+    if pid == 0:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        _die_with_parent()
+    return pid
+
+
 def in_background(fn) -> Job:
     """Start ``fn()`` in a forked child process (Linux), or run it now (elsewhere).
 
@@ -100,21 +130,13 @@ def in_background(fn) -> Job:
     Job
         :meth:`Job.wait` before using what ``fn`` writes.
     """
-    if not sys.platform.startswith("linux") or not hasattr(os, "fork"):
+    if not _can_fork():
         fn()
         return Job(None, fn)
-    for stream in (sys.stdout, sys.stderr):
-        stream.flush()
-    with warnings.catch_warnings():
-        # Python 3.12+ warns about forking a process with threads (BLAS pools, tqdm's monitor): the
-        # child only runs numpy and file writes, no lock those threads could hold
-        warnings.simplefilter("ignore", DeprecationWarning)
-        pid = os.fork()
+    pid = _fork()
     if pid == 0:  # the child
         code = 1
         try:
-            signal.signal(signal.SIGINT, signal.SIG_IGN)
-            _die_with_parent()
             fn()
             code = 0
         except BaseException:
@@ -122,3 +144,130 @@ def in_background(fn) -> Job:
         finally:
             os._exit(code)
     return Job(pid, fn)
+
+
+def _read_exactly(fd: int, size: int) -> bytes:
+    """``size`` bytes from ``fd``, or fewer if the other end closed first."""
+    parts, left = [], size
+    while left:
+        part = os.read(fd, min(left, _PIPE_SIZE))
+        if not part:
+            break
+        parts.append(part)
+        left -= len(part)
+    return b"".join(parts)
+
+
+class Worker:
+    """A child that ran ``prepare()`` as soon as it was forked and waits for one call.
+
+    Made by :func:`start_worker`. The call is sent by :meth:`run`, its
+    function and arguments pickled through a pipe (the function by name:
+    a module-level function); :meth:`cancel` lets the child go without one.
+
+    Parameters
+    ----------
+    pid : int or None
+        The child's process id (None: no child, :meth:`run` runs inline).
+    fd : int or None
+        The writing end of the pipe to the child.
+    """
+
+    def __init__(self, pid, fd):
+        self.pid = pid
+        self.fd = fd
+
+    def run(self, fn, *args) -> Job:
+        """Have the child call ``fn(*args)`` (or call it here if there is no child).
+
+        Parameters
+        ----------
+        fn : callable
+            A module-level function (pickled by name); work without a result,
+            as for :func:`in_background`.
+        *args
+            Its arguments: plain, picklable data.
+
+        Returns
+        -------
+        Job
+            :meth:`Job.wait` before using what ``fn`` writes; a failure in
+            the child runs ``fn(*args)`` again here to raise its error.
+        """
+        def call():
+            fn(*args)
+
+        if self.pid is None:
+            call()
+            return Job(None, call)
+        message = pickle.dumps((fn, args), protocol=pickle.HIGHEST_PROTOCOL)
+        pid, fd = self.pid, self.fd
+        self.pid = self.fd = None
+        try:
+            os.write(fd, struct.pack("<Q", len(message)))
+            view = memoryview(message)
+            while view:
+                view = view[os.write(fd, view):]
+        except BrokenPipeError:  # the child is gone: Job.wait sees it failed and calls fn here
+            pass
+        finally:
+            os.close(fd)
+        return Job(pid, call)
+
+    def cancel(self) -> None:
+        """Let the child leave without a call, and wait for it (nothing if :meth:`run` was called)."""
+        if self.pid is None:
+            return
+        pid, fd = self.pid, self.fd
+        self.pid = self.fd = None
+        os.close(fd)  # the child reads the end of the pipe and leaves
+        Job(pid, None).wait(rerun_on_failure=False)
+
+
+def _serve(fd: int, prepare) -> int:
+    """The worker child's life: prepare, read one call, make it; the exit code."""
+    with contextlib.suppress(Exception):  # the call then fails the same way, and is rerun in the parent
+        prepare()
+    header = _read_exactly(fd, 8)
+    if len(header) < 8:  # cancelled (or the parent is gone)
+        return 0
+    (size,) = struct.unpack("<Q", header)
+    fn, args = pickle.loads(_read_exactly(fd, size))
+    fn(*args)
+    return 0
+
+
+def start_worker(prepare) -> Worker:
+    """Fork a :class:`Worker` that calls ``prepare()`` at once (Linux), or a stand-in that runs calls inline.
+
+    Parameters
+    ----------
+    prepare : callable
+        What the child does while the parent computes on, before it waits
+        (e.g. importing matplotlib). Its failure is not reported here: the
+        call sent later fails the same way and is then rerun in the parent.
+
+    Returns
+    -------
+    Worker
+        Send it the call with :meth:`Worker.run`, or :meth:`Worker.cancel` it.
+    """
+    if not _can_fork():
+        return Worker(None, None)
+    read_fd, write_fd = os.pipe()
+    import fcntl
+
+    with contextlib.suppress(AttributeError, OSError):  # else the message goes in pieces, as the child reads
+        fcntl.fcntl(write_fd, fcntl.F_SETPIPE_SZ, _PIPE_SIZE)
+    pid = _fork()
+    if pid == 0:  # the child
+        code = 1
+        try:
+            os.close(write_fd)
+            code = _serve(read_fd, prepare)
+        except BaseException:
+            traceback.print_exc()
+        finally:
+            os._exit(code)
+    os.close(read_fd)
+    return Worker(pid, write_fd)

@@ -2,16 +2,20 @@
 
 A figure of kind ``'run'`` is drawn for one run, ``f(scene, result, tracks,
 speeds, plt)``; one of kind ``'runs'`` once for all the runs of a scene with
-``[runs]``, ``f(runs, plt)`` with ``runs = {label: (scene, result, system)}``.
+``[runs]``, by a :class:`RunsFigure`: its curves ``data(runs)`` with
+``runs = {label: (scene, result, system)}``, then ``draw(data)``.
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable
+from typing import NamedTuple
 
 import numpy as np
 
 from .motion import point_motion
 
-__all__ = ["FIGURES", "RUNS_OF_FIGURES", "wiper_figure"]
+__all__ = ["FIGURES", "RUNS_OF_FIGURES", "RunsFigure", "wiper_figure", "wiper_data", "draw_wiper"]
 
 
 def _subplots(plt, n, figsize, **kw):
@@ -124,6 +128,62 @@ def wiper_figure(runs, systems, tips, plt=None):
     -------
     matplotlib.figure.Figure
         Six axes, every one labelled with its unit.
+
+    See Also
+    --------
+    wiper_data, draw_wiper : The two halves: the curves, then the drawing.
+    """
+    return draw_wiper(wiper_data(runs, systems, tips), plt)
+
+
+def wiper_data(runs, systems, tips) -> dict:
+    """The curves of :func:`wiper_figure`, as plain arrays (what :func:`draw_wiper` draws).
+
+    Parameters
+    ----------
+    runs, systems, tips
+        As for :func:`wiper_figure`.
+
+    Returns
+    -------
+    dict
+        ``'left'``: per run label, ``(t, distance, speed, torque)``;
+        ``'deflection'``: ``(t, d_mm, dv)`` with ``d_mm`` the flexible minus
+        rigid tip position in the rigid blade's frame (mm, shape (nt, 3)),
+        or None if the runs have different output times; ``'root'``:
+        ``(t, {component: moment})``, the flexible blade's root moments.
+    """
+    rigid, flexible = runs["rigid"], runs["flexible"]
+    left = {}
+    for label, res in runs.items():
+        p, v = tips[label]
+        left[label] = (res.t, np.linalg.norm(p - p[0], axis=1), np.linalg.norm(v, axis=1), res.driver_effort("motor"))
+    deflection = None
+    if len(rigid.t) == len(flexible.t) and np.allclose(rigid.t, flexible.t, rtol=0, atol=1e-12):
+        # the tip's offset in the rigid blade's frame: x along the blade, y across it in the glass, z normal
+        k = rigid.body_names.index("right_blade")
+        d = np.einsum("tji,tj->ti", rigid.rotations[:, k], tips["flexible"][0] - tips["rigid"][0])
+        dv = np.linalg.norm(tips["flexible"][1], axis=1) - np.linalg.norm(tips["rigid"][1], axis=1)
+        deflection = (flexible.t, 1e3 * d, dv)
+    loads = flexible.section_loads(systems["flexible"].model["right_blade"])
+    root = {c: loads.component(c)[:, 0] for c in ("Mz", "My") if c in loads.components}
+    return {"left": left, "deflection": deflection, "root": (loads.t, root)}
+
+
+def draw_wiper(data: dict, plt=None):
+    """Draw :func:`wiper_figure` from its curves (:func:`wiper_data`): matplotlib only, no model.
+
+    Parameters
+    ----------
+    data : dict
+        :func:`wiper_data`'s curves.
+    plt : module, optional
+        ``matplotlib.pyplot`` (else a bare Figure is made).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Six axes, every one labelled with its unit.
     """
     if plt is None:
         from matplotlib.figure import Figure
@@ -132,35 +192,30 @@ def wiper_figure(runs, systems, tips, plt=None):
         ax = fig.subplots(3, 2, sharex=True)
     else:
         fig, ax = plt.subplots(3, 2, figsize=(11, 8.5), sharex=True)
-    rigid, flexible = runs["rigid"], runs["flexible"]
     # the flexible curves thin and dark over the rigid ones wide and light: at this scale they coincide
-    for (label, res), style in zip(runs.items(), (dict(color="C0", lw=3.0, alpha=0.45), dict(color="k", lw=0.9))):
-        p, v = tips[label]
-        ax[0, 0].plot(res.t, np.linalg.norm(p - p[0], axis=1), label=f"{label} blades", **style)
-        ax[1, 0].plot(res.t, np.linalg.norm(v, axis=1), **style)
-        ax[2, 0].plot(res.t, res.driver_effort("motor"), **style)
+    styles = (dict(color="C0", lw=3.0, alpha=0.45), dict(color="k", lw=0.9))
+    for (label, (t, distance, speed, torque)), style in zip(data["left"].items(), styles):
+        ax[0, 0].plot(t, distance, label=f"{label} blades", **style)
+        ax[1, 0].plot(t, speed, **style)
+        ax[2, 0].plot(t, torque, **style)
     ax[0, 0].set_ylabel("right tip: distance from its start point (m)")
     ax[1, 0].set_ylabel("right tip speed (m/s)")
     ax[2, 0].set_ylabel("crank torque (N m)")
-    same = len(rigid.t) == len(flexible.t) and np.allclose(rigid.t, flexible.t, rtol=0, atol=1e-12)
-    if same:
-        # the tip's offset in the rigid blade's frame: x along the blade, y across it in the glass, z normal
-        k = rigid.body_names.index("right_blade")
-        d = np.einsum("tji,tj->ti", rigid.rotations[:, k], tips["flexible"][0] - tips["rigid"][0])
+    if data["deflection"] is not None:
+        t, d_mm, dv = data["deflection"]
         for j, name in ((1, "across the blade, in the glass (its elastic deflection)"), (0, "along the blade"),
                         (2, "normal to the glass")):
-            ax[0, 1].plot(flexible.t, 1e3 * d[:, j], label=name)
-        dv = np.linalg.norm(tips["flexible"][1], axis=1) - np.linalg.norm(tips["rigid"][1], axis=1)
-        ax[1, 1].plot(flexible.t, dv, color="k", lw=0.9)
+            ax[0, 1].plot(t, d_mm[:, j], label=name)
+        ax[1, 1].plot(t, dv, color="k", lw=0.9)
     else:
         for a in ax[:2, 1]:
             a.text(0.5, 0.5, "runs at different output times", ha="center", transform=a.transAxes)
     ax[0, 1].set_ylabel("flexible - rigid tip position (mm)")
     ax[1, 1].set_ylabel("flexible - rigid tip speed (m/s)")
-    loads = flexible.section_loads(systems["flexible"].model["right_blade"])
+    t, root = data["root"]
     for c, name in (("Mz", "Mz, in the glass plane"), ("My", "My, out of the plane")):
-        if c in loads.components:
-            ax[2, 1].plot(loads.t, loads.component(c)[:, 0], label=name)
+        if c in root:
+            ax[2, 1].plot(t, root[c], label=name)
     ax[2, 1].set_ylabel("flexible blade root moment (N m)")
     for a in ax[-1]:
         a.set_xlabel("time (s)")
@@ -178,14 +233,28 @@ def _fourbar_run_figure(scene, res, tracks, speeds, plt=None):
     return _fourbar_figure(res, plt)
 
 
-def _wiper_runs_figure(runs, plt=None):
-    """``wiper.png`` from the runs ``rigid`` and ``flexible``: the tip is the scene's first tracked point."""
+def _wiper_runs_data(runs) -> dict:
+    """The curves of ``wiper.png`` from the runs ``rigid`` and ``flexible``: the tip is the first tracked point."""
     scene = next(iter(runs.values()))[0]
     body, point = next(iter(scene.output.points.values()))
     results = {label: res for label, (_, res, _) in runs.items()}
     systems = {label: system for label, (_, _, system) in runs.items()}
     tips = {label: point_motion(results[label], systems[label], body, point) for label in runs}
-    return wiper_figure(results, systems, tips, plt=plt)
+    return wiper_data(results, systems, tips)
+
+
+class RunsFigure(NamedTuple):
+    """A figure drawn once for all the runs of a scene, in two halves.
+
+    ``data(runs)`` (``runs = {label: (scene, result, system)}``) reduces the
+    runs to plain arrays and strings, where the model is; ``draw(data)``
+    draws them with matplotlib alone, so that the main job can draw it in a
+    child that imported matplotlib while the runs computed
+    (:func:`flexmb._background.start_worker`).
+    """
+
+    data: Callable
+    draw: Callable
 
 
 #: named figures: name -> (kind, function, what it shows); ``'runs'`` figures need ``[runs]``
@@ -193,7 +262,7 @@ FIGURES = {
     "scene": ("run", _scene_figure, "coordinates and driver efforts one axis per unit, energy, residual, "
                                     "tracked point speeds"),
     "fourbar": ("run", _fourbar_run_figure, "coordinates, energy drift and loop residual (benchmark B5)"),
-    "wiper": ("runs", _wiper_runs_figure, "the paper's Figs. 5-6: runs 'rigid' and 'flexible' side by side "
+    "wiper": ("runs", RunsFigure(_wiper_runs_data, draw_wiper), "the paper's Figs. 5-6: runs 'rigid' and 'flexible' side by side "
                                           "(the first tracked point is the blade tip; the driver is 'motor')"),
 }
 

@@ -10,11 +10,12 @@ child process (:mod:`flexmb._background`) while the next run computes.
 
 from __future__ import annotations
 
+import importlib.util
 import logging
 
 import numpy as np
 
-from .._background import in_background
+from .._background import in_background, start_worker
 from .._files import OutputFolder, atomic_write
 from ..errors import SimulationError
 from .figures import FIGURES
@@ -45,6 +46,29 @@ def _savefig(plt, fig, folder, rel, dpi):
         atomic_write(folder.stage(rel), lambda tmp: fig.savefig(tmp, format="png", dpi=dpi), suffix=".png")
     finally:
         plt.close(fig)
+
+
+def _import_matplotlib() -> None:
+    """What the plot worker imports while the runs compute: a bare Figure and the Agg canvas."""
+    import matplotlib.backends.backend_agg  # noqa: F401
+    import matplotlib.figure  # noqa: F401
+
+
+def _draw_png(draw, data, path, dpi) -> None:
+    """``draw(data)`` (a bare matplotlib Figure) written whole to ``path`` as PNG: the plot worker's call."""
+    fig = draw(data)
+    atomic_write(path, lambda tmp: fig.savefig(tmp, format="png", dpi=dpi), suffix=".png")
+
+
+def _plot_worker(scene):
+    """A child importing matplotlib while the runs compute, if the scene draws a ``'runs'`` figure; else None."""
+    o = scene.output
+    if not (o.plots and FIGURES[o.figure][0] == "runs"):
+        return None
+    if importlib.util.find_spec("matplotlib") is None:
+        log.warning("matplotlib is not installed (pip install -e '.[viz]'): no plots written")
+        return None
+    return start_worker(_import_matplotlib)
 
 
 def _vtk(res, folder, sub, prefix, system, jobs=None):
@@ -231,6 +255,7 @@ def _write_runs(scene, folder, progress: bool, overrides: dict):
     summary = {"scene": scene.source, "model": scene.name, "status": "finished",
                "t_end": scene.settings(**overrides).t_end}
     files, done, jobs, failure = {}, {}, [], None
+    worker = _plot_worker(scene)
     try:
         for label, run in scene.runs.items():
             try:
@@ -244,8 +269,10 @@ def _write_runs(scene, folder, progress: bool, overrides: dict):
                 summary.update(status=res.status, message=res.message)
                 break
         if o.plots and summary["status"] == "finished":
-            _plot_runs(scene, done, folder, files)
+            _plot_runs(scene, done, folder, files, worker, jobs)
     finally:
+        if worker is not None:
+            worker.cancel()  # nothing to draw (a run failed), or the drawing was sent already
         for job in jobs:
             job.wait()
     if any(k.startswith("vtk_") for k in files):
@@ -270,16 +297,20 @@ def _write_run(run, res, system, folder, label, files, jobs) -> dict:
     return entry
 
 
-def _plot_runs(scene, done: dict, folder, files: dict) -> None:
-    """The figure of a scene with runs: once for all (``'runs'`` kind) or once per run."""
+def _plot_runs(scene, done: dict, folder, files: dict, worker, jobs: list) -> None:
+    """The figure of a scene with runs: once for all (``'runs'`` kind, drawn by ``worker``) or once per run."""
+    kind, figure, _ = FIGURES[scene.output.figure]
+    if kind == "runs":
+        if worker is None:  # no matplotlib
+            return
+        rel = scene.output.prefix + ".png"
+        jobs.append(worker.run(_draw_png, figure.draw, figure.data(done), folder.stage(rel), 120))
+        files["plot"] = folder.final(rel)
+        return
     plt = _plt()
     if not plt:
         return
-    kind, draw, _ = FIGURES[scene.output.figure]
-    if kind == "runs":
-        _savefig(plt, draw(done, plt), folder, scene.output.prefix + ".png", 120)
-        files["plot"] = folder.final(scene.output.prefix + ".png")
-        return
+    draw = figure
     for label, (run, res, _) in done.items():
         rel = f"{scene.output.prefix}_{label}.png"
         _savefig(plt, draw(run, res, *_tracks(run, res), plt), folder, rel, 110)

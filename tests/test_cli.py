@@ -219,3 +219,52 @@ def test_docs_list_the_built_in_complements_and_integrators():
     assert set(choices) == set(groups["flexmb.complements"])
     for name in groups["flexmb.complements"]:
         assert f"`{name}`" in scenes, name
+
+
+# --------------------------------------------------------------------------- the command's exit (cli.console)
+
+
+def _console(code: str, tmp_path, **kw):
+    """Run ``code`` and then :func:`flexmb.cli.console` in a fresh interpreter; the completed process."""
+    script = tmp_path / "console.py"
+    script.write_text(code + "\nfrom flexmb.cli import console\nconsole()\n")
+    return subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=300, **kw)
+
+
+def test_the_command_exits_with_its_output_flushed_and_the_exit_handlers_run(tmp_path):
+    proc = _console("import atexit, sys\nsys.argv = ['flexmb', 'plugins']\n"
+                    "atexit.register(lambda: print('exit handler ran'))", tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stdout.splitlines()
+    assert lines[0].startswith("kind") and "CVODE_BDF" in proc.stdout  # the whole listing
+    assert lines[-1] == "exit handler ran"
+
+
+def test_the_command_passes_on_main_s_status(tmp_path):
+    proc = _console("import sys\nsys.argv = ['flexmb', 'plugins', '--kind', 'nonsense']", tmp_path)
+    assert proc.returncode == 2
+    assert "unknown plugin kind 'nonsense'" in proc.stderr
+
+
+def test_a_thread_still_running_is_let_finish(tmp_path):
+    proc = _console("import sys, threading, time\nsys.argv = ['flexmb', '--version']\n"
+                    "def late():\n    time.sleep(0.3)\n    print('thread done', flush=True)\n"
+                    "threading.Thread(target=late).start()\nsys.argv = ['flexmb', 'plugins', '--kind', 'bodies']",
+                    tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert "thread done" in proc.stdout.splitlines() and "rigid_body" in proc.stdout
+
+
+def test_a_reader_that_stops_early_ends_the_command_quietly(tmp_path):
+    script = tmp_path / "head.py"
+    # flexmb plugins | head -1: the reader closes the pipe after one line
+    script.write_text("import subprocess, sys\n"
+                      "p = subprocess.Popen([sys.executable, '-m', 'flexmb', 'plugins'], stdout=subprocess.PIPE,\n"
+                      "                     stderr=subprocess.PIPE, bufsize=0)\n"
+                      "p.stdout.read(10); p.stdout.close()\n"
+                      "err = p.stderr.read().decode(); p.wait()\n"
+                      "print(p.returncode); print(repr(err))\n")
+    proc = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=300)
+    code, err = proc.stdout.splitlines()
+    assert code in ("0", "1")  # 0 if the whole listing fitted in the pipe before the reader left
+    assert "Traceback" not in err and "BrokenPipeError" not in err

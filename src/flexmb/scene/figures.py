@@ -246,11 +246,19 @@ def _wiper_runs_data(runs) -> dict:
 class RunsFigure(NamedTuple):
     """A figure drawn once for all the runs of a scene, in two halves.
 
-    ``data(runs)`` (``runs = {label: (scene, result, system)}``) reduces the
-    runs to plain arrays and strings, where the model is; ``draw(data)``
-    draws them with matplotlib alone, so that the main job can draw it in a
-    child that imported matplotlib while the runs computed
-    (:func:`flexmb._background.start_worker`).
+    The main job draws it in a child that imported matplotlib while the
+    runs computed (:func:`flexmb._background.start_worker`): only plain
+    data cross to it.
+
+    Parameters
+    ----------
+    data : callable
+        ``data(runs)``, with ``runs = {label: (scene, result, system)}``:
+        the curves, as plain arrays and strings, computed where the model
+        is.
+    draw : callable
+        ``draw(data)``: the ``matplotlib.figure.Figure``, drawn from those
+        alone.
     """
 
     data: Callable

@@ -89,3 +89,46 @@ def test_runs_figure_and_metrics_errors_name_the_key(edit, expected):
     with pytest.raises(fm.SceneError) as err:
         fm.loads_scene(text.replace(*edit), source="w.toml")
     assert str(err.value).startswith(expected)
+
+
+def test_the_wiper_figure_is_the_one_drawn_in_process(tmp_path, capsys):
+    """wiper.png, drawn by the worker child, holds the curves of figures.wiper_figure drawn here."""
+    pytest.importorskip("matplotlib")
+    from matplotlib import image
+
+    from flexmb.scene import figures
+
+    _run("wiper", tmp_path, capsys)
+    scene = load_builtin("wiper")
+    done = {label: (run, fm.Result.load(tmp_path / f"wiper_{label}.npz"), run.system())
+            for label, run in scene.runs.items()}
+    here = tmp_path / "here.png"
+    figures.draw_wiper(figures.wiper_data(*_wiper_args(done))).savefig(here, format="png", dpi=120)
+    drawn, expected = image.imread(tmp_path / "wiper.png"), image.imread(here)
+    assert drawn.shape == expected.shape
+    assert abs(drawn - expected).max() < 0.02  # the same pixels, up to the npz round trip's last digits
+
+
+def _wiper_args(done):
+    """figures.wiper_data's arguments from {label: (scene, result, system)}."""
+    from flexmb.scene.motion import point_motion
+
+    results = {label: res for label, (_, res, _) in done.items()}
+    systems = {label: system for label, (_, _, system) in done.items()}
+    tips = {label: point_motion(results[label], systems[label], "right_blade", (0.25, 0.0, 0.0)) for label in done}
+    return results, systems, tips
+
+
+def test_without_matplotlib_the_wiper_writes_everything_but_the_plot(tmp_path, capsys, monkeypatch, caplog):
+    import importlib.util
+
+    from flexmb.scene import outputs
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(outputs.importlib.util, "find_spec",
+                        lambda name, *a: None if name == "matplotlib" else real(name, *a))
+    with caplog.at_level("WARNING", logger="flexmb"):
+        summary = _run("wiper", tmp_path, capsys)
+    assert "matplotlib is not installed" in caplog.text
+    assert "plot" not in summary["files"] and not (tmp_path / "wiper.png").exists()
+    assert {"result_rigid", "result_flexible", "vtk_rigid", "vtk_flexible"} <= set(summary["files"])

@@ -464,3 +464,19 @@ def test_a_writer_failing_after_ctrl_c_reports_the_interruption(tmp_path):
     with pytest.raises(KeyboardInterrupt):
         atomic_write(tmp_path / "r.npz", write, suffix=".npz")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_the_plot_drawn_by_the_worker_is_the_one_drawn_in_process(tmp_path, capsys):
+    """flexmb run draws in a child that imported matplotlib during the run; write_outputs draws here."""
+    pytest.importorskip("matplotlib")
+    from matplotlib import image
+
+    from flexmb.scene.outputs import write_outputs
+
+    assert main(_run_argv(tmp_path / "run", 0.3, 31)) == 0
+    scene = fm.load_scene(PENDULUM)
+    res = fm.Result.load(tmp_path / "run" / f"{scene.output.prefix}.npz")
+    write_outputs(scene, res, tmp_path / "here")
+    png = f"{scene.output.prefix}.png"
+    drawn, here = image.imread(tmp_path / "run" / png), image.imread(tmp_path / "here" / png)
+    assert drawn.shape == here.shape and abs(drawn - here).max() < 0.02

@@ -1,9 +1,10 @@
 """The figures a scene run draws, by name: ``[output] figure`` picks one of :data:`FIGURES`.
 
-A figure of kind ``'run'`` is drawn for one run, ``f(scene, result, tracks,
-speeds, plt)``; one of kind ``'runs'`` once for all the runs of a scene with
-``[runs]``, by a :class:`RunsFigure`: its curves ``data(runs)`` with
-``runs = {label: (scene, result, system)}``, then ``draw(data)``.
+Each is a :class:`SceneFigure`: its curves as plain data, then the
+drawing from those alone. A figure of kind ``'run'`` is drawn for one run
+(its curves ``data(scene, result, tracks, speeds)``); one of kind ``'runs'``
+once for all the runs of a scene with ``[runs]`` (``data(runs)`` with
+``runs = {label: (scene, result, system)}``).
 """
 
 from __future__ import annotations
@@ -15,44 +16,58 @@ import numpy as np
 
 from .motion import point_motion
 
-__all__ = ["FIGURES", "RUNS_OF_FIGURES", "RunsFigure", "wiper_figure", "wiper_data", "draw_wiper"]
+__all__ = ["FIGURES", "RUNS_OF_FIGURES", "SceneFigure", "wiper_figure", "wiper_data", "draw_wiper"]
 
 
-def _subplots(plt, n, figsize, **kw):
-    """A column of ``n`` axes sharing the time axis: with pyplot, or a bare Figure without it."""
-    if plt is None:
-        from matplotlib.figure import Figure
+def _column(n, figsize):
+    """A bare Figure with a column of ``n`` axes sharing the time axis."""
+    from matplotlib.figure import Figure
 
-        fig = Figure(figsize=figsize)
-        return fig, fig.subplots(n, 1, sharex=True, squeeze=False, **kw)[:, 0]
-    fig, ax = plt.subplots(n, 1, figsize=figsize, sharex=True, squeeze=False, **kw)
-    return fig, ax[:, 0]
+    fig = Figure(figsize=figsize)
+    return fig, fig.subplots(n, 1, sharex=True, squeeze=False)[:, 0]
 
 
-def _plot_coordinates(axes, res, groups, fontsize=7):
+def _coordinate_curves(res) -> list:
+    """The coordinates grouped by (kind, unit): ``[(kind, unit, [(name, values), ...]), ...]``."""
+    from ..viz.plots import _coordinate_groups
+
+    return [(kind, unit, [(res.coordinate_names[c], res.x[:, c]) for c in cols])
+            for kind, unit, cols in _coordinate_groups(res, range(len(res.coordinate_names)))]
+
+
+def _plot_coordinates(axes, t, curves, fontsize=7):
     """One axis per (kind, unit) group of coordinates, labelled with the unit."""
-    for ax, (kind, unit, cols) in zip(axes, groups):
-        for c in cols:
-            ax.plot(res.t, res.x[:, c], label=res.coordinate_names[c])
+    for ax, (kind, unit, lines) in zip(axes, curves):
+        for name, values in lines:
+            ax.plot(t, values, label=name)
         ax.set_ylabel(f"{kind} ({unit})")
-        if len(cols) <= 12:
+        if len(lines) <= 12:
             ax.legend(fontsize=fontsize, loc="upper right")
 
 
-def _fourbar_figure(res, plt=None):
-    """``fourbar.png``: coordinates (one axis per unit), energy drift (J), loop residual (m)."""
-    from ..viz.plots import _coordinate_groups
+def _fourbar_data(res) -> dict:
+    """The curves of ``fourbar.png``: coordinates, energy drift, loop residual."""
+    return {"t": res.t, "coordinates": _coordinate_curves(res), "energy": res.energy - res.energy[0],
+            "residual": np.maximum(res.residual, 1e-18)}
 
-    groups = _coordinate_groups(res, range(len(res.coordinate_names)))
-    fig, ax = _subplots(plt, len(groups) + 2, (7, 2.6 * (len(groups) + 2) + 0.2))
-    _plot_coordinates(ax, res, groups, fontsize=8)
-    ax[-2].plot(res.t, res.energy - res.energy[0])
+
+def _draw_fourbar(data: dict):
+    """``fourbar.png``: coordinates (one axis per unit), energy drift (J), loop residual (m)."""
+    curves = data["coordinates"]
+    fig, ax = _column(len(curves) + 2, (7, 2.6 * (len(curves) + 2) + 0.2))
+    _plot_coordinates(ax, data["t"], curves, fontsize=8)
+    ax[-2].plot(data["t"], data["energy"])
     ax[-2].set_ylabel("energy drift (J)")
-    ax[-1].semilogy(res.t, np.maximum(res.residual, 1e-18))
+    ax[-1].semilogy(data["t"], data["residual"])
     ax[-1].set_ylabel("loop residual (m)")
     ax[-1].set_xlabel("time (s)")
     fig.tight_layout()
     return fig
+
+
+def _fourbar_figure(res):
+    """``fourbar.png`` of a result."""
+    return _draw_fourbar(_fourbar_data(res))
 
 
 def _effort_unit(driver) -> str:
@@ -64,41 +79,51 @@ def _effort_unit(driver) -> str:
     return "N" if driver.coordinate < n_t else "N m"
 
 
-def _scene_figure(scene, res, tracks, speeds, plt=None):
-    """The plot of a scene-file run: coordinates and driver efforts one axis per unit, energy, residual, speeds."""
-    from ..viz.plots import _coordinate_groups
-
-    groups = _coordinate_groups(res, range(len(res.coordinate_names)))
+def _scene_data(scene, res, tracks, speeds) -> dict:
+    """The curves of a scene-file run's plot: coordinates, energy, residual, tracked speeds, driver efforts."""
     drivers = {}
     for d in scene.model.drivers:
         if d.name in res.driver_names:
-            drivers.setdefault(_effort_unit(d), []).append(d.name)
-    panels = len(groups) + 2 + bool(tracks) + len(drivers)
-    fig, ax = _subplots(plt, panels, (7, 2.6 * panels))
-    _plot_coordinates(ax, res, groups)
-    i = len(groups)
-    ax[i].plot(res.t, res.energy - res.energy[0])
+            drivers.setdefault(_effort_unit(d), []).append((d.name, res.driver_effort(d.name)))
+    return {"t": res.t, "coordinates": _coordinate_curves(res), "energy": res.energy - res.energy[0],
+            "residual": np.maximum(res.residual, 1e-18), "speeds": {k: speeds[k] for k in tracks},
+            "drivers": list(drivers.items()), "title": f"{scene.name}: {res.status}"}
+
+
+def _draw_scene(data: dict):
+    """The plot of a scene-file run: coordinates and driver efforts one axis per unit, energy, residual, speeds."""
+    t, curves = data["t"], data["coordinates"]
+    panels = len(curves) + 2 + bool(data["speeds"]) + len(data["drivers"])
+    fig, ax = _column(panels, (7, 2.6 * panels))
+    _plot_coordinates(ax, t, curves)
+    i = len(curves)
+    ax[i].plot(t, data["energy"])
     ax[i].set_ylabel("energy change (J)")
-    ax[i + 1].semilogy(res.t, np.maximum(res.residual, 1e-18))
+    ax[i + 1].semilogy(t, data["residual"])
     ax[i + 1].set_ylabel("loop residual (m or rad)")
     i += 2
-    if tracks:
-        for k in tracks:
-            ax[i].plot(res.t, speeds[k], label=k)
+    if data["speeds"]:
+        for k, speed in data["speeds"].items():
+            ax[i].plot(t, speed, label=k)
         ax[i].set_ylabel("point speed (m/s)")
         ax[i].legend(fontsize=8)
         i += 1
-    for unit, names in drivers.items():
-        for d in names:
-            ax[i].plot(res.t, res.driver_effort(d), label=d)
+    for unit, efforts in data["drivers"]:
+        for name, effort in efforts:
+            ax[i].plot(t, effort, label=name)
         what = {"N m": "driver torque", "N": "driver force"}.get(unit, "driver effort")
         ax[i].set_ylabel(f"{what} ({unit})")
         ax[i].legend(fontsize=8)
         i += 1
     ax[-1].set_xlabel("time (s)")
-    fig.suptitle(f"{scene.name}: {res.status}")
+    fig.suptitle(data["title"])
     fig.tight_layout()
     return fig
+
+
+def _scene_figure(scene, res, tracks, speeds):
+    """The plot of a scene-file run, drawn here."""
+    return _draw_scene(_scene_data(scene, res, tracks, speeds))
 
 
 def wiper_figure(runs, systems, tips, plt=None):
@@ -228,9 +253,9 @@ def draw_wiper(data: dict, plt=None):
     return fig
 
 
-def _fourbar_run_figure(scene, res, tracks, speeds, plt=None):
-    """``fourbar.png`` of a scene run."""
-    return _fourbar_figure(res, plt)
+def _fourbar_run_data(scene, res, tracks, speeds) -> dict:
+    """The curves of ``fourbar.png`` of a scene run."""
+    return _fourbar_data(res)
 
 
 def _wiper_runs_data(runs) -> dict:
@@ -243,19 +268,20 @@ def _wiper_runs_data(runs) -> dict:
     return wiper_data(results, systems, tips)
 
 
-class RunsFigure(NamedTuple):
-    """A figure drawn once for all the runs of a scene, in two halves.
+class SceneFigure(NamedTuple):
+    """A figure a scene run draws, in two halves: the curves, then the drawing.
 
-    The main job draws it in a child that imported matplotlib while the
+    ``flexmb run`` draws it in a child that imported matplotlib while the
     runs computed (:func:`flexmb._background.start_worker`): only plain
     data cross to it.
 
     Parameters
     ----------
     data : callable
-        ``data(runs)``, with ``runs = {label: (scene, result, system)}``:
-        the curves, as plain arrays and strings, computed where the model
-        is.
+        The curves, as plain arrays and strings, computed where the model
+        is: ``data(scene, result, tracks, speeds)`` for a figure of kind
+        ``'run'``, ``data(runs)`` with ``runs = {label: (scene, result,
+        system)}`` for one of kind ``'runs'``.
     draw : callable
         ``draw(data)``: the ``matplotlib.figure.Figure``, drawn from those
         alone.
@@ -265,13 +291,15 @@ class RunsFigure(NamedTuple):
     draw: Callable
 
 
-#: named figures: name -> (kind, function, what it shows); ``'runs'`` figures need ``[runs]``
+#: named figures: name -> (kind, SceneFigure, what it shows); ``'runs'`` figures need ``[runs]``
 FIGURES = {
-    "scene": ("run", _scene_figure, "coordinates and driver efforts one axis per unit, energy, residual, "
-                                    "tracked point speeds"),
-    "fourbar": ("run", _fourbar_run_figure, "coordinates, energy drift and loop residual (benchmark B5)"),
-    "wiper": ("runs", RunsFigure(_wiper_runs_data, draw_wiper), "the paper's Figs. 5-6: runs 'rigid' and 'flexible' side by side "
-                                          "(the first tracked point is the blade tip; the driver is 'motor')"),
+    "scene": ("run", SceneFigure(_scene_data, _draw_scene),
+              "coordinates and driver efforts one axis per unit, energy, residual, tracked point speeds"),
+    "fourbar": ("run", SceneFigure(_fourbar_run_data, _draw_fourbar),
+                "coordinates, energy drift and loop residual (benchmark B5)"),
+    "wiper": ("runs", SceneFigure(_wiper_runs_data, draw_wiper),
+              "the paper's Figs. 5-6: runs 'rigid' and 'flexible' side by side (the first tracked point is the "
+              "blade tip; the driver is 'motor')"),
 }
 
 #: the runs a ``'runs'`` figure draws, by label

@@ -15,7 +15,7 @@ import logging
 
 import numpy as np
 
-from .._background import in_background, start_worker
+from .._background import Worker, in_background, start_worker
 from .._files import OutputFolder, atomic_write
 from ..errors import SimulationError
 from .figures import FIGURES
@@ -28,47 +28,33 @@ log = logging.getLogger(__name__)
 PARAVIEW_SCRIPT = "open_in_paraview.py"
 
 
-def _plt():
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        log.warning("matplotlib is not installed (pip install -e '.[viz]'): no plots written")
-        return None
-    return plt
-
-
-def _savefig(plt, fig, folder, rel, dpi):
-    """Write a figure whole (through a temporary name) into the staging folder, and close it."""
-    try:
-        atomic_write(folder.stage(rel), lambda tmp: fig.savefig(tmp, format="png", dpi=dpi), suffix=".png")
-    finally:
-        plt.close(fig)
-
-
 def _import_matplotlib() -> None:
     """What the plot worker imports while the runs compute: a bare Figure and the Agg canvas."""
     import matplotlib.backends.backend_agg  # noqa: F401
     import matplotlib.figure  # noqa: F401
 
 
-def _draw_png(draw, data, path, dpi) -> None:
-    """``draw(data)`` (a bare matplotlib Figure) written whole to ``path`` as PNG: the plot worker's call."""
-    fig = draw(data)
-    atomic_write(path, lambda tmp: fig.savefig(tmp, format="png", dpi=dpi), suffix=".png")
+def _draw_pngs(pngs) -> None:
+    """Each ``(draw, data, path, dpi)``: ``draw(data)`` (a bare Figure) written whole to ``path`` as PNG.
+
+    The plot worker's call (:func:`_plotter`), or made here.
+    """
+    for draw, data, path, dpi in pngs:
+        fig = draw(data)
+        atomic_write(path, lambda tmp, fig=fig, dpi=dpi: fig.savefig(tmp, format="png", dpi=dpi), suffix=".png")
 
 
-def _plot_worker(scene):
-    """A child importing matplotlib while the runs compute, if the scene draws a ``'runs'`` figure; else None."""
-    o = scene.output
-    if not (o.plots and FIGURES[o.figure][0] == "runs"):
+def _plotter(scene, background: bool):
+    """Who draws the scene's figures: a worker importing matplotlib now, or (``background`` False) this process.
+
+    None if the scene draws no plot, or matplotlib is not installed (said once, as a warning).
+    """
+    if not scene.output.plots:
         return None
     if importlib.util.find_spec("matplotlib") is None:
         log.warning("matplotlib is not installed (pip install -e '.[viz]'): no plots written")
         return None
-    return start_worker(_import_matplotlib)
+    return start_worker(_import_matplotlib) if background else Worker(None, None)
 
 
 def _vtk(res, folder, sub, prefix, system, jobs=None):
@@ -127,14 +113,19 @@ def run_into(scene, out, progress: bool, overrides: dict) -> dict:
     """
     failure = None
     with OutputFolder(out) as folder:  # locked before simulating: a second run is refused at once
-        if scene.runs:
-            summary, failure = _write_runs(scene, folder, progress, overrides)
-        else:
-            try:
-                result = scene.simulate(progress=progress, **overrides)
-            except SimulationError as exc:
-                failure, result = exc, exc.result
-            summary = _write_outputs(scene, result, folder)
+        plotter = _plotter(scene, background=True)  # imports matplotlib while the runs compute
+        try:
+            if scene.runs:
+                summary, failure = _write_runs(scene, folder, progress, overrides, plotter)
+            else:
+                try:
+                    result = scene.simulate(progress=progress, **overrides)
+                except SimulationError as exc:
+                    failure, result = exc, exc.result
+                summary = _write_outputs(scene, result, folder, plotter)
+        finally:
+            if plotter is not None:
+                plotter.cancel()  # nothing was drawn (a run failed), or the drawing was sent already
     if failure is not None:
         raise failure
     return summary
@@ -165,7 +156,7 @@ def write_outputs(scene, res, out) -> dict:
         If another run is writing into ``out`` (the message names its pid).
     """
     with OutputFolder(out) as folder:
-        return _write_outputs(scene, res, folder)
+        return _write_outputs(scene, res, folder, _plotter(scene, background=False))
 
 
 def _tracks(scene, res):
@@ -217,45 +208,52 @@ def run_summary(scene, res, tracks: dict, speeds: dict) -> dict:
     return summary
 
 
-def _write_outputs(scene, res, folder) -> dict:
-    """Write the outputs of a scene-file run into an open :class:`OutputFolder` and commit them."""
+def _write_outputs(scene, res, folder, plotter) -> dict:
+    """Write the outputs of a scene-file run into an open :class:`OutputFolder` and commit them.
+
+    The plot is drawn by ``plotter`` (:func:`_plotter`; None: no plot) while the VTK series is written.
+    """
     o = scene.output
     tracks, speeds = _tracks(scene, res)
     summary = {"scene": scene.source, "model": scene.name, **run_summary(scene, res, tracks, speeds)}
-    files = {}
+    files, jobs = {}, []
     if o.npz:
         res.save(folder.stage(o.prefix + ".npz"))
         files["result"] = folder.final(o.prefix + ".npz")
-    if o.plots and len(res.t):
-        plt = _plt()
-        if plt:
-            fig = FIGURES[o.figure][1](scene, res, tracks, speeds, plt)
-            _savefig(plt, fig, folder, o.prefix + ".png", 110)
-            files["plot"] = folder.final(o.prefix + ".png")
-    if o.vtk and len(res.t):
-        # "vtk" as in the entry of each run of a scene with [runs]
-        summary["vtk"] = pvd = _vtk(res, folder, "vtk", o.prefix, scene.model)
-        if pvd:
-            files["vtk"] = pvd
-            files["paraview"] = folder.final(PARAVIEW_SCRIPT)
+    try:
+        if plotter is not None and len(res.t):
+            figure = FIGURES[o.figure][1]
+            rel = o.prefix + ".png"
+            data = figure.data(scene, res, tracks, speeds)
+            jobs.append(plotter.run(_draw_pngs, [(figure.draw, data, folder.stage(rel), 110)]))
+            files["plot"] = folder.final(rel)
+        if o.vtk and len(res.t):
+            # "vtk" as in the entry of each run of a scene with [runs]
+            summary["vtk"] = pvd = _vtk(res, folder, "vtk", o.prefix, scene.model)
+            if pvd:
+                files["vtk"] = pvd
+                files["paraview"] = folder.final(PARAVIEW_SCRIPT)
+    finally:
+        for job in jobs:
+            job.wait()
     summary["files"] = files
     folder.commit(summary if o.summary else None)
     return summary
 
 
-def _write_runs(scene, folder, progress: bool, overrides: dict):
+def _write_runs(scene, folder, progress: bool, overrides: dict, plotter):
     """Run each of ``scene.runs`` in turn into an open folder and commit; return the summary and any failure.
 
     Each run writes ``<prefix>_<label>.npz`` and ``vtk_<label>/<prefix>_<label>.pvd`` (by a child
     process, while the next run computes) and has its entry in the summary; a run that is interrupted
     or fails stops the sequence. Once all have finished, a ``'runs'`` figure is drawn once
-    (``<prefix>.png``), a ``'run'`` figure once per run (``<prefix>_<label>.png``).
+    (``<prefix>.png``), a ``'run'`` figure once per run (``<prefix>_<label>.png``), by ``plotter``
+    (:func:`_plotter`; None: no plots).
     """
     o = scene.output
     summary = {"scene": scene.source, "model": scene.name, "status": "finished",
                "t_end": scene.settings(**overrides).t_end}
     files, done, jobs, failure = {}, {}, [], None
-    worker = _plot_worker(scene)
     try:
         for label, run in scene.runs.items():
             try:
@@ -268,11 +266,9 @@ def _write_runs(scene, folder, progress: bool, overrides: dict):
             if res.status != "finished":  # Ctrl-C or a failure: keep what was written, start no further run
                 summary.update(status=res.status, message=res.message)
                 break
-        if o.plots and summary["status"] == "finished":
-            _plot_runs(scene, done, folder, files, worker, jobs)
+        if plotter is not None and summary["status"] == "finished":
+            _plot_runs(scene, done, folder, files, plotter, jobs)
     finally:
-        if worker is not None:
-            worker.cancel()  # nothing to draw (a run failed), or the drawing was sent already
         for job in jobs:
             job.wait()
     if any(k.startswith("vtk_") for k in files):
@@ -297,21 +293,17 @@ def _write_run(run, res, system, folder, label, files, jobs) -> dict:
     return entry
 
 
-def _plot_runs(scene, done: dict, folder, files: dict, worker, jobs: list) -> None:
-    """The figure of a scene with runs: once for all (``'runs'`` kind, drawn by ``worker``) or once per run."""
+def _plot_runs(scene, done: dict, folder, files: dict, plotter, jobs: list) -> None:
+    """The figure of a scene with runs, sent to ``plotter``: once for all (``'runs'`` kind) or once per run."""
     kind, figure, _ = FIGURES[scene.output.figure]
+    prefix = scene.output.prefix
     if kind == "runs":
-        if worker is None:  # no matplotlib
-            return
-        rel = scene.output.prefix + ".png"
-        jobs.append(worker.run(_draw_png, figure.draw, figure.data(done), folder.stage(rel), 120))
-        files["plot"] = folder.final(rel)
-        return
-    plt = _plt()
-    if not plt:
-        return
-    draw = figure
-    for label, (run, res, _) in done.items():
-        rel = f"{scene.output.prefix}_{label}.png"
-        _savefig(plt, draw(run, res, *_tracks(run, res), plt), folder, rel, 110)
-        files[f"plot_{label}"] = folder.final(rel)
+        pngs = [(figure.draw, figure.data(done), folder.stage(prefix + ".png"), 120)]
+        files["plot"] = folder.final(prefix + ".png")
+    else:
+        pngs = []
+        for label, (run, res, _) in done.items():
+            rel = f"{prefix}_{label}.png"
+            pngs.append((figure.draw, figure.data(run, res, *_tracks(run, res)), folder.stage(rel), 110))
+            files[f"plot_{label}"] = folder.final(rel)
+    jobs.append(plotter.run(_draw_pngs, pngs))

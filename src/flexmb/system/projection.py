@@ -87,8 +87,7 @@ class Projection:
                 f"the constraints cannot be closed at t = {t:.6g} s: residual {np.max(np.abs(phi)):.3g} "
                 f"after {max_iter} Newton steps (largest: {rows})"
             )
-        rows = self._rows(t, x, xd)
-        psi, b = rows.psi, rows.b
+        psi, b = rows.psi, rows.b  # those of the converged positions: the loop's last evaluation
         if speeds == "mass" and fixed is None:
             return x, self._mass_orthogonal_speeds(self.kinematics(t, x, xd), psi, b, xd)
         step = self._min_norm(psi[:, free], psi @ xd - b)

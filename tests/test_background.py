@@ -174,3 +174,16 @@ def test_without_fork_the_worker_calls_inline(tmp_path, monkeypatch):
     job = worker.run(_write, str(tmp_path / "out.txt"), "inline")
     assert (tmp_path / "out.txt").read_text() == "inline"  # before run() returned
     assert job.wait() and job.pid is None
+
+
+@linux
+def test_a_message_cut_short_lets_the_worker_leave_quietly(tmp_path, capfd):
+    import struct
+
+    worker = start_worker(lambda: None)
+    os.write(worker.fd, struct.pack("<Q", 1000) + b"only a part")  # the parent interrupted while sending
+    pid, fd = worker.pid, worker.fd
+    os.close(fd)
+    _, status = os.waitpid(pid, 0)
+    assert os.waitstatus_to_exitcode(status) == 0
+    assert "Traceback" not in capfd.readouterr().err

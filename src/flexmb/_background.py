@@ -232,7 +232,10 @@ def _serve(fd: int, prepare) -> int:
     if len(header) < 8:  # cancelled (or the parent is gone)
         return 0
     (size,) = struct.unpack("<Q", header)
-    fn, args = pickle.loads(_read_exactly(fd, size))
+    message = _read_exactly(fd, size)
+    if len(message) < size:  # the parent stopped while sending (Ctrl-C): nothing to do
+        return 0
+    fn, args = pickle.loads(message)
     fn(*args)
     return 0
 

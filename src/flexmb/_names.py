@@ -15,7 +15,7 @@ import re
 
 from attrs import field
 
-from ._validate import label
+from .fields import label
 from .errors import ModelError
 
 __all__ = ["REFERENCE", "reference", "kind_name", "name_of", "find"]

@@ -37,7 +37,8 @@ from typing import ClassVar
 import numpy as np
 from attrs import field, frozen
 
-from ._validate import as_count, count, label, optional_array, positive
+from .fields import label, positive
+from ._validate import as_count, count, optional_array
 from .bodies import Body
 from .errors import ModelError
 from .joints import Joint

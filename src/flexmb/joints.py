@@ -25,7 +25,8 @@ import numpy as np
 from attrs import field, frozen
 
 from ._names import reference
-from ._validate import as_array, label, name_check, optional_array, rotation_matrix, vector3
+from .fields import as_array, label, vector3
+from ._validate import name_check, optional_array, rotation_matrix
 from .bodies import Body
 from .errors import ModelError
 from .kernels import ROTATION, TRANSLATION

@@ -13,7 +13,8 @@ from __future__ import annotations
 import numpy as np
 from attrs import field, frozen
 
-from ._validate import label, name_check
+from .fields import label
+from ._validate import name_check
 from .errors import ModelError
 from .sections import Material, Section
 

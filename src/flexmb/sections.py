@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 from attrs import field, frozen
 
-from ._validate import label, name_check, positive
+from .fields import label, positive
+from ._validate import name_check
 from .errors import ModelError
 
 __all__ = ["Section", "Material"]

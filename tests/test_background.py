@@ -187,3 +187,20 @@ def test_a_message_cut_short_lets_the_worker_leave_quietly(tmp_path, capfd):
     _, status = os.waitpid(pid, 0)
     assert os.waitstatus_to_exitcode(status) == 0
     assert "Traceback" not in capfd.readouterr().err
+
+
+@linux
+def test_a_worker_stuck_preparing_is_killed_and_the_call_made_here(tmp_path, monkeypatch, caplog):
+    from flexmb import _background
+
+    monkeypatch.setattr(_background, "READY_TIMEOUT", 0.5)
+    worker = start_worker(lambda: time.sleep(600))  # as if a lock held at the fork never came free
+    pid = worker.pid
+    t0 = time.monotonic()
+    with caplog.at_level("WARNING", logger="flexmb"):
+        job = worker.run(_write, str(tmp_path / "out.txt"), "drawn here")
+    assert time.monotonic() - t0 < 30
+    assert job.pid is None and (tmp_path / "out.txt").read_text() == "drawn here"
+    assert "did not start within 0.5 s" in caplog.text
+    with pytest.raises(ChildProcessError):  # killed and reaped
+        os.waitpid(pid, os.WNOHANG)

@@ -24,11 +24,14 @@ runs inline, before :func:`in_background` (or :meth:`Worker.run`) returns.
 from __future__ import annotations
 
 import contextlib
+import logging
 import os
 import pickle
+import select
 import signal
 import struct
 import sys
+import time
 import traceback
 import warnings
 
@@ -36,6 +39,12 @@ __all__ = ["in_background", "Job", "Worker", "start_worker"]
 
 #: pipe capacity asked for the worker's message (Linux; a larger message is sent in pieces as the child reads)
 _PIPE_SIZE = 1 << 20
+
+#: seconds a worker may take to prepare (an import takes well under one); a child not ready by then is taken
+#: for stuck (a lock another thread held at the fork) and killed, and its call is made in the parent
+READY_TIMEOUT = 60.0
+
+log = logging.getLogger("flexmb")
 
 
 def _die_with_parent() -> None:
@@ -171,11 +180,31 @@ class Worker:
         The child's process id (None: no child, :meth:`run` runs inline).
     fd : int or None
         The writing end of the pipe to the child.
+    ready : int or None
+        The reading end of the pipe on which the child says it has prepared.
     """
 
-    def __init__(self, pid, fd):
+    def __init__(self, pid, fd, ready=None):
         self.pid = pid
         self.fd = fd
+        self.ready = ready
+        self.started = time.monotonic()
+
+    def _take(self):
+        """The child's pid and pipes, once: the worker is spent."""
+        taken = self.pid, self.fd, self.ready
+        self.pid = self.fd = self.ready = None
+        return taken
+
+    def _prepared(self, ready) -> bool:
+        """Whether the child said it has prepared, waiting until ``READY_TIMEOUT`` after its fork."""
+        if ready is None:
+            return True
+        try:
+            left = max(0.0, READY_TIMEOUT - (time.monotonic() - self.started))
+            return bool(select.select([ready], [], [], left)[0])
+        finally:
+            os.close(ready)
 
     def run(self, fn, *args) -> Job:
         """Have the child call ``fn(*args)`` (or call it here if there is no child).
@@ -200,9 +229,16 @@ class Worker:
         if self.pid is None:
             call()
             return Job(None, call)
+        pid, fd, ready = self._take()
+        if not self._prepared(ready):  # stuck: the call is made here instead
+            log.warning("the plot worker (pid %d) did not start within %g s: drawing in this process", pid,
+                        READY_TIMEOUT)
+            os.close(fd)
+            os.kill(pid, signal.SIGKILL)
+            Job(pid, None).wait(rerun_on_failure=False)
+            call()
+            return Job(None, call)
         message = pickle.dumps((fn, args), protocol=pickle.HIGHEST_PROTOCOL)
-        pid, fd = self.pid, self.fd
-        self.pid = self.fd = None
         try:
             os.write(fd, struct.pack("<Q", len(message)))
             view = memoryview(message)
@@ -218,16 +254,20 @@ class Worker:
         """Let the child leave without a call, and wait for it (nothing if :meth:`run` was called)."""
         if self.pid is None:
             return
-        pid, fd = self.pid, self.fd
-        self.pid = self.fd = None
+        pid, fd, ready = self._take()
+        if ready is not None:
+            os.close(ready)
         os.close(fd)  # the child reads the end of the pipe and leaves
         Job(pid, None).wait(rerun_on_failure=False)
 
 
-def _serve(fd: int, prepare) -> int:
-    """The worker child's life: prepare, read one call, make it; the exit code."""
+def _serve(fd: int, ready: int, prepare) -> int:
+    """The worker child's life: prepare, say so, read one call, make it; the exit code."""
     with contextlib.suppress(Exception):  # the call then fails the same way, and is rerun in the parent
         prepare()
+    with contextlib.suppress(OSError):  # the parent gave up waiting: it reads no more
+        os.write(ready, b"1")
+    os.close(ready)
     header = _read_exactly(fd, 8)
     if len(header) < 8:  # cancelled (or the parent is gone)
         return 0
@@ -258,6 +298,7 @@ def start_worker(prepare) -> Worker:
     if not _can_fork():
         return Worker(None, None)
     read_fd, write_fd = os.pipe()
+    ready_r, ready_w = os.pipe()
     import fcntl
 
     with contextlib.suppress(AttributeError, OSError):  # else the message goes in pieces, as the child reads
@@ -267,10 +308,12 @@ def start_worker(prepare) -> Worker:
         code = 1
         try:
             os.close(write_fd)
-            code = _serve(read_fd, prepare)
+            os.close(ready_r)
+            code = _serve(read_fd, ready_w, prepare)
         except BaseException:
             traceback.print_exc()
         finally:
             os._exit(code)
     os.close(read_fd)
-    return Worker(pid, write_fd)
+    os.close(ready_w)
+    return Worker(pid, write_fd, ready_r)

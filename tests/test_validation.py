@@ -69,7 +69,7 @@ def test_body_non_positive_mass(mass):
 
 @pytest.mark.parametrize("mass", [NAN, INF, -INF])
 def test_body_non_finite_mass(mass):
-    with pytest.raises(fm.ModelError, match=r"RigidBody 'crank': mass must be a finite number > 0, got (nan|inf|-inf)"):
+    with pytest.raises(fm.ModelError, match=r"RigidBody 'crank': mass must be > 0, got (nan|inf|-inf)"):
         fm.RigidBody("crank", mass=mass)
 
 
@@ -811,7 +811,7 @@ def test_slender_bar_non_positive_length(length):
 def test_slender_bar_bad_axis_and_mass():
     with pytest.raises(fm.ModelError, match=r"RigidBody.slender_bar 'bar': axis must be 0, 1 or 2, got 3"):
         fm.RigidBody.slender_bar("bar", 1.0, 1.0, axis=3)
-    with pytest.raises(fm.ModelError, match=r"RigidBody 'bar': mass must be a finite number > 0, got 'heavy'"):
+    with pytest.raises(fm.ModelError, match=r"RigidBody 'bar': mass must be > 0, got 'heavy'"):
         fm.RigidBody.slender_bar("bar", "heavy", 1.0)
 
 

@@ -67,7 +67,6 @@ import numpy as np
 from attrs import field, frozen
 
 import flexmb as fm
-from flexmb import fields
 from flexmb.errors import ModelError
 from flexmb.rotations import frame_from_axis
 
@@ -76,11 +75,8 @@ from flexmb.rotations import frame_from_axis
 # -------------------------------
 # A force element is a frozen attrs class: its data are fields, converted
 # and validated at construction, with messages that name the element
-# (``AeroDrag 'vane': cd must be > 0, got -1.0``). ``flexmb.fields`` has the
-# converters and validators flexmb's own elements use (``as_float`` and
-# ``positive``, ``as_array`` and ``vector3``, ...); a validator of your own is
-# any ``validator(instance, attribute, value)`` that raises ``ModelError``.
-# Definitions are ``@frozen(eq=False)``: immutable and hashed by identity.
+# (``AeroDrag 'vane': cd must be > 0, got -1.0``). Definitions are
+# ``@frozen(eq=False)``: immutable and hashed by identity.
 #
 # ``apply(state, loads)`` adds the element's loads for one kinematic state.
 # ``state.locate(body, point)`` turns a point given in the body frame into
@@ -89,6 +85,31 @@ from flexmb.rotations import frame_from_axis
 # inertial position and velocity. The assembler projects the force on the
 # partial velocities (eq. 5). Drag only dissipates, so ``potential`` keeps
 # the base class's 0 and the energy checks count its work instead.
+
+
+def _positive(instance, attribute, value):
+    # validators name the element, like flexmb's own
+    if not isinstance(value, float) or not np.isfinite(value) or not value > 0:
+        raise ModelError(f"{type(instance).__name__} {instance.name!r}: {attribute.name} must be > 0, got {value!r}")
+
+
+def _point(instance, attribute, value):
+    if value.shape != (3,) or not np.all(np.isfinite(value)):
+        raise ModelError(f"{type(instance).__name__} {instance.name!r}: {attribute.name} must be 3 finite "
+                         f"numbers, got {value.tolist()}")
+
+
+def _float(value):
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        return value  # the validator rejects it, naming the element
+
+
+def _vector(value):
+    a = np.array(value, dtype=float)
+    a.setflags(write=False)
+    return a
 
 
 @frozen(eq=False)
@@ -119,10 +140,10 @@ class AeroDrag(fm.ForceElement):
     """
 
     body: fm.Body = field()
-    area: float = field(converter=fields.as_float, validator=fields.positive)
-    cd: float = field(default=1.0, converter=fields.as_float, validator=fields.positive)
-    rho: float = field(default=1.225, converter=fields.as_float, validator=fields.positive)
-    point: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=fields.as_array, validator=fields.vector3)
+    area: float = field(converter=_float, validator=_positive)
+    cd: float = field(default=1.0, converter=_float, validator=_positive)
+    rho: float = field(default=1.225, converter=_float, validator=_positive)
+    point: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=_vector, validator=_point)
 
     def apply(self, state, loads):
         """Add the drag force at the point (one element)."""
@@ -360,7 +381,7 @@ class Screw(fm.Joint):
     cut_directions = (0, 1)
     cut_perpendicular = ((2, 0), (2, 1))
 
-    axis: np.ndarray = field(default=(0.0, 0.0, 1.0), converter=fields.as_array, validator=fields.vector3)
+    axis: np.ndarray = field(default=(0.0, 0.0, 1.0), converter=_vector, validator=_point)
 
     def __attrs_post_init__(self):
         super().__attrs_post_init__()

@@ -15,7 +15,7 @@ import re
 
 from attrs import field
 
-from .fields import label
+from ._validate import label
 from .errors import ModelError
 
 __all__ = ["REFERENCE", "reference", "kind_name", "name_of", "find"]

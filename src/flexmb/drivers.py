@@ -14,8 +14,7 @@ import numpy as np
 from attrs import field, frozen
 
 from ._names import reference
-from .fields import label
-from ._validate import name_check
+from ._validate import label, name_check
 from .errors import ModelError
 from .joints import Joint
 

@@ -37,8 +37,7 @@ from typing import ClassVar
 import numpy as np
 from attrs import field, frozen
 
-from .fields import label, positive
-from ._validate import as_count, count, optional_array
+from ._validate import as_count, count, label, optional_array, positive
 from .bodies import Body
 from .errors import ModelError
 from .joints import Joint

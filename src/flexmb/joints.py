@@ -25,8 +25,7 @@ import numpy as np
 from attrs import field, frozen
 
 from ._names import reference
-from .fields import as_array, label, vector3
-from ._validate import name_check, optional_array, rotation_matrix
+from ._validate import as_array, label, name_check, optional_array, rotation_matrix, vector3
 from .bodies import Body
 from .errors import ModelError
 from .kernels import ROTATION, TRANSLATION

@@ -13,8 +13,7 @@ from __future__ import annotations
 import numpy as np
 from attrs import field, frozen
 
-from .fields import label
-from ._validate import name_check
+from ._validate import label, name_check
 from .errors import ModelError
 from .sections import Material, Section
 

@@ -5,8 +5,7 @@ from __future__ import annotations
 import numpy as np
 from attrs import field, frozen
 
-from .fields import label, positive
-from ._validate import name_check
+from ._validate import label, name_check, positive
 from .errors import ModelError
 
 __all__ = ["Section", "Material"]

@@ -33,7 +33,7 @@ import numpy as np
 from attrs import define
 from scipy.optimize import least_squares
 
-from ..fields import label
+from .._validate import label
 from ..errors import ModelError
 from ..flexible import FlexibleBody
 from .linear import modes

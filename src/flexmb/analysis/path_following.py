@@ -18,7 +18,7 @@ from typing import NamedTuple
 import numpy as np
 import scipy.linalg as sla
 
-from ..fields import label
+from .._validate import label
 from ..assembly import ForceAssembler
 from ..errors import AssemblyError, ModelError
 from ..forces import ForceElement

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 from attrs import field, frozen
 
-from ..fields import as_array, vector3
+from .._validate import as_array, vector3
 from ..bodies import Body
 from ..errors import ModelError
 from ..flexible import FlexibleBody

@@ -9,8 +9,7 @@ import numpy as np
 from attrs import field, frozen
 
 from .._names import reference
-from ..fields import as_array, label, vector3
-from .._validate import name_check
+from .._validate import as_array, label, name_check, vector3
 from ..bodies import Body
 from ..errors import ModelError
 from .base import ForceElement

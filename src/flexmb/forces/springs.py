@@ -6,8 +6,7 @@ import numpy as np
 from attrs import field, frozen
 
 from .._names import reference
-from ..fields import as_array, finite_array, label, vector3
-from .._validate import name_check
+from .._validate import as_array, finite_array, label, name_check, vector3
 from ..bodies import Body
 from ..joints import Joint
 from .base import ForceElement

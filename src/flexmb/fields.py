@@ -96,7 +96,7 @@ def as_float(value):
     >>> as_float("2.5"), as_float(True), as_float(None)
     (2.5, True, None)
     """
-    if isinstance(value, bool):
+    if isinstance(value, (bool, np.bool_)):
         return value
     try:
         return float(value)
@@ -185,7 +185,7 @@ def as_count(value):
     >>> as_count(4.0), as_count(2.5)
     (4, 2.5)
     """
-    if isinstance(value, (bool, str, bytes)):
+    if isinstance(value, (bool, np.bool_, str, bytes)):
         return value
     try:
         f = float(value)

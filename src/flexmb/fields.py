@@ -82,7 +82,7 @@ def as_float(value):
     Parameters
     ----------
     value : object
-        The value given for the field.
+        The value given for the field: a number, or a string of one.
 
     Returns
     -------
@@ -110,7 +110,8 @@ def as_array(value):
     Parameters
     ----------
     value : array_like
-        The value given for the field.
+        The value given for the field: a number, a sequence of numbers,
+        an array.
 
     Returns
     -------
@@ -171,7 +172,8 @@ def as_count(value):
     Parameters
     ----------
     value : object
-        The value given for the field.
+        The value given for the field: an integer, or a float or numpy
+        number with a whole value.
 
     Returns
     -------
@@ -196,224 +198,171 @@ def as_count(value):
     return value
 
 
-# ----------------------------------------------------------------------------- validators of numbers
+# ----------------------------------------------------------------------------- validators
+# Every validator takes attrs' three arguments; they are documented once, here.
 
+_VALIDATOR_ARGUMENTS = """Parameters
+    ----------
+    instance : object
+        The element being built; the message names it.
+    attribute : attrs.Attribute
+        The field; the message names it.
+    value : object
+        The field's value, as its converter left it.
+
+    Raises
+    ------
+    ModelError
+        If the value is refused: ``Kind 'name': field must ..., got ...``."""
+
+
+def _validator(check):
+    """Fill the arguments every validator shares into its docstring (at ``{arguments}``)."""
+    check.__doc__ = check.__doc__.replace("{arguments}", _VALIDATOR_ARGUMENTS)
+    return check
+
+
+def _refuse(instance, attribute, problem: str):
+    """Raise the message of a refused value: the element, the field, then ``problem``."""
+    raise ModelError(f"{label(instance)}: {attribute.name} {problem}")
+
+
+@_validator
 def finite_number(instance, attribute, value):
     """Validator: a finite float (as :func:`as_float` gives it; a bool is not one).
 
-    Parameters
-    ----------
-    instance : object
-        The element being built; the message names it.
-    attribute : attrs.Attribute
-        The field; the message names it.
-    value : object
-        The converted value.
+    Anything else is refused with ``must be a finite number, got ...``.
 
-    Raises
-    ------
-    ModelError
-        ``must be a finite number, got ...``.
+    {arguments}
     """
     if not isinstance(value, float) or not np.isfinite(value):
-        raise ModelError(f"{label(instance)}: {attribute.name} must be a finite number, got {value!r}")
+        _refuse(instance, attribute, f"must be a finite number, got {value!r}")
 
 
+@_validator
 def positive(instance, attribute, value):
     """Validator: a finite float > 0.
 
-    Parameters
-    ----------
-    instance : object
-        The element being built; the message names it.
-    attribute : attrs.Attribute
-        The field; the message names it.
-    value : object
-        The converted value.
+    Anything else, NaN, inf and non-numbers too, is refused with
+    ``must be > 0, got ...``; list :func:`finite_number` first to say that
+    a non-number is not a number.
 
-    Raises
-    ------
-    ModelError
-        ``must be > 0, got ...`` (for NaN, inf and non-numbers too: list
-        :func:`finite_number` first to say those are not numbers).
+    {arguments}
     """
     if not isinstance(value, float) or not np.isfinite(value) or not value > 0:
-        raise ModelError(f"{label(instance)}: {attribute.name} must be > 0, got {value!r}")
+        _refuse(instance, attribute, f"must be > 0, got {value!r}")
 
 
+@_validator
 def non_negative(instance, attribute, value):
     """Validator: a finite float >= 0.
 
-    Parameters
-    ----------
-    instance : object
-        The element being built; the message names it.
-    attribute : attrs.Attribute
-        The field; the message names it.
-    value : object
-        The converted value.
+    Anything else, NaN, inf and non-numbers too, is refused with
+    ``must be >= 0, got ...``; list :func:`finite_number` first to say that
+    a non-number is not a number.
 
-    Raises
-    ------
-    ModelError
-        ``must be >= 0, got ...`` (for NaN, inf and non-numbers too: list
-        :func:`finite_number` first to say those are not numbers).
+    {arguments}
     """
     if not isinstance(value, float) or not np.isfinite(value) or not value >= 0:
-        raise ModelError(f"{label(instance)}: {attribute.name} must be >= 0, got {value!r}")
+        _refuse(instance, attribute, f"must be >= 0, got {value!r}")
 
 
+@_validator
 def count(instance, attribute, value):
     """Validator: an integer >= 1 (as :func:`as_count` gives it; a bool is not one).
 
-    Parameters
-    ----------
-    instance : object
-        The element being built; the message names it.
-    attribute : attrs.Attribute
-        The field; the message names it.
-    value : object
-        The converted value.
+    Anything else is refused with ``must be an integer >= 1, got ...``.
 
-    Raises
-    ------
-    ModelError
-        ``must be an integer >= 1, got ...``.
+    {arguments}
     """
     if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-        raise ModelError(f"{label(instance)}: {attribute.name} must be an integer >= 1, got {value!r}")
+        _refuse(instance, attribute, f"must be an integer >= 1, got {value!r}")
 
 
-# ----------------------------------------------------------------------------- validators of arrays
+@_validator
+def finite_array(instance, attribute, value):
+    """Validator: a float array, of any shape, with finite entries (as :func:`as_array` gives it).
+
+    What is not a float array is refused with ``must be numbers, got ...``,
+    a NaN or inf entry with ``must be finite, got [...]``.
+
+    {arguments}
+    """
+    _numbers(instance, attribute, value)
+    if not np.all(np.isfinite(value)):
+        _refuse(instance, attribute, f"must be finite, got {value.tolist()}")
+
 
 def _numbers(instance, attribute, value):
     """A float array, as :func:`as_array` gives for numeric input."""
     if not (isinstance(value, np.ndarray) and value.dtype == float):
-        raise ModelError(f"{label(instance)}: {attribute.name} must be numbers, got {value!r}")
+        _refuse(instance, attribute, f"must be numbers, got {value!r}")
 
 
-def _shape(instance, attribute, value, shape):
+def _finite_shaped(instance, attribute, value, shape):
+    """A float array of ``shape`` with finite entries."""
+    _numbers(instance, attribute, value)
     if value.shape != shape:
-        raise ModelError(f"{label(instance)}: {attribute.name} must have shape {shape}, got {value.shape}")
-
-
-def finite_array(instance, attribute, value):
-    """Validator: a float array (any shape) with finite entries.
-
-    Parameters
-    ----------
-    instance : object
-        The element being built; the message names it.
-    attribute : attrs.Attribute
-        The field; the message names it.
-    value : object
-        The converted value (:func:`as_array`).
-
-    Raises
-    ------
-    ModelError
-        ``must be numbers, got ...`` or ``must be finite, got [...]``.
-    """
-    _numbers(instance, attribute, value)
-    if not np.all(np.isfinite(value)):
-        raise ModelError(f"{label(instance)}: {attribute.name} must be finite, got {value.tolist()}")
-
-
-def vector3(instance, attribute, value):
-    """Validator: a finite 3-vector (a point, a direction of any length).
-
-    Parameters
-    ----------
-    instance : object
-        The element being built; the message names it.
-    attribute : attrs.Attribute
-        The field; the message names it.
-    value : object
-        The converted value (:func:`as_array`).
-
-    Raises
-    ------
-    ModelError
-        ``must be numbers``, ``must have shape (3,)`` or ``must be finite``.
-    """
-    _numbers(instance, attribute, value)
-    _shape(instance, attribute, value, (3,))
+        _refuse(instance, attribute, f"must have shape {shape}, got {value.shape}")
     finite_array(instance, attribute, value)
 
 
+@_validator
+def vector3(instance, attribute, value):
+    """Validator: a finite 3-vector (a point, or a direction of any length).
+
+    Refused: what is not numbers, a shape other than (3,)
+    (``must have shape (3,), got ...``), a NaN or inf entry.
+
+    {arguments}
+    """
+    _finite_shaped(instance, attribute, value, (3,))
+
+
+@_validator
 def unit_vector(instance, attribute, value):
     """Validator: a finite 3-vector of length 1 (as :func:`as_unit_vector` gives it).
 
-    Parameters
-    ----------
-    instance : object
-        The element being built; the message names it.
-    attribute : attrs.Attribute
-        The field; the message names it.
-    value : object
-        The converted value (:func:`as_unit_vector`).
+    Refused as by :func:`vector3`, and a zero vector, which
+    :func:`as_unit_vector` cannot normalise (``must be a nonzero vector``),
+    or another length (``must have length 1``).
 
-    Raises
-    ------
-    ModelError
-        As :func:`vector3`, or ``must be a nonzero vector`` (what
-        :func:`as_unit_vector` cannot normalise), or ``must have length 1``.
+    {arguments}
     """
     vector3(instance, attribute, value)
     length = np.linalg.norm(value)
     if length == 0.0:
-        raise ModelError(f"{label(instance)}: {attribute.name} must be a nonzero vector, got {value.tolist()}")
+        _refuse(instance, attribute, f"must be a nonzero vector, got {value.tolist()}")
     if not abs(length - 1.0) < 1e-12:
-        raise ModelError(f"{label(instance)}: {attribute.name} must have length 1, got {value.tolist()}")
+        _refuse(instance, attribute, f"must have length 1, got {value.tolist()}")
 
 
+@_validator
 def matrix33(instance, attribute, value):
     """Validator: a finite 3 x 3 matrix.
 
-    Parameters
-    ----------
-    instance : object
-        The element being built; the message names it.
-    attribute : attrs.Attribute
-        The field; the message names it.
-    value : object
-        The converted value (:func:`as_array`).
+    Refused: what is not numbers, a shape other than (3, 3)
+    (``must have shape (3, 3), got ...``), a NaN or inf entry.
 
-    Raises
-    ------
-    ModelError
-        ``must be numbers``, ``must have shape (3, 3)`` or ``must be finite``.
+    {arguments}
     """
-    _numbers(instance, attribute, value)
-    _shape(instance, attribute, value, (3, 3))
-    finite_array(instance, attribute, value)
+    _finite_shaped(instance, attribute, value, (3, 3))
 
 
+@_validator
 def rotation_matrix(instance, attribute, value):
     """Validator: a proper rotation matrix (orthonormal, determinant +1).
 
-    For a field that may be None, wrap it: ``attrs.validators.optional(rotation_matrix)``.
+    Refused as by :func:`matrix33`, and with ``must be a rotation matrix
+    (orthonormal, det +1)``. For a field that may be None, wrap it:
+    ``attrs.validators.optional(rotation_matrix)``.
 
-    Parameters
-    ----------
-    instance : object
-        The element being built; the message names it.
-    attribute : attrs.Attribute
-        The field; the message names it.
-    value : object
-        The converted value (:func:`as_array`).
-
-    Raises
-    ------
-    ModelError
-        As :func:`matrix33`, or ``must be a rotation matrix (orthonormal, det +1)``.
+    {arguments}
     """
     matrix33(instance, attribute, value)
     if not np.allclose(value.T @ value, np.eye(3), atol=1e-9) or np.linalg.det(value) < 0:
-        raise ModelError(f"{label(instance)}: {attribute.name} must be a rotation matrix (orthonormal, det +1)")
+        _refuse(instance, attribute, "must be a rotation matrix (orthonormal, det +1)")
 
-
-# ----------------------------------------------------------------------------- validators of objects
 
 def is_a(kind: type):
     """A validator that accepts instances of ``kind``.
@@ -449,8 +398,6 @@ def is_a(kind: type):
 
     def check(instance, attribute, value):
         if not isinstance(value, kind):
-            raise ModelError(
-                f"{label(instance)}: {attribute.name} must be a {kind.__name__}, got {type(value).__name__}"
-            )
+            _refuse(instance, attribute, f"must be a {kind.__name__}, got {type(value).__name__}")
 
     return check

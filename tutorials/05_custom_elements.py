@@ -68,6 +68,7 @@ from attrs import field, frozen
 
 import flexmb as fm
 from flexmb.errors import ModelError
+from flexmb.fields import as_array, as_float, as_unit_vector, label, positive, unit_vector, vector3
 from flexmb.rotations import frame_from_axis
 
 # %%
@@ -76,7 +77,10 @@ from flexmb.rotations import frame_from_axis
 # A force element is a frozen attrs class: its data are fields, converted
 # and validated at construction, with messages that name the element
 # (``AeroDrag 'vane': cd must be > 0, got -1.0``). Definitions are
-# ``@frozen(eq=False)``: immutable and hashed by identity.
+# ``@frozen(eq=False)``: immutable and hashed by identity. The converters
+# and validators flexmb's own elements use are in :mod:`flexmb.fields`:
+# ``as_float`` and ``as_array`` (a read-only float copy) convert, and
+# ``positive``, ``vector3`` and the others check and name the element.
 #
 # ``apply(state, loads)`` adds the element's loads for one kinematic state.
 # ``state.locate(body, point)`` turns a point given in the body frame into
@@ -85,31 +89,6 @@ from flexmb.rotations import frame_from_axis
 # inertial position and velocity. The assembler projects the force on the
 # partial velocities (eq. 5). Drag only dissipates, so ``potential`` keeps
 # the base class's 0 and the energy checks count its work instead.
-
-
-def _positive(instance, attribute, value):
-    # validators name the element, like flexmb's own
-    if not isinstance(value, float) or not np.isfinite(value) or not value > 0:
-        raise ModelError(f"{type(instance).__name__} {instance.name!r}: {attribute.name} must be > 0, got {value!r}")
-
-
-def _point(instance, attribute, value):
-    if value.shape != (3,) or not np.all(np.isfinite(value)):
-        raise ModelError(f"{type(instance).__name__} {instance.name!r}: {attribute.name} must be 3 finite "
-                         f"numbers, got {value.tolist()}")
-
-
-def _float(value):
-    try:
-        return float(value)
-    except (TypeError, ValueError):
-        return value  # the validator rejects it, naming the element
-
-
-def _vector(value):
-    a = np.array(value, dtype=float)
-    a.setflags(write=False)
-    return a
 
 
 @frozen(eq=False)
@@ -140,10 +119,10 @@ class AeroDrag(fm.ForceElement):
     """
 
     body: fm.Body = field()
-    area: float = field(converter=_float, validator=_positive)
-    cd: float = field(default=1.0, converter=_float, validator=_positive)
-    rho: float = field(default=1.225, converter=_float, validator=_positive)
-    point: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=_vector, validator=_point)
+    area: float = field(converter=as_float, validator=positive)
+    cd: float = field(default=1.0, converter=as_float, validator=positive)
+    rho: float = field(default=1.225, converter=as_float, validator=positive)
+    point: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
 
     def apply(self, state, loads):
         """Add the drag force at the point (one element)."""
@@ -229,12 +208,12 @@ print(f"apply vs apply_all: largest difference in force/torque {apply_difference
 fine = paddle_model(400).build()
 kin_f, drags_f, _, _ = loads_both_ways(fine, x, xd)
 timings = {}
-for label, fun in (("apply, one by one", lambda ld: [e.apply(kin_f, ld) for e in drags_f]),
+for route, fun in (("apply, one by one", lambda ld: [e.apply(kin_f, ld) for e in drags_f]),
                    ("apply_all, batched", lambda ld: AeroDrag.apply_all(drags_f, kin_f, ld))):
     t0 = time.perf_counter()
     for _ in range(20):
         fun(fm.Loads(kin_f))
-    timings[label] = (time.perf_counter() - t0) / 20
+    timings[route] = (time.perf_counter() - t0) / 20
 print("400 strips: " + ", ".join(f"{k} {1e3 * v:.2f} ms" for k, v in timings.items()))
 
 # %%
@@ -356,6 +335,11 @@ print(f"paddle: energy above rest {E_max:.4f} J, lost in 10 s {-energy_change[-1
 # ``Hv = k e_z`` with ``k = p / (2 pi)``; both are constant, so ``aw = av = 0``.
 # The loop-closing primitives cannot express the helix: as a cut joint the
 # screw would act as a cylindrical joint, so keep it in the tree.
+#
+# The axis field is normalised by ``as_unit_vector`` (``unit_vector`` rejects
+# a zero vector). The lead is class data, not a field, so no field validator
+# sees it: ``__attrs_post_init__`` checks it, and ``label(self)`` names the
+# element in the message as the validators do.
 
 
 @frozen(eq=False)
@@ -365,7 +349,8 @@ class Screw(fm.Joint):
     Parameters
     ----------
     axis : array_like, shape (3,)
-        Screw axis in the parent body frame (the joint frame's z).
+        Screw axis in the parent body frame (the joint frame's z);
+        normalised on construction.
 
     Attributes
     ----------
@@ -381,14 +366,12 @@ class Screw(fm.Joint):
     cut_directions = (0, 1)
     cut_perpendicular = ((2, 0), (2, 1))
 
-    axis: np.ndarray = field(default=(0.0, 0.0, 1.0), converter=_vector, validator=_point)
+    axis: np.ndarray = field(default=(0.0, 0.0, 1.0), converter=as_unit_vector, validator=unit_vector)
 
     def __attrs_post_init__(self):
         super().__attrs_post_init__()
         if not np.isfinite(self.lead) or self.lead == 0.0:
-            raise ModelError(f"Screw {self.name!r}: lead must be finite and non-zero, got {self.lead!r}")
-        if np.linalg.norm(self.axis) < 1e-12:
-            raise ModelError(f"Screw {self.name!r}: axis must not be a zero-length vector")
+            raise ModelError(f"{label(self)}: lead must be finite and non-zero, got {self.lead!r}")
 
     def _default_frame(self):
         return frame_from_axis(self.axis)

@@ -32,9 +32,9 @@ from attrs import field, frozen
 from numba import njit
 
 from flexmb import Body, ForceElement, ModelError, reference
+from flexmb.fields import (as_array, as_float, as_unit_vector, finite_number, label, non_negative, positive,
+                           unit_vector, vector3)
 from flexmb.kernels.loads import body_points
-
-from ._fields import _array, _float, _label, _non_negative, _positive, _unit, _unit_vector, _vector3
 
 __all__ = ["SlidingFriction", "VelocityWeakeningFriction", "CoulombFriction", "ViscousFriction"]
 
@@ -142,8 +142,8 @@ class SlidingFriction(ForceElement):
     parameters: ClassVar[tuple[str, ...]] = ()
 
     body: Body = reference(Body)  # the body, or its name (resolved when the model is built)
-    point: np.ndarray = field(converter=_array, validator=_vector3)
-    normal: np.ndarray = field(converter=_unit, validator=_unit_vector)
+    point: np.ndarray = field(converter=as_array, validator=vector3)
+    normal: np.ndarray = field(converter=as_unit_vector, validator=unit_vector)
 
     # -- the law
     @classmethod
@@ -432,16 +432,16 @@ class VelocityWeakeningFriction(SlidingFriction):
 
     parameters = ("normal_load", "mu_static", "slope", "mu_min", "smoothing_speed")
 
-    normal_load: float = field(converter=_float, validator=_positive)
-    mu_static: float = field(converter=_float, validator=_non_negative)
-    slope: float = field(converter=_float, validator=_non_negative)
-    mu_min: float = field(default=0.0, converter=_float, validator=_non_negative)
-    smoothing_speed: float = field(default=DEFAULT_SMOOTHING_SPEED, converter=_float, validator=_positive,
-                                   kw_only=True)
+    normal_load: float = field(converter=as_float, validator=[finite_number, positive])
+    mu_static: float = field(converter=as_float, validator=[finite_number, non_negative])
+    slope: float = field(converter=as_float, validator=[finite_number, non_negative])
+    mu_min: float = field(default=0.0, converter=as_float, validator=[finite_number, non_negative])
+    smoothing_speed: float = field(default=DEFAULT_SMOOTHING_SPEED, converter=as_float,
+                                   validator=[finite_number, positive], kw_only=True)
 
     def __attrs_post_init__(self):
         if self.mu_min > self.mu_static:
-            raise ModelError(f"{_label(self)}: mu_min must be <= mu_static, got mu_min = {self.mu_min!r} > "
+            raise ModelError(f"{label(self)}: mu_min must be <= mu_static, got mu_min = {self.mu_min!r} > "
                              f"mu_static = {self.mu_static!r}")
 
     law_kernel = _velocity_weakening_law
@@ -505,10 +505,10 @@ class CoulombFriction(SlidingFriction):
 
     parameters = ("normal_load", "mu", "smoothing_speed")
 
-    normal_load: float = field(converter=_float, validator=_positive)
-    mu: float = field(converter=_float, validator=_non_negative)
-    smoothing_speed: float = field(default=DEFAULT_SMOOTHING_SPEED, converter=_float, validator=_positive,
-                                   kw_only=True)
+    normal_load: float = field(converter=as_float, validator=[finite_number, positive])
+    mu: float = field(converter=as_float, validator=[finite_number, non_negative])
+    smoothing_speed: float = field(default=DEFAULT_SMOOTHING_SPEED, converter=as_float,
+                                   validator=[finite_number, positive], kw_only=True)
 
     law_kernel = _coulomb_law
 
@@ -558,7 +558,7 @@ class ViscousFriction(SlidingFriction):
 
     parameters = ("damping",)
 
-    damping: float = field(converter=_float, validator=_positive)
+    damping: float = field(converter=as_float, validator=[finite_number, positive])
 
     law_kernel = _viscous_law
 

@@ -15,8 +15,8 @@ import re
 
 from attrs import field
 
-from ._validate import label
 from .errors import ModelError
+from .fields import label
 
 __all__ = ["REFERENCE", "reference", "kind_name", "name_of", "find"]
 

@@ -1,7 +1,10 @@
-"""Converters and validators shared by the frozen definition classes.
+"""Checks of function arguments, and of the name every element has.
 
-Messages name the element (``RigidBody 'crank': mass must be > 0, got -1``),
-so an error in a large model points at the offending part.
+The converters and validators of the elements' attrs fields are public, in
+:mod:`flexmb.fields`; what is here is for flexmb itself: the ``name`` field
+the base classes declare (:func:`name_check`), and the arguments of
+functions, where no attrs validator runs (:func:`positive_value`,
+:func:`simulate_arguments`).
 """
 
 from __future__ import annotations
@@ -9,126 +12,15 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import ModelError
+from .fields import as_count
 
-__all__ = ["as_array", "as_float", "label", "vector3", "matrix33", "positive", "finite_array", "name_check", "is_a",
-           "as_count", "count", "positive_value", "simulate_arguments"]
-
-
-def as_array(value):
-    """Copy ``value`` to a read-only float array.
-
-    Input that is not numeric is returned unchanged: the field's validator
-    then rejects it with a message naming the element (a converter does not
-    know the element).
-    """
-    try:
-        arr = np.array(value, dtype=float)
-    except (TypeError, ValueError):
-        return value
-    arr.setflags(write=False)
-    return arr
-
-
-def as_float(value):
-    """``float(value)``, or ``value`` unchanged for the validator to reject."""
-    try:
-        return float(value)
-    except (TypeError, ValueError):
-        return value
-
-
-def _numeric(instance, attribute, value):
-    if not (isinstance(value, np.ndarray) and value.dtype == float):
-        raise ModelError(f"{label(instance)}: {attribute.name} must be numbers, got {value!r}")
-
-
-def is_a(kind):
-    """Validator: the value is an instance of ``kind``."""
-
-    def check(instance, attribute, value):
-        if not isinstance(value, kind):
-            raise ModelError(
-                f"{label(instance)}: {attribute.name} must be a {kind.__name__}, got {type(value).__name__}"
-            )
-
-    return check
-
-
-def label(instance) -> str:
-    """Return ``Kind 'name'`` for messages."""
-    return f"{type(instance).__name__} {getattr(instance, 'name', '?')!r}"
+__all__ = ["name_check", "positive_value", "simulate_arguments"]
 
 
 def name_check(instance, attribute, value):
     """Names are non-empty strings."""
     if not isinstance(value, str) or not value.strip():
         raise ModelError(f"{type(instance).__name__}: name must be a non-empty string, got {value!r}")
-
-
-def finite_array(instance, attribute, value):
-    """All entries finite."""
-    _numeric(instance, attribute, value)
-    if not np.all(np.isfinite(value)):
-        raise ModelError(f"{label(instance)}: {attribute.name} must be finite, got {np.asarray(value).tolist()}")
-
-
-def vector3(instance, attribute, value):
-    """A finite 3-vector."""
-    _numeric(instance, attribute, value)
-    if value.shape != (3,):
-        raise ModelError(f"{label(instance)}: {attribute.name} must have shape (3,), got {value.shape}")
-    finite_array(instance, attribute, value)
-
-
-def matrix33(instance, attribute, value):
-    """A finite 3x3 matrix."""
-    _numeric(instance, attribute, value)
-    if value.shape != (3, 3):
-        raise ModelError(f"{label(instance)}: {attribute.name} must have shape (3, 3), got {value.shape}")
-    finite_array(instance, attribute, value)
-
-
-def positive(instance, attribute, value):
-    """A finite number > 0."""
-    if not isinstance(value, float) or not np.isfinite(value) or not value > 0:
-        raise ModelError(f"{label(instance)}: {attribute.name} must be > 0, got {value!r}")
-
-
-def rotation_matrix(instance, attribute, value):
-    """None or a proper orthonormal 3x3 matrix."""
-    if value is None:
-        return
-    matrix33(instance, attribute, value)
-    if not np.allclose(value.T @ value, np.eye(3), atol=1e-9) or np.linalg.det(value) < 0:
-        raise ModelError(f"{label(instance)}: {attribute.name} must be a rotation matrix (orthonormal, det +1)")
-
-
-def optional_array(value):
-    """Convert unless None."""
-    return None if value is None else as_array(value)
-
-
-def as_count(value):
-    """``int(value)`` for a finite whole number (``4``, ``4.0``, ``np.int64(4)``), else ``value`` unchanged.
-
-    The validator :func:`count` then rejects what is left (NaN, inf, None,
-    2.5, a string) with a message naming the element.
-    """
-    if isinstance(value, (bool, str, bytes)):
-        return value
-    try:
-        f = float(value)
-    except (TypeError, ValueError, OverflowError):
-        return value
-    if np.isfinite(f) and f == int(f):
-        return int(f)
-    return value
-
-
-def count(instance, attribute, value):
-    """Validator: an integer >= 1."""
-    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
-        raise ModelError(f"{label(instance)}: {attribute.name} must be an integer >= 1, got {value!r}")
 
 
 def positive_value(where: str, what: str, value) -> float:

@@ -10,8 +10,9 @@ from __future__ import annotations
 import numpy as np
 from attrs import field, frozen
 
-from ._validate import as_array, as_float, label, matrix33, name_check, positive, positive_value, vector3
+from ._validate import name_check, positive_value
 from .errors import ModelError
+from .fields import as_array, as_float, label, matrix33, positive, vector3
 
 __all__ = ["Body", "Ground", "RigidBody", "Marker"]
 

@@ -14,8 +14,9 @@ import numpy as np
 from attrs import field, frozen
 
 from ._names import reference
-from ._validate import label, name_check
+from ._validate import name_check
 from .errors import ModelError
+from .fields import label
 from .joints import Joint
 
 __all__ = ["Driver"]

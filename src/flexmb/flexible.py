@@ -35,11 +35,11 @@ from __future__ import annotations
 from typing import ClassVar
 
 import numpy as np
-from attrs import field, frozen
+from attrs import converters, field, frozen
 
-from ._validate import as_count, count, label, optional_array, positive
 from .bodies import Body
 from .errors import ModelError
+from .fields import as_array, as_count, count, label, positive
 from .joints import Joint
 from .profiles import BeamProfile, _at, _PerSegment, segment_data
 from .sections import Material, Section
@@ -234,8 +234,10 @@ class FlexibleBody(Body):
     clamped: bool = field(default=True, converter=bool)
     rotary_inertia: bool = field(default=True, converter=bool)
     profile: BeamProfile | None = field(default=None)
-    stiffness_scale: np.ndarray | None = field(default=None, converter=optional_array, validator=_scale_factors)
-    mass_scale: np.ndarray | None = field(default=None, converter=optional_array, validator=_scale_factors)
+    stiffness_scale: np.ndarray | None = field(
+        default=None, converter=converters.optional(as_array), validator=_scale_factors)
+    mass_scale: np.ndarray | None = field(
+        default=None, converter=converters.optional(as_array), validator=_scale_factors)
     _data: dict | None = field(default=None, init=False, repr=False)
 
     @section.validator

@@ -22,12 +22,13 @@ from __future__ import annotations
 from typing import ClassVar
 
 import numpy as np
-from attrs import field, frozen
+from attrs import converters, field, frozen, validators
 
 from ._names import reference
-from ._validate import as_array, label, name_check, optional_array, rotation_matrix, vector3
+from ._validate import name_check
 from .bodies import Body
 from .errors import ModelError
+from .fields import as_array, label, rotation_matrix, vector3
 from .kernels import ROTATION, TRANSLATION
 from .kernels.tree import joint_motions
 from .rotations import frame_from_axis
@@ -120,8 +121,10 @@ class Joint:
     child: Body = reference(Body)
     parent_point: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
     child_point: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
-    parent_frame: np.ndarray | None = field(default=None, converter=optional_array, validator=rotation_matrix)
-    child_frame: np.ndarray | None = field(default=None, converter=optional_array, validator=rotation_matrix)
+    parent_frame: np.ndarray | None = field(
+        default=None, converter=converters.optional(as_array), validator=validators.optional(rotation_matrix))
+    child_frame: np.ndarray | None = field(
+        default=None, converter=converters.optional(as_array), validator=validators.optional(rotation_matrix))
     cut: bool = field(default=False, converter=bool)
 
     def __attrs_post_init__(self):

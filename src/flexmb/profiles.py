@@ -13,8 +13,9 @@ from __future__ import annotations
 import numpy as np
 from attrs import field, frozen
 
-from ._validate import label, name_check
+from ._validate import name_check
 from .errors import ModelError
+from .fields import label
 from .sections import Material, Section
 
 __all__ = ["BeamProfile", "BEAM_PROPERTIES", "segment_data"]

@@ -5,8 +5,9 @@ from __future__ import annotations
 import numpy as np
 from attrs import field, frozen
 
-from ._validate import label, name_check, positive
+from ._validate import name_check
 from .errors import ModelError
+from .fields import label, positive
 
 __all__ = ["Section", "Material"]
 

@@ -33,8 +33,8 @@ import numpy as np
 from attrs import define
 from scipy.optimize import least_squares
 
-from .._validate import label
 from ..errors import ModelError
+from ..fields import label
 from ..flexible import FlexibleBody
 from .linear import modes
 

@@ -18,9 +18,9 @@ from typing import NamedTuple
 import numpy as np
 import scipy.linalg as sla
 
-from .._validate import label
 from ..assembly import ForceAssembler
 from ..errors import AssemblyError, ModelError
+from ..fields import label
 from ..forces import ForceElement
 from ..threads import limited_blas
 from .paths import CriticalPoint, LoadPath, PathOptions, _list_limits

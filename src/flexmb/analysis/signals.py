@@ -13,9 +13,9 @@ from __future__ import annotations
 import numpy as np
 from attrs import field, frozen
 
-from .._validate import as_array, vector3
 from ..bodies import Body
 from ..errors import ModelError
+from ..fields import as_array, vector3
 from ..flexible import FlexibleBody
 from ..joints import Joint
 

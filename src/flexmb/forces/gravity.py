@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 from attrs import field, frozen
 
-from .._validate import as_array, name_check, vector3
+from .._validate import name_check
+from ..fields import as_array, vector3
 from .base import ForceElement
 from .tables import LoadTables
 

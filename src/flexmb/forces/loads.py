@@ -9,9 +9,10 @@ import numpy as np
 from attrs import field, frozen
 
 from .._names import reference
-from .._validate import as_array, label, name_check, vector3
+from .._validate import name_check
 from ..bodies import Body
 from ..errors import ModelError
+from ..fields import as_array, label, vector3
 from .base import ForceElement
 from .tables import LoadTables
 

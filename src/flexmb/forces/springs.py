@@ -6,8 +6,9 @@ import numpy as np
 from attrs import field, frozen
 
 from .._names import reference
-from .._validate import as_array, finite_array, label, name_check, vector3
+from .._validate import name_check
 from ..bodies import Body
+from ..fields import as_array, finite_array, label, vector3
 from ..joints import Joint
 from .base import ForceElement
 from .tables import LoadTables, class_tables

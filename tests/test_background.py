@@ -201,6 +201,6 @@ def test_a_worker_stuck_preparing_is_killed_and_the_call_made_here(tmp_path, mon
         job = worker.run(_write, str(tmp_path / "out.txt"), "drawn here")
     assert time.monotonic() - t0 < 30
     assert job.pid is None and (tmp_path / "out.txt").read_text() == "drawn here"
-    assert "did not start within 0.5 s" in caplog.text
+    assert "did not prepare within 0.5 s" in caplog.text
     with pytest.raises(ChildProcessError):  # killed and reaped
         os.waitpid(pid, os.WNOHANG)

@@ -231,8 +231,8 @@ class Worker:
             return Job(None, call)
         pid, fd, ready = self._take()
         if not self._prepared(ready):  # stuck: the call is made here instead
-            log.warning("the plot worker (pid %d) did not start within %g s: drawing in this process", pid,
-                        READY_TIMEOUT)
+            log.warning("a worker child (pid %d) did not prepare within %g s: its call is made in this process",
+                        pid, READY_TIMEOUT)
             os.close(fd)
             os.kill(pid, signal.SIGKILL)
             Job(pid, None).wait(rerun_on_failure=False)

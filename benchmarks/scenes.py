@@ -117,3 +117,116 @@ def b6_midspan_deflection(res) -> np.ndarray:
     e = chord / np.linalg.norm(chord, axis=1)[:, None]
     d = mid - a
     return e[:, 0] * d[:, 1] - e[:, 1] * d[:, 0]
+
+
+B7_L, B7_MASS, B7_G = 1.0, 1.0, 9.81
+B7_SPEED = -1.0  # first rod's angular speed about +z, rad/s: its top moves at +1 m/s along +x
+
+
+def b7(n_loops: int, planar_cuts: bool = True):
+    """B7: a chain of ``n_loops`` parallelogram four-bars (IFToMM benchmark A02 for N = 1), under gravity.
+
+    N + 1 uniform rods, 1 m and 1 kg (slender bars along their body y
+    axis, body frame at the bottom end), are pinned to the ground about z
+    at (k, 0, 0), k = 0 ... N (joints ``"pin_k"``), and start vertical,
+    pointing up along +y. N uniform couplers, 1 m and 1 kg (slender bars
+    along their body x axis, body frame at the first end): coupler k is
+    pinned to the top of rod k by a tree joint (``"hinge_k"``), and its
+    other end to the top of rod k + 1 by the cut joint ``"cut_k"`` that
+    closes loop k. Gravity 9.81 m/s^2 along -y.
+
+    With every coordinate zero the rods are vertical and the couplers
+    horizontal; the mechanism has one degree of freedom: every rod at the
+    same angle, every coupler translating. It has n = 2N + 1 coordinates
+    (``pin_k.angle``, ``hinge_k.angle``) and, with planar cuts, 2N
+    independent constraint rows.
+
+    Parameters
+    ----------
+    n_loops : int
+        Number of four-bar loops N (>= 1).
+    planar_cuts : bool
+        Close the loops with :class:`~flexmb.PlanarRevolute` cut joints
+        (2 in-plane rows each, none redundant); if False with spatial
+        :class:`~flexmb.Revolute` ones (5 rows each, of which 3 are
+        redundant for this planar mechanism: 5N rows, rank 2N).
+
+    Returns
+    -------
+    model : Model
+        The chain.
+    initial : dict
+        Keyword arguments of :func:`flexmb.simulate` and
+        :func:`flexmb.initial_state`: ``"positions"``, every coordinate 0
+        (rods vertical, couplers horizontal, an assembled state), and
+        ``"speeds"``, the first rod's angle rate -1 rad/s (its top moves at
+        +1 m/s along +x; the other speeds follow from the constraints,
+        ``pin_k`` -1 rad/s and ``hinge_k`` +1 rad/s). Use as
+        ``fm.simulate(model, t_end, **initial)``.
+
+    Raises
+    ------
+    ValueError
+        If ``n_loops`` is not an integer >= 1.
+    """
+    if isinstance(n_loops, bool) or int(n_loops) != n_loops or n_loops < 1:
+        raise ValueError(f"b7: n_loops must be an integer >= 1, got {n_loops!r}")
+    n_loops = int(n_loops)
+    model = fm.Model(f"B7 N={n_loops}{'' if planar_cuts else ' spatial cuts'}")
+    cut = fm.PlanarRevolute if planar_cuts else fm.Revolute
+    top = (0.0, B7_L, 0.0)
+    rods = [fm.RigidBody.slender_bar(f"rod_{k}", B7_MASS, B7_L, axis=1) for k in range(n_loops + 1)]
+    couplers = [fm.RigidBody.slender_bar(f"coupler_{k}", B7_MASS, B7_L) for k in range(n_loops)]
+    for k, rod in enumerate(rods):
+        model.add(fm.Revolute(f"pin_{k}", model.ground, rod, parent_point=(float(k), 0.0, 0.0)))
+    for k, coupler in enumerate(couplers):
+        model.add(fm.Revolute(f"hinge_{k}", rods[k], coupler, parent_point=top),
+                  cut(f"cut_{k}", coupler, rods[k + 1], parent_point=(B7_L, 0.0, 0.0), child_point=top, cut=True))
+    model.add(fm.Gravity((0.0, -B7_G, 0.0)))
+    positions = {f"pin_{k}.angle": 0.0 for k in range(n_loops + 1)}
+    positions.update({f"hinge_{k}.angle": 0.0 for k in range(n_loops)})
+    return model, {"positions": positions, "speeds": {"pin_0.angle": B7_SPEED}}
+
+
+def b7_tip(res) -> np.ndarray:
+    """Position history of the first rod's top (the ``hinge_0`` point), m, shape (nt, 3).
+
+    Parameters
+    ----------
+    res : Result
+        A run of :func:`b7`.
+
+    Returns
+    -------
+    ndarray, shape (nt, 3)
+        Inertial positions of ``rod_0``'s top, m.
+    """
+    i = res.body_names.index("rod_0")
+    return res.origins[:, i] + B7_L * res.rotations[:, i, :, 1]
+
+
+def b7_reference(theta, n_loops: int) -> tuple[float, float]:
+    """Closed form of the B7 parallelogram chain: its energies as a rate factor and a potential.
+
+    With every rod at ``theta`` from the vertical (about +z) and the
+    couplers translating, the kinetic energy is ``a theta'^2`` with
+    ``a = (N + 1) (1/2)(m L^2 / 3) + N (1/2) m L^2`` and the potential
+    (zero at y = 0) ``(N + 1) m g (L / 2) cos(theta) + N m g L cos(theta)``.
+
+    Parameters
+    ----------
+    theta : float or ndarray
+        Rod angle, rad.
+    n_loops : int
+        Number of loops N.
+
+    Returns
+    -------
+    a : float
+        Kinetic energy per theta'^2, kg m^2.
+    potential : float or ndarray
+        Potential energy, J.
+    """
+    m, L, g, n = B7_MASS, B7_L, B7_G, n_loops
+    a = (n + 1) * 0.5 * m * L**2 / 3.0 + n * 0.5 * m * L**2
+    return a, ((n + 1) * m * g * L / 2 + n * m * g * L) * np.cos(theta)

@@ -24,11 +24,11 @@ from .loads import apply_load_tables
 from .packing import unpack
 from .tree import tree_state
 
-__all__ = ["solve_spd", "articulated_accelerations", "open_tree_accelerations", "open_tree_rhs", "mass_times"]
+__all__ = ["solve_spd", "articulated_factor", "articulated_solve", "articulated_accelerations", "open_tree_accelerations", "open_tree_rhs", "mass_times"]
 
 
 @njit(cache=True)
-def solve_spd(D, rhs, out):
+def solve_spd(D, rhs, out, tiny=0.0):
     """Solve the small symmetric positive definite ``D Z = rhs`` into ``out`` (Cholesky, column by column).
 
     Parameters
@@ -37,6 +37,8 @@ def solve_spd(D, rhs, out):
         The matrix (its lower triangle is read).
     rhs, out : ndarray, shape (m, k)
         Right-hand sides and the solutions.
+    tiny : float
+        Cholesky pivots at or below it count as zero (default 0).
 
     Returns
     -------
@@ -49,7 +51,7 @@ def solve_spd(D, rhs, out):
         s = D[j, j]
         for k in range(j):
             s -= L[j, k] * L[j, k]
-        if not s > 0.0:
+        if not s > tiny:
             return False
         L[j, j] = np.sqrt(s)
         for i in range(j + 1, m):
@@ -74,8 +76,8 @@ def solve_spd(D, rhs, out):
 
 @njit(cache=True)
 def _minus_bias_wrenches(nb, r, force, torque):
-    """Minus the wrenches ``B_k`` about the origin (eq. 3's loads and velocity terms, Plucker form)."""
-    pA = np.empty((nb, 6))
+    """Minus the wrenches ``B_k`` about the origin (eq. 3's loads and velocity terms, Plucker form); the ground's row (last) zero."""
+    pA = np.zeros((nb + 1, 6))
     for k in range(nb):
         pA[k, 0] = -(torque[k, 0] + r[k, 1] * force[k, 2] - r[k, 2] * force[k, 1])
         pA[k, 1] = -(torque[k, 1] + r[k, 2] * force[k, 0] - r[k, 0] * force[k, 2])
@@ -87,48 +89,184 @@ def _minus_bias_wrenches(nb, r, force, torque):
 
 
 @njit(cache=True, inline="always")
-def _joint_projections(k, c0, c1, IA, pA, Sw, Sv, generalized, U, u):
-    """``U_c = I^A_k S_c`` and ``u_c = Q_c - S_c . p^A_k`` for the coordinates of body k's joint."""
+def _joint_axes(k, c0, c1, IA, Sw, Sv, U):
+    """``U_c = I^A_k S_c`` for the coordinates of body k's joint."""
     for c in range(c0, c1):
         for i in range(6):
             U[c, i] = (IA[k, i, 0] * Sw[c, 0] + IA[k, i, 1] * Sw[c, 1] + IA[k, i, 2] * Sw[c, 2]
                        + IA[k, i, 3] * Sv[c, 0] + IA[k, i, 4] * Sv[c, 1] + IA[k, i, 5] * Sv[c, 2])
-        u[c] = generalized[c] - (Sw[c, 0] * pA[k, 0] + Sw[c, 1] * pA[k, 1] + Sw[c, 2] * pA[k, 2]
-                                 + Sv[c, 0] * pA[k, 3] + Sv[c, 1] * pA[k, 4] + Sv[c, 2] * pA[k, 5])
-
-
-@njit(cache=True, inline="always")
-def _condense(k, p, c0, c1, IA, pA, U, DinvUT, Dinv_u):
-    """Add body k's subtree, condensed onto its joint, to its parent.
-
-    ``I^a = I^A - U D^-1 U^T`` and ``p^a = p^A + U D^-1 u`` (Featherstone's articulated-body inertia).
-    """
-    for i in range(6):
-        for j in range(6):
-            s = IA[k, i, j]
-            for c in range(c0, c1):
-                s -= U[c, i] * DinvUT[c, j]
-            IA[p, i, j] += s
-        s = pA[k, i]
-        for c in range(c0, c1):
-            s += U[c, i] * Dinv_u[c]
-        pA[p, i] += s
 
 
 @njit(cache=True)
-def _outward_accelerations(parent, coord_start, Sw, Sv, DinvUT, Dinv_u):
-    """From the ground out: ``xdd = D^-1 (u - U^T dA_P)`` and ``dA_k = dA_P + S_k xdd_k``."""
+def articulated_factor(parent, coord_start, spatial, Sw, Sv, armature, floor=0.0, lift=0.0):
+    """The articulated-body inertias of a tree, condensed from the leaves in (Featherstone).
+
+    ``I^A_k`` is body k's spatial inertia plus its children's, each
+    condensed onto its joint: ``I^a = I^A - U D^-1 U^T`` with ``U = I^A S``
+    and ``D = S^T I^A S + diag(armature)``. What a solve needs is kept per
+    coordinate: ``U``, ``D^-1 U^T`` and the rows of ``D^-1``.
+
+    Parameters
+    ----------
+    parent : ndarray of int, shape (n_bodies,)
+        Parent body (-1: ground); parents come before children.
+    coord_start : ndarray of int, shape (n_bodies + 1,)
+        Coordinate ranges of the tree joints.
+    spatial : ndarray, shape (n_bodies, 6, 6)
+        Spatial inertias about the origin.
+    Sw, Sv : ndarray, shape (n, 3)
+        Plucker axes of the coordinates.
+    armature : ndarray, shape (n,)
+        Diagonal added to A (zeros for the equations of motion).
+    floor : float
+        A joint inertia (pivot of D) at or below ``floor`` times the
+        largest entry ``s`` of the body's articulated inertia counts as
+        zero: a freedom that moves no mass, up to round-off (default 0: only
+        a pivot <= 0 does).
+    lift : float
+        If > 0, such a joint is not reported: ``lift * s`` is added to
+        its coordinates' entries of ``armature`` (in place) and to D, so
+        that the factors are those of ``A + diag(armature)``.
+
+    Returns
+    -------
+    U : ndarray, shape (n, 6)
+        ``I^A S``, one row per coordinate.
+    DinvUT : ndarray, shape (n, 6)
+        ``D^-1 U^T``, one row per coordinate.
+    Dinv : ndarray, shape (n, 6)
+        Row a of the joint's ``D^-1`` on its coordinate ``c0 + a`` (columns
+        beyond the joint's freedoms unused).
+    bad : int
+        -1, or the body whose joint has a singular articulated inertia
+        (a freedom without mass or inertia); the factors are then not valid.
+    """
     nb = parent.shape[0]
-    xdd = np.empty(Sw.shape[0])
-    dA = np.zeros((nb + 1, 6))
-    for k in range(nb):
+    n = Sw.shape[0]
+    IA = spatial.copy()
+    U = np.empty((n, 6))
+    DinvUT = np.empty((n, 6))
+    Dinv = np.zeros((n, 6))
+    for k in range(nb - 1, -1, -1):
+        c0, c1 = coord_start[k], coord_start[k + 1]
+        m = c1 - c0
+        _joint_axes(k, c0, c1, IA, Sw, Sv, U)
+        tiny = 0.0
+        if floor > 0.0 and m:
+            for i in range(6):
+                for j in range(6):
+                    tiny = max(tiny, abs(IA[k, i, j]))
+            tiny *= floor
+        # D^-1 stays in this loop: moved into a helper (inlined or not), it slowed the recursion
+        if m == 1:  # one freedom (most joints): D is a number, nothing to factor
+            d = (Sw[c0, 0] * U[c0, 0] + Sw[c0, 1] * U[c0, 1] + Sw[c0, 2] * U[c0, 2]
+                 + Sv[c0, 0] * U[c0, 3] + Sv[c0, 1] * U[c0, 4] + Sv[c0, 2] * U[c0, 5]) + armature[c0]
+            if not d > tiny and lift > 0.0:
+                armature[c0] += lift * tiny / floor
+                d += lift * tiny / floor
+            if not d > tiny:
+                return U, DinvUT, Dinv, k
+            for i in range(6):
+                DinvUT[c0, i] = U[c0, i] / d
+            Dinv[c0, 0] = 1.0 / d
+        elif m:
+            D = np.empty((m, m))
+            rhs = np.zeros((m, 6 + m))
+            for a in range(m):
+                ca = c0 + a
+                for b in range(m):
+                    cb = c0 + b
+                    D[a, b] = (Sw[ca, 0] * U[cb, 0] + Sw[ca, 1] * U[cb, 1] + Sw[ca, 2] * U[cb, 2]
+                               + Sv[ca, 0] * U[cb, 3] + Sv[ca, 1] * U[cb, 4] + Sv[ca, 2] * U[cb, 5])
+                D[a, a] += armature[ca]
+                for i in range(6):
+                    rhs[a, i] = U[ca, i]
+                rhs[a, 6 + a] = 1.0
+            sol = np.empty((m, 6 + m))
+            ok = solve_spd(D, rhs, sol, tiny)
+            if not ok and lift > 0.0:
+                for a in range(m):
+                    armature[c0 + a] += lift * tiny / floor
+                    D[a, a] += lift * tiny / floor
+                ok = solve_spd(D, rhs, sol, tiny)
+            if not ok:
+                return U, DinvUT, Dinv, k
+            for a in range(m):
+                for i in range(6):
+                    DinvUT[c0 + a, i] = sol[a, i]
+                for b in range(m):
+                    Dinv[c0 + a, b] = sol[a, 6 + b]
+        p = parent[k]
+        if p >= 0:  # I^a = I^A - U D^-1 U^T, added to the parent
+            for i in range(6):
+                for j in range(6):
+                    s = IA[k, i, j]
+                    for c in range(c0, c1):
+                        s -= U[c, i] * DinvUT[c, j]
+                    IA[p, i, j] += s
+    return U, DinvUT, Dinv, -1
+
+
+@njit(cache=True)
+def articulated_solve(parent, coord_start, Sw, Sv, U, DinvUT, Dinv, pA, generalized, bodies, xdd, dA):
+    """One solve with the factors of :func:`articulated_factor`: accelerations from loads.
+
+    From the leaves in, each joint's ``u = Q - S^T p^A`` and the bias
+    ``p^a = p^A + U D^-1 u`` added to the parent's; from the ground out,
+    ``xdd = D^-1 u - D^-1 U^T dA_P`` and ``dA_k = dA_P + S_k xdd_k``.
+
+    Parameters
+    ----------
+    parent, coord_start : ndarray of int
+        The tree layout.
+    Sw, Sv : ndarray, shape (n, 3)
+        Plucker axes of the coordinates.
+    U, DinvUT, Dinv : ndarray, shape (n, 6)
+        The factors.
+    pA : ndarray, shape (n_bodies + 1, 6)
+        Minus each body's applied wrench (Plucker, about the origin);
+        overwritten (the subtrees' biases), on ``bodies`` only.
+    generalized : ndarray, shape (n,)
+        Generalized forces applied on the coordinates (read on ``bodies``'
+        coordinates only).
+    bodies : ndarray of int
+        The bodies to visit, increasing: all of them, or whole subtrees
+        hanging from the ground (a load on them moves no other body).
+    xdd : ndarray, shape (n,)
+        The accelerations, written on ``bodies``' coordinates.
+    dA : ndarray, shape (n_bodies + 1, 6)
+        Spatial accelerations, written on ``bodies`` (the ground's row,
+        last, must be zero).
+    """
+    nb = parent.shape[0]
+    u = np.empty(6)
+    for q in range(bodies.shape[0] - 1, -1, -1):
+        k = bodies[q]
+        c0, c1 = coord_start[k], coord_start[k + 1]
+        for c in range(c0, c1):
+            u[c - c0] = generalized[c] - (Sw[c, 0] * pA[k, 0] + Sw[c, 1] * pA[k, 1] + Sw[c, 2] * pA[k, 2]
+                                          + Sv[c, 0] * pA[k, 3] + Sv[c, 1] * pA[k, 4] + Sv[c, 2] * pA[k, 5])
+        for c in range(c0, c1):  # D^-1 u, kept in xdd until the outward pass
+            s = 0.0
+            for b in range(c1 - c0):
+                s += Dinv[c, b] * u[b]
+            xdd[c] = s
+        p = parent[k]
+        if p >= 0:
+            for i in range(6):
+                s = pA[k, i]
+                for c in range(c0, c1):
+                    s += U[c, i] * xdd[c]
+                pA[p, i] += s
+    for q in range(bodies.shape[0]):
+        k = bodies[q]
         p = parent[k]
         if p < 0:
             p = nb
         for i in range(6):
             dA[k, i] = dA[p, i]
         for c in range(coord_start[k], coord_start[k + 1]):
-            s = Dinv_u[c]
+            s = xdd[c]
             for i in range(6):
                 s -= DinvUT[c, i] * dA[p, i]
             xdd[c] = s
@@ -136,7 +274,6 @@ def _outward_accelerations(parent, coord_start, Sw, Sv, DinvUT, Dinv_u):
             for i in range(3):
                 dA[k, i] += Sw[c, i] * xdd[c]
                 dA[k, 3 + i] += Sv[c, i] * xdd[c]
-    return xdd
 
 
 @njit(cache=True)
@@ -148,6 +285,7 @@ def articulated_accelerations(parent, coord_start, spatial, Sw, Sv, r, force, to
     ``D = S^T I^A S`` exactly as ``A + diag(armature)`` would (the Newton
     matrices of implicit integrators, ``A + a C + b K`` with diagonal
     coordinate dampers C and springs K, are of this form).
+    :func:`articulated_factor`, then :func:`articulated_solve`.
 
     Parameters
     ----------
@@ -179,48 +317,14 @@ def articulated_accelerations(parent, coord_start, spatial, Sw, Sv, r, force, to
     """
     nb = parent.shape[0]
     n = Sw.shape[0]
-    IA = spatial.copy()
+    U, DinvUT, Dinv, bad = articulated_factor(parent, coord_start, spatial, Sw, Sv, armature)
+    if bad >= 0:
+        return np.zeros(n), bad
     pA = _minus_bias_wrenches(nb, r, force, torque)
-    U = np.empty((n, 6))  # IA S, one row per coordinate
-    DinvUT = np.empty((n, 6))  # D^-1 U^T, one row per coordinate
-    Dinv_u = np.empty(n)
-    u = np.empty(n)
-    for k in range(nb - 1, -1, -1):
-        c0, c1 = coord_start[k], coord_start[k + 1]
-        m = c1 - c0
-        _joint_projections(k, c0, c1, IA, pA, Sw, Sv, generalized, U, u)
-        # D^-1 stays in this loop: moved into a helper (inlined or not), it slowed the recursion
-        if m == 1:  # one freedom (most joints): D is a number, nothing to factor
-            d = (Sw[c0, 0] * U[c0, 0] + Sw[c0, 1] * U[c0, 1] + Sw[c0, 2] * U[c0, 2]
-                 + Sv[c0, 0] * U[c0, 3] + Sv[c0, 1] * U[c0, 4] + Sv[c0, 2] * U[c0, 5]) + armature[c0]
-            if not d > 0.0:
-                return np.zeros(n), k
-            for i in range(6):
-                DinvUT[c0, i] = U[c0, i] / d
-            Dinv_u[c0] = u[c0] / d
-        elif m:
-            D = np.empty((m, m))
-            rhs = np.empty((m, 7))
-            for a in range(m):
-                ca = c0 + a
-                for b in range(m):
-                    cb = c0 + b
-                    D[a, b] = (Sw[ca, 0] * U[cb, 0] + Sw[ca, 1] * U[cb, 1] + Sw[ca, 2] * U[cb, 2]
-                               + Sv[ca, 0] * U[cb, 3] + Sv[ca, 1] * U[cb, 4] + Sv[ca, 2] * U[cb, 5])
-                D[a, a] += armature[ca]
-                for i in range(6):
-                    rhs[a, i] = U[ca, i]
-                rhs[a, 6] = u[ca]
-            sol = np.empty((m, 7))
-            if not solve_spd(D, rhs, sol):
-                return np.zeros(n), k
-            for a in range(m):
-                for i in range(6):
-                    DinvUT[c0 + a, i] = sol[a, i]
-                Dinv_u[c0 + a] = sol[a, 6]
-        if parent[k] >= 0:
-            _condense(k, parent[k], c0, c1, IA, pA, U, DinvUT, Dinv_u)
-    return _outward_accelerations(parent, coord_start, Sw, Sv, DinvUT, Dinv_u), -1
+    xdd = np.empty(n)
+    articulated_solve(parent, coord_start, Sw, Sv, U, DinvUT, Dinv, pA, generalized,
+                      np.arange(nb), xdd, np.zeros((nb + 1, 6)))
+    return xdd, -1
 
 
 @njit(cache=True)

@@ -7,10 +7,17 @@ joints of the model in one loop:
 * direction rows: ``d . (P_j - P_i) = 0`` with ``d`` a parent marker axis;
 * perpendicularity rows: ``a . b = 0`` for a parent and a child marker axis.
 
-A row of psi is the partial velocity of its residual (eq. 29): point
-partials ``S_v + S_w x P`` and angular partials ``S_w`` summed over the
-coordinates on the body's path from the ground, walked through the parent
-array. Cut-joint rows are scleronomic, so ``b = 0``; ``gamma`` is minus the
+A row of psi is the partial velocity of its residual (eq. 29). Each row
+touches two bodies, and its partials on each are those of one spatial
+wrench ``W = (tau, F)`` (Plucker, about the inertial origin): a point
+weight ``F`` at ``P`` gives ``F . (S_v + S_w x P) = (P x F, F) . (S_w, S_v)``,
+an angular weight ``tau`` gives ``tau . S_w``. So a row is two
+(body, wrench) pairs (:func:`cut_row_wrenches`), ``psi_a xd = W_a0 . V_i +
+W_a1 . V_j`` with ``V_k`` the spatial velocity of body k; the dense row
+(:func:`cut_rows`) sums ``S_c . W`` over the coordinates on each body's
+path from the ground, walked through the parent array. The pairs are also
+what the articulated-body strategy applies as loads
+(:mod:`flexmb.kernels.loops`). Cut-joint rows are scleronomic, so ``b = 0``; ``gamma`` is minus the
 velocity-dependent part of the residual's second derivative.
 """
 
@@ -21,7 +28,7 @@ from numba import njit
 
 from .tree import _cross_to, _mv_to
 
-__all__ = ["cut_rows"]
+__all__ = ["cut_rows", "cut_row_wrenches", "scatter_rows"]
 
 
 @njit(cache=True, inline="always")
@@ -29,25 +36,49 @@ def _dot3(a, b):
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-@njit(cache=True)
-def _add_point_partials(psi, row, sign, k, p, weight, parent, coord_start, Sw, Sv):
-    """``psi[row] += sign * weight . (S_v + S_w x p)`` over the coordinates moving body k."""
-    while k >= 0:
-        for c in range(coord_start[k], coord_start[k + 1]):
-            vx = Sv[c, 0] + Sw[c, 1] * p[2] - Sw[c, 2] * p[1]
-            vy = Sv[c, 1] + Sw[c, 2] * p[0] - Sw[c, 0] * p[2]
-            vz = Sv[c, 2] + Sw[c, 0] * p[1] - Sw[c, 1] * p[0]
-            psi[row, c] += sign * (weight[0] * vx + weight[1] * vy + weight[2] * vz)
-        k = parent[k]
+@njit(cache=True, inline="always")
+def _set_point_wrench(wrench, row, side, sign, p, weight):
+    """``wrench[row, side] += sign * (p x weight, weight)``: a point weight's partials as a wrench."""
+    wrench[row, side, 0] += sign * (p[1] * weight[2] - p[2] * weight[1])
+    wrench[row, side, 1] += sign * (p[2] * weight[0] - p[0] * weight[2])
+    wrench[row, side, 2] += sign * (p[0] * weight[1] - p[1] * weight[0])
+    for a in range(3):
+        wrench[row, side, 3 + a] += sign * weight[a]
+
+
+@njit(cache=True, inline="always")
+def _set_angular_wrench(wrench, row, side, sign, weight):
+    """``wrench[row, side] += sign * (weight, 0)``: an angular weight's partials as a wrench."""
+    for a in range(3):
+        wrench[row, side, a] += sign * weight[a]
 
 
 @njit(cache=True)
-def _add_angular_partials(psi, row, sign, k, weight, parent, coord_start, Sw):
-    """``psi[row] += sign * weight . S_w`` over the coordinates moving body k."""
-    while k >= 0:
-        for c in range(coord_start[k], coord_start[k + 1]):
-            psi[row, c] += sign * (weight[0] * Sw[c, 0] + weight[1] * Sw[c, 1] + weight[2] * Sw[c, 2])
-        k = parent[k]
+def scatter_rows(psi, wrench, body, parent, coord_start, Sw, Sv):
+    """Add the dense rows ``psi[a, c] += S_c . W`` of (body, wrench) pairs, over each body's path.
+
+    Parameters
+    ----------
+    psi : ndarray, shape (m, n)
+        Rows to add to.
+    wrench : ndarray, shape (m, 2, 6)
+        Each row's two wrenches (Plucker: moment about the origin, force).
+    body : ndarray of int, shape (m, 2)
+        The bodies they act on (-1: the ground, no partials).
+    parent, coord_start : ndarray of int
+        The tree layout.
+    Sw, Sv : ndarray, shape (n, 3)
+        Plucker axes of the coordinates.
+    """
+    for a in range(wrench.shape[0]):
+        for side in range(2):
+            k = body[a, side]
+            w = wrench[a, side]
+            while k >= 0:
+                for c in range(coord_start[k], coord_start[k + 1]):
+                    psi[a, c] += (w[0] * Sw[c, 0] + w[1] * Sw[c, 1] + w[2] * Sw[c, 2]
+                                  + w[3] * Sv[c, 0] + w[4] * Sv[c, 1] + w[5] * Sv[c, 2])
+                k = parent[k]
 
 
 @njit(cache=True, inline="always")
@@ -84,8 +115,8 @@ def _velocity(out, k, p, r, omega, v):
 
 
 @njit(cache=True, inline="always")
-def _point_rows(level, row, phi, psi, gamma, R, origin, r, omega, alpha_bias, a_bias, Sw, Sv, parent, coord_start,
-                pt_i, pt_pi, pt_j, pt_pj):
+def _point_rows(level, row, phi, wrench, body, gamma, R, origin, r, omega, alpha_bias, a_bias, pt_i, pt_pi, pt_j,
+                pt_pj):
     """Point rows ``P_i - P_j = 0`` (eq. 28), their psi (eq. 29) and gamma, from ``row`` on; returns the next row."""
     Pi = np.empty(3)
     Pj = np.empty(3)
@@ -104,8 +135,9 @@ def _point_rows(level, row, phi, psi, gamma, R, origin, r, omega, alpha_bias, a_
         for a in range(3):
             phi[row + a] = Pi[a] - Pj[a]
             if level >= 1:
-                _add_point_partials(psi, row + a, 1.0, i, Pi, unit[a], parent, coord_start, Sw, Sv)
-                _add_point_partials(psi, row + a, -1.0, j, Pj, unit[a], parent, coord_start, Sw, Sv)
+                body[row + a, 0], body[row + a, 1] = i, j
+                _set_point_wrench(wrench, row + a, 0, 1.0, Pi, unit[a])
+                _set_point_wrench(wrench, row + a, 1, -1.0, Pj, unit[a])
             if level >= 2:
                 gamma[row + a] = -(t1[a] - t2[a])
         row += 3
@@ -140,8 +172,8 @@ def _direction_bias(i, j, Pi, Pj, d, e, de, r, omega, v, alpha_bias, a_bias):
 
 
 @njit(cache=True, inline="always")
-def _direction_rows(level, row, phi, psi, gamma, R, origin, r, omega, v, alpha_bias, a_bias, Sw, Sv, parent,
-                    coord_start, dr_i, dr_pi, dr_ai, dr_j, dr_pj):
+def _direction_rows(level, row, phi, wrench, body, gamma, R, origin, r, omega, v, alpha_bias, a_bias, dr_i, dr_pi,
+                    dr_ai, dr_j, dr_pj):
     """Direction rows ``d . (P_j - P_i) = 0`` (eq. 28), their psi (eq. 29) and gamma; returns the next row."""
     Pi = np.empty(3)
     Pj = np.empty(3)
@@ -158,9 +190,10 @@ def _direction_rows(level, row, phi, psi, gamma, R, origin, r, omega, v, alpha_b
         phi[row] = _dot3(d, e)
         _cross_to(de, d, e)
         if level >= 1:
-            _add_angular_partials(psi, row, 1.0, i, de, parent, coord_start, Sw)
-            _add_point_partials(psi, row, 1.0, j, Pj, d, parent, coord_start, Sw, Sv)
-            _add_point_partials(psi, row, -1.0, i, Pi, d, parent, coord_start, Sw, Sv)
+            body[row, 0], body[row, 1] = i, j
+            _set_angular_wrench(wrench, row, 0, 1.0, de)
+            _set_point_wrench(wrench, row, 0, -1.0, Pi, d)
+            _set_point_wrench(wrench, row, 1, 1.0, Pj, d)
         if level >= 2:
             gamma[row] = -_direction_bias(i, j, Pi, Pj, d, e, de, r, omega, v, alpha_bias, a_bias)
         row += 1
@@ -168,8 +201,7 @@ def _direction_rows(level, row, phi, psi, gamma, R, origin, r, omega, v, alpha_b
 
 
 @njit(cache=True, inline="always")
-def _perpendicular_rows(level, row, phi, psi, gamma, R, omega, alpha_bias, Sw, parent, coord_start,
-                        pp_i, pp_ai, pp_j, pp_bj):
+def _perpendicular_rows(level, row, phi, wrench, body, gamma, R, omega, alpha_bias, pp_i, pp_ai, pp_j, pp_bj):
     """Perpendicularity rows ``a . b = 0`` (eq. 28), their psi (eq. 29) and gamma; returns the next row."""
     va = np.empty(3)
     vb = np.empty(3)
@@ -184,8 +216,9 @@ def _perpendicular_rows(level, row, phi, psi, gamma, R, omega, alpha_bias, Sw, p
         phi[row] = _dot3(va, vb)
         _cross_to(ab, va, vb)
         if level >= 1:
-            _add_angular_partials(psi, row, 1.0, i, ab, parent, coord_start, Sw)
-            _add_angular_partials(psi, row, -1.0, j, ab, parent, coord_start, Sw)
+            body[row, 0], body[row, 1] = i, j
+            _set_angular_wrench(wrench, row, 0, 1.0, ab)
+            _set_angular_wrench(wrench, row, 1, -1.0, ab)
         if level >= 2:
             wi, wj = omega[i], omega[j]
             _cross_to(t1, wi, va)
@@ -201,22 +234,16 @@ def _perpendicular_rows(level, row, phi, psi, gamma, R, omega, alpha_bias, Sw, p
 
 
 @njit(cache=True)
-def cut_rows(level, n, R, origin, r, omega, v, alpha_bias, a_bias, Sw, Sv, parent, coord_start,
-             pt_i, pt_pi, pt_j, pt_pj, dr_i, dr_pi, dr_ai, dr_j, dr_pj, pp_i, pp_ai, pp_j, pp_bj):
-    """The rows of all cut joints.
+def cut_row_wrenches(level, R, origin, r, omega, v, alpha_bias, a_bias, pt_i, pt_pi, pt_j, pt_pj, dr_i, dr_pi,
+                     dr_ai, dr_j, dr_pj, pp_i, pp_ai, pp_j, pp_bj):
+    """The rows of all cut joints, each row's partials as two (body, wrench) pairs.
 
     Parameters
     ----------
     level : int
-        0: phi only; 1: also psi (b is zero); 2: also gamma.
-    n : int
-        Number of coordinates.
+        0: phi only; 1: also the wrenches (b is zero); 2: also gamma.
     R, origin, r, omega, v, alpha_bias, a_bias : ndarray
         Kinematics, one row per body and the ground last (index -1).
-    Sw, Sv : ndarray, shape (n, 3)
-        Plucker axes of the coordinates.
-    parent, coord_start : ndarray of int
-        The tree layout.
     pt_i, pt_pi, pt_j, pt_pj : ndarray
         Point rows: parent body, parent point (body frame), child body,
         child point.
@@ -230,19 +257,60 @@ def cut_rows(level, n, R, origin, r, omega, v, alpha_bias, a_bias, Sw, Sv, paren
     -------
     phi : ndarray, shape (m,)
         Residuals.
-    psi : ndarray, shape (m, n)
-        Rows of the constraint Jacobian (zero rows below level 1).
+    wrench : ndarray, shape (m, 2, 6)
+        Row a of psi is ``psi_a xd = wrench[a, 0] . V_body[a, 0] + wrench[a, 1]
+        . V_body[a, 1]``, with ``V_k = sum S_c xd_c`` over the coordinates on
+        body k's path (zero below level 1).
+    body : ndarray of int, shape (m, 2)
+        The two bodies of each row (-1: the ground).
     gamma : ndarray, shape (m,)
         Right-hand sides of ``psi xdd = gamma`` (zero below level 2).
     """
     m = 3 * pt_i.shape[0] + dr_i.shape[0] + pp_i.shape[0]
     phi = np.zeros(m)
-    psi = np.zeros((m if level >= 1 else 0, n))
+    wrench = np.zeros((m, 2, 6))
+    body = np.full((m, 2), -1, dtype=np.int64)
     gamma = np.zeros(m)
-    row = _point_rows(level, 0, phi, psi, gamma, R, origin, r, omega, alpha_bias, a_bias, Sw, Sv, parent, coord_start,
-                      pt_i, pt_pi, pt_j, pt_pj)
-    row = _direction_rows(level, row, phi, psi, gamma, R, origin, r, omega, v, alpha_bias, a_bias, Sw, Sv, parent,
-                          coord_start, dr_i, dr_pi, dr_ai, dr_j, dr_pj)
-    _perpendicular_rows(level, row, phi, psi, gamma, R, omega, alpha_bias, Sw, parent, coord_start, pp_i, pp_ai, pp_j,
-                        pp_bj)
+    row = _point_rows(level, 0, phi, wrench, body, gamma, R, origin, r, omega, alpha_bias, a_bias, pt_i, pt_pi, pt_j,
+                      pt_pj)
+    row = _direction_rows(level, row, phi, wrench, body, gamma, R, origin, r, omega, v, alpha_bias, a_bias, dr_i,
+                          dr_pi, dr_ai, dr_j, dr_pj)
+    _perpendicular_rows(level, row, phi, wrench, body, gamma, R, omega, alpha_bias, pp_i, pp_ai, pp_j, pp_bj)
+    return phi, wrench, body, gamma
+
+
+@njit(cache=True)
+def cut_rows(level, n, R, origin, r, omega, v, alpha_bias, a_bias, Sw, Sv, parent, coord_start,
+             pt_i, pt_pi, pt_j, pt_pj, dr_i, dr_pi, dr_ai, dr_j, dr_pj, pp_i, pp_ai, pp_j, pp_bj):
+    """The rows of all cut joints, psi dense (:func:`cut_row_wrenches` scattered by :func:`scatter_rows`).
+
+    Parameters
+    ----------
+    level : int
+        0: phi only; 1: also psi (b is zero); 2: also gamma.
+    n : int
+        Number of coordinates.
+    R, origin, r, omega, v, alpha_bias, a_bias : ndarray
+        Kinematics, one row per body and the ground last (index -1).
+    Sw, Sv : ndarray, shape (n, 3)
+        Plucker axes of the coordinates.
+    parent, coord_start : ndarray of int
+        The tree layout.
+    pt_i, pt_pi, pt_j, pt_pj, dr_i, dr_pi, dr_ai, dr_j, dr_pj, pp_i, pp_ai, pp_j, pp_bj : ndarray
+        The cut joints' rows, as :func:`cut_row_wrenches` takes them.
+
+    Returns
+    -------
+    phi : ndarray, shape (m,)
+        Residuals.
+    psi : ndarray, shape (m, n)
+        Rows of the constraint Jacobian (zero rows below level 1).
+    gamma : ndarray, shape (m,)
+        Right-hand sides of ``psi xdd = gamma`` (zero below level 2).
+    """
+    phi, wrench, body, gamma = cut_row_wrenches(level, R, origin, r, omega, v, alpha_bias, a_bias, pt_i, pt_pi, pt_j,
+                                                pt_pj, dr_i, dr_pi, dr_ai, dr_j, dr_pj, pp_i, pp_ai, pp_j, pp_bj)
+    psi = np.zeros((phi.shape[0] if level >= 1 else 0, n))
+    if level >= 1:
+        scatter_rows(psi, wrench, body, parent, coord_start, Sw, Sv)
     return phi, psi, gamma

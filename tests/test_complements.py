@@ -62,9 +62,9 @@ TOL = 1e-12
 
 # -- selection ---------------------------------------------------------------
 
-def test_registry_holds_eigen_svd_qr_auto():
+def test_registry_holds_eigen_svd_qr_auto_articulated():
     assert fm.COMPLEMENTS == {"eigen": fm.EigenComplement, "svd": fm.SVDComplement, "qr": fm.QRComplement,
-                              "auto": fm.AutoComplement}
+                              "auto": fm.AutoComplement, "articulated": fm.ArticulatedComplement}
     for name, cls in fm.COMPLEMENTS.items():
         assert issubclass(cls, ComplementStrategy)
         assert cls.name == name

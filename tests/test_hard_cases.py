@@ -123,13 +123,13 @@ def stiff_pendulum(E, n_segments=4, beta=7.7398e-4):
 @pytest.fixture(scope="module")
 def bricard_runs():
     out = {}
-    for comp in ("svd", "eigen"):
+    for comp in ("svd", "eigen", "articulated"):
         system = bricard().build(complement=comp)
         out[comp] = system, fm.simulate(system, 10.0, rtol=1e-10, n_out=501, method="DOP853")
     return out
 
 
-@pytest.mark.parametrize("comp", ["svd", "eigen"])
+@pytest.mark.parametrize("comp", ["svd", "eigen", "articulated"])
 def test_bricard_moves_with_one_freedom_despite_gruebler_zero(bricard_runs, comp):
     system, res = bricard_runs[comp]
     assert (system.n_coords, system.n_constraints) == (5, 5)  # Grubler: 5 - 5 = 0
@@ -151,6 +151,9 @@ def test_bricard_symmetry_and_strategies_agree(bricard_runs):
     # both strategies follow the same motion (10 s of large swings: chaos-free, so close)
     dx = np.abs(bricard_runs["svd"][1].x - bricard_runs["eigen"][1].x).max()
     _report("Bricard eigen vs svd", x_abs_rad=dx)
+    assert dx < 1e-5
+    dx = np.abs(bricard_runs["svd"][1].x - bricard_runs["articulated"][1].x).max()
+    _report("Bricard articulated vs svd", x_abs_rad=dx)
     assert dx < 1e-5
 
 
@@ -216,12 +219,14 @@ def _run_parallelogram(system, chain=False, **options):
 
 @pytest.mark.parametrize("option", ["default", "singular_rtol"])
 @pytest.mark.parametrize("cut", [fm.PlanarRevolute, fm.Revolute], ids=["planar", "spatial"])
-@pytest.mark.parametrize("comp", ["svd", "eigen"])
+@pytest.mark.parametrize("comp", ["svd", "eigen", "articulated"])
 def test_parallelogram_passes_its_flattened_positions_on_its_branch(cut, comp, option):
     """Six passes through the bifurcation: crank angle = th0 + w t exactly, the coupler keeps its direction.
 
     With the defaults (the strategy's ``singular_window``) and with the
     opt-in ``singular_rtol``."""
+    if comp == "articulated" and option == "singular_rtol":
+        pytest.skip("the articulated strategy has no singular_rtol (its singular_window only)")
     strategy = comp if option == "default" else fm.get_complement(comp).__class__(singular_rtol=1e-2)
     system = parallelogram(cut).build(complement=strategy)
     res, passes, err, branch = _run_parallelogram(system, rtol=1e-10, method="DOP853")
@@ -236,7 +241,7 @@ def test_parallelogram_passes_its_flattened_positions_on_its_branch(cut, comp, o
 
 
 @pytest.mark.parametrize("cut", [fm.PlanarRevolute, fm.Revolute], ids=["planar", "spatial"])
-@pytest.mark.parametrize("comp", ["svd", "eigen"])
+@pytest.mark.parametrize("comp", ["svd", "eigen", "articulated"])
 def test_parallelogram_stays_on_its_branch_with_default_simulate(cut, comp):
     """``simulate`` with all defaults (method 'auto' -> DOP853, rtol 1e-8): the branch is kept.
 
@@ -244,6 +249,11 @@ def test_parallelogram_stays_on_its_branch_with_default_simulate(cut, comp):
     closed form is linear in t), each spanning a whole pass, and its dense
     output between them drifts by up to 2e-6 of the energy (1e-7 at the step
     ends); the energy bound is asserted at rtol 1e-10 above.
+
+    With these 9-15 steps the errors depend on round-off: moving the start
+    angle by 1e-15 to 1e-13 rad gave branch errors from 1.4e-8 to 4.0e-6
+    (svd, planar cut, on the code of 2026-11-26), so the branch is asserted
+    at 1e-5, as the crank angle is; leaving the branch costs O(1).
     """
     res, passes, err, branch = _run_parallelogram(parallelogram(cut).build(complement=comp))
     _report(f"parallelogram {cut.__name__} {comp} auto", passes=passes, crank_err=err, branch_err=branch,
@@ -251,11 +261,11 @@ def test_parallelogram_stays_on_its_branch_with_default_simulate(cut, comp):
     assert res.status == "finished" and np.all(np.isfinite(res.x))
     assert passes == 6
     assert err < 1e-5
-    assert branch < 1e-6
+    assert branch < 1e-5
     assert res.residual.max() < 1e-8
 
 
-@pytest.mark.parametrize("comp", ["svd", "eigen"])
+@pytest.mark.parametrize("comp", ["svd", "eigen", "articulated"])
 def test_chain_of_two_parallelograms_keeps_both_branches(comp):
     """Both loops flatten at once (psi loses two ranks) six times; the defaults keep both branches."""
     system = parallelogram_chain().build(complement=comp)

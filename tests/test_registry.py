@@ -222,7 +222,7 @@ def test_register_refuses_bad_input():
 def test_unknown_names_list_the_valid_ones():
     with pytest.raises(PluginError, match=r"no joints plugin named 'hinge'; pick one of \['cylindrical'"):
         registry.get("joints", "hinge")
-    pattern = r"unknown complement strategy 'lu'; pick one of \['auto', 'eigen', 'qr', 'svd'\]"
+    pattern = r"unknown complement strategy 'lu'; pick one of \['articulated', 'auto', 'eigen', 'qr', 'svd'\]"
     with pytest.raises(ModelError, match=pattern):
         fm.get_complement("lu")
     with pytest.raises(ModelError, match=r"unknown integrator 'Euler'; pick one of \['BDF', 'DOP853'"):

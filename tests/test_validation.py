@@ -556,7 +556,7 @@ def test_joint_spring_on_cut_joint_fails_at_build():
 
 
 def test_unknown_complement_strategy():
-    pattern = r"unknown complement strategy 'lu'; pick one of \['auto', 'eigen', 'qr', 'svd'\]"
+    pattern = r"unknown complement strategy 'lu'; pick one of \['articulated', 'auto', 'eigen', 'qr', 'svd'\]"
     with pytest.raises(fm.ModelError, match=pattern):
         fm.get_complement("lu")
     with pytest.raises(fm.ModelError, match=pattern):

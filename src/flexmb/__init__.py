@@ -30,7 +30,7 @@ from .simulate import INTEGRATORS, initial_state, simulate
 from .genalpha import GeneralizedAlpha, generalized_alpha
 from .system import System
 from .scene import Scene, load_scene, loads_scene
-from .complements import AutoComplement, QRComplement
+from .complements import ArticulatedComplement, AutoComplement, QRComplement
 from ._names import reference
 
 __version__ = "0.1.0"
@@ -53,7 +53,7 @@ __all__ = [
     "Model", "PluginInfo", "plugins", "register", "Result", "INTEGRATORS", "initial_state", "simulate", "System",
     "Scene", "SceneError", "load_scene", "loads_scene",
     "StiffnessWarning", "GeneralizedAlpha", "generalized_alpha",
-    "AutoComplement", "QRComplement",
+    "ArticulatedComplement", "AutoComplement", "QRComplement",
     "reference",
 ]
 

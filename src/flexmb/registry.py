@@ -302,7 +302,7 @@ def plugins(kind: str | None = None) -> list[PluginInfo]:
     --------
     >>> import flexmb
     >>> [p.name for p in flexmb.plugins("complements")]
-    ['auto', 'eigen', 'qr', 'svd']
+    ['articulated', 'auto', 'eigen', 'qr', 'svd']
     """
     kinds = list(KINDS) if kind is None else [_kind(kind)]
     rows = []
@@ -449,6 +449,6 @@ def builtin_table(kind: str) -> BuiltinTable:
     --------
     >>> from flexmb import registry
     >>> sorted(registry.builtin_table("complements"))
-    ['auto', 'eigen', 'qr', 'svd']
+    ['articulated', 'auto', 'eigen', 'qr', 'svd']
     """
     return BuiltinTable(kind)

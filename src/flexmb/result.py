@@ -584,8 +584,7 @@ def _evaluate_states(system, t, X, XD, XDD) -> dict:
             elif m == 0:  # no reactions: the system's own route (O(n) for an open tree)
                 out["xdd"][i] = system.accelerations(t[i], x, xd)
             else:
-                A, f, psi, gamma = system.reduced_parts(t[i], np.concatenate([x, xd]))
-                out["xdd"][i], out["reactions"][i] = system._solve(t[i], A, f, psi, gamma, multipliers=True)
+                out["xdd"][i], out["reactions"][i] = system._with_reactions(t[i], np.concatenate([x, xd]))
         except FlexmbError:
             if XDD is None:
                 out["xdd"][i] = np.nan

@@ -189,6 +189,13 @@ def _calibrated(system, t0, x, xd):
     if not system.n_constraints:
         return system
     n_drv = len(system.constraints.drivers)
+    if system._loop_kernel:  # the rank and the scale of the filter as the loop kernel sees them
+        if system._loop_calibration(t0, x, xd, drivers=False)[0] >= system.n_coords:
+            raise ModelError(
+                f"the model has no degree of freedom left: its {system.n_coords} coordinates are all fixed by "
+                f"{system.n_constraints - n_drv} loop-closure rows (a structure, not a mechanism)"
+            )
+        return system.calibrated(*system._loop_calibration(t0, x, xd))
     psi = system.constraints.evaluate(system.kinematics(t0, x, xd), level=1).psi
     if system.strategy.complement(psi[: system.n_constraints - n_drv]).p == 0:
         raise ModelError(

@@ -140,6 +140,11 @@ class Run:
             return system.state_rate(t, y)  # finite, or AssemblyError naming the cause
         xs, vs = y[:n], y[n : 2 * n]
         rates = np.zeros(self.n_w)
+        if system._loop_kernel:  # finite, or AssemblyError naming the cause
+            xdd, lam = system._loop_solve(t, y, powers=rates[self.n_drv:], multipliers=True)
+            if self.n_drv:
+                rates[: self.n_drv] = lam[-self.n_drv:] * np.array([d.velocity(t) for d in system.constraints.drivers])
+            return np.concatenate([vs, xdd, rates])
         A, f, psi, gamma = system.reduced_parts(t, y, powers=rates[self.n_drv:])
         try:
             xdd, lam = system._solve(t, A, f, psi, gamma, multipliers=True)
@@ -166,8 +171,9 @@ class Run:
         caps, system, n = self.caps, self.system, self.n
         if caps.needs_n_second:  # written for y = (x, xd, ...) itself (GeneralizedAlpha)
             self.options["n_second"] = n
-        if caps.uses_preconditioner and system.articulated and n >= KRYLOV_MIN_COORDS:
-            # an open tree: O(n) Newton solves, no matrix (System.newton_preconditioner)
+        if caps.uses_preconditioner and (system.articulated or system._loop_kernel) and n >= KRYLOV_MIN_COORDS:
+            # an open tree, or loops closed through the recursion: O(n) Newton solves, no matrix
+            # (System.newton_preconditioner)
             self.preconditioner = self.options["preconditioner"] = system.newton_preconditioner()
         elif caps.uses_jacobian and system.state_jacobian(self.t0, x, xd) is not None:
             self.counters["jac"] = 0

@@ -133,7 +133,7 @@ def test_the_good_scene_loads():
      "scene.toml: bodies.bar.shape: unknown shape 'sphere' for rigid_body; pick one of bar, box, slender_bar"),
     (("t_end = 1.0", "t_end = 1.0\nmethod = \"Euler\""), "scene.toml: solver.method: unknown integrator 'Euler'"),
     (("t_end = 1.0", "t_end = 1.0\ncomplement = \"lu\""),
-     "scene.toml: solver.complement: unknown complement strategy 'lu'; pick one of auto, eigen, qr, svd"),
+     "scene.toml: solver.complement: unknown complement strategy 'lu'; pick one of articulated, auto, eigen, qr, svd"),
 ])
 def test_bad_scene_names_the_key_path(edit, expected):
     old, new = edit

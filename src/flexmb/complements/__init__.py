@@ -9,9 +9,10 @@ from .eigen import EigenComplement
 from .svd import SVDComplement
 from .qr import QRComplement
 from .auto import AutoComplement
+from .articulated import ArticulatedComplement
 
 __all__ = ["Complement", "ComplementStrategy", "EigenComplement", "SVDComplement", "COMPLEMENTS", "get_complement",
-           "QRComplement", "AutoComplement"]
+           "QRComplement", "AutoComplement", "ArticulatedComplement"]
 
 #: the built-in strategies by name: a read-only view of flexmb's ``flexmb.complements`` entry points
 COMPLEMENTS = registry.builtin_table("complements")
@@ -23,7 +24,7 @@ def get_complement(strategy) -> ComplementStrategy:
     Parameters
     ----------
     strategy : str, type or ComplementStrategy
-        ``"eigen"``, ``"svd"``, ``"qr"``, ``"auto"``, a plugin's name (entry-point group
+        ``"eigen"``, ``"svd"``, ``"qr"``, ``"auto"``, ``"articulated"``, a plugin's name (entry-point group
         ``flexmb.complements``), a subclass, or an instance.
 
     Returns

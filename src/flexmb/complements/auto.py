@@ -21,6 +21,15 @@ def _positive(instance, attribute, value):
 class AutoComplement(ComplementStrategy):
     """QR of psi^T when it is large and reveals the rank clearly, SVD otherwise.
 
+    On a :class:`~flexmb.System` whose evaluation is compiled (every model
+    but those with plugin joints), ``"auto"`` solves the reduced equations
+    by the articulated strategy (:class:`~flexmb.complements.ArticulatedComplement`: the
+    right-hand side, the reactions and the mass-orthogonal speed
+    projection, with its tolerances): it was the cheaper on every looped
+    model measured (``benchmarks/rhs_cost.py``; docs/benchmarks.md). The
+    rule below builds the explicit complements T that other consumers ask
+    for (:meth:`complement`).
+
     The rule, applied to each psi (m x n) passed to :meth:`complement`:
 
     1. if ``n < min_n`` (default 20), use the SVD: for such small matrices

@@ -23,6 +23,7 @@ from ..kernels.packing import pack
 from .projection import Projection
 from .quantities import StateQuantities
 from .rates import Rates
+from .loops import LoopSolve
 from .solve import ReducedSolve, _plain
 from .tangent import Tangent
 from ..kernels.articulated import open_tree_accelerations, open_tree_rhs
@@ -63,7 +64,7 @@ class Equations(NamedTuple):
     gamma: np.ndarray
 
 
-class System(ReducedSolve, Tangent, Rates, StateQuantities, Projection):
+class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projection):
     """A model compiled for evaluation: ``A(x, t) xdd = f`` with ``psi xd = b``.
 
     Parameters
@@ -72,13 +73,14 @@ class System(ReducedSolve, Tangent, Rates, StateQuantities, Projection):
         A validated model.
     complement : str or ComplementStrategy
         Orthogonal complement strategy (``"svd"``, ``"eigen"``, ``"qr"``,
-        ``"auto"`` or a registered plugin's name).
+        ``"auto"``, ``"articulated"`` or a registered plugin's name).
     sparse : bool or None
         Solve the equations of an open tree by the articulated-body
         recursion (:mod:`flexmb.kernels.articulated`: O(n) per evaluation,
         A never formed) rather than by a dense Cholesky factorization of A
         (False). None (default): the recursion for every open tree. Models
-        with loops always use the dense complement path.
+        with loops use their strategy (``"articulated"``: O(n m), A never
+        formed).
 
     Attributes
     ----------
@@ -111,6 +113,7 @@ class System(ReducedSolve, Tangent, Rates, StateQuantities, Projection):
         self.coordinate_names = self.topology.coordinate_names
         self.body_names = [b.name for b in self.topology.bodies]
         self.n_complements = 0
+        self._shared: dict = {}  # what is built lazily once per model, shared by the calibrated copies
         if sparse and self.n_constraints:
             raise ModelError("sparse=True needs an open tree: this model has loop or driver constraints")
         if sparse is None:
@@ -360,15 +363,7 @@ class System(ReducedSolve, Tangent, Rates, StateQuantities, Projection):
             powers = self._no_powers
         else:
             powers[:] = 0.0
-        loads = self._no_loads
-        if self._python_groups:  # plugins: called back with the kinematics, their loads added in the kernel
-            kin = self.kinematics(t, y[:n], y[n : 2 * n])
-            acc = Loads(kin)
-            for g, cls, elements in self._python_groups:
-                cls.apply_all(elements, kin, acc)
-                if powers.shape[0]:
-                    powers[g] = _power(kin, acc) - sum(powers[h] for h, _, _ in self._python_groups if h < g)
-            loads = (acc.force, acc.torque, acc.generalized)
+        loads = self._python_loads(t, y, powers)
         A, f, _, psi, gamma = tree_equations(self._packed, y, n, powers, *loads)
         if self.constraints.drivers:
             psi_d, gamma_d = self.constraints.driver_rows(t, n)
@@ -377,6 +372,22 @@ class System(ReducedSolve, Tangent, Rates, StateQuantities, Projection):
             full[:m], full[m:] = psi, psi_d
             psi, gamma = full, np.concatenate((gamma, gamma_d))
         return A, f, psi, gamma
+
+    def _python_loads(self, t, y, powers):
+        """Force, torque and generalized loads of the force elements evaluated in Python (plugins) at ``y``.
+
+        Their powers go into ``powers`` (if not empty) at their groups' entries; zeros without such elements.
+        """
+        if not self._python_groups:
+            return self._no_loads
+        n = self.n_coords
+        kin = self.kinematics(t, y[:n], y[n : 2 * n])
+        acc = Loads(kin)
+        for g, cls, elements in self._python_groups:
+            cls.apply_all(elements, kin, acc)
+            if powers.shape[0]:
+                powers[g] = _power(kin, acc) - sum(powers[h] for h, _, _ in self._python_groups if h < g)
+        return acc.force, acc.torque, acc.generalized
 
     def _rows(self, t, x, xd) -> ConstraintRows:
         """phi, psi and b at a state (all rows: cut joints, then drivers), compiled where it can be."""
@@ -462,6 +473,8 @@ class System(ReducedSolve, Tangent, Rates, StateQuantities, Projection):
         """
         if self.articulated:  # open tree: A is never formed
             return self._articulated(t, x, xd)
+        if self._loop_kernel:  # loops closed through the recursion: A, psi and T never formed
+            return self._loop_solve(t, np.concatenate([x, xd]))
         if self.n_constraints or self._packed is not None:
             A, f, psi, gamma = self.reduced_parts(t, np.concatenate([x, xd]))
         else:  # an open tree: no constraints to evaluate

@@ -97,6 +97,10 @@ class Projection:
     def _mass_orthogonal_speeds(self, kin, psi, b, xd, c=None):
         """``xd_p + T (T^T A T)^-1 T^T A (xd - xd_p)`` with ``xd_p = psi^+ b``: the consistent speeds
         nearest to ``xd`` in the kinetic-energy metric (``c``: the complement to use)."""
+        if c is None and self._loop_kernel:
+            v = self._loop_speeds(kin.t, kin.x, xd, b)
+            if v is not None:
+                return v
         if c is None and self._svd_kernel:  # the compiled reduced solve with f = A xd, gamma = b
             A = mass_matrix(kin)
             v, _, status = svd_reduced_solve(A, A @ xd, _plain(psi).reshape(psi.shape[0], self.n_coords),

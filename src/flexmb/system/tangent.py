@@ -10,6 +10,7 @@ from ..errors import AssemblyError, ModelError
 from ..forces import BodyTorque, Loads, PointForce
 from .solve import _plain
 from ..kernels.articulated import articulated_accelerations, mass_times
+from ..kernels.loops import loop_newton
 
 
 def _skew(v):
@@ -175,23 +176,28 @@ class Tangent:
             loads = self.forces.loads(kin)
         return geometric_stiffness(kin, xdd, loads.force[:-1], loads.torque[:-1]) + _turning_loads(self, kin)
 
-    def newton_preconditioner(self) -> "NewtonPreconditioner":
-        """An O(n) approximate solver of an implicit integrator's Newton matrix, for open trees.
+    def newton_preconditioner(self):
+        """An O(n) approximate solver of an implicit integrator's Newton matrix (O(n m) with loops).
 
         Returns
         -------
-        NewtonPreconditioner
-            See :class:`NewtonPreconditioner`.
+        NewtonPreconditioner or LoopNewtonPreconditioner
+            See :class:`NewtonPreconditioner` (open trees) and
+            :class:`LoopNewtonPreconditioner` (loops
+            closed by the articulated strategy).
 
         Raises
         ------
         ModelError
-            If the model has loops or driver constraints (the articulated-body
-            recursion needs an open tree).
+            If the model has loops or drivers that another strategy closes,
+            or is an open tree solved densely (``sparse=False``).
         """
+        if self._loop_kernel:
+            return LoopNewtonPreconditioner(self)
         if self.n_constraints or not self.articulated:
             raise ModelError("the O(n) Newton preconditioner needs an open tree solved by the articulated-body "
-                             "recursion (no loops or drivers, sparse not False)")
+                             "recursion (no loops or drivers, sparse not False), or loops closed by "
+                             "complement='articulated' or 'auto'")
         return NewtonPreconditioner(self)
 
 
@@ -217,19 +223,36 @@ class NewtonPreconditioner:
 
     def __init__(self, system):
         self.system = system
+        self.stiffness, self.damping = self.diagonal_terms(system)
+        self._state = None
+        self._zeros = np.zeros((system.topology.n_bodies + 1, 3))
+        self.n_setups = 0
+
+    @staticmethod
+    def diagonal_terms(system) -> tuple[np.ndarray, np.ndarray]:
+        """The diagonal coordinate springs K and dampers C of a system's force elements.
+
+        Parameters
+        ----------
+        system : System
+            The system.
+
+        Returns
+        -------
+        stiffness, damping : ndarray, shape (n,)
+            K and C on each coordinate.
+        """
         n = system.n_coords
         kin = system.kinematics(0.0, np.zeros(n), np.zeros(n))
-        self.stiffness = np.zeros(n)
-        self.damping = np.zeros(n)
+        stiffness = np.zeros(n)
+        damping = np.zeros(n)
         for cls, elements in system.forces.groups:
             part = cls.tangent_all(elements, kin)
             if part is not None:
                 cols, k, c = part
-                np.add.at(self.stiffness, cols, k)
-                np.add.at(self.damping, cols, c)
-        self._state = None
-        self._zeros = np.zeros((system.topology.n_bodies + 1, 3))
-        self.n_setups = 0
+                np.add.at(stiffness, cols, k)
+                np.add.at(damping, cols, c)
+        return stiffness, damping
 
     def setup(self, t, x, xd) -> None:
         """Take the mass distribution at a state (positions matter only).
@@ -270,4 +293,78 @@ class NewtonPreconditioner:
                                             self._zeros, rhs, armature)
         if bad >= 0:
             raise AssemblyError(f"the Newton preconditioner is singular at joint {topo.tree_joints[bad].name!r}")
+        return r1 + gamma * z2, z2
+
+
+class LoopNewtonPreconditioner:
+    """Solves ``(I - gamma J) z = r`` approximately in O(n m), for the implicit integration of a model with loops.
+
+    The loops' counterpart of :class:`NewtonPreconditioner`.
+    With ``J ~ [[0, I], [-P K, -P C]]``, ``P = T (T^T A T)^-1 T^T`` (K and C
+    the diagonal coordinate springs and dampers), the second block row gives
+    ``z2 = r2 - gamma P_E (K r1 + E r2)`` with ``E = gamma K + C`` and
+    ``P_E = T (T^T (A + gamma E) T)^-1 T^T``, and ``z1 = r1 + gamma z2``.
+    ``P_E b`` is the constrained solve ``(A + gamma E) v = b + psi^T lambda``,
+    ``psi v = 0`` (:func:`~flexmb.kernels.loops.loop_newton`): the
+    articulated-body recursion with ``gamma E`` as armature, T never formed.
+    The geometric stiffness and the velocity-dependent terms are left out,
+    as for open trees: GMRES converges to the exact Newton step in a few
+    iterations.
+
+    Parameters
+    ----------
+    system : System
+        A model with loops closed by the articulated strategy
+        (:meth:`System.newton_preconditioner`).
+    """
+
+    def __init__(self, system):
+        self.system = system
+        self.stiffness, self.damping = NewtonPreconditioner.diagonal_terms(system)
+        self._x = None
+        self.n_setups = 0
+
+    def setup(self, t, x, xd) -> None:
+        """Take the positions of a state (where the mass distribution and the constraints are).
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        x, xd : ndarray, shape (n,)
+            Coordinates and speeds.
+        """
+        self._x = _plain(np.array(x, dtype=float))
+        self.n_setups += 1
+
+    def solve(self, r1, r2, gamma):
+        """``z`` with ``(I - gamma J) z ~ r``, in two halves.
+
+        Parameters
+        ----------
+        r1, r2 : ndarray, shape (n,)
+            The right-hand side's position and speed halves.
+        gamma : float
+            The integrator's coefficient (step size times its method's
+            constant).
+
+        Returns
+        -------
+        z1, z2 : ndarray, shape (n,)
+            The solution's halves.
+
+        Raises
+        ------
+        AssemblyError
+            If the Newton matrix is singular.
+        """
+        system = self.system
+        E = gamma * self.stiffness + self.damping
+        load = _plain(self.stiffness * r1 + E * r2)
+        v, status = loop_newton(system._packed, system._loop_layout, self._x, gamma * E, load, system._loop_tol,
+                                -1 if system.rank_limit is None else system.rank_limit)
+        if status:
+            raise AssemblyError("the Newton preconditioner of the loops is singular (a freedom without mass, "
+                                "stiffness or damping that no loop fixes)")
+        z2 = r2 - gamma * v
         return r1 + gamma * z2, z2

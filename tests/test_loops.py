@@ -246,3 +246,15 @@ def test_cvode_with_the_loops_preconditioner_equals_the_dense_jacobian():
     assert b.status == "finished" and b.n_jac > 0
     assert np.max(np.abs(a.x - b.x)) < 1e-8
     assert np.max(b.residual) < 1e-10
+
+
+def test_fastest_rates_of_a_large_loop_by_arnoldi_equal_the_dense_ones():
+    """B6 with 256 segments (past DENSE_RATES_MAX): the rates 'auto' and the stiffness warning judge by."""
+    from flexmb.system.rates import DENSE_RATES_MAX
+
+    model, positions = scenes.b6(True, 256)
+    dense, sparse = (model.build(complement=c) for c in ("svd", "articulated"))
+    assert sparse.n_coords > DENSE_RATES_MAX
+    x, xd = fm.initial_state(dense, 0.0, positions=positions)
+    dense, sparse = (_calibrated(s, 0.0, x, xd) for s in (dense, sparse))
+    np.testing.assert_allclose(sparse._rates(0.0, x, xd), dense._rates(0.0, x, xd), rtol=1e-3)

@@ -6,10 +6,13 @@ import numpy as np
 
 from .tangent import NewtonPreconditioner
 from ..kernels.articulated import articulated_accelerations
+from ..kernels.loops import loop_newton
+from .solve import _plain
 
 
-#: open trees with more coordinates estimate their fastest rates (method 'auto', the stiffness warning)
-#: by Arnoldi iteration with O(n) products instead of dense eigenvalues
+#: open trees (and loops closed by the articulated strategy) with more coordinates estimate their fastest
+#: rates (method 'auto', the stiffness warning) by Arnoldi iteration with O(n) products instead of dense
+#: eigenvalues
 DENSE_RATES_MAX = 200
 
 
@@ -59,7 +62,7 @@ class Rates:
         return max(self._rates(t, x, xd))
 
     def _rates(self, t, x, xd) -> tuple[float, float]:
-        if self.articulated and self.n_coords > DENSE_RATES_MAX:
+        if (self.articulated or self._loop_kernel) and self.n_coords > DENSE_RATES_MAX:
             rates = self._rates_iterative(t, x, xd)
             if rates is not None:
                 return rates
@@ -73,11 +76,13 @@ class Rates:
         return tuple(r if np.isfinite(r) else np.inf for r in rates)
 
     def _rates_iterative(self, t, x, xd):
-        """The largest eigenvalues of ``A^-1 K`` and ``A^-1 C`` by Arnoldi iteration, O(n) per product.
+        """The largest eigenvalues of ``P K`` and ``P C`` by Arnoldi iteration, O(n) per product (O(n m) with loops).
 
-        For open trees whose coordinate springs and dampers are diagonal
-        (None if a velocity-dependent element, such as friction, couples
-        coordinates: the dense path then applies).
+        ``P = A^-1`` for open trees, ``T (T^T A T)^-1 T^T`` for loops closed
+        by the articulated strategy (:func:`~flexmb.kernels.loops.loop_newton`,
+        T never formed). For models whose coordinate springs and dampers are
+        diagonal (None if a velocity-dependent element, such as friction,
+        couples coordinates: the dense path then applies).
         """
         kin = self.kinematics(t, x, xd)
         if any(cls.velocity_tangent_all(el, kin) is not None for cls, el in self.forces.groups):
@@ -89,12 +94,17 @@ class Rates:
         topo, n = self.topology, self.n_coords
         spatial, Sw, Sv, r = pre._state
         zeros = np.zeros((topo.n_bodies + 1, 3))
+        x_plain, limit = _plain(np.array(x, dtype=float)), -1 if self.rank_limit is None else self.rank_limit
 
         def largest(diag):
             if not np.any(diag):
                 return 0.0
 
             def apply(v):
+                if self._loop_kernel:
+                    z, _ = loop_newton(self._packed, self._loop_layout, x_plain, self._no_armature,
+                                       _plain(diag * np.ravel(v)), self._loop_tol, limit)
+                    return z
                 z, _ = articulated_accelerations(topo.parent, topo.coord_start, spatial, Sw, Sv, r, zeros, zeros,
                                                  diag * np.ravel(v), self._no_armature)
                 return z

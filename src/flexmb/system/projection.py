@@ -7,6 +7,7 @@ import numpy as np
 from ..assembly import mass_matrix
 from ..complements.base import PSI_ZERO
 from ..errors import AssemblyError
+from ..kernels.loop_projection import loop_min_norm, loop_phi
 from ..kernels.reduced import svd_reduced_solve
 from .solve import _plain
 
@@ -71,6 +72,8 @@ class Projection:
         if self.n_constraints == 0:
             return x, xd
         free = np.ones(self.n_coords, bool) if fixed is None else ~np.asarray(fixed, bool)
+        if self._loop_kernel:  # psi never dense: O(n m) steps (kernels/loop_projection.py)
+            return self._project_loops(t, x, xd, tol, max_iter, free, max_step, speeds, fixed is None)
         for _ in range(max_iter):
             rows = self._rows(t, x, xd)
             if np.max(np.abs(rows.phi)) <= tol:
@@ -79,20 +82,48 @@ class Projection:
             big = np.max(np.abs(step))
             x[free] -= step * min(1.0, max_step / big) if big > 0 else step
         else:
-            kin = self.kinematics(t, x, xd)
-            phi = self.constraints.evaluate(kin, level=0).phi
-            worst = np.argsort(-np.abs(phi))[:3]
-            rows = ", ".join(f"{self.constraints.labels[i]} = {phi[i]:.3g}" for i in worst)
-            raise AssemblyError(
-                f"the constraints cannot be closed at t = {t:.6g} s: residual {np.max(np.abs(phi)):.3g} "
-                f"after {max_iter} Newton steps (largest: {rows})"
-            )
+            self._not_closed(t, x, xd, max_iter)
         psi, b = rows.psi, rows.b  # those of the converged positions: the loop's last evaluation
         if speeds == "mass" and fixed is None:
             return x, self._mass_orthogonal_speeds(self.kinematics(t, x, xd), psi, b, xd)
         step = self._min_norm(psi[:, free], psi @ xd - b)
         xd[free] -= step
         return x, xd
+
+    def _not_closed(self, t, x, xd, max_iter):
+        """Raise the AssemblyError of a projection whose Newton steps did not close the loops."""
+        phi = self.constraints.evaluate(self.kinematics(t, x, xd), level=0).phi
+        worst = np.argsort(-np.abs(phi))[:3]
+        rows = ", ".join(f"{self.constraints.labels[i]} = {phi[i]:.3g}" for i in worst)
+        raise AssemblyError(
+            f"the constraints cannot be closed at t = {t:.6g} s: residual {np.max(np.abs(phi)):.3g} "
+            f"after {max_iter} Newton steps (largest: {rows})"
+        )
+
+    def _project_loops(self, t, x, xd, tol, max_iter, free, max_step, speeds, unfixed):
+        """:meth:`project` by the loop kernels: the same minimum-norm steps, psi kept sparse, O(n m) each."""
+        packed, layout = self._packed, self._loop_layout
+        limit = -1 if self.rank_limit is None else self.rank_limit
+        drivers, cols = self.constraints.drivers, self.constraints.driver_cols
+        free = np.ascontiguousarray(free)
+        zeros = np.zeros(self.n_coords)
+        for _ in range(max_iter):
+            phi = np.concatenate([loop_phi(packed, layout, x), [x[c] - d.position(t) for d, c in zip(drivers, cols)]])
+            if np.max(np.abs(phi)) <= tol:
+                break
+            step, _ = loop_min_norm(packed, layout, x, zeros, -phi, free, self._loop_tol, limit)
+            big = np.max(np.abs(step))
+            x -= step * min(1.0, max_step / big) if big > 0 else step
+        else:
+            self._not_closed(t, x, xd, max_iter)
+        b = np.zeros(self.n_constraints)
+        b[self.n_constraints - len(drivers):] = [d.velocity(t) for d in drivers]
+        if speeds == "mass" and unfixed:
+            v = self._loop_speeds(t, x, xd, b)
+            if v is not None:
+                return x, v
+        step, _ = loop_min_norm(packed, layout, x, _plain(xd), b, free, self._loop_tol, limit)
+        return x, xd - step
 
     def _mass_orthogonal_speeds(self, kin, psi, b, xd, c=None):
         """``xd_p + T (T^T A T)^-1 T^T A (xd - xd_p)`` with ``xd_p = psi^+ b``: the consistent speeds

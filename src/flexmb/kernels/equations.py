@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .constraints import cut_rows
+from .constraints import cut_row_wrenches, cut_rows
 from .dynamics import bias_wrenches, composite_inertias, generalized_force, mass_matrix, spatial_inertias
 from .loads import apply_load_tables
 from .packing import unpack
@@ -81,6 +81,10 @@ def tree_equations(packed, y, n, powers, force0, torque0, generalized0):
 def cut_residual(packed, y, n):
     """The cut joints' largest position and velocity residuals, ``max |phi|`` and ``max |psi xd|`` (eqs. 28-29).
 
+    ``psi_a xd`` is read from the two bodies' spatial velocities
+    (:func:`~flexmb.kernels.constraints.cut_row_wrenches`), psi not formed:
+    O(n + m).
+
     Parameters
     ----------
     packed : tuple
@@ -95,15 +99,24 @@ def cut_residual(packed, y, n):
     position, velocity : float
         The residuals (0 without cut joints).
     """
-    phi, psi = cut_rows_at(packed, y, n)
+    tree, _, cuts = unpack(packed)
+    x = y[:n]
     xd = y[n : 2 * n]
+    R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = tree_state(tree, x, xd)
+    phi, W, body, _ = cut_row_wrenches(1, R, origin, r, omega, v, alpha, acc, *cuts)
     position = 0.0
     velocity = 0.0
-    for i in range(phi.shape[0]):
-        position = max(position, abs(phi[i]))
+    for a in range(phi.shape[0]):
+        position = max(position, abs(phi[a]))
         s = 0.0
-        for j in range(n):
-            s += psi[i, j] * xd[j]
+        for side in range(2):
+            k = body[a, side]
+            if k >= 0:  # the body's spatial velocity: (omega, v - omega x r) about the origin
+                w = omega[k]
+                s += W[a, side, 0] * w[0] + W[a, side, 1] * w[1] + W[a, side, 2] * w[2]
+                s += W[a, side, 3] * (v[k, 0] - (w[1] * r[k, 2] - w[2] * r[k, 1]))
+                s += W[a, side, 4] * (v[k, 1] - (w[2] * r[k, 0] - w[0] * r[k, 2]))
+                s += W[a, side, 5] * (v[k, 2] - (w[0] * r[k, 1] - w[1] * r[k, 0]))
         velocity = max(velocity, abs(s))
     return position, velocity
 

@@ -139,6 +139,7 @@ def test_rank_equals_that_of_psi(pair):
     rank, smallest = art._loop_calibration(t, x, xd)
     assert rank == c.rank == svd.rank_limit == art.rank_limit, name
     assert smallest == art.sigma_ref > 0
+    assert art.dof(t, x) == svd.dof(t, x) == svd.n_coords - c.rank
 
 
 def test_chain_of_loops_is_banded_with_a_band_independent_of_n():

@@ -6,6 +6,7 @@ import numpy as np
 
 from ..errors import ModelError
 from ..flexible import FlexibleBody
+from .solve import _plain
 
 
 class StateQuantities:
@@ -104,6 +105,9 @@ class StateQuantities:
         if not self.n_constraints:
             return self.n_coords
         x = np.zeros(self.n_coords) if x is None else x
+        if self._loop_kernel:  # the rank as the loop kernel sees it, psi not formed
+            return self.n_coords - self._loop_calibration(t, _plain(np.asarray(x, dtype=float)),
+                                                          np.zeros(self.n_coords))[0]
         psi = self.constraints.evaluate(self.kinematics(t, x, np.zeros_like(x)), level=1).psi
         return self.strategy.complement(psi).p
 

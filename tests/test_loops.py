@@ -307,3 +307,17 @@ def test_cut_residual_from_the_wrenches_equals_the_dense_rows(name):
     position, velocity = cut_residual(system._packed, np.concatenate([x, xd]), system.n_coords)
     assert position == np.max(np.abs(rows.phi[:m_cut]))
     assert velocity == pytest.approx(np.max(np.abs(rows.psi[:m_cut] @ xd)), rel=1e-13)
+
+
+def test_work_of_a_driven_loop_equals_the_svd_strategy():
+    """track_work: the driver's work (its reaction times its speed) and the dampers' work, as with the SVD."""
+    model, positions = scenes.b6(True, 8)
+    a, b = (fm.simulate(model, 0.01, positions=positions, complement=c, method="CVODE_BDF", rtol=1e-10,
+                        track_work=True, progress=False) for c in ("svd", "articulated"))
+    assert sorted(a.work) == sorted(b.work) and "driver motor" in b.work
+    for name in a.work:
+        scale = max(1e-12, np.max(np.abs(a.work[name])))
+        assert np.max(np.abs(a.work[name] - b.work[name])) < 1e-7 * scale, name
+    # the balance: all works add up to the change of kinetic energy
+    total = sum(b.work.values())
+    assert np.max(np.abs(total - (b.kinetic - b.kinetic[0]))) < 1e-6 * np.max(np.abs(b.kinetic))

@@ -155,3 +155,26 @@ def test_scene_refuses_outputs_that_cannot_fit(monkeypatch):
     monkeypatch.setenv("FLEXMB_MEMORY_LIMIT", "8G")
     with pytest.raises(fm.SceneError, match=r"huge.toml: solver.n_out: 100000000 output times: needs about"):
         fm.loads_scene(SCENE.format(n=2, n_out=100_000_000), "huge.toml")
+
+
+def test_loops_closed_through_the_recursion_need_no_n_squared(monkeypatch):
+    """B6 with 5,000 segments: the dense complement's n x n arrays (about 0.8 GB) refused under a 500 MB
+    limit; the same model built with complement='articulated' or 'auto' (no n x n array) fits."""
+    import os
+    import sys
+
+    sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "benchmarks"))
+    import scenes
+
+    nb, n, m = 11, 30, 2
+    assert memory.estimate(Counts(nb, n, m), loops="articulated") == (
+        8 * memory.LOOP_MN * m * n + memory.PER_BODY * nb + memory.PER_COORD * n)
+    model, _ = scenes.b6(True, 5000)
+    assert memory.estimate(model, loops="dense") > 500 * 2**20 > 10 * memory.estimate(model, loops="articulated")
+    monkeypatch.setenv("FLEXMB_MEMORY_LIMIT", "500M")
+    with pytest.raises(fm.ModelError, match=r"needs about .* for the dense arrays of the loops"):
+        model.build()
+    for strategy in ("articulated", "auto"):
+        assert model.build(complement=strategy).n_coords == 5002
+    with pytest.raises(ValueError, match="loops must be one of"):
+        memory.estimate(model, loops="sparse")

@@ -12,14 +12,21 @@ bodies are cut into segments ``nb``, the number of coordinates ``n``, the
 number of constraint rows ``m`` and the number of output times ``nt``. In
 bytes, with 8-byte floats::
 
-    model   = 8 (DENSE_NN n^2 [m > 0] + DENSE_MN m n) + PER_BODY nb + PER_COORD n
+    model   = 8 (DENSE_NN n^2 [m > 0] + DENSE_MN m n) + PER_BODY nb + PER_COORD n     (loops="dense")
+    model   = 8 LOOP_MN m n + PER_BODY nb + PER_COORD n                                (loops="articulated")
     outputs = 8 nt (OUTPUT_N n + OUTPUT_B nb + m + OUTPUT_FIXED)
 
 The compiled core builds and evaluates an open tree in O(n) memory (no
 array grows as n^2: ``benchmarks/large_structures.py``); a model with loops
-(m > 0) forms the dense mass matrix and the reduced one with their
+(m > 0) closed by a complement T (``loops="dense"``: the 'svd', 'eigen' and
+'qr' strategies) forms the dense mass matrix and the reduced one with their
 factors (the ``DENSE_NN`` term) and the constraint Jacobian psi (the
-``DENSE_MN`` term). ``PER_BODY`` and ``PER_COORD`` bound what was measured
+``DENSE_MN`` term). Closed through the articulated-body recursion
+(``loops="articulated"``: the 'articulated' and 'auto' strategies) it forms
+no n x n array; the model term is then ``8 LOOP_MN m n`` instead: the
+subtrees each row's column visits and the rows' sparse entries on their
+paths, at most n each (reached when every row's path spans the structure,
+as a flexible rod in one loop; a chain of loops needs far less). ``PER_BODY`` and ``PER_COORD`` bound what was measured
 on B1 up to 100,000 segments (about 3.2 kB per segment with its
 coordinate, the packed copy of the tree's arrays included). Not counted: the dense state Jacobian ``(2n)^2`` of an
 implicit integrator that uses one (Radau, BDF, CVODE with a dense linear
@@ -40,13 +47,15 @@ from attrs import frozen
 
 from .errors import ModelError
 
-__all__ = ["Counts", "counts", "estimate", "available", "limit", "check", "DENSE_NN", "DENSE_MN", "PER_BODY", "PER_COORD", "OUTPUT_N", "OUTPUT_B", "OUTPUT_FIXED"]
+__all__ = ["Counts", "counts", "estimate", "available", "limit", "check", "DENSE_NN", "DENSE_MN", "LOOP_MN", "PER_BODY", "PER_COORD", "OUTPUT_N", "OUTPUT_B", "OUTPUT_FIXED"]
 
 #: floats per n^2 of a model with loops: the mass matrix and its factor, the reduced mass
 #: matrix and the products with the complement
 DENSE_NN = 4
 #: floats per m * n: the constraint Jacobian psi, its complement work arrays
 DENSE_MN = 4
+#: words per m * n, loops closed by the articulated strategy: the visited subtrees and the sparse rows (worst case)
+LOOP_MN = 2
 #: bytes per body: the Segment and joint objects, names, per-body arrays and tree tables
 PER_BODY = 4096
 #: bytes per coordinate: names, index arrays, state vectors
@@ -127,16 +136,25 @@ def counts(obj) -> Counts:
     return Counts(nb, n, rows)
 
 
-def _parts(obj, n_out: int = 0) -> tuple[int, int, int]:
+#: how a model's loops are closed, for the estimate: by a dense complement T, or through the recursion
+LOOPS = ("dense", "articulated")
+
+
+def _parts(obj, n_out: int = 0, loops: str = "dense") -> tuple[int, int, int]:
+    if loops not in LOOPS:
+        raise ValueError(f"loops must be one of {LOOPS}, got {loops!r}")
     c = counts(obj)
     nb, n, m = c.n_bodies, c.n_coords, c.n_rows
-    dense = _FLOAT * (DENSE_NN * n * n * (m > 0) + DENSE_MN * m * n)
+    if loops == "dense":
+        dense = _FLOAT * (DENSE_NN * n * n * (m > 0) + DENSE_MN * m * n)
+    else:
+        dense = _FLOAT * LOOP_MN * m * n
     rest = PER_BODY * nb + PER_COORD * n
     outputs = _FLOAT * int(n_out) * (OUTPUT_N * n + OUTPUT_B * nb + m + OUTPUT_FIXED)
     return dense, rest, outputs
 
 
-def estimate(obj, n_out: int = 0) -> int:
+def estimate(obj, n_out: int = 0, loops: str = "dense") -> int:
     """Bytes a model needs to be built and simulated, with ``n_out`` output times.
 
     Parameters
@@ -145,6 +163,8 @@ def estimate(obj, n_out: int = 0) -> int:
         What to estimate (see :func:`counts`).
     n_out : int
         Number of output times (0: the model alone).
+    loops : {'dense', 'articulated'}
+        How the loops are closed (see the module docstring).
 
     Returns
     -------
@@ -157,7 +177,7 @@ def estimate(obj, n_out: int = 0) -> int:
     >>> estimate(Counts(n_bodies=100_001, n_coords=300_000)) < 2**30  # 100,000 segments: about 0.6 GB
     True
     """
-    return sum(_parts(obj, n_out))
+    return sum(_parts(obj, n_out, loops))
 
 
 def available() -> int:
@@ -216,7 +236,7 @@ def _size(nbytes: float) -> str:
     return f"{int(nbytes)} B"
 
 
-def check(obj, n_out: int = 0, what: str = "", model: bool = True) -> int:
+def check(obj, n_out: int = 0, what: str = "", model: bool = True, loops: str = "dense") -> int:
     """Refuse a model (and outputs) that would not fit in memory.
 
     Parameters
@@ -230,6 +250,8 @@ def check(obj, n_out: int = 0, what: str = "", model: bool = True) -> int:
     model : bool
         Count the model itself; False counts the outputs only (for a model
         that is built already, whose arrays are no longer available memory).
+    loops : {'dense', 'articulated'}
+        How the loops are closed (see the module docstring).
 
     Returns
     -------
@@ -242,7 +264,7 @@ def check(obj, n_out: int = 0, what: str = "", model: bool = True) -> int:
         If :func:`estimate` exceeds :func:`limit`; the message gives both
         and the counts behind the estimate.
     """
-    dense, rest, outputs = _parts(obj, n_out)
+    dense, rest, outputs = _parts(obj, n_out, loops)
     if not model:
         dense = rest = 0
     need, room = dense + rest + outputs, limit()
@@ -253,7 +275,8 @@ def check(obj, n_out: int = 0, what: str = "", model: bool = True) -> int:
     if model:
         parts.append(f"{_size(rest)} for the bodies and coordinates")
         if dense:
-            parts.append(f"{_size(dense)} for the dense arrays of the loops")
+            parts.append(f"{_size(dense)} for the dense arrays of the loops" if loops == "dense"
+                         else f"{_size(dense)} for the loops")
     if n_out:
         parts.append(f"{_size(outputs)} for {int(n_out):,} output times")
     raise ModelError(

@@ -235,14 +235,15 @@ class Model:
             With ``.problems`` holding all messages (among them, each name
             an element gives that names nothing in the model:
             ``driver 'motor': no joint named 'A'; joints: ['pin']``); a model that would not
-            fit in the available memory (:func:`flexmb.memory.check`) is
+            fit in the available memory (:func:`flexmb.memory.check`, with
+            the loops closed through the recursion, the leanest way) is
             refused before anything is allocated.
         """
         from .topology import Topology
 
         problems = self.problems()
         try:
-            memory.check(self)  # before Topology allocates anything
+            memory.check(self, loops="articulated")  # before Topology allocates; the leanest strategy's need
             Topology(self)
         except ModelError as exc:
             problems += [p for p in exc.problems if p not in problems]

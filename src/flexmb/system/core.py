@@ -10,7 +10,7 @@ import numpy as np
 from .. import memory
 from ..assembly import ForceAssembler, _power, mass_matrix
 from ..forces import Loads
-from ..complements import get_complement
+from ..complements import ArticulatedComplement, AutoComplement, get_complement
 from ..constraints import ConstraintRows, Constraints
 from ..bodies import Body
 from ..errors import AssemblyError, ModelError
@@ -100,14 +100,16 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         if model.resolve():  # an element names one the model lacks: raise every problem
             model.validate()
         self.model = model
-        memory.check(model, what=f"Model {model.name!r}")  # before Topology allocates its arrays
+        strategy = get_complement(complement)
+        loops = "articulated" if isinstance(strategy, (ArticulatedComplement, AutoComplement)) else "dense"
+        memory.check(model, what=f"Model {model.name!r}", loops=loops)  # before Topology allocates its arrays
         self.topology = Topology(model)
         from ..forces.elastic import BeamElasticity
 
         elastic = [BeamElasticity(f"{b.name}.elasticity", b) for b in self.topology.flexible]
         self.forces = ForceAssembler(list(model.forces) + elastic)
         self.constraints = Constraints(self.topology, model.drivers)
-        self.strategy = get_complement(complement)
+        self.strategy = strategy
         self.n_coords = self.topology.n_coords
         self.n_constraints = self.constraints.n_rows
         self.coordinate_names = self.topology.coordinate_names

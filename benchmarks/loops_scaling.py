@@ -12,7 +12,14 @@ default settings except ``--complement`` (default 'articulated'),
 the largest loop residual of the stored states, the end state's slider
 position (B6) or first rod's top (B7), the relative energy drift (B7, no
 dampers) and the peak memory; and, over the N given, the exponent of a
-least-squares fit ``wall ~ N^p``. Rows go to stdout as JSON lines.
+least-squares fit ``wall ~ N^p``. With ``--reference-rtol R`` each run is
+repeated at rtol R (CVODE_BDF, not timed) and the row gets the largest
+difference over the output times of the slider position (B6) or of the
+first rod's top (B7): the error of the timed run. Rows go to stdout as JSON
+lines.
+
+    OPENBLAS_NUM_THREADS=1 python benchmarks/loops_scaling.py --scene B6 --n 32 128 512 --t-end 1.0 \
+        --reference-rtol 1e-11
 """
 
 from __future__ import annotations
@@ -31,7 +38,17 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 
 
-def one(scene: str, n: int, t_end: float, complement: str, method: str, rtol: float | None) -> dict:
+def _watched(scene, res):
+    """What the error is measured on: the slider's position (B6), the first rod's top (B7); (nt, k)."""
+    import scenes
+
+    if scene == "B6":
+        return res.coordinate("rail")[:, None]
+    return scenes.b7_tip(res)[:, :2]
+
+
+def one(scene: str, n: int, t_end: float, complement: str, method: str, rtol: float | None,
+        reference_rtol: float | None = None) -> dict:
     """Run one (scene, N) in this process and return its row."""
     import flexmb as fm
     import scenes
@@ -53,6 +70,11 @@ def one(scene: str, n: int, t_end: float, complement: str, method: str, rtol: fl
            "wall_per_step_ms": 1e3 * wall / max(res.n_steps, 1), "max_residual": float(np.max(res.residual)),
            "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
            "load_avg_1min": os.getloadavg()[0]}
+    if reference_rtol is not None:
+        ref = fm.simulate(model, t_end, **initial, complement=complement, method="CVODE_BDF", rtol=reference_rtol,
+                          atol=reference_rtol / 100, progress=False)
+        row["reference_rtol"] = reference_rtol
+        row["error_m"] = float(np.max(np.linalg.norm(_watched(scene, res) - _watched(scene, ref), axis=1)))
     if scene == "B6":
         row["slider_end_m"] = float(res.coordinate("rail")[-1])
     else:
@@ -70,14 +92,20 @@ def main(argv=None):
     p.add_argument("--complement", default="articulated")
     p.add_argument("--method", default="auto")
     p.add_argument("--rtol", type=float, default=None)
+    p.add_argument("--reference-rtol", type=float, default=None,
+                   help="also run at this rtol (CVODE_BDF) and report the timed run's error against it")
     p.add_argument("--one", action="store_true", help=argparse.SUPPRESS)
     a = p.parse_args(argv)
     if a.one:
-        print(json.dumps(one(a.scene, a.n[0], a.t_end, a.complement, a.method, a.rtol)), flush=True)
+        print(json.dumps(one(a.scene, a.n[0], a.t_end, a.complement, a.method, a.rtol, a.reference_rtol)),
+              flush=True)
         return
     base = [sys.executable, os.path.abspath(__file__), "--one", "--scene", a.scene, "--t-end", str(a.t_end),
             "--complement", a.complement, "--method", a.method] + ([] if a.rtol is None else ["--rtol", str(a.rtol)])
-    subprocess.run(base + ["--n", str(min(a.n)), "--t-end", str(min(a.t_end, 1e-3))], check=True,
+    warm = list(base)
+    if a.reference_rtol is not None:
+        base += ["--reference-rtol", str(a.reference_rtol)]
+    subprocess.run(warm + ["--n", str(min(a.n)), "--t-end", str(min(a.t_end, 1e-3))], check=True,
                    stdout=subprocess.DEVNULL)  # the kernels compiled or loaded before any timing
     walls = []
     for n in a.n:

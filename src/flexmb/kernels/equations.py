@@ -22,7 +22,57 @@ from .loads import apply_load_tables
 from .packing import unpack
 from .tree import tree_state
 
-__all__ = ["tree_equations", "cut_residual", "cut_rows_at"]
+__all__ = ["loaded_state", "tree_equations", "cut_residual", "cut_rows_at"]
+
+
+@njit(cache=True, inline="always")
+def loaded_state(packed, y, n, powers, force0, torque0, generalized0):
+    """The tree's kinematics, spatial inertias and loads at ``y = (x, xd, ...)``: what eq. 3 is made of.
+
+    Parameters
+    ----------
+    packed : tuple
+        The model's constant arrays (:func:`~flexmb.kernels.packing.pack`).
+    y : ndarray, shape (>= 2 n,)
+        Coordinates and speeds first.
+    n : int
+        Number of coordinates.
+    powers : ndarray, shape (n_groups,) or (0,)
+        If not empty, the power of each compiled force-element class is
+        added to its entry.
+    force0, torque0 : ndarray, shape (n_bodies + 1, 3)
+        Loads of the force elements evaluated in Python (not modified).
+    generalized0 : ndarray, shape (n,)
+        Their generalized forces on the coordinates.
+
+    Returns
+    -------
+    tree : TreeArrays
+        The tree's layout and body data.
+    cuts : tuple of ndarray
+        The cut joints' rows.
+    kin : tuple
+        What :func:`~flexmb.kernels.tree.tree_kinematics` returns.
+    spatial : ndarray, shape (n_bodies, 6, 6)
+        Spatial inertias about the origin.
+    fw, tw : ndarray, shape (n_bodies + 1, 3)
+        The applied loads minus the velocity-dependent inertia forces
+        (:func:`~flexmb.kernels.dynamics.bias_wrenches`).
+    generalized : ndarray, shape (n,)
+        Generalized forces applied on the coordinates.
+    """
+    tree, tables, cuts = unpack(packed)
+    x = y[:n]
+    xd = y[n : 2 * n]
+    kin = tree_state(tree, x, xd)
+    R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = kin
+    force = force0.copy()
+    torque = torque0.copy()
+    generalized = generalized0.copy()
+    apply_load_tables(tables, tree.mass, R, origin, r, omega, v, x, xd, force, torque, generalized, powers)
+    Iw, spatial = spatial_inertias(R, r, tree.mass, tree.inertia)
+    fw, tw = bias_wrenches(tree.mass, Iw, omega, alpha, acc, force, torque)
+    return tree, cuts, kin, spatial, fw, tw, generalized
 
 
 @njit(cache=True)
@@ -60,17 +110,9 @@ def tree_equations(packed, y, n, powers, force0, torque0, generalized0):
     psi : ndarray, shape (m_cut, n)
         Their rows of the constraint Jacobian (eq. 29).
     """
-    tree, tables, cuts = unpack(packed)
-    x = y[:n]
-    xd = y[n : 2 * n]
-    R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = tree_state(tree, x, xd)
-    force = force0.copy()
-    torque = torque0.copy()
-    generalized = generalized0.copy()
-    apply_load_tables(tables, tree.mass, R, origin, r, omega, v, x, xd, force, torque, generalized, powers)
-    Iw, spatial = spatial_inertias(R, r, tree.mass, tree.inertia)
+    tree, cuts, kin, spatial, fw, tw, generalized = loaded_state(packed, y, n, powers, force0, torque0, generalized0)
+    R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = kin
     A = mass_matrix(tree.parent, tree.coord_start, tree.coord_body, composite_inertias(tree.parent, spatial), Sw, Sv)
-    fw, tw = bias_wrenches(tree.mass, Iw, omega, alpha, acc, force, torque)
     f = generalized_force(tree.parent, tree.coord_body, r, fw, tw, Sw, Sv) + generalized
     phi, psi, gamma = cut_rows(2, n, R, origin, r, omega, v, alpha, acc, Sw, Sv, tree.parent, tree.coord_start,
                                *cuts)

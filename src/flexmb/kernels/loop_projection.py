@@ -19,6 +19,7 @@ from numba import njit
 
 from .constraint_matrix import factor_constraint_matrix, solve_constraint_matrix
 from .constraints import cut_row_wrenches
+from .loops import rows_at_positions
 from .packing import unpack
 from .tree import tree_state
 
@@ -100,23 +101,6 @@ def sparse_rows(W, body, coord, parent, coord_start, Sw, Sv, free):
 
 
 @njit(cache=True)
-def _state_rows(packed, layout, x, n_drivers):
-    """The cut rows' wrenches and bodies at the positions x (drivers appended), and the tree's axes."""
-    tree, tables, cuts = unpack(packed)
-    n = x.shape[0]
-    zeros = np.zeros(n)
-    R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = tree_state(tree, x, zeros)
-    phi_c, W_c, body_c, _ = cut_row_wrenches(1, R, origin, r, omega, v, alpha, acc, *cuts)
-    m = layout.row_coord.shape[0]
-    mc = W_c.shape[0]
-    W = np.zeros((m, 2, 6))
-    body = np.full((m, 2), -1, dtype=np.int64)
-    W[:mc] = W_c
-    body[:mc] = body_c
-    return tree, W, body, Sw, Sv, phi_c
-
-
-@njit(cache=True)
 def loop_phi(packed, layout, x):
     """The cut joints' residuals phi at the positions x (eq. 28).
 
@@ -177,7 +161,7 @@ def loop_min_norm(packed, layout, x, v, rhs, free, tol, rank_limit):
     """
     n = x.shape[0]
     m = layout.row_coord.shape[0]
-    tree, W, body, Sw, Sv, _ = _state_rows(packed, layout, x, m)
+    tree, Sw, Sv, _, W, body = rows_at_positions(packed, layout, x)
     ptr, idx, val = sparse_rows(W, body, layout.row_coord, tree.parent, tree.coord_start, Sw, Sv, np.ones(n, np.bool_))
     residual = np.empty(m)
     work = np.zeros(n)

@@ -30,8 +30,8 @@ from numba import njit
 from .articulated import _minus_bias_wrenches, articulated_factor, articulated_solve, mass_times
 from .constraint_matrix import factor_constraint_matrix, solve_constraint_matrix
 from .constraints import cut_row_wrenches
-from .dynamics import bias_wrenches, spatial_inertias
-from .loads import apply_load_tables
+from .dynamics import spatial_inertias
+from .equations import loaded_state
 from .packing import unpack
 from .tree import tree_state
 
@@ -46,7 +46,8 @@ UNFIXED = 1e-8
 REFINE_TOL = 1e-15
 REFINE_MAX = 50
 
-__all__ = ["MASSLESS", "LIFT", "loop_rhs", "loop_speeds", "loop_newton", "row_spatial_accelerations"]
+__all__ = ["MASSLESS", "LIFT", "loop_rhs", "loop_speeds", "loop_newton", "rows_at_positions",
+           "row_spatial_accelerations"]
 
 
 @njit(cache=True)
@@ -366,16 +367,8 @@ def loop_rhs(packed, layout, y, n, powers, force0, torque0, generalized0, gamma_
         2 if not finite; 3 if the refinement of a massless freedom did not
         settle.
     """
-    tree, tables, cuts = unpack(packed)
-    x = y[:n]
-    xd = y[n : 2 * n]
-    R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = tree_state(tree, x, xd)
-    force = force0.copy()
-    torque = torque0.copy()
-    generalized = generalized0.copy()
-    apply_load_tables(tables, tree.mass, R, origin, r, omega, v, x, xd, force, torque, generalized, powers)
-    Iw, spatial = spatial_inertias(R, r, tree.mass, tree.inertia)
-    fw, tw = bias_wrenches(tree.mass, Iw, omega, alpha, acc, force, torque)
+    tree, cuts, kin, spatial, fw, tw, generalized = loaded_state(packed, y, n, powers, force0, torque0, generalized0)
+    R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = kin
     nb = tree.parent.shape[0]
     W, body, gamma = _rows(2, tree, cuts, R, origin, r, omega, v, alpha, acc, layout.row_coord, gamma_d)
     return _constrained_solve(tree.parent, tree.coord_start, Sw, Sv, spatial, _minus_bias_wrenches(nb, r, fw, tw),
@@ -415,13 +408,9 @@ def loop_speeds(packed, layout, x, xd, b, tol, window, rank_limit):
     status : int
         0; 1 if A is singular; 2 if not finite.
     """
-    tree, tables, cuts = unpack(packed)
+    tree, Sw, Sv, spatial, W, body = rows_at_positions(packed, layout, x)
     n = x.shape[0]
     zeros = np.zeros(n)
-    R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = tree_state(tree, x, zeros)
-    Iw, spatial = spatial_inertias(R, r, tree.mass, tree.inertia)
-    m = layout.row_coord.shape[0]
-    W, body, _ = _rows(1, tree, cuts, R, origin, r, omega, v, alpha, acc, layout.row_coord, np.zeros(m - _n_cut(cuts)))
     # minimise (v - xd)^T A (v - xd) on psi v = b: A v = A xd + psi^T lambda, A xd as generalized forces
     nb = tree.parent.shape[0]
     Axd = mass_times(tree.parent, tree.coord_start, tree.coord_body, spatial, Sw, Sv, xd)
@@ -467,19 +456,48 @@ def loop_newton(packed, layout, x, armature, load, tol, rank_limit):
     status : int
         0; 1 if ``A + E`` is singular on a freedom no row fixes; 2 if not finite; 3 if not settled.
     """
-    tree, tables, cuts = unpack(packed)
-    n = x.shape[0]
-    zeros = np.zeros(n)
-    R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = tree_state(tree, x, zeros)
-    Iw, spatial = spatial_inertias(R, r, tree.mass, tree.inertia)
+    tree, Sw, Sv, spatial, W, body = rows_at_positions(packed, layout, x)
     m = layout.row_coord.shape[0]
-    W, body, _ = _rows(1, tree, cuts, R, origin, r, omega, v, alpha, acc, layout.row_coord, np.zeros(m - _n_cut(cuts)))
     nb = tree.parent.shape[0]
     out, lam, kept, smallest, status = _constrained_solve(tree.parent, tree.coord_start, Sw, Sv, spatial,
                                                           np.zeros((nb + 1, 6)), load, W, body, layout.row_coord,
                                                           np.zeros(m), _arrays(layout), layout.band, tol, 0.0,
                                                           rank_limit, armature)
     return out, status
+
+
+@njit(cache=True)
+def rows_at_positions(packed, layout, x):
+    """The tree's axes and spatial inertias and the rows' wrenches at the positions x (speeds zero).
+
+    Parameters
+    ----------
+    packed : tuple
+        The model's constant arrays.
+    layout : LoopLayout
+        The rows' layout (cut rows, then the drivers' unit rows).
+    x : ndarray, shape (n,)
+        Coordinates.
+
+    Returns
+    -------
+    tree : TreeArrays
+        The tree's layout and body data.
+    Sw, Sv : ndarray, shape (n, 3)
+        Plucker axes of the coordinates.
+    spatial : ndarray, shape (n_bodies, 6, 6)
+        Spatial inertias about the origin.
+    W : ndarray, shape (m, 2, 6)
+        The rows' wrenches (the drivers' zero).
+    body : ndarray of int, shape (m, 2)
+        Their bodies (-1: none).
+    """
+    tree, tables, cuts = unpack(packed)
+    R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = tree_state(tree, x, np.zeros(x.shape[0]))
+    Iw, spatial = spatial_inertias(R, r, tree.mass, tree.inertia)
+    m = layout.row_coord.shape[0]
+    W, body, _ = _rows(1, tree, cuts, R, origin, r, omega, v, alpha, acc, layout.row_coord, np.zeros(m - _n_cut(cuts)))
+    return tree, Sw, Sv, spatial, W, body
 
 
 @njit(cache=True, inline="always")

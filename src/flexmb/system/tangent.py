@@ -296,10 +296,11 @@ class NewtonPreconditioner:
         return r1 + gamma * z2, z2
 
 
-class LoopNewtonPreconditioner:
+class LoopNewtonPreconditioner(NewtonPreconditioner):
     """Solves ``(I - gamma J) z = r`` approximately in O(n m), for the implicit integration of a model with loops.
 
-    The loops' counterpart of :class:`NewtonPreconditioner`.
+    The loops' counterpart of :class:`NewtonPreconditioner`, with the same
+    springs and dampers and the same :meth:`setup` and :meth:`solve`.
     With ``J ~ [[0, I], [-P K, -P C]]``, ``P = T (T^T A T)^-1 T^T`` (K and C
     the diagonal coordinate springs and dampers), the second block row gives
     ``z2 = r2 - gamma P_E (K r1 + E r2)`` with ``E = gamma K + C`` and
@@ -309,7 +310,8 @@ class LoopNewtonPreconditioner:
     articulated-body recursion with ``gamma E`` as armature, T never formed.
     The geometric stiffness and the velocity-dependent terms are left out,
     as for open trees: GMRES converges to the exact Newton step in a few
-    iterations.
+    iterations. :meth:`solve` raises an :class:`~flexmb.AssemblyError` if
+    the Newton matrix is singular.
 
     Parameters
     ----------
@@ -318,50 +320,15 @@ class LoopNewtonPreconditioner:
         (:meth:`System.newton_preconditioner`).
     """
 
-    def __init__(self, system):
-        self.system = system
-        self.stiffness, self.damping = NewtonPreconditioner.diagonal_terms(system)
-        self._x = None
-        self.n_setups = 0
-
-    def setup(self, t, x, xd) -> None:
-        """Take the positions of a state (where the mass distribution and the constraints are).
-
-        Parameters
-        ----------
-        t : float
-            Time, s.
-        x, xd : ndarray, shape (n,)
-            Coordinates and speeds.
-        """
-        self._x = _plain(np.array(x, dtype=float))
+    def setup(self, t, x, xd) -> None:  # the positions only: the kernel evaluates the rest at each solve
+        self._state = _plain(np.array(x, dtype=float))
         self.n_setups += 1
 
     def solve(self, r1, r2, gamma):
-        """``z`` with ``(I - gamma J) z ~ r``, in two halves.
-
-        Parameters
-        ----------
-        r1, r2 : ndarray, shape (n,)
-            The right-hand side's position and speed halves.
-        gamma : float
-            The integrator's coefficient (step size times its method's
-            constant).
-
-        Returns
-        -------
-        z1, z2 : ndarray, shape (n,)
-            The solution's halves.
-
-        Raises
-        ------
-        AssemblyError
-            If the Newton matrix is singular.
-        """
         system = self.system
         E = gamma * self.stiffness + self.damping
         load = _plain(self.stiffness * r1 + E * r2)
-        v, status = loop_newton(system._packed, system._loop_layout, self._x, gamma * E, load, system._loop_tol,
+        v, status = loop_newton(system._packed, system._loop_layout, self._state, gamma * E, load, system._loop_tol,
                                 -1 if system.rank_limit is None else system.rank_limit)
         if status:
             raise AssemblyError("the Newton preconditioner of the loops is singular (a freedom without mass, "

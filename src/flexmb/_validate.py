@@ -14,7 +14,7 @@ import numpy as np
 from .errors import ModelError
 from .fields import as_count
 
-__all__ = ["name_check", "positive_value", "simulate_arguments"]
+__all__ = ["name_check", "positive_value", "simulate_arguments", "state_time", "state_vector"]
 
 
 def name_check(instance, attribute, value):
@@ -50,6 +50,80 @@ def _number(where, what, value, *, finite=True, minimum=None, strict=True):
     if minimum is not None and not (f > minimum if strict else f >= minimum):
         raise ModelError(f"{where}: {what} must be {'>' if strict else '>='} {minimum:g}, got {value!r}")
     return f
+
+
+def state_time(where: str, t) -> float:
+    """``float(t)`` for a time given to a function that evaluates the model, if it is a finite number.
+
+    Raises
+    ------
+    ModelError
+        Naming ``where`` and the value.
+    """
+    if type(t) is float and t - t == 0.0:  # the common case, checked at the cost of one comparison
+        return t
+    return _number(where, "t", t)
+
+
+def state_vector(where: str, what: str, value, size: int, *, at_least: bool = False) -> np.ndarray:
+    """A state or coordinate vector as the compiled kernels need it, or a :class:`ModelError`.
+
+    The kernels run without bounds checks: a vector of the wrong length
+    would be read or written past its end. Every public function that
+    hands a state to them checks it here first, once (the integrators'
+    own right-hand sides, which only ever pass the states they were given,
+    do not pay for it again).
+
+    Parameters
+    ----------
+    where : str
+        The function, for the message (e.g. ``"System.accelerations"``).
+    what : str
+        The argument's name (``"x"``, ``"xd"``, ``"y"``, ...).
+    value : array_like
+        What the caller gave.
+    size : int
+        The required length (the model's coordinates, or twice that for a
+        state ``y = (x, xd)``).
+    at_least : bool
+        Accept a longer vector (only its first ``size`` entries are read).
+
+    Returns
+    -------
+    ndarray, shape (size,) (or longer, with ``at_least``)
+        A writable, C-contiguous float64 array: ``value`` itself when it is
+        one already, else a copy.
+
+    Raises
+    ------
+    ModelError
+        If ``value`` is not a 1-d array of real numbers of that length, or
+        is not finite (naming the first non-finite entry).
+    """
+    a = value
+    if not (type(a) is np.ndarray and a.dtype == np.float64 and a.ndim == 1 and a.flags.c_contiguous
+            and a.flags.writeable):
+        if isinstance(value, (str, bytes, dict, set)) or value is None or np.iscomplexobj(value):
+            raise ModelError(f"{where}: {what} must be an array of {size} real numbers, got "
+                             f"{type(value).__name__} {_short(value)}")
+        try:
+            a = np.array(value, dtype=float)
+        except (TypeError, ValueError, OverflowError):
+            raise ModelError(f"{where}: {what} must be an array of {size} real numbers, got "
+                             f"{type(value).__name__} {_short(value)}") from None
+    if a.ndim != 1 or (a.shape[0] < size if at_least else a.shape[0] != size):
+        need = f"(>= {size},)" if at_least else f"({size},)"
+        raise ModelError(f"{where}: {what} must have shape {need}, got {a.shape}")
+    if not np.isfinite(a[:size]).all():
+        i = int(np.flatnonzero(~np.isfinite(a[:size]))[0])
+        raise ModelError(f"{where}: {what} must be finite, got {what}[{i}] = {a[i]}")
+    return a
+
+
+def _short(value) -> str:
+    """``repr(value)``, cut to one line of a message."""
+    r = repr(value).replace("\n", " ")
+    return r if len(r) <= 60 else r[:57] + "..."
 
 
 #: the smallest relative tolerance an integration can meet in double precision (scipy's bound too)

@@ -8,7 +8,7 @@ import warnings
 import numpy as np
 
 from . import memory, registry
-from ._validate import simulate_arguments
+from ._validate import simulate_arguments, state_vector
 from .errors import ModelError, SimulationError, StiffnessWarning
 from .joints import Joint
 from .model import as_system
@@ -91,9 +91,9 @@ def initial_state(system, t0: float = 0.0, positions=None, speeds=None, x0=None,
     held_x = np.zeros(system.n_coords, bool)
     xd, held_v = _fill(system, speeds, "speed")
     if x0 is not None:
-        x = np.array(x0, dtype=float).reshape(system.n_coords)
+        x = state_vector("initial state", "x0", x0, system.n_coords).copy()
     if xd0 is not None:
-        xd = np.array(xd0, dtype=float).reshape(system.n_coords)
+        xd = state_vector("initial state", "xd0", xd0, system.n_coords).copy()
     if fixed:
         held_x |= _coordinate_mask(system, fixed)
     if system.n_constraints == 0:

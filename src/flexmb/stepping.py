@@ -137,7 +137,7 @@ class Run:
         self.counters["rhs"] += 1
         system, n = self.system, self.n
         if not self.n_w:
-            return system.state_rate(t, y)  # finite, or AssemblyError naming the cause
+            return system._state_rate(t, y)  # finite, or AssemblyError naming the cause
         xs, vs = y[:n], y[n : 2 * n]
         rates = np.zeros(self.n_w)
         if system._loop_kernel:  # finite, or AssemblyError naming the cause
@@ -145,14 +145,14 @@ class Run:
             if self.n_drv:
                 rates[: self.n_drv] = lam[-self.n_drv:] * np.array([d.velocity(t) for d in system.constraints.drivers])
             return np.concatenate([vs, xdd, rates])
-        A, f, psi, gamma = system.reduced_parts(t, y, powers=rates[self.n_drv:])
+        A, f, psi, gamma = system._reduced_parts(t, y, powers=rates[self.n_drv:])
         try:
             xdd, lam = system._solve(t, A, f, psi, gamma, multipliers=True)
         except AssemblyError:
             xdd = np.full(n, np.nan)
         if not np.all(np.isfinite(xdd)):
             if not (np.all(np.isfinite(f)) and np.all(np.isfinite(A))):
-                system.accelerations(t, xs, vs)  # raises with the diagnosis
+                system._accelerations(t, xs, vs)  # raises with the diagnosis
             system._solve(t, A, f, psi, gamma)  # raises if the reduced equations are singular
             bad = [system.coordinate_names[i] for i in np.flatnonzero(~np.isfinite(xdd))[:5]]
             raise NonFinite(t, f"accelerations became non-finite ({', '.join(bad)})")

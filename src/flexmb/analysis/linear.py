@@ -11,6 +11,7 @@ import numpy as np
 import scipy.linalg as sla
 from attrs import define
 
+from .._validate import state_time, state_vector
 from ..errors import ModelError
 from ..forces import BeamElasticity, BodyTorque, Gravity, JointSpringDamper, PointForce
 from ..threads import limited_blas
@@ -210,8 +211,9 @@ def linearize(system, x0=None, xd0=None, t: float = 0.0, h: float = 1e-6, method
     if method not in LINEARIZE_METHODS:
         raise ModelError(f"linearize: unknown method {method!r}; pick one of {list(LINEARIZE_METHODS)}")
     n = system.n_coords
-    x0 = np.zeros(n) if x0 is None else np.asarray(x0, dtype=float)
-    xd0 = np.zeros(n) if xd0 is None else np.asarray(xd0, dtype=float)
+    t = state_time("linearize", t)
+    x0 = np.zeros(n) if x0 is None else state_vector("linearize", "x0", x0, n)
+    xd0 = np.zeros(n) if xd0 is None else state_vector("linearize", "xd0", xd0, n)
     eq = system.equations(t, x0, xd0)
     kin, A, f, psi, gamma = eq.kin, eq.A, eq.f, eq.psi, eq.gamma
     c = system.complement(psi)

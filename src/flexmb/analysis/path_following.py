@@ -19,6 +19,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from ..assembly import ForceAssembler
+from .._validate import state_vector
 from ..errors import AssemblyError, ModelError
 from ..fields import label
 from ..forces import ForceElement
@@ -418,10 +419,7 @@ def _corrector(eq, x_a, lam_a, tx, tl, ds, c, options, counts):
 
 def _start(system, x0):
     n = system.n_coords
-    x = np.zeros(n) if x0 is None else np.array(x0, dtype=float)
-    if x.shape != (n,):
-        raise ModelError(f"static equilibrium: x0 must have shape ({n},), got {x.shape}")
-    return x
+    return np.zeros(n) if x0 is None else state_vector("static equilibrium", "x0", x0, n).copy()
 
 
 @limited_blas

@@ -22,6 +22,7 @@ import numpy as np
 import scipy.linalg as sla
 from attrs import define, field
 
+from .._validate import state_time, state_vector
 from ..errors import ModelError
 from ..model import as_system
 from ..threads import limited_blas
@@ -266,11 +267,9 @@ def _about(system, about):
         times = np.asarray(first.t, dtype=float)
         i = int(np.argmin(np.abs(times - float(about[1]))))
         return (np.array(first.x[i], dtype=float), np.array(first.xd[i], dtype=float), float(times[i]))
-    x0 = np.asarray(first, dtype=float)
-    xd0 = np.asarray(about[1], dtype=float)
-    t = float(about[2]) if len(about) == 3 else 0.0
-    if x0.shape != (n,) or xd0.shape != (n,):
-        raise ModelError(f"state_space: about's x0 and xd0 must have shape ({n},), got {x0.shape} and {xd0.shape}")
+    x0 = state_vector("state_space", "about's x0", first, n)
+    xd0 = state_vector("state_space", "about's xd0", about[1], n)
+    t = state_time("state_space", about[2]) if len(about) == 3 else 0.0
     return x0, xd0, t
 
 

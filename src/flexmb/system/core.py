@@ -20,6 +20,7 @@ from ..topology import Topology
 from ..forces.tables import class_tables, merge
 from ..kernels.equations import cut_residual, cut_rows_at, tree_equations
 from ..kernels.packing import pack
+from .checks import StateChecks
 from .projection import Projection
 from .quantities import StateQuantities
 from .rates import Rates
@@ -64,7 +65,7 @@ class Equations(NamedTuple):
     gamma: np.ndarray
 
 
-class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projection):
+class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projection, StateChecks):
     """A model compiled for evaluation: ``A(x, t) xdd = f`` with ``psi xd = b``.
 
     Parameters
@@ -145,7 +146,7 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
     def _trial(self):
         """Evaluate every force element once so bad input fails at build time."""
         x = np.zeros(self.n_coords)
-        kin = self.kinematics(0.0, x, x)
+        kin = self._kinematics(0.0, x, x)
         for cls, elements in self.forces.groups:
             for e in elements:
                 try:
@@ -236,6 +237,11 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         Kinematics
             Rotations, positions, velocities and partial velocities.
         """
+        t, x, xd = self._state("System.kinematics", t, x=x, xd=xd)
+        return self._kinematics(t, x, xd)
+
+    def _kinematics(self, t, x, xd) -> Kinematics:
+        """:meth:`kinematics` of a state already checked (or being diagnosed: it may be non-finite)."""
         # writable, contiguous float arrays: the kernels are compiled for that one layout (a
         # read-only view, as SUNDIALS hands out, would otherwise compile them all a second time)
         return Kinematics(self.topology, t, _plain(x), _plain(xd))
@@ -324,7 +330,12 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
             The kinematics (eqs. 6-18), A (eq. 2), f (eq. 3) and the
             constraint rows phi, psi, b, gamma (eqs. 28-29).
         """
-        kin = self.kinematics(t, x, xd)
+        t, x, xd = self._state("System.equations", t, x=x, xd=xd)
+        return self._equations(t, x, xd, powers)
+
+    def _equations(self, t, x, xd, powers=None) -> Equations:
+        """:meth:`equations` at a checked state."""
+        kin = self._kinematics(t, x, xd)
         rows = self.constraints.evaluate(kin)
         return Equations(kin, mass_matrix(kin), self.forces.force_array(kin, powers), *rows)
 
@@ -355,9 +366,14 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         gamma : ndarray, shape (m,)
             Right-hand side of ``psi xdd = gamma``.
         """
+        t, y = self._state("System.reduced_parts", t, y_long=y)
+        return self._reduced_parts(t, y, powers)
+
+    def _reduced_parts(self, t, y, powers=None):
+        """:meth:`reduced_parts` at a checked state."""
         n = self.n_coords
         if self._packed is None:
-            eq = self.equations(t, y[:n], y[n : 2 * n], powers)
+            eq = self._equations(t, y[:n], y[n : 2 * n], powers)
             A, f, psi, gamma = eq.A, eq.f, eq.psi, eq.gamma
             return A, f, psi, gamma
         y = _plain(y)
@@ -383,7 +399,7 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         if not self._python_groups:
             return self._no_loads
         n = self.n_coords
-        kin = self.kinematics(t, y[:n], y[n : 2 * n])
+        kin = self._kinematics(t, y[:n], y[n : 2 * n])
         acc = Loads(kin)
         for g, cls, elements in self._python_groups:
             cls.apply_all(elements, kin, acc)
@@ -394,7 +410,7 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
     def _rows(self, t, x, xd) -> ConstraintRows:
         """phi, psi and b at a state (all rows: cut joints, then drivers), compiled where it can be."""
         if self._packed is None:
-            return self.constraints.evaluate(self.kinematics(t, x, xd), level=1)
+            return self.constraints.evaluate(self._kinematics(t, x, xd), level=1)
         phi, psi = cut_rows_at(self._packed, np.concatenate([x, xd]), self.n_coords)
         drivers = self.constraints.drivers
         if not drivers:
@@ -422,8 +438,13 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         position, velocity : float
             The residuals (eqs. 28-29; 0 without constraints).
         """
+        t, x, xd = self._state("System.constraint_residuals", t, x=x, xd=xd)
+        return self._constraint_residuals(t, x, xd)
+
+    def _constraint_residuals(self, t, x, xd) -> tuple[float, float]:
+        """:meth:`constraint_residuals` at a checked state."""
         if self._packed is None:
-            rows = self.constraints.evaluate(self.kinematics(t, x, xd), level=1)
+            rows = self.constraints.evaluate(self._kinematics(t, x, xd), level=1)
             if not rows.phi.size:
                 return 0.0, 0.0
             return float(np.max(np.abs(rows.phi))), float(np.max(np.abs(rows.psi @ xd - rows.b)))
@@ -448,7 +469,8 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         float
             The residual (m or rad, and per second); 0 without constraints.
         """
-        return max(self.constraint_residuals(t, x, xd))
+        t, x, xd = self._state("System.constraint_residual", t, x=x, xd=xd)
+        return max(self._constraint_residuals(t, x, xd))
 
     def accelerations(self, t, x, xd) -> np.ndarray:
         """Generalized accelerations from the reduced equations (eqs. 36-39).
@@ -473,14 +495,19 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         AssemblyError
             If the reduced mass matrix is not positive definite.
         """
+        t, x, xd = self._state("System.accelerations", t, x=x, xd=xd)
+        return self._accelerations(t, x, xd)
+
+    def _accelerations(self, t, x, xd) -> np.ndarray:
+        """:meth:`accelerations` at a checked state."""
         if self.articulated:  # open tree: A is never formed
             return self._articulated(t, x, xd)
         if self._loop_kernel:  # loops closed through the recursion: A, psi and T never formed
             return self._loop_solve(t, np.concatenate([x, xd]))
         if self.n_constraints or self._packed is not None:
-            A, f, psi, gamma = self.reduced_parts(t, np.concatenate([x, xd]))
+            A, f, psi, gamma = self._reduced_parts(t, np.concatenate([x, xd]))
         else:  # an open tree: no constraints to evaluate
-            kin = self.kinematics(t, x, xd)
+            kin = self._kinematics(t, x, xd)
             A, f = mass_matrix(kin), self.forces.force_array(kin)
             psi = gamma = np.zeros((0,))
         if not (np.all(np.isfinite(f)) and np.all(np.isfinite(A))):
@@ -490,8 +517,8 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
     def _articulated(self, t, x, xd):
         """Accelerations of an open tree by the articulated-body recursion (O(n))."""
         if self._packed_open is not None:
-            return self.state_rate(t, np.concatenate([x, xd]))[self.n_coords :]
-        kin = self.kinematics(t, x, xd)
+            return self._state_rate(t, np.concatenate([x, xd]))[self.n_coords :]
+        kin = self._kinematics(t, x, xd)
         loads = self.forces.loads(kin)
         topo = self.topology
         xdd, bad = open_tree_accelerations(topo.parent, topo.coord_start, kin.R, kin.r, kin.omega, kin.alpha_bias,
@@ -539,15 +566,20 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         AssemblyError
             If the equations are singular or not finite (naming the cause).
         """
+        t, y = self._state("System.state_rate", t, y=y)
+        return self._state_rate(t, y)
+
+    def _state_rate(self, t, y) -> np.ndarray:
+        """:meth:`state_rate` at a checked state (the integrators' right-hand side: no checks)."""
         n = self.n_coords
         if self._packed_open is not None:
             ydot, status = open_tree_rhs(self._packed_open, _plain(y), self._no_armature)
             if status == -1:
                 return ydot
             x, xd = y[:n], y[n : 2 * n]
-            self._articulated_failure(t, x, xd, self.kinematics(t, x, xd), ydot[n:], status)
+            self._articulated_failure(t, x, xd, self._kinematics(t, x, xd), ydot[n:], status)
         x, xd = y[:n], y[n : 2 * n]
-        xdd = self.accelerations(t, x, xd)
+        xdd = self._accelerations(t, x, xd)
         if not np.all(np.isfinite(xdd)):
             bad = [self.coordinate_names[i] for i in np.flatnonzero(~np.isfinite(xdd))[:5]]
             err = AssemblyError(f"at t = {t:.9g} s: accelerations became non-finite ({', '.join(bad)})")

@@ -75,7 +75,7 @@ class LoopSolve:
             x, xd = y[:n], y[n : 2 * n]
             if status in (1, 3):
                 raise AssemblyError(self._massless_message(kept, f"at t = {t:.6g} s"))
-            A, f, _, _ = self.reduced_parts(t, y)
+            A, f, _, _ = self._reduced_parts(t, y)
             if not (np.all(np.isfinite(f)) and np.all(np.isfinite(A))):
                 self._raise_non_finite(t, x, xd, A, f)
             err = AssemblyError(f"at t = {t:.9g} s: the constraint rows or the accelerations became non-finite")
@@ -92,7 +92,7 @@ class LoopSolve:
         """``(xdd, lambda)`` at ``y = (x, xd)`` by the system's route (the loop kernel, or the reduced solve)."""
         if self._loop_kernel:
             return self._loop_solve(t, y, multipliers=True)
-        A, f, psi, gamma = self.reduced_parts(t, y)
+        A, f, psi, gamma = self._reduced_parts(t, y)
         return self._solve(t, A, f, psi, gamma, multipliers=True)
 
     def _loop_speeds(self, t, x, xd, b):

@@ -6,7 +6,7 @@ import numpy as np
 
 from ..assembly import mass_matrix
 from ..complements.base import PSI_ZERO
-from ..errors import AssemblyError
+from ..errors import AssemblyError, ModelError
 from ..kernels.loop_projection import loop_min_norm, loop_phi
 from ..kernels.reduced import svd_reduced_solve
 from .solve import _plain
@@ -67,11 +67,16 @@ class Projection:
             If the constraints cannot be closed; the message names the
             constraint rows with the largest residual.
         """
-        x = np.array(x, dtype=float)
-        xd = np.array(xd, dtype=float)
+        t, x, xd = self._state("System.project", t, x=x, xd=xd)
+        x, xd = x.copy(), xd.copy()
+        if fixed is not None:
+            fixed = np.asarray(fixed)
+            if fixed.shape != (self.n_coords,) or fixed.dtype != bool:
+                raise ModelError(f"System.project: fixed must be a boolean array of shape ({self.n_coords},), "
+                                 f"got {fixed.dtype} of shape {fixed.shape}")
         if self.n_constraints == 0:
             return x, xd
-        free = np.ones(self.n_coords, bool) if fixed is None else ~np.asarray(fixed, bool)
+        free = np.ones(self.n_coords, bool) if fixed is None else ~fixed
         if self._loop_kernel:  # psi never dense: O(n m) steps (kernels/loop_projection.py)
             return self._project_loops(t, x, xd, tol, max_iter, free, max_step, speeds, fixed is None)
         for _ in range(max_iter):
@@ -85,14 +90,14 @@ class Projection:
             self._not_closed(t, x, xd, max_iter)
         psi, b = rows.psi, rows.b  # those of the converged positions: the loop's last evaluation
         if speeds == "mass" and fixed is None:
-            return x, self._mass_orthogonal_speeds(self.kinematics(t, x, xd), psi, b, xd)
+            return x, self._mass_orthogonal_speeds(self._kinematics(t, x, xd), psi, b, xd)
         step = self._min_norm(psi[:, free], psi @ xd - b)
         xd[free] -= step
         return x, xd
 
     def _not_closed(self, t, x, xd, max_iter):
         """Raise the AssemblyError of a projection whose Newton steps did not close the loops."""
-        phi = self.constraints.evaluate(self.kinematics(t, x, xd), level=0).phi
+        phi = self.constraints.evaluate(self._kinematics(t, x, xd), level=0).phi
         worst = np.argsort(-np.abs(phi))[:3]
         rows = ", ".join(f"{self.constraints.labels[i]} = {phi[i]:.3g}" for i in worst)
         raise AssemblyError(

@@ -35,7 +35,11 @@ class StateQuantities:
             One multiplier per constraint row, labelled by
             ``self.constraints.labels``.
         """
-        eq = self.equations(t, x, xd)
+        if xdd is None:
+            t, x, xd = self._state("System.reactions", t, x=x, xd=xd)
+        else:
+            t, x, xd, xdd = self._state("System.reactions", t, x=x, xd=xd, xdd=xdd)
+        eq = self._equations(t, x, xd)
         A, f, psi, gamma = eq.A, eq.f, eq.psi, eq.gamma
         if xdd is None:
             xdd = self._solve(t, A, f, psi, gamma)
@@ -64,7 +68,8 @@ class StateQuantities:
         body = self.model.element(body, FlexibleBody)
         if body not in self.topology.flexible:
             raise ModelError(f"{getattr(body, 'name', body)!r} is not a flexible body of the model")
-        kin = self.kinematics(t, x, np.zeros_like(x))
+        t, x = self._state("System.shape", t, x=x)
+        kin = self._kinematics(t, x, np.zeros_like(x))
         rows = np.array([self.topology.index[s] for s in self.topology.flexible[body][1]])
         tip = kin.origin[rows[-1]] + kin.R[rows[-1], :, 0] * body.segment_length
         return np.vstack([kin.origin[rows], tip])
@@ -84,7 +89,8 @@ class StateQuantities:
         kinetic, potential : float
             Energies, J.
         """
-        kin = self.kinematics(t, x, xd)
+        t, x, xd = self._state("System.energy", t, x=x, xd=xd)
+        kin = self._kinematics(t, x, xd)
         return kin.kinetic_energy(), self.forces.potential_energy(kin)
 
     def dof(self, t=0.0, x=None) -> int:
@@ -102,12 +108,12 @@ class StateQuantities:
         int
             Number of independent speeds p.
         """
+        t, x = self._state("System.dof", t, x=np.zeros(self.n_coords) if x is None else x)
         if not self.n_constraints:
             return self.n_coords
-        x = np.zeros(self.n_coords) if x is None else x
         if self._loop_kernel:  # the rank as the loop kernel sees it, psi not formed
             return self.n_coords - self._loop_calibration(t, _plain(np.asarray(x, dtype=float)),
                                                           np.zeros(self.n_coords))[0]
-        psi = self.constraints.evaluate(self.kinematics(t, x, np.zeros_like(x)), level=1).psi
+        psi = self.constraints.evaluate(self._kinematics(t, x, np.zeros_like(x)), level=1).psi
         return self.strategy.complement(psi).p
 

@@ -37,6 +37,7 @@ class Rates:
         float
             Angular frequency, rad/s.
         """
+        t, x, xd = self._state("System.highest_frequency", t, x=x, xd=xd)
         return self._rates(t, x, xd)[0]
 
     def fastest_rate(self, t, x, xd) -> float:
@@ -59,6 +60,7 @@ class Rates:
         float
             Rate, rad/s (1/s for a damping rate).
         """
+        t, x, xd = self._state("System.fastest_rate", t, x=x, xd=xd)
         return max(self._rates(t, x, xd))
 
     def _rates(self, t, x, xd) -> tuple[float, float]:
@@ -84,7 +86,7 @@ class Rates:
         diagonal (None if a velocity-dependent element, such as friction,
         couples coordinates: the dense path then applies).
         """
-        kin = self.kinematics(t, x, xd)
+        kin = self._kinematics(t, x, xd)
         if any(cls.velocity_tangent_all(el, kin) is not None for cls, el in self.forces.groups):
             return None
         from scipy.sparse.linalg import ArpackNoConvergence, LinearOperator, eigs

@@ -31,7 +31,7 @@ class ReducedSolve:
 
     def _diagnose(self, t, x, xd, A, f):
         """Name what made the equations non-finite."""
-        kin = self.kinematics(t, x, xd)
+        kin = self._kinematics(t, x, xd)
 
         for cls, elements in self.forces.groups:
             for e in elements:

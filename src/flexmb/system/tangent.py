@@ -83,7 +83,8 @@ class Tangent:
         ndarray, shape (2n, 2n) or None
             None if no element contributes a coordinate stiffness.
         """
-        kin = self.kinematics(t, x, xd)
+        t, x, xd = self._state("System.state_jacobian", t, x=x, xd=xd)
+        kin = self._kinematics(t, x, xd)
         terms = self.coordinate_terms(kin)
         if terms is None:
             return None

@@ -1,0 +1,36 @@
+"""The check of every state a public function hands to the compiled kernels (issue: memory safety)."""
+
+from __future__ import annotations
+
+from .._validate import state_time, state_vector
+
+
+class StateChecks:
+    """``_state``: a time and state vectors checked once at a public entry (mixed into :class:`~flexmb.system.System`).
+
+    The kernels run without bounds checks; the public methods check here
+    and call their private counterparts (``_kinematics``, ``_accelerations``,
+    ``_state_rate``, ...), which the integrators call directly with the
+    states they step.
+    """
+
+    def _state(self, where, t, **vectors):
+        """``t`` and the named vectors checked for the compiled kernels (:func:`~flexmb._validate.state_vector`).
+
+        ``x``, ``xd``, ``xdd`` have the model's n coordinates, ``y`` is
+        ``(x, xd)`` (2 n; ``y_long``: at least 2 n, the rest not read).
+        Returns ``t`` and the vectors in the order given.
+
+        Raises
+        ------
+        ModelError
+            Naming ``where``, the argument and what is wrong with it.
+        """
+        n = self.n_coords
+        out = [state_time(where, t)]
+        for what, value in vectors.items():
+            if what == "y_long":
+                out.append(state_vector(where, "y", value, 2 * n, at_least=True))
+            else:
+                out.append(state_vector(where, what, value, 2 * n if what == "y" else n))
+        return out

@@ -11,7 +11,7 @@ from the leaves in for subtree sums, so that an evaluation costs O(n) time
 and memory for an open tree (the dense mass matrix of a model with loops
 costs O(n depth)).
 
-Compiled code is cached beside these sources (numba's ``cache=True``): the
+Compiled code is cached beside these sources (``cache=True``, :mod:`flexmb.kernels.cache`): the
 first run of a new installation compiles (see the README for the measured
 time), later runs load the machine code.
 """

@@ -17,7 +17,7 @@ origin, so no frame transformations appear.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from .cache import njit
 
 from .dynamics import axis_projections, bias_wrenches, spatial_inertias
 from .loads import apply_load_tables

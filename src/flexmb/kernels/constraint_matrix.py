@@ -25,7 +25,7 @@ gamma`` only.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from .cache import njit
 
 __all__ = ["DENSE_K", "factor_constraint_matrix", "solve_constraint_matrix"]
 

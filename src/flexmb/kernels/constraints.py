@@ -24,7 +24,7 @@ velocity-dependent part of the residual's second derivative.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from .cache import njit
 
 from .tree import _cross_to, _mv_to
 

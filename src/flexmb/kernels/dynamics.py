@@ -12,7 +12,7 @@ wrenches, O(n).
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from .cache import njit
 
 __all__ = ["spatial_inertias", "composite_inertias", "subtree_sums", "axis_projections", "mass_matrix", "generalized_force", "bias_wrenches"]
 

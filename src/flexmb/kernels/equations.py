@@ -14,7 +14,7 @@ crosses from Python into compiled code once.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from .cache import njit
 
 from .constraints import cut_row_wrenches, cut_rows
 from .dynamics import bias_wrenches, composite_inertias, generalized_force, mass_matrix, spatial_inertias

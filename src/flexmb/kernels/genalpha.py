@@ -32,7 +32,7 @@ References
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from .cache import njit
 
 __all__ = ["NEWTON_MAXITER", "MIN_FACTOR", "MAX_FACTOR", "KEEP_BAND", "SAFETY", "CONTINUE", "CONVERGED", "FAILED",
            "P_ALPHA_M", "P_ALPHA_F", "P_BETA", "P_GAMMA", "P_BETA_P", "P_GAMMA_P", "P_ERROR_CONSTANT", "P_RTOL",

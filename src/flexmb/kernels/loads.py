@@ -5,7 +5,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
+from .cache import njit
 
 __all__ = ["LoadTables", "add_point_forces", "add_torques", "body_points", "apply_load_tables"]
 

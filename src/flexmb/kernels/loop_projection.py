@@ -15,7 +15,7 @@ The same steps as the SVD's pseudo-inverse, in O(n m) instead of O(n m^2).
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from .cache import njit
 
 from .constraint_matrix import factor_constraint_matrix, solve_constraint_matrix
 from .constraints import cut_row_wrenches

@@ -25,7 +25,7 @@ rank revealed and its singular positions filtered by
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from .cache import njit
 
 from .articulated import _minus_bias_wrenches, articulated_factor, articulated_solve, mass_times
 from .constraint_matrix import factor_constraint_matrix, solve_constraint_matrix

@@ -17,7 +17,7 @@ array against its entry.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from .cache import njit
 
 from .loads import LoadTables
 from .tree import TreeArrays

@@ -14,7 +14,7 @@ and the singular-value filter from here.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from .cache import njit
 
 from .articulated import solve_spd
 

@@ -16,7 +16,7 @@ so the kernel costs O(n depth) and forms nothing but G.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from .cache import njit
 
 from .tree import _cross, _mv
 

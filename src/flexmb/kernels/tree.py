@@ -19,7 +19,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
+from .cache import njit
 
 __all__ = ["TreeArrays", "joint_motions", "tree_kinematics", "tree_state", "upstream_rows"]
 

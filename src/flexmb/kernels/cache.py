@@ -1,0 +1,275 @@
+"""Where the kernels' machine code is cached, and what happens when it cannot be.
+
+Every kernel is declared with :func:`njit`, numba's decorator with a cache
+that never stops flexmb from running:
+
+* **Where.** The first of: ``NUMBA_CACHE_DIR`` if it is writable; the
+  ``__pycache__`` beside these sources if it is writable (an editable or
+  per-user install); a warm ``__pycache__`` or ``NUMBA_CACHE_DIR`` that can
+  only be read (a root-owned install warmed by its owner, a read-only
+  image), used read-only; numba's user-wide cache (``~/.cache/numba``); a
+  per-user folder in the system's temporary directory (no writable home: a
+  service account, a container); else no cache at all: the kernels compile
+  in memory, each run, with a one-line notice.
+* **Freshness.** A kernel's entry is stamped with a hash of *all* the
+  kernels' sources, not only its own file: a kernel inlines or calls
+  kernels of other files, and numba's own stamp would keep a caller's stale
+  machine code after a callee changed.
+* **Damage.** An index or data file that cannot be read back (truncated,
+  empty, random: what a crash or a full disk can leave) is a cache miss:
+  the kernel compiles and its entry is rewritten (or, in a read-only cache,
+  left alone). A cache that cannot be written is never an error.
+"""
+
+from __future__ import annotations
+
+import functools
+import glob
+import hashlib
+import os
+import sys
+import tempfile
+
+import numba
+from numba.core.caching import (
+    CompileResultCacheImpl,
+    FunctionCache,
+    InTreeCacheLocator,
+    UserProvidedCacheLocator,
+    UserWideCacheLocator,
+    _CacheLocator,
+    _SourceFileBackedLocatorMixin,
+)
+
+__all__ = ["njit", "cache_locations", "sources_stamp"]
+
+#: the kernels' folder: the sources whose hash stamps every entry
+KERNELS = os.path.dirname(os.path.abspath(__file__))
+
+#: notices already given in this process (each at most once)
+_told: set[str] = set()
+
+
+def _notice(key: str, text: str) -> None:
+    if key not in _told:
+        _told.add(key)
+        print(f"flexmb: {text}", file=sys.stderr)
+
+
+@functools.lru_cache(maxsize=None)
+def sources_stamp(folder: str = KERNELS) -> str:
+    """A hash of every kernel source file in ``folder`` (names and contents), computed once per process."""
+    h = hashlib.sha256()
+    for path in sorted(glob.glob(os.path.join(glob.escape(folder), "*.py"))):
+        if os.path.basename(path) == "cache.py":  # this file holds no kernel
+            continue
+        h.update(os.path.basename(path).encode())
+        with open(path, "rb") as f:
+            h.update(f.read())
+    return h.hexdigest()
+
+
+class _WholeSourceStamp:
+    """Stamp entries with all the kernels' sources (a callee's change makes its callers stale too)."""
+
+    def get_source_stamp(self):
+        return sources_stamp()
+
+
+def _has_entry(folder: str, py_func, py_file: str) -> bool:
+    """Whether ``folder`` holds a cache index of this kernel (any Python version's)."""
+    name = f"{os.path.splitext(os.path.basename(py_file))[0]}.{py_func.__qualname__}-{py_func.__code__.co_firstlineno}"
+    return bool(glob.glob(os.path.join(glob.escape(folder), glob.escape(name) + ".py*.nbi")))
+
+
+class _UserProvided(_WholeSourceStamp, UserProvidedCacheLocator):
+    """``NUMBA_CACHE_DIR``, if writable."""
+
+
+class _InTree(_WholeSourceStamp, InTreeCacheLocator):
+    """The ``__pycache__`` beside the sources, if writable."""
+
+
+class _ReadOnly(_WholeSourceStamp, _SourceFileBackedLocatorMixin, _CacheLocator):
+    """A warm cache that can only be read: ``NUMBA_CACHE_DIR`` or the ``__pycache__`` beside the sources.
+
+    Chosen for a kernel only where it holds that kernel's index; a new
+    entry cannot be written there (:class:`KernelCache` skips the save).
+    """
+
+    def __init__(self, py_func, py_file, folder):
+        self._py_file = py_file
+        self._lineno = py_func.__code__.co_firstlineno
+        self._cache_path = folder
+
+    def get_cache_path(self):
+        return self._cache_path
+
+    def ensure_cache_path(self):
+        if not os.access(self._cache_path, os.R_OK | os.X_OK):
+            raise OSError(f"cannot read {self._cache_path}")
+
+    @classmethod
+    def from_function(cls, py_func, py_file):
+        if not os.path.exists(py_file):
+            return None
+        folders = [os.path.join(os.path.dirname(py_file), "__pycache__")]
+        if numba.config.CACHE_DIR:
+            folders.insert(0, os.path.join(numba.config.CACHE_DIR,
+                                           UserProvidedCacheLocator.get_suitable_cache_subpath(py_file)))
+        for folder in folders:
+            if os.access(folder, os.R_OK | os.X_OK) and _has_entry(folder, py_func, py_file):
+                return cls(py_func, py_file, folder)
+        return None
+
+
+class _UserWide(_WholeSourceStamp, UserWideCacheLocator):
+    """numba's user-wide cache (``~/.cache/numba``), if writable."""
+
+
+class _PerUserTemp(_WholeSourceStamp, _SourceFileBackedLocatorMixin, _CacheLocator):
+    """``<tmp>/flexmb-numba-<uid>``: no writable home (a service account, a container)."""
+
+    def __init__(self, py_func, py_file):
+        self._py_file = py_file
+        self._lineno = py_func.__code__.co_firstlineno
+        uid = os.getuid() if hasattr(os, "getuid") else os.getlogin()
+        self._cache_path = os.path.join(tempfile.gettempdir(), f"flexmb-numba-{uid}",
+                                        self.get_suitable_cache_subpath(py_file))
+
+    def get_cache_path(self):
+        return self._cache_path
+
+    def ensure_cache_path(self):
+        super().ensure_cache_path()
+        top = os.path.dirname(self._cache_path)
+        st = os.stat(top)
+        if hasattr(os, "getuid") and (st.st_uid != os.getuid() or st.st_mode & 0o022):
+            # another user's folder (or one others can write): never load machine code from it
+            raise OSError(f"{top} is not this user's own folder")
+
+    @classmethod
+    def from_function(cls, py_func, py_file):
+        if not os.path.exists(py_file):
+            return None
+        self = cls(py_func, py_file)
+        try:
+            os.makedirs(os.path.dirname(self._cache_path), mode=0o700, exist_ok=True)
+            self.ensure_cache_path()
+        except OSError:
+            return None
+        _notice("temp", f"no writable cache folder for the compiled kernels (NUMBA_CACHE_DIR, beside the sources, "
+                        f"~/.cache): caching them in {os.path.dirname(self._cache_path)}")
+        return self
+
+
+class _InMemory(_WholeSourceStamp, _SourceFileBackedLocatorMixin, _CacheLocator):
+    """No cache anywhere: compile in memory (a miss on every load, no save)."""
+
+    def __init__(self, py_func, py_file):
+        self._py_file = py_file
+        self._lineno = py_func.__code__.co_firstlineno
+
+    def get_cache_path(self):
+        return os.path.join(tempfile.gettempdir(), "flexmb-numba-none")  # never created, never read
+
+    def ensure_cache_path(self):
+        raise OSError("no cache")
+
+    @classmethod
+    def from_function(cls, py_func, py_file):
+        _notice("memory", "no folder can hold the compiled kernels' cache: compiling them in memory, in every run "
+                          "(set NUMBA_CACHE_DIR to a writable folder to keep them)")
+        return cls(py_func, py_file)
+
+
+class _KernelCacheImpl(CompileResultCacheImpl):
+    _locator_classes = [_UserProvided, _InTree, _ReadOnly, _UserWide, _PerUserTemp, _InMemory]
+
+
+class KernelCache(FunctionCache):
+    """numba's per-function cache, with the locators above and damage taken as a miss."""
+
+    _impl_class = _KernelCacheImpl
+
+    def load_overload(self, sig, target_context):
+        if isinstance(self._impl.locator, _InMemory):
+            return None
+        try:
+            return super().load_overload(sig, target_context)
+        except Exception:  # noqa: BLE001 - any unreadable entry (EOFError, UnpicklingError, ...) is a miss
+            self._discard()
+            return None
+
+    def save_overload(self, sig, data):
+        if isinstance(self._impl.locator, (_InMemory, _ReadOnly)):
+            return
+        try:
+            super().save_overload(sig, data)
+        except Exception:  # noqa: BLE001 - a damaged index, a full disk, a folder gone read-only
+            self._discard()
+            try:
+                super().save_overload(sig, data)
+            except Exception:  # noqa: BLE001 - the machine code stays in memory for this run
+                pass
+
+    def _discard(self):
+        """Rewrite this kernel's damaged index empty (its data files are then overwritten as new)."""
+        if isinstance(self._impl.locator, (_InMemory, _ReadOnly)):
+            return
+        try:
+            self._cache_file.flush()
+        except Exception:  # noqa: BLE001 - a folder that cannot be written: the entry stays a miss
+            pass
+
+
+def njit(*args, cache: bool = False, **options):
+    """The kernels' decorator: numba's ``njit``, with :class:`KernelCache` for ``cache=True``.
+
+    Parameters
+    ----------
+    *args
+        numba's positional arguments (or the function itself, for a bare
+        ``@njit``).
+    cache : bool
+        Cache the machine code as the module docstring says.
+    **options
+        numba's ``njit`` options (``inline``, ``fastmath``, ...).
+
+    Returns
+    -------
+    Dispatcher or callable
+        The compiled function, or the decorator that makes it.
+    """
+    if args and callable(args[0]):  # bare @njit
+        return njit(cache=cache, **options)(args[0])
+
+    def decorate(func):
+        dispatcher = numba.njit(*args, **options)(func)
+        if cache:
+            dispatcher._cache = KernelCache(dispatcher.py_func)
+        return dispatcher
+
+    return decorate
+
+
+def cache_locations() -> dict[str, str]:
+    """Where each cached kernel imported so far is read from and saved to.
+
+    Returns
+    -------
+    dict
+        ``"module.kernel"`` (e.g. ``"tree.tree_kinematics"``) -> its cache
+        folder, or ``"memory"`` where no folder can hold it.
+    """
+    out = {}
+    for modname, mod in sorted(sys.modules.items()):
+        if not modname.startswith(__name__.rsplit(".", 1)[0] + ".") or mod is None:
+            continue
+        for name, obj in vars(mod).items():
+            kernel_cache = getattr(obj, "_cache", None)
+            if isinstance(kernel_cache, KernelCache) and getattr(obj, "__module__", "") == modname:
+                loc = kernel_cache._impl.locator
+                out[f"{modname.rsplit('.', 1)[-1]}.{name}"] = (
+                    "memory" if isinstance(loc, _InMemory) else loc.get_cache_path())
+    return out

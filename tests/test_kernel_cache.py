@@ -205,3 +205,23 @@ def test_no_home_caches_new_kernels_in_a_private_temporary_folder(shared_tmp):
     assert oct(os.stat(private).st_mode & 0o777) == oct(0o700)
     saved = [f for _, _, files in os.walk(private) for f in files]
     assert any(f.startswith("userkern.twice") and f.endswith(".nbi") for f in saved), saved
+
+
+def test_two_processes_compiling_into_one_cold_cache_both_finish(shared_tmp):
+    """Two runs start at once on an empty cache: both compile, both save, neither fails nor damages it."""
+    src, cache_dir = os.path.join(shared_tmp, "src"), os.path.join(shared_tmp, "cache")
+    os.makedirs(src)
+    with open(os.path.join(src, "userkern.py"), "w") as f:
+        f.write(USER_KERNELS)
+    code = ("import sys; sys.path.insert(0, %r); import userkern; "
+            "print('RESULT', userkern.twice(2.0) + userkern.thrice(2.0))" % src)
+    env = dict(os.environ, NUMBA_CACHE_DIR=cache_dir)
+    procs = [subprocess.Popen([sys.executable, "-c", code], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                              text=True, cwd="/") for _ in range(2)]
+    outs = [p.communicate(timeout=300) for p in procs]
+    for p, (out, err) in zip(procs, outs):
+        assert p.returncode == 0 and "RESULT 10.0" in out, err[-2000:]
+    again = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300, cwd="/")
+    assert again.returncode == 0 and "RESULT 10.0" in again.stdout, again.stderr[-2000:]
+    saved = [f for _, _, files in os.walk(cache_dir) for f in files]
+    assert sum(f.endswith(".nbi") for f in saved) == 2 and not any(".tmp." in f for f in saved), saved

@@ -27,6 +27,7 @@ from .profiles import BeamProfile
 from .sections import Material, Section
 from .result import Result
 from .simulate import INTEGRATORS, initial_state, simulate
+from .initial_speeds import AngularVelocity, PointVelocity
 from .genalpha import GeneralizedAlpha, generalized_alpha
 from .system import System
 from .scene import Scene, load_scene, loads_scene
@@ -51,6 +52,7 @@ __all__ = [
     "campbell",
     "CriticalPoint", "LoadPath", "PathOptions", "load_path",
     "Model", "PluginInfo", "plugins", "register", "Result", "INTEGRATORS", "initial_state", "simulate", "System",
+    "PointVelocity", "AngularVelocity",
     "Scene", "SceneError", "load_scene", "loads_scene",
     "StiffnessWarning", "GeneralizedAlpha", "generalized_alpha",
     "ArticulatedComplement", "AutoComplement", "QRComplement",

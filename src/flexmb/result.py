@@ -14,6 +14,7 @@ from .bodies import Body
 from .drivers import Driver
 from .errors import FlexmbError, ModelError
 from .joints import Joint
+from .post.accessors import ResultPost
 
 __all__ = ["Result"]
 
@@ -25,7 +26,7 @@ _SCALARS = ("n_dof", "n_rhs", "n_jac", "n_steps", "n_complements", "n_projection
 
 
 @define
-class Result:
+class Result(ResultPost):
     """Time histories of a simulation.
 
     Each parameter is kept as the attribute of the same name.
@@ -480,92 +481,6 @@ class Result:
             kw["flexible"] = {str(k): (z[f"flexible_rows_{i}"].tolist(), float(z["flexible_lengths"][i]))
                               for i, k in enumerate(z["flexible_names"])}
         return cls(**kw)
-
-    def section_loads(self, body, system=None):
-        """Internal loads at the segment joints of a flexible body; see :func:`flexmb.post.sections.section_loads`.
-
-        Parameters
-        ----------
-        body : FlexibleBody or str
-            The body, or its name (looked up in ``system``, else in the
-            system the result came from, ``Result.system``).
-        system : System or Model, optional
-            With it, also the components the body does not keep.
-
-        Returns
-        -------
-        SectionField
-            Values shape (nt, n_joints, n_components), ``stations`` (m),
-            ``components`` and ``units``; ``.envelope()`` for the peaks.
-        """
-        from .post.sections import section_loads
-
-        return section_loads(self, body, system)
-
-    def section_strains(self, body, system=None):
-        """Curvatures, twist and axial strain at the segment joints; see :func:`flexmb.post.sections.section_strains`.
-
-        Parameters
-        ----------
-        body : FlexibleBody or str
-            The body, or its name (looked up in ``system``, else in the
-            system the result came from, ``Result.system``).
-        system : System or Model, optional
-            To look the body up by name.
-
-        Returns
-        -------
-        SectionField
-            Values shape (nt, n_joints, n_components).
-        """
-        from .post.sections import section_strains
-
-        return section_strains(self, body, system)
-
-    def section_stresses(self, body, system=None):
-        """Outer-fibre and von Mises stresses at the segment joints; see :func:`flexmb.post.sections.section_stresses`.
-
-        Parameters
-        ----------
-        body : FlexibleBody or str
-            The body, or its name (looked up in ``system``, else in the
-            system the result came from, ``Result.system``).
-        system : System or Model, optional
-            With it, the loads the body does not keep count too.
-
-        Returns
-        -------
-        SectionField
-            Stresses (Pa), shape (nt, n_joints, 6).
-        """
-        from .post.sections import section_stresses
-
-        return section_stresses(self, body, system)
-
-    def joint_loads(self, system=None):
-        """Force and moment every joint transmits; see :func:`flexmb.post.joint_loads.joint_loads`.
-
-        Parameters
-        ----------
-        system : System or Model, optional
-            The model the result came from (default: the system that made
-            it, which a result loaded from a file does not keep).
-
-        Returns
-        -------
-        JointLoads
-            ``force`` and ``moment`` (nt, n_joints, 3) in each joint's
-            child marker frame, ``names``.
-        """
-        from .post.joint_loads import joint_loads
-
-        if system is None:
-            system = self.system
-        if system is None:
-            raise ModelError("joint_loads needs the system the result came from (a loaded result does not keep "
-                             "it): res.joint_loads(system)")
-        return joint_loads(self, system)
-
 
 def _evaluate_states(system, t, X, XD, XDD) -> dict:
     """The output quantities of :meth:`Result.from_states` at each state."""

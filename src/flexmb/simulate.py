@@ -10,6 +10,7 @@ import numpy as np
 from . import memory, registry
 from ._validate import simulate_arguments, state_vector
 from .errors import ModelError, SimulationError, StiffnessWarning
+from .initial_speeds import held_speeds, split_speeds
 from .joints import Joint
 from .model import as_system
 from .integrators import adapt, capabilities
@@ -53,14 +54,16 @@ def _fill(system, values, what):
     return out, given
 
 
-def initial_state(system, t0: float = 0.0, positions=None, speeds=None, x0=None, xd0=None, fixed=None):
+def initial_state(system, t0: float = 0.0, positions=None, speeds=None, x0=None, xd0=None, fixed=None,
+                  hold_speeds: bool = True):
     """Consistent initial coordinates and speeds.
 
     Starting from ``positions`` (rough guesses are fine), the coordinates not
     listed in ``fixed`` are moved by minimum-norm Newton steps to close the
     loops (``phi(x0, t0) = 0``); then the speeds are made consistent
     (``psi xd0 = b``) by a minimum-norm correction, holding the speeds named
-    in ``speeds``.
+    in ``speeds`` (coordinate speeds, point velocities, body angular
+    velocities: :mod:`flexmb.initial_speeds`).
 
     Parameters
     ----------
@@ -68,14 +71,21 @@ def initial_state(system, t0: float = 0.0, positions=None, speeds=None, x0=None,
         Compiled model.
     t0 : float
         Initial time, s.
-    positions, speeds : dict, optional
+    positions : dict, optional
         ``{name: value}`` with a coordinate name (``"joint.angle"``), or a
         joint or its name (all its coordinates).
+    speeds : dict or list, optional
+        As ``positions``; or a list of such dicts,
+        :class:`~flexmb.PointVelocity` and :class:`~flexmb.AngularVelocity`.
     x0, xd0 : array_like, shape (n,), optional
         Full initial vectors (override ``positions`` / ``speeds``).
     fixed : list of str or Joint, optional
         Coordinates (or joints, or their names) to hold at their given values
         during assembly.
+    hold_speeds : bool
+        True (default): the speeds given are kept, and speeds the
+        constraints or drivers do not allow are refused; False: the
+        constraints win, the speeds given are the closest they allow.
 
     Returns
     -------
@@ -86,9 +96,13 @@ def initial_state(system, t0: float = 0.0, positions=None, speeds=None, x0=None,
     ------
     AssemblyError
         If a loop cannot close; the message names the worst rows.
+    ModelError
+        If the speeds held contradict the constraints or drivers (naming
+        both).
     """
     x, _ = _fill(system, positions, "position")
     held_x = np.zeros(system.n_coords, bool)
+    speeds, motions = split_speeds(speeds)
     xd, held_v = _fill(system, speeds, "speed")
     if x0 is not None:
         x = state_vector("initial state", "x0", x0, system.n_coords).copy()
@@ -96,11 +110,9 @@ def initial_state(system, t0: float = 0.0, positions=None, speeds=None, x0=None,
         xd = state_vector("initial state", "xd0", xd0, system.n_coords).copy()
     if fixed:
         held_x |= _coordinate_mask(system, fixed)
-    if system.n_constraints == 0:
-        return x, xd
-    x, _ = system.project(t0, x, xd, fixed=held_x)
-    _, xd = system.project(t0, x, xd, fixed=held_v)
-    return x, xd
+    if system.n_constraints:
+        x, _ = system.project(t0, x, xd, fixed=held_x)
+    return x, held_speeds(system, t0, x, xd, held_v, motions, bool(hold_speeds))
 
 
 def _solver_class(method):
@@ -210,7 +222,8 @@ def _calibrated(system, t0, x, xd):
 def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=None, x0=None, xd0=None,
              fixed=None, n_out: int = 201, t_eval=None, method: str = "auto", rtol: float = 1e-8,
              atol: float | None = None, complement=None, projection_tol: float = 1e-10,
-             max_step: float = np.inf, progress: bool | None = None, track_work: bool = False) -> Result:
+             max_step: float = np.inf, progress: bool | None = None, track_work: bool = False,
+             hold_speeds: bool = True) -> Result:
     """Simulate a model from ``t0`` to ``t_end``.
 
     The state (x, xd) is integrated by an OdeSolver (scipy's, or SUNDIALS'
@@ -229,8 +242,9 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         End time, s.
     t0 : float
         Start time, s.
-    positions, speeds, x0, xd0, fixed
-        Initial conditions, see :func:`initial_state`.
+    positions, speeds, x0, xd0, fixed, hold_speeds
+        Initial conditions, see :func:`initial_state` (``speeds`` also takes
+        :class:`~flexmb.PointVelocity` and :class:`~flexmb.AngularVelocity`).
     n_out : int
         Number of equally spaced output times (ignored if ``t_eval``).
     t_eval : array_like, optional
@@ -320,7 +334,7 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     memory.check(system, n_out if t_eval is None else len(t_eval), what="simulate", model=False)
     progress = shown(progress)
 
-    x, xd = initial_state(system, t0, positions, speeds, x0, xd0, fixed)
+    x, xd = initial_state(system, t0, positions, speeds, x0, xd0, fixed, hold_speeds)
     reason = ""
     if auto:
         method, reason = _choose_method(system, t0, t_end, x, xd, rtol, atol)

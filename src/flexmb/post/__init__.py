@@ -14,6 +14,8 @@ sections
     Section loads, strains and stresses along flexible bodies.
 joint_loads
     The force and moment every joint transmits.
+motion
+    Point positions, velocities and accelerations, body angular velocities.
 
 The package sits below :mod:`flexmb.result` and :mod:`flexmb.export`: it
 reads results and never builds or imports them.
@@ -21,7 +23,9 @@ reads results and never builds or imports them.
 
 from .fields import LOAD_COMPONENTS, Envelope, JointLoads, SectionField
 from .joint_loads import constraint_loads, joint_loads
+from .motion import angular_velocity, point_motion
 from .sections import joint_stations, section_loads, section_strains, section_stresses
 
 __all__ = ["SectionField", "Envelope", "JointLoads", "LOAD_COMPONENTS", "section_loads", "section_strains",
-           "section_stresses", "joint_loads", "constraint_loads", "joint_stations"]
+           "section_stresses", "joint_loads", "constraint_loads", "joint_stations", "point_motion",
+           "angular_velocity"]

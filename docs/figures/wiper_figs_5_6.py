@@ -7,7 +7,7 @@ our reading of the OCR; see ``docs/paper_figures.md``). Left, Fig. 5, rigid
 blades; right, Fig. 6, flexible blades; each panel shows both tips (the
 paper does not say which tip it plots) and, dotted, the other panel's
 right tip. Speeds are exact, from the kinematics of the stored
-states (:func:`flexmb.scene.motion.point_motion`). ``wiper_main_job.png``
+states (:func:`flexmb.post.motion.point_motion`). ``wiper_main_job.png``
 is the ``wiper.png`` of the same runs (:func:`flexmb.scene.figures.wiper_figure`),
 at a lower resolution. The script prints the numbers the page quotes. Run
 from the repository::
@@ -26,7 +26,7 @@ from matplotlib.figure import Figure  # noqa: E402
 
 import flexmb as fm  # noqa: E402
 from flexmb.scene.figures import wiper_figure  # noqa: E402
-from flexmb.scene.motion import point_motion  # noqa: E402
+from flexmb.post.motion import point_motion  # noqa: E402
 from flexmb.scenes.wiper import WiperOptions, wiper  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
@@ -39,7 +39,7 @@ def run(flexible: bool) -> dict:
     system = model.build(complement="svd")
     res = fm.simulate(system, 1.0, positions=initial, rtol=1e-6, n_out=501, progress=False)
     tip = (options.blade_length, 0.0, 0.0)
-    motion = {side: point_motion(res, system, f"{side}_blade", tip) for side in ("right", "left")}
+    motion = {side: point_motion(res, f"{side}_blade", tip, (0, 1), system) for side in ("right", "left")}
     speed = {side: np.linalg.norm(v, axis=1) for side, (_, v) in motion.items()}
     return {"t": res.t, "result": res, "system": system, "motion": motion, **speed}
 

@@ -111,11 +111,12 @@ def test_the_wiper_figure_is_the_one_drawn_in_process(tmp_path, capsys):
 
 def _wiper_args(done):
     """figures.wiper_data's arguments from {label: (scene, result, system)}."""
-    from flexmb.scene.motion import point_motion
+    from flexmb.post.motion import point_motion
 
     results = {label: res for label, (_, res, _) in done.items()}
     systems = {label: system for label, (_, _, system) in done.items()}
-    tips = {label: point_motion(results[label], systems[label], "right_blade", (0.25, 0.0, 0.0)) for label in done}
+    tips = {label: point_motion(results[label], "right_blade", (0.25, 0.0, 0.0), (0, 1), systems[label])
+            for label in done}
     return results, systems, tips
 
 

@@ -43,7 +43,7 @@ def _located(system, body, point, where):
     return body, k, local, point
 
 
-def point_motion(result, body, point=(0.0, 0.0, 0.0), derivative: int = 0, system=None) -> np.ndarray:
+def point_motion(result, body, point=(0.0, 0.0, 0.0), derivative=0, system=None):
     """Position, velocity or acceleration history of a point fixed in a body.
 
     Parameters
@@ -55,14 +55,15 @@ def point_motion(result, body, point=(0.0, 0.0, 0.0), derivative: int = 0, syste
         carried by the segment it lies on), or its name.
     point : array_like, shape (3,)
         The point in the body's frame, m (default its origin).
-    derivative : {0, 1, 2}
-        Position (m), velocity (m/s) or acceleration (m/s^2).
+    derivative : {0, 1, 2} or tuple of them
+        Position (m), velocity (m/s) or acceleration (m/s^2); a tuple gives
+        each, from one pass over the output states.
     system : System or Model, optional
         The model the result came from (default ``result.system``).
 
     Returns
     -------
-    ndarray, shape (nt, 3)
+    ndarray, shape (nt, 3), or tuple of them
         Inertial components at the output times.
 
     Raises
@@ -70,27 +71,35 @@ def point_motion(result, body, point=(0.0, 0.0, 0.0), derivative: int = 0, syste
     ModelError
         If the body is not in the model, the point is not 3 finite numbers,
         or no system is known.
+
+    Notes
+    -----
+    Exact at each output state ``(t, x, xd, xdd)`` (eq. 17 and its
+    derivative), not differences of sampled positions.
     """
-    if derivative not in (0, 1, 2):
-        raise ModelError(f"point motion: derivative must be 0, 1 or 2, got {derivative!r}")
-    where = _NAMES[derivative]
+    orders = derivative if isinstance(derivative, tuple) else (derivative,)
+    if not orders or any(d not in (0, 1, 2) for d in orders):
+        raise ModelError(f"point motion: derivative must be 0, 1 or 2 (or a tuple of them), got {derivative!r}")
+    where = _NAMES[orders[0]]
     system = _system(result, system, where)
     _, k, local, point = _located(system, body, point, where)
     nt = result.t.shape[0]
+    out = {d: np.empty((nt, 3)) for d in orders}
     if k < 0:  # a point of the ground: it stays where it is
-        return np.tile(point, (nt, 1)) if derivative == 0 else np.zeros((nt, 3))
-    out = np.empty((nt, 3))
+        for d in orders:
+            out[d][:] = point if d == 0 else 0.0
     rows = np.array([k])
-    for i in range(nt):
+    for i in range(nt if k >= 0 else 0):
         kin = system.kinematics(result.t[i], result.x[i], result.xd[i])
         p = kin.point_position(k, local)
-        if derivative == 0:
-            out[i] = p
-        elif derivative == 1:
-            out[i] = kin.point_velocity(k, p)
-        else:
-            out[i] = kin.point_bias_acceleration(k, p) + kin.point_partials(rows, p[None])[0] @ result.xdd[i]
-    return out
+        for d in orders:
+            if d == 0:
+                out[d][i] = p
+            elif d == 1:
+                out[d][i] = kin.point_velocity(k, p)
+            else:
+                out[d][i] = kin.point_bias_acceleration(k, p) + kin.point_partials(rows, p[None])[0] @ result.xdd[i]
+    return tuple(out[d] for d in orders) if isinstance(derivative, tuple) else out[derivative]
 
 
 def angular_velocity(result, body, frame: str = "inertial", point=(0.0, 0.0, 0.0), system=None) -> np.ndarray:

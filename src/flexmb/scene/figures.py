@@ -14,7 +14,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .motion import point_motion
+from ..post.motion import point_motion
 
 __all__ = ["FIGURES", "RUNS_OF_FIGURES", "SceneFigure", "wiper_figure", "wiper_data", "draw_wiper"]
 
@@ -145,7 +145,7 @@ def wiper_figure(runs, systems, tips, plt=None):
         The systems they came from.
     tips : dict of str to (ndarray, ndarray)
         Per run, the right tip's positions and velocities, shape (nt, 3)
-        (:func:`point_motion`).
+        (:func:`flexmb.post.motion.point_motion`).
     plt : module, optional
         ``matplotlib.pyplot`` (else a bare Figure is made).
 
@@ -264,7 +264,7 @@ def _wiper_runs_data(runs) -> dict:
     body, point = next(iter(scene.output.points.values()))
     results = {label: res for label, (_, res, _) in runs.items()}
     systems = {label: system for label, (_, _, system) in runs.items()}
-    tips = {label: point_motion(results[label], systems[label], body, point) for label in runs}
+    tips = {label: point_motion(results[label], body, point, (0, 1), systems[label]) for label in runs}
     return wiper_data(results, systems, tips)
 
 

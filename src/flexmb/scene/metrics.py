@@ -23,11 +23,11 @@ def _peak_speed(scene, res, label):
 
 
 def _peak_speed_exact(scene, res, label):
-    from .motion import point_motion
+    from ..post.motion import point_motion
 
     body, point = scene.output.points[label]
     # the system the result came from, kept on it (a loaded result has none: compile the scene's)
-    _, v = point_motion(res, res.system if res.system is not None else scene.system(), body, point)
+    v = point_motion(res, body, point, 1, res.system if res.system is not None else scene.system())
     return float(np.linalg.norm(v, axis=1).max())
 
 

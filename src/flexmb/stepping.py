@@ -292,9 +292,10 @@ class Run:
         flexible body in a loop the correction excites the overdamped
         segment modes (rates growing as N^2 to N^3 with the segments N),
         and the order-one step that resolves their transient can lie
-        further below the last high-order step than the error-test failures
-        CVODE allows in one step can cut (seven, each by at most ten). Such
-        an integrator chooses its first step itself, at the restarted state.
+        further below the last high-order step than CVODE's error-test
+        failures in one step can cut it (at most seven, each by at most a
+        factor of ten). Such an integrator chooses its first step itself,
+        at the restarted state.
         """
         n, t_now = self.n, self.t_now
         xs, vs = solver.y[:n], solver.y[n : 2 * n]

@@ -218,6 +218,47 @@ def test_multistep_restarts_are_rationed():
     assert res.status == "finished" and res.n_steps < 5000 and res.n_projections < 10
 
 
+def test_restart_after_a_projection_that_excites_stiff_modes():
+    """CVODE restarted from a projected state chooses its own first step.
+
+    The drifted state of B6 damped with 256 segments (tests/data/b6_restart_state.npz, written by
+    make_b6_restart_state.py) is projected onto the constraints, which excites the rod's overdamped segment
+    modes; restarted at order one with the last step (1.4e-4 s) as its first, CVODE's error test failed seven
+    times down to 3.5e-11 s (flag -3) and the 1 s run stopped at t = 0.956 s. Restarted by simulate's rule it
+    steps on: a millisecond further, its steps are back above 1e-6 s and the loop closed."""
+    import os
+    import sys
+    from types import SimpleNamespace
+
+    from flexmb.simulate import _calibrated
+    from flexmb.stepping import Run
+
+    here = os.path.dirname(os.path.abspath(__file__))
+    sys.path.insert(0, os.path.join(os.path.dirname(here), "benchmarks"))
+    import scenes
+
+    data = np.load(os.path.join(here, "data", "b6_restart_state.npz"))
+    t, y, step = float(data["t"]), np.array(data["y"]), float(data["step"])
+    model, positions = scenes.b6(True, int(data["n_segments"]))
+    system = model.build(complement="articulated")
+    x, xd = fm.initial_state(system, 0.0, positions=positions)
+    system = _calibrated(system, 0.0, x, xd)
+    n = system.n_coords
+    run = Run(system, CVODEBDF, "CVODE_BDF", np.array([0.0, 1.0]), t0=0.0, t_end=1.0, rtol=1e-8, atol=1e-10,
+              max_step=np.inf, projection_tol=1e-10, track_work=False, progress=False, auto=False)
+    run._set_options(x, xd)
+    assert run.preconditioner is not None  # GMRES with the loops' Newton preconditioner, as simulate runs it
+    run.t_now = t
+    assert system.constraint_residual(t, y[:n], y[n:]) > run.state_tol  # the restart is due
+    solver = run._restart_if_drifted(SimpleNamespace(y=y, step_size=step))
+    assert run.n_proj == 1 and solver.t == t
+    while solver.t < t + 1e-3:
+        message = solver.step()
+        assert solver.status != "failed", message
+    assert solver.t - solver.t_old > 1e-6
+    assert system.constraint_residual(solver.t, solver.y[:n], solver.y[n:]) < run.state_tol
+
+
 # ----------------------------------------------------------------------------- IDA
 
 

@@ -283,14 +283,27 @@ class Run:
             self.k_out += 1
 
     def _restart_if_drifted(self, solver):
-        """The solver, restarted from the projected state if the constraints drifted past the bound."""
+        """The solver, restarted from the projected state if the constraints drifted past the bound.
+
+        An integrator with a cheap restart (a one-step method) continues
+        with its last step size. One without (``cheap_restart = False``:
+        CVODE, IDA) starts again at order one from a state the projection
+        has moved off the slow manifold of the stiff modes: on a damped
+        flexible body in a loop the correction excites the overdamped
+        segment modes (rates growing as N^2 to N^3 with the segments N),
+        and the order-one step that resolves their transient can lie
+        further below the last high-order step than CVODE's error-test
+        failures in one step can cut it (at most seven, each by at most a
+        factor of ten). Such an integrator chooses its first step itself,
+        at the restarted state.
+        """
         n, t_now = self.n, self.t_now
         xs, vs = solver.y[:n], solver.y[n : 2 * n]
         if self.system.constraint_residual(t_now, xs, vs) <= self.state_tol:
             return solver
         xs, vs = self.system.project(t_now, xs, vs, tol=min(1e-12, self.projection_tol), speeds="mass")
         self.n_proj += 1
-        step = solver.step_size
+        step = solver.step_size if self.caps.cheap_restart else None
         first = min(max(step, 1e-14), self.t_end - t_now) if step else None
         return self._make(t_now, np.concatenate([xs, vs, solver.y[2 * n :]]), first_step=first)
 

@@ -26,8 +26,9 @@ from these class attributes,
     methods). False for multistep methods that fall back to order one
     (CVODE): simulate then projects their state only when the constraint
     residual exceeds ``RESTART_ATOL_FACTOR * atol`` (at most
-    ``RESTART_TOL_MAX``); the stored outputs are projected as for any
-    integrator.
+    ``RESTART_TOL_MAX``), and restart them without a first step (they
+    choose it at the projected state; a cheap restart continues with the
+    last step); the stored outputs are projected as for any integrator.
 ``uses_preconditioner``
     The constructor takes ``preconditioner``, a
     :class:`~flexmb.system.NewtonPreconditioner` (O(n) approximate Newton

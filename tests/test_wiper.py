@@ -31,7 +31,8 @@ import pytest
 
 import flexmb as fm
 from flexmb.result import _ARRAYS
-from flexmb.scene import figures, motion
+from flexmb.post.motion import point_motion
+from flexmb.scene import figures
 from flexmb.scenes.wiper import POINTS, PRINTED_POINTS, WiperOptions, glass_normal, wiper
 
 T_RIGID = 1.0
@@ -215,7 +216,7 @@ def test_flexible_blades(flexible, rigid):
 
 def test_exact_tip_speed_is_the_limit_of_differences(rigid):
     model, _, res = rigid
-    p, v = motion.point_motion(res, model.build(), "right_blade", (0.25, 0.0, 0.0))
+    p, v = point_motion(res, "right_blade", (0.25, 0.0, 0.0), (0, 1), model.build())
     np.testing.assert_allclose(p, _tips(model, res)["right"][0], rtol=0, atol=1e-12)
     # central differences of the sampled positions (interior outputs) approach the exact velocity as the
     # output step h shrinks, at second order: the error with 2h is about 4 times the error with h
@@ -241,7 +242,7 @@ def figure(rigid, flexible):
     (rigid_model, _, rigid_res), (flex_model, _, flex_res) = rigid, flexible
     runs = {"rigid": _head(rigid_res, len(flex_res.t)), "flexible": flex_res}
     systems = {"rigid": rigid_model.build(), "flexible": flex_model.build()}
-    tips = {k: motion.point_motion(runs[k], systems[k], "right_blade", (0.25, 0.0, 0.0)) for k in runs}
+    tips = {k: point_motion(runs[k], "right_blade", (0.25, 0.0, 0.0), (0, 1), systems[k]) for k in runs}
     return figures.wiper_figure(runs, systems, tips), runs, systems, tips
 
 
@@ -317,7 +318,7 @@ def test_flexmb_run_wiper(tmp_path):
         model, _ = wiper(WiperOptions(flexible=flexible))
         system = model.build()
         # the summary's peak tip speed is the exact one (the kinematics of the stored states)
-        _, v = motion.point_motion(res, system, "right_blade", (0.25, 0.0, 0.0))
+        v = point_motion(res, "right_blade", (0.25, 0.0, 0.0), 1, system)
         assert summary[label]["peak_tip_speed_m_s"] == pytest.approx(np.linalg.norm(v, axis=1).max(), rel=1e-12)
         i = len(res.t) // 2
         mesh = vtk.read_vtu(out / f"vtk_{label}" / f"wiper_{label}_{i:04d}.vtu")

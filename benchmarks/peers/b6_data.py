@@ -7,6 +7,9 @@ and dampers, the driver, the consistent initial state of
 ``exudyn_b6.py`` reads in the peers' venv (which has no flexmb)::
 
     python benchmarks/peers/b6_data.py --n 8 --out /tmp/b6_N8.json
+
+:func:`initial_bodies` turns those joint coordinates into the bodies' planar
+states; it needs numpy only, so that the peer script imports it from here.
 """
 
 from __future__ import annotations
@@ -70,6 +73,48 @@ def b6_data(n: int) -> dict:
         "coordinate_names": list(system.coordinate_names), "x0": np.asarray(x0).tolist(),
         "xd0": np.asarray(xd0).tolist(),
     }
+
+
+def initial_bodies(d: dict):
+    """Planar positions and velocities of crank, segments and slider from flexmb's joint coordinates.
+
+    Parameters
+    ----------
+    d : dict
+        The data of ``b6_data.py``.
+
+    Returns
+    -------
+    list of tuple
+        ``(x, y, phi, vx, vy, omega)`` of the crank's and each segment's mass
+        centre, then ``(x, y, 0, vx, vy, 0)`` of the slider.
+    """
+    names, x, xd = d["coordinate_names"], np.asarray(d["x0"]), np.asarray(d["xd0"])
+    at = {name: i for i, name in enumerate(names)}
+    n, l, r = d["n_segments"], d["segment_length"], d["crank_length"]
+    th, w = x[at["crank_pin.angle"]], xd[at["crank_pin.angle"]]
+    out = []
+
+    def unit(a):
+        return np.array([np.cos(a), np.sin(a)])
+
+    def perp(a):
+        return np.array([-np.sin(a), np.cos(a)])
+
+    c, v = d["crank_com"] * unit(th), d["crank_com"] * w * perp(th)
+    out.append((*c, th, *v, w))
+    p, vp = r * unit(th), r * w * perp(th)  # crank tip: the rod's first end
+    a, wa = th + x[at["rod_pin.angle"]], w + xd[at["rod_pin.angle"]]
+    for j in range(n):
+        if j > 0:
+            a += x[at[f"rod.j{j}.bend_z"]]
+            wa += xd[at[f"rod.j{j}.bend_z"]]
+        c, v = p + d["segment_com"] * unit(a), vp + d["segment_com"] * wa * perp(a)
+        out.append((*c, a, *v, wa))
+        p, vp = p + l * unit(a), vp + l * wa * perp(a)
+    s, sd = x[at["rail.slide"]], xd[at["rail.slide"]]
+    out.append((s, 0.0, 0.0, sd, 0.0, 0.0))
+    return out
 
 
 def main(argv=None):

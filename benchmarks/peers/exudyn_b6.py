@@ -54,50 +54,9 @@ import exudyn as exu  # noqa: E402
 import exudyn.itemInterface as eii  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from b6_data import initial_bodies  # noqa: E402
 from beam_data import emit, row  # noqa: E402
 from rounds import drive  # noqa: E402
-
-
-def initial_bodies(d: dict):
-    """Planar positions and velocities of crank, segments and slider from flexmb's joint coordinates.
-
-    Parameters
-    ----------
-    d : dict
-        The data of ``b6_data.py``.
-
-    Returns
-    -------
-    list of tuple
-        ``(x, y, phi, vx, vy, omega)`` of the crank's and each segment's mass
-        centre, then ``(x, y, 0, vx, vy, 0)`` of the slider.
-    """
-    names, x, xd = d["coordinate_names"], np.asarray(d["x0"]), np.asarray(d["xd0"])
-    at = {name: i for i, name in enumerate(names)}
-    n, l, r = d["n_segments"], d["segment_length"], d["crank_length"]
-    th, w = x[at["crank_pin.angle"]], xd[at["crank_pin.angle"]]
-    out = []
-
-    def unit(a):
-        return np.array([np.cos(a), np.sin(a)])
-
-    def perp(a):
-        return np.array([-np.sin(a), np.cos(a)])
-
-    c, v = d["crank_com"] * unit(th), d["crank_com"] * w * perp(th)
-    out.append((*c, th, *v, w))
-    p, vp = r * unit(th), r * w * perp(th)  # crank tip: the rod's first end
-    a, wa = th + x[at["rod_pin.angle"]], w + xd[at["rod_pin.angle"]]
-    for j in range(n):
-        if j > 0:
-            a += x[at[f"rod.j{j}.bend_z"]]
-            wa += xd[at[f"rod.j{j}.bend_z"]]
-        c, v = p + d["segment_com"] * unit(a), vp + d["segment_com"] * wa * perp(a)
-        out.append((*c, a, *v, wa))
-        p, vp = p + l * unit(a), vp + l * wa * perp(a)
-    s, sd = x[at["rail.slide"]], xd[at["rail.slide"]]
-    out.append((s, 0.0, 0.0, sd, 0.0, 0.0))
-    return out
 
 
 def build(d: dict, driver: str = "symbolic"):
@@ -236,7 +195,8 @@ def main(argv=None):
                     help="rounds (each runs every configuration once); the least wall time is reported")
     ap.add_argument("--reference", help="JSON list: flexmb's slider x at the n_out output times (m)")
     ap.add_argument("--reference-label", default="")
-    ap.add_argument("--richardson", type=int, help="print the Richardson extrapolation of S and 2S steps")
+    ap.add_argument("--richardson", type=int,
+                    help="print the Richardson extrapolation of S and 2S steps (at the first --newton-rtol)")
     ap.add_argument("--rounds-from-stdin", action="store_true",
                     help="driven by compare_b6.py: one round per line 'round' on stdin, one JSON row per run")
     args = ap.parse_args(argv)
@@ -250,11 +210,13 @@ def main(argv=None):
     base = {"version": exu.config.Version(), "t_end": args.t_end, "n_out": args.n_out, "driver": args.driver,
             "linear_solver": "EigenSparse"}
     if args.richardson:
-        s1, w1, y1, c1, nc, _ = run(d, args.richardson, args.t_end, args.n_out, 1e-10, args.driver)
-        s2, w2, y2, c2, nc, _ = run(d, 2 * args.richardson, args.t_end, args.n_out, 1e-10, args.driver)
+        nt = args.newton_rtol[0]
+        s1, w1, y1, c1, nc, _ = run(d, args.richardson, args.t_end, args.n_out, nt, args.driver)
+        s2, w2, y2, c2, nc, _ = run(d, 2 * args.richardson, args.t_end, args.n_out, nt, args.driver)
         y = y2 + (y2 - y1) / 3.0
         out = {"tool": "exudyn", "scene": "B6", "n_segments": n, "richardson_steps": args.richardson,
-               "output": y.tolist(), "change": float(np.max(np.abs(y2 - y1))), "wall_s": w1 + w2, **base}
+               "output": y.tolist(), "change": float(np.max(np.abs(y2 - y1))), "wall_s": w1 + w2,
+               "newton_rtol": nt, "finished": bool(c1["ok"] and c2["ok"]), **base}
         if ref is not None:
             out["agreement"] = float(np.max(np.abs(y - ref)))
             out["agreement_fine"] = float(np.max(np.abs(y2 - ref)))
@@ -283,7 +245,9 @@ def main(argv=None):
                             reference=args.reference_label or None, output_end=float(y[-1]), crank_end=crank,
                             output_on_steps=cnt["output_on_steps"],
                             status="finished" if cnt["ok"] else "failed", **base))
-            if not cnt["ok"]:
+            if not cnt["ok"] or not cnt["output_on_steps"]:
+                # failed, or Exudyn's step control had to shorten steps (Newton failures): such a run is not
+                # the configured fixed step and can take minutes; kept with this round's time, not repeated
                 failed.add((steps, nt))
         return rows
 

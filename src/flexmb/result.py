@@ -244,7 +244,7 @@ class Result:
         return f"<table><caption style='text-align:left'><b>flexmb Result</b></caption>{cells}</table>"
 
     def show(self, i: int = -1, *, system=None, path=None, **options):
-        """Render the mechanism at output ``i`` (pyvista, off-screen), inline in a notebook.
+        """Render the mechanism at output ``i`` (pyvista, off-screen), shown inline in a notebook.
 
         Parameters
         ----------
@@ -261,9 +261,10 @@ class Result:
 
         Returns
         -------
-        IPython.display.Image or pathlib.Path
-            The picture (an Image where IPython is installed), else the
-            PNG's path.
+        flexmb.viz.Picture
+            The PNG's path (a :class:`pathlib.Path`), which shows the picture
+            when it is the last expression of a notebook cell (or of a
+            sphinx-gallery block).
 
         Raises
         ------
@@ -272,17 +273,13 @@ class Result:
         """
         import tempfile
 
-        from .viz import render_state
+        from .viz import Picture, render_state
 
         if path is None:
             path = Path(tempfile.mkdtemp(prefix="flexmb_show_")) / "state.png"
         out = render_state(self, i % len(self.t), path, system=self.system if system is None else system,
                            **options)
-        try:
-            from IPython.display import Image
-        except ImportError:
-            return out
-        return Image(filename=str(out))
+        return Picture(out)
 
     def coordinate(self, name) -> np.ndarray:
         """History of one coordinate by its name (``"joint.coordinate"``), or a joint's first coordinate.

@@ -292,3 +292,34 @@ def test_a_run_that_will_compile_says_so_first(tmp_path, monkeypatch, capsys):
     assert capsys.readouterr().err.startswith(kernels.FIRST_RUN_NOTE + "\n")
     assert main(["run", PENDULUM, "--out", str(tmp_path / "b"), "--t-end", "0.05", "--quiet"]) == 0
     assert kernels.FIRST_RUN_NOTE not in capsys.readouterr().err
+
+
+def test_a_run_never_removes_another_scene_s_outputs(tmp_path, monkeypatch, capsys):
+    """Issue #32: `flexmb run wiper --out results && flexmb run 01_pendulum.toml` removed the wiper's files.
+
+    Without --out each scene writes to results/<its name>; into a folder holding another scene's outputs
+    a run is refused (saying how to overwrite) and removes nothing; --overwrite replaces them.
+    """
+    monkeypatch.chdir(tmp_path)
+    short = ["--t-end", "0.05", "--n-out", "3", "--quiet"]
+    assert main(["run", "fourbar", *short]) == 0
+    assert main(["run", PENDULUM, *short]) == 0
+    assert (tmp_path / "results" / "fourbar" / "fourbar.npz").is_file()
+    assert (tmp_path / "results" / "01_pendulum" / "summary.json").is_file()
+    capsys.readouterr()
+    before = sorted(p.relative_to(tmp_path) for p in (tmp_path / "results" / "fourbar").rglob("*"))
+    assert main(["run", PENDULUM, "--out", "results/fourbar", *short]) != 0
+    err = capsys.readouterr().err
+    assert "results/fourbar holds the outputs of built-in scene 'fourbar'" in err and "--overwrite" in err
+    assert sorted(p.relative_to(tmp_path) for p in (tmp_path / "results" / "fourbar").rglob("*")) == before
+    assert main(["run", "fourbar", "--out", "results/fourbar", *short]) == 0  # the same scene again: replaced
+    assert main(["run", PENDULUM, "--out", "results/fourbar", "--overwrite", *short]) == 0
+    assert not (tmp_path / "results" / "fourbar" / "fourbar.npz").exists()
+    assert json.loads((tmp_path / "results" / "fourbar" / "summary.json").read_text())["scene"] == PENDULUM
+
+
+def test_run_help_says_where_the_outputs_go(capsys):
+    with pytest.raises(SystemExit):
+        main(["run", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "default: results/NAME" in text and "--overwrite" in text

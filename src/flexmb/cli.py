@@ -64,12 +64,19 @@ def _messages(quiet: bool):
 
 def _run(args) -> int:
     """Run a scene; Ctrl-C while the outputs are written leaves the folder's last complete run, exit 130."""
+    if args.out is None:
+        args.out = _default_out(args.scene)
     try:
         return _run_scene(args)
     except KeyboardInterrupt:
         print(f"\nflexmb: interrupted while writing the outputs: {args.out}/ holds the last complete run "
               "(summary.json says what it holds)", file=sys.stderr)
         return 130
+
+
+def _default_out(name: str) -> str:
+    """The output folder of a run without ``--out``: ``results/<the scene file's name without .toml>``."""
+    return os.path.join("results", os.path.splitext(os.path.basename(os.path.normpath(name)))[0] or "scene")
 
 
 def _scene(name):
@@ -91,8 +98,8 @@ def _run_scene(args) -> int:
     if not args.quiet and not cached_on_disk():
         print(FIRST_RUN_NOTE, file=sys.stderr)
     scene = _scene(args.scene)
-    summary = scene.run(args.out, progress=not args.quiet, t_end=args.t_end, rtol=args.rtol,
-                        complement=args.complement, method=args.integrator, n_out=args.n_out)
+    summary = scene.run(args.out, progress=not args.quiet, overwrite=args.overwrite, t_end=args.t_end,
+                        rtol=args.rtol, complement=args.complement, method=args.integrator, n_out=args.n_out)
     print(json.dumps(summary, indent=2))
     print(f"wrote {args.out}/ ({', '.join(sorted(summary.get('files', {}))) or 'nothing'}"
           f"{', summary.json' if scene.output.summary else ''})")
@@ -175,7 +182,11 @@ def main(argv=None) -> int:
     sub = parser.add_subparsers(dest="command", required=True)
     run = sub.add_parser("run", help="simulate a scene file (or a built-in scene) and write results, plots and VTK")
     run.add_argument("scene", help=scene_help)
-    run.add_argument("--out", default="results", help="output folder")
+    run.add_argument("--out", default=None, metavar="DIR",
+                     help="output folder (default: results/NAME, NAME the scene file's name without .toml, or "
+                          "the built-in scene's name); a folder holding another scene's outputs is refused")
+    run.add_argument("--overwrite", action="store_true",
+                     help="replace the outputs of another scene's run in the output folder")
     run.add_argument("--t-end", type=float, default=None, help="end time, s (default: the scene's)")
     run.add_argument("--rtol", type=float, default=None, help="relative tolerance (default: the scene's)")
     run.add_argument("--complement", default=None, help="orthogonal complement strategy: "

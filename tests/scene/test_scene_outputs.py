@@ -342,7 +342,10 @@ def test_a_run_without_summary_removes_the_previous_summary(tmp_path):
     scene = tmp_path / "s.toml"
     scene.write_text(pathlib.Path(PENDULUM).read_text() + "\n[output]\nsummary = false\n")
     assert main(_run_argv(tmp_path / "out", 0.2, 11)) == 0
-    assert main(_run_argv(tmp_path / "out", 0.1, 5, str(scene))) == 0
+    # another scene's run: refused (it would remove the first one's files) unless told to overwrite
+    assert main(_run_argv(tmp_path / "out", 0.1, 5, str(scene))) != 0
+    assert (tmp_path / "out" / "summary.json").exists()
+    assert main(_run_argv(tmp_path / "out", 0.1, 5, str(scene)) + ["--overwrite"]) == 0
     assert not (tmp_path / "out" / "summary.json").exists()  # it would describe the other run
 
 

@@ -159,7 +159,7 @@ class Scene:
             out[label] = result.origins[:, row] + result.rotations[:, row] @ local
         return out
 
-    def run(self, out, progress: bool = True, **overrides) -> dict:
+    def run(self, out, progress: bool = True, overwrite: bool = False, **overrides) -> dict:
         """Simulate and write the outputs: ``.npz`` result, ``summary.json``, plots and VTK.
 
         A scene with ``[runs]`` runs each of them in turn, with the same
@@ -170,7 +170,9 @@ class Scene:
         second run into it is refused) and the new files replace the previous
         run's only once all are written, ``summary.json`` last; files of the
         previous run that this one does not write are removed (see
-        ``docs/scenes.md``, "Output folders").
+        ``docs/scenes.md``, "Output folders"). A folder holding the outputs
+        of another scene is refused before anything runs, unless
+        ``overwrite``.
 
         Parameters
         ----------
@@ -178,6 +180,8 @@ class Scene:
             Output folder (created).
         progress : bool
             Progress bar on stderr.
+        overwrite : bool
+            Replace the outputs of another scene's run in ``out``.
         **overrides
             Fields of :class:`SolverSettings` to replace.
 
@@ -191,11 +195,13 @@ class Scene:
         SimulationError
             If the run fails (after writing the partial outputs).
         ExportError
-            If another run is writing into ``out`` (the message names its pid).
+            If another run is writing into ``out`` (the message names its
+            pid), or ``out`` holds another scene's outputs and ``overwrite``
+            is False.
         """
         from .outputs import run_into
 
-        return run_into(self, out, progress, overrides)
+        return run_into(self, out, progress, overrides, overwrite=overwrite)
 
     def info(self) -> str:
         """Describe the scene: bodies, joints, coordinates, constraints, redundancy, freedoms.

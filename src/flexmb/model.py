@@ -166,6 +166,27 @@ class Model:
                     self._aliases[e] = new
         return problems
 
+    def __repr__(self) -> str:
+        counts = [(len(self.bodies), "body", "bodies"), (len(self.joints), "joint", "joints"),
+                  (len(self.forces), "force element", "force elements"), (len(self.drivers), "driver", "drivers")]
+        return (f"<Model {self.name!r}: " + ", ".join(f"{n} {one if n == 1 else many}" for n, one, many in counts)
+                + "; print() it for its coordinates, loops and freedoms>")
+
+    def __str__(self) -> str:
+        """What ``flexmb info`` says of a scene: bodies, joints, coordinates, loops, rank, redundant rows, freedoms.
+
+        The model is built (its problems listed instead if it is invalid), and
+        the rank of the constraint Jacobian is taken at a generic state
+        (random coordinates: a model has no initial state).
+        """
+        from ._describe import GENERIC, describe, generic_state
+
+        try:
+            system = self.build()
+        except ModelError as exc:
+            return f"Model {self.name!r}, which does not build: {exc}"
+        return "\n".join([f"Model {self.name!r}", *describe(system, *generic_state(system), where=GENERIC)])
+
     def __getitem__(self, name: str):
         for group in (self.bodies, self.joints, self.forces, self.drivers):
             for item in group:

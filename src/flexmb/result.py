@@ -235,6 +235,12 @@ class Result:
                                    "drivers and dampers change it)"))
         return rows
 
+    def __repr__(self) -> str:
+        """One screen: the rows of the notebook table and the arrays' shapes (not their values)."""
+        rows = [f"  {k}: {v}" for k, v in self._summary_rows()]
+        arrays = ", ".join(f"{a} {tuple(np.shape(getattr(self, a)))}" for a in _ARRAYS)
+        return "\n".join(["<flexmb Result", *rows, f"  arrays: {arrays}>"])
+
     def _repr_html_(self) -> str:
         """A short table for Jupyter: status, times, integrator, cost, residuals, energy."""
         from html import escape

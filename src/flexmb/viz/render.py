@@ -266,8 +266,10 @@ class Picture(type(Path())):
 
     Parameters
     ----------
-    *parts : str or path-like
+    *args : str or path-like
         The image file, as for :class:`pathlib.Path`.
+    **kwargs
+        As for :class:`pathlib.Path`.
 
     Examples
     --------

@@ -310,7 +310,7 @@ def test_a_run_never_removes_another_scene_s_outputs(tmp_path, monkeypatch, caps
     before = sorted(p.relative_to(tmp_path) for p in (tmp_path / "results" / "fourbar").rglob("*"))
     assert main(["run", PENDULUM, "--out", "results/fourbar", *short]) == 3  # an input error
     err = capsys.readouterr().err
-    assert "results/fourbar holds the outputs of built-in scene 'fourbar'" in err and "--overwrite" in err
+    assert "results/fourbar holds the outputs of scene 'fourbar' (model 'fourbar')" in err and "--overwrite" in err
     assert sorted(p.relative_to(tmp_path) for p in (tmp_path / "results" / "fourbar").rglob("*")) == before
     assert main(["run", "fourbar", "--out", "results/fourbar", *short]) == 0  # the same scene again: replaced
     assert main(["run", PENDULUM, "--out", "results/fourbar", "--overwrite", *short]) == 0

@@ -185,8 +185,9 @@ def test_apply_all_matches_one_at_a_time_and_the_kane_power(fr):
     """The vectorised class call equals the per-element calls, rigid and flexible; powers agree with F.xd."""
     rng = np.random.default_rng(3)
     model, body, elements = free_puck(fr, rng, n_elements=3)
+    # pinned at its root (clamped=False): a clamped root on a hinge would make the mass matrix singular
     beam = fm.FlexibleBody("beam", 0.4, fm.Section.rectangular(0.01, 0.002), fm.Material.steel(), n_segments=4,
-                           keep=("bend_y", "bend_z"))
+                           keep=("bend_y", "bend_z"), clamped=False)
     model.add(fm.Revolute("hinge", body, beam, parent_point=(0.1, 0.0, 0.0), axis=(0.0, 0.0, 1.0)))
     elements.append(fr.VelocityWeakeningFriction("tip", beam, (0.4, 0.0, 0.0), (0.0, 0.2, 1.0), normal_load=3.0,
                                                  mu_static=0.5, slope=0.1, smoothing_speed=1e-2))

@@ -850,3 +850,36 @@ def test_unclamped_flexible_body_of_one_segment_is_refused():
     """Found by the extended hypothesis generators: it passed construction, then failed in BeamElasticity."""
     with pytest.raises(fm.ModelError, match=r"FlexibleBody 'beam': an unclamped flexible body needs n_segments >= 2"):
         fm.FlexibleBody("beam", 1.0, B1_SECTION, fm.Material.aluminium(), n_segments=1, clamped=False)
+
+
+def test_a_clamped_beam_pinned_about_its_root_bending_axis_names_the_joint_and_clamped_false():
+    """Issue #32: a default (clamped) uniform_beam pinned by a Revolute about the axis its root bends about failed
+    inside the integrator ("not positive definite", a LinAlgError); the build names the joint and the remedy."""
+    def pinned(clamped):
+        model = fm.Model("beam")
+        beam = fm.FlexibleBody.uniform_beam("beam", 1.0, fm.Section.rectangular(0.02, 0.01), fm.Material.aluminium(),
+                                            4, keep=("bend_z",), clamped=clamped)
+        return model.add(fm.Revolute("pin", model.ground, beam, axis=(0, 0, 1)), fm.Gravity((0.0, -9.81, 0.0)))
+
+    with pytest.raises(fm.ModelError, match=r"joint 'pin' \(Revolute\) turns the clamped flexible body 'beam' "
+                                            r"about \[0.0, 0.0, 1.0\] at its root.*bends \(bend_z\).*clamped=False"):
+        pinned(True).build()
+    assert fm.simulate(pinned(False), 0.01, n_out=3).status == "finished"
+
+
+def test_a_spherical_joint_on_a_slender_bar_names_the_spin_and_the_remedy():
+    """Issue #32: a slender bar (no inertia about its axis) on a Spherical joint read "simulation failed the mass
+    matrix ..." at t = 0; the build names the joint, the body, the axis and the remedies."""
+    def ball(body):
+        model = fm.Model("top")
+        return model.add(fm.Spherical("ball", model.ground, body), fm.Gravity((0.0, -9.81, 0.0)))
+
+    with pytest.raises(fm.ModelError, match=r"joint 'ball' \(Spherical\) turns body 'bar' about the axis "
+                                            r"\[1.0, 0.0, 0.0\] .*no inertia.*Universal instead of a Spherical"):
+        ball(fm.RigidBody.slender_bar("bar", 1.0, 1.0)).build()
+    bar = fm.RigidBody("bar", 1.0, (1e-6, 1.0 / 12, 1.0 / 12), com=(0.5, 0.0, 0.0))  # an axial moment: fine
+    assert fm.simulate(ball(bar), 0.01, positions={"ball": [0.1, 0.2, 0.3]}, n_out=3).status == "finished"
+    universal = fm.Model("hooke")  # a Universal leaves out the spin: fine too
+    universal.add(fm.Universal("u", universal.ground, fm.RigidBody.slender_bar("bar", 1.0, 1.0), axis=(0, 0, 1),
+                               axis2=(0, 1, 0)), fm.Gravity((0.0, -9.81, 0.0)))
+    universal.build()

@@ -136,11 +136,11 @@ class RigidBody(Body):
     0.00225
     """
 
-    # None: not given, refused by the validator with a message naming the body (not attrs' TypeError)
-    mass: float = field(default=None, converter=converters.optional(as_float), validator=[_given, positive])
+    # None: not given, refused (after the checks of what was given) naming the body, not with attrs' TypeError
+    mass: float = field(default=None, converter=converters.optional(as_float), validator=validators.optional(positive))
     inertia: np.ndarray = field(default=None, converter=converters.optional(_as_inertia),
                                 validator=validators.optional(_check_inertia))
-    com: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
+    com: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=[vector3, _given])
 
     @classmethod
     def slender_bar(cls, name: str, mass: float, length: float, axis: int = 0, centred: bool = False):

@@ -237,9 +237,8 @@ class Result:
 
     def __repr__(self) -> str:
         """One screen: the rows of the notebook table and the arrays' shapes (not their values)."""
-        rows = [f"  {k}: {v}" for k, v in self._summary_rows()]
         arrays = ", ".join(f"{a} {tuple(np.shape(getattr(self, a)))}" for a in _ARRAYS)
-        return "\n".join(["<flexmb Result", *rows, f"  arrays: {arrays}>"])
+        return "\n".join(["<flexmb Result", *(f"  {k}: {v}" for k, v in self._summary_rows()), f"  arrays: {arrays}>"])
 
     def _repr_html_(self) -> str:
         """A short table for Jupyter: status, times, integrator, cost, residuals, energy."""
@@ -268,9 +267,8 @@ class Result:
         Returns
         -------
         flexmb.viz.Picture
-            The PNG's path (a :class:`pathlib.Path`), which shows the picture
-            when it is the last expression of a notebook cell (or of a
-            sphinx-gallery block).
+            The PNG's path (a :class:`pathlib.Path`), shown as the picture
+            when it ends a notebook cell or a sphinx-gallery block.
 
         Raises
         ------

@@ -100,17 +100,14 @@ def _owner(scene) -> str:
     -------
     str
         The file's real path for a scene file (one file, however named on
-        the command line), ``"built-in scene 'wiper'"`` for a built-in
-        scene, else the source given with the model's name.
+        the command line), else ``"scene 'wiper' (model 'wiper')"``: a
+        built-in scene's name, or the source given to
+        :func:`~flexmb.loads_scene`, with the model's name.
     """
-    from .load import builtin_scenes
-
     source = os.fspath(scene.source)
     if os.path.isfile(source):
         return os.path.realpath(source)
-    if source in builtin_scenes():
-        return f"built-in scene {source!r}"
-    return f"{source} (model {scene.name!r})"
+    return f"scene {source!r} (model {scene.name!r})"
 
 
 def run_into(scene, out, progress: bool, overrides: dict, overwrite: bool = False) -> dict:

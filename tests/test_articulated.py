@@ -75,7 +75,12 @@ def test_point_mass_on_a_pin_is_a_clear_error():
     tip = fm.RigidBody("tip", 1.0, (0.0, 0.0, 0.0))  # a point mass pinned at its centre: no inertia on tip_pin
     model.add(fm.Revolute("pin", model.ground, bar, axis=(0, 0, 1)))
     model.add(fm.Revolute("tip_pin", bar, tip, parent_point=(1, 0, 0), axis=(0, 0, 1)))
-    system = model.build(sparse=True)
+    # refused at build time, naming the joint, the body and the axis (issue #32)
+    with pytest.raises(fm.ModelError, match=r"joint 'tip_pin' \(Revolute\) turns body 'tip' about the axis "
+                                            r"\[0.0, 0.0, 1.0\].*no inertia"):
+        model.build(sparse=True)
+    # and the recursion's own diagnosis, for what the build cannot see, says the same at run time
+    system = fm.System(model, sparse=True)
     with pytest.raises(fm.AssemblyError, match="singular at t = 0 s: joint 'tip_pin' moves no mass"):
         system.accelerations(0.0, np.zeros(2), np.zeros(2))
 

@@ -120,22 +120,22 @@ def test_interrupted_run_writes_what_it_computed(tmp_path, monkeypatch, capsys):
     ("[bodies.bar]\nmass = -1.0\n[solver]\nt_end = 1.0\n", "bad.toml: bodies.bar.mass: must be > 0"),
     ('[joints.pin]\ntype = "hinge"\n[solver]\nt_end = 1.0\n', "bad.toml: joints.pin.type: no joints plugin"),
 ])
-def test_bad_scene_exits_2_with_one_line(tmp_path, monkeypatch, capsys, text, where):
+def test_bad_scene_exits_3_with_one_line(tmp_path, monkeypatch, capsys, text, where):
     monkeypatch.chdir(tmp_path)
     pathlib.Path("bad.toml").write_text(text)
     for cmd in ("run", "info"):
-        assert main([cmd, "bad.toml"]) == 2
+        assert main([cmd, "bad.toml"]) == 3
         err = capsys.readouterr().err
         assert err.startswith("flexmb: error: bad.toml: ") and where in err and err.count("\n") == 1
 
 
-def test_missing_scene_file_exits_2(tmp_path, capsys):
-    assert main(["info", str(tmp_path / "none.toml")]) == 2
+def test_missing_scene_file_exits_3(tmp_path, capsys):
+    assert main(["info", str(tmp_path / "none.toml")]) == 3
     assert "cannot read the scene file" in capsys.readouterr().err
 
 
 def test_an_unknown_scene_name_lists_the_built_in_scenes(capsys):
-    assert main(["run", "wipper", "--out", "unused"]) == 2
+    assert main(["run", "wipper", "--out", "unused"]) == 3
     err = capsys.readouterr().err
     assert err == ("flexmb: error: wipper: cannot read the scene file: no such file, and no built-in scene of "
                    "that name (the built-in scenes: fourbar, wiper)\n")
@@ -163,7 +163,7 @@ def test_the_real_command_in_a_subprocess(tmp_path):
                                        "[solver]\nt_end = 1.0\n")
     bad = subprocess.run([sys.executable, "-m", "flexmb", "run", "bad.toml"], capture_output=True, text=True,
                          env=env, cwd=tmp_path)
-    assert bad.returncode == 2
+    assert bad.returncode == 3
     assert bad.stderr == "flexmb: error: bad.toml: joints.pin.child: unknown body 'rod'; known: ground\n"
 
 
@@ -242,7 +242,7 @@ def test_the_command_exits_with_its_output_flushed_and_the_exit_handlers_run(tmp
 
 def test_the_command_passes_on_main_s_status(tmp_path):
     proc = _console("import sys\nsys.argv = ['flexmb', 'plugins', '--kind', 'nonsense']", tmp_path)
-    assert proc.returncode == 2
+    assert proc.returncode == 3
     assert "unknown plugin kind 'nonsense'" in proc.stderr
 
 
@@ -292,3 +292,63 @@ def test_a_run_that_will_compile_says_so_first(tmp_path, monkeypatch, capsys):
     assert capsys.readouterr().err.startswith(kernels.FIRST_RUN_NOTE + "\n")
     assert main(["run", PENDULUM, "--out", str(tmp_path / "b"), "--t-end", "0.05", "--quiet"]) == 0
     assert kernels.FIRST_RUN_NOTE not in capsys.readouterr().err
+
+
+def test_a_run_never_removes_another_scene_s_outputs(tmp_path, monkeypatch, capsys):
+    """Issue #32: `flexmb run wiper --out results && flexmb run 01_pendulum.toml` removed the wiper's files.
+
+    Without --out each scene writes to results/<its name>; into a folder holding another scene's outputs
+    a run is refused (saying how to overwrite) and removes nothing; --overwrite replaces them.
+    """
+    monkeypatch.chdir(tmp_path)
+    short = ["--t-end", "0.05", "--n-out", "3", "--quiet"]
+    assert main(["run", "fourbar", *short]) == 0
+    assert main(["run", PENDULUM, *short]) == 0
+    assert (tmp_path / "results" / "fourbar" / "fourbar.npz").is_file()
+    assert (tmp_path / "results" / "01_pendulum" / "summary.json").is_file()
+    capsys.readouterr()
+    before = sorted(p.relative_to(tmp_path) for p in (tmp_path / "results" / "fourbar").rglob("*"))
+    assert main(["run", PENDULUM, "--out", "results/fourbar", *short]) == 3  # an input error
+    err = capsys.readouterr().err
+    assert "results/fourbar holds the outputs of scene 'fourbar' (model 'fourbar')" in err and "--overwrite" in err
+    assert sorted(p.relative_to(tmp_path) for p in (tmp_path / "results" / "fourbar").rglob("*")) == before
+    assert main(["run", "fourbar", "--out", "results/fourbar", *short]) == 0  # the same scene again: replaced
+    assert main(["run", PENDULUM, "--out", "results/fourbar", "--overwrite", *short]) == 0
+    assert not (tmp_path / "results" / "fourbar" / "fourbar.npz").exists()
+    assert json.loads((tmp_path / "results" / "fourbar" / "summary.json").read_text())["scene"] == PENDULUM
+
+
+def test_run_help_says_where_the_outputs_go(capsys):
+    with pytest.raises(SystemExit):
+        main(["run", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "default: results/NAME" in text and "--overwrite" in text
+
+
+def test_exit_statuses_tell_usage_input_failure_and_interruption_apart(tmp_path, monkeypatch, capsys):
+    """Issue #32: a typo in the command line, a bad scene and a solver failure all gave 2. Each has its own
+    status, documented in --help and docs/scenes.md."""
+    with pytest.raises(SystemExit) as usage:
+        main(["run", PENDULUM, "--t-ned", "0.1"])  # a typo in an option
+    bad = tmp_path / "bad.toml"
+    bad.write_text(pathlib.Path(PENDULUM).read_text().replace('type = "revolute"', 'type = "revolut"'))
+    code_input = main(["run", str(bad), "--out", str(tmp_path / "bad"), "--quiet"])
+    failing = tmp_path / "failing.toml"  # gravity of 1e300 m/s^2: the integrator fails at once
+    failing.write_text(pathlib.Path(PENDULUM).read_text().replace("g = [0.0, -9.81, 0.0]", "g = [0.0, -1e300, 0.0]"))
+    code_failed = main(["run", str(failing), "--out", str(tmp_path / "failing"), "--t-end", "0.01", "--quiet"])
+    assert (tmp_path / "failing" / "summary.json").is_file()  # the partial outputs are written
+    monkeypatch.setattr(STEPPING, "Progress", interrupt_after(0.1))  # Ctrl-C at t = 0.1 s
+    code_interrupted = main(["run", PENDULUM, "--out", str(tmp_path / "int"), "--t-end", "1.0"])
+    codes = (usage.value.code, code_input, code_failed, code_interrupted)
+    assert codes == (2, 3, 4, 130)
+    from flexmb.cli import EXIT_STATUS
+
+    assert codes == tuple(EXIT_STATUS[k] for k in ("usage", "input", "failed", "interrupted"))
+    capsys.readouterr()
+    with pytest.raises(SystemExit):
+        main(["run", "--help"])
+    text = capsys.readouterr().out
+    docs = (pathlib.Path(__file__).resolve().parents[1] / "docs" / "scenes.md").read_text()
+    for what, code in EXIT_STATUS.items():
+        assert f"\n  {code:<4} " in text, what
+        assert f"| {code} |" in docs, what

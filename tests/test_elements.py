@@ -9,7 +9,7 @@ import pytest
 import flexmb as fm
 
 GROUND = fm.Ground()
-LINK = fm.RigidBody("link")
+LINK = fm.RigidBody("link", mass=1.0, inertia=(1.0, 1.0, 1.0))
 
 
 def _noop(t):
@@ -122,7 +122,7 @@ def test_inputs_are_copied():
 
 
 def test_rigid_body_scalars_and_defaults():
-    body = fm.RigidBody("b", mass=3)
+    body = fm.RigidBody("b", mass=3, inertia=(1.0, 1.0, 1.0))
     assert type(body.mass) is float and body.mass == 3.0
     np.testing.assert_array_equal(body.inertia, np.eye(3))
     g = fm.Ground()
@@ -202,7 +202,7 @@ def state_of(model, x, xd=None, t=0.0):
 def test_spring_damper_on_prismatic_collinear(q, qd):
     k, c, l0 = 50.0, 3.0, 0.8
     model = fm.Model()
-    slider = fm.RigidBody("slider", mass=2.0)
+    slider = fm.RigidBody("slider", mass=2.0, inertia=(1.0, 1.0, 1.0))
     model.add(fm.Prismatic("rail", model.ground, slider, axis=(1, 0, 0)),
               fm.SpringDamper("spring", model.ground, (-1.0, 0, 0), slider, (0, 0, 0), k, c, l0))
     system, _, _, F = state_of(model, [q], [qd])
@@ -216,7 +216,7 @@ def test_spring_damper_on_prismatic_oblique(q, qd):
     """Spring from (0, h) on the ground to the slider on the x axis: F = -(k (l - l0) + c ldot) dl/dq."""
     k, c, l0, h = 40.0, 2.5, 0.3, 0.5
     model = fm.Model()
-    slider = fm.RigidBody("slider", mass=2.0)
+    slider = fm.RigidBody("slider", mass=2.0, inertia=(1.0, 1.0, 1.0))
     model.add(fm.Prismatic("rail", model.ground, slider, axis=(1, 0, 0)),
               fm.SpringDamper("spring", model.ground, (0, h, 0), slider, (0, 0, 0), k, c, l0))
     system, _, _, F = state_of(model, [q], [qd])
@@ -235,7 +235,7 @@ def test_spring_damper_on_prismatic_oblique(q, qd):
 def test_spring_with_zero_rest_length_is_smooth_through_zero(q):
     k = 30.0
     model = fm.Model()
-    slider = fm.RigidBody("slider")
+    slider = fm.RigidBody("slider", mass=1.0, inertia=(1.0, 1.0, 1.0))
     model.add(fm.Prismatic("rail", model.ground, slider, axis=(0, 1, 0)),
               fm.SpringDamper("spring", model.ground, (0, 0, 0), slider, (0, 0, 0), k))
     _, _, _, F = state_of(model, [q], [1.0])
@@ -245,7 +245,7 @@ def test_spring_with_zero_rest_length_is_smooth_through_zero(q):
 def test_joint_spring_damper_generalized_force():
     k, c, q0 = np.array([10.0, 20.0]), np.array([1.0, 0.5]), np.array([0.1, -0.2])
     model = fm.Model()
-    link = fm.RigidBody("link")
+    link = fm.RigidBody("link", mass=1.0, inertia=(1.0, 1.0, 1.0))
     cyl = fm.Cylindrical("cyl", model.ground, link, axis=(0, 1, 0))
     model.add(cyl, fm.JointSpringDamper("torsion", cyl, stiffness=k, damping=c, rest=q0))
     x, xd = np.array([0.3, 0.4]), np.array([-0.5, 2.0])
@@ -276,7 +276,7 @@ def test_body_torque_on_revolute_is_torque_dot_axis(frame, q):
 def test_body_torque_does_no_work_on_a_slide():
     tau = np.array([0.0, 0.0, 4.0])
     model = fm.Model()
-    link = fm.RigidBody("link")
+    link = fm.RigidBody("link", mass=1.0, inertia=(1.0, 1.0, 1.0))
     model.add(fm.Cylindrical("cyl", model.ground, link, axis=(0, 0, 1)), fm.BodyTorque("twist", link, tau))
     _, _, _, F = state_of(model, [0.2, 0.3])
     np.testing.assert_allclose(F, [0.0, 4.0], atol=1e-15)

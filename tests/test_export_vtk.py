@@ -460,7 +460,30 @@ class _FakeParaView:
         mesh = vtk.read_vtu(sets[0][1])
         keys = lambda names: type("Keys", (), {"keys": lambda _: list(names)})()  # noqa: E731
         return self.Proxy(name=registrationName, TimestepValues=[t for t, _ in sets],
-                          PointData=keys(mesh.point_data), CellData=keys(mesh.cell_data))
+                          PointData=keys(mesh.point_data), CellData=keys(mesh.cell_data), mesh=mesh)
+
+    def Fetch(self, reader):
+        """servermanager.Fetch: the reader's data set, with its field data's string arrays (VTK's API)."""
+        field = reader.mesh.field_data
+
+        class Strings:
+            def __init__(self, values):
+                self.values = [str(v) for v in values]
+
+            def GetNumberOfValues(self):
+                return len(self.values)
+
+            def GetValue(self, k):
+                return self.values[k]
+
+        class FieldData:
+            def GetAbstractArray(self, name):
+                return Strings(field[name]) if name in field else None
+
+        return type("Data", (), {"IsA": lambda _, kind: False, "GetFieldData": lambda _: FieldData()})()
+
+    def GetColorTransferFunction(self, name):
+        return self.__dict__.setdefault("luts", {}).setdefault(name, self.Proxy(name=name))
 
     def Show(self, reader, view):
         return self.Proxy(reader=reader)
@@ -490,15 +513,27 @@ def test_paraview_script_opens_the_series_coloured_by_stress(cantilever, fourbar
     fake = _FakeParaView()
     paraview = type(sys)("paraview")
     paraview.simple = fake
+    paraview.servermanager = type(sys)("paraview.servermanager")
+    paraview.servermanager.Fetch = fake.Fetch
     monkeypatch.setitem(sys.modules, "paraview", paraview)
     monkeypatch.setitem(sys.modules, "paraview.simple", fake)
+    monkeypatch.setitem(sys.modules, "paraview.servermanager", paraview.servermanager)
     monkeypatch.setattr(sys, "argv", [str(script), "--time", "0.02", "--screenshot", str(tmp_path / "a.png")])
     import runpy
 
     runpy.run_path(str(script), run_name="__main__")  # as pvpython runs it
     colours = [c for c in fake.calls if c[0] == "ColorBy"]
-    # the beam (section stresses) by von Mises stress, the four-bar (rigid) by body name
-    assert colours == [("ColorBy", "beam.pvd", ("POINTS", "von_mises")), ("ColorBy", "fourbar.pvd", ("CELLS", "body"))]
+    # the beam (section stresses) by von Mises stress, the four-bar (rigid) by body, as categories
+    assert colours == [("ColorBy", "beam.pvd", ("POINTS", "von_mises")),
+                       ("ColorBy", "fourbar.pvd", ("CELLS", "body_id"))]
+    # issue #32: a string array gave one colour and an empty legend; each body now has its colour and its name
+    names = [str(n) for n in vtk.read_vtu(_read_all(tmp_path / "vtk_fourbar" / "fourbar.pvd")[1][0][1])
+             .field_data["body_names"]]
+    assert len(names) >= 3
+    lut = fake.__dict__["luts"]["body_id"]
+    assert lut.InterpretValuesAsCategories == 1 and lut.AnnotationsInitialized == 1
+    assert lut.Annotations == [text for k, name in enumerate(names) for text in (str(k), name)]
+    assert len(lut.IndexedColors) == 3 * len(names) and len(set(zip(*[iter(lut.IndexedColors)] * 3))) == len(names)
     assert ("Hide", "fourbar.pvd") in fake.calls  # the series with stresses is the one shown
     assert fake.scene.AnimationTime == min(res.t, key=lambda t: abs(t - 0.02))
     assert ("SaveScreenshot", str(tmp_path / "a.png")) in fake.calls

@@ -165,7 +165,7 @@ def test_law_at_random_states_of_a_free_body(fr):
 
 def test_zero_speed_gives_zero_force_and_weakening_stops_at_zero(fr):
     model = fm.Model("m")
-    body = fm.RigidBody("b", mass=1.0)
+    body = fm.RigidBody("b", mass=1.0, inertia=(1.0, 1.0, 1.0))
     e = fr.VelocityWeakeningFriction("w", body, (0, 0, 0), (0, 0, 1), normal_load=10.0, mu_static=0.4,
                                      slope=0.2, smoothing_speed=1e-3)
     model.add(fm.Free("j", model.ground, body), e)
@@ -185,8 +185,9 @@ def test_apply_all_matches_one_at_a_time_and_the_kane_power(fr):
     """The vectorised class call equals the per-element calls, rigid and flexible; powers agree with F.xd."""
     rng = np.random.default_rng(3)
     model, body, elements = free_puck(fr, rng, n_elements=3)
+    # pinned at its root (clamped=False): a clamped root on a hinge would make the mass matrix singular
     beam = fm.FlexibleBody("beam", 0.4, fm.Section.rectangular(0.01, 0.002), fm.Material.steel(), n_segments=4,
-                           keep=("bend_y", "bend_z"))
+                           keep=("bend_y", "bend_z"), clamped=False)
     model.add(fm.Revolute("hinge", body, beam, parent_point=(0.1, 0.0, 0.0), axis=(0.0, 0.0, 1.0)))
     elements.append(fr.VelocityWeakeningFriction("tip", beam, (0.4, 0.0, 0.0), (0.0, 0.2, 1.0), normal_load=3.0,
                                                  mu_static=0.5, slope=0.1, smoothing_speed=1e-2))
@@ -332,7 +333,7 @@ def test_friction_at_a_flexible_tip_dissipates(fr):
 # ----------------------------------------------------------------------------- 4. construction
 
 def _valid(fr):
-    body = fm.RigidBody("b", mass=1.0)
+    body = fm.RigidBody("b", mass=1.0, inertia=(1.0, 1.0, 1.0))
     return {
         fr.VelocityWeakeningFriction: dict(name="tip", body=body, point=(0, 0, 0), normal=(0, 0, 1),
                                            normal_load=5.0, mu_static=0.4, slope=0.1),
@@ -400,8 +401,8 @@ def test_invalid_construction_names_the_element(fr, cls_name, change, message):
 
 def test_body_outside_the_model_is_reported(fr):
     model = fm.Model("m")
-    body = fm.RigidBody("b", mass=1.0)
-    stranger = fm.RigidBody("stranger", mass=1.0)
+    body = fm.RigidBody("b", mass=1.0, inertia=(1.0, 1.0, 1.0))
+    stranger = fm.RigidBody("stranger", mass=1.0, inertia=(1.0, 1.0, 1.0))
     model.add(fm.Prismatic("slide", model.ground, body, axis=(1, 0, 0)),
               fr.CoulombFriction("rub", stranger, (0, 0, 0), (0, 0, 1), normal_load=1.0, mu=0.2))
     with pytest.raises(fm.ModelError, match="'rub'.*'stranger' is not in the model"):
@@ -413,7 +414,7 @@ def test_body_given_by_name_is_the_body(fr):
 
     def sliding_block(by_name):
         model = fm.Model("m")
-        block = fm.RigidBody("block", mass=2.0)
+        block = fm.RigidBody("block", mass=2.0, inertia=(1.0, 1.0, 1.0))
         rub = fr.CoulombFriction("rub", "block" if by_name else block, (0, 0, 0), (0, 0, 1), normal_load=9.81,
                                  mu=0.3)
         model.add(fm.Prismatic("slide", model.ground, block, axis=(1, 0, 0)), rub)

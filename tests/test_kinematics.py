@@ -512,7 +512,7 @@ def test_cut_rows_remove_the_joint_constrained_freedoms(cls):
 
 def test_free_cut_joint_is_rejected():
     model = fm.Model()
-    b = fm.RigidBody("b")
+    b = fm.RigidBody("b", mass=1.0, inertia=(1.0, 1.0, 1.0))
     model.add(fm.Revolute("j", model.ground, b), fm.Free("loose", model.ground, b, cut=True))
     with pytest.raises(ModelError, match="imposes no constraint"):
         model.build()

@@ -201,7 +201,11 @@ def test_a_massless_freedom_no_loop_fixes_is_refused_by_name():
               fm.Prismatic("rail", model.ground, block, axis=(1.0, 0.0, 0.0)),
               fm.PlanarRevolute("close", bar, block, parent_point=(1.0, 0.0, 0.0), cut=True),
               fm.Gravity((0.0, -9.81, 0.0)))
-    system = model.build(complement="articulated")
+    # refused at build time, naming the joint, the body and the axis (issue #32) ...
+    with pytest.raises(fm.ModelError, match=r"joint 'spin' \(Revolute\) turns body 'ghost' about the axis "
+                                            r"\[1.0, 0.0, 0.0\].*no inertia"):
+        model.build(complement="articulated")
+    system = fm.System(model, complement="articulated")  # ... and by the recursion, for what the build cannot see
     x = np.array([0.3, 0.0, np.cos(0.3)])
     with pytest.raises(fm.AssemblyError, match="joint 'spin' moves no mass"):
         system.accelerations(0.0, x, np.zeros(3))

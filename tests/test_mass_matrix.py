@@ -172,7 +172,7 @@ def test_mass_matrix_of_single_bodies():
 def test_mass_matrix_without_coordinates():
     """A model whose bodies are all welded has n = 0: A is 0 x 0 and the equations still evaluate."""
     model = fm.Model()
-    b, c = fm.RigidBody("b"), fm.RigidBody("c")
+    b, c = fm.RigidBody("b", mass=1.0, inertia=(1.0, 1.0, 1.0)), fm.RigidBody("c", mass=1.0, inertia=(1.0, 1.0, 1.0))
     model.add(fm.Fixed("f", model.ground, b, parent_point=(1, 0, 0)), fm.Fixed("g", b, c, parent_point=(0, 1, 0)),
               fm.Gravity((0.0, -9.81, 0.0)))
     system = model.build()

@@ -137,7 +137,7 @@ n_out = {n_out}
 
 
 @pytest.mark.parametrize("command", ["info", "run"])
-def test_cli_refuses_a_huge_scene_with_exit_2(tmp_path, command):
+def test_cli_refuses_a_huge_scene_with_exit_3(tmp_path, command):
     """`flexmb info` of 10,000 segments reached 10 GB RSS; 100,000 crashed with a MemoryError (exit 1)."""
     path = tmp_path / "huge.toml"
     path.write_text(SCENE.format(n=100_000, n_out=11))
@@ -145,7 +145,7 @@ def test_cli_refuses_a_huge_scene_with_exit_2(tmp_path, command):
                                                                   if command == "run" else [])
     env = dict(os.environ, FLEXMB_MEMORY_LIMIT="256M")  # too little for 100,001 segments, whatever the core
     proc = subprocess.run(args, capture_output=True, text=True, timeout=120, env=env)
-    assert proc.returncode == 2, proc.stderr
+    assert proc.returncode == 3, proc.stderr  # an input error
     assert "MemoryError" not in proc.stderr and "Traceback" not in proc.stderr
     assert "flexmb: error: " in proc.stderr and "needs about" in proc.stderr and "is available" in proc.stderr
     assert "huge.toml: bodies.beam.n_segments: Model 'huge': needs about" in proc.stderr

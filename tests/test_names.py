@@ -121,7 +121,7 @@ def test_wrong_kinds_are_refused_with_a_message():
     with pytest.raises(fm.ModelError, match=r"expected a Joint or its name, got RigidBody"):
         model.element(model["crank"], fm.Joint)
     with pytest.raises(fm.ModelError, match=r"Model 'objects': Revolute 'C' is not in the model"):
-        model.element(fm.Revolute("C", model.ground, fm.RigidBody("x")))
+        model.element(fm.Revolute("C", model.ground, fm.RigidBody("x", mass=1.0, inertia=(1.0, 1.0, 1.0))))
 
 
 # ----------------------------------------------------------------------------- look-ups by name or object

@@ -44,7 +44,7 @@ def test_terminal_gets_a_bar_with_rate_and_remaining_time(monkeypatch):
     bar.close()
     out = stream.getvalue()
     assert "\r" in out and "simulating" in out and "2/2 s" in out
-    assert "s/s" in out and "<" in out  # rate in simulated seconds per second, remaining time
+    assert "simulated s per wall-clock s" in out and "<" in out  # rate of simulated time, remaining time
     assert out.endswith("\n")  # the line ends: a message after it starts on its own line
 
 
@@ -94,3 +94,25 @@ def _eager(cls):
                 self._bar.mininterval = 0.0
 
     return Eager
+
+
+@pytest.mark.parametrize("speed", [4.0, 0.25])
+def test_the_rate_of_simulated_time_never_flips(monkeypatch, speed):
+    """Issue #32: tqdm shows a rate below 1 inverted, and with the unit s both read "s/s"; the rate now says
+    which second is which and is simulated time per wall-clock second, above 1 as below."""
+    stream = Terminal()
+    monkeypatch.setattr(progress.sys, "stderr", stream)
+    clock = {"t": 0.0}
+    bar = progress.Progress(100.0, "simulating", "s")
+    bar._bar._time = lambda: clock["t"]  # tqdm's clock: wall time under control
+    bar._bar.start_t = bar._bar.last_print_t = 0.0
+    bar._bar.delay = 0.0
+    bar._bar.mininterval = 0.0
+    for k in range(1, 5):
+        clock["t"] = float(k)
+        bar.update_to(speed * k)
+    out = stream.getvalue()
+    bar.close()
+    last = out.split("\r")[-1]
+    assert f"{speed:.3g} simulated s per wall-clock s" in last, last
+    assert "s/s" not in out

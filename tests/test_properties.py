@@ -150,7 +150,7 @@ def test_duplicate_names_are_listed(specs, data):
 @given(specs=tree_specs(max_joints=3), data=st.data())
 def test_dangling_body_is_reported(specs, data):
     model, _ = build_tree(specs)
-    stray = fm.RigidBody("stray", data.draw(st.floats(0.1, 5.0)))
+    stray = fm.RigidBody("stray", data.draw(st.floats(0.1, 5.0)), inertia=(1.0, 1.0, 1.0))
     model.add(stray)
     _raises_model_error_naming(model.build, "'stray'")
 
@@ -159,7 +159,7 @@ def test_dangling_body_is_reported(specs, data):
 @given(cls=st.sampled_from(JOINTS))
 def test_ground_as_child_is_reported(cls):
     model = fm.Model("m")
-    body = fm.RigidBody("b")
+    body = fm.RigidBody("b", mass=1.0, inertia=(1.0, 1.0, 1.0))
     model.add(fm.Revolute("pin", model.ground, body), cls("backwards", body, model.ground))
     _raises_model_error_naming(model.build, "'backwards'", "ground")
 

@@ -64,43 +64,43 @@ def test_error_hierarchy():
 @pytest.mark.parametrize("mass", [0.0, -1.0, -1e-300])
 def test_body_non_positive_mass(mass):
     with pytest.raises(fm.ModelError, match=r"RigidBody 'crank': mass must be > 0"):
-        fm.RigidBody("crank", mass=mass)
+        fm.RigidBody("crank", mass=mass, inertia=(1.0, 1.0, 1.0))
 
 
 @pytest.mark.parametrize("mass", [NAN, INF, -INF])
 def test_body_non_finite_mass(mass):
     with pytest.raises(fm.ModelError, match=r"RigidBody 'crank': mass must be > 0, got (nan|inf|-inf)"):
-        fm.RigidBody("crank", mass=mass)
+        fm.RigidBody("crank", mass=mass, inertia=(1.0, 1.0, 1.0))
 
 
 def test_body_non_symmetric_inertia():
     J = [[1.0, 0.1, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
     with pytest.raises(fm.ModelError, match=r"RigidBody 'crank': inertia must be symmetric"):
-        fm.RigidBody("crank", inertia=J)
+        fm.RigidBody("crank", inertia=J, mass=1.0)
 
 
 def test_body_negative_principal_moment():
     # symmetric, but with eigenvalues (-0.5, 1.5, 1): not positive semi-definite
     J = [[0.5, 1.0, 0.0], [1.0, 0.5, 0.0], [0.0, 0.0, 1.0]]
     with pytest.raises(fm.ModelError, match=r"RigidBody 'crank': inertia must be positive \(semi-\)definite"):
-        fm.RigidBody("crank", inertia=J)
+        fm.RigidBody("crank", inertia=J, mass=1.0)
     with pytest.raises(fm.ModelError, match=r"RigidBody 'crank': inertia must be positive"):
-        fm.RigidBody("crank", inertia=(-1.0, 1.0, 1.0))
+        fm.RigidBody("crank", inertia=(-1.0, 1.0, 1.0), mass=1.0)
 
 
 def test_body_triangle_inequality():
     with pytest.raises(fm.ModelError, match=r"RigidBody 'plate': inertia breaks the triangle inequality"):
-        fm.RigidBody("plate", inertia=(1.0, 1.0, 3.0))
+        fm.RigidBody("plate", inertia=(1.0, 1.0, 3.0), mass=1.0)
     # the same tensor in rotated axes is caught by its principal moments
     c, s = np.cos(0.7), np.sin(0.7)
     Q = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]) @ np.array([[1, 0, 0], [0, c, -s], [0, s, c]])
     with pytest.raises(fm.ModelError, match=r"RigidBody 'plate': inertia breaks the triangle inequality"):
-        fm.RigidBody("plate", inertia=Q @ np.diag([1.0, 1.0, 3.0]) @ Q.T)
+        fm.RigidBody("plate", inertia=Q @ np.diag([1.0, 1.0, 3.0]) @ Q.T, mass=1.0)
 
 
 def test_body_limits_of_valid_inertia_are_accepted():
     """The checks are not stricter than physics: thin plate (equality) and slender bar (zero moment)."""
-    plate = fm.RigidBody("plate", inertia=(1.0, 1.0, 2.0))
+    plate = fm.RigidBody("plate", inertia=(1.0, 1.0, 2.0), mass=1.0)
     bar = fm.RigidBody.slender_bar("bar", 1.0, 1.0)
     assert plate.inertia[2, 2] == 2.0 and bar.inertia[0, 0] == 0.0
 
@@ -118,21 +118,46 @@ def test_body_limits_of_valid_inertia_are_accepted():
 )
 def test_body_wrong_shapes(field, value, shape):
     with pytest.raises(fm.ModelError, match=rf"RigidBody 'crank': {field} must have shape {re.escape(shape)}"):
-        fm.RigidBody("crank", **{field: value})
+        fm.RigidBody("crank", **{"mass": 1.0, "inertia": (1.0, 1.0, 1.0), field: value})
+
+
+@pytest.mark.parametrize("given", [{}, {"mass": 2.0}, {"inertia": (1.0, 1.0, 1.0)}])
+def test_a_rigid_body_without_mass_or_inertia_is_refused(given):
+    """Issue #32: RigidBody("x") silently took 1 kg and unit inertia; now the body and what is missing are named."""
+    missing = " and ".join(k for k in ("mass", "inertia") if k not in given)
+    with pytest.raises(fm.ModelError, match=rf"RigidBody 'crank': give its {missing} \(mass in kg, .*slender_bar"):
+        fm.RigidBody("crank", **given)
+    point = fm.RigidBody("point", 2.0, (0.0, 0.0, 0.0))  # a point mass says so
+    assert point.mass == 2.0 and not point.inertia.any()
+
+
+def test_a_misspelt_driver_key_lists_the_keys_the_loader_reads_and_suggests_the_closest():
+    """Issue #32: `rmp` in [drivers.motor] listed the allowed keys without `rpm` and `kind`."""
+    import pathlib
+
+    text = (pathlib.Path(fm.__file__).parent / "scene" / "builtin" / "wiper.toml").read_text()
+    assert "\nrpm = 60.0\n" in text
+    with pytest.raises(fm.SceneError) as info:
+        fm.loads_scene(text.replace("\nrpm = 60.0\n", "\nrmp = 60.0\n"), "wiper.toml")
+    message = str(info.value)
+    assert message.startswith("wiper.toml: drivers.motor.rmp: unknown key for driver kind 'constant_speed'")
+    allowed = message.split("allowed keys: ")[1].split(";")[0].split(", ")
+    assert {"kind", "rpm", "joint", "speed"} <= set(allowed)
+    assert message.endswith("did you mean 'rpm'?")
 
 
 @pytest.mark.parametrize("bad", [NAN, INF])
 def test_body_non_finite_com_and_inertia(bad):
     with pytest.raises(fm.ModelError, match=r"RigidBody 'crank': com must be finite"):
-        fm.RigidBody("crank", com=(0.0, bad, 0.0))
+        fm.RigidBody("crank", com=(0.0, bad, 0.0), mass=1.0, inertia=(1.0, 1.0, 1.0))
     with pytest.raises(fm.ModelError, match=r"RigidBody 'crank': inertia must be finite"):
-        fm.RigidBody("crank", inertia=(1.0, bad, 1.0))
+        fm.RigidBody("crank", inertia=(1.0, bad, 1.0), mass=1.0)
 
 
 @pytest.mark.parametrize("name", ["", "   ", None, 3])
 def test_body_bad_name(name):
     with pytest.raises(fm.ModelError, match=r"RigidBody: name must be a non-empty string"):
-        fm.RigidBody(name)
+        fm.RigidBody(name, mass=1.0, inertia=(1.0, 1.0, 1.0))
 
 
 def test_constructors_validate_too():
@@ -146,13 +171,13 @@ def test_constructors_validate_too():
 
 @pytest.mark.parametrize("mass", ["heavy", None])
 def test_body_non_numeric_mass(mass):
-    with pytest.raises(fm.ModelError, match=r"RigidBody 'crank': mass"):
-        fm.RigidBody("crank", mass=mass)
+    with pytest.raises(fm.ModelError, match=r"RigidBody 'crank': (give its )?mass"):
+        fm.RigidBody("crank", mass=mass, inertia=(1.0, 1.0, 1.0))
 
 
 def test_body_non_numeric_com_names_the_body():
     with pytest.raises(fm.ModelError, match=r"RigidBody 'crank': com"):
-        fm.RigidBody("crank", com=("a", "b", "c"))
+        fm.RigidBody("crank", com=("a", "b", "c"), mass=1.0, inertia=(1.0, 1.0, 1.0))
 
 
 # ----------------------------------------------------------------------------- joints
@@ -163,7 +188,7 @@ ALL_JOINTS = AXIS_JOINTS + [fm.Universal, fm.Spherical, fm.Fixed, fm.Free]
 
 @pytest.fixture
 def pair():
-    return fm.Ground(), fm.RigidBody("link")
+    return fm.Ground(), fm.RigidBody("link", mass=1.0, inertia=(1.0, 1.0, 1.0))
 
 
 @pytest.mark.parametrize("cls", AXIS_JOINTS)
@@ -220,7 +245,7 @@ def test_joint_frame_wrong_shape(pair):
 
 @pytest.mark.parametrize("cls", ALL_JOINTS)
 def test_joint_parent_is_child(cls):
-    link = fm.RigidBody("link")
+    link = fm.RigidBody("link", mass=1.0, inertia=(1.0, 1.0, 1.0))
     with pytest.raises(fm.ModelError, match=rf"{cls.__name__} 'j': parent and child are the same body 'link'"):
         cls("j", link, link)
 
@@ -236,7 +261,7 @@ def test_universal_axes_not_perpendicular(pair):
 @pytest.mark.parametrize("bad", ["", None, 1.0])
 def test_joint_non_body_parent_or_child(cls, bad):
     # a body's name is accepted (resolved when the model is built); an empty one is not
-    link = fm.RigidBody("link")
+    link = fm.RigidBody("link", mass=1.0, inertia=(1.0, 1.0, 1.0))
     kind = type(bad).__name__
     with pytest.raises(fm.ModelError, match=rf"{cls.__name__} 'j': parent must be a Body, got {kind}"):
         cls("j", bad, link)
@@ -245,9 +270,9 @@ def test_joint_non_body_parent_or_child(cls, bad):
 
 
 def test_joint_marker_is_not_a_body():
-    link = fm.RigidBody("link")
+    link = fm.RigidBody("link", mass=1.0, inertia=(1.0, 1.0, 1.0))
     with pytest.raises(fm.ModelError, match=r"Revolute 'j': parent must be a Body, got Marker"):
-        fm.Revolute("j", link.marker((1, 0, 0)), fm.RigidBody("other"))
+        fm.Revolute("j", link.marker((1, 0, 0)), fm.RigidBody("other", mass=1.0, inertia=(1.0, 1.0, 1.0)))
 
 
 def test_joint_bad_name(pair):
@@ -326,7 +351,7 @@ def test_force_element_field_checks(pair):
     ids=["PointForce", "BodyTorque", "SpringDamper", "JointSpringDamper"],
 )
 def test_force_element_wrong_kind_of_element(make, field, kind):
-    link = fm.RigidBody("link")
+    link = fm.RigidBody("link", mass=1.0, inertia=(1.0, 1.0, 1.0))
     pin = fm.Revolute("pin", fm.Ground(), link)
     with pytest.raises(fm.ModelError, match=rf"'f': {field} must be a (Body|Joint), got {kind}"):
         make(link, pin)
@@ -376,7 +401,7 @@ def test_force_element_without_apply():
 
 def test_duplicate_names_all_listed():
     model = fm.Model("dup")
-    b1, b2 = fm.RigidBody("link"), fm.RigidBody("link")
+    b1, b2 = fm.RigidBody("link", mass=1.0, inertia=(1.0, 1.0, 1.0)), fm.RigidBody("link", mass=1.0, inertia=(1.0, 1.0, 1.0))
     j1 = fm.Revolute("pin", model.ground, b1)
     j2 = fm.Revolute("pin", model.ground, b2)
     model.add(j1, j2, fm.Gravity(), fm.Gravity(),
@@ -397,10 +422,10 @@ def test_duplicate_names_all_listed():
 
 def test_validate_lists_every_kind_of_problem_at_once():
     model = fm.Model("many")
-    link, ghost = fm.RigidBody("link"), fm.RigidBody("ghost")
+    link, ghost = fm.RigidBody("link", mass=1.0, inertia=(1.0, 1.0, 1.0)), fm.RigidBody("ghost", mass=1.0, inertia=(1.0, 1.0, 1.0))
     pin = fm.Revolute("pin", model.ground, link)
-    stray = fm.Revolute("stray", model.ground, fm.RigidBody("elsewhere"))  # never added
-    model.add(pin, fm.Revolute("pin", model.ground, fm.RigidBody("link2")),
+    stray = fm.Revolute("stray", model.ground, fm.RigidBody("elsewhere", mass=1.0, inertia=(1.0, 1.0, 1.0)))  # never added
+    model.add(pin, fm.Revolute("pin", model.ground, fm.RigidBody("link2", mass=1.0, inertia=(1.0, 1.0, 1.0))),
               fm.Revolute("back", link, model.ground),
               fm.PointForce("push", ghost, (1.0, 0.0, 0.0)),
               fm.Driver.constant_speed("motor", stray, 1.0))
@@ -418,9 +443,9 @@ def test_validate_lists_every_kind_of_problem_at_once():
 
 def test_validate_lists_definition_and_topology_problems_together():
     model = fm.Model("mixed")
-    model.add(fm.Revolute("pin", model.ground, fm.RigidBody("link")),
-              fm.Revolute("pin", model.ground, fm.RigidBody("link2")),
-              fm.RigidBody("lone"))
+    model.add(fm.Revolute("pin", model.ground, fm.RigidBody("link", mass=1.0, inertia=(1.0, 1.0, 1.0))),
+              fm.Revolute("pin", model.ground, fm.RigidBody("link2", mass=1.0, inertia=(1.0, 1.0, 1.0))),
+              fm.RigidBody("lone", mass=1.0, inertia=(1.0, 1.0, 1.0)))
     err = problems_of(model)
     assert any("duplicate joint name 'pin'" in p for p in err.problems)
     assert any("body 'lone' is not connected to the ground" in p for p in err.problems)
@@ -428,14 +453,14 @@ def test_validate_lists_definition_and_topology_problems_together():
 
 def test_body_not_connected_to_ground():
     model = pendulum()
-    lone = fm.RigidBody("lone")
+    lone = fm.RigidBody("lone", mass=1.0, inertia=(1.0, 1.0, 1.0))
     model.add(lone)
     err = problems_of(model)
     assert err.problems == ["body 'lone' is not connected to the ground through tree joints "
                             "(joints run parent -> child from the ground)"]
     # a floating sub-tree: both of its bodies are reported
     model = pendulum()
-    a, b = fm.RigidBody("a"), fm.RigidBody("b")
+    a, b = fm.RigidBody("a", mass=1.0, inertia=(1.0, 1.0, 1.0)), fm.RigidBody("b", mass=1.0, inertia=(1.0, 1.0, 1.0))
     model.add(fm.Revolute("ab", a, b))
     err = problems_of(model)
     assert [re.match(r"body '(\w+)' is not connected", p).group(1) for p in err.problems] == ["a", "b"]
@@ -445,7 +470,7 @@ def test_body_not_connected_to_ground():
 
 def test_ground_as_child():
     model = fm.Model("upside")
-    link = fm.RigidBody("link")
+    link = fm.RigidBody("link", mass=1.0, inertia=(1.0, 1.0, 1.0))
     model.add(fm.Revolute("pin", link, model.ground))
     err = problems_of(model)
     assert "joint 'pin': the ground cannot be a child; swap parent and child" in err.problems
@@ -453,7 +478,7 @@ def test_ground_as_child():
 
 def test_foreign_ground():
     model = fm.Model("two grounds")
-    model.add(fm.Revolute("pin", fm.Ground(), fm.RigidBody("link")))
+    model.add(fm.Revolute("pin", fm.Ground(), fm.RigidBody("link", mass=1.0, inertia=(1.0, 1.0, 1.0))))
     err = problems_of(model)
     assert "a joint uses a Ground that is not this model's; use model.ground" in err.problems
 
@@ -462,7 +487,7 @@ def test_empty_model_and_reserved_name():
     with pytest.raises(fm.ModelError, match=r"the model has no bodies"):
         fm.Model("empty").build()
     model = pendulum()
-    model.add(fm.Revolute("pin2", model["bar"], fm.RigidBody("ground")))
+    model.add(fm.Revolute("pin2", model["bar"], fm.RigidBody("ground", mass=1.0, inertia=(1.0, 1.0, 1.0))))
     with pytest.raises(fm.ModelError, match=r"body name 'ground' is reserved for the ground"):
         model.validate()
 
@@ -474,7 +499,7 @@ def test_add_rejects_unknown_items():
 
 def test_free_joint_closing_a_loop():
     model = fm.Model("loop")
-    a, b = fm.RigidBody("a"), fm.RigidBody("b")
+    a, b = fm.RigidBody("a", mass=1.0, inertia=(1.0, 1.0, 1.0)), fm.RigidBody("b", mass=1.0, inertia=(1.0, 1.0, 1.0))
     model.add(fm.Revolute("ja", model.ground, a), fm.Revolute("jb", model.ground, b), fm.Free("float", a, b))
     err = problems_of(model)
     assert err.problems == ["joint 'float' (Free) closes a loop but imposes no constraint"]
@@ -489,7 +514,7 @@ def test_driver_on_cut_joint():
 
 def test_driver_on_joint_not_in_model():
     model = pendulum()
-    other = fm.Revolute("other", model.ground, fm.RigidBody("x"))
+    other = fm.Revolute("other", model.ground, fm.RigidBody("x", mass=1.0, inertia=(1.0, 1.0, 1.0)))
     model.drivers.append(fm.Driver.constant_speed("motor", other, 1.0))  # bypass add (it does not add joints)
     err = problems_of(model)
     assert "driver 'motor': joint 'other' is not in the model" in err.problems
@@ -502,7 +527,7 @@ def test_two_drivers_on_one_coordinate():
     assert err.problems == ["drivers 'm1' and 'm2' both drive 'A'[0]"]
     # two coordinates of one joint may each have a driver
     model = fm.Model("u")
-    uj = fm.Universal("u", model.ground, fm.RigidBody("link"))
+    uj = fm.Universal("u", model.ground, fm.RigidBody("link", mass=1.0, inertia=(1.0, 1.0, 1.0)))
     model.add(uj, fm.Driver.constant_speed("d0", uj, 1.0, coordinate=0),
               fm.Driver.constant_speed("d1", uj, 1.0, coordinate=1))
     model.validate()
@@ -520,7 +545,7 @@ def test_two_drivers_on_one_coordinate():
 )
 def test_force_element_on_body_not_in_model(make, body):
     model = pendulum()
-    model.add(make(fm.RigidBody("ghost")))
+    model.add(make(fm.RigidBody("ghost", mass=1.0, inertia=(1.0, 1.0, 1.0))))
     err = problems_of(model)
     assert f"force element 'load': body {body!r} is not in the model" in err.problems
 
@@ -536,13 +561,13 @@ def test_joint_spring_wrong_size(field):
 
 def test_joint_spring_on_joint_without_coordinates_or_not_in_model():
     model = pendulum()
-    weld = fm.Fixed("weld", model["bar"], fm.RigidBody("tip"), parent_point=(1, 0, 0))
+    weld = fm.Fixed("weld", model["bar"], fm.RigidBody("tip", mass=1.0, inertia=(1.0, 1.0, 1.0)), parent_point=(1, 0, 0))
     model.add(weld, fm.JointSpringDamper("js", weld, stiffness=1.0))
     err = problems_of(model)
     assert "JointSpringDamper 'js': joint 'weld' has no coordinates" in err.problems
 
     model = pendulum()
-    other = fm.Revolute("other", model.ground, fm.RigidBody("x"))
+    other = fm.Revolute("other", model.ground, fm.RigidBody("x", mass=1.0, inertia=(1.0, 1.0, 1.0)))
     model.add(fm.JointSpringDamper("js", other, stiffness=1.0))
     err = problems_of(model)
     assert "force element 'js': joint 'other' is not in the model" in err.problems
@@ -825,3 +850,36 @@ def test_unclamped_flexible_body_of_one_segment_is_refused():
     """Found by the extended hypothesis generators: it passed construction, then failed in BeamElasticity."""
     with pytest.raises(fm.ModelError, match=r"FlexibleBody 'beam': an unclamped flexible body needs n_segments >= 2"):
         fm.FlexibleBody("beam", 1.0, B1_SECTION, fm.Material.aluminium(), n_segments=1, clamped=False)
+
+
+def test_a_clamped_beam_pinned_about_its_root_bending_axis_names_the_joint_and_clamped_false():
+    """Issue #32: a default (clamped) uniform_beam pinned by a Revolute about the axis its root bends about failed
+    inside the integrator ("not positive definite", a LinAlgError); the build names the joint and the remedy."""
+    def pinned(clamped):
+        model = fm.Model("beam")
+        beam = fm.FlexibleBody.uniform_beam("beam", 1.0, fm.Section.rectangular(0.02, 0.01), fm.Material.aluminium(),
+                                            4, keep=("bend_z",), clamped=clamped)
+        return model.add(fm.Revolute("pin", model.ground, beam, axis=(0, 0, 1)), fm.Gravity((0.0, -9.81, 0.0)))
+
+    with pytest.raises(fm.ModelError, match=r"joint 'pin' \(Revolute\) turns the clamped flexible body 'beam' "
+                                            r"about \[0.0, 0.0, 1.0\] at its root.*bends \(bend_z\).*clamped=False"):
+        pinned(True).build()
+    assert fm.simulate(pinned(False), 0.01, n_out=3).status == "finished"
+
+
+def test_a_spherical_joint_on_a_slender_bar_names_the_spin_and_the_remedy():
+    """Issue #32: a slender bar (no inertia about its axis) on a Spherical joint read "simulation failed the mass
+    matrix ..." at t = 0; the build names the joint, the body, the axis and the remedies."""
+    def ball(body):
+        model = fm.Model("top")
+        return model.add(fm.Spherical("ball", model.ground, body), fm.Gravity((0.0, -9.81, 0.0)))
+
+    with pytest.raises(fm.ModelError, match=r"joint 'ball' \(Spherical\) turns body 'bar' about the axis "
+                                            r"\[1.0, 0.0, 0.0\] .*no inertia.*Universal instead of a Spherical"):
+        ball(fm.RigidBody.slender_bar("bar", 1.0, 1.0)).build()
+    bar = fm.RigidBody("bar", 1.0, (1e-6, 1.0 / 12, 1.0 / 12), com=(0.5, 0.0, 0.0))  # an axial moment: fine
+    assert fm.simulate(ball(bar), 0.01, positions={"ball": [0.1, 0.2, 0.3]}, n_out=3).status == "finished"
+    universal = fm.Model("hooke")  # a Universal leaves out the spin: fine too
+    universal.add(fm.Universal("u", universal.ground, fm.RigidBody.slender_bar("bar", 1.0, 1.0), axis=(0, 0, 1),
+                               axis2=(0, 1, 0)), fm.Gravity((0.0, -9.81, 0.0)))
+    universal.build()

@@ -153,7 +153,7 @@ def _stacked(elements, topology):
 # Bad input is refused at construction, with the element's name:
 
 try:
-    AeroDrag("vane", fm.RigidBody("plate"), area=0.01, cd=-1.0)
+    AeroDrag("vane", fm.RigidBody("plate", mass=1.0, inertia=(1.0, 1.0, 1.0)), area=0.01, cd=-1.0)
 except ModelError as exc:
     print(f"ModelError: {exc}")
 

@@ -13,7 +13,8 @@ user gets from flexmb:
   right-hand sides, the largest constraint residuals, the energy at both
   ends;
 * ``result.show()``: the mechanism drawn at an output time, inline
-  (pyvista, off-screen; ``pip install -e ".[viz]"``).
+  (pyvista, off-screen; ``pip install -e ".[viz]"``): the last cell shows
+  the four-bar at the end of its swing.
 
 The model is tutorial 02's four-bar (the B5 benchmark), read from its scene
 file and released from rest: a loop closed by a cut joint. The numbers to
@@ -55,8 +56,8 @@ print(f"loop residual {max_residual:.1e} m, energy drift {energy_drift_rel:.1e} 
 
 # %%
 # The mechanism at the last output time, drawn through its joints with the
-# model that made it (needs pyvista; in a notebook the picture appears
-# inline, elsewhere ``show`` returns the PNG's path).
+# model that made it (needs pyvista, which the ``viz`` and ``docs`` extras
+# bring). ``show`` returns the PNG's path; as the last expression of a cell
+# it shows the picture, in a notebook as on this page.
 
-if __name__ == "__main__":
-    picture = result.show(-1)
+result.show(-1)

@@ -7,7 +7,9 @@ writes through:
 
 1. a lock file, ``.flexmb.lock``, holding the pid of the run that owns the
    folder: a second run into the same folder is refused at once; the lock of
-   a run that died is taken over (the kernel releases its ``flock``);
+   a run that died is taken over (the kernel releases its ``flock``); a
+   folder holding a complete run of another owner (another scene) is
+   refused too, unless the run is told to overwrite it;
 2. a hidden staging folder inside the output folder, where the whole run is
    written (so that every move below is a rename within one file system);
 3. a commit: the staging folder is renamed to ``.flexmb-commit`` (the point
@@ -339,12 +341,22 @@ class OutputFolder:
     ----------
     path : str or path-like
         The output folder (created if missing).
+    owner : str, optional
+        What writes the run, e.g. the scene file: recorded in the manifest.
+        A folder holding a complete run of another owner (or of an unknown
+        one) is refused unless ``overwrite``, so that a run never removes
+        the files of another scene's run without being told to. None: no
+        check, nothing recorded.
+    overwrite : bool
+        Replace the run of another owner all the same.
 
     Raises
     ------
     ExportError
         On entering, if another live run holds the folder (the message names
-        its pid), or if the folder cannot be created or written.
+        its pid), if the folder holds another owner's run and ``overwrite``
+        is False (the message names both and says how to overwrite), or if
+        the folder cannot be created or written.
 
     See Also
     --------
@@ -368,8 +380,10 @@ class OutputFolder:
     ['a']
     """
 
-    def __init__(self, path):
+    def __init__(self, path, owner: str | None = None, overwrite: bool = False):
         self.path = Path(os.fspath(path))
+        self.owner = owner
+        self.overwrite = overwrite
         self.staging = None
         self.committed = False
         self._lock = _Lock(self.path)
@@ -387,6 +401,7 @@ class OutputFolder:
             raise ExportError(f"cannot write to the output folder {self.path}: {exc.strerror or exc}") from None
         try:
             self._recover()
+            self._check_owner()
             self.staging = self.path / f"{_STAGING}{os.getpid()}"
             _remove_tree(self.staging)
             self.staging.mkdir()
@@ -410,6 +425,22 @@ class OutputFolder:
         for p in self.path.glob(f"{_STAGING}*"):
             if p.is_dir():
                 _remove_tree(p)
+
+    def _check_owner(self) -> None:
+        """Refuse to replace a complete run of another owner (unless told to overwrite it)."""
+        if self.owner is None or self.overwrite:
+            return
+        try:
+            manifest = json.loads((self.path / MANIFEST_NAME).read_text())
+        except (OSError, ValueError):
+            return  # no complete run here: nothing of another run to remove
+        previous = manifest.get("owner") if isinstance(manifest, dict) else None
+        if previous == self.owner or not _read_manifest(self.path):
+            return
+        what = f"the outputs of {previous}" if previous else "the outputs of an earlier flexmb run (its scene is not recorded)"
+        raise ExportError(f"output folder {self.path} holds {what}; this run of {self.owner} would replace "
+                          "them: write to another folder (flexmb run --out DIR), or replace them with "
+                          "--overwrite (overwrite=True)")
 
     def stage(self, rel) -> Path:
         """The staging path of an output file.
@@ -486,6 +517,8 @@ class OutputFolder:
         files = sorted(Path(os.path.relpath(os.path.join(d, f), staging)).as_posix()
                        for d, _, names in os.walk(staging) for f in names)
         manifest = {"format": 1, "writer": "flexmb", "pid": os.getpid(), "files": files}
+        if self.owner is not None:
+            manifest["owner"] = self.owner
         atomic_write(staging / MANIFEST_NAME, lambda tmp: Path(tmp).write_text(json.dumps(manifest, indent=1) + "\n"))
         with _signals_held():
             os.replace(staging, self.path / _COMMIT)  # the point of no return

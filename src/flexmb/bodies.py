@@ -8,7 +8,7 @@ coordinates zero) each joint's child frame coincides with its parent frame.
 from __future__ import annotations
 
 import numpy as np
-from attrs import field, frozen
+from attrs import converters, field, frozen, validators
 
 from ._validate import name_check, positive_value
 from .errors import ModelError
@@ -95,6 +95,20 @@ def _check_inertia(instance, attribute, value):
         )
 
 
+def _given(instance, attribute, value):
+    """Mass and inertia have no defaults: a body without them is refused (it took 1 kg and unit inertia)."""
+    missing = [a for a in ("mass", "inertia") if getattr(instance, a) is None]
+    if missing:
+        raise ModelError(
+            f"{label(instance)}: give its {' and '.join(missing)} (mass in kg, central inertia in kg m^2: "
+            "RigidBody(name, mass, inertia, com)), or build it from its dimensions with RigidBody.slender_bar, "
+            ".bar or .box")
+
+
+def _as_inertia(value):
+    return as_array(np.diag(value) if np.ndim(value) == 1 else value)
+
+
 @frozen(eq=False)
 class RigidBody(Body):
     """A rigid body.
@@ -104,11 +118,13 @@ class RigidBody(Body):
     name : str
         Unique name.
     mass : float
-        Mass, kg (> 0).
+        Mass, kg (> 0). Required: there is no default mass.
     inertia : array_like, shape (3, 3) or (3,)
         Central inertia tensor in the body frame, kg m^2; a 3-vector is taken
         as the diagonal. Symmetric, positive semi-definite, and obeying the
-        triangle inequality.
+        triangle inequality. Required (``(0, 0, 0)`` for a point mass);
+        :meth:`slender_bar`, :meth:`bar` and :meth:`box` compute it from the
+        dimensions.
     com : array_like, shape (3,)
         Mass-centre location in the body frame, m.
 
@@ -120,13 +136,11 @@ class RigidBody(Body):
     0.00225
     """
 
-    mass: float = field(default=1.0, converter=as_float, validator=positive)
-    inertia: np.ndarray = field(
-        default=(1.0, 1.0, 1.0),
-        converter=lambda v: as_array(np.diag(v) if np.ndim(v) == 1 else v),
-        validator=_check_inertia,
-    )
-    com: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
+    # None: not given, refused (after the checks of what was given) naming the body, not with attrs' TypeError
+    mass: float = field(default=None, converter=converters.optional(as_float), validator=validators.optional(positive))
+    inertia: np.ndarray = field(default=None, converter=converters.optional(_as_inertia),
+                                validator=validators.optional(_check_inertia))
+    com: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=[vector3, _given])
 
     @classmethod
     def slender_bar(cls, name: str, mass: float, length: float, axis: int = 0, centred: bool = False):

@@ -4,15 +4,22 @@
 scene, ``fourbar`` or ``wiper``: the scene files shipped in
 ``flexmb/scene/builtin/``, run by the same code) and writes results, plots
 and VTK; ``flexmb info
-SCENE.toml`` describes a scene; ``flexmb plugins`` lists the plugins. A bad
-scene gives exit status 2 and one line ``flexmb: error: <file>: <key path>:
-<what>``; a failed simulation gives 1 (after writing its partial outputs); a
-run stopped with Ctrl-C writes what it computed and gives 130. A run locks
-its output folder: a second run into the same folder is refused with exit
-status 2; the outputs replace the previous run's only once complete.
-``flexmb study SCENE.toml --vary KEY=SPEC ... --out DIR`` runs a parameter
-study (:mod:`flexmb.study`); it gives 1 if some case failed (``--time-limit
-SECONDS`` stops a case that takes longer and records it as failed).
+SCENE.toml`` describes a scene; ``flexmb plugins`` lists the plugins. A run
+locks its output folder: a second run into the same folder is refused; the
+outputs replace the previous run's only once complete. ``flexmb study
+SCENE.toml --vary KEY=SPEC ... --out DIR`` runs a parameter study
+(:mod:`flexmb.study`; ``--time-limit SECONDS`` stops a case that takes
+longer and records it as failed).
+
+The exit status tells a script what happened (:data:`EXIT_STATUS`, also in
+``flexmb --help`` and ``docs/scenes.md``): 0 done; 2 a usage error (the
+command line: an unknown option, a missing argument); 3 an input error, with
+one line ``flexmb: error: <file>: <key path>: <what>`` (the scene file, the
+model it builds or the output folder is at fault: nothing was simulated); 4
+a numerical failure (the simulation failed, after writing its partial
+outputs; for ``flexmb study``, some case failed); 130 interrupted by Ctrl-C
+(what was computed is written). Any other status (1, with a traceback) is a
+bug in flexmb or a plugin.
 """
 
 from __future__ import annotations
@@ -29,7 +36,18 @@ import threading
 from . import __version__, registry
 from .errors import FlexmbError, SceneError, SimulationError
 
-__all__ = ["main"]
+__all__ = ["EXIT_STATUS", "main"]
+
+#: the exit statuses of the ``flexmb`` command, by what happened
+EXIT_STATUS = {"done": 0, "usage": 2, "input": 3, "failed": 4, "interrupted": 130}
+EXIT_OK, EXIT_USAGE, EXIT_INPUT, EXIT_FAILED, EXIT_INTERRUPTED = EXIT_STATUS.values()
+
+_EXIT_HELP = """exit status:
+  0    done
+  2    usage error: the command line (an unknown option, a missing argument)
+  3    input error: the scene file, the model it builds or the output folder is at fault
+  4    numerical failure: the simulation failed (partial outputs written); study: some case failed
+  130  interrupted (Ctrl-C): what was computed is written"""
 
 
 class _Stderr(logging.StreamHandler):
@@ -64,12 +82,19 @@ def _messages(quiet: bool):
 
 def _run(args) -> int:
     """Run a scene; Ctrl-C while the outputs are written leaves the folder's last complete run, exit 130."""
+    if args.out is None:
+        args.out = _default_out(args.scene)
     try:
         return _run_scene(args)
     except KeyboardInterrupt:
         print(f"\nflexmb: interrupted while writing the outputs: {args.out}/ holds the last complete run "
               "(summary.json says what it holds)", file=sys.stderr)
-        return 130
+        return EXIT_INTERRUPTED
+
+
+def _default_out(name: str) -> str:
+    """The output folder of a run without ``--out``: ``results/<the scene file's name without .toml>``."""
+    return os.path.join("results", os.path.splitext(os.path.basename(os.path.normpath(name)))[0] or "scene")
 
 
 def _scene(name):
@@ -91,15 +116,15 @@ def _run_scene(args) -> int:
     if not args.quiet and not cached_on_disk():
         print(FIRST_RUN_NOTE, file=sys.stderr)
     scene = _scene(args.scene)
-    summary = scene.run(args.out, progress=not args.quiet, t_end=args.t_end, rtol=args.rtol,
-                        complement=args.complement, method=args.integrator, n_out=args.n_out)
+    summary = scene.run(args.out, progress=not args.quiet, overwrite=args.overwrite, t_end=args.t_end,
+                        rtol=args.rtol, complement=args.complement, method=args.integrator, n_out=args.n_out)
     print(json.dumps(summary, indent=2))
     print(f"wrote {args.out}/ ({', '.join(sorted(summary.get('files', {}))) or 'nothing'}"
           f"{', summary.json' if scene.output.summary else ''})")
     if summary["status"] == "interrupted":
         print(f"flexmb: interrupted: {summary['message']}; the outputs hold the run up to then", file=sys.stderr)
-        return 130
-    return 0
+        return EXIT_INTERRUPTED
+    return EXIT_OK
 
 
 def _info(args) -> int:
@@ -134,7 +159,7 @@ def _key_value(text: str, option: str):
 
 
 def _study(args) -> int:
-    """Run a parameter study of a scene file; exit 1 if some case failed (all others are in the table)."""
+    """Run a parameter study of a scene file; exit 4 if some case failed (all others are in the table)."""
     from .study import Study, parse_spec, parse_value
 
     vary = dict(_key_value(v, "--vary") for v in args.vary)
@@ -148,10 +173,10 @@ def _study(args) -> int:
     except KeyboardInterrupt:
         print(f"\nflexmb: interrupted: the finished cases are in {args.out}/cases/; "
               "run the same command again to resume", file=sys.stderr)
-        return 130
+        return EXIT_INTERRUPTED
     print(result.summary())
     print(f"wrote {args.out}/ (table.csv, table.npz, cases/, study.png, summary.txt)")
-    return 1 if result.failed else 0
+    return EXIT_FAILED if result.failed else EXIT_OK
 
 
 def main(argv=None) -> int:
@@ -165,17 +190,25 @@ def main(argv=None) -> int:
     Returns
     -------
     int
-        Exit status.
+        Exit status (:data:`EXIT_STATUS`): 0 done, 3 input error, 4
+        numerical failure, 130 interrupted; a usage error exits with 2
+        (``SystemExit``, from :mod:`argparse`).
     """
     from .scene import builtin_scenes
 
     scene_help = f"a scene file SCENE.toml, or a built-in scene: {' or '.join(builtin_scenes())}"
-    parser = argparse.ArgumentParser(prog="flexmb", description="flexible multibody dynamics")
+    parser = argparse.ArgumentParser(prog="flexmb", description="flexible multibody dynamics", epilog=_EXIT_HELP,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--version", action="version", version=f"flexmb {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
-    run = sub.add_parser("run", help="simulate a scene file (or a built-in scene) and write results, plots and VTK")
+    run = sub.add_parser("run", help="simulate a scene file (or a built-in scene) and write results, plots and VTK",
+                         epilog=_EXIT_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
     run.add_argument("scene", help=scene_help)
-    run.add_argument("--out", default="results", help="output folder")
+    run.add_argument("--out", default=None, metavar="DIR",
+                     help="output folder (default: results/NAME, NAME the scene file's name without .toml, or "
+                          "the built-in scene's name); a folder holding another scene's outputs is refused")
+    run.add_argument("--overwrite", action="store_true",
+                     help="replace the outputs of another scene's run in the output folder")
     run.add_argument("--t-end", type=float, default=None, help="end time, s (default: the scene's)")
     run.add_argument("--rtol", type=float, default=None, help="relative tolerance (default: the scene's)")
     run.add_argument("--complement", default=None, help="orthogonal complement strategy: "
@@ -191,7 +224,8 @@ def main(argv=None) -> int:
     plug = sub.add_parser("plugins", help="list bodies, joints, forces, complements and integrators by name")
     plug.add_argument("--kind", default=None, help="bodies, joints, forces, complements or integrators")
     plug.set_defaults(func=_plugins)
-    st = sub.add_parser("study", help="run a parameter study of a scene file on a process pool or a Dask cluster")
+    st = sub.add_parser("study", help="run a parameter study of a scene file on a process pool or a Dask cluster",
+                        epilog=_EXIT_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
     st.add_argument("scene", help="a scene file SCENE.toml")
     st.add_argument("--vary", action="append", required=True, metavar="KEY=SPEC",
                     help="a scene key path and its values: v1,v2,... | lin:START:STOP:N | log:START:STOP:N | "
@@ -221,10 +255,10 @@ def main(argv=None) -> int:
             return args.func(args)
     except SimulationError as exc:
         print(f"flexmb: error: {exc}".replace("\n", " "), file=sys.stderr)
-        return 1
+        return EXIT_FAILED
     except FlexmbError as exc:
         print(f"flexmb: error: {exc}".replace("\n", " "), file=sys.stderr)
-        return 2
+        return EXIT_INPUT
 
 
 if __name__ == "__main__":

@@ -68,7 +68,7 @@ def label(instance) -> str:
     --------
     >>> import flexmb as fm
     >>> from flexmb.fields import label
-    >>> label(fm.RigidBody("crank"))
+    >>> label(fm.RigidBody("crank", 1.0, (1.0, 1.0, 1.0)))
     "RigidBody 'crank'"
     """
     return f"{type(instance).__name__} {getattr(instance, 'name', '?')!r}"

@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections import Counter
 
 import attrs
+import numpy as np
 
 from . import memory
 from ._names import REFERENCE, find
@@ -166,6 +167,27 @@ class Model:
                     self._aliases[e] = new
         return problems
 
+    def __repr__(self) -> str:
+        counts = [(len(self.bodies), "body", "bodies"), (len(self.joints), "joint", "joints"),
+                  (len(self.forces), "force element", "force elements"), (len(self.drivers), "driver", "drivers")]
+        return (f"<Model {self.name!r}: " + ", ".join(f"{n} {one if n == 1 else many}" for n, one, many in counts)
+                + "; print() it for its coordinates, loops and freedoms>")
+
+    def __str__(self) -> str:
+        """What ``flexmb info`` says of a scene: bodies, joints, coordinates, loops, rank, redundant rows, freedoms.
+
+        The model is built (its problems listed instead if it is invalid), and
+        the rank of the constraint Jacobian is taken at a generic state
+        (random coordinates: a model has no initial state).
+        """
+        from ._describe import GENERIC, describe, generic_state
+
+        try:
+            system = self.build()
+        except ModelError as exc:
+            return f"Model {self.name!r}, which does not build: {exc}"
+        return "\n".join([f"Model {self.name!r}", *describe(system, *generic_state(system), where=GENERIC)])
+
     def __getitem__(self, name: str):
         for group in (self.bodies, self.joints, self.forces, self.drivers):
             for item in group:
@@ -214,6 +236,7 @@ class Model:
             j = getattr(f, "joint", None)
             if isinstance(j, Joint) and j not in joints:
                 out.append(f"force element {f.name!r}: joint {j.name!r} is not in the model")
+        out.extend(_freedoms_without_mass(self, unresolved))
         seen = {}
         for d in self.drivers:
             if d in unresolved:
@@ -316,3 +339,68 @@ def _names_left(element) -> bool:
     return attrs.has(type(element)) and any(
         a.metadata.get(REFERENCE) is not None and isinstance(getattr(element, a.name), str)
         for a in attrs.fields(type(element)))
+
+
+def _rotation_axes(joint) -> np.ndarray | None:
+    """The unit axes (child body frame, columns) the joint turns its child about at q = 0, None if not known."""
+    if type(joint).motion.__func__ is not Joint.motion.__func__ or not joint.rotation_axes:
+        return None  # a joint with a motion of its own: its axes are not the frame's
+    _, child_frame = joint.frames()
+    return np.asarray(child_frame, dtype=float)[:, list(joint.rotation_axes)]
+
+
+def _freedoms_without_mass(model, unresolved) -> list[str]:
+    """Joint rotations that move no mass of their own, caught at build time (the mass matrix would be singular).
+
+    Two cases, each named with its remedy: a joint that turns a clamped
+    flexible body about an axis its clamped root joint also bends about, at
+    the same point (the body frame between them is massless); and a joint
+    that turns a rigid body at the end of a branch (no other joint on it)
+    about an axis through the joint point about which the body has no
+    inertia (a slender bar's own axis). A driven joint has no freedom there.
+    """
+    from .bodies import RigidBody
+    from .flexible import ELASTIC_COORDINATES, FlexibleBody
+
+    out = []
+    joints = [j for j in model.joints if j not in unresolved]
+    driven = {id(d.joint) for d in model.drivers}
+    for j in joints:
+        body, axes = j.child, _rotation_axes(j)
+        if axes is None or j.cut or id(j) in driven or not isinstance(body, (RigidBody, FlexibleBody)):
+            continue  # a driver prescribes the joint's motion: no freedom left there
+        kind = type(j).__name__
+        if isinstance(body, FlexibleBody):
+            kept = [k for k in body.keep if ELASTIC_COORDINATES[k][0] == "r"]
+            if not body.clamped or not kept or np.linalg.norm(j.child_point) > 1e-9 * body.length:
+                continue
+            span = np.eye(3)[:, [ELASTIC_COORDINATES[k][1] for k in kept]]
+            for u in axes.T:
+                if np.linalg.norm(u - span @ (span.T @ u)) < 1e-9:
+                    out.append(
+                        f"joint {j.name!r} ({kind}) turns the clamped flexible body {body.name!r} about "
+                        f"{[round(float(v), 6) + 0.0 for v in u]} at its root, about which its clamped root joint also "
+                        f"bends ({', '.join(kept)}): through the massless body frame between them the two move the "
+                        "same mass the same way, and the mass matrix is singular. For a pinned root give the body "
+                        "clamped=False (its first segment is then the body frame); a clamped root is attached with "
+                        "a Fixed (or driven) joint")
+                    break
+            continue
+        on_body = [k for k in joints if body in (k.parent, k.child)]
+        if len(on_body) > 1:
+            continue  # more bodies or a loop on it: they may move or fix that freedom
+        r = body.com - j.child_point
+        inertia = body.inertia + body.mass * (r @ r * np.eye(3) - np.outer(r, r))  # about the joint point
+        sub_inertia = axes.T @ inertia @ axes
+        values, vectors = np.linalg.eigh(sub_inertia)
+        if values[0] <= 1e-12 * max(np.trace(inertia), np.finfo(float).tiny):
+            axis = axes @ vectors[:, 0]
+            axis = axis / np.linalg.norm(axis)
+            out.append(
+                f"joint {j.name!r} ({kind}) turns body {body.name!r} about the axis "
+                f"{[round(float(v), 6) + 0.0 for v in axis]} (body frame) through the joint point, about which "
+                f"{body.name!r} has no inertia (a slender bar has none about its own axis): nothing resists that "
+                f"spin and the mass matrix is singular. Give {body.name!r} an inertia about that axis (a small "
+                "axial moment in RigidBody(name, mass, inertia)), or use a joint without that rotation (a "
+                "Universal instead of a Spherical)")
+    return out

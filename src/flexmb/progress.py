@@ -3,8 +3,8 @@
 Where the output goes decides how progress is shown:
 
 * a terminal: a bar on stderr, with the elapsed and remaining time and the
-  rate (simulated seconds per second of wall time, or cases per second),
-  after the first half second;
+  rate (``0.25 simulated s per wall-clock s``, never inverted, or cases per
+  second), after the first half second;
 * a notebook (Jupyter): tqdm's widget (``tqdm.auto``);
 * a file or a pipe: one plain line every ``LOG_INTERVAL`` seconds, and
   none for a run shorter than that, so that a log holds no carriage
@@ -51,6 +51,29 @@ def _notebook() -> bool:
     return shell is not None and type(shell).__name__ == "ZMQInteractiveShell"
 
 
+#: the rate of a bar over simulated time (unit ``"s"``): tqdm's own reads ``s/s`` either way up (it inverts
+#: rates below 1), so this one says which second is which, and is never inverted
+SIM_RATE = "{:.3g} simulated s per wall-clock s"
+
+
+def _rate_text(done: float, elapsed: float) -> str:
+    """The rate of simulated time, :data:`SIM_RATE` (``?`` before any time has passed)."""
+    return SIM_RATE.format(done / elapsed) if elapsed > 0 else SIM_RATE.replace("{:.3g}", "?")
+
+
+def _sim_time_bar(base):
+    """A tqdm class (terminal or notebook) whose bar format may use ``{sim_rate}``."""
+
+    class Bar(base):
+        @property
+        def format_dict(self):
+            d = super().format_dict
+            d["sim_rate"] = _rate_text(d["n"] - d.get("initial", 0), d["elapsed"])
+            return d
+
+    return Bar
+
+
 class _Lines:
     """A stream that turns tqdm's carriage-return updates into whole lines (for logs)."""
 
@@ -76,7 +99,9 @@ class Progress:
     what : str
         The label before the bar, e.g. ``"simulating"``.
     unit : str
-        The unit of the amount, e.g. ``"s"`` (the rate reads ``s/s``).
+        The unit of the amount: ``"s"`` for simulated time (the rate reads
+        ``0.25 simulated s per wall-clock s``, whether above or below 1), or
+        a count such as ``"cases"`` (``cases/s``, or ``s/cases`` below 1).
     enabled : bool
         False: nothing is shown (every method does nothing).
     initial : float
@@ -106,9 +131,12 @@ class Progress:
             kw = (dict(file=stream, delay=0.5, mininterval=0.2, ncols=width) if tty
                   else dict(file=_Lines(stream), delay=LOG_INTERVAL, mininterval=LOG_INTERVAL, ncols=100,
                             ascii=True))
+        rate = "{rate_fmt}"
+        if unit == "s":  # simulated time: tqdm's rate would read s/s both ways up
+            tqdm, rate = _sim_time_bar(tqdm), "{sim_rate}"
         self._bar = tqdm(total=float(total), initial=float(initial), desc=what, unit=unit,
                          bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.4g}/{total:.4g} " + unit
-                         + " [{elapsed}<{remaining}, {rate_fmt}{postfix}]", **kw)
+                         + " [{elapsed}<{remaining}, " + rate + "{postfix}]", **kw)
 
     def update_to(self, amount: float) -> None:
         """Move the bar to ``amount`` done.

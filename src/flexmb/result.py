@@ -236,6 +236,11 @@ class Result(ResultPost):
                                    "drivers and dampers change it)"))
         return rows
 
+    def __repr__(self) -> str:
+        """One screen: the rows of the notebook table and the arrays' shapes (not their values)."""
+        arrays = ", ".join(f"{a} {tuple(np.shape(getattr(self, a)))}" for a in _ARRAYS)
+        return "\n".join(["<flexmb Result", *(f"  {k}: {v}" for k, v in self._summary_rows()), f"  arrays: {arrays}>"])
+
     def _repr_html_(self) -> str:
         """A short table for Jupyter: status, times, integrator, cost, residuals, energy."""
         from html import escape
@@ -245,7 +250,7 @@ class Result(ResultPost):
         return f"<table><caption style='text-align:left'><b>flexmb Result</b></caption>{cells}</table>"
 
     def show(self, i: int = -1, *, system=None, path=None, **options):
-        """Render the mechanism at output ``i`` (pyvista, off-screen), inline in a notebook.
+        """Render the mechanism at output ``i`` (pyvista, off-screen), shown inline in a notebook.
 
         Parameters
         ----------
@@ -262,9 +267,9 @@ class Result(ResultPost):
 
         Returns
         -------
-        IPython.display.Image or pathlib.Path
-            The picture (an Image where IPython is installed), else the
-            PNG's path.
+        flexmb.viz.Picture
+            The PNG's path (a :class:`pathlib.Path`), shown as the picture
+            when it ends a notebook cell or a sphinx-gallery block.
 
         Raises
         ------
@@ -273,17 +278,13 @@ class Result(ResultPost):
         """
         import tempfile
 
-        from .viz import render_state
+        from .viz import Picture, render_state
 
         if path is None:
             path = Path(tempfile.mkdtemp(prefix="flexmb_show_")) / "state.png"
         out = render_state(self, i % len(self.t), path, system=self.system if system is None else system,
                            **options)
-        try:
-            from IPython.display import Image
-        except ImportError:
-            return out
-        return Image(filename=str(out))
+        return Picture(out)
 
     def coordinate(self, name) -> np.ndarray:
         """History of one coordinate by its name (``"joint.coordinate"``), or a joint's first coordinate.

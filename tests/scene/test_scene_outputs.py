@@ -128,7 +128,7 @@ def test_a_second_run_into_a_busy_folder_is_refused_at_once(tmp_path):
     finally:
         go.touch()
         first.communicate(timeout=120)
-    assert second.returncode == 2, err
+    assert second.returncode == 3, err
     assert err.startswith("flexmb: error: output folder") and f"in use by another flexmb run (pid {first.pid}" in err
     assert "Traceback" not in err
     assert first.returncode == 0
@@ -140,9 +140,9 @@ def test_two_runs_started_together_never_mix(tmp_path):
     runs = [_flexmb(*_run_argv(out, t_end, n)) for t_end, n in ((0.3, 120), (0.2, 80))]
     results = [(p.pid, *p.communicate(timeout=300), p.returncode) for p in runs]
     codes = sorted(r[3] for r in results)
-    assert codes in ([0, 0], [0, 2]), results
+    assert codes in ([0, 0], [0, 3]), results
     for pid, _, err, code in results:
-        if code == 2:
+        if code == 3:
             winner = next(r[0] for r in results if r[0] != pid)
             assert f"in use by another flexmb run (pid {winner}" in err and "Traceback" not in err
     summary = check_complete(out)
@@ -153,7 +153,7 @@ def test_the_lock_is_held_in_process_too(tmp_path, capsys):
     from flexmb._files import OutputFolder
 
     with OutputFolder(tmp_path):
-        assert main(_run_argv(tmp_path, 0.1, 5)) == 2
+        assert main(_run_argv(tmp_path, 0.1, 5)) == 3
     assert f"in use by another flexmb run (pid {os.getpid()}" in capsys.readouterr().err
     assert main(_run_argv(tmp_path, 0.1, 5)) == 0
     check_complete(tmp_path)
@@ -181,7 +181,7 @@ def test_a_lock_naming_a_live_process_is_respected(tmp_path, capsys):
     sleeper = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
     try:
         (tmp_path / ".flexmb.lock").write_text(f"{sleeper.pid}\n")
-        assert main(_run_argv(tmp_path, 0.1, 5)) == 2
+        assert main(_run_argv(tmp_path, 0.1, 5)) == 3
     finally:
         sleeper.kill()
         sleeper.wait()
@@ -191,7 +191,7 @@ def test_a_lock_naming_a_live_process_is_respected(tmp_path, capsys):
 
 def test_an_output_path_that_is_a_file_is_a_user_error(tmp_path, capsys):
     (tmp_path / "f").write_text("mine")
-    assert main(_run_argv(tmp_path / "f", 0.1, 5)) == 2
+    assert main(_run_argv(tmp_path / "f", 0.1, 5)) == 3
     assert "flexmb: error:" in capsys.readouterr().err
     assert (tmp_path / "f").read_text() == "mine"
 
@@ -342,7 +342,10 @@ def test_a_run_without_summary_removes_the_previous_summary(tmp_path):
     scene = tmp_path / "s.toml"
     scene.write_text(pathlib.Path(PENDULUM).read_text() + "\n[output]\nsummary = false\n")
     assert main(_run_argv(tmp_path / "out", 0.2, 11)) == 0
-    assert main(_run_argv(tmp_path / "out", 0.1, 5, str(scene))) == 0
+    # another scene's run: refused (it would remove the first one's files) unless told to overwrite
+    assert main(_run_argv(tmp_path / "out", 0.1, 5, str(scene))) == 3
+    assert (tmp_path / "out" / "summary.json").exists()
+    assert main(_run_argv(tmp_path / "out", 0.1, 5, str(scene)) + ["--overwrite"]) == 0
     assert not (tmp_path / "out" / "summary.json").exists()  # it would describe the other run
 
 
@@ -422,7 +425,7 @@ def test_bad_prefixes_are_refused_naming_the_value(tmp_path, capsys, prefix):
     scene.write_text(pathlib.Path(PENDULUM).read_text() + f"\n[output]\nprefix = {json.dumps(prefix)}\n")
     with pytest.raises(fm.SceneError, match=r"output\.prefix: .*got " + repr(prefix).replace(".", r"\.")):
         fm.load_scene(scene)
-    assert main(_run_argv(tmp_path / "out", 0.1, 5, str(scene))) == 2
+    assert main(_run_argv(tmp_path / "out", 0.1, 5, str(scene))) == 3
     assert "output.prefix" in capsys.readouterr().err
     assert not (tmp_path / "out").exists()
 

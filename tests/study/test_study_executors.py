@@ -131,7 +131,7 @@ def test_time_limit_from_the_scene_and_the_cli(scene_file, tmp_path, capsys):
     code = main(["study", str(scene_file), "--vary", f"solver.t_end=0.01,{ENDLESS},0.02", "--set",
                  "solver.max_step=1e-3", "--output", "final:pin", "--time-limit", "4", "--workers", "2", "--quiet",
                  "--out", str(tmp_path / "cli")])
-    assert code == 1
+    assert code == 4  # some case failed
     assert "exceeded the time limit of 4 s per case; stopped" in capsys.readouterr().out
     with pytest.raises(FlexmbError, match=r"time_limit must be a finite number of seconds > 0, got -1"):
         _limited(scene_file).run(tmp_path / "bad", executor="serial", progress=False, time_limit=-1)
@@ -191,3 +191,60 @@ def test_case_processes_end_when_the_study_is_killed(scene_file, tmp_path):
     for p in left:  # leave nothing behind, even when the test fails
         os.kill(p, signal.SIGKILL)
     assert not left, f"processes left after the study was killed: {left}"
+
+
+# ----------------------------------------------------------------------------- a study in a plain script (issue #32)
+
+
+_SCRIPT = """
+import flexmb as fm
+{extra}
+print("top level of the script ran")
+res = fm.run_study({scene!r}, {{"bodies.bar.mass": [1.0, 2.0]}}, "study", outputs={outputs},
+                   fixed={{"solver.t_end": 0.05, "solver.n_out": 6}}, workers=2, progress=False)
+print(res.summary())
+"""
+
+
+def _script(tmp_path, scene_file, extra="", outputs=("final:pin",)):
+    path = tmp_path / "plain_script.py"
+    text = repr(list(outputs)).replace("'@swing@'", "swing")  # a function of the script, by its name
+    path.write_text(_SCRIPT.format(scene=str(scene_file), extra=extra, outputs=text))
+    env = dict(os.environ, OPENBLAS_NUM_THREADS="1")
+    return subprocess.run([sys.executable, str(path)], capture_output=True, text=True, timeout=600, cwd=tmp_path,
+                          env=env)
+
+
+def test_a_study_at_the_top_level_of_a_plain_script_runs_on_the_process_pool(scene_file, tmp_path):
+    """No `if __name__ == "__main__":` guard: the case processes do not import the script again, so every
+    case finishes and the script's top level runs once (it ran in every case process: "worker process died",
+    tutorial 08's summary printed 13 times)."""
+    proc = _script(tmp_path, scene_file)
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    assert proc.stdout.count("top level of the script ran") == 1, proc.stdout
+    assert "2 cases: 2 finished, 0 failed; 2 run now" in proc.stdout, proc.stdout + proc.stderr[-3000:]
+
+
+def test_a_top_level_study_whose_outputs_live_in_the_script_says_what_to_add(scene_file, tmp_path):
+    """Outputs defined in the script make each case process import it: without the guard that would run the
+    study again in each, so the study is refused before any case runs, saying what to add."""
+    extra = "def swing(scene, result):\n    return float(result.x[-1, 0])\n"
+    proc = _script(tmp_path, scene_file, extra=extra, outputs=("final:pin", ("swing", "@swing@")))
+    assert proc.returncode != 0
+    assert 'if __name__ == "__main__":' in proc.stderr and "plain_script.py, line" in proc.stderr
+    assert "swing" in proc.stderr and "executor='serial'" in proc.stderr
+    assert not list((tmp_path / "study").glob("cases/*.json"))  # no case ran
+
+
+def test_a_rerun_says_which_failures_are_from_an_earlier_run(scene_file, tmp_path):
+    """A failed case is not run again without retry_failed, and the summary says so instead of reporting it
+    as if it had just failed."""
+    study = Study.from_file(scene_file, {"bodies.bar.mass": [1.0, -1.0]}, outputs=["final:pin"],
+                            fixed={"solver.t_end": 0.05, "solver.n_out": 6})
+    first = study.run(tmp_path, executor="serial", progress=False)
+    assert "(in an earlier run" not in first.summary() and len(first.failed) == 1
+    again = study.run(tmp_path, executor="serial", progress=False)
+    text = again.summary()
+    assert "0 run now, 2 done before" in text
+    assert "failed (in an earlier run, not run again)" in text and "--retry-failed" in text
+    assert study.run(tmp_path, executor="serial", progress=False, retry_failed=True).ran == [first.failed[0]["case_id"]]

@@ -131,7 +131,7 @@ def test_cli_study(scene_file, tmp_path, capsys):
     code = main(["study", str(scene_file), "--vary", "bodies.bar.mass=1.0,-2.0", "--vary",
                  "initial.positions.pin=lin:0:0.5:2", "--set", "solver.t_end=0.2", "--output", "final:pin",
                  "--serial", "--quiet", "--out", str(out)])
-    assert code == 1  # one mass is invalid
+    assert code == 4  # one mass is invalid: some case failed
     text = capsys.readouterr().out
     assert "4 cases: 2 finished, 2 failed" in text
     assert "bodies.bar.mass: must be > 0, got -2.0" in text
@@ -142,7 +142,7 @@ def test_cli_study(scene_file, tmp_path, capsys):
     captured = capsys.readouterr()
     # the progress goes to a log as whole lines, every half minute only (flexmb.progress); the summary stays
     assert "2 cases: 2 finished" in captured.out and "\r" not in captured.err
-    assert main(["study", str(scene_file), "--vary", "bodies.bar.mass", "--out", str(tmp_path / "x")]) == 2
+    assert main(["study", str(scene_file), "--vary", "bodies.bar.mass", "--out", str(tmp_path / "x")]) == 3
     assert "write KEY=VALUE" in capsys.readouterr().err
     # the command shows the flexmb loggers' messages on stderr, one line each, and not with --quiet
     again = ["study", str(scene_file), "--vary", "bodies.bar.mass=1.0,2.0,3.0", "--set", "solver.t_end=0.2",

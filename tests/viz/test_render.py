@@ -155,7 +155,10 @@ def test_render_state_draws_the_wiper_with_its_system(wiper_files, tmp_path):
 def test_show_renders_the_last_state_with_the_system_that_made_it(result, tmp_path):
     shown = result.show(path=tmp_path / "shown.png", window_size=SIZE)
     path = tmp_path / "shown.png"
-    assert path.exists() and getattr(shown, "filename", str(path)).endswith("shown.png")
+    # the PNG's path, in a script as in a notebook, which shows itself as the picture (issue #32)
+    assert isinstance(shown, viz.Picture) and shown == path and path.exists()
+    assert shown._repr_png_() == path.read_bytes()
+    assert shown._repr_html_().startswith('<img src="data:image/png;base64,')
     img = iio.imread(path)
     assert img.shape[:2] == SIZE[::-1] and _foreground(img).any()
     # the same picture as render_state of the last output with the result's own system

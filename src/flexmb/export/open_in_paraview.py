@@ -12,7 +12,9 @@
 Each series opens as one time series (the ``.pvd``): bodies as their shapes
 (lines drawn as tubes, joints as balls), coloured by the von Mises stress
 (``von_mises``, Pa, range over all times) where a series carries section
-stresses, else by body name (the string cell data ``body``). The first
+stresses, else by body: the cell data ``body_id`` as categories, one colour
+each (matplotlib's tab10, as ``flexmb.viz`` draws them), labelled in the
+legend with the body names (the field data ``body_names``). The first
 series with stresses is shown, the others are loaded and hidden (the eye
 icon in the Pipeline Browser shows them). Run interactively (``pvpython
 -i``, or in the ParaView window) the time slider steps through the run.
@@ -49,6 +51,39 @@ def _times(reader):
     if isinstance(values, (int, float)):
         return [float(values)]
     return [float(t) for t in values] or [0.0]
+
+
+#: matplotlib's tab10, the colours flexmb.viz gives the bodies
+_TAB10 = [(0.122, 0.467, 0.706), (1.0, 0.498, 0.055), (0.173, 0.627, 0.173), (0.839, 0.153, 0.157),
+          (0.580, 0.404, 0.741), (0.549, 0.337, 0.294), (0.890, 0.467, 0.761), (0.498, 0.498, 0.498),
+          (0.737, 0.741, 0.133), (0.090, 0.745, 0.812)]
+
+
+def _body_names(reader):
+    """The names in a series' field data ``body_names`` (index = ``body_id``), read through ParaView."""
+    from paraview import servermanager
+
+    data = servermanager.Fetch(reader)
+    if data is not None and data.IsA("vtkCompositeDataSet"):  # a multiblock: its first leaf
+        it = data.NewIterator()
+        it.InitTraversal()
+        data = None if it.IsDoneWithTraversal() else it.GetCurrentDataObject()
+    array = None if data is None else data.GetFieldData().GetAbstractArray("body_names")
+    return [] if array is None else [str(array.GetValue(k)) for k in range(array.GetNumberOfValues())]
+
+
+def _colour_by_body(pv, display, view, names):
+    """Colour by ``body_id`` as categories, each labelled with its body's name in the legend."""
+    pv.ColorBy(display, ("CELLS", "body_id"))
+    lut = pv.GetColorTransferFunction("body_id")
+    lut.InterpretValuesAsCategories = 1
+    lut.AnnotationsInitialized = 1
+    lut.Annotations = [text for k, name in enumerate(names) for text in (str(k), name)]
+    lut.IndexedColors = [c for k in range(len(names)) for c in _TAB10[k % len(_TAB10)]]
+    lut.IndexedOpacities = [1.0] * len(names)
+    bar = pv.GetScalarBar(lut, view)
+    bar.Title = "body"
+    bar.ComponentTitle = ""
 
 
 def _series(files, folder):
@@ -102,8 +137,8 @@ def main(argv=None, folder=None):
             bar = pv.GetScalarBar(lut, view)
             bar.Title = "von Mises stress"
             bar.ComponentTitle = "(Pa)"
-        elif "body" in reader.CellData.keys():
-            pv.ColorBy(display, ("CELLS", "body"))
+        elif "body_id" in reader.CellData.keys():
+            _colour_by_body(pv, display, view, _body_names(reader))
         display.SetScalarBarVisibility(view, True)
         if shown is None and "von_mises" in reader.PointData.keys():
             shown = reader

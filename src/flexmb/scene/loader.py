@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import difflib
 import inspect
 import math
 import re
@@ -106,8 +107,13 @@ class _Loader:
         return None
 
     # -- generic construction
-    def call(self, path: str, ctor, name: str | None, table: dict, what: str):
-        """Call ``ctor(name=name, **table)`` after checking keys and references against its signature."""
+    def call(self, path: str, ctor, name: str | None, table: dict, what: str, read=()):
+        """Call ``ctor(name=name, **table)`` after checking keys and references against its signature.
+
+        ``read``: keys of the scene's table that the loader has read and taken
+        out already (a driver's ``kind`` and ``rpm``): listed among the
+        allowed keys of a message.
+        """
         try:
             sig = inspect.signature(ctor)
         except (TypeError, ValueError):
@@ -123,7 +129,10 @@ class _Loader:
             allowed = [k for k in params if k != "name"]
             for k in table:
                 if k not in allowed:
-                    self.fail(f"{path}.{k}", f"unknown key for {what}; allowed keys: {', '.join(allowed)}")
+                    known = [*read, *allowed]
+                    close = difflib.get_close_matches(k, known, n=1)
+                    hint = f"; did you mean {close[0]!r}?" if close else ""
+                    self.fail(f"{path}.{k}", f"unknown key for {what}; allowed keys: {', '.join(known)}{hint}")
             for k, p in params.items():
                 if k != "name" and p.default is p.empty and k not in table:
                     self.fail(path, f"missing key {k!r} ({what} needs it)")
@@ -397,11 +406,12 @@ class _Loader:
                     self.fail(f"{path}.coordinate", f"joint {joint.name!r} has no coordinate {t['coordinate']!r}; "
                                                     f"its coordinates: {', '.join(joint.coordinate_names)}")
                 t["coordinate"] = list(joint.coordinate_names).index(t["coordinate"])
+            read = ("kind", "rpm") if kind == "constant_speed" else ("kind",)
             if kind == "constant_speed" and "rpm" in t:
                 if "speed" in t:
                     self.fail(f"{path}.rpm", "give speed (rad/s or m/s) or rpm, not both")
                 t["speed"] = 2 * np.pi * self.number(f"{path}.rpm", t.pop("rpm")) / 60.0
-            model.add(self.call(path, kinds[kind], name, t, f"driver kind {kind!r}"))
+            model.add(self.call(path, kinds[kind], name, t, f"driver kind {kind!r}", read=read))
 
     def load_solver(self, complement: str) -> SolverSettings:
         t = self.table("solver", self.data.get("solver", {}))

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import importlib.util
 import logging
+import os
 
 import numpy as np
 
@@ -87,7 +88,29 @@ def _vtk(res, folder, sub, prefix, system, jobs=None):
     return folder.final(rel)
 
 
-def run_into(scene, out, progress: bool, overrides: dict) -> dict:
+def _owner(scene) -> str:
+    """Who an output folder's run belongs to: the scene file's real path, else the scene's source and model.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+
+    Returns
+    -------
+    str
+        The file's real path for a scene file (one file, however named on
+        the command line), else ``"scene 'wiper' (model 'wiper')"``: a
+        built-in scene's name, or the source given to
+        :func:`~flexmb.loads_scene`, with the model's name.
+    """
+    source = os.fspath(scene.source)
+    if os.path.isfile(source):
+        return os.path.realpath(source)
+    return f"scene {source!r} (model {scene.name!r})"
+
+
+def run_into(scene, out, progress: bool, overrides: dict, overwrite: bool = False) -> dict:
     """Simulate a scene (each of its ``[runs]``, if any) and write its outputs into the folder ``out``.
 
     Parameters
@@ -100,6 +123,9 @@ def run_into(scene, out, progress: bool, overrides: dict) -> dict:
         Progress bar on stderr.
     overrides : dict
         Fields of :class:`~flexmb.scene.SolverSettings` to replace (``None`` values are ignored).
+    overwrite : bool
+        Replace the outputs of another scene's run in ``out`` (else refused
+        before simulating).
 
     Returns
     -------
@@ -110,9 +136,13 @@ def run_into(scene, out, progress: bool, overrides: dict) -> dict:
     ------
     SimulationError
         If a run fails (after its partial outputs are written).
+    ExportError
+        If another run is writing into ``out``, or ``out`` holds another
+        scene's outputs and ``overwrite`` is False.
     """
     failure = None
-    with OutputFolder(out) as folder:  # locked before simulating: a second run is refused at once
+    # locked and checked before simulating: a second run, or one over another scene's outputs, is refused at once
+    with OutputFolder(out, owner=_owner(scene), overwrite=overwrite) as folder:
         plotter = _plotter(scene, background=True)  # imports matplotlib while the runs compute
         try:
             if scene.runs:
@@ -131,7 +161,7 @@ def run_into(scene, out, progress: bool, overrides: dict) -> dict:
     return summary
 
 
-def write_outputs(scene, res, out) -> dict:
+def write_outputs(scene, res, out, overwrite: bool = False) -> dict:
     """Write the outputs of a scene-file run: ``.npz``, ``summary.json``, a plot and VTK.
 
     Parameters
@@ -144,6 +174,8 @@ def write_outputs(scene, res, out) -> dict:
         Output folder (created). It is locked while writing; the files of
         the previous run written there are replaced, or removed if this run
         does not write them, only once this run is written whole.
+    overwrite : bool
+        Replace the outputs of another scene's run in ``out`` (else refused).
 
     Returns
     -------
@@ -153,9 +185,10 @@ def write_outputs(scene, res, out) -> dict:
     Raises
     ------
     ExportError
-        If another run is writing into ``out`` (the message names its pid).
+        If another run is writing into ``out`` (the message names its pid),
+        or ``out`` holds another scene's outputs and ``overwrite`` is False.
     """
-    with OutputFolder(out) as folder:
+    with OutputFolder(out, owner=_owner(scene), overwrite=overwrite) as folder:
         return _write_outputs(scene, res, folder, _plotter(scene, background=False))
 
 

@@ -159,7 +159,7 @@ class Scene:
             out[label] = result.origins[:, row] + result.rotations[:, row] @ local
         return out
 
-    def run(self, out, progress: bool = True, **overrides) -> dict:
+    def run(self, out, progress: bool = True, overwrite: bool = False, **overrides) -> dict:
         """Simulate and write the outputs: ``.npz`` result, ``summary.json``, plots and VTK.
 
         A scene with ``[runs]`` runs each of them in turn, with the same
@@ -170,7 +170,9 @@ class Scene:
         second run into it is refused) and the new files replace the previous
         run's only once all are written, ``summary.json`` last; files of the
         previous run that this one does not write are removed (see
-        ``docs/scenes.md``, "Output folders").
+        ``docs/scenes.md``, "Output folders"). A folder holding the outputs
+        of another scene is refused before anything runs, unless
+        ``overwrite``.
 
         Parameters
         ----------
@@ -178,6 +180,8 @@ class Scene:
             Output folder (created).
         progress : bool
             Progress bar on stderr.
+        overwrite : bool
+            Replace the outputs of another scene's run in ``out``.
         **overrides
             Fields of :class:`SolverSettings` to replace.
 
@@ -191,11 +195,13 @@ class Scene:
         SimulationError
             If the run fails (after writing the partial outputs).
         ExportError
-            If another run is writing into ``out`` (the message names its pid).
+            If another run is writing into ``out`` (the message names its
+            pid), or ``out`` holds another scene's outputs and ``overwrite``
+            is False.
         """
         from .outputs import run_into
 
-        return run_into(self, out, progress, overrides)
+        return run_into(self, out, progress, overrides, overwrite=overwrite)
 
     def info(self) -> str:
         """Describe the scene: bodies, joints, coordinates, constraints, redundancy, freedoms.
@@ -205,46 +211,12 @@ class Scene:
         str
             A text report (what ``flexmb info`` prints).
         """
-        from ..flexible import FlexibleBody
+        from .._describe import describe
         from ..simulate import _choose_method
 
         system = self.system()
         x0, xd0 = self.initial_state(system)
-        kin = system.kinematics(0.0, x0, xd0)
-        psi = system.constraints.evaluate(kin, level=1).psi
-        c = system.strategy.complement(psi)
-        names = system.coordinate_names
-        lines = [f"scene {self.source}: model {self.name!r}", f"bodies ({len(self.model.bodies)}):"]
-        for b in self.model.bodies:
-            extra = ""
-            if isinstance(b, FlexibleBody):
-                extra = (f", {b.n_segments} segments keeping {', '.join(b.keep)} "
-                         f"({b.n_elastic} elastic coordinates)")
-            lines.append(f"  {b.name}: {self.types.get(b.name, type(b).__name__)}, mass {b.mass:.6g} kg{extra}")
-        cuts = set(system.topology.cut_joints)
-        lines.append(f"joints ({len(self.model.joints)}):")
-        for j in self.model.joints:
-            mine = [n for n in names if n.rsplit(".", 1)[0] == j.name]
-            if j in cuts:
-                rows = sum(1 for lab in system.constraints.labels if lab.split(".", 1)[0] == j.name)
-                what = f"cut joint closing a loop, {rows} constraint rows"
-            else:
-                what = "coordinates " + (", ".join(mine) if mine else "none")
-            lines.append(f"  {j.name}: {self.types.get(j.name, type(j).__name__)} "
-                         f"{j.parent.name} -> {j.child.name}; {what}")
-        if self.model.forces:
-            lines.append("forces: " + ", ".join(f"{f.name} ({self.types.get(f.name, type(f).__name__)})"
-                                                for f in self.model.forces))
-        for d in self.model.drivers:
-            lines.append(f"driver {d.name}: drives {names[system.coordinate_slice(d.joint).start + d.coordinate]}")
-        m = system.n_constraints
-        lines += [
-            f"coordinates: n = {system.n_coords}",
-            f"constraint rows: m = {m}" + (f" ({', '.join(system.constraints.labels)})" if 0 < m <= 12 else ""),
-            f"rank of psi at the initial state: {c.rank}; redundant rows: {m - c.rank}",
-            f"degrees of freedom: p = n - rank = {c.p}"
-            + (f" (drivers prescribe {len(self.model.drivers)})" if self.model.drivers else ""),
-        ]
+        lines = [f"scene {self.source}: model {self.name!r}", *describe(system, x0, xd0, types=self.types)]
         w = system.fastest_rate(0.0, x0, xd0)
         s = self.solver
         if w > 0:

@@ -14,7 +14,7 @@ from attrs import field, frozen
 from .._files import atomic_write
 from ..errors import FlexmbError, SceneError
 from .cases import _build
-from .executors import _execute_dask, _execute_pool, _execute_serial, _Progress, default_workers
+from .executors import _check_pool, _execute_dask, _execute_pool, _execute_serial, _Progress, default_workers, log
 from ..scene.metrics import _check_output, _is_real, _output_name, default_outputs
 from .sampling import SAMPLINGS, Distribution, _unit_samples
 from ..scene.keys import key_paths as _paths
@@ -276,8 +276,17 @@ class Study:
         Raises
         ------
         SceneError, FlexmbError
-            If a parameter, output or the time limit is invalid (before any
-            case runs).
+            If a parameter, output or the time limit is invalid, or if the
+            process pool cannot run the study from where it is called (a
+            study at the top level of a script whose outputs are functions
+            defined in that script; the message says what to add), before
+            any case runs.
+
+        Notes
+        -----
+        Cases recorded as failed by an earlier run into ``out`` are not run
+        again unless ``retry_failed``; a warning says so when the study
+        starts, and :meth:`StudyResult.summary` marks them.
         """
         if client is not None or scheduler is not None:
             executor = "dask"
@@ -293,6 +302,12 @@ class Study:
         ids = [case_id(p) for p in cases]
         done = _done_cases(out, ids, study_key, retry_failed)
         tasks = self._tasks(cases, ids, done, outputs, study_key, time_limit)
+        if executor == "process":
+            _check_pool(tasks)
+        stale = sorted({cid for cid, row in done.items() if row["status"] != "finished"})
+        if stale:
+            log.warning("study: %d case(s) recorded as failed by an earlier run in %s are not run again; "
+                        "retry_failed=True (flexmb study --retry-failed) runs them again", len(stale), out)
         bar = _Progress(len(set(ids)), len(done), progress)
         ran = []
 

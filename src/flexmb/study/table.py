@@ -270,9 +270,15 @@ class StudyResult:
         n, bad = len(self.rows), self.failed
         lines = [f"{n} cases: {n - len(bad)} finished, {len(bad)} failed; "
                  f"{len(set(self.ran))} run now, {self.skipped} done before"]
+        ran = set(self.ran)
         for r in bad:
             params = ", ".join(f"{k}={v}" for k, v in r["parameters"].items())
-            lines.append(f"  case {r['case']} ({params}) {r['status']}: {r['error']}")
+            before = "" if r.get("case_id") in ran else " (in an earlier run, not run again)"
+            lines.append(f"  case {r['case']} ({params}) {r['status']}{before}: {r['error']}")
+        stale = {r.get("case_id") for r in bad} - ran
+        if stale:
+            lines.append(f"  {len(stale)} failed case(s) are from an earlier run: retry_failed=True "
+                         "(flexmb study --retry-failed) runs them again")
         if self.outputs and n > len(bad):
             width = max(len(o) for o in self.outputs)
             lines.append(f"  {'output'.ljust(width)}  {'min':>12}  {'max':>12}  (case of max)")

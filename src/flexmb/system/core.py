@@ -97,6 +97,16 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         Whether the accelerations come from the articulated-body recursion.
     """
 
+    def __repr__(self) -> str:
+        from .._describe import one_line
+
+        return one_line(self)
+
+    def __str__(self) -> str:
+        from .._describe import GENERIC, describe, generic_state
+
+        return "\n".join([repr(self)[1:-1], *describe(self, *generic_state(self), where=GENERIC)])
+
     def __init__(self, model, complement="svd", sparse=None):
         if model.resolve():  # an element names one the model lacks: raise every problem
             model.validate()

@@ -15,7 +15,7 @@ plots
 """
 
 from .plots import coordinate_units, plot, plot_envelope, plot_station
-from .render import RenderOptions, animate, render_state
+from .render import Picture, RenderOptions, animate, render_state
 
-__all__ = ["RenderOptions", "render_state", "animate", "plot", "coordinate_units", "plot_envelope",
+__all__ = ["Picture", "RenderOptions", "render_state", "animate", "plot", "coordinate_units", "plot_envelope",
            "plot_station"]

@@ -20,7 +20,7 @@ from attrs import evolve, field, frozen
 from .._files import atomic_write
 from ..errors import ExportError
 
-__all__ = ["RenderOptions", "render_state", "animate"]
+__all__ = ["Picture", "RenderOptions", "render_state", "animate"]
 
 _VIEWS = ("auto", "xy", "xz", "yz", "iso")
 
@@ -253,6 +253,46 @@ def _frames(result, indices, opts, system=None):
                           + (": pass system= of a model with flexible bodies" if opts.scalars == "von_mises"
                              else ""))
     return meshes
+
+
+class Picture(type(Path())):
+    """The path of a rendered image that shows itself where pictures can be shown.
+
+    A :class:`pathlib.Path` in every respect (what :meth:`flexmb.Result.show`
+    returns in a script), it also gives IPython and Jupyter the PNG
+    (``_repr_png_``) and HTML renderers such as sphinx-gallery the image
+    embedded in an ``<img>`` tag (``_repr_html_``), so that a notebook cell or
+    a documentation page ending in ``result.show()`` shows the picture.
+
+    Parameters
+    ----------
+    *args : str or path-like
+        The image file, as for :class:`pathlib.Path`.
+    **kwargs
+        As for :class:`pathlib.Path`.
+
+    Examples
+    --------
+    >>> from flexmb.viz import Picture
+    >>> Picture("results", "state.png").name
+    'state.png'
+    """
+
+    def _repr_png_(self) -> bytes | None:
+        """The PNG's bytes (None, so that IPython shows the path, if the file is not a PNG)."""
+        data = self.read_bytes()
+        return data if data[:8] == b"\x89PNG\r\n\x1a\n" else None
+
+    def _repr_html_(self) -> str | None:
+        """An ``<img>`` with the PNG inline (base64), titled by the file's path."""
+        import base64
+        from html import escape
+
+        data = self._repr_png_()
+        if data is None:
+            return None
+        return (f'<img src="data:image/png;base64,{base64.b64encode(data).decode("ascii")}" '
+                f'alt="{escape(str(self))}" title="{escape(str(self))}">')
 
 
 def render_state(result, i: int, path, options: RenderOptions | None = None, *, system=None, **kw) -> Path:

@@ -1,0 +1,119 @@
+"""What a model is made of, in words: what ``flexmb info``, ``print(model)`` and ``repr(system)`` say.
+
+One description serves them all: the bodies (with their masses and, for
+flexible bodies, segments and kept coordinates), the joints (with their
+coordinates, or the constraint rows of a joint that closes a loop), the force
+elements and drivers, then the counts: coordinates n, constraint rows m, the
+rank of the constraint Jacobian psi (at a scene's initial state; at a
+generic state for a model or system, which have none), the redundant rows
+m - rank and the degrees of freedom p = n - rank.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = []
+
+
+#: where a model or system without an initial state takes the rank of psi
+GENERIC = "a generic state (coordinates drawn at random, seed 0)"
+
+
+def generic_state(system):
+    """A state in no particular configuration (seeded random coordinates, zero speeds).
+
+    The rank of psi there is its generic rank (the largest it takes), with
+    probability 1: a model or system has no initial state, and all
+    coordinates 0 is often a singular configuration (a four-bar folded flat)
+    or one where the loops do not close.
+
+    Returns
+    -------
+    x0, xd0 : ndarray
+        The state.
+    """
+    n = system.n_coords
+    return np.random.default_rng(0).uniform(-1.0, 1.0, n), np.zeros(n)
+
+
+def counts(system, x0, xd0) -> tuple[int, int, int]:
+    """Constraint rows m, rank of psi at the state and degrees of freedom p = n - rank."""
+    kin = system.kinematics(0.0, x0, xd0)
+    psi = system.constraints.evaluate(kin, level=1).psi
+    c = system.strategy.complement(psi)
+    return system.n_constraints, c.rank, c.p
+
+
+def describe(system, x0, xd0, *, types=None, where="the initial state") -> list[str]:
+    """The lines of the description of a built system at a state.
+
+    Parameters
+    ----------
+    system : System
+        The built model.
+    x0, xd0 : ndarray
+        The state at which the rank of psi is taken.
+    types : dict of str to str, optional
+        The name each element is known by (a scene's plugin names,
+        ``rigid_body``, ``revolute``, ...); default: the class names.
+    where : str
+        What the state is, for the rank's line.
+
+    Returns
+    -------
+    list of str
+        One line per body, joint, force list and driver, then the counts.
+    """
+    from .flexible import FlexibleBody
+
+    model, types = system.model, types or {}
+    names = system.coordinate_names
+    lines = [f"bodies ({len(model.bodies)}):"]
+    for b in model.bodies:
+        extra = ""
+        if isinstance(b, FlexibleBody):
+            extra = f", {b.n_segments} segments keeping {', '.join(b.keep)} ({b.n_elastic} elastic coordinates)"
+        lines.append(f"  {b.name}: {types.get(b.name, type(b).__name__)}, mass {b.mass:.6g} kg{extra}")
+    cuts = set(system.topology.cut_joints)
+    lines.append(f"joints ({len(model.joints)}):")
+    for j in model.joints:
+        mine = [n for n in names if n.rsplit(".", 1)[0] == j.name]
+        if j in cuts:
+            rows = sum(1 for lab in system.constraints.labels if lab.split(".", 1)[0] == j.name)
+            what = f"cut joint closing a loop, {rows} constraint rows"
+        else:
+            what = "coordinates " + (", ".join(mine) if mine else "none")
+        lines.append(f"  {j.name}: {types.get(j.name, type(j).__name__)} {j.parent.name} -> {j.child.name}; {what}")
+    if model.forces:
+        lines.append("forces: " + ", ".join(f"{f.name} ({types.get(f.name, type(f).__name__)})"
+                                            for f in model.forces))
+    for d in model.drivers:
+        lines.append(f"driver {d.name}: drives {names[system.coordinate_slice(d.joint).start + d.coordinate]}")
+    m, rank, p = counts(system, x0, xd0)
+    lines += [
+        f"coordinates: n = {system.n_coords}",
+        f"constraint rows: m = {m}" + (f" ({', '.join(system.constraints.labels)})" if 0 < m <= 12 else ""),
+        f"rank of psi at {where}: {rank}; redundant rows: {m - rank}",
+        f"degrees of freedom: p = n - rank = {p}"
+        + (f" (drivers prescribe {len(model.drivers)})" if model.drivers else ""),
+    ]
+    return lines
+
+
+def one_line(system) -> str:
+    """``System 'name': ... bodies, ... joints, n = ..., ... loops, m = ... (... redundant), p = ...``.
+
+    Never raises (a repr): a count that cannot be had is left out.
+    """
+    model = system.model
+    text = (f"System {model.name!r}: {len(model.bodies)} bodies, {len(model.joints)} joints, "
+            f"n = {system.n_coords} coordinates, {len(system.topology.cut_joints)} loop-closing joints, "
+            f"m = {system.n_constraints} constraint rows")
+    try:
+        m, rank, p = counts(system, *generic_state(system))
+        text += f" ({m - rank} redundant), p = {p} degrees of freedom"
+    except Exception:  # noqa: BLE001 - a repr must not fail
+        pass
+    strategy = getattr(system.strategy, "name", type(system.strategy).__name__)
+    return f"<{text}; complement {strategy}>"

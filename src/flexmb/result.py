@@ -20,9 +20,8 @@ __all__ = ["Result"]
 _ARRAYS = ("t", "x", "xd", "xdd", "positions", "origins", "rotations", "kinetic", "potential",
            "residual", "velocity_residual", "reactions")
 _LISTS = ("coordinate_names", "body_names", "constraint_labels", "driver_names")
-_SCALARS = ("n_dof", "n_rhs", "n_jac", "n_steps", "n_complements", "n_projections", "n_rebases",
-            "wall_time", "status", "message", "method",
-            "complement", "method_reason")
+_SCALARS = ("n_dof", "n_rhs", "n_jac", "n_steps", "n_complements", "n_projections", "n_rebases", "wall_time",
+            "status", "message", "method", "complement", "method_reason")
 
 
 @define
@@ -65,13 +64,9 @@ class Result:
         the segment length l = L / N, m (used by :meth:`shape`).
     n_dof : int
         Number of independent speeds p = n - rank(psi) at the start.
-    n_rhs, n_jac, n_steps, n_complements, n_projections : int
+    n_rhs, n_jac, n_steps, n_complements, n_projections, n_rebases : int
         Work counters (right-hand sides, Jacobians, steps, complements,
-        projections).
-    n_rebases : int
-        How often the offsets of winding angles moved (about once per
-        turn; each a restart of an integrator that cannot move its state in
-        place, see :mod:`flexmb.stepping`).
+        projections, moves of the winding angles' offsets: :mod:`flexmb.stepping`).
     wall_time : float
         Wall-clock time of the integration, s.
     work : dict of str to ndarray, shape (nt,)
@@ -229,8 +224,7 @@ class Result:
         rows = [("status", f"{self.status}: {self.message}"), ("time", span),
                 ("integrator", self.method + (f" ({self.method_reason})" if self.method_reason else "")),
                 ("cost", f"{self.n_steps} steps, {self.n_rhs} right-hand sides, {self.n_jac} Jacobians, "
-                         f"{self.n_projections} projections, "
-                         + (f"{self.n_rebases} rebases, " if self.n_rebases else "") + f"{self.wall_time:.3g} s"),
+                         f"{self.n_projections} projections, {self.wall_time:.3g} s"),
                 ("model", f"{len(self.coordinate_names)} coordinates, {self.n_dof} freedoms, "
                           f"{len(self.body_names)} bodies, {len(self.constraint_labels)} constraint rows")]
         if len(t) and len(self.constraint_labels):

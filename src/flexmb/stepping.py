@@ -405,7 +405,7 @@ class Run:
 
         None while every angle is within ``WINDING_BOUND`` of its offset;
         otherwise the offset of each angle farther than that moves by whole
-        ``WINDING_PERIOD``\ s towards it, to between ``WINDING_BOUND -
+        periods (``WINDING_PERIOD``) towards it, to between ``WINDING_BOUND -
         WINDING_PERIOD`` and ``WINDING_BOUND`` from it, and :attr:`offset`
         and :attr:`n_rebases` are updated.
 

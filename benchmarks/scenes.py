@@ -230,3 +230,37 @@ def b7_reference(theta, n_loops: int) -> tuple[float, float]:
     m, L, g, n = B7_MASS, B7_L, B7_G, n_loops
     a = (n + 1) * 0.5 * m * L**2 / 3.0 + n * 0.5 * m * L**2
     return a, ((n + 1) * m * g * L / 2 + n * m * g * L) * np.cos(theta)
+
+
+def b7_closed_form(t, n_loops: int) -> np.ndarray:
+    """The first rod's top of B7 from the chain's own one-degree-of-freedom equation, m, shape (nt, 2).
+
+    With every rod at ``theta`` and the couplers translating (the branch
+    the chain keeps through its flat positions), Lagrange's equation of
+    :func:`b7_reference`'s energies is ``2 a theta'' = P sin(theta)``,
+    ``P = (N + 1) m g L / 2 + N m g L``, from ``theta = 0``,
+    ``theta' = B7_SPEED``. It is integrated by scipy's DOP853 at rtol 1e-13
+    (over 20 s the angle reaches about 63 rad: 1e-11 rad), independent of
+    flexmb; the top is ``L (-sin theta, cos theta)``.
+
+    Parameters
+    ----------
+    t : array_like, shape (nt,)
+        Times, s, increasing from 0.
+    n_loops : int
+        Number of loops N.
+
+    Returns
+    -------
+    ndarray, shape (nt, 2)
+        x and y of ``rod_0``'s top, m.
+    """
+    from scipy.integrate import solve_ivp
+
+    t = np.asarray(t, dtype=float)
+    a, _ = b7_reference(0.0, n_loops)
+    p = (n_loops + 1) * B7_MASS * B7_G * B7_L / 2 + n_loops * B7_MASS * B7_G * B7_L
+    sol = solve_ivp(lambda _, y: [y[1], p * np.sin(y[0]) / (2 * a)], (0.0, float(t[-1])), [0.0, B7_SPEED],
+                    method="DOP853", rtol=1e-13, atol=1e-14, t_eval=t)
+    theta = sol.y[0]
+    return B7_L * np.column_stack([-np.sin(theta), np.cos(theta)])

@@ -250,7 +250,7 @@ def test_restart_after_a_projection_that_excites_stiff_modes():
     assert run.preconditioner is not None  # GMRES with the loops' Newton preconditioner, as simulate runs it
     run.t_now = t
     assert system.constraint_residual(t, y[:n], y[n:]) > run.state_tol  # the restart is due
-    solver = run._restart_if_drifted(SimpleNamespace(y=y, step_size=step))
+    solver = run._restart_if_drifted(SimpleNamespace(t=t, y=y, step_size=step))
     assert run.n_proj == 1 and solver.t == t
     while solver.t < t + 1e-3:
         message = solver.step()

@@ -21,8 +21,8 @@ __all__ = ["Result"]
 _ARRAYS = ("t", "x", "xd", "xdd", "positions", "origins", "rotations", "kinetic", "potential",
            "residual", "velocity_residual", "reactions")
 _LISTS = ("coordinate_names", "body_names", "constraint_labels", "driver_names")
-_SCALARS = ("n_dof", "n_rhs", "n_jac", "n_steps", "n_complements", "n_projections", "wall_time", "status", "message", "method",
-            "complement", "method_reason")
+_SCALARS = ("n_dof", "n_rhs", "n_jac", "n_steps", "n_complements", "n_projections", "n_rebases", "wall_time",
+            "status", "message", "method", "complement", "method_reason")
 
 
 @define
@@ -65,9 +65,9 @@ class Result(ResultPost):
         the segment length l = L / N, m (used by :meth:`shape`).
     n_dof : int
         Number of independent speeds p = n - rank(psi) at the start.
-    n_rhs, n_jac, n_steps, n_complements, n_projections : int
+    n_rhs, n_jac, n_steps, n_complements, n_projections, n_rebases : int
         Work counters (right-hand sides, Jacobians, steps, complements,
-        projections).
+        projections, moves of the winding angles' offsets: :mod:`flexmb.stepping`).
     wall_time : float
         Wall-clock time of the integration, s.
     work : dict of str to ndarray, shape (nt,)
@@ -117,6 +117,7 @@ class Result(ResultPost):
     n_steps: int = 0
     n_complements: int = 0
     n_projections: int = 0
+    n_rebases: int = 0
     wall_time: float = 0.0
     status: str = "running"
     message: str = ""

@@ -6,6 +6,23 @@ integrator) and hands it to :class:`Run`, which integrates the state
 states at the output times, projects drifted states back onto the
 constraints (eqs. 28-29) and turns every failure into a status and a
 message with the time it happened.
+
+Angles that wind up do not loosen the error control. An integrator weighs
+the error of a state component by ``1 / (rtol |y_i| + atol)``, so an angle
+that has turned to 60 rad would be controlled 60 times more loosely than
+one at 1 rad, though the position error it causes does not depend on how many
+turns it made. The integrator is therefore given ``z = y - c``, where the
+offset ``c`` is a multiple of ``WINDING_PERIOD`` on each angle
+(:attr:`~flexmb.topology.Topology.coord_angle`) and zero elsewhere; the
+right-hand side, the Jacobian and the Newton preconditioner see
+``y = z + c``, and the stored states are ``y`` (the unwrapped angles). When
+an angle leaves ``|z_i| <= WINDING_BOUND`` after a step, its offset moves
+by whole periods, leaving ``WINDING_BOUND - WINDING_PERIOD < |z_i| <=
+WINDING_BOUND`` (about once per turn), and the integrator follows: in place
+if it can (``rebase``, :mod:`flexmb.integrators.base`), otherwise restarted
+from the moved state. An angle is thus weighed as one of at most
+``WINDING_BOUND`` (3 pi) however far it has turned; one that never gets
+that far keeps a zero offset, and its run is unchanged.
 """
 
 from __future__ import annotations
@@ -38,6 +55,48 @@ KRYLOV_MIN_COORDS = 48
 
 #: largest ratio of an output projection's correction to the residual it removes
 OUTPUT_PROJECTION_GAIN = 1e3
+
+#: the offsets of the angles are multiples of WINDING_PERIOD, rad. An angle farther than WINDING_BOUND
+#: from its offset has its offset moved by whole periods, to between WINDING_BOUND - WINDING_PERIOD and
+#: WINDING_BOUND from the angle, on the side it came from: about once per turn, and never near zero,
+#: where the weight 1 / (rtol |z| + atol) would jump to 1 / atol once per turn (steps collapsing and
+#: growing again cost generalized-alpha accuracy: benchmarks/winding.py). Angles that stay within
+#: +-WINDING_BOUND keep a zero offset: those runs are unchanged.
+WINDING_PERIOD = 2.0 * np.pi
+WINDING_BOUND = 3.0 * np.pi
+
+
+class _Wound(Exception):
+    """An angle left the winding bound during :meth:`Run._advance` (the run moves the offsets and goes on)."""
+
+
+class _OffsetPreconditioner:
+    """A Newton preconditioner set up at ``y = z + c`` while the integrator holds ``z`` (see the module docstring).
+
+    Parameters
+    ----------
+    pre : NewtonPreconditioner
+        The system's preconditioner.
+    run : Run
+        The run whose offset (:attr:`Run.offset`) is added.
+    """
+
+    def __init__(self, pre, run):
+        self.pre, self.run, self.system = pre, run, pre.system
+
+    @property
+    def n_setups(self) -> int:
+        """Set-ups so far."""
+        return self.pre.n_setups
+
+    def setup(self, t, x, xd) -> None:
+        """Set up at the true coordinates ``x + c``."""
+        offset = self.run.offset
+        self.pre.setup(t, x if offset is None else x + offset[: len(x)], xd)
+
+    def solve(self, r1, r2, gamma):
+        """As :meth:`NewtonPreconditioner.solve` (increments do not depend on the offset)."""
+        return self.pre.solve(r1, r2, gamma)
 
 
 class NonFinite(Exception):
@@ -78,6 +137,12 @@ class Run:
     ----------
     status, message : str
         How the run ended, after :meth:`execute`.
+    offset : ndarray, shape (2 n + n_w,) or None
+        What the integrator's state lacks of the true one, ``y = z + offset``
+        (multiples of ``WINDING_PERIOD`` on the angles); None until an angle
+        first winds past ``WINDING_BOUND``.
+    n_rebases : int
+        How many times the offsets moved.
     """
 
     def __init__(self, system, solver_cls, name, times, *, t0, t_end, rtol, atol, max_step, projection_tol,
@@ -107,6 +172,9 @@ class Run:
         self.state_tol = (projection_tol if self.caps.cheap_restart
                           else max(projection_tol, min(RESTART_ATOL_FACTOR * atol, RESTART_TOL_MAX)))
         self.own_loop = self.caps.advances and not system.n_constraints
+        self.angles = np.flatnonzero(system.topology.coord_angle)
+        self.offset = None
+        self.n_rebases = 0
         self.preconditioner = None
         # one function object for every solver of the run: an integrator may remember its state across
         # restarts by its right-hand side (GeneralizedAlpha)
@@ -127,7 +195,7 @@ class Run:
         t : float
             Time, s.
         y : ndarray, shape (2 n + n_w,)
-            State.
+            The integrator's state ``z``; the rate is that of ``y = z + offset``.
 
         Returns
         -------
@@ -136,6 +204,8 @@ class Run:
         """
         self.counters["rhs"] += 1
         system, n = self.system, self.n
+        if self.offset is not None:
+            y = y + self.offset
         if not self.n_w:
             return system._state_rate(t, y)  # finite, or AssemblyError naming the cause
         xs, vs = y[:n], y[n : 2 * n]
@@ -163,6 +233,8 @@ class Run:
     def _jac(self, t, y):
         self.counters["jac"] += 1
         n = self.n
+        if self.offset is not None:
+            y = y + self.offset
         J = self.system.state_jacobian(t, y[:n], y[n : 2 * n])
         return np.pad(J, ((0, self.n_w), (0, self.n_w))) if self.n_w else J
 
@@ -174,7 +246,8 @@ class Run:
         if caps.uses_preconditioner and (system.articulated or system._loop_kernel) and n >= KRYLOV_MIN_COORDS:
             # an open tree, or loops closed through the recursion: O(n) Newton solves, no matrix
             # (System.newton_preconditioner)
-            self.preconditioner = self.options["preconditioner"] = system.newton_preconditioner()
+            self.preconditioner = system.newton_preconditioner()
+            self.options["preconditioner"] = _OffsetPreconditioner(self.preconditioner, self)
         elif caps.uses_jacobian and system.state_jacobian(self.t0, x, xd) is not None:
             self.counters["jac"] = 0
             self.options["jac"] = self._jac
@@ -203,7 +276,8 @@ class Run:
         solver = None
         bar = Progress(self.t_end - self.t0, "simulating", "s", enabled=self.progress)
         try:
-            solver = self._make(self.t0, y)
+            shift = self._winding(y)
+            solver = self._make(self.t0, y if shift is None else y - shift)
             if self.own_loop:
                 self._advance(solver, bar)
             else:
@@ -218,8 +292,6 @@ class Run:
         finally:
             bar.close()  # the bar's line ends before any message
         self.wall = _time.perf_counter() - t_wall
-        if self.own_loop and solver is not None:
-            self.n_steps = solver.n_steps
 
     def _advance(self, solver, bar) -> None:
         """Nothing to check or project after a step: the solver steps in its own loop between stops.
@@ -231,12 +303,36 @@ class Run:
         stops = times[self.k_out:]
         if self.progress:
             stops = np.union1d(stops, np.linspace(t0, self.t_end, 101)[1:])
-        step = None if self.monitor is None else self.monitor.step
+        monitor, angles, t_end = self.monitor, self.angles, self.t_end
+
+        def step(solver):
+            if monitor is not None:
+                monitor.step(solver)
+            if len(angles) and solver.t < t_end and np.max(np.abs(solver.y[angles])) > WINDING_BOUND:
+                raise _Wound
+
+        done = 0  # steps of the solvers restarted before this one
         for t_stop in stops:
-            try:
-                y_stop = solver.advance(t_stop, step)
-            except RuntimeError as exc:
-                raise NonFinite(solver.t, f"the integrator failed: {exc}") from exc
+            y_stop = None
+            while y_stop is None and t_stop > self.t_now:
+                try:
+                    y_stop = solver.advance(t_stop, step)
+                except RuntimeError as exc:
+                    raise NonFinite(solver.t, f"the integrator failed: {exc}") from exc
+                except _Wound:  # at the end of a step: the outputs it passed, then the offsets move
+                    self.t_now = solver.t
+                    self._store(solver)
+                    moved = self._unwound(solver)
+                    if moved is not solver:
+                        done += solver.n_steps
+                        solver = moved
+                finally:
+                    self.n_steps = done + solver.n_steps
+            if y_stop is None:  # passed by the step after which the offsets moved, and stored then
+                bar.update_to(self.t_now - t0)
+                continue
+            if self.offset is not None:
+                y_stop = y_stop + self.offset
             self.t_now = t_stop
             if not np.all(np.isfinite(y_stop)):
                 raise NonFinite(self.t_now, "the state became non-finite")
@@ -261,8 +357,10 @@ class Run:
                 self.monitor.step(solver)
             self.t_now = solver.t
             self._store(solver)
-            if solver.status == "running" and self.system.n_constraints:
-                solver = self._restart_if_drifted(solver)
+            if solver.status == "running":
+                solver = self._unwound(solver)
+                if self.system.n_constraints:
+                    solver = self._restart_if_drifted(solver)
             bar.update_to(self.t_now - self.t0)
 
     def _store(self, solver) -> None:
@@ -274,6 +372,8 @@ class Run:
         while self.k_out < len(times) and times[self.k_out] <= self.t_now:
             t_out = times[self.k_out]
             y_out = dense(t_out) if t_out != self.t_now else solver.y.copy()
+            if self.offset is not None:
+                y_out = y_out + self.offset
             if system.n_constraints:
                 # the interpolant leaves the constraints by about rtol between steps: store
                 # consistent states, by the rule the steps follow
@@ -283,29 +383,81 @@ class Run:
             self.k_out += 1
 
     def _restart_if_drifted(self, solver):
-        """The solver, restarted from the projected state if the constraints drifted past the bound.
-
-        An integrator with a cheap restart (a one-step method) continues
-        with its last step size. One without (``cheap_restart = False``:
-        CVODE, IDA) starts again at order one from a state the projection
-        has moved off the slow manifold of the stiff modes: on a damped
-        flexible body in a loop the correction excites the overdamped
-        segment modes (rates growing as N^2 to N^3 with the segments N),
-        and the order-one step that resolves their transient can lie
-        further below the last high-order step than CVODE's error-test
-        failures in one step can cut it (at most seven, each by at most a
-        factor of ten). Such an integrator chooses its first step itself,
-        at the restarted state.
-        """
-        n, t_now = self.n, self.t_now
-        xs, vs = solver.y[:n], solver.y[n : 2 * n]
+        """The solver, restarted from the projected state if the constraints drifted past the bound."""
+        n, t_now, offset = self.n, self.t_now, self.offset
+        y = solver.y if offset is None else solver.y + offset
+        xs, vs = y[:n], y[n : 2 * n]
         if self.system.constraint_residual(t_now, xs, vs) <= self.state_tol:
             return solver
         xs, vs = self.system.project(t_now, xs, vs, tol=min(1e-12, self.projection_tol), speeds="mass")
         self.n_proj += 1
+        y = np.concatenate([xs, vs, y[2 * n :]])
+        return self._restart(solver, y if offset is None else y - offset)
+
+    def _restart(self, solver, z):
+        """A new solver from ``z`` at the time ``solver`` reached (after a projection, or a move of the offsets).
+
+        An integrator with a cheap restart (a one-step method) continues
+        with its last step size. One without (``cheap_restart = False``:
+        CVODE, IDA) starts again at order one, and chooses its first step
+        itself: after a projection the state has moved off the slow
+        manifold of the stiff modes (on a damped flexible body in a loop
+        the correction excites the overdamped segment modes, rates growing
+        as N^2 to N^3 with the segments N), and the order-one step that
+        resolves their transient can lie further below the last high-order
+        step than CVODE's error-test failures in one step can cut it (at
+        most seven, each by at most a factor of ten).
+        """
         step = solver.step_size if self.caps.cheap_restart else None
-        first = min(max(step, 1e-14), self.t_end - t_now) if step else None
-        return self._make(t_now, np.concatenate([xs, vs, solver.y[2 * n :]]), first_step=first)
+        first = min(max(step, 1e-14), self.t_end - solver.t) if step else None
+        return self._make(solver.t, z, first_step=first)
+
+    def _winding(self, y):
+        """The move of the offsets that brings the angles of ``y`` (the integrator's) back near them, or None.
+
+        None while every angle is within ``WINDING_BOUND`` of its offset;
+        otherwise the offset of each angle farther than that moves by whole
+        periods (``WINDING_PERIOD``) towards it, to between ``WINDING_BOUND -
+        WINDING_PERIOD`` and ``WINDING_BOUND`` from it, and :attr:`offset`
+        and :attr:`n_rebases` are updated.
+
+        Parameters
+        ----------
+        y : ndarray, shape (2 n + n_w,)
+            The integrator's state.
+
+        Returns
+        -------
+        shift : ndarray, shape (2 n + n_w,) or None
+            What to subtract from the integrator's state.
+        """
+        if not len(self.angles):
+            return None
+        z = y[self.angles]
+        size = np.abs(z)
+        if not np.max(size) > WINDING_BOUND:
+            return None
+        turns = np.where(size > WINDING_BOUND,
+                         np.floor((size - (WINDING_BOUND - WINDING_PERIOD)) / WINDING_PERIOD), 0.0)
+        shift = np.zeros(len(y))
+        shift[self.angles] = np.copysign(WINDING_PERIOD * turns, z)
+        self.offset = shift.copy() if self.offset is None else self.offset + shift
+        self.n_rebases += 1
+        return shift
+
+    def _unwound(self, solver):
+        """The solver, with the offsets moved if an angle wound past ``WINDING_BOUND`` (see the module docstring).
+
+        An integrator declaring ``rebases`` moves its own state (and
+        history) in place; any other is restarted from the moved state.
+        """
+        shift = self._winding(solver.y)
+        if shift is None:
+            return solver
+        if self.caps.rebases:
+            solver.rebase(shift)
+            return solver
+        return self._restart(solver, solver.y - shift)
 
     def result(self, x) -> Result:
         """The Result of the run: the stored states and the run's counters.
@@ -330,7 +482,7 @@ class Run:
             n_dof=system.dof(self.t0, x), n_rhs=self.counters["rhs"],
             n_jac=self.counters.get("jac", 0) if preconditioner is None else preconditioner.n_setups,
             n_steps=self.n_steps, n_complements=system.n_complements - self.start_complements,
-            n_projections=self.n_proj, wall_time=self.wall, status=self.status, message=self.message,
+            n_projections=self.n_proj, n_rebases=self.n_rebases, wall_time=self.wall, status=self.status, message=self.message,
             method=self.name, complement=system.strategy.name)
 
 

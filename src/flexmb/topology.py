@@ -45,6 +45,11 @@ class Topology:
     coord_kind, coord_axis : ndarray of int, shape (n_coords,)
         Translation or rotation (:mod:`flexmb.kernels`) and the joint-frame
         axis of each coordinate of a generic joint motion.
+    coord_angle : ndarray of bool, shape (n_coords,)
+        Whether each coordinate is an angle, a rotation about one of its
+        joint's ``rotation_axes`` (joints with their own ``motion()``
+        included): a coordinate that may wind up without bound
+        (:class:`flexmb.stepping.Run` keeps its tolerance from loosening).
     external : ndarray of bool, shape (n_bodies,)
         Tree joints whose class computes its own ``motion()``.
 
@@ -189,16 +194,18 @@ class Topology:
     def _number_coordinates(self) -> None:
         """Coordinates: contiguous per tree joint, in body order."""
         self.joint_slice = {}
-        names, coord_body = [], []
+        names, coord_body, angle = [], [], []
         start = 0
         for k, j in enumerate(self.tree_joints):
             self.joint_slice[j] = slice(start, start + j.n_coords)
             names += [f"{j.name}.{c}" for c in j.coordinate_names]
             coord_body += [k] * j.n_coords
+            angle += [False] * len(j.translation_axes) + [True] * len(j.rotation_axes)
             start += j.n_coords
         self.n_coords = start
         self.coordinate_names = names
         self.coord_body = np.array(coord_body, dtype=np.int64)
+        self.coord_angle = np.array(angle, dtype=bool)
         self.coord_start = np.array([0] + [self.joint_slice[j].stop for j in self.tree_joints], dtype=np.int64)
         starts = np.zeros(start, dtype=np.int64)
         for sl in self.joint_slice.values():

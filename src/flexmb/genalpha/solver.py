@@ -232,6 +232,7 @@ class GeneralizedAlpha(OdeSolver):
     second_order = True
     has_dense_output = True
     needs_n_second = True
+    rebases = True
 
     def __init__(self, fun, t0, y0, t_bound, *, n_second=None, jac=None, rtol=1e-6, atol=1e-8,
                  max_step=np.inf, first_step=None, rho_inf=None, fixed_step=None, f_max=None, min_step=None,
@@ -498,6 +499,28 @@ class GeneralizedAlpha(OdeSolver):
         if h_next is not None:
             self.h_abs = h_next
         self._remember()
+
+    def rebase(self, shift) -> None:
+        """Move the origin of the state, ``y -> y - shift``, where the motion is unchanged.
+
+        The caller's right-hand side adds ``shift`` back from now on
+        (:func:`flexmb.simulate` keeps winding angles near zero so). The
+        accelerations, the Jacobian, its factors and the step-size history
+        stay; the state, the last step's start (for the interpolant) and the
+        memory for restarts move, so no step is lost.
+
+        Parameters
+        ----------
+        shift : ndarray, shape (len(y),)
+            What to subtract from the state.
+        """
+        shift = np.asarray(shift, dtype=float)
+        self.y = self.y - shift
+        if self._dense is not None:
+            y_old, abar_old, g_old = self._dense
+            self._dense = (y_old - shift, abar_old, g_old)
+        if self.t_old is not None:
+            self._remember()
 
     def _dense_output_impl(self):
         y_old, abar_old, g_old = self._dense

@@ -42,6 +42,13 @@ from these class attributes,
     ``n_steps``. simulate uses it between the output times of a
     model without constraints, where nothing is checked or projected after
     a step (:class:`~flexmb.integrators.CVODE`).
+``rebases``
+    The solver has ``rebase(shift)``: it moves the origin of its state,
+    ``y -> y - shift``, with its history and interpolant, the motion
+    unchanged (the right-hand side is told of the shift). simulate moves
+    the offsets of winding angles so (:mod:`flexmb.stepping`); an
+    integrator without it is restarted from the moved state instead
+    (:class:`~flexmb.GeneralizedAlpha` rebases, keeping its memory).
 
 flexmb's own integrators declare them; scipy's get them from
 :data:`SCIPY_CAPABILITIES` (looked up along the class's bases, so a subclass
@@ -86,6 +93,8 @@ class Capabilities:
         A restart after a projection is cheap (see the module docstring).
     advances : bool
         Has ``advance(t)``: steps to ``t`` without simulate's per-step checks.
+    rebases : bool
+        Has ``rebase(shift)``: moves the origin of its state in place.
 
     Examples
     --------
@@ -102,6 +111,7 @@ class Capabilities:
     uses_preconditioner: bool = False
     cheap_restart: bool = True
     advances: bool = False
+    rebases: bool = False
 
 
 #: scipy's solvers, which declare nothing themselves. LSODA could take a

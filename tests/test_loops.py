@@ -61,7 +61,18 @@ def _b7(n):
     return model, initial
 
 
+def _driven_hub():
+    """A clamped beam on a driven hub about its own root bending axis: A is singular, only the driver fixes it."""
+    model = fm.Model("driven hub")
+    beam = fm.FlexibleBody("beam", 1.0, fm.Section.rectangular(0.02, 0.005), fm.Material.steel(), 4,
+                           keep=("bend_z",))
+    hub = fm.Revolute("hub", model.ground, beam, axis=(0, 0, 1))
+    model.add(hub, fm.Driver.constant_speed("spin", hub, speed=2.0))
+    return model, {"positions": {"beam.j1": 0.01}}
+
+
 MODELS = {
+    "driven_hub": _driven_hub,
     "fourbar": lambda: (fourbar(), {"positions": fourbar_initial()}),
     "fourbar_revolute_cut": lambda: (fourbar(fm.Revolute), {"positions": fourbar_initial()}),
     "bricard": lambda: (hc.bricard(), {}),

@@ -202,7 +202,8 @@ def _calibrated(system, t0, x, xd):
         return system
     n_drv = len(system.constraints.drivers)
     if system._loop_kernel:  # the rank and the scale of the filter as the loop kernel sees them
-        if system._loop_calibration(t0, x, xd, drivers=False)[0] >= system.n_coords:
+        cut_rank = system._loop_calibration(t0, x, xd, drivers=False)[0]
+        if cut_rank is not None and cut_rank >= system.n_coords:
             raise ModelError(
                 f"the model has no degree of freedom left: its {system.n_coords} coordinates are all fixed by "
                 f"{system.n_constraints - n_drv} loop-closure rows (a structure, not a mechanism)"

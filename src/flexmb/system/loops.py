@@ -117,8 +117,10 @@ class LoopSolve:
 
         Returns
         -------
-        rank : int
-            The rows kept.
+        rank : int or None
+            The rows kept. None without the drivers when a freedom that
+            moves no mass is left free by the cut rows (a driver fixes it):
+            the cut rows' rank is then below n, not known exactly.
         smallest : float or None
             The smallest ``sqrt(d_j)`` of the kept rows (None if none).
         """
@@ -135,6 +137,8 @@ class LoopSolve:
             gamma_d = np.zeros(0)
         _, _, kept, smallest, status = loop_rhs(self._packed, layout, y, n, powers, force, torque, generalized,
                                                 gamma_d, self._loop_tol, 0.0, -1)
+        if status == 1 and not drivers:  # the cut rows leave a massless freedom free: rank below n
+            return None, None
         if status == 1:  # (status 3, a refinement that did not settle, leaves the rank as it is)
             raise AssemblyError(self._massless_message(kept, "at the initial state"))
         return kept, (float(smallest) if kept else None)

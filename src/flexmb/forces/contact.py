@@ -46,6 +46,7 @@ References
 
 from __future__ import annotations
 
+import math
 from typing import ClassVar
 
 import numpy as np
@@ -180,13 +181,20 @@ def restitution_of_hysteresis(chi: float) -> float:
         raise ModelError(f"restitution_of_hysteresis: chi must be a finite number >= 0, got {chi!r}")
     if chi == 0.0:
         return 1.0
-    target = chi - np.log1p(chi)
+    # with 1 - chi e = exp(-y): y + expm1(-y) = chi - ln(1 + chi), y in [target, target + 1]
+    # (so that 1 - chi e below the rounding of 1, at large chi, is no trouble); series where they cancel
+    target = (_series(lambda k: (-1.0) ** k * chi ** k / k) if chi < 1e-2 else chi - np.log1p(chi))
 
-    def g(e):
-        u = chi * e
-        return -u - np.log1p(-u) - target
+    def g(y):
+        return (_series(lambda k: (-1.0) ** k * y ** k / math.factorial(k)) if y < 1e-2 else y + np.expm1(-y)) - target
 
-    return float(brentq(g, 1e-300, min(1.0, (1.0 - 1e-16) / chi), xtol=1e-16, rtol=4 * np.finfo(float).eps))
+    y = brentq(g, target, target + 1.0, xtol=1e-300, rtol=4 * np.finfo(float).eps, maxiter=400)
+    return float(-np.expm1(-y) / chi)
+
+
+def _series(term) -> float:
+    """``sum_{k=2}^{13} term(k)``: the series of ``x - ln(1 + x)`` and of ``y + expm1(-y)`` for small arguments."""
+    return float(sum(term(k) for k in range(13, 1, -1)))
 
 
 # ----------------------------------------------------------------------------- normal laws
@@ -257,6 +265,7 @@ class LinearContactLaw(NormalLaw):
         Returns
         -------
         list of float
+            The parameters, in the kernel's order.
         """
         return [self.stiffness, 1.0, self.damping, effective_mass, 0.0]
 
@@ -303,6 +312,7 @@ class HuntCrossleyLaw(NormalLaw):
         Returns
         -------
         list of float
+            The parameters, in the kernel's order.
         """
         return [self.stiffness, self.exponent, self.damping, effective_mass, 0.0]
 
@@ -341,6 +351,7 @@ class _RestitutionLaw(NormalLaw):
         Returns
         -------
         list of float
+            The parameters, in the kernel's order.
         """
         m = self.effective_mass if self.effective_mass is not None else effective_mass
         return [self.stiffness, self.exponent, self.chi, m, 0.0]
@@ -451,6 +462,7 @@ class FrictionLaw:
         Returns
         -------
         list of float
+            The parameters, in the kernel's order.
         """
         raise NotImplementedError
 
@@ -483,11 +495,12 @@ class CoulombLaw(FrictionLaw):
     smoothing_speed: float = field(default=DEFAULT_SMOOTHING_SPEED, converter=as_float, validator=_POSITIVE)
 
     def row(self) -> list:
-        """mu, v_eps.
+        """The row: mu, v_eps.
 
         Returns
         -------
         list of float
+            The parameters, in the kernel's order.
         """
         return _pad([self.mu, self.smoothing_speed])
 
@@ -512,11 +525,12 @@ class ViscousLaw(FrictionLaw):
     damping: float = field(converter=as_float, validator=_NON_NEGATIVE)
 
     def row(self) -> list:
-        """c.
+        """The row: c.
 
         Returns
         -------
         list of float
+            The parameters, in the kernel's order.
         """
         return _pad([self.damping])
 
@@ -555,11 +569,12 @@ class VelocityWeakeningLaw(FrictionLaw):
                              f"{self.mu_static!r}")
 
     def row(self) -> list:
-        """mu_s, slope, mu_min, v_eps.
+        """The row: mu_s, slope, mu_min, v_eps.
 
         Returns
         -------
         list of float
+            The parameters, in the kernel's order.
         """
         return _pad([self.mu_static, self.slope, self.mu_min, self.smoothing_speed])
 
@@ -602,11 +617,12 @@ class StribeckLaw(FrictionLaw):
     smoothing_speed: float = field(default=DEFAULT_SMOOTHING_SPEED, converter=as_float, validator=_POSITIVE)
 
     def row(self) -> list:
-        """mu_s, mu_k, v_st, a, v_eps, sigma.
+        """The row: mu_s, mu_k, v_st, a, v_eps, sigma.
 
         Returns
         -------
         list of float
+            The parameters, in the kernel's order.
         """
         return _pad([self.mu_static, self.mu_kinetic, self.stribeck_speed, self.exponent, self.smoothing_speed,
                      self.viscous])
@@ -740,14 +756,8 @@ class Contact(ForceElement):
         rows, local, geom, laws, par = [], [], [], [], []
         for e in elements:
             (i, j), pts, radii = e._layout(topology)
-            masses = [np.inf if k < 0 else float(topology.mass[k]) for k in (i, j)]
-            if not np.isfinite(masses[0]) and not np.isfinite(masses[1]):
-                raise ModelError(f"{label(e)}: both sides are on the ground")
-            m_eff = 1.0 / (1.0 / masses[0] + 1.0 / masses[1]) if min(masses) > 0 else 0.0
-            law = e.normal_law
-            if isinstance(law, _RestitutionLaw) and law.effective_mass is None and not m_eff > 0:
-                raise ModelError(f"{label(e)}: a body in contact has no mass; give the normal law an "
-                                 f"effective_mass")
+            # bodies have mass > 0 (their constructors say so); the ground's is infinite
+            m_eff = 1.0 / sum(1.0 / float(topology.mass[k]) for k in (i, j) if k >= 0)
             rows.append((i, j))
             local.append(pts)
             geom.append(radii)
@@ -841,6 +851,8 @@ class Contact(ForceElement):
         Returns
         -------
         ContactHistory
+            The penetration, forces, point, normal, slip and elastic energy
+            at each output time.
 
         Raises
         ------
@@ -949,6 +961,7 @@ class SpherePlaneContact(Contact):
         Returns
         -------
         LoadTables
+            Their ``contact_*`` rows.
         """
         return cls._tables(elements, topology)
 
@@ -1034,6 +1047,7 @@ class SphereSphereContact(Contact):
         Returns
         -------
         LoadTables
+            Their ``contact_*`` rows.
         """
         return cls._tables(elements, topology)
 

@@ -351,7 +351,7 @@ def test_sliding_sphere_starts_rolling_at_the_closed_form_time():
     assert h.normal_force == pytest.approx(np.full(res.t.size, M * G_ACC), rel=1e-9)
     work = sum(w[-1] for w in res.work.values())
     assert abs(res.kinetic[-1] - res.kinetic[0] - work) < 1e-6 * res.kinetic[0]
-    # friction took (1 - 5/7) of the launch energy's... the rigid closed form: 1/7 of m v0^2 / 2 lost
+    # rolling at 5/7 v0 keeps m (5/7 v0)^2 (1 + 2/5) / 2 = 5/7 of the launch energy: friction took 2/7
     assert (res.kinetic[0] - res.kinetic[-1]) / res.kinetic[0] == pytest.approx(2 / 7, rel=1e-4)
     _report("rolling", t_roll=t_roll, v_end=res.xd[-1, 1] / v0)
 

@@ -269,7 +269,7 @@ def test_contact_history_of_an_impact():
     """The history from the stored states: penetration, force, energy; separated at the end."""
     law = fm.FloresLaw(K_STEEL, 0.7)
     _, _, res, floor = _impact(law, 1.0, 1.5)
-    h = floor.history(res)
+    h = res.contact_history(floor)
     assert h.t.shape == res.t.shape and h.force.shape == (res.t.size, 3)
     touching = h.in_contact
     assert touching.any() and not touching[0] and not touching[-1]
@@ -280,7 +280,12 @@ def test_contact_history_of_an_impact():
     assert np.allclose(res.potential, h.elastic_energy)
     assert np.allclose(h.slip_speed, 0)
     # the result's own system and one given are the same
-    assert np.array_equal(floor.history(res, system=res.system).penetration, h.penetration)
+    assert np.array_equal(res.contact_history("floor", system=res.system).penetration, h.penetration)
+    assert np.array_equal(fm.post.contact_history(res, "floor").normal_force, h.normal_force)
+    with pytest.raises(fm.ModelError, match="Revolute|Free 'free' is not a contact element"):
+        res.contact_history("free")
+    with pytest.raises(fm.ModelError, match="no element named 'wall'"):
+        res.contact_history("wall")
 
 
 def test_sphere_sphere_impact_two_free_balls():
@@ -305,7 +310,7 @@ def test_sphere_sphere_impact_two_free_balls():
     assert m1 * v1 + m2 * v2 == pytest.approx(m1 * v, rel=1e-12)
     work = sum(w[-1] for w in res.work.values())
     assert abs(res.kinetic[-1] - res.kinetic[0] - work) < 1e-6 * res.kinetic[0]
-    assert hit.history(res).penetration[-1] < 0
+    assert res.contact_history(hit).penetration[-1] < 0
 
 
 # ----------------------------------------------------------------------------- (b) sliding to rolling
@@ -333,7 +338,7 @@ def test_sliding_sphere_starts_rolling_at_the_closed_form_time():
                       xd0=np.array([0, v0, 0, 0, 0, 0.0]), method="CVODE_BDF", rtol=1e-10, atol=1e-12,
                       track_work=True, progress=False, n_out=3001)
     assert res.status == "finished"
-    h = floor.history(res)
+    h = res.contact_history(floor)
     u = h.slip_speed
     rho = R - d0 / 2
     a = mu * G_ACC * (1 + M * rho ** 2 / (0.4 * M * R ** 2))
@@ -370,7 +375,7 @@ def test_static_penetration_is_hertz(law):
     res = fm.simulate(model, 0.3, x0=np.array([R]), xd0=np.zeros(1), method="CVODE_BDF", rtol=1e-10,
                       atol=1e-14, progress=False, n_out=11)
     assert R - res.x[-1, 0] == pytest.approx(d_s, rel=1e-6)
-    assert floor.history(res).normal_force[-1] == pytest.approx(M * G_ACC, rel=1e-6)
+    assert res.contact_history(floor).normal_force[-1] == pytest.approx(M * G_ACC, rel=1e-6)
     x = fm.static_equilibrium(model.build(), x0=np.array([R - 0.5 * d_s]), tol=1e-15)
     assert R - x[0] == pytest.approx(d_s, rel=1e-9)
 

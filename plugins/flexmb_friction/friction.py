@@ -34,6 +34,7 @@ from numba import njit
 from flexmb import Body, ForceElement, ModelError, reference
 from flexmb.fields import (as_array, as_float, as_unit_vector, finite_number, label, non_negative, positive,
                            unit_vector, vector3)
+from flexmb.kernels.friction import coulomb_law, velocity_weakening_law, viscous_law
 from flexmb.kernels.loads import body_points
 
 __all__ = ["SlidingFriction", "VelocityWeakeningFriction", "CoulombFriction", "ViscousFriction"]
@@ -59,40 +60,10 @@ def _sliding(p_vel, normals):
     return out
 
 
-@njit(cache=True)
-def _velocity_weakening_law(params, v_s):
-    """Compiled law of :class:`VelocityWeakeningFriction`; params columns as its ``parameters``."""
-    out = np.empty_like(v_s)
-    for i in range(v_s.shape[0]):
-        speed2 = v_s[i, 0] ** 2 + v_s[i, 1] ** 2 + v_s[i, 2] ** 2
-        load, mu_s, slope, mu_min, eps = params[i, 0], params[i, 1], params[i, 2], params[i, 3], params[i, 4]
-        mu = max(mu_s - slope * np.sqrt(speed2), mu_min)
-        k = load * mu / np.sqrt(speed2 + eps * eps)
-        for a in range(3):
-            out[i, a] = -k * v_s[i, a]
-    return out
-
-
-@njit(cache=True)
-def _coulomb_law(params, v_s):
-    """Compiled law of :class:`CoulombFriction`; params columns as its ``parameters``."""
-    out = np.empty_like(v_s)
-    for i in range(v_s.shape[0]):
-        speed2 = v_s[i, 0] ** 2 + v_s[i, 1] ** 2 + v_s[i, 2] ** 2
-        k = params[i, 1] * params[i, 0] / np.sqrt(speed2 + params[i, 2] * params[i, 2])
-        for a in range(3):
-            out[i, a] = -k * v_s[i, a]
-    return out
-
-
-@njit(cache=True)
-def _viscous_law(params, v_s):
-    """Compiled law of :class:`ViscousFriction`; params columns as its ``parameters``."""
-    out = np.empty_like(v_s)
-    for i in range(v_s.shape[0]):
-        for a in range(3):
-            out[i, a] = -params[i, 0] * v_s[i, a]
-    return out
+# the laws' one implementation is flexmb's (the contact elements use the same factors)
+_velocity_weakening_law = velocity_weakening_law
+_coulomb_law = coulomb_law
+_viscous_law = viscous_law
 
 
 def _compiled_law(cls, params: dict, v_s: np.ndarray) -> np.ndarray:

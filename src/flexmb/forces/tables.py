@@ -45,7 +45,7 @@ def merge(tables, groups=None) -> LoadTables:
     fields = {"gravity": np.sum([t.gravity for t in tables], axis=0),
               "gravity_group": [next((g for t, g in zip(tables, groups) if np.any(t.gravity)), 0)]}
     rows_of = {"coord_group": "coord_cols", "pair_group": "pair_rows", "force_group": "force_rows",
-               "torque_group": "torque_rows"}
+               "torque_group": "torque_rows", "contact_group": "contact_rows"}
     for name in LoadTables._fields[1:]:
         if name == "gravity_group":
             continue

@@ -6,8 +6,9 @@ from typing import NamedTuple
 
 import numpy as np
 from .cache import njit
+from .contact import SPHERE_PLANE, elastic_energy, friction_factor, normal_force
 
-__all__ = ["LoadTables", "add_point_forces", "add_torques", "body_points", "apply_load_tables"]
+__all__ = ["LoadTables", "add_point_forces", "add_torques", "body_points", "apply_load_tables", "contact_states"]
 
 
 class LoadTables(NamedTuple):
@@ -47,6 +48,23 @@ class LoadTables(NamedTuple):
     gravity_group, coord_group, pair_group, force_group, torque_group : ndarray of int
         The force-element class (the model's group) each row belongs to,
         for the power of each group (``gravity_group`` has one entry).
+    contact_rows : ndarray of int, shape (c, 2)
+        Body rows of the two sides of each contact: the sphere's, then the
+        plane's or the second sphere's.
+    contact_local : ndarray, shape (c, 3, 3)
+        In those rows' body frames: the sphere's centre, the plane's point
+        (or the second sphere's centre) and the plane's unit normal (zeros
+        for two spheres).
+    contact_geom : ndarray, shape (c, 2)
+        The radii, m (the second 0 for a plane).
+    contact_laws : ndarray of int, shape (c, 3)
+        Codes of the geometry, the normal law and the friction law
+        (:mod:`flexmb.kernels.contact`).
+    contact_par : ndarray, shape (c, 11)
+        The normal law's parameters (columns 0-4), then the friction law's
+        (columns 5-10).
+    contact_group : ndarray of int, shape (c,)
+        The group of each contact, as the other group columns.
     """
 
     gravity: np.ndarray
@@ -69,6 +87,12 @@ class LoadTables(NamedTuple):
     pair_group: np.ndarray
     force_group: np.ndarray
     torque_group: np.ndarray
+    contact_rows: np.ndarray
+    contact_local: np.ndarray
+    contact_geom: np.ndarray
+    contact_laws: np.ndarray
+    contact_par: np.ndarray
+    contact_group: np.ndarray
 
     @classmethod
     def of(cls, **fields) -> "LoadTables":
@@ -84,10 +108,12 @@ class LoadTables(NamedTuple):
         LoadTables
         """
         shapes = {"gravity": (3,), "pair_rows": (0, 2), "pair_local": (0, 2, 3), "pair_par": (0, 3),
-                  "force_local": (0, 3), "force_vec": (0, 3), "torque_vec": (0, 3), "gravity_group": (1,)}
+                  "force_local": (0, 3), "force_vec": (0, 3), "torque_vec": (0, 3), "gravity_group": (1,),
+                  "contact_rows": (0, 2), "contact_local": (0, 3, 3), "contact_geom": (0, 2), "contact_laws": (0, 3),
+                  "contact_par": (0, 11)}
         out = {}
         for name in cls._fields:
-            dtype = (np.int64 if name.endswith(("_rows", "_group")) or name == "coord_cols"
+            dtype = (np.int64 if name.endswith(("_rows", "_group", "_laws")) or name == "coord_cols"
                      else np.bool_ if name.endswith("_in_body") else float)
             value = fields.get(name)
             out[name] = (np.zeros(shapes.get(name, (0,)), dtype=dtype) if value is None
@@ -294,14 +320,150 @@ def _body_torque_loads(rows, vec, in_body, group, R, omega, torque, powers, trac
                 powers[group[i]] += f[a] * omega[k, a]
 
 
+@njit(cache=True, inline="always")
+def _contact_eval(rows, local, geom, laws, par, R, origin, r, omega, v, centre, cvel, q, u, nrm, f):
+    """One contact: its penetration and normal force, and in place its point, relative velocity, normal and force.
+
+    ``q`` is the middle of the overlap along the normal ``nrm`` (pointing
+    to the sphere of the first row), ``u`` the velocity of the first row's
+    material point at ``q`` less the second's, ``f`` the force on the first
+    row at ``q`` (the second takes ``-f``). Returns ``(delta, f_n)``; the
+    rate of the penetration is ``-u . nrm`` exactly (the spheres' spins
+    move their surfaces along the tangent plane only).
+    """
+    a, b = rows[0], rows[1]
+    _point_motion(R, origin, r, omega, v, a, local[0], centre[0], cvel[0])
+    _point_motion(R, origin, r, omega, v, b, local[1], centre[1], cvel[1])
+    if laws[0] == SPHERE_PLANE:
+        dist = 0.0
+        for x in range(3):
+            nrm[x] = R[b, x, 0] * local[2, 0] + R[b, x, 1] * local[2, 1] + R[b, x, 2] * local[2, 2]
+            dist += (centre[0, x] - centre[1, x]) * nrm[x]
+        delta = geom[0] - dist
+    else:
+        d0, d1, d2 = centre[0, 0] - centre[1, 0], centre[0, 1] - centre[1, 1], centre[0, 2] - centre[1, 2]
+        dist = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+        if dist > 0.0:
+            nrm[0], nrm[1], nrm[2] = d0 / dist, d1 / dist, d2 / dist
+        else:  # concentric: any direction
+            nrm[0], nrm[1], nrm[2] = 0.0, 0.0, 1.0
+        delta = geom[0] + geom[1] - dist
+    lever = geom[0] - 0.5 * delta
+    for x in range(3):
+        q[x] = centre[0, x] - lever * nrm[x]
+    wa, wb = omega[a], omega[b]
+    la0, la1, la2 = q[0] - r[a, 0], q[1] - r[a, 1], q[2] - r[a, 2]
+    lb0, lb1, lb2 = q[0] - r[b, 0], q[1] - r[b, 1], q[2] - r[b, 2]
+    u[0] = v[a, 0] + wa[1] * la2 - wa[2] * la1 - (v[b, 0] + wb[1] * lb2 - wb[2] * lb1)
+    u[1] = v[a, 1] + wa[2] * la0 - wa[0] * la2 - (v[b, 1] + wb[2] * lb0 - wb[0] * lb2)
+    u[2] = v[a, 2] + wa[0] * la1 - wa[1] * la0 - (v[b, 2] + wb[0] * lb1 - wb[1] * lb0)
+    f[0], f[1], f[2] = 0.0, 0.0, 0.0
+    if delta <= 0.0:
+        return delta, 0.0
+    un = u[0] * nrm[0] + u[1] * nrm[1] + u[2] * nrm[2]
+    fn = normal_force(laws[1], par[:5], delta, -un)
+    t0, t1, t2 = u[0] - un * nrm[0], u[1] - un * nrm[1], u[2] - un * nrm[2]
+    k = friction_factor(laws[2], par[5:], fn, t0 * t0 + t1 * t1 + t2 * t2)
+    f[0] = fn * nrm[0] - k * t0
+    f[1] = fn * nrm[1] - k * t1
+    f[2] = fn * nrm[2] - k * t2
+    return delta, fn
+
+
+@njit(cache=True, inline="always")
+def _contact_loads(rows, local, geom, laws, par, group, R, origin, r, omega, v, force, torque, powers, track):
+    """Contacts: equal and opposite forces at their points (into F, eq. 5); power ``f . u``."""
+    if rows.shape[0]:
+        centre = np.empty((2, 3))
+        cvel = np.empty((2, 3))
+        q = np.empty(3)
+        u = np.empty(3)
+        nrm = np.empty(3)
+        f = np.empty(3)
+        for i in range(rows.shape[0]):
+            delta, _ = _contact_eval(rows[i], local[i], geom[i], laws[i], par[i], R, origin, r, omega, v, centre,
+                                     cvel, q, u, nrm, f)
+            if delta <= 0.0:
+                continue
+            if track:
+                powers[group[i]] += f[0] * u[0] + f[1] * u[1] + f[2] * u[2]
+            for s in range(2):
+                k = rows[i, s]
+                sign = 1.0 if s == 0 else -1.0
+                lx, ly, lz = q[0] - r[k, 0], q[1] - r[k, 1], q[2] - r[k, 2]
+                fx, fy, fz = sign * f[0], sign * f[1], sign * f[2]
+                force[k, 0] += fx
+                force[k, 1] += fy
+                force[k, 2] += fz
+                torque[k, 0] += ly * fz - lz * fy
+                torque[k, 1] += lz * fx - lx * fz
+                torque[k, 2] += lx * fy - ly * fx
+
+
+@njit(cache=True)
+def contact_states(rows, local, geom, laws, par, R, origin, r, omega, v):
+    """What each contact does at a state: penetration, forces, point, normal and slip.
+
+    Parameters
+    ----------
+    rows, local, geom, laws, par : ndarray
+        The ``contact_*`` fields of :class:`LoadTables`.
+    R, origin, r, omega, v : ndarray, shape (n_bodies + 1, ...)
+        Rotations, body-frame origins, mass centres, angular velocities and
+        mass-centre velocities (the ground last).
+
+    Returns
+    -------
+    delta : ndarray, shape (c,)
+        Penetration, m (negative: the gap).
+    rate : ndarray, shape (c,)
+        Its rate, m/s (positive approaching).
+    normal_force : ndarray, shape (c,)
+        N (0 when separated).
+    energy : ndarray, shape (c,)
+        Elastic energy of the penetration, J.
+    point : ndarray, shape (c, 3)
+        Contact point (the middle of the overlap), inertial, m.
+    normal : ndarray, shape (c, 3)
+        Unit normal, towards the first side.
+    force : ndarray, shape (c, 3)
+        Force on the first side, inertial, N (the second takes its opposite).
+    slip : ndarray, shape (c, 3)
+        Tangential velocity of the first side's point relative to the
+        second's at the contact point, m/s.
+    """
+    c = rows.shape[0]
+    delta = np.zeros(c)
+    rate = np.zeros(c)
+    fn = np.zeros(c)
+    energy = np.zeros(c)
+    point = np.zeros((c, 3))
+    normal = np.zeros((c, 3))
+    force = np.zeros((c, 3))
+    slip = np.zeros((c, 3))
+    centre = np.empty((2, 3))
+    cvel = np.empty((2, 3))
+    u = np.empty(3)
+    for i in range(c):
+        delta[i], fn[i] = _contact_eval(rows[i], local[i], geom[i], laws[i], par[i], R, origin, r, omega, v, centre,
+                                        cvel, point[i], u, normal[i], force[i])
+        un = u[0] * normal[i, 0] + u[1] * normal[i, 1] + u[2] * normal[i, 2]
+        rate[i] = -un
+        for x in range(3):
+            slip[i, x] = u[x] - un * normal[i, x]
+        energy[i] = elastic_energy(laws[i, 1], par[i], delta[i])
+    return delta, rate, fn, energy, point, normal, force, slip
+
+
 @njit(cache=True)
 def apply_load_tables(tables, mass, R, origin, r, omega, v, x, xd, force, torque, generalized, powers):
     """Add the loads of the compiled built-in force elements (:class:`flexmb.forces.tables.LoadTables`).
 
     Uniform gravity ``m_k g`` at the mass centres; coordinate springs and
     dampers ``-k (q - q0) - c qdot`` (joint springs, the segment joints of
-    flexible bodies, eqs. 21, 25-27); point-to-point spring-dampers; and
-    constant point forces and body torques, in inertial or body axes. All
+    flexible bodies, eqs. 21, 25-27); point-to-point spring-dampers;
+    constant point forces and body torques, in inertial or body axes; and
+    contacts (:mod:`flexmb.kernels.contact`). All
     enter the generalized active force F of eq. 5 through ``force``,
     ``torque`` and ``generalized``.
 
@@ -334,3 +496,5 @@ def apply_load_tables(tables, mass, R, origin, r, omega, v, x, xd, force, torque
                        tables.force_group, R, origin, r, omega, v, force, torque, powers, track)
     _body_torque_loads(tables.torque_rows, tables.torque_vec, tables.torque_in_body, tables.torque_group, R, omega,
                        torque, powers, track)
+    _contact_loads(tables.contact_rows, tables.contact_local, tables.contact_geom, tables.contact_laws,
+                   tables.contact_par, tables.contact_group, R, origin, r, omega, v, force, torque, powers, track)

@@ -1,4 +1,4 @@
-"""A model's constant arrays in four buffers, so that one compiled call unboxes four arrays, not forty-six.
+"""A model's constant arrays in four buffers, so that one compiled call unboxes four arrays, not fifty-two.
 
 numba unboxes every array argument of a call from Python, one by one: a
 right-hand side that takes the tree layout (:class:`~flexmb.kernels.tree.TreeArrays`),
@@ -32,10 +32,12 @@ LAYOUT = (
     # child_point, com, mass, inertia, coord_body
     "i1", "i1", "i1", "i1", "b1", "f3", "f3", "f2", "f2", "f2", "f1", "f3", "i1",
     # LoadTables: gravity, coord_cols, coord_k, coord_c, coord_rest, pair_rows, pair_local, pair_par,
-    # force_rows, force_local, force_vec, force_in_body, torque_rows, torque_vec, torque_in_body and the
-    # five group columns
+    # force_rows, force_local, force_vec, force_in_body, torque_rows, torque_vec, torque_in_body, the
+    # five group columns, then contact_rows, contact_local, contact_geom, contact_laws, contact_par and
+    # contact_group
     "f1", "i1", "f1", "f1", "f1", "i2", "f3", "f2", "i1", "f2", "f2", "b1", "i1", "f2", "b1",
     "i1", "i1", "i1", "i1", "i1",
+    "i2", "f3", "f2", "i2", "f2", "i1",
     # cut rows: points (i, pi, j, pj), directions (i, pi, ai, j, pj), perpendiculars (i, ai, j, bj)
     "i1", "f2", "i1", "f2", "i1", "f2", "f2", "i1", "f2", "i1", "f2", "i1", "f2",
 )
@@ -142,8 +144,10 @@ def unpack(packed):
                         _view1(fl, ix, 17), _view2(it, ix, 18), _view3(fl, ix, 19), _view2(fl, ix, 20),
                         _view1(it, ix, 21), _view2(fl, ix, 22), _view2(fl, ix, 23), _view1(fg, ix, 24),
                         _view1(it, ix, 25), _view2(fl, ix, 26), _view1(fg, ix, 27), _view1(it, ix, 28),
-                        _view1(it, ix, 29), _view1(it, ix, 30), _view1(it, ix, 31), _view1(it, ix, 32))
-    cuts = (_view1(it, ix, 33), _view2(fl, ix, 34), _view1(it, ix, 35), _view2(fl, ix, 36),
-            _view1(it, ix, 37), _view2(fl, ix, 38), _view2(fl, ix, 39), _view1(it, ix, 40), _view2(fl, ix, 41),
-            _view1(it, ix, 42), _view2(fl, ix, 43), _view1(it, ix, 44), _view2(fl, ix, 45))
+                        _view1(it, ix, 29), _view1(it, ix, 30), _view1(it, ix, 31), _view1(it, ix, 32),
+                        _view2(it, ix, 33), _view3(fl, ix, 34), _view2(fl, ix, 35), _view2(it, ix, 36),
+                        _view2(fl, ix, 37), _view1(it, ix, 38))
+    cuts = (_view1(it, ix, 39), _view2(fl, ix, 40), _view1(it, ix, 41), _view2(fl, ix, 42),
+            _view1(it, ix, 43), _view2(fl, ix, 44), _view2(fl, ix, 45), _view1(it, ix, 46), _view2(fl, ix, 47),
+            _view1(it, ix, 48), _view2(fl, ix, 49), _view1(it, ix, 50), _view2(fl, ix, 51))
     return tree, tables, cuts

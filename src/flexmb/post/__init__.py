@@ -16,11 +16,14 @@ joint_loads
     The force and moment every joint transmits.
 motion
     Point positions, velocities and accelerations, body angular velocities.
+contact
+    Penetration, forces and slip of the contact elements.
 
 The package sits below :mod:`flexmb.result` and :mod:`flexmb.export`: it
 reads results and never builds or imports them.
 """
 
+from .contact import ContactHistory, contact_history
 from .fields import LOAD_COMPONENTS, Envelope, JointLoads, SectionField
 from .joint_loads import constraint_loads, joint_loads
 from .motion import angular_velocity, point_motion
@@ -28,4 +31,4 @@ from .sections import joint_stations, section_loads, section_strains, section_st
 
 __all__ = ["SectionField", "Envelope", "JointLoads", "LOAD_COMPONENTS", "section_loads", "section_strains",
            "section_stresses", "joint_loads", "constraint_loads", "joint_stations", "point_motion",
-           "angular_velocity"]
+           "angular_velocity", "ContactHistory", "contact_history"]

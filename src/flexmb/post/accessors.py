@@ -14,7 +14,7 @@ __all__ = ["ResultPost"]
 
 
 class ResultPost:
-    """Point and body motions, section loads, strains and stresses, joint loads of a Result."""
+    """Point and body motions, contact histories, section loads, strains and stresses, joint loads of a Result."""
 
     def point_position(self, body, point=(0.0, 0.0, 0.0), system=None) -> np.ndarray:
         """Position history of a point fixed in a body; see :func:`flexmb.post.motion.point_motion`.
@@ -102,6 +102,25 @@ class ResultPost:
         from .motion import angular_velocity
 
         return angular_velocity(self, body, frame, point, system)
+
+    def contact_history(self, element, system=None):
+        """Penetration, forces and slip of a contact element; see :func:`flexmb.post.contact.contact_history`.
+
+        Parameters
+        ----------
+        element : SpherePlaneContact, SphereSphereContact or str
+            The contact element, or its name.
+        system : System or Model, optional
+            The model the result came from (default :attr:`system`).
+
+        Returns
+        -------
+        ContactHistory
+            The history at the output times.
+        """
+        from .contact import contact_history
+
+        return contact_history(self, element, system)
 
     def section_loads(self, body, system=None):
         """Internal loads at the segment joints of a flexible body; see :func:`flexmb.post.sections.section_loads`.

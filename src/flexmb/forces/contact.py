@@ -1,0 +1,400 @@
+"""Contact force elements: spheres (or points) against planes and against spheres.
+
+A contact pushes two bodies apart when their surfaces overlap by the
+penetration ``delta > 0``, along the surfaces' common normal, with a force
+given by a *normal law*; a *friction law* adds a force in the tangent
+plane, against the contact point's own relative velocity (the slip), with
+the normal force as its load. Both act at the middle of the overlap, equal
+and opposite on the two bodies, so their power is ``f . u`` with ``u`` the
+relative velocity of the two bodies' material points there. Separated
+(``delta <= 0``), a contact exerts nothing; touching, it never pulls (the
+normal force is clamped at 0).
+
+The elements are compiled: they are laid out in the load tables of the
+built-in force elements (:mod:`flexmb.forces.tables`) and evaluated, with
+the rest, in one kernel call (:mod:`flexmb.kernels.contact`).
+
+Normal laws (``F`` the normal force, ``delta_dot`` the rate of penetration):
+
+* :class:`LinearContactLaw`: ``F = k delta + c delta_dot``.
+* :class:`HuntCrossleyLaw`: ``F = K delta^n (1 + alpha delta_dot)`` [1]_:
+  Hertz (n = 3/2) with a damping that vanishes with the penetration; its
+  coefficient of restitution falls with the impact speed v_in, as
+  ``u - ln(1 + u) = -e u - ln(1 - e u)`` with ``u = alpha v_in``.
+* :class:`LankaraniNikraveshLaw` [2]_ and :class:`FloresLaw` [3]_:
+  ``F = K delta^n (1 + chi delta_dot / v_in)`` with the coefficient of
+  restitution e as the parameter, ``chi = 3 (1 - e^2) / 4`` (accurate for e
+  near 1) or ``chi = 8 (1 - e) / (5 e)`` (over the whole range); the
+  rebound ratio is then independent of the impact speed.
+
+Friction laws: :class:`CoulombLaw` (regularised), :class:`ViscousLaw`,
+:class:`VelocityWeakeningLaw`, :class:`StribeckLaw` -- the friction laws of
+:mod:`flexmb.kernels.friction`, which the ``flexmb_friction`` plugin's
+prescribed-load elements use too.
+
+References
+----------
+.. [1] K. H. Hunt and F. R. E. Crossley, "Coefficient of restitution
+   interpreted as damping in vibroimpact", J. Appl. Mech. 42 (1975) 440-445.
+.. [2] H. M. Lankarani and P. E. Nikravesh, "A contact force model with
+   hysteresis damping for impact analysis of multibody systems", J. Mech.
+   Des. 112 (1990) 369-376.
+.. [3] P. Flores, M. Machado, M. T. Silva and J. M. Martins, "On the
+   continuous contact force models for soft materials in multibody
+   dynamics", Multibody Syst. Dyn. 25 (2011) 357-375.
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+import numpy as np
+from attrs import field, frozen
+
+from .._names import reference
+from ..bodies import Body
+from ..errors import ModelError
+from ..fields import as_array, as_float, as_unit_vector, label, unit_vector, vector3
+from ..kernels import contact as _k
+from ..kernels.loads import contact_states
+from .base import ForceElement
+from .contact_laws import (FloresLaw, HuntCrossleyLaw, LankaraniNikraveshLaw, LinearContactLaw, NormalLaw,
+                           hertz_stiffness, restitution_of_hysteresis)
+from .friction_laws import CoulombLaw, FrictionLaw, StribeckLaw, VelocityWeakeningLaw, ViscousLaw
+from .tables import LoadTables, class_tables
+
+__all__ = ["NormalLaw", "LinearContactLaw", "HuntCrossleyLaw", "LankaraniNikraveshLaw", "FloresLaw", "FrictionLaw",
+           "CoulombLaw", "ViscousLaw", "VelocityWeakeningLaw", "StribeckLaw", "Contact", "SpherePlaneContact",
+           "SphereSphereContact", "hertz_stiffness", "restitution_of_hysteresis"]
+
+
+# ----------------------------------------------------------------------------- the elements
+
+def _normal_law(instance, attribute, value):
+    if not isinstance(value, NormalLaw) or type(value).code < 0:
+        raise ModelError(f"{label(instance)}: {attribute.name} must be a normal law (LinearContactLaw, "
+                         f"HuntCrossleyLaw, LankaraniNikraveshLaw or FloresLaw), got {value!r}")
+
+
+def _friction_law(instance, attribute, value):
+    if value is not None and (not isinstance(value, FrictionLaw) or type(value).code <= 0):
+        raise ModelError(f"{label(instance)}: {attribute.name} must be None or a friction law (CoulombLaw, "
+                         f"ViscousLaw, VelocityWeakeningLaw or StribeckLaw), got {value!r}")
+
+
+def _radius(instance, attribute, value):
+    if not isinstance(value, float) or not np.isfinite(value) or value < 0:
+        raise ModelError(f"{label(instance)}: {attribute.name} must be a finite number >= 0, got {value!r}")
+
+
+@frozen(eq=False)
+class Contact(ForceElement):
+    """Base class of the compiled contact elements (:class:`SpherePlaneContact`, :class:`SphereSphereContact`).
+
+    A subclass gives its geometry's code (``geometry``) and its row of the
+    load tables (:meth:`_layout`); the laws, the loads, the powers and the
+    elastic energy are shared, and so are the histories of a result
+    (:func:`flexmb.post.contact_history`).
+
+    Parameters
+    ----------
+    name : str
+        Unique name.
+    """
+
+    geometry: ClassVar[int] = -1
+
+    def _layout(self, topology):
+        """Rows, local points (3, 3) and radii (2,) of this contact in the tables."""
+        raise NotImplementedError
+
+    @staticmethod
+    def _locate(topology, body, point):
+        """:meth:`Topology.locate`, a body given by name too (the element held by the caller keeps names)."""
+        if isinstance(body, str):
+            body = next((b for b in topology.index if b.name == body), body)
+        return topology.locate(body, point)
+
+    def _sides(self):
+        """The two bodies in contact, the sphere's first."""
+        raise NotImplementedError
+
+    def check(self, model) -> list[str]:
+        """Refuse a contact of a body with itself or of the ground with the ground.
+
+        Parameters
+        ----------
+        model : Model
+            The model the element belongs to.
+
+        Returns
+        -------
+        list of str
+            One message per problem, naming the element.
+        """
+        a, b = self._sides()
+        if a is b or (isinstance(a, str) and a == getattr(b, "name", b)):
+            return [f"{label(self)}: both sides are on the body {getattr(a, 'name', a)!r}"]
+        return []
+
+    @classmethod
+    def _tables(cls, elements, topology) -> LoadTables:
+        """The contacts' bodies, geometry, law codes and parameters (each concrete class's ``load_tables``)."""
+        rows, local, geom, laws, par = [], [], [], [], []
+        for e in elements:
+            (i, j), pts, radii = e._layout(topology)
+            # bodies have mass > 0 (their constructors say so); the ground's is infinite
+            m_eff = 1.0 / sum(1.0 / float(topology.mass[k]) for k in (i, j) if k >= 0)
+            rows.append((i, j))
+            local.append(pts)
+            geom.append(radii)
+            laws.append((cls.geometry, e.normal_law.code, 0 if e.friction is None else e.friction.code))
+            friction = [0.0] * _k.N_FRICTION if e.friction is None else e.friction.row()
+            par.append(e.normal_law.row(m_eff) + friction)
+        return LoadTables.of(contact_rows=np.reshape(rows, (-1, 2)), contact_local=np.reshape(local, (-1, 3, 3)),
+                             contact_geom=np.reshape(geom, (-1, 2)), contact_laws=np.reshape(laws, (-1, 3)),
+                             contact_par=np.reshape(par, (-1, _k.N_NORMAL + _k.N_FRICTION)))
+
+    @classmethod
+    def states_all(cls, elements, state):
+        """What each element does at a kinematic state (:func:`flexmb.kernels.loads.contact_states`).
+
+        Parameters
+        ----------
+        elements : sequence of Contact
+            Elements of this class in the model.
+        state : Kinematics
+            The kinematic state.
+
+        Returns
+        -------
+        tuple of ndarray
+            delta, rate, normal force, elastic energy (shape (c,)), point,
+            normal, force, slip (shape (c, 3)), as
+            :func:`~flexmb.kernels.loads.contact_states` returns them.
+        """
+        t = class_tables(cls, elements, state.topology)
+        return contact_states(t.contact_rows, t.contact_local, t.contact_geom, t.contact_laws, t.contact_par,
+                              state.R, state.origin, state.r, state.omega, state.v)
+
+    def apply(self, state, loads) -> None:
+        """Add this contact's forces (compiled, with the rest of its class).
+
+        Parameters
+        ----------
+        state : Kinematics
+            The current kinematic state.
+        loads : Loads
+            Accumulator to add to.
+        """
+        type(self).apply_all([self], state, loads)
+
+    @classmethod
+    def potential_all(cls, elements, state) -> float:
+        """Elastic energy stored in the penetrations, ``K delta^(n+1) / (n + 1)`` summed, J.
+
+        Parameters
+        ----------
+        elements : sequence of Contact
+            The model's elements of this class.
+        state : Kinematics
+            The current kinematic state.
+
+        Returns
+        -------
+        float
+            J.
+        """
+        return float(np.sum(cls.states_all(elements, state)[3]))
+
+    def potential(self, state) -> float:
+        """Elastic energy of this contact's penetration, J.
+
+        Parameters
+        ----------
+        state : Kinematics
+            The current kinematic state.
+
+        Returns
+        -------
+        float
+            J (0 while separated).
+        """
+        return type(self).potential_all([self], state)
+
+
+@frozen(eq=False)
+class SpherePlaneContact(Contact):
+    """A sphere (or a point) on a body against a plane of another body or of the ground.
+
+    Parameters
+    ----------
+    name : str
+        Unique name.
+    body : Body or str
+        The body carrying the sphere (rigid or flexible), or its name.
+    radius : float
+        Sphere radius r, m (>= 0; 0: a point).
+    normal_law : NormalLaw
+        The normal force of a penetration (:class:`LinearContactLaw`,
+        :class:`HuntCrossleyLaw`, :class:`LankaraniNikraveshLaw`,
+        :class:`FloresLaw`).
+    friction : FrictionLaw, optional
+        The tangential force (:class:`CoulombLaw`, :class:`ViscousLaw`,
+        :class:`VelocityWeakeningLaw`, :class:`StribeckLaw`); None: none.
+    centre : array_like, shape (3,)
+        Sphere centre in the frame of ``body``, m (default its origin).
+    plane_body : Body or str
+        The body carrying the plane (default the ground).
+    plane_point : array_like, shape (3,)
+        A point of the plane in the frame of ``plane_body``, m.
+    plane_normal : array_like, shape (3,)
+        The plane's outward normal in the frame of ``plane_body``
+        (normalised): the sphere is outside the body on this side.
+
+    Notes
+    -----
+    Penetration ``delta = r - (c - p) . n`` with c the sphere's centre, p
+    the plane's point and n its normal; the plane is unbounded (a
+    half-space). The force acts at ``c - (r - delta / 2) n``.
+
+    Examples
+    --------
+    A ball of 1 kg and radius 0.1 m, 1 mm into the floor with a linear law
+    of 10^5 N/m: the floor pushes it up with 100 N and stores 0.05 J.
+
+    >>> import numpy as np
+    >>> import flexmb as fm
+    >>> model = fm.Model()
+    >>> ball = fm.RigidBody("ball", mass=1.0, inertia=np.eye(3) * 4e-3)
+    >>> floor = fm.SpherePlaneContact("floor", ball, 0.1, fm.LinearContactLaw(1e5))
+    >>> system = model.add(fm.Free("free", model.ground, ball), floor).build()
+    >>> kin = system.kinematics(0.0, np.array([0.0, 0.0, 0.099, 0.0, 0.0, 0.0]), np.zeros(6))
+    >>> system.forces.active_force(kin)[:3].round(9)
+    array([  0.,   0., 100.])
+    >>> round(floor.potential(kin), 12)
+    0.05
+    """
+
+    geometry: ClassVar[int] = _k.SPHERE_PLANE
+
+    body: Body = reference(Body)
+    radius: float = field(converter=as_float, validator=_radius)
+    normal_law: NormalLaw = field(validator=_normal_law)
+    friction: FrictionLaw | None = field(default=None, validator=_friction_law)
+    centre: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
+    plane_body: Body = reference(Body, default="ground")
+    plane_point: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
+    plane_normal: np.ndarray = field(default=(0.0, 0.0, 1.0), converter=as_unit_vector, validator=unit_vector)
+
+    def _sides(self):
+        return self.body, self.plane_body
+
+    @classmethod
+    def load_tables(cls, elements, topology) -> LoadTables:
+        """The contacts' bodies, geometry, law codes and parameters (compiled, :mod:`flexmb.forces.tables`).
+
+        Parameters
+        ----------
+        elements : sequence of SpherePlaneContact
+            The model's elements of this class.
+        topology : Topology
+            The model's tree.
+
+        Returns
+        -------
+        LoadTables
+            Their ``contact_*`` rows.
+        """
+        return cls._tables(elements, topology)
+
+    def _layout(self, topology):
+        i, c = self._locate(topology, self.body, self.centre)
+        j, p = self._locate(topology, self.plane_body, self.plane_point)
+        # a flexible body's segment frames are parallel to the body frame at the reference state
+        return (i, j), np.array([c, p, self.plane_normal]), (self.radius, 0.0)
+
+
+@frozen(eq=False)
+class SphereSphereContact(Contact):
+    """Two spheres (or a sphere and a point) on two bodies.
+
+    Parameters
+    ----------
+    name : str
+        Unique name.
+    body1 : Body or str
+        The body carrying the first sphere, or its name.
+    radius1 : float
+        Its radius, m (>= 0).
+    body2 : Body or str
+        The body carrying the second sphere (it may be the ground).
+    radius2 : float
+        Its radius, m (>= 0).
+    normal_law : NormalLaw
+        The normal force of a penetration.
+    friction : FrictionLaw, optional
+        The tangential force; None: none.
+    centre1, centre2 : array_like, shape (3,)
+        The centres in their bodies' frames, m (default the origins).
+
+    Notes
+    -----
+    Penetration ``delta = r1 + r2 - |c1 - c2|``; the force acts along
+    ``n = (c1 - c2) / |c1 - c2|`` at ``c1 - (r1 - delta / 2) n``. For the
+    Hertz stiffness of two spheres, :func:`hertz_stiffness` with both radii.
+
+    Examples
+    --------
+    Two balls of radius 0.1 m whose centres are 0.19 m apart overlap by
+    10 mm: a linear law of 10^4 N/m pushes them apart with 100 N.
+
+    >>> import numpy as np
+    >>> import flexmb as fm
+    >>> model = fm.Model()
+    >>> a = fm.RigidBody("a", mass=1.0, inertia=np.eye(3) * 4e-3)
+    >>> b = fm.RigidBody("b", mass=1.0, inertia=np.eye(3) * 4e-3)
+    >>> hit = fm.SphereSphereContact("hit", a, 0.1, b, 0.1, fm.LinearContactLaw(1e4))
+    >>> free_b = fm.Free("fb", model.ground, b, parent_point=(0.19, 0, 0))
+    >>> system = model.add(fm.Free("fa", model.ground, a), free_b, hit).build()
+    >>> kin = system.kinematics(0.0, np.zeros(12), np.zeros(12))
+    >>> system.forces.active_force(kin)[[0, 6]].round(9)
+    array([-100.,  100.])
+    """
+
+    geometry: ClassVar[int] = _k.SPHERE_SPHERE
+
+    body1: Body = reference(Body)
+    radius1: float = field(converter=as_float, validator=_radius)
+    body2: Body = reference(Body)
+    radius2: float = field(converter=as_float, validator=_radius)
+    normal_law: NormalLaw = field(validator=_normal_law)
+    friction: FrictionLaw | None = field(default=None, validator=_friction_law)
+    centre1: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
+    centre2: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
+
+    def _sides(self):
+        return self.body1, self.body2
+
+    @classmethod
+    def load_tables(cls, elements, topology) -> LoadTables:
+        """The contacts' bodies, geometry, law codes and parameters (compiled, :mod:`flexmb.forces.tables`).
+
+        Parameters
+        ----------
+        elements : sequence of SphereSphereContact
+            The model's elements of this class.
+        topology : Topology
+            The model's tree.
+
+        Returns
+        -------
+        LoadTables
+            Their ``contact_*`` rows.
+        """
+        return cls._tables(elements, topology)
+
+    def _layout(self, topology):
+        i, c1 = self._locate(topology, self.body1, self.centre1)
+        j, c2 = self._locate(topology, self.body2, self.centre2)
+        return (i, j), np.array([c1, c2, np.zeros(3)]), (self.radius1, self.radius2)

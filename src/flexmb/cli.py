@@ -18,8 +18,10 @@ one line ``flexmb: error: <file>: <key path>: <what>`` (the scene file, the
 model it builds or the output folder is at fault: nothing was simulated); 4
 a numerical failure (the simulation failed, after writing its partial
 outputs; for ``flexmb study``, some case failed); 130 interrupted by Ctrl-C
-(what was computed is written). Any other status (1, with a traceback) is a
-bug in flexmb or a plugin.
+(what was computed is written); 143 or 129 stopped by SIGTERM or SIGHUP
+(a batch system's time limit, ``docker stop``, a closed terminal), handled
+as Ctrl-C is: 128 + the signal's number (:mod:`flexmb._signals`). Any other
+status (1, with a traceback) is a bug in flexmb or a plugin.
 """
 
 from __future__ import annotations
@@ -34,12 +36,14 @@ import sys
 import threading
 
 from . import __version__, registry
+from ._signals import as_interrupts, interrupted_status, interruption, received
 from .errors import FlexmbError, SceneError, SimulationError
 
 __all__ = ["EXIT_STATUS", "main"]
 
 #: the exit statuses of the ``flexmb`` command, by what happened
 EXIT_STATUS = {"done": 0, "usage": 2, "input": 3, "failed": 4, "interrupted": 130}
+#: ... and 128 + N when signal N (SIGTERM 15, SIGHUP 1) stopped the command (handled as Ctrl-C)
 EXIT_OK, EXIT_USAGE, EXIT_INPUT, EXIT_FAILED, EXIT_INTERRUPTED = EXIT_STATUS.values()
 
 _EXIT_HELP = """exit status:
@@ -47,7 +51,8 @@ _EXIT_HELP = """exit status:
   2    usage error: the command line (an unknown option, a missing argument)
   3    input error: the scene file, the model it builds or the output folder is at fault
   4    numerical failure: the simulation failed (partial outputs written); study: some case failed
-  130  interrupted (Ctrl-C): what was computed is written"""
+  130  interrupted (Ctrl-C): what was computed is written
+  143  stopped by SIGTERM (129: SIGHUP), as Ctrl-C: what was computed is written"""
 
 
 class _Stderr(logging.StreamHandler):
@@ -89,7 +94,7 @@ def _run(args) -> int:
     except KeyboardInterrupt:
         print(f"\nflexmb: interrupted while writing the outputs: {args.out}/ holds the last complete run "
               "(summary.json says what it holds)", file=sys.stderr)
-        return EXIT_INTERRUPTED
+        return interrupted_status()
 
 
 def _default_out(name: str) -> str:
@@ -123,7 +128,7 @@ def _run_scene(args) -> int:
           f"{', summary.json' if scene.output.summary else ''})")
     if summary["status"] == "interrupted":
         print(f"flexmb: interrupted: {summary['message']}; the outputs hold the run up to then", file=sys.stderr)
-        return EXIT_INTERRUPTED
+        return interrupted_status()
     return EXIT_OK
 
 
@@ -173,7 +178,7 @@ def _study(args) -> int:
     except KeyboardInterrupt:
         print(f"\nflexmb: interrupted: the finished cases are in {args.out}/cases/; "
               "run the same command again to resume", file=sys.stderr)
-        return EXIT_INTERRUPTED
+        return interrupted_status()
     print(result.summary())
     print(f"wrote {args.out}/ (table.csv, table.npz, cases/, study.png, summary.txt)")
     return EXIT_FAILED if result.failed else EXIT_OK
@@ -250,9 +255,15 @@ def main(argv=None) -> int:
     st.add_argument("--quiet", action="store_true", help="no progress on stderr")
     st.set_defaults(func=_study)
     args = parser.parse_args(argv)
+    received.clear()
     try:
-        with _messages(getattr(args, "quiet", False)):
+        with _messages(getattr(args, "quiet", False)), as_interrupts():
             return args.func(args)
+    except (KeyboardInterrupt, SystemError) as exc:  # before a run or a study began: nothing to keep
+        if interruption(exc) is None:  # a SystemError not caused by Ctrl-C or a signal: a bug
+            raise
+        print("\nflexmb: interrupted", file=sys.stderr)
+        return interrupted_status()
     except SimulationError as exc:
         print(f"flexmb: error: {exc}".replace("\n", " "), file=sys.stderr)
         return EXIT_FAILED

@@ -31,6 +31,7 @@ import time as _time
 
 import numpy as np
 
+from ._signals import interruption, who
 from .errors import AssemblyError
 from .integrators import adapt, capabilities
 from .integrators.monitor import ResolutionMonitor
@@ -296,8 +297,13 @@ class Run:
             self.status = "failed"
             self.t_now = getattr(exc, "t", self.t_now)
             self.message = str(exc) if isinstance(exc, AssemblyError) else f"at t = {self.t_now:.9g} s: {exc}"
-        except KeyboardInterrupt:
-            self.status, self.message = "interrupted", f"interrupted by the user at t = {self.t_now:.9g} s"
+        except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM / SIGHUP in the flexmb command (_signals)
+            self.status, self.message = "interrupted", f"interrupted by {who(exc)} at t = {self.t_now:.9g} s"
+        except SystemError as exc:  # an interruption as a compiled kernel returned (numba's SystemError)
+            stop = interruption(exc)
+            if stop is None:
+                raise
+            self.status, self.message = "interrupted", f"interrupted by {who(stop)} at t = {self.t_now:.9g} s"
         finally:
             bar.close()  # the bar's line ends before any message
         self.wall = _time.perf_counter() - t_wall

@@ -36,6 +36,8 @@ def _run_case(task: dict) -> dict:
     try:
         scene = _build(task["data"], task["source"], task["fixed"], task["parameters"])
         res = scene.simulate(progress=False)
+        if res.status == "interrupted":  # Ctrl-C or a signal stopped the study, not this case: it is not recorded
+            raise KeyboardInterrupt(res.message)
         row["status"] = res.status
         if res.status != "finished":
             row["error"] = res.message

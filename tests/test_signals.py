@@ -1,0 +1,79 @@
+"""SIGTERM and SIGHUP are answered as Ctrl-C is (issue #33, section 4).
+
+A batch system at its time limit, ``docker stop``, systemd and a dropped SSH
+session stop a process with SIGTERM or SIGHUP; their default action killed
+``flexmb run`` on the spot (exit 143/129, nothing written, the staging folder
+and the lock left behind). Now the run stops where it is, writes what it
+computed and exits with 128 + the signal, without a traceback.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import pathlib
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+import flexmb as fm
+
+TUTORIALS = pathlib.Path(__file__).resolve().parents[1] / "tutorials"
+PENDULUM = str(TUTORIALS / "01_pendulum.toml")
+
+pytestmark = pytest.mark.skipif(not hasattr(signal, "SIGHUP"), reason="POSIX signals")
+
+
+def _start(args, tmp_path):
+    env = dict(os.environ, PYTHONUNBUFFERED="1")
+    return subprocess.Popen([sys.executable, "-m", "flexmb", *args], cwd=tmp_path, env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def _wait_for(path: pathlib.Path, proc, timeout=120.0):
+    """Until ``path`` exists (the run has begun to simulate), or the process ends."""
+    end = time.monotonic() + timeout
+    while time.monotonic() < end and proc.poll() is None:
+        if path.exists():
+            return
+        time.sleep(0.05)
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGHUP])
+def test_a_run_stopped_by_a_signal_writes_what_it_computed(tmp_path, sig):
+    out = tmp_path / "out"
+    # a long run (a day of pendulum motion) with a progress bar: its first line shows that it simulates
+    proc = _start(["run", PENDULUM, "--out", str(out), "--t-end", "86400", "--n-out", "2001"], tmp_path)
+    end = time.monotonic() + 120
+    seen = ""
+    while time.monotonic() < end and proc.poll() is None and "simulating" not in seen:
+        seen += os.read(proc.stderr.fileno(), 4096).decode(errors="replace")
+    assert proc.poll() is None, "the run ended before the signal"
+    time.sleep(0.5)
+    proc.send_signal(sig)
+    stdout, stderr = proc.communicate(timeout=120)
+    stderr = seen + stderr
+    assert proc.returncode == 128 + sig, (proc.returncode, stderr[-2000:])
+    assert "Traceback" not in stderr and "interrupted" in stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "interrupted" and signal.Signals(sig).name in summary["message"]
+    res = fm.Result.load(out / "pendulum.npz")
+    assert res.status == "interrupted" and 0 < res.t[-1] < 86400
+    left = sorted(p.name for p in tmp_path.iterdir())
+    assert left == ["out"], left  # no staging folder beside it
+    assert not (out / ".flexmb.lock").exists() or not any(out.glob(".flexmb-staging*"))
+
+
+def test_a_study_stopped_by_sigterm_keeps_its_cases_and_exits_143(tmp_path):
+    out = tmp_path / "study"
+    proc = _start(["study", PENDULUM, "--vary", "solver.t_end=0.01,0.02,86400,86400", "--serial", "--out",
+                   str(out), "--quiet"], tmp_path)
+    _wait_for(out / "cases", proc)
+    time.sleep(3.0)
+    proc.send_signal(signal.SIGTERM)
+    _, stderr = proc.communicate(timeout=120)
+    assert proc.returncode == 143, (proc.returncode, stderr[-2000:])
+    assert "Traceback" not in stderr and "interrupted" in stderr

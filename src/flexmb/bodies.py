@@ -10,9 +10,9 @@ from __future__ import annotations
 import numpy as np
 from attrs import field, frozen
 
-from ._validate import name_check, positive_value
+from ._validate import flag, name_check, positive_value
 from .errors import ModelError
-from .fields import as_array, as_float, label, matrix33, positive, vector3
+from .fields import as_array, as_count, as_float, label, matrix33, positive, vector3
 
 __all__ = ["Body", "Ground", "RigidBody", "Marker"]
 
@@ -154,18 +154,26 @@ class RigidBody(Body):
         Raises
         ------
         ModelError
-            If the length is not a finite number > 0 or the axis is not 0, 1 or 2.
+            If the length is not a finite number > 0 (or so large that the
+            inertia overflows), the axis is not 0, 1 or 2, or ``centred`` is
+            not True or False.
         """
         where = f"RigidBody.slender_bar {name!r}"
         length = positive_value(where, "length", length)
-        if isinstance(axis, bool) or axis not in (0, 1, 2):
+        index = as_count(axis) if not isinstance(axis, (bool, np.bool_)) else axis
+        if not isinstance(index, int) or isinstance(index, bool) or index not in (0, 1, 2):
             raise ModelError(f"{where}: axis must be 0, 1 or 2, got {axis!r}")
+        centred = flag(where, "centred", centred)
         mass = as_float(mass)  # anything else: the mass validator names it
-        moments = np.full(3, (mass if isinstance(mass, float) else 0.0) * length**2 / 12.0)
-        moments[axis] = 0.0
+        moment = (mass if isinstance(mass, float) else 0.0) * length * length / 12.0
+        if not np.isfinite(moment):
+            raise ModelError(f"{where}: length = {length!r} m gives a transverse inertia m l^2 / 12 beyond the "
+                             "largest float")
+        moments = np.full(3, moment)
+        moments[index] = 0.0
         com = np.zeros(3)
         if not centred:
-            com[axis] = length / 2
+            com[index] = length / 2
         return cls(name, mass, moments, com)
 
     @classmethod

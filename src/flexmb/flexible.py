@@ -38,8 +38,9 @@ import numpy as np
 from attrs import converters, field, frozen
 
 from .bodies import Body
+from ._validate import LARGEST, number, positive_value
 from .errors import ModelError
-from .fields import as_array, as_count, count, label, positive
+from .fields import as_array, as_bool, as_count, boolean, count, label, positive
 from .joints import Joint
 from .profiles import BeamProfile, _at, _PerSegment, segment_data
 from .sections import Material, Section
@@ -231,8 +232,8 @@ class FlexibleBody(Body):
     n_segments: int = field(default=8, converter=as_count, validator=count)
     keep: tuple = field(default=("bend_y", "bend_z", "torsion"), converter=_keep, validator=_check_keep)
     damping: float = field(default=0.0, converter=float, validator=_non_negative)
-    clamped: bool = field(default=True, converter=bool)
-    rotary_inertia: bool = field(default=True, converter=bool)
+    clamped: bool = field(default=True, converter=as_bool, validator=boolean)
+    rotary_inertia: bool = field(default=True, converter=as_bool, validator=boolean)
     profile: BeamProfile | None = field(default=None)
     stiffness_scale: np.ndarray | None = field(
         default=None, converter=converters.optional(as_array), validator=_scale_factors)
@@ -267,6 +268,26 @@ class FlexibleBody(Body):
                                  f"{' or '.join(str(s) for s in shapes)}, got {scale.shape}")
         if self.profile is not None:
             object.__setattr__(self, "_data", self._integrate_profile())
+        self._check_range()
+
+    def _check_range(self):
+        """Refuse segment data that overflow (or underflow to a zero mass) from extreme section or material values."""
+        with np.errstate(over="ignore", invalid="ignore", under="ignore"):
+            mass, inertia, _ = self.segment_properties()
+            k = self.joint_stiffness()
+            c = self.damping * k
+        for what, v in (("segment mass", mass), ("segment inertia", inertia), ("joint stiffness", k),
+                        ("joint damping", c)):
+            big = np.max(np.abs(v), initial=0.0)
+            if not (np.all(np.isfinite(v)) and big <= LARGEST):
+                raise ModelError(
+                    f"{label(self)}: its {what} ({big:.3g}) is beyond {LARGEST:.3g}, where products in the "
+                    f"equations overflow; check the length ({self.length:g} m), section ({self.section.name!r}), "
+                    f"material ({self.material.name!r}) and damping")
+        if not np.all(mass > 0):
+            raise ModelError(f"{label(self)}: its segment mass rho A l underflows to 0; check the length "
+                             f"({self.length:g} m), section ({self.section.name!r}) and material "
+                             f"({self.material.name!r})")
 
     def _integrate_profile(self) -> dict:
         """Segment mass data and joint springs integrated over the profile; checks the data on the way."""
@@ -286,7 +307,7 @@ class FlexibleBody(Body):
         damping_ratio : float
             zeta; with stiffness-proportional damping ``beta = 2 zeta / omega``.
         frequency : float, optional
-            The mode's frequency f (Hz) where zeta applies; default: the
+            The mode's frequency f (Hz, finite, > 0) where zeta applies; default: the
             Euler-Bernoulli first cantilever bending frequency about the
             kept bending axis (about y if both are kept).
         **kw
@@ -296,13 +317,31 @@ class FlexibleBody(Body):
         -------
         FlexibleBody
             The beam.
+
+        Raises
+        ------
+        ModelError
+            If ``damping_ratio`` is not a finite number >= 0, ``frequency``
+            not a finite number > 0, or a field of the class is refused.
         """
+        where = f"FlexibleBody {name!r}"
+        damping_ratio = number(where, "damping_ratio", damping_ratio, minimum=0.0, strict=False)
+        if frequency is not None:
+            frequency = positive_value(where, "frequency", frequency)
         beta = 0.0
         if damping_ratio:
             if frequency is None:
+                length = positive_value(where, "length", length)
+                for what, value, kind in (("section", section, Section), ("material", material, Material)):
+                    if not isinstance(value, kind):
+                        raise ModelError(f"{where}: {what} must be a {kind.__name__}, got {type(value).__name__}")
                 I = section.Iz if ("bend_z" in keep and "bend_y" not in keep) else section.Iy
-                frequency = 1.8751040687119611**2 / (2 * np.pi) * np.sqrt(
-                    material.E * I / (material.density * section.area * length**4))
+                with np.errstate(over="ignore", under="ignore", divide="ignore", invalid="ignore"):
+                    frequency = 1.8751040687119611**2 / (2 * np.pi) * np.sqrt(
+                        material.E * I / (material.density * section.area * length * length * length * length))
+                if not (np.isfinite(frequency) and frequency > 0):
+                    raise ModelError(f"{where}: its first bending frequency ({frequency:g} Hz) is out of range; "
+                                     "give `frequency`, or check the length, section and material")
             beta = 2.0 * damping_ratio / (2.0 * np.pi * frequency)
         return cls(name, length, section, material, n_segments, keep, beta, **kw)
 
@@ -512,7 +551,7 @@ class FlexibleBody(Body):
         """
         l, E, G, s = self.segment_length, self.material.E, self.material.G, self.section
         per = {"torsion": G * s.J / l, "bend_y": E * s.Iy / l, "bend_z": E * s.Iz / l,
-               "axial": E * s.area / l, "shear_y": 3 * E * s.Iz / l**3, "shear_z": 3 * E * s.Iy / l**3}
+               "axial": E * s.area / l, "shear_y": 3 * E * s.Iz / (l * l * l), "shear_z": 3 * E * s.Iy / (l * l * l)}
         names = segment_joint_class(self.keep).coordinate_names
         if self._data is not None:
             k = self._data["stiffness"].copy()

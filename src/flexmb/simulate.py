@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import logging
 import warnings
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -43,9 +44,20 @@ def _coordinate_mask(system, names):
 def _fill(system, values, what):
     out = np.zeros(system.n_coords)
     given = np.zeros(system.n_coords, bool)
+    if values is not None and not isinstance(values, Mapping):
+        raise ModelError(f"initial state: {what}s must be a dict {{name: value}} of coordinate or joint names, got "
+                         f"{type(values).__name__} {values!r:.60}")
     for name, value in (values or {}).items():
+        if not isinstance(name, (str, Joint)):
+            raise ModelError(f"initial state: {what}s are keyed by coordinate or joint names (or joints), got "
+                             f"{type(name).__name__} {name!r:.60}")
         mask = _coordinate_mask(system, [name])
-        v = np.broadcast_to(np.asarray(value, dtype=float), (int(mask.sum()),))
+        k = int(mask.sum())
+        try:
+            v = np.broadcast_to(np.asarray(value, dtype=float), (k,))
+        except (TypeError, ValueError, OverflowError):
+            raise ModelError(f"initial {what} {name!r} must be a number or {k} numbers (one per coordinate), got "
+                             f"{value!r:.60}") from None
         if not np.all(np.isfinite(v)):
             raise ModelError(f"initial {what} {name!r} must be finite, got {value!r}")
         out[mask] = v
@@ -84,6 +96,9 @@ def initial_state(system, t0: float = 0.0, positions=None, speeds=None, x0=None,
 
     Raises
     ------
+    ModelError
+        If ``positions`` or ``speeds`` is not a dict of names and numbers,
+        ``fixed`` not a list of names, or a name is unknown.
     AssemblyError
         If a loop cannot close; the message names the worst rows.
     """
@@ -94,7 +109,10 @@ def initial_state(system, t0: float = 0.0, positions=None, speeds=None, x0=None,
         x = state_vector("initial state", "x0", x0, system.n_coords).copy()
     if xd0 is not None:
         xd = state_vector("initial state", "xd0", xd0, system.n_coords).copy()
-    if fixed:
+    if fixed is not None and not isinstance(fixed, (list, tuple, set, frozenset, np.ndarray)):
+        raise ModelError(f"initial state: fixed must be a list of coordinate or joint names (or joints), got "
+                         f"{type(fixed).__name__} {fixed!r:.60}")
+    if fixed is not None and len(fixed):
         held_x |= _coordinate_mask(system, fixed)
     if system.n_constraints == 0:
         return x, xd
@@ -341,5 +359,5 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     result.method_reason = reason
     status, message, t_now = run.status, run.message, run.t_now
     if status == "failed":
-        raise SimulationError(f"simulation failed {message}", t=t_now, result=result)
+        raise SimulationError(f"simulation failed {message}", t=t_now, result=result) from run.error
     return result

@@ -117,6 +117,7 @@ class Run:
         self.n_steps = self.n_proj = 0
         self.t_now = t0
         self.status, self.message = "running", ""
+        self.error: BaseException | None = None  # what made the run fail, if it did
         self.wall = 0.0
 
     def rhs(self, t, y) -> np.ndarray:
@@ -213,8 +214,12 @@ class Run:
             self.status = "failed"
             self.t_now = getattr(exc, "t", self.t_now)
             self.message = str(exc) if isinstance(exc, AssemblyError) else f"at t = {self.t_now:.9g} s: {exc}"
+            self.error = exc
         except KeyboardInterrupt:
             self.status, self.message = "interrupted", f"interrupted by the user at t = {self.t_now:.9g} s"
+        except Exception as exc:  # anything else (a plugin's, the integrator's): failed, with the outputs so far
+            self.status, self.error = "failed", exc
+            self.message = f"at t = {self.t_now:.9g} s: {type(exc).__name__}: {exc}"
         finally:
             bar.close()  # the bar's line ends before any message
         self.wall = _time.perf_counter() - t_wall

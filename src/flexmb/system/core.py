@@ -8,7 +8,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .. import memory
-from ..assembly import ForceAssembler, _power, mass_matrix
+from ..assembly import ForceAssembler, _power, apply_group, mass_matrix
 from ..forces import Loads
 from ..complements import ArticulatedComplement, AutoComplement, get_complement
 from ..constraints import ConstraintRows, Constraints
@@ -402,7 +402,7 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         kin = self._kinematics(t, y[:n], y[n : 2 * n])
         acc = Loads(kin)
         for g, cls, elements in self._python_groups:
-            cls.apply_all(elements, kin, acc)
+            apply_group(cls, elements, kin, acc)
             if powers.shape[0]:
                 powers[g] = _power(kin, acc) - sum(powers[h] for h, _, _ in self._python_groups if h < g)
         return acc.force, acc.torque, acc.generalized

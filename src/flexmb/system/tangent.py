@@ -98,13 +98,13 @@ class Tangent:
         # Jacobian is dense, and its 2n right-hand sides share one factorization
         A = mass_matrix(kin)
         if self.n_constraints == 0:
-            cho = sla.cho_factor(A, check_finite=False)
+            cho = self._mass_factor(t, A, reduced=False)
             solve = lambda rhs: sla.cho_solve(cho, rhs, check_finite=False)  # noqa: E731
         else:
             rows = self.constraints.evaluate(kin)
             psi, gamma = rows.psi, rows.gamma
             T = self.complement(psi).T
-            cho = sla.cho_factor(T.T @ A @ T, check_finite=False)
+            cho = self._mass_factor(t, T.T @ A @ T, reduced=True)
             solve = lambda rhs: T @ sla.cho_solve(cho, T.T @ rhs, check_finite=False)  # noqa: E731
         if geometric:
             loads = self.forces.loads(kin)  # once, for f and for G
@@ -114,7 +114,34 @@ class Tangent:
         J = np.zeros((2 * n, 2 * n))
         J[:n, n:] = np.eye(n)
         J[n:] = solve(X)
+        if not np.all(np.isfinite(J)):
+            i = int(np.flatnonzero(~np.all(np.isfinite(J[n:]), axis=1))[0])
+            raise AssemblyError(f"the state Jacobian is not finite at t = {t:.6g} s (in the row of coordinate "
+                                f"{self.coordinate_names[i]!r}): stiffness, damping or loads beyond the range of "
+                                "floats")
         return J
+
+    def _mass_factor(self, t, M, reduced):
+        """The Cholesky factor of the (reduced) mass matrix, or an AssemblyError saying why there is none."""
+        if not np.all(np.isfinite(M)):
+            raise AssemblyError(f"the mass matrix is not finite at t = {t:.6g} s (masses or inertias beyond the "
+                                "range of floats, or non-finite coordinates)")
+        try:
+            return sla.cho_factor(M, check_finite=False)
+        except np.linalg.LinAlgError:
+            pass
+        d = np.abs(np.diag(M))
+        where = ""
+        if not reduced:  # name the freedom where the factorization broke down
+            c, info = sla.lapack.dpotrf(M, lower=False, clean=False)
+            if info > 0:
+                where = f" at coordinate {self.coordinate_names[info - 1]!r}"
+        span = (f"; its diagonal spans {d.min():.3g} to {d.max():.3g}, beyond what double precision resolves"
+                if d.min() > 0 and d.max() > d.min() / np.finfo(float).eps else "")
+        raise AssemblyError(
+            f"{'reduced mass matrix T^T A T' if reduced else 'the mass matrix'} is not positive definite at "
+            f"t = {t:.6g} s{where}{span} (a body without mass or inertia on a freedom, or masses and inertias that "
+            "differ by more orders of magnitude than double precision holds?)")
 
     def coordinate_terms(self, kin) -> tuple[np.ndarray, np.ndarray] | None:
         """The coordinate stiffness and damping of the state-following tangent.

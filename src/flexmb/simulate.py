@@ -9,7 +9,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from . import memory, registry
-from ._validate import simulate_arguments, state_vector
+from ._validate import number, simulate_arguments, state_vector
 from .errors import ModelError, SimulationError, StiffnessWarning
 from .joints import Joint
 from .model import as_system
@@ -20,7 +20,7 @@ from .stepping import Run
 from .progress import shown
 from .threads import limited_blas
 
-__all__ = ["simulate", "initial_state", "INTEGRATORS"]
+__all__ = ["simulate", "initial_state", "INTEGRATORS", "MAX_STEPS"]
 
 #: the built-in integrators by name: a read-only view of flexmb's ``flexmb.integrators`` entry points
 INTEGRATORS = registry.builtin_table("integrators")
@@ -135,6 +135,9 @@ def _solver_class(method):
     return registry.get("integrators", method)
 
 
+#: the default of ``simulate(max_steps=...)``: a run that needs more steps than this is refused before it starts
+MAX_STEPS = 10**9
+
 #: explicit steps above which a scene counts as stiff (:class:`StiffnessWarning`)
 EXPLICIT_STEP_LIMIT = 3000
 
@@ -224,11 +227,39 @@ def _calibrated(system, t0, x, xd):
     return system.calibrated(c0.rank, float(c0.singular_values()[c0.rank - 1]) if c0.rank else None)
 
 
+def _check_work(system, solver_cls, name, t0, t1, x, xd, max_step, max_steps):
+    """Refuse a run that needs more than ``max_steps`` steps, before it starts (it would run for hours or for ever).
+
+    The bounds are what every step of the run must respect: ``max_step``,
+    a generalized-alpha ``fixed_step``, and, for an explicit method, the
+    stability bound ``h |lambda| < 3`` of the fastest rate of the linearised
+    motion (:meth:`System.stability_rate`). Each gives a lower
+    bound of the number of steps; the largest is compared with ``max_steps``.
+    """
+    span = t1 - t0
+    bounds = [(span / max_step, f"max_step = {max_step:g} s")]
+    fixed = getattr(solver_cls, "fixed_step", None)
+    if fixed:
+        bounds.append((span / fixed, f"fixed_step = {fixed:g} s"))
+    if capabilities(solver_cls).explicit:
+        w = system.stability_rate(t0, x, xd)
+        if w > 0:
+            bounds.append((span * w / 3.0, f"the stability of {name} (the fastest rate of the linearised motion is "
+                                           f"{w:.4g} 1/s)"))
+    steps, why = max(bounds, key=lambda b: b[0])
+    if steps > max_steps:
+        raise ModelError(
+            f"simulate: {why} needs at least {steps:.3g} steps over [{t0:g}, {t1:g}] s, more than max_steps = "
+            f"{max_steps:.3g}; shorten the span, give a larger step, choose another method, or pass a larger "
+            "max_steps")
+
+
 @limited_blas
 def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=None, x0=None, xd0=None,
              fixed=None, n_out: int = 201, t_eval=None, method: str = "auto", rtol: float = 1e-8,
              atol: float | None = None, complement=None, projection_tol: float = 1e-10,
-             max_step: float = np.inf, progress: bool | None = None, track_work: bool = False) -> Result:
+             max_step: float = np.inf, progress: bool | None = None, track_work: bool = False,
+             max_steps: float = MAX_STEPS) -> Result:
     """Simulate a model from ``t0`` to ``t_end``.
 
     The state (x, xd) is integrated by an OdeSolver (scipy's, or SUNDIALS'
@@ -291,6 +322,11 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         Integrate, with the state, the work done by each driver and by each
         class of force elements (``Result.work``), for energy balances:
         ``sum of all works = change of kinetic energy``.
+    max_steps : float
+        The most steps a run may need: a run that needs more (given
+        ``max_step``, a generalized-alpha ``fixed_step``, or the stability
+        bound of an explicit method on a stiff scene) is refused before it
+        starts, instead of running for hours (default ``MAX_STEPS``, 1e9).
 
     Returns
     -------
@@ -305,7 +341,7 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     ModelError
         If an argument is out of range (non-finite ``t0`` or ``t_end``,
         ``rtol <= 0``, ``n_out < 1``, ``max_step <= 0``, ...; the message
-        names it), if the outputs would not fit in the available memory
+        names it), if the run needs more than ``max_steps`` steps, if the outputs would not fit in the available memory
         (:mod:`flexmb.memory`), or if the model has no degree of freedom left.
 
     Warns
@@ -329,6 +365,7 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     """
     t0, t_end, n_out, t_eval, rtol, atol, max_step, projection_tol = simulate_arguments(
         t0, t_end, n_out, t_eval, rtol, atol, max_step, projection_tol)
+    max_steps = number("simulate", "max_steps", max_steps, minimum=0.0)
     # a run never changes the caller's system: another strategy gives a new one
     system = as_system(model, complement=complement)
     auto = method == "auto"
@@ -346,6 +383,7 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         name = getattr(method, "__name__", method)
     else:
         _warn_if_stiff(system, solver_cls, t0, t_end, x, xd)
+    _check_work(system, solver_cls, name, t0, t_end, x, xd, max_step, max_steps)
     system = _calibrated(system, t0, x, xd)
     times = np.linspace(t0, t_end, n_out) if t_eval is None else np.asarray(t_eval, dtype=float)
     if times.ndim != 1 or np.any(np.diff(times) <= 0) or times[0] < t0 or times[-1] > t_end:

@@ -27,9 +27,7 @@ from __future__ import annotations
 import json
 import math
 import re
-import signal
 import tomllib
-from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -38,7 +36,7 @@ from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 import flexmb as fm
-from strategies import memory_limit
+from strategies import alarm, memory_limit
 
 TUTORIALS = Path(__file__).resolve().parents[2] / "tutorials"
 BASES = {name: tomllib.loads((TUTORIALS / name).read_text(encoding="utf-8"))
@@ -210,24 +208,6 @@ def mutated_scenes(draw):
 
 
 # ----------------------------------------------------------------------------- the properties
-
-class _Hang(BaseException):
-    """Raised by the alarm when one example runs too long (not an Exception, so nothing swallows it)."""
-
-
-@contextmanager
-def alarm(seconds: float):
-    def ring(signum, frame):
-        raise _Hang(f"no answer after {seconds} s")
-
-    old = signal.signal(signal.SIGALRM, ring)
-    signal.setitimer(signal.ITIMER_REAL, seconds)
-    try:
-        yield
-    finally:
-        signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, old)
-
 
 def check(text: str, expected: list[str] | None, run: bool = True, own_settings: bool = False):
     """Load, build and (if ``run``) briefly run ``text``; assert the error properties; return what happened.

@@ -84,11 +84,17 @@ class Tangent:
             None if no element contributes a coordinate stiffness.
         """
         t, x, xd = self._state("System.state_jacobian", t, x=x, xd=xd)
+        return self._jacobian(t, x, xd, geometric)
+
+    def _jacobian(self, t, x, xd, geometric, always=False):
+        """:meth:`state_jacobian` at a checked state; with ``always``, also without coordinate springs (K = C = 0)."""
         kin = self._kinematics(t, x, xd)
         terms = self.coordinate_terms(kin)
-        if terms is None:
-            return None
         n = self.n_coords
+        if terms is None:
+            if not always:
+                return None
+            terms = np.zeros((n, n)), np.zeros((n, n))
         K, C = terms
         # X = [G - K, -C]; J[n:] = P X, by solves with the factorization (no explicit P)
         X = np.zeros((n, 2 * n))

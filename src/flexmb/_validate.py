@@ -14,12 +14,37 @@ import numpy as np
 from .errors import ModelError
 from .fields import as_bool, as_count
 
-__all__ = ["LARGEST", "name_check", "positive_value", "number", "flag", "simulate_arguments", "state_time", "state_vector"]
+__all__ = ["LARGEST", "in_range", "name_check", "positive_value", "number", "flag", "simulate_arguments",
+           "state_time", "state_vector"]
 
 
 #: the largest magnitude whose square is still a float (1.34e154): model data or states beyond it make
 #: the products in the equations (``m l^2``, ``k x``, the articulated inertias) overflow
 LARGEST = float(np.sqrt(np.finfo(float).max))
+
+
+def in_range(where: str, values: dict, hint: str = "") -> None:
+    """Refuse model data that are not finite or beyond :data:`LARGEST`, where the equations' products overflow.
+
+    Parameters
+    ----------
+    where : str
+        The element, for the message.
+    values : dict of str to array_like
+        The data by what they are (``"segment mass"``, ...).
+    hint : str
+        Appended to the message (what to check).
+
+    Raises
+    ------
+    ModelError
+        ``where: its what (value) is beyond 1.34e+154, where products in the equations overflow``.
+    """
+    for what, v in values.items():
+        big = np.max(np.abs(v), initial=0.0)
+        if not (np.all(np.isfinite(v)) and big <= LARGEST):
+            raise ModelError(f"{where}: its {what} ({big:.3g}) is beyond {LARGEST:.3g}, where products in the "
+                             f"equations overflow{hint}")
 
 
 def name_check(instance, attribute, value):

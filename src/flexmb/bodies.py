@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from attrs import field, frozen
 
-from ._validate import flag, name_check, positive_value
+from ._validate import flag, in_range, name_check, positive_value
 from .errors import ModelError
 from .fields import as_array, as_count, as_float, label, matrix33, positive, vector3
 
@@ -166,9 +166,7 @@ class RigidBody(Body):
         centred = flag(where, "centred", centred)
         mass = as_float(mass)  # anything else: the mass validator names it
         moment = (mass if isinstance(mass, float) else 0.0) * length * length / 12.0
-        if not np.isfinite(moment):
-            raise ModelError(f"{where}: length = {length!r} m gives a transverse inertia m l^2 / 12 beyond the "
-                             "largest float")
+        in_range(where, {"transverse inertia m l^2 / 12": moment}, f" (length = {length!r} m)")
         moments = np.full(3, moment)
         moments[index] = 0.0
         com = np.zeros(3)

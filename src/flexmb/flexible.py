@@ -38,7 +38,7 @@ import numpy as np
 from attrs import converters, field, frozen
 
 from .bodies import Body
-from ._validate import LARGEST, number, positive_value
+from ._validate import in_range, number, positive_value
 from .errors import ModelError
 from .fields import as_array, as_bool, as_count, boolean, count, label, positive
 from .joints import Joint
@@ -271,23 +271,14 @@ class FlexibleBody(Body):
         self._check_range()
 
     def _check_range(self):
-        """Refuse segment data that overflow (or underflow to a zero mass) from extreme section or material values."""
-        with np.errstate(over="ignore", invalid="ignore", under="ignore"):
-            mass, inertia, _ = self.segment_properties()
-            k = self.joint_stiffness()
-            c = self.damping * k
-        for what, v in (("segment mass", mass), ("segment inertia", inertia), ("joint stiffness", k),
-                        ("joint damping", c)):
-            big = np.max(np.abs(v), initial=0.0)
-            if not (np.all(np.isfinite(v)) and big <= LARGEST):
-                raise ModelError(
-                    f"{label(self)}: its {what} ({big:.3g}) is beyond {LARGEST:.3g}, where products in the "
-                    f"equations overflow; check the length ({self.length:g} m), section ({self.section.name!r}), "
-                    f"material ({self.material.name!r}) and damping")
+        """Refuse segment data that overflow (or a mass underflowing to 0) from extreme section or material values."""
+        with np.errstate(all="ignore"):
+            (mass, inertia, _), k = self.segment_properties(), self.joint_stiffness()
+            data = {"segment mass": mass, "segment inertia": inertia, "joint stiffness": k,
+                    "joint damping": self.damping * k}
+        in_range(label(self), data, hint := f"; check the length ({self.length:g} m), section, material and damping")
         if not np.all(mass > 0):
-            raise ModelError(f"{label(self)}: its segment mass rho A l underflows to 0; check the length "
-                             f"({self.length:g} m), section ({self.section.name!r}) and material "
-                             f"({self.material.name!r})")
+            raise ModelError(f"{label(self)}: its segment mass rho A l underflows to 0{hint}")
 
     def _integrate_profile(self) -> dict:
         """Segment mass data and joint springs integrated over the profile; checks the data on the way."""
@@ -328,21 +319,15 @@ class FlexibleBody(Body):
         damping_ratio = number(where, "damping_ratio", damping_ratio, minimum=0.0, strict=False)
         if frequency is not None:
             frequency = positive_value(where, "frequency", frequency)
-        beta = 0.0
-        if damping_ratio:
-            if frequency is None:
-                length = positive_value(where, "length", length)
-                for what, value, kind in (("section", section, Section), ("material", material, Material)):
-                    if not isinstance(value, kind):
-                        raise ModelError(f"{where}: {what} must be a {kind.__name__}, got {type(value).__name__}")
-                I = section.Iz if ("bend_z" in keep and "bend_y" not in keep) else section.Iy
-                with np.errstate(over="ignore", under="ignore", divide="ignore", invalid="ignore"):
-                    frequency = 1.8751040687119611**2 / (2 * np.pi) * np.sqrt(
-                        material.E * I / (material.density * section.area * length * length * length * length))
-                if not (np.isfinite(frequency) and frequency > 0):
-                    raise ModelError(f"{where}: its first bending frequency ({frequency:g} Hz) is out of range; "
-                                     "give `frequency`, or check the length, section and material")
-            beta = 2.0 * damping_ratio / (2.0 * np.pi * frequency)
+        if damping_ratio and frequency is None and isinstance(section, Section) and isinstance(material, Material):
+            length, bend_z = positive_value(where, "length", length), "bend_z" in keep and "bend_y" not in keep
+            with np.errstate(all="ignore"):
+                frequency = 1.8751040687119611**2 / (2 * np.pi) * np.sqrt(material.E * (
+                    section.Iz if bend_z else section.Iy) / (material.density * section.area * np.float64(length) ** 4))
+            if not (np.isfinite(frequency) and frequency > 0):
+                raise ModelError(f"{where}: its first bending frequency ({frequency:g} Hz) is out of range; "
+                                 "give `frequency`, or check the length, section and material")
+        beta = 2.0 * damping_ratio / (2.0 * np.pi * frequency) if damping_ratio and frequency else 0.0
         return cls(name, length, section, material, n_segments, keep, beta, **kw)
 
     @classmethod

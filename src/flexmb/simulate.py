@@ -48,9 +48,6 @@ def _fill(system, values, what):
         raise ModelError(f"initial state: {what}s must be a dict {{name: value}} of coordinate or joint names, got "
                          f"{type(values).__name__} {values!r:.60}")
     for name, value in (values or {}).items():
-        if not isinstance(name, (str, Joint)):
-            raise ModelError(f"initial state: {what}s are keyed by coordinate or joint names (or joints), got "
-                             f"{type(name).__name__} {name!r:.60}")
         mask = _coordinate_mask(system, [name])
         k = int(mask.sum())
         try:

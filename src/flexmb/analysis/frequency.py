@@ -173,8 +173,8 @@ def _frequencies(what, value) -> np.ndarray:
     if a.ndim != 1 or a.size == 0:
         raise ModelError(f"frequency_response: {what} must be a 1-d array of frequencies, got shape {a.shape}")
     if not np.all(np.isfinite(a)):
-        raise ModelError(f"frequency_response: {what} must be finite, got {what}[{int(np.flatnonzero(~np.isfinite(a))[0])}]"
-                         f" = {a[~np.isfinite(a)][0]}")
+        i = int(np.flatnonzero(~np.isfinite(a))[0])
+        raise ModelError(f"frequency_response: {what} must be finite, got {what}[{i}] = {a[i]}")
     return a
 
 

@@ -215,3 +215,48 @@ def test_wiper_with_an_absurd_blade_width():
     with pytest.raises(fm.AssemblyError, match="reduced mass matrix T\\^T A T is not positive definite at t = 0 s; "
                                                "its diagonal spans .* beyond what double precision resolves"):
         scene.info()
+
+
+# ----------------------------------------------------------------------------- a blow-up, named as such
+
+@frozen(eq=False)
+class Push(fm.ForceElement):
+    """``F = +k r``: pushes the body away from the origin, harder the farther it is (a negative stiffness)."""
+
+    body: fm.Body = fm.reference(fm.Body)
+    k: float = 1e12
+
+    def apply(self, state, loads):
+        i = state.index(self.body)
+        loads.add_point_force(i, state.r[i], self.k * state.r[i])
+
+
+def slider(sparse=None):
+    m = fm.Model()
+    b = fm.RigidBody("blk", 1.0, (1, 1, 1))
+    m.add(fm.Prismatic("slide", m.ground, b, axis=(1, 0, 0)), Push("push", b))
+    return m.build(sparse=sparse)
+
+
+OVERFLOW = (r"the state overflowed: {what} \(beyond 1.34e\+154, where products in the equations overflow\); "
+            r"force element 'push' \(Push\) gives the largest load - the motion grows without bound")
+
+
+@pytest.mark.parametrize("sparse", [None, False])
+def test_overflowing_state_is_named_not_a_singular_mass_matrix(sparse):
+    """A state past the range of floats was reported as 'the mass matrix is singular ... moves no mass'."""
+    s = slider(sparse)
+    with pytest.raises(fm.AssemblyError, match=OVERFLOW.format(what="coordinate 'slide.slide' = 1e\\+200")):
+        s.accelerations(0.0, np.array([1e200]), np.zeros(1))
+    assert np.isfinite(s.accelerations(0.0, np.array([1.0]), np.array([1e250]))).all()  # a fast slide is no failure
+
+
+@pytest.mark.parametrize("method", ["DOP853", "LSODA", "CVODE_BDF", "IDA", "BDF"])
+def test_blow_up_diagnosed_by_every_integrator(method):
+    """``F = +1e12 x`` overflowed the state and every method said 'the mass matrix is singular'."""
+    m = fm.Model()
+    b = fm.RigidBody("blk", 1.0, (1, 1, 1))
+    m.add(fm.Prismatic("slide", m.ground, b, axis=(1, 0, 0)), Push("push", b))
+    with pytest.raises(fm.SimulationError, match=OVERFLOW.format(what=".*'slide.slide' = [\\d.]+e\\+\\d+")) as info:
+        fm.simulate(m, 0.1, positions={"slide": 0.1}, method=method, rtol=1e-4, progress=False)
+    assert 3e-4 < info.value.t < 4e-4 and "singular" not in str(info.value)

@@ -499,7 +499,18 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         return self._accelerations(t, x, xd)
 
     def _accelerations(self, t, x, xd) -> np.ndarray:
-        """:meth:`accelerations` at a checked state."""
+        """:meth:`accelerations` at a checked state; a state past the range of floats is named as the cause."""
+        try:
+            return self._accelerations_unchecked(t, x, xd)
+        except AssemblyError as exc:
+            overflow = self._overflow(t, x, xd)
+            if overflow is None or str(exc).endswith("(an unstable force, or a negative stiffness?)"):
+                raise
+            err = AssemblyError(overflow)
+            err.t = t
+            raise err from exc
+
+    def _accelerations_unchecked(self, t, x, xd) -> np.ndarray:
         if self.articulated:  # open tree: A is never formed
             return self._articulated(t, x, xd)
         if self._loop_kernel:  # loops closed through the recursion: A, psi and T never formed
@@ -531,7 +542,7 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
     def _articulated_failure(self, t, x, xd, kin, xdd, bad):
         """Raise the AssemblyError that names why an open tree's accelerations failed."""
         topo = self.topology
-        if not (np.isfinite(kin.R).all() and np.isfinite(kin.r).all()):
+        if not (np.isfinite(kin.R).all() and np.isfinite(kin.r).all()) or self._overflow(t, x, xd) is not None:
             self._raise_non_finite(t, x, xd, None, xdd)
         if bad >= 0:
             raise AssemblyError(

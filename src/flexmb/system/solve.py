@@ -31,7 +31,7 @@ class ReducedSolve:
         raise err
 
     def _overflow(self, t, x, xd):
-        """The message of a state past :data:`~flexmb._validate.LARGEST` (naming the coordinate and the loudest force), or None.
+        """The message of a state past ``_validate.LARGEST`` (its coordinate and the loudest force), or None.
 
         Past it, the products in the equations (``m r^2``, ``k x``)
         overflow, and what fails next (a mass matrix that looks singular)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import flexmb as fm
-from flexmb.simulate import MAX_STEPS
+from flexmb.simulate import MAX_STEPS, _solver_class, _warn_if_stiff
 from strategies import alarm
 
 
@@ -67,3 +67,40 @@ def test_stability_rate_of_a_pendulum():
     w = s.stability_rate(0.0, np.array([q]), np.zeros(1))
     assert w == pytest.approx(np.sqrt(1.5 * 9.81 * abs(np.sin(q))), rel=1e-9)
     assert s.fastest_rate(0.0, np.array([q]), np.zeros(1)) == 0.0
+
+
+# ----------------------------------------------------------------------------- dampers count as stiffness
+
+def spring_damper_slider(damping, stiffness=1.0, two_bodies=False):
+    m = fm.Model()
+    b = fm.RigidBody("blk", 1.0, (1, 1, 1))
+    m.add(fm.Prismatic("slide", m.ground, b, axis=(1, 0, 0)))
+    anchor = m.ground
+    if two_bodies:  # the damper between two moving bodies: on their relative motion
+        anchor = fm.RigidBody("base", 2.0, (1, 1, 1))
+        m.add(fm.Prismatic("base_slide", m.ground, anchor, axis=(1, 0, 0)),
+              fm.JointSpringDamper("base_spring", "base_slide", 1.0, 0.0))
+    m.add(fm.SpringDamper("sd", anchor, (0, 0, 0), b, (0, 0, 0), stiffness=stiffness, damping=damping,
+                          rest_length=0.5))
+    return m
+
+
+@pytest.mark.parametrize("two_bodies", [False, True])
+def test_auto_counts_a_stiff_damper(two_bodies):
+    """A spring-damper with damping 1e9 ran on DOP853 ('its fastest rate is 0 rad/s'), stepping for minutes."""
+    with alarm(60.0):
+        res = fm.simulate(spring_damper_slider(1e9, two_bodies=two_bodies), 0.02, positions={"slide": 1.0},
+                          progress=False)
+    assert res.status == "finished" and res.method != "DOP853" and "stiff" in res.method_reason
+    s = spring_damper_slider(1e9, two_bodies=two_bodies).build()
+    x = np.array([1.0] if not two_bodies else [0.0, 1.0])
+    # the damper's rate c (1/m + 1/M) on the relative motion (c / m against the ground)
+    expected = 1e9 * (1.5 if two_bodies else 1.0)
+    assert s.fastest_rate(0.0, x, np.zeros_like(x)) == pytest.approx(expected, rel=1e-9)
+
+
+def test_explicit_method_warned_of_a_stiff_spring():
+    """A SpringDamper's stiffness was not counted: no StiffnessWarning for DOP853 on k = 1e8 (omega = 1e4 rad/s)."""
+    s = spring_damper_slider(0.0, stiffness=1e8).build()
+    with pytest.warns(fm.StiffnessWarning, match="highest natural frequency is about 1e\\+04 rad/s"):
+        _warn_if_stiff(s, _solver_class("DOP853"), 0.0, 1.0, np.array([1.0]), np.zeros(1))

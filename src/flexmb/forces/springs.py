@@ -117,6 +117,41 @@ class SpringDamper(ForceElement):
         return LoadTables.of(pair_rows=np.reshape(rows, (-1, 2)), pair_local=np.reshape(local, (-1, 2, 3)),
                              pair_par=[(e.stiffness, e.damping, e.rest_length) for e in elements])
 
+    @classmethod
+    def pair_tangent_all(cls, elements, state):
+        """The tangents on the relative motion of the ends (:meth:`ForceElement.pair_tangent_all`).
+
+        ``K = k (e e^T + (1 - l0 / l) (I - e e^T))`` (its second term
+        the turning of a stretched spring), ``D = c e e^T``; at ``l = 0``
+        (where e is not defined) ``K = k I``, ``D = c I``.
+
+        Parameters
+        ----------
+        elements : sequence of SpringDamper
+            The model's elements of this class.
+        state : Kinematics
+            The current kinematic state.
+
+        Returns
+        -------
+        tuple of (rows, points, K, D)
+        """
+        m = len(elements)
+        rows, points = np.zeros((m, 2), dtype=np.int64), np.zeros((m, 2, 3))
+        K, D = np.zeros((m, 3, 3)), np.zeros((m, 3, 3))
+        for a, e in enumerate(elements):
+            i, j, p1, p2 = e._geometry(state)
+            rows[a], points[a] = (i, j), (p1, p2)
+            d = p2 - p1
+            length = float(np.linalg.norm(d))
+            if length > 0.0:
+                ee = np.outer(d, d) / (length * length)
+                K[a] = e.stiffness * (ee + (1.0 - e.rest_length / length) * (np.eye(3) - ee))
+                D[a] = e.damping * ee
+            else:
+                K[a], D[a] = e.stiffness * np.eye(3), e.damping * np.eye(3)
+        return rows, points, K, D
+
     def apply(self, state, loads) -> None:
         """Add the spring and damper force pair.
 

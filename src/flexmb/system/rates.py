@@ -115,7 +115,8 @@ class Rates:
         couples coordinates: the dense path then applies).
         """
         kin = self._kinematics(t, x, xd)
-        if any(cls.velocity_tangent_all(el, kin) is not None for cls, el in self.forces.groups):
+        if any(cls.velocity_tangent_all(el, kin) is not None or cls.pair_tangent_all(el, kin) is not None
+               for cls, el in self.forces.groups):
             return None
         from scipy.sparse.linalg import ArpackNoConvergence, LinearOperator, eigs
 

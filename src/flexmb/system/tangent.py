@@ -154,7 +154,9 @@ class Tangent:
 
         K holds the springs on coordinates (segment joints, joint springs)
         on its diagonal; C their dampers plus ``-sum V_P^T (dF/dv) V_P`` of
-        velocity-dependent point forces (friction).
+        velocity-dependent point forces (friction). Forces between two
+        points (spring-dampers) add ``V^T K_p V`` and ``V^T D_p V`` with
+        ``V = V_P2 - V_P1`` (:meth:`~flexmb.ForceElement.pair_tangent_all`).
 
         Parameters
         ----------
@@ -170,7 +172,9 @@ class Tangent:
         parts = [p for p in parts if p is not None]
         vparts = [cls.velocity_tangent_all(el, kin) for cls, el in self.forces.groups]
         vparts = [p for p in vparts if p is not None]
-        if not parts and not vparts:
+        pairs = [cls.pair_tangent_all(el, kin) for cls, el in self.forces.groups]
+        pairs = [p for p in pairs if p is not None]
+        if not parts and not vparts and not pairs:
             return None
         n = self.n_coords
         K = np.zeros((n, n))
@@ -181,6 +185,10 @@ class Tangent:
         for rows, p, D in vparts:
             VP = kin.point_partials(rows, p)
             C -= np.einsum("min,mij,mjk->nk", VP, D, VP)
+        for rows, p, Kp, Dp in pairs:  # on the relative motion of the two ends
+            VP = kin.point_partials(rows[:, 1], p[:, 1]) - kin.point_partials(rows[:, 0], p[:, 0])
+            K += np.einsum("min,mij,mjk->nk", VP, Kp, VP)
+            C += np.einsum("min,mij,mjk->nk", VP, Dp, VP)
         return K, C
 
     def load_stiffness(self, kin, xdd, loads: Loads | None = None) -> np.ndarray:

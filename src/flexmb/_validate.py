@@ -12,9 +12,9 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import ModelError
-from .fields import as_bool, as_count
+from .fields import COUNT_MAX, as_bool, as_count
 
-__all__ = ["LARGEST", "in_range", "name_check", "positive_value", "number", "flag", "simulate_arguments",
+__all__ = ["LARGEST", "in_range", "name_check", "positive_value", "number", "flag", "whole", "simulate_arguments",
            "state_time", "state_vector"]
 
 
@@ -64,7 +64,7 @@ def positive_value(where: str, what: str, value) -> float:
     except (TypeError, ValueError, OverflowError):
         f = float("nan")
     if isinstance(value, bool) or not (np.isfinite(f) and f > 0):
-        raise ModelError(f"{where}: {what} must be a finite number > 0, got {value!r}")
+        raise ModelError(f"{where}: {what} must be a finite number > 0, got {_short(value)}")
     return f
 
 
@@ -122,6 +122,35 @@ def number(where: str, what: str, value, *, finite: bool = True, minimum: float 
     return f
 
 
+
+
+def whole(where: str, what: str, value, minimum: int = 1) -> int:
+    """An integer argument >= ``minimum`` (``4.0`` is taken as 4), else a :class:`ModelError` naming it.
+
+    Parameters
+    ----------
+    where : str
+        The element or function, for the message.
+    what : str
+        The argument's name.
+    value : object
+        What the caller gave.
+    minimum : int
+        The smallest value accepted.
+
+    Returns
+    -------
+    int
+
+    Raises
+    ------
+    ModelError
+        ``where: what must be an integer >= minimum, got value``.
+    """
+    n = as_count(value)
+    if isinstance(n, bool) or not isinstance(n, int) or not minimum <= n <= COUNT_MAX:
+        raise ModelError(f"{where}: {what} must be an integer >= {minimum}, got {_short(value)}")
+    return n
 
 
 def flag(where: str, what: str, value) -> bool:
@@ -224,7 +253,7 @@ def state_vector(where: str, what: str, value, size: int, *, at_least: bool = Fa
 
 def _short(value) -> str:
     """``repr(value)``, cut to one line of a message."""
-    r = repr(value).replace("\n", " ")
+    r = repr(value.item() if isinstance(value, np.generic) else value).replace("\n", " ")
     return r if len(r) <= 60 else r[:57] + "..."
 
 
@@ -260,13 +289,11 @@ def simulate_arguments(t0, t_end, n_out, t_eval, rtol, atol, max_step, projectio
     t_end = number(where, "t_end", t_end)
     if not t_end > t0:
         raise ModelError(f"t_end must be > t0, got t0 = {t0}, t_end = {t_end}")
-    n = as_count(n_out)
-    if isinstance(n, bool) or not isinstance(n, int) or n < 1:
-        raise ModelError(f"{where}: n_out must be an integer >= 1, got {n_out!r}")
+    n = whole(where, "n_out", n_out)
     if t_eval is not None:
         try:
             t_eval = np.array(t_eval, dtype=float)
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             raise ModelError(f"{where}: t_eval must be an array of times, got {t_eval!r}") from None
         if (t_eval.ndim != 1 or t_eval.size == 0 or not np.all(np.isfinite(t_eval)) or np.any(np.diff(t_eval) <= 0)
                 or t_eval[0] < t0 or t_eval[-1] > t_end):
@@ -278,7 +305,7 @@ def simulate_arguments(t0, t_end, n_out, t_eval, rtol, atol, max_step, projectio
     if atol is not None:
         try:
             a = np.array(atol, dtype=float)
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             raise ModelError(f"{where}: atol must be a number or an array of numbers, got {atol!r}") from None
         if isinstance(atol, bool) or not np.all(np.isfinite(a)) or np.any(a < 0):
             raise ModelError(f"{where}: atol must be finite and >= 0, got {atol!r}")

@@ -208,7 +208,12 @@ class RigidBody(Body):
         >>> fm.RigidBody.bar("link", 2.0, (0.0, 0.3, 0.4)).com
         array([0.  , 0.15, 0.2 ])
         """
-        v = np.asarray(vector, dtype=float)
+        try:
+            if isinstance(vector, (str, bytes)) or np.iscomplexobj(vector):
+                raise TypeError
+            v = np.asarray(vector, dtype=float)
+        except (TypeError, ValueError, OverflowError):
+            raise ModelError(f"RigidBody.bar {name!r}: vector must be 3 numbers, got {vector!r:.60}") from None
         if v.shape != (3,):
             raise ModelError(f"vector must have 3 components, got {v.size}")
         L = np.linalg.norm(v)
@@ -245,7 +250,7 @@ class RigidBody(Body):
         where = f"RigidBody.box {name!r}"
         try:
             edges = np.array(size, dtype=float)
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             edges = None
         if edges is None or edges.shape != (3,) or not np.all(np.isfinite(edges)) or not np.all(edges > 0):
             raise ModelError(f"{where}: size must be 3 finite edge lengths > 0, got {size!r}")

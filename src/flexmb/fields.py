@@ -224,6 +224,10 @@ def as_bool(value):
 
 
 # ----------------------------------------------------------------------------- validators
+
+#: the largest count an array can have (int64); a larger integer (``10**400``) is refused as no count
+COUNT_MAX = int(np.iinfo(np.int64).max)
+
 # Every validator takes attrs' three arguments; they are documented once, here.
 
 _VALIDATOR_ARGUMENTS = """Parameters
@@ -300,7 +304,7 @@ def count(instance, attribute, value):
 
     {arguments}
     """
-    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+    if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= COUNT_MAX:
         _refuse(instance, attribute, f"must be an integer >= 1, got {value!r}")
 
 

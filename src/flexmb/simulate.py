@@ -7,6 +7,7 @@ import warnings
 from collections.abc import Mapping
 
 import numpy as np
+from scipy.integrate import OdeSolver
 
 from . import memory, registry
 from ._validate import number, simulate_arguments, state_vector
@@ -121,6 +122,9 @@ def initial_state(system, t0: float = 0.0, positions=None, speeds=None, x0=None,
 def _solver_class(method):
     """The OdeSolver class: ``method`` itself, or looked up by name in the plugin registry."""
     if not isinstance(method, str):
+        if not (isinstance(method, type) and issubclass(method, OdeSolver)):
+            raise ModelError(f"simulate: method must be an integrator's name or an OdeSolver class, got "
+                             f"{type(method).__name__} {method!r:.60}")
         return method
     known = registry.names("integrators")
     if method not in known:
@@ -365,7 +369,7 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     max_steps = number("simulate", "max_steps", max_steps, minimum=0.0)
     # a run never changes the caller's system: another strategy gives a new one
     system = as_system(model, complement=complement)
-    auto = method == "auto"
+    auto = isinstance(method, str) and method == "auto"
     solver_cls = None if auto else _solver_class(method)
     name = method if isinstance(method, str) else getattr(method, "__name__", str(method))
     atol = rtol / 100 if atol is None else atol

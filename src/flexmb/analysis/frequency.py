@@ -6,7 +6,7 @@ import numpy as np
 from attrs import define
 
 from ..errors import ModelError
-from ..fields import as_count
+from .._validate import whole
 
 __all__ = ["FrequencyResponse", "frequency_response"]
 
@@ -233,10 +233,7 @@ def frequency_response(ss, w=None, *, f=None, pairs=None, n: int = 400) -> Frequ
     elif w is not None:
         w = _frequencies("w", w)
     else:
-        n = as_count(n)
-        if isinstance(n, bool) or not isinstance(n, int) or n < 1:
-            raise ModelError(f"frequency_response: n must be an integer >= 1, got {n!r}")
-        w = _default_w(ss, n)
+        w = _default_w(ss, whole("frequency_response", "n", n))
     if pairs is None:
         idx = [(i, o) for i in range(len(ss.inputs)) for o in range(len(ss.outputs))]
     else:

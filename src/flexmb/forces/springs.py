@@ -8,7 +8,7 @@ from attrs import field, frozen
 from .._names import reference
 from .._validate import name_check
 from ..bodies import Body
-from ..fields import as_array, finite_array, label, vector3
+from ..fields import as_array, as_float, finite_array, label, vector3
 from ..joints import Joint
 from .base import ForceElement
 from .tables import LoadTables, class_tables
@@ -82,9 +82,9 @@ class SpringDamper(ForceElement):
     point1: np.ndarray = field(converter=as_array, validator=vector3)
     body2: Body = reference(Body)
     point2: np.ndarray = field(converter=as_array, validator=vector3)
-    stiffness: float = field(converter=float, validator=_non_negative)
-    damping: float = field(default=0.0, converter=float, validator=_non_negative)
-    rest_length: float = field(default=0.0, converter=float, validator=_non_negative)
+    stiffness: float = field(converter=as_float, validator=_non_negative)
+    damping: float = field(default=0.0, converter=as_float, validator=_non_negative)
+    rest_length: float = field(default=0.0, converter=as_float, validator=_non_negative)
 
     def _geometry(self, state):
         i, l1 = state.locate(self.body1, self.point1)

@@ -11,6 +11,7 @@ world frame), so x* closes every loop.
 from __future__ import annotations
 
 import os
+import signal
 from contextlib import contextmanager
 
 import numpy as np
@@ -279,3 +280,22 @@ def memory_limit(size: str | None):
             os.environ.pop("FLEXMB_MEMORY_LIMIT", None)
         else:
             os.environ["FLEXMB_MEMORY_LIMIT"] = old
+
+
+class _Hang(BaseException):
+    """Raised by the alarm when one example runs too long (not an Exception, so nothing swallows it)."""
+
+
+@contextmanager
+def alarm(seconds: float):
+    """Raise :class:`_Hang` in the main thread if the block runs longer than ``seconds``."""
+    def ring(signum, frame):
+        raise _Hang(f"no answer after {seconds} s")
+
+    old = signal.signal(signal.SIGALRM, ring)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, old)

@@ -280,7 +280,7 @@ def _table(**kw):
      r"profile 'profile': section returned float at s = .* m, expected a Section"),
     ({"profile": fm.BeamProfile.from_sections(lambda s: fm.Section.rectangular(0.02, 0.005 * (1 - 2 * s)),
                                               MATERIAL)},
-     r"profile 'profile': section at s = 0\.\d+ m: Section.rectangular: b and h must be > 0"),
+     r"profile 'profile': section at s = 0\.\d+ m: Section.rectangular: h must be a finite number > 0, got -0\.000\d+"),
     ({"stiffness_scale": [1.0, 1.0]}, r"stiffness_scale must have shape \(4,\) or \(4, 1\), got \(2,\)"),
     ({"stiffness_scale": [1.0, 1.0, -1.0, 1.0]}, r"stiffness_scale must be finite and > 0"),
     ({"mass_scale": [1.0, np.nan, 1.0, 1.0]}, r"mass_scale must be finite and > 0"),

@@ -409,8 +409,12 @@ def test_gravity_as_the_followed_load_starts_from_the_unloaded_state():
 def test_path_options_are_checked():
     with pytest.raises(fm.ModelError, match="step must be > 0"):
         fm.PathOptions(step=-1.0)
-    with pytest.raises(fm.ModelError, match="max_iter must be >= 1"):
+    with pytest.raises(fm.ModelError, match="max_iter must be an integer >= 1, got 0"):
         fm.PathOptions(max_iter=0)
+    with pytest.raises(fm.ModelError, match="max_steps must be an integer >= 1, got None"):
+        fm.PathOptions(max_steps=None)  # was a TypeError from int(None)
+    with pytest.raises(fm.ModelError, match="tol must be a finite number, got 'tight'"):
+        fm.PathOptions(tol="tight")
     with pytest.raises(fm.ModelError, match="max_turn must be a cosine"):
         fm.PathOptions(max_turn=1.0)
     with pytest.raises(fm.ModelError, match="need min_step <= step <= max_step, got 1e-06, 0.6, 0.5"):

@@ -12,9 +12,39 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import ModelError
-from .fields import as_count
+from .fields import COUNT_MAX, as_bool, as_count
 
-__all__ = ["name_check", "positive_value", "simulate_arguments", "state_time", "state_vector"]
+__all__ = ["LARGEST", "in_range", "name_check", "positive_value", "number", "flag", "whole", "simulate_arguments",
+           "state_time", "state_vector"]
+
+
+#: the largest magnitude whose square is still a float (1.34e154): model data or states beyond it make
+#: the products in the equations (``m l^2``, ``k x``, the articulated inertias) overflow
+LARGEST = float(np.sqrt(np.finfo(float).max))
+
+
+def in_range(where: str, values: dict, hint: str = "") -> None:
+    """Refuse model data that are not finite or beyond :data:`LARGEST`, where the equations' products overflow.
+
+    Parameters
+    ----------
+    where : str
+        The element, for the message.
+    values : dict of str to array_like
+        The data by what they are (``"segment mass"``, ...).
+    hint : str
+        Appended to the message (what to check).
+
+    Raises
+    ------
+    ModelError
+        ``where: its what (value) is beyond 1.34e+154, where products in the equations overflow``.
+    """
+    for what, v in values.items():
+        big = np.max(np.abs(v), initial=0.0)
+        if not (np.all(np.isfinite(v)) and big <= LARGEST):
+            raise ModelError(f"{where}: its {what} ({big:.3g}) is beyond {LARGEST:.3g}, where products in the "
+                             f"equations overflow{hint}")
 
 
 def name_check(instance, attribute, value):
@@ -34,22 +64,123 @@ def positive_value(where: str, what: str, value) -> float:
     except (TypeError, ValueError, OverflowError):
         f = float("nan")
     if isinstance(value, bool) or not (np.isfinite(f) and f > 0):
-        raise ModelError(f"{where}: {what} must be a finite number > 0, got {value!r}")
+        raise ModelError(f"{where}: {what} must be a finite number > 0, got {_short(value)}")
     return f
 
 
-def _number(where, what, value, *, finite=True, minimum=None, strict=True):
+def number(where: str, what: str, value, *, finite: bool = True, minimum: float | None = None,
+           maximum: float | None = None, strict: bool = True) -> float:
+    """``float(value)`` for a number argument within bounds, else a :class:`ModelError` naming it.
+
+    For arguments of functions, where no attrs validator runs. A bool, a
+    string, None, a complex number, an array or a number that does not fit
+    a float (``10**400``) is not a number.
+
+    Parameters
+    ----------
+    where : str
+        The element or function, for the message.
+    what : str
+        The argument's name.
+    value : object
+        What the caller gave.
+    finite : bool
+        Refuse +-inf (NaN is always refused).
+    minimum, maximum : float, optional
+        Bounds; exclusive with ``strict``, else inclusive.
+    strict : bool
+        Whether the bounds themselves are refused.
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    ModelError
+        ``where: what must be ..., got value``.
+    """
     try:
-        if isinstance(value, (str, bytes)):
+        if isinstance(value, (str, bytes, complex, np.complexfloating)) or np.ndim(value) != 0:
             raise TypeError
         f = float(value)
     except (TypeError, ValueError, OverflowError):
-        raise ModelError(f"{where}: {what} must be a number, got {value!r}") from None
-    if isinstance(value, bool) or np.isnan(f) or (finite and not np.isfinite(f)):
-        raise ModelError(f"{where}: {what} must be a finite number, got {value!r}")
-    if minimum is not None and not (f > minimum if strict else f >= minimum):
-        raise ModelError(f"{where}: {what} must be {'>' if strict else '>='} {minimum:g}, got {value!r}")
+        raise ModelError(f"{where}: {what} must be a number, got {_short(value)}") from None
+    if isinstance(value, (bool, np.bool_)) or np.isnan(f) or (finite and not np.isfinite(f)):
+        raise ModelError(f"{where}: {what} must be a finite number, got {_short(value)}")
+    low = minimum is not None and not (f > minimum if strict else f >= minimum)
+    high = maximum is not None and not (f < maximum if strict else f <= maximum)
+    if low or high:
+        if minimum is not None and maximum is not None:
+            ends = "()" if strict else "[]"
+            need = f"in {ends[0]}{minimum:g}, {maximum:g}{ends[1]}"
+        elif minimum is not None:
+            need = f"{'>' if strict else '>='} {minimum:g}"
+        else:
+            need = f"{'<' if strict else '<='} {maximum:g}"
+        raise ModelError(f"{where}: {what} must be {need}, got {_short(value)}")
     return f
+
+
+
+
+def whole(where: str, what: str, value, minimum: int = 1) -> int:
+    """An integer argument >= ``minimum`` (``4.0`` is taken as 4), else a :class:`ModelError` naming it.
+
+    Parameters
+    ----------
+    where : str
+        The element or function, for the message.
+    what : str
+        The argument's name.
+    value : object
+        What the caller gave.
+    minimum : int
+        The smallest value accepted.
+
+    Returns
+    -------
+    int
+
+    Raises
+    ------
+    ModelError
+        ``where: what must be an integer >= minimum, got value``.
+    """
+    n = as_count(value)
+    if isinstance(n, bool) or not isinstance(n, int) or not minimum <= n <= COUNT_MAX:
+        raise ModelError(f"{where}: {what} must be an integer >= {minimum}, got {_short(value)}")
+    return n
+
+
+def flag(where: str, what: str, value) -> bool:
+    """``value`` as a bool if it is one (``True``, ``False``, a numpy bool), else a :class:`ModelError`.
+
+    A string, a number or None is not taken for a truth value: ``"no"``
+    and ``nan`` would otherwise both read as True.
+
+    Parameters
+    ----------
+    where : str
+        The element or function, for the message.
+    what : str
+        The argument's name.
+    value : object
+        What the caller gave.
+
+    Returns
+    -------
+    bool
+
+    Raises
+    ------
+    ModelError
+        ``where: what must be True or False, got value``.
+    """
+    value = as_bool(value)
+    if not isinstance(value, bool):
+        raise ModelError(f"{where}: {what} must be True or False, got {_short(value)}")
+    return value
 
 
 def state_time(where: str, t) -> float:
@@ -62,7 +193,7 @@ def state_time(where: str, t) -> float:
     """
     if type(t) is float and t - t == 0.0:  # the common case, checked at the cost of one comparison
         return t
-    return _number(where, "t", t)
+    return number(where, "t", t)
 
 
 def state_vector(where: str, what: str, value, size: int, *, at_least: bool = False) -> np.ndarray:
@@ -122,7 +253,7 @@ def state_vector(where: str, what: str, value, size: int, *, at_least: bool = Fa
 
 def _short(value) -> str:
     """``repr(value)``, cut to one line of a message."""
-    r = repr(value).replace("\n", " ")
+    r = repr(value.item() if isinstance(value, np.generic) else value).replace("\n", " ")
     return r if len(r) <= 60 else r[:57] + "..."
 
 
@@ -154,33 +285,31 @@ def simulate_arguments(t0, t_end, n_out, t_eval, rtol, atol, max_step, projectio
         Naming the argument and what is wrong with it.
     """
     where = "simulate"
-    t0 = _number(where, "t0", t0)
-    t_end = _number(where, "t_end", t_end)
+    t0 = number(where, "t0", t0)
+    t_end = number(where, "t_end", t_end)
     if not t_end > t0:
         raise ModelError(f"t_end must be > t0, got t0 = {t0}, t_end = {t_end}")
-    n = as_count(n_out)
-    if isinstance(n, bool) or not isinstance(n, int) or n < 1:
-        raise ModelError(f"{where}: n_out must be an integer >= 1, got {n_out!r}")
+    n = whole(where, "n_out", n_out)
     if t_eval is not None:
         try:
             t_eval = np.array(t_eval, dtype=float)
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             raise ModelError(f"{where}: t_eval must be an array of times, got {t_eval!r}") from None
         if (t_eval.ndim != 1 or t_eval.size == 0 or not np.all(np.isfinite(t_eval)) or np.any(np.diff(t_eval) <= 0)
                 or t_eval[0] < t0 or t_eval[-1] > t_end):
             raise ModelError("t_eval must be increasing and within [t0, t_end]")
-    rtol = _number(where, "rtol", rtol, minimum=0.0)
+    rtol = number(where, "rtol", rtol, minimum=0.0)
     if rtol < RTOL_MIN:
         raise ModelError(f"{where}: rtol = {rtol:g} is below what double precision can meet; the smallest is "
                          f"100 machine epsilons, {RTOL_MIN:.2g}")
     if atol is not None:
         try:
             a = np.array(atol, dtype=float)
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             raise ModelError(f"{where}: atol must be a number or an array of numbers, got {atol!r}") from None
         if isinstance(atol, bool) or not np.all(np.isfinite(a)) or np.any(a < 0):
             raise ModelError(f"{where}: atol must be finite and >= 0, got {atol!r}")
         atol = float(a) if a.ndim == 0 else a
-    max_step = _number(where, "max_step", max_step, finite=False, minimum=0.0)
-    projection_tol = _number(where, "projection_tol", projection_tol, minimum=0.0)
+    max_step = number(where, "max_step", max_step, finite=False, minimum=0.0)
+    projection_tol = number(where, "projection_tol", projection_tol, minimum=0.0)
     return t0, t_end, n, t_eval, rtol, atol, max_step, projection_tol

@@ -6,11 +6,58 @@ from collections import defaultdict
 
 import numpy as np
 
+from .errors import AssemblyError, FlexmbError
 from .forces import Loads
 from .kernels import dynamics as _dyn
 from .kernels import tangent as _tangent
 
-__all__ = ["mass_matrix", "composite_inertias", "generalized_force", "geometric_stiffness", "ForceAssembler"]
+__all__ = ["mass_matrix", "composite_inertias", "generalized_force", "geometric_stiffness", "ForceAssembler",
+           "apply_group"]
+
+
+def apply_group(kind, elements, kin, loads) -> None:
+    """``kind.apply_all(elements, kin, loads)``; an element that raises is named in an :class:`AssemblyError`.
+
+    A force element's own code (a plugin's, a user's subclass) may fail in
+    the middle of a run; the error then says which element failed, when,
+    and how, whatever the integrator (the run stops with its outputs so
+    far, :class:`~flexmb.SimulationError`). flexmb's own errors pass
+    unchanged.
+
+    Parameters
+    ----------
+    kind : type
+        The elements' class.
+    elements : sequence of ForceElement
+        The model's elements of this class.
+    kin : Kinematics
+        The kinematic state.
+    loads : Loads
+        Accumulator to add to.
+
+    Raises
+    ------
+    AssemblyError
+        ``at t = ... s: force element 'name' (Kind) failed: Error: message``,
+        with ``.t`` the time; chained to the element's exception.
+    """
+    try:
+        kind.apply_all(elements, kin, loads)
+    except FlexmbError:
+        raise
+    except Exception as exc:
+        culprit = elements[0] if len(elements) == 1 else None
+        for e in elements if culprit is None else ():  # which one: each alone, on a scratch accumulator
+            try:
+                kind.apply_all([e], kin, Loads(kin))
+            except Exception:
+                culprit = e
+                break
+        what = (f"force element {culprit.name!r} ({kind.__name__})" if culprit is not None
+                else f"the force elements of class {kind.__name__}")
+        err = AssemblyError(f"at t = {kin.t:.9g} s: {what} failed: {type(exc).__name__}: {exc}")
+        err.t = kin.t
+        raise err from exc
 
 
 def mass_matrix(kin) -> np.ndarray:
@@ -178,7 +225,7 @@ class ForceAssembler:
         loads = Loads(kin)
         before = 0.0
         for i, (cls, elements) in enumerate(self.groups):
-            cls.apply_all(elements, kin, loads)
+            apply_group(cls, elements, kin, loads)
             if powers is not None:
                 total = _power(kin, loads)
                 powers[i] = total - before

@@ -10,9 +10,9 @@ from __future__ import annotations
 import numpy as np
 from attrs import converters, field, frozen, validators
 
-from ._validate import name_check, positive_value
+from ._validate import flag, in_range, name_check, positive_value
 from .errors import ModelError
-from .fields import as_array, as_float, label, matrix33, positive, vector3
+from .fields import as_array, as_count, as_float, label, matrix33, positive, vector3
 
 __all__ = ["Body", "Ground", "RigidBody", "Marker"]
 
@@ -168,18 +168,24 @@ class RigidBody(Body):
         Raises
         ------
         ModelError
-            If the length is not a finite number > 0 or the axis is not 0, 1 or 2.
+            If the length is not a finite number > 0 (or so large that the
+            inertia overflows), the axis is not 0, 1 or 2, or ``centred`` is
+            not True or False.
         """
         where = f"RigidBody.slender_bar {name!r}"
         length = positive_value(where, "length", length)
-        if isinstance(axis, bool) or axis not in (0, 1, 2):
+        index = as_count(axis) if not isinstance(axis, (bool, np.bool_)) else axis
+        if not isinstance(index, int) or isinstance(index, bool) or index not in (0, 1, 2):
             raise ModelError(f"{where}: axis must be 0, 1 or 2, got {axis!r}")
+        centred = flag(where, "centred", centred)
         mass = as_float(mass)  # anything else: the mass validator names it
-        moments = np.full(3, (mass if isinstance(mass, float) else 0.0) * length**2 / 12.0)
-        moments[axis] = 0.0
+        moment = (mass if isinstance(mass, float) else 0.0) * length * length / 12.0
+        in_range(where, {"transverse inertia m l^2 / 12": moment}, f" (length = {length!r} m)")
+        moments = np.full(3, moment)
+        moments[index] = 0.0
         com = np.zeros(3)
         if not centred:
-            com[axis] = length / 2
+            com[index] = length / 2
         return cls(name, mass, moments, com)
 
     @classmethod
@@ -216,7 +222,12 @@ class RigidBody(Body):
         >>> fm.RigidBody.bar("link", 2.0, (0.0, 0.3, 0.4)).com
         array([0.  , 0.15, 0.2 ])
         """
-        v = np.asarray(vector, dtype=float)
+        try:
+            if isinstance(vector, (str, bytes)) or np.iscomplexobj(vector):
+                raise TypeError
+            v = np.asarray(vector, dtype=float)
+        except (TypeError, ValueError, OverflowError):
+            raise ModelError(f"RigidBody.bar {name!r}: vector must be 3 numbers, got {vector!r:.60}") from None
         if v.shape != (3,):
             raise ModelError(f"vector must have 3 components, got {v.size}")
         L = np.linalg.norm(v)
@@ -253,7 +264,7 @@ class RigidBody(Body):
         where = f"RigidBody.box {name!r}"
         try:
             edges = np.array(size, dtype=float)
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             edges = None
         if edges is None or edges.shape != (3,) or not np.all(np.isfinite(edges)) or not np.all(edges > 0):
             raise ModelError(f"{where}: size must be 3 finite edge lengths > 0, got {size!r}")

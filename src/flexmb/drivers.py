@@ -14,9 +14,9 @@ import numpy as np
 from attrs import field, frozen
 
 from ._names import reference
-from ._validate import name_check
+from ._validate import name_check, number
 from .errors import ModelError
-from .fields import label
+from .fields import as_count, label
 from .joints import Joint
 
 __all__ = ["Driver"]
@@ -61,9 +61,11 @@ class Driver:
     position: Callable[[float], float] = field(validator=_callable)
     velocity: Callable[[float], float] = field(validator=_callable)
     acceleration: Callable[[float], float] = field(validator=_callable)
-    coordinate: int = field(default=0, converter=int)
+    coordinate: int = field(default=0, converter=as_count)
 
     def __attrs_post_init__(self):
+        if isinstance(self.coordinate, bool) or not isinstance(self.coordinate, int):
+            raise ModelError(f"{label(self)}: coordinate must be an integer >= 0, got {self.coordinate!r}")
         if isinstance(self.joint, str):  # a name: checked when the model resolves it
             return
         if not 0 <= self.coordinate < self.joint.n_coords:
@@ -94,7 +96,7 @@ class Driver:
         Driver
             The driver.
         """
-        speed, start = float(speed), float(start)
+        speed, start = (number(f"Driver {name!r}", what, v) for what, v in (("speed", speed), ("start", start)))
         return cls(
             name,
             joint,
@@ -129,8 +131,9 @@ class Driver:
         Driver
             The driver.
         """
-        w = 2 * np.pi * float(frequency)
-        a, o = float(amplitude), float(offset)
+        f, a, o = (number(f"Driver {name!r}", what, v) for what, v in (("frequency", frequency),
+                                                                       ("amplitude", amplitude), ("offset", offset)))
+        w = 2 * np.pi * f
         return cls(
             name,
             joint,

@@ -46,8 +46,8 @@ import numpy as np
 
 from .errors import ModelError
 
-__all__ = ["label", "as_float", "as_array", "as_unit_vector", "as_count", "finite_number", "positive",
-           "non_negative", "count", "finite_array", "vector3", "unit_vector", "matrix33", "rotation_matrix",
+__all__ = ["label", "as_float", "as_array", "as_unit_vector", "as_count", "as_bool", "finite_number", "positive",
+           "non_negative", "count", "boolean", "finite_array", "vector3", "unit_vector", "matrix33", "rotation_matrix",
            "is_a"]
 
 
@@ -198,7 +198,36 @@ def as_count(value):
     return value
 
 
+def as_bool(value):
+    """Convert a numpy bool to ``bool``; leave anything else for the validator.
+
+    Parameters
+    ----------
+    value : object
+        The value given for the field.
+
+    Returns
+    -------
+    bool or object
+        ``bool(value)`` for ``True``, ``False`` or a numpy bool; ``value``
+        itself otherwise (a string, a number, None), for :func:`boolean`
+        to reject: ``"no"`` and ``nan`` would both read as True.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from flexmb.fields import as_bool
+    >>> as_bool(np.bool_(False)), as_bool("no")
+    (False, 'no')
+    """
+    return bool(value) if isinstance(value, (bool, np.bool_)) else value
+
+
 # ----------------------------------------------------------------------------- validators
+
+#: the largest count an array can have (int64); a larger integer (``10**400``) is refused as no count
+COUNT_MAX = int(np.iinfo(np.int64).max)
+
 # Every validator takes attrs' three arguments; they are documented once, here.
 
 _VALIDATOR_ARGUMENTS = """Parameters
@@ -275,8 +304,20 @@ def count(instance, attribute, value):
 
     {arguments}
     """
-    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+    if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= COUNT_MAX:
         _refuse(instance, attribute, f"must be an integer >= 1, got {value!r}")
+
+
+@_validator
+def boolean(instance, attribute, value):
+    """Validator: ``True`` or ``False`` (as :func:`as_bool` gives it).
+
+    Anything else is refused with ``must be True or False, got ...``.
+
+    {arguments}
+    """
+    if not isinstance(value, bool):
+        _refuse(instance, attribute, f"must be True or False, got {value!r}")
 
 
 @_validator

@@ -38,11 +38,12 @@ import numpy as np
 from attrs import converters, field, frozen
 
 from .bodies import Body
+from ._validate import in_range, number, positive_value
 from .errors import ModelError
-from .fields import as_array, as_count, count, label, positive
+from .fields import as_array, as_bool, as_count, as_float, boolean, count, finite_number, label, positive
 from .joints import Joint
 from .profiles import BeamProfile, _at, _PerSegment, segment_data
-from .sections import Material, Section
+from .sections import Material, Section, _non_negative
 
 __all__ = ["FlexibleBody", "Segment", "SegmentJoint", "ELASTIC_COORDINATES"]
 
@@ -57,10 +58,8 @@ ELASTIC_COORDINATES = {
 }
 
 
-def _keep(value):
-    if isinstance(value, str):
-        value = (value,)
-    return tuple(value)
+def _keep(value):  # a name, or a list of names; anything else for _check_keep to name
+    return (value,) if isinstance(value, str) else tuple(value) if isinstance(value, (list, tuple)) else value
 
 
 @frozen(eq=False)
@@ -137,20 +136,17 @@ def segment_joint_class(keep: tuple[str, ...]) -> type:
 
 
 def _check_keep(instance, attribute, value):
+    if not isinstance(value, tuple):
+        raise ModelError(f"{label(instance)}: keep must be a list of elastic coordinate names, got {value!r:.60}")
     if not value:
         raise ModelError(f"{label(instance)}: keep at least one elastic coordinate, "
                          f"from {sorted(ELASTIC_COORDINATES)}")
-    bad = [k for k in value if k not in ELASTIC_COORDINATES]
+    bad = [k for k in value if not isinstance(k, str) or k not in ELASTIC_COORDINATES]
     if bad:
         raise ModelError(f"{label(instance)}: unknown elastic coordinate(s) {bad}; pick from "
                          f"{sorted(ELASTIC_COORDINATES)}")
     if len(set(value)) != len(value):
         raise ModelError(f"{label(instance)}: keep lists a coordinate twice: {list(value)}")
-
-
-def _non_negative(instance, attribute, value):
-    if not np.isfinite(value) or value < 0:
-        raise ModelError(f"{label(instance)}: {attribute.name} must be finite and >= 0, got {value!r}")
 
 
 #: the property of a BeamProfile that sets each kept coordinate's spring
@@ -225,14 +221,14 @@ class FlexibleBody(Body):
     (8, 8)
     """
 
-    length: float = field(default=1.0, converter=float, validator=positive)
+    length: float = field(default=1.0, converter=as_float, validator=[finite_number, positive])
     section: Section = field(default=None)
     material: Material = field(default=None)
     n_segments: int = field(default=8, converter=as_count, validator=count)
     keep: tuple = field(default=("bend_y", "bend_z", "torsion"), converter=_keep, validator=_check_keep)
-    damping: float = field(default=0.0, converter=float, validator=_non_negative)
-    clamped: bool = field(default=True, converter=bool)
-    rotary_inertia: bool = field(default=True, converter=bool)
+    damping: float = field(default=0.0, converter=as_float, validator=[finite_number, _non_negative])
+    clamped: bool = field(default=True, converter=as_bool, validator=boolean)
+    rotary_inertia: bool = field(default=True, converter=as_bool, validator=boolean)
     profile: BeamProfile | None = field(default=None)
     stiffness_scale: np.ndarray | None = field(
         default=None, converter=converters.optional(as_array), validator=_scale_factors)
@@ -267,6 +263,18 @@ class FlexibleBody(Body):
                                  f"{' or '.join(str(s) for s in shapes)}, got {scale.shape}")
         if self.profile is not None:
             object.__setattr__(self, "_data", self._integrate_profile())
+        self._check_range()
+
+    def _check_range(self):
+        """Refuse segment data that overflow (or a mass underflowing to 0) from extreme section or material values."""
+        with np.errstate(all="ignore"):
+            (mass, inertia, _), k = (self.segment_properties(), self.joint_stiffness()) if self.varying else \
+                (self._uniform_segment(), self.joint_stiffness(rows=1))
+            data = {"segment mass": mass, "segment inertia": inertia, "joint stiffness": k,
+                    "joint damping": self.damping * k}
+        in_range(label(self), data, hint := f"; check the length ({self.length:g} m), section, material and damping")
+        if not np.all(mass > 0):
+            raise ModelError(f"{label(self)}: its segment mass rho A l underflows to 0{hint}")
 
     def _integrate_profile(self) -> dict:
         """Segment mass data and joint springs integrated over the profile; checks the data on the way."""
@@ -286,7 +294,7 @@ class FlexibleBody(Body):
         damping_ratio : float
             zeta; with stiffness-proportional damping ``beta = 2 zeta / omega``.
         frequency : float, optional
-            The mode's frequency f (Hz) where zeta applies; default: the
+            The mode's frequency f (Hz, finite, > 0) where zeta applies; default: the
             Euler-Bernoulli first cantilever bending frequency about the
             kept bending axis (about y if both are kept).
         **kw
@@ -296,14 +304,24 @@ class FlexibleBody(Body):
         -------
         FlexibleBody
             The beam.
+
+        Raises
+        ------
+        ModelError
+            For a ``damping_ratio`` < 0, a ``frequency`` <= 0, or a refused field.
         """
-        beta = 0.0
-        if damping_ratio:
-            if frequency is None:
-                I = section.Iz if ("bend_z" in keep and "bend_y" not in keep) else section.Iy
-                frequency = 1.8751040687119611**2 / (2 * np.pi) * np.sqrt(
-                    material.E * I / (material.density * section.area * length**4))
-            beta = 2.0 * damping_ratio / (2.0 * np.pi * frequency)
+        where = f"FlexibleBody {name!r}"
+        damping_ratio = number(where, "damping_ratio", damping_ratio, minimum=0.0, strict=False)
+        if frequency is not None:
+            frequency = positive_value(where, "frequency", frequency)
+        if damping_ratio and frequency is None and isinstance(section, Section) and isinstance(material, Material):
+            length, bend_z = positive_value(where, "length", length), "bend_z" in keep and "bend_y" not in keep
+            with np.errstate(all="ignore"):
+                frequency = 1.8751040687119611**2 / (2 * np.pi) * np.sqrt(material.E * (
+                    section.Iz if bend_z else section.Iy) / (material.density * section.area * np.float64(length) ** 4))
+            if not (np.isfinite(frequency) and frequency > 0):  # not from input refused above: overflow
+                raise ModelError(f"{where}: its first bending frequency ({frequency:g} Hz) is out of range")
+        beta = 2.0 * damping_ratio / (2.0 * np.pi * frequency) if damping_ratio and frequency else 0.0
         return cls(name, length, section, material, n_segments, keep, beta, **kw)
 
     @classmethod
@@ -494,7 +512,7 @@ class FlexibleBody(Body):
             moments = np.array([0.0, m * l * l / 12, m * l * l / 12])
         return m, np.diag(moments), np.array([l / 2, 0.0, 0.0])
 
-    def joint_stiffness(self) -> np.ndarray:
+    def joint_stiffness(self, rows=None) -> np.ndarray:
         """Spring constants of the kept coordinates per joint (eqs. 25-27).
 
         Returns
@@ -509,17 +527,21 @@ class FlexibleBody(Body):
             ``3 P_h / l^3`` with P_h the harmonic mean of ``EIz`` or ``EIy``
             over the span (doubled at a clamp). Each is multiplied by
             ``stiffness_scale``.
+
+        Parameters
+        ----------
+        rows : None or 1
+            1: only the root joint's row of a uniform unscaled body.
         """
-        l, E, G, s = self.segment_length, self.material.E, self.material.G, self.section
+        l, E, G, s = np.float64(self.segment_length), self.material.E, self.material.G, self.section
         per = {"torsion": G * s.J / l, "bend_y": E * s.Iy / l, "bend_z": E * s.Iz / l,
-               "axial": E * s.area / l, "shear_y": 3 * E * s.Iz / l**3, "shear_z": 3 * E * s.Iy / l**3}
+               "axial": E * s.area / l, "shear_y": 3 * E * s.Iz / (l * l * l), "shear_z": 3 * E * s.Iy / (l * l * l)}
         names = segment_joint_class(self.keep).coordinate_names
         if self._data is not None:
             k = self._data["stiffness"].copy()
-        else:
-            k = np.tile([per[c] for c in names], (self.n_joints, 1))
-            if self.clamped:
-                k[0] *= 2.0
+        else:  # the root joint alone where _check_range asks for one (n_segments may be huge)
+            k = np.tile([per[c] for c in names], (1 if rows == 1 else self.n_joints, 1))
+            k[0] *= 2.0 if self.clamped else 1.0
         if self.stiffness_scale is not None:
             k = k * (self.stiffness_scale if self.stiffness_scale.ndim == 2 else self.stiffness_scale[:, None])
         return k

@@ -28,7 +28,7 @@ from ._names import reference
 from ._validate import name_check
 from .bodies import Body
 from .errors import ModelError
-from .fields import as_array, label, rotation_matrix, vector3
+from .fields import as_array, as_bool, boolean, label, rotation_matrix, vector3
 from .kernels import ROTATION, TRANSLATION
 from .kernels.tree import joint_motions
 from .rotations import frame_from_axis
@@ -125,7 +125,7 @@ class Joint:
         default=None, converter=converters.optional(as_array), validator=validators.optional(rotation_matrix))
     child_frame: np.ndarray | None = field(
         default=None, converter=converters.optional(as_array), validator=validators.optional(rotation_matrix))
-    cut: bool = field(default=False, converter=bool)
+    cut: bool = field(default=False, converter=as_bool, validator=boolean)
 
     def __attrs_post_init__(self):
         if self.parent is self.child or (isinstance(self.parent, str) and self.parent == self.child):

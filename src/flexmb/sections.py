@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 from attrs import field, frozen
 
-from ._validate import name_check
+from ._validate import name_check, number, positive_value
 from .errors import ModelError
-from .fields import label, positive
+from .fields import as_float, finite_number, label, positive
 
 __all__ = ["Section", "Material"]
 
@@ -48,13 +48,13 @@ class Section:
     208.333333
     """
 
-    area: float = field(converter=float, validator=positive)
-    Iy: float = field(converter=float, validator=positive)
-    Iz: float = field(converter=float, validator=positive)
-    J: float = field(converter=float, validator=positive)
+    area: float = field(converter=as_float, validator=[finite_number, positive])
+    Iy: float = field(converter=as_float, validator=[finite_number, positive])
+    Iz: float = field(converter=as_float, validator=[finite_number, positive])
+    J: float = field(converter=as_float, validator=[finite_number, positive])
     Ip: float | None = field(default=None)
-    c_y: float = field(default=0.0, converter=float, validator=_non_negative)
-    c_z: float = field(default=0.0, converter=float, validator=_non_negative)
+    c_y: float = field(default=0.0, converter=as_float, validator=[finite_number, _non_negative])
+    c_z: float = field(default=0.0, converter=as_float, validator=[finite_number, _non_negative])
     name: str = field(default="section", validator=name_check)
     kind: str = field(default="general")
 
@@ -79,11 +79,11 @@ class Section:
             constant ``J = b t^3 (1/3 - 0.21 (t/w)(1 - (t/w)^4/12))`` with
             t = min(b, h), w = max(b, h) (Roark).
         """
-        if not (b > 0 and h > 0):
-            raise ModelError(f"Section.rectangular: b and h must be > 0, got b={b!r}, h={h!r}")
+        # numpy floats: a product beyond the largest float is inf (refused by the fields), not an OverflowError
+        b, h = (np.float64(positive_value("Section.rectangular", what, v)) for what, v in (("b", b), ("h", h)))
         t, w = min(b, h), max(b, h)
         r = t / w
-        J = w * t**3 * (1.0 / 3.0 - 0.21 * r * (1.0 - r**4 / 12.0))
+        J = w * t * t * t * (1.0 / 3.0 - 0.21 * r * (1.0 - r**4 / 12.0))
         return cls(b * h, b * h**3 / 12.0, h * b**3 / 12.0, J, None, b / 2, h / 2, f"rect {b}x{h}", "rectangular")
 
     @classmethod
@@ -106,8 +106,7 @@ class Section:
         ModelError
             If ``d <= 0``.
         """
-        if not d > 0:
-            raise ModelError(f"Section.circular: d must be > 0, got {d!r}")
+        d = np.float64(positive_value("Section.circular", "d", d))
         I = np.pi * d**4 / 64.0
         return cls(np.pi * d * d / 4.0, I, I, 2 * I, 2 * I, d / 2, d / 2, f"circle {d}", "circular")
 
@@ -131,6 +130,8 @@ class Section:
         ModelError
             Unless ``d_out > d_in >= 0``.
         """
+        d_out = np.float64(positive_value("Section.tube", "d_out", d_out))
+        d_in = np.float64(number("Section.tube", "d_in", d_in, minimum=0.0, strict=False))
         if not (d_out > d_in >= 0):
             raise ModelError(f"Section.tube: need d_out > d_in >= 0, got {d_out!r}, {d_in!r}")
         I = np.pi * (d_out**4 - d_in**4) / 64.0
@@ -194,17 +195,17 @@ class Material:
     70000000000.0
     """
 
-    E: float = field(converter=float, validator=positive)
-    density: float = field(converter=float, validator=positive)
+    E: float = field(converter=as_float, validator=[finite_number, positive])
+    density: float = field(converter=as_float, validator=[finite_number, positive])
     nu: float | None = field(default=0.3)
     G_: float | None = field(default=None, alias="G")
     name: str = field(default="material", validator=name_check)
 
     def __attrs_post_init__(self):
-        if self.G_ is None and (self.nu is None or not -1.0 < float(self.nu) < 0.5):
+        if self.G_ is None and (self.nu is None or not -1.0 < number(label(self), "nu", self.nu) < 0.5):
             raise ModelError(f"{label(self)}: Poisson's ratio must be in (-1, 0.5), got {self.nu!r}")
-        if self.G_ is not None and not float(self.G_) > 0:
-            raise ModelError(f"{label(self)}: G must be > 0, got {self.G_!r}")
+        if self.G_ is not None:
+            number(label(self), "G", self.G_, minimum=0.0)
 
     @property
     def G(self) -> float:

@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import logging
 import warnings
+from collections.abc import Mapping
 
 import numpy as np
+from scipy.integrate import OdeSolver
 
 from . import memory, registry
-from ._validate import simulate_arguments, state_vector
+from ._validate import number, simulate_arguments, state_vector
 from .errors import ModelError, SimulationError, StiffnessWarning
 from .initial_speeds import held_speeds, split_speeds
 from .joints import Joint
@@ -20,7 +22,7 @@ from .stepping import Run
 from .progress import shown
 from .threads import limited_blas
 
-__all__ = ["simulate", "initial_state", "INTEGRATORS"]
+__all__ = ["simulate", "initial_state", "INTEGRATORS", "MAX_STEPS"]
 
 #: the built-in integrators by name: a read-only view of flexmb's ``flexmb.integrators`` entry points
 INTEGRATORS = registry.builtin_table("integrators")
@@ -44,9 +46,17 @@ def _coordinate_mask(system, names):
 def _fill(system, values, what):
     out = np.zeros(system.n_coords)
     given = np.zeros(system.n_coords, bool)
+    if values is not None and not isinstance(values, Mapping):
+        raise ModelError(f"initial state: {what}s must be a dict {{name: value}} of coordinate or joint names, got "
+                         f"{type(values).__name__} {values!r:.60}")
     for name, value in (values or {}).items():
         mask = _coordinate_mask(system, [name])
-        v = np.broadcast_to(np.asarray(value, dtype=float), (int(mask.sum()),))
+        k = int(mask.sum())
+        try:
+            v = np.broadcast_to(np.asarray(value, dtype=float), (k,))
+        except (TypeError, ValueError, OverflowError):
+            raise ModelError(f"initial {what} {name!r} must be a number or {k} numbers (one per coordinate), got "
+                             f"{value!r:.60}") from None
         if not np.all(np.isfinite(v)):
             raise ModelError(f"initial {what} {name!r} must be finite, got {value!r}")
         out[mask] = v
@@ -94,6 +104,9 @@ def initial_state(system, t0: float = 0.0, positions=None, speeds=None, x0=None,
 
     Raises
     ------
+    ModelError
+        If ``positions`` or ``speeds`` is not a dict of names and numbers,
+        ``fixed`` not a list of names, or a name is unknown.
     AssemblyError
         If a loop cannot close; the message names the worst rows.
     ModelError
@@ -108,7 +121,10 @@ def initial_state(system, t0: float = 0.0, positions=None, speeds=None, x0=None,
         x = state_vector("initial state", "x0", x0, system.n_coords).copy()
     if xd0 is not None:
         xd = state_vector("initial state", "xd0", xd0, system.n_coords).copy()
-    if fixed:
+    if fixed is not None and not isinstance(fixed, (list, tuple, set, frozenset, np.ndarray)):
+        raise ModelError(f"initial state: fixed must be a list of coordinate or joint names (or joints), got "
+                         f"{type(fixed).__name__} {fixed!r:.60}")
+    if fixed is not None and len(fixed):
         held_x |= _coordinate_mask(system, fixed)
     if system.n_constraints:
         x, _ = system.project(t0, x, xd, fixed=held_x)
@@ -118,6 +134,9 @@ def initial_state(system, t0: float = 0.0, positions=None, speeds=None, x0=None,
 def _solver_class(method):
     """The OdeSolver class: ``method`` itself, or looked up by name in the plugin registry."""
     if not isinstance(method, str):
+        if not (isinstance(method, type) and issubclass(method, OdeSolver)):
+            raise ModelError(f"simulate: method must be an integrator's name or an OdeSolver class, got "
+                             f"{type(method).__name__} {method!r:.60}")
         return method
     known = registry.names("integrators")
     if method not in known:
@@ -128,6 +147,9 @@ def _solver_class(method):
                          + (f" or, from SUNDIALS, {sundials}" if sundials else ""))
     return registry.get("integrators", method)
 
+
+#: the default of ``simulate(max_steps=...)``: a run that needs more steps than this is refused before it starts
+MAX_STEPS = 10**9
 
 #: explicit steps above which a scene counts as stiff (:class:`StiffnessWarning`)
 EXPLICIT_STEP_LIMIT = 3000
@@ -219,12 +241,39 @@ def _calibrated(system, t0, x, xd):
     return system.calibrated(c0.rank, float(c0.singular_values()[c0.rank - 1]) if c0.rank else None)
 
 
+def _check_work(system, solver_cls, name, t0, t1, x, xd, max_step, max_steps):
+    """Refuse a run that needs more than ``max_steps`` steps, before it starts (it would run for hours or for ever).
+
+    The bounds are what every step of the run must respect: ``max_step``,
+    a generalized-alpha ``fixed_step``, and, for an explicit method, the
+    stability bound ``h |lambda| < 3`` of the fastest rate of the linearised
+    motion (:meth:`System.stability_rate`). Each gives a lower
+    bound of the number of steps; the largest is compared with ``max_steps``.
+    """
+    span = t1 - t0
+    bounds = [(span / max_step, f"max_step = {max_step:g} s")]
+    fixed = getattr(solver_cls, "fixed_step", None)
+    if fixed:
+        bounds.append((span / fixed, f"fixed_step = {fixed:g} s"))
+    if capabilities(solver_cls).explicit:
+        w = system.stability_rate(t0, x, xd)
+        if w > 0:
+            bounds.append((span * w / 3.0, f"the stability of {name} (the fastest rate of the linearised motion is "
+                                           f"{w:.4g} 1/s)"))
+    steps, why = max(bounds, key=lambda b: b[0])
+    if steps > max_steps:
+        raise ModelError(
+            f"simulate: {why} needs at least {steps:.3g} steps over [{t0:g}, {t1:g}] s, more than max_steps = "
+            f"{max_steps:.3g}; shorten the span, give a larger step, choose another method, or pass a larger "
+            "max_steps")
+
+
 @limited_blas
 def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=None, x0=None, xd0=None,
              fixed=None, n_out: int = 201, t_eval=None, method: str = "auto", rtol: float = 1e-8,
              atol: float | None = None, complement=None, projection_tol: float = 1e-10,
              max_step: float = np.inf, progress: bool | None = None, track_work: bool = False,
-             hold_speeds: bool = True) -> Result:
+             hold_speeds: bool = True, max_steps: float = MAX_STEPS) -> Result:
     """Simulate a model from ``t0`` to ``t_end``.
 
     The state (x, xd) is integrated by an OdeSolver (scipy's, or SUNDIALS'
@@ -288,6 +337,11 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         Integrate, with the state, the work done by each driver and by each
         class of force elements (``Result.work``), for energy balances:
         ``sum of all works = change of kinetic energy``.
+    max_steps : float
+        The most steps a run may need: a run that needs more (given
+        ``max_step``, a generalized-alpha ``fixed_step``, or the stability
+        bound of an explicit method on a stiff scene) is refused before it
+        starts, instead of running for hours (default ``MAX_STEPS``, 1e9).
 
     Returns
     -------
@@ -302,7 +356,7 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     ModelError
         If an argument is out of range (non-finite ``t0`` or ``t_end``,
         ``rtol <= 0``, ``n_out < 1``, ``max_step <= 0``, ...; the message
-        names it), if the outputs would not fit in the available memory
+        names it), if the run needs more than ``max_steps`` steps, if the outputs would not fit in the available memory
         (:mod:`flexmb.memory`), or if the model has no degree of freedom left.
 
     Warns
@@ -326,9 +380,10 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     """
     t0, t_end, n_out, t_eval, rtol, atol, max_step, projection_tol = simulate_arguments(
         t0, t_end, n_out, t_eval, rtol, atol, max_step, projection_tol)
+    max_steps = number("simulate", "max_steps", max_steps, minimum=0.0)
     # a run never changes the caller's system: another strategy gives a new one
     system = as_system(model, complement=complement)
-    auto = method == "auto"
+    auto = isinstance(method, str) and method == "auto"
     solver_cls = None if auto else _solver_class(method)
     name = method if isinstance(method, str) else getattr(method, "__name__", str(method))
     atol = rtol / 100 if atol is None else atol
@@ -343,6 +398,7 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         name = getattr(method, "__name__", method)
     else:
         _warn_if_stiff(system, solver_cls, t0, t_end, x, xd)
+    _check_work(system, solver_cls, name, t0, t_end, x, xd, max_step, max_steps)
     system = _calibrated(system, t0, x, xd)
     times = np.linspace(t0, t_end, n_out) if t_eval is None else np.asarray(t_eval, dtype=float)
     if times.ndim != 1 or np.any(np.diff(times) <= 0) or times[0] < t0 or times[-1] > t_end:
@@ -356,5 +412,5 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     result.method_reason = reason
     status, message, t_now = run.status, run.message, run.t_now
     if status == "failed":
-        raise SimulationError(f"simulation failed {message}", t=t_now, result=result)
+        raise SimulationError(f"simulation failed {message}", t=t_now, result=result) from run.error
     return result

@@ -195,6 +195,7 @@ class Run:
         self.last_restart = -RESTART_MIN_STEPS  # the step count at the last projection and restart
         self.t_now = t0
         self.status, self.message = "running", ""
+        self.error: BaseException | None = None  # what made the run fail, if it did
         self.wall = 0.0
 
     def rhs(self, t, y) -> np.ndarray:
@@ -297,13 +298,16 @@ class Run:
             self.status = "failed"
             self.t_now = getattr(exc, "t", self.t_now)
             self.message = str(exc) if isinstance(exc, AssemblyError) else f"at t = {self.t_now:.9g} s: {exc}"
+            self.error = exc
         except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM / SIGHUP in the flexmb command (_signals)
             self.status, self.message = "interrupted", f"interrupted by {who(exc)} at t = {self.t_now:.9g} s"
-        except SystemError as exc:  # an interruption as a compiled kernel returned (numba's SystemError)
-            stop = interruption(exc)
-            if stop is None:
-                raise
-            self.status, self.message = "interrupted", f"interrupted by {who(stop)} at t = {self.t_now:.9g} s"
+        except Exception as exc:  # anything else (a plugin's, the integrator's): failed, with the outputs so far
+            stop = interruption(exc) if isinstance(exc, SystemError) else None
+            if stop is not None:  # an interruption as a compiled kernel returned (numba's SystemError)
+                self.status, self.message = "interrupted", f"interrupted by {who(stop)} at t = {self.t_now:.9g} s"
+            else:
+                self.status, self.error = "failed", exc
+                self.message = f"at t = {self.t_now:.9g} s: {type(exc).__name__}: {exc}"
         finally:
             bar.close()  # the bar's line ends before any message
         self.wall = _time.perf_counter() - t_wall

@@ -6,6 +6,7 @@ import numpy as np
 from attrs import define
 
 from ..errors import ModelError
+from .._validate import whole
 
 __all__ = ["FrequencyResponse", "frequency_response"]
 
@@ -161,6 +162,22 @@ def _default_w(ss, n: int) -> np.ndarray:
     return np.logspace(np.log10(np.min(lam) / 10), np.log10(np.max(lam) * 10), n)
 
 
+def _frequencies(what, value) -> np.ndarray:
+    """The frequencies given to :func:`frequency_response`: a 1-d array of finite real numbers, or a ModelError."""
+    try:
+        if isinstance(value, (str, bytes)) or np.iscomplexobj(value):
+            raise TypeError
+        a = np.atleast_1d(np.asarray(value, dtype=float))
+    except (TypeError, ValueError, OverflowError):
+        raise ModelError(f"frequency_response: {what} must be an array of real numbers, got {value!r:.60}") from None
+    if a.ndim != 1 or a.size == 0:
+        raise ModelError(f"frequency_response: {what} must be a 1-d array of frequencies, got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        i = int(np.flatnonzero(~np.isfinite(a))[0])
+        raise ModelError(f"frequency_response: {what} must be finite, got {what}[{i}] = {a[i]}")
+    return a
+
+
 def frequency_response(ss, w=None, *, f=None, pairs=None, n: int = 400) -> FrequencyResponse:
     """Frequency response ``H(j w) = C (j w I - A)^-1 B + D`` of a state-space model.
 
@@ -189,7 +206,8 @@ def frequency_response(ss, w=None, *, f=None, pairs=None, n: int = 400) -> Frequ
     Raises
     ------
     ModelError
-        If both ``w`` and ``f`` are given, or a pair names an unknown signal.
+        If both ``w`` and ``f`` are given, they are not a 1-d array of
+        finite real numbers, or a pair names an unknown signal.
 
     Notes
     -----
@@ -211,8 +229,11 @@ def frequency_response(ss, w=None, *, f=None, pairs=None, n: int = 400) -> Frequ
     if w is not None and f is not None:
         raise ModelError("frequency_response: give w (rad/s) or f (Hz), not both")
     if f is not None:
-        w = 2 * np.pi * np.asarray(f, dtype=float)
-    w = _default_w(ss, n) if w is None else np.atleast_1d(np.asarray(w, dtype=float))
+        w = 2 * np.pi * _frequencies("f", f)
+    elif w is not None:
+        w = _frequencies("w", w)
+    else:
+        w = _default_w(ss, whole("frequency_response", "n", n))
     if pairs is None:
         idx = [(i, o) for i in range(len(ss.inputs)) for o in range(len(ss.outputs))]
     else:

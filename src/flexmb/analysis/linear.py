@@ -11,7 +11,7 @@ import numpy as np
 import scipy.linalg as sla
 from attrs import define
 
-from .._validate import state_time, state_vector
+from .._validate import state_time, state_vector, whole
 from ..errors import ModelError
 from ..forces import BeamElasticity, BodyTorque, Gravity, JointSpringDamper, PointForce
 from ..threads import limited_blas
@@ -276,6 +276,7 @@ def modes(system_or_lin, n_modes: int | None = None, **kw):
     order = np.argsort(w2)
     w2, phi = w2[order], phi[:, order]
     if n_modes is not None:
+        n_modes = whole("modes", "n_modes", n_modes)
         w2, phi = w2[:n_modes], phi[:, :n_modes]
     shapes = lin.T @ phi
     shapes /= shapes[np.argmax(np.abs(shapes), axis=0), np.arange(shapes.shape[1])]

@@ -9,6 +9,7 @@ import numpy as np
 from attrs import define, field, frozen
 
 from ..errors import ExportError, ModelError
+from ..fields import as_count, as_float, count, finite_number
 
 __all__ = ["LoadPath", "CriticalPoint", "PathOptions"]
 
@@ -21,11 +22,6 @@ def _positive(instance, attribute, value):
 def _cosine(instance, attribute, value):
     if not -1.0 <= value < 1.0:
         raise ModelError(f"PathOptions: {attribute.name} must be a cosine in [-1, 1), got {value!r}")
-
-
-def _at_least_one(instance, attribute, value):
-    if value < 1:
-        raise ModelError(f"PathOptions: {attribute.name} must be >= 1, got {value!r}")
 
 
 @frozen
@@ -74,15 +70,15 @@ class PathOptions:
     0.5
     """
 
-    step: float = field(default=0.1, converter=float, validator=_positive)
-    min_step: float = field(default=1e-6, converter=float, validator=_positive)
-    max_step: float = field(default=0.5, converter=float, validator=_positive)
-    max_steps: int = field(default=500, converter=int, validator=_at_least_one)
-    iterations: int = field(default=4, converter=int, validator=_at_least_one)
-    max_iter: int = field(default=10, converter=int, validator=_at_least_one)
-    tol: float = field(default=1e-8, converter=float, validator=_positive)
-    max_turn: float = field(default=0.5, converter=float, validator=_cosine)
-    max_limit_points: int = field(default=8, converter=int, validator=_at_least_one)
+    step: float = field(default=0.1, converter=as_float, validator=[finite_number, _positive])
+    min_step: float = field(default=1e-6, converter=as_float, validator=[finite_number, _positive])
+    max_step: float = field(default=0.5, converter=as_float, validator=[finite_number, _positive])
+    max_steps: int = field(default=500, converter=as_count, validator=count)
+    iterations: int = field(default=4, converter=as_count, validator=count)
+    max_iter: int = field(default=10, converter=as_count, validator=count)
+    tol: float = field(default=1e-8, converter=as_float, validator=[finite_number, _positive])
+    max_turn: float = field(default=0.5, converter=as_float, validator=[finite_number, _cosine])
+    max_limit_points: int = field(default=8, converter=as_count, validator=count)
 
     def __attrs_post_init__(self):
         if not self.min_step <= self.step <= self.max_step:

@@ -365,6 +365,10 @@ def state_space(system, inputs=(), outputs=(), about=None, *, method: str = "aut
     """
     system = as_system(system)
     x0, xd0, t = _about(system, about)
+    for kind, given in (("inputs", inputs), ("outputs", outputs)):
+        if not isinstance(given, (list, tuple)):
+            raise ModelError(f"state_space: {kind} must be a list of names or {kind[:-1].capitalize()}s, got "
+                             f"{type(given).__name__} {given!r:.60}")
     ins = [_as_input(s) for s in inputs]
     outs = [_as_output(s) for s in outputs]
     for kind, specs in (("input", ins), ("output", outs)):

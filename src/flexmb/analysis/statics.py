@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._validate import number, whole
 from ..errors import AssemblyError
 from ..threads import limited_blas
 from .path_following import _Equations, _follow, _newton, _NotConverged, _start
@@ -103,6 +104,8 @@ def static_equilibrium(system, x0=None, t: float = 0.0, tol: float = 1e-10, max_
     >>> path.reached, len(path.limit_points)
     (True, 0)
     """
+    tol = number("static_equilibrium", "tol", tol, minimum=0.0)
+    max_iter = whole("static_equilibrium", "max_iter", max_iter)
     x = _start(system, x0)
     zero = np.zeros_like(x)
     x, _ = system.project(t, x, zero)

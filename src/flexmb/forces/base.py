@@ -254,6 +254,32 @@ class ForceElement:
         return None
 
     @classmethod
+    def pair_tangent_all(cls, elements, state):
+        """Stiffness and damping of forces between two points, on their relative motion, if any.
+
+        Used, like :meth:`tangent_all`, for the implicit integrators'
+        Jacobian and for the fastest rate that ``method='auto'`` and the
+        :class:`~flexmb.StiffnessWarning` judge by: a stiff spring or damper
+        between two bodies left out makes a stiff scene look soft.
+
+        Parameters
+        ----------
+        elements : sequence of ForceElement
+            The model's elements of this class.
+        state : Kinematics
+            The current kinematic state.
+
+        Returns
+        -------
+        tuple of (rows, points, K, D) or None
+            Body rows (m, 2) and inertial points (m, 2, 3) of the two ends
+            of each force; ``K = -dF/d(p2 - p1)`` and ``D = -dF/d(v2 - v1)``
+            (m, 3, 3), with F the force on the second end (the first gets
+            -F).
+        """
+        return None
+
+    @classmethod
     def velocity_tangent_all(cls, elements, state):
         """Derivatives of point forces with respect to the points' velocities, if any.
 

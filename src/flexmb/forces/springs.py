@@ -8,7 +8,7 @@ from attrs import field, frozen
 from .._names import reference
 from .._validate import name_check
 from ..bodies import Body
-from ..fields import as_array, finite_array, label, vector3
+from ..fields import as_array, as_float, finite_array, label, vector3
 from ..joints import Joint
 from .base import ForceElement
 from .tables import LoadTables, class_tables
@@ -82,9 +82,9 @@ class SpringDamper(ForceElement):
     point1: np.ndarray = field(converter=as_array, validator=vector3)
     body2: Body = reference(Body)
     point2: np.ndarray = field(converter=as_array, validator=vector3)
-    stiffness: float = field(converter=float, validator=_non_negative)
-    damping: float = field(default=0.0, converter=float, validator=_non_negative)
-    rest_length: float = field(default=0.0, converter=float, validator=_non_negative)
+    stiffness: float = field(converter=as_float, validator=_non_negative)
+    damping: float = field(default=0.0, converter=as_float, validator=_non_negative)
+    rest_length: float = field(default=0.0, converter=as_float, validator=_non_negative)
 
     def _geometry(self, state):
         i, l1 = state.locate(self.body1, self.point1)
@@ -116,6 +116,41 @@ class SpringDamper(ForceElement):
             local.append((l1, l2))
         return LoadTables.of(pair_rows=np.reshape(rows, (-1, 2)), pair_local=np.reshape(local, (-1, 2, 3)),
                              pair_par=[(e.stiffness, e.damping, e.rest_length) for e in elements])
+
+    @classmethod
+    def pair_tangent_all(cls, elements, state):
+        """The tangents on the relative motion of the ends (:meth:`ForceElement.pair_tangent_all`).
+
+        ``K = k (e e^T + (1 - l0 / l) (I - e e^T))`` (its second term
+        the turning of a stretched spring), ``D = c e e^T``; at ``l = 0``
+        (where e is not defined) ``K = k I``, ``D = c I``.
+
+        Parameters
+        ----------
+        elements : sequence of SpringDamper
+            The model's elements of this class.
+        state : Kinematics
+            The current kinematic state.
+
+        Returns
+        -------
+        tuple of (rows, points, K, D)
+        """
+        m = len(elements)
+        rows, points = np.zeros((m, 2), dtype=np.int64), np.zeros((m, 2, 3))
+        K, D = np.zeros((m, 3, 3)), np.zeros((m, 3, 3))
+        for a, e in enumerate(elements):
+            i, j, p1, p2 = e._geometry(state)
+            rows[a], points[a] = (i, j), (p1, p2)
+            d = p2 - p1
+            length = float(np.linalg.norm(d))
+            if length > 0.0:
+                ee = np.outer(d, d) / (length * length)
+                K[a] = e.stiffness * (ee + (1.0 - e.rest_length / length) * (np.eye(3) - ee))
+                D[a] = e.damping * ee
+            else:
+                K[a], D[a] = e.stiffness * np.eye(3), e.damping * np.eye(3)
+        return rows, points, K, D
 
     def apply(self, state, loads) -> None:
         """Add the spring and damper force pair.

@@ -15,6 +15,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._validate import number
+
 __all__ = ["DEFAULT_RHO_INF", "alpha_parameters", "amplification_matrix", "numerical_damping"]
 
 #: spectral radius at infinity used by default
@@ -39,8 +41,8 @@ def alpha_parameters(rho_inf: float) -> tuple[float, float, float, float]:
 
     Raises
     ------
-    ValueError
-        If ``rho_inf`` is not in [0, 1].
+    ModelError
+        If ``rho_inf`` is not a number in [0, 1] (a ValueError too).
 
     Notes
     -----
@@ -61,9 +63,7 @@ def alpha_parameters(rho_inf: float) -> tuple[float, float, float, float]:
     >>> alpha_parameters(1.0)
     (0.5, 0.5, 0.25, 0.5)
     """
-    rho = float(rho_inf)
-    if not 0.0 <= rho <= 1.0:
-        raise ValueError(f"rho_inf must be in [0, 1], got {rho_inf!r}")
+    rho = number("generalized-alpha", "rho_inf", rho_inf, minimum=0.0, maximum=1.0, strict=False)
     alpha_m = (2.0 * rho - 1.0) / (rho + 1.0)
     alpha_f = rho / (rho + 1.0)
     gamma = 0.5 + alpha_f - alpha_m

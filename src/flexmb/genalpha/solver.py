@@ -24,6 +24,7 @@ from scipy.linalg import eig, lu_factor
 
 from ..kernels import genalpha as kernels
 from ..kernels.genalpha import NEWTON_MAXITER
+from .._validate import number
 from .parameters import DEFAULT_RHO_INF, alpha_parameters
 
 __all__ = ["GeneralizedAlpha", "GeneralizedAlphaDenseOutput", "generalized_alpha"]
@@ -557,9 +558,10 @@ def generalized_alpha(rho_inf: float = DEFAULT_RHO_INF, fixed_step: float | None
 
     Raises
     ------
-    ValueError
-        If ``rho_inf`` is not in [0, 1], or ``fixed_step``, ``f_max`` or
-        ``min_step`` is not positive.
+    ModelError
+        If ``rho_inf`` is not a number in [0, 1], or ``fixed_step``,
+        ``f_max`` or ``min_step`` is not a finite number > 0 (a ValueError
+        too).
 
     Examples
     --------
@@ -571,13 +573,11 @@ def generalized_alpha(rho_inf: float = DEFAULT_RHO_INF, fixed_step: float | None
     >>> res.method
     'GeneralizedAlpha(rho_inf=0.6)'
     """
-    alpha_parameters(rho_inf)  # validates
-    if fixed_step is not None and not float(fixed_step) > 0:
-        raise ValueError(f"fixed_step must be > 0, got {fixed_step!r}")
-    if f_max is not None and not float(f_max) > 0:
-        raise ValueError(f"f_max must be > 0, got {f_max!r}")
-    if min_step is not None and not float(min_step) > 0:
-        raise ValueError(f"min_step must be > 0, got {min_step!r}")
+    alpha_parameters(rho_inf)  # validates: a number in [0, 1]
+    rho_inf = float(rho_inf)
+    fixed_step, f_max, min_step = (None if v is None else number("generalized_alpha", what, v, minimum=0.0)
+                                   for what, v in (("fixed_step", fixed_step), ("f_max", f_max),
+                                                   ("min_step", min_step)))
     label = (f"rho_inf={float(rho_inf):g}" + (f", fixed_step={float(fixed_step):g}" if fixed_step else "")
              + (f", f_max={float(f_max):g}" if f_max else "")
              + (f", min_step={float(min_step):g}" if min_step else ""))

@@ -8,7 +8,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .. import memory
-from ..assembly import ForceAssembler, _power, mass_matrix
+from ..assembly import ForceAssembler, _power, apply_group, mass_matrix
 from ..forces import Loads
 from ..complements import ArticulatedComplement, AutoComplement, get_complement
 from ..constraints import ConstraintRows, Constraints
@@ -18,7 +18,7 @@ from ..joints import Joint
 from ..kinematics import Kinematics
 from ..topology import Topology
 from ..forces.tables import class_tables, merge
-from ..kernels.equations import cut_residual, cut_rows_at, tree_equations
+from ..kernels.equations import cut_rows_at, tree_equations
 from ..kernels.packing import pack
 from .checks import StateChecks
 from .projection import Projection
@@ -412,7 +412,7 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         kin = self._kinematics(t, y[:n], y[n : 2 * n])
         acc = Loads(kin)
         for g, cls, elements in self._python_groups:
-            cls.apply_all(elements, kin, acc)
+            apply_group(cls, elements, kin, acc)
             if powers.shape[0]:
                 powers[g] = _power(kin, acc) - sum(powers[h] for h, _, _ in self._python_groups if h < g)
         return acc.force, acc.torque, acc.generalized
@@ -432,55 +432,6 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         phi_d = np.array([x[c] - d.position(t) for d, c in zip(drivers, cols)])
         b = np.concatenate((np.zeros(m), [d.velocity(t) for d in drivers]))
         return ConstraintRows(np.concatenate((phi, phi_d)), full, b)
-
-    def constraint_residuals(self, t, x, xd) -> tuple[float, float]:
-        """The largest position and velocity residuals of the constraints, ``max |phi|`` and ``max |psi xd - b|``.
-
-        Parameters
-        ----------
-        t : float
-            Time, s.
-        x, xd : ndarray, shape (n,)
-            Coordinates and speeds.
-
-        Returns
-        -------
-        position, velocity : float
-            The residuals (eqs. 28-29; 0 without constraints).
-        """
-        t, x, xd = self._state("System.constraint_residuals", t, x=x, xd=xd)
-        return self._constraint_residuals(t, x, xd)
-
-    def _constraint_residuals(self, t, x, xd) -> tuple[float, float]:
-        """:meth:`constraint_residuals` at a checked state."""
-        if self._packed is None:
-            rows = self.constraints.evaluate(self._kinematics(t, x, xd), level=1)
-            if not rows.phi.size:
-                return 0.0, 0.0
-            return float(np.max(np.abs(rows.phi))), float(np.max(np.abs(rows.psi @ xd - rows.b)))
-        position, velocity = cut_residual(self._packed, np.concatenate([x, xd]), self.n_coords)
-        for d, c in zip(self.constraints.drivers, self.constraints.driver_cols):
-            position = max(position, abs(x[c] - d.position(t)))
-            velocity = max(velocity, abs(xd[c] - d.velocity(t)))
-        return float(position), float(velocity)
-
-    def constraint_residual(self, t, x, xd) -> float:
-        """The largest constraint residual at a state: ``max(|phi|, |psi xd - b|)`` (eqs. 28-29).
-
-        Parameters
-        ----------
-        t : float
-            Time, s.
-        x, xd : ndarray, shape (n,)
-            Coordinates and speeds.
-
-        Returns
-        -------
-        float
-            The residual (m or rad, and per second); 0 without constraints.
-        """
-        t, x, xd = self._state("System.constraint_residual", t, x=x, xd=xd)
-        return max(self._constraint_residuals(t, x, xd))
 
     def accelerations(self, t, x, xd) -> np.ndarray:
         """Generalized accelerations from the reduced equations (eqs. 36-39).
@@ -509,7 +460,18 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         return self._accelerations(t, x, xd)
 
     def _accelerations(self, t, x, xd) -> np.ndarray:
-        """:meth:`accelerations` at a checked state."""
+        """:meth:`accelerations` at a checked state; a state past the range of floats is named as the cause."""
+        try:
+            return self._accelerations_unchecked(t, x, xd)
+        except AssemblyError as exc:
+            overflow = self._overflow(t, x, xd)
+            if overflow is None or str(exc).endswith("(an unstable force, or a negative stiffness?)"):
+                raise
+            err = AssemblyError(overflow)
+            err.t = t
+            raise err from exc
+
+    def _accelerations_unchecked(self, t, x, xd) -> np.ndarray:
         if self.articulated:  # open tree: A is never formed
             return self._articulated(t, x, xd)
         if self._loop_kernel:  # loops closed through the recursion: A, psi and T never formed
@@ -541,7 +503,7 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
     def _articulated_failure(self, t, x, xd, kin, xdd, bad):
         """Raise the AssemblyError that names why an open tree's accelerations failed."""
         topo = self.topology
-        if not (np.isfinite(kin.R).all() and np.isfinite(kin.r).all()):
+        if not (np.isfinite(kin.R).all() and np.isfinite(kin.r).all()) or self._overflow(t, x, xd) is not None:
             self._raise_non_finite(t, x, xd, None, xdd)
         if bad >= 0:
             raise AssemblyError(

@@ -6,6 +6,7 @@ import numpy as np
 
 from ..errors import ModelError
 from ..flexible import FlexibleBody
+from ..kernels.equations import cut_residual
 from .solve import _plain
 
 
@@ -117,3 +118,51 @@ class StateQuantities:
         psi = self.constraints.evaluate(self._kinematics(t, x, np.zeros_like(x)), level=1).psi
         return self.strategy.complement(psi).p
 
+    def constraint_residuals(self, t, x, xd) -> tuple[float, float]:
+        """The largest position and velocity residuals of the constraints, ``max |phi|`` and ``max |psi xd - b|``.
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        x, xd : ndarray, shape (n,)
+            Coordinates and speeds.
+
+        Returns
+        -------
+        position, velocity : float
+            The residuals (eqs. 28-29; 0 without constraints).
+        """
+        t, x, xd = self._state("System.constraint_residuals", t, x=x, xd=xd)
+        return self._constraint_residuals(t, x, xd)
+
+    def _constraint_residuals(self, t, x, xd) -> tuple[float, float]:
+        """:meth:`constraint_residuals` at a checked state."""
+        if self._packed is None:
+            rows = self.constraints.evaluate(self._kinematics(t, x, xd), level=1)
+            if not rows.phi.size:
+                return 0.0, 0.0
+            return float(np.max(np.abs(rows.phi))), float(np.max(np.abs(rows.psi @ xd - rows.b)))
+        position, velocity = cut_residual(self._packed, np.concatenate([x, xd]), self.n_coords)
+        for d, c in zip(self.constraints.drivers, self.constraints.driver_cols):
+            position = max(position, abs(x[c] - d.position(t)))
+            velocity = max(velocity, abs(xd[c] - d.velocity(t)))
+        return float(position), float(velocity)
+
+    def constraint_residual(self, t, x, xd) -> float:
+        """The largest constraint residual at a state: ``max(|phi|, |psi xd - b|)`` (eqs. 28-29).
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        x, xd : ndarray, shape (n,)
+            Coordinates and speeds.
+
+        Returns
+        -------
+        float
+            The residual (m or rad, and per second); 0 without constraints.
+        """
+        t, x, xd = self._state("System.constraint_residual", t, x=x, xd=xd)
+        return max(self._constraint_residuals(t, x, xd))

@@ -63,6 +63,34 @@ class Rates:
         t, x, xd = self._state("System.fastest_rate", t, x=x, xd=xd)
         return max(self._rates(t, x, xd))
 
+    def stability_rate(self, t, x, xd) -> float:
+        """The largest ``|eigenvalue|`` of the linearised motion, loads' geometric stiffness included, 1/s.
+
+        An explicit method is stable only for steps ``h`` with ``h |lambda|``
+        below about 3 for every eigenvalue of the state Jacobian: the
+        springs and dampers on coordinates (:meth:`fastest_rate`) and the
+        stiffness of the loads (gravity on a pendulum) alike. Dense, for
+        models of at most ``DENSE_RATES_MAX`` coordinates; larger ones give
+        :meth:`fastest_rate`.
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        x, xd : ndarray, shape (n,)
+            Coordinates and speeds.
+
+        Returns
+        -------
+        float
+            Rate, 1/s (inf if the Jacobian is not finite).
+        """
+        t, x, xd = self._state("System.stability_rate", t, x=x, xd=xd)
+        if self.n_coords > DENSE_RATES_MAX:
+            return self.fastest_rate(t, x, xd)
+        J = self._jacobian(t, x, xd, geometric=True, always=True)
+        return float(np.max(np.abs(np.linalg.eigvals(J)), initial=0.0))
+
     def _rates(self, t, x, xd) -> tuple[float, float]:
         if (self.articulated or self._loop_kernel) and self.n_coords > DENSE_RATES_MAX:
             rates = self._rates_iterative(t, x, xd)
@@ -87,7 +115,8 @@ class Rates:
         couples coordinates: the dense path then applies).
         """
         kin = self._kinematics(t, x, xd)
-        if any(cls.velocity_tangent_all(el, kin) is not None for cls, el in self.forces.groups):
+        if any(cls.velocity_tangent_all(el, kin) is not None or cls.pair_tangent_all(el, kin) is not None
+               for cls, el in self.forces.groups):
             return None
         from scipy.sparse.linalg import ArpackNoConvergence, LinearOperator, eigs
 

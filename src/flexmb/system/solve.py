@@ -9,6 +9,7 @@ from scipy.linalg.lapack import dpotrs as _potrs
 from ..forces import Loads
 from ..complements import SVDComplement
 from ..complements.base import PSI_ZERO
+from .._validate import LARGEST
 from ..errors import AssemblyError
 from ..kernels.reduced import svd_reduced_solve
 
@@ -29,8 +30,54 @@ class ReducedSolve:
         err.t = t
         raise err
 
+    def _overflow(self, t, x, xd):
+        """The message of a state past ``_validate.LARGEST`` (its coordinate and the loudest force), or None.
+
+        Past it, the products in the equations (``m r^2``, ``k x``)
+        overflow, and what fails next (a mass matrix that looks singular)
+        is a consequence, not the cause.
+        """
+        y = np.abs(np.concatenate([x, xd]))
+        i = int(np.argmax(np.where(np.isnan(y), np.inf, y)))
+        if not y[i] > LARGEST:
+            return None
+        n = self.n_coords
+        what = f"coordinate {self.coordinate_names[i]!r} = {x[i]:.3g}" if i < n else \
+            f"the speed of {self.coordinate_names[i - n]!r} = {xd[i - n]:.3g}"
+        msg = (f"at t = {t:.9g} s: the state overflowed: {what} (beyond {LARGEST:.3g}, where products in the "
+               "equations overflow)")
+        loudest = self._loudest_force(t, x, xd)
+        if loudest is not None:
+            msg += f"; force element {loudest.name!r} ({type(loudest).__name__}) gives the largest load"
+        return msg + " - the motion grows without bound (an unstable force, or a negative stiffness?)"
+
+    def _loudest_force(self, t, x, xd):
+        """The force element whose loads are largest at a state (non-finite counts as largest), or None if none."""
+        try:
+            kin = self._kinematics(t, x, xd)
+        except Exception:  # the kinematics themselves may overflow
+            return None
+        best, size = None, 0.0
+        for cls, elements in self.forces.groups:
+            for e in elements:
+                loads = Loads(kin)
+                try:
+                    cls.apply_all([e], kin, loads)
+                except Exception:
+                    continue
+                with np.errstate(invalid="ignore"):
+                    m = np.max(np.abs(np.concatenate([loads.force.ravel(), loads.torque.ravel(),
+                                                      loads.generalized])), initial=0.0)
+                m = np.inf if np.isnan(m) else m
+                if m > size:
+                    best, size = e, m
+        return best
+
     def _diagnose(self, t, x, xd, A, f):
         """Name what made the equations non-finite."""
+        overflow = self._overflow(t, x, xd)
+        if overflow is not None:
+            return overflow.split(": ", 1)[1]
         kin = self._kinematics(t, x, xd)
 
         for cls, elements in self.forces.groups:

@@ -84,11 +84,17 @@ class Tangent:
             None if no element contributes a coordinate stiffness.
         """
         t, x, xd = self._state("System.state_jacobian", t, x=x, xd=xd)
+        return self._jacobian(t, x, xd, geometric)
+
+    def _jacobian(self, t, x, xd, geometric, always=False):
+        """:meth:`state_jacobian` at a checked state; with ``always``, also without coordinate springs (K = C = 0)."""
         kin = self._kinematics(t, x, xd)
         terms = self.coordinate_terms(kin)
-        if terms is None:
-            return None
         n = self.n_coords
+        if terms is None:
+            if not always:
+                return None
+            terms = np.zeros((n, n)), np.zeros((n, n))
         K, C = terms
         # X = [G - K, -C]; J[n:] = P X, by solves with the factorization (no explicit P)
         X = np.zeros((n, 2 * n))
@@ -98,13 +104,13 @@ class Tangent:
         # Jacobian is dense, and its 2n right-hand sides share one factorization
         A = mass_matrix(kin)
         if self.n_constraints == 0:
-            cho = sla.cho_factor(A, check_finite=False)
+            cho = self._mass_factor(t, A, reduced=False)
             solve = lambda rhs: sla.cho_solve(cho, rhs, check_finite=False)  # noqa: E731
         else:
             rows = self.constraints.evaluate(kin)
             psi, gamma = rows.psi, rows.gamma
             T = self.complement(psi).T
-            cho = sla.cho_factor(T.T @ A @ T, check_finite=False)
+            cho = self._mass_factor(t, T.T @ A @ T, reduced=True)
             solve = lambda rhs: T @ sla.cho_solve(cho, T.T @ rhs, check_finite=False)  # noqa: E731
         if geometric:
             loads = self.forces.loads(kin)  # once, for f and for G
@@ -114,14 +120,43 @@ class Tangent:
         J = np.zeros((2 * n, 2 * n))
         J[:n, n:] = np.eye(n)
         J[n:] = solve(X)
+        if not np.all(np.isfinite(J)):
+            i = int(np.flatnonzero(~np.all(np.isfinite(J[n:]), axis=1))[0])
+            raise AssemblyError(f"the state Jacobian is not finite at t = {t:.6g} s (in the row of coordinate "
+                                f"{self.coordinate_names[i]!r}): stiffness, damping or loads beyond the range of "
+                                "floats")
         return J
+
+    def _mass_factor(self, t, M, reduced):
+        """The Cholesky factor of the (reduced) mass matrix, or an AssemblyError saying why there is none."""
+        if not np.all(np.isfinite(M)):
+            raise AssemblyError(f"the mass matrix is not finite at t = {t:.6g} s (masses or inertias beyond the "
+                                "range of floats, or non-finite coordinates)")
+        try:
+            return sla.cho_factor(M, check_finite=False)
+        except np.linalg.LinAlgError:
+            pass
+        d = np.abs(np.diag(M))
+        where = ""
+        if not reduced:  # name the freedom where the factorization broke down
+            c, info = sla.lapack.dpotrf(M, lower=False, clean=False)
+            if info > 0:
+                where = f" at coordinate {self.coordinate_names[info - 1]!r}"
+        span = (f"; its diagonal spans {d.min():.3g} to {d.max():.3g}, beyond what double precision resolves"
+                if d.min() > 0 and d.max() > d.min() / np.finfo(float).eps else "")
+        raise AssemblyError(
+            f"{'reduced mass matrix T^T A T' if reduced else 'the mass matrix'} is not positive definite at "
+            f"t = {t:.6g} s{where}{span} (a body without mass or inertia on a freedom, or masses and inertias that "
+            "differ by more orders of magnitude than double precision holds?)")
 
     def coordinate_terms(self, kin) -> tuple[np.ndarray, np.ndarray] | None:
         """The coordinate stiffness and damping of the state-following tangent.
 
         K holds the springs on coordinates (segment joints, joint springs)
         on its diagonal; C their dampers plus ``-sum V_P^T (dF/dv) V_P`` of
-        velocity-dependent point forces (friction).
+        velocity-dependent point forces (friction). Forces between two
+        points (spring-dampers) add ``V^T K_p V`` and ``V^T D_p V`` with
+        ``V = V_P2 - V_P1`` (:meth:`~flexmb.ForceElement.pair_tangent_all`).
 
         Parameters
         ----------
@@ -137,7 +172,9 @@ class Tangent:
         parts = [p for p in parts if p is not None]
         vparts = [cls.velocity_tangent_all(el, kin) for cls, el in self.forces.groups]
         vparts = [p for p in vparts if p is not None]
-        if not parts and not vparts:
+        pairs = [cls.pair_tangent_all(el, kin) for cls, el in self.forces.groups]
+        pairs = [p for p in pairs if p is not None]
+        if not parts and not vparts and not pairs:
             return None
         n = self.n_coords
         K = np.zeros((n, n))
@@ -148,6 +185,10 @@ class Tangent:
         for rows, p, D in vparts:
             VP = kin.point_partials(rows, p)
             C -= np.einsum("min,mij,mjk->nk", VP, D, VP)
+        for rows, p, Kp, Dp in pairs:  # on the relative motion of the two ends
+            VP = kin.point_partials(rows[:, 1], p[:, 1]) - kin.point_partials(rows[:, 0], p[:, 0])
+            K += np.einsum("min,mij,mjk->nk", VP, Kp, VP)
+            C += np.einsum("min,mij,mjk->nk", VP, Dp, VP)
         return K, C
 
     def load_stiffness(self, kin, xdd, loads: Loads | None = None) -> np.ndarray:

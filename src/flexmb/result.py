@@ -200,6 +200,8 @@ class Result(ResultPost):
                               f"{X.shape}, {XD.shape}")
         nt = len(X)
         at = np.broadcast_to(np.asarray(t, dtype=float), (nt,)).copy()
+        if not np.all(np.isfinite(at)):
+            raise ModelError(f"Result.from_states: the times must be finite, got {t!r}")
         times = at + np.arange(nt) if np.ndim(t) == 0 else at
         XDD = None if xdd is None else np.atleast_2d(np.asarray(xdd, dtype=float)).reshape(X.shape)
         arrays = _evaluate_states(system, at, X, XD, XDD)
@@ -494,12 +496,12 @@ def _evaluate_states(system, t, X, XD, XDD) -> dict:
            "reactions": np.zeros((nt, m))}
     for i in range(nt):
         x, xd = X[i], XD[i]
-        kin = system.kinematics(t[i], x, xd)
+        kin = system._kinematics(t[i], x, xd)  # the states were checked once (from_states)
         try:
             if XDD is not None:
                 out["reactions"][i] = system.reactions(t[i], x, xd, XDD[i]) if m else 0.0
             elif m == 0:  # no reactions: the system's own route (O(n) for an open tree)
-                out["xdd"][i] = system.accelerations(t[i], x, xd)
+                out["xdd"][i] = system._accelerations(t[i], x, xd)
             else:
                 out["xdd"][i], out["reactions"][i] = system._with_reactions(t[i], np.concatenate([x, xd]))
         except FlexmbError:
@@ -512,5 +514,5 @@ def _evaluate_states(system, t, X, XD, XDD) -> dict:
         out["kinetic"][i] = kin.kinetic_energy()
         out["potential"][i] = system.forces.potential_energy(kin)
         if m:
-            out["residual"][i], out["velocity_residual"][i] = system.constraint_residuals(t[i], x, xd)
+            out["residual"][i], out["velocity_residual"][i] = system._constraint_residuals(t[i], x, xd)
     return out

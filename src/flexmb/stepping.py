@@ -324,11 +324,14 @@ class Run:
             stops = np.union1d(stops, np.linspace(t0, self.t_end, 101)[1:])
         monitor, angles, t_end = self.monitor, self.angles, self.t_end
 
-        def step(solver):
+        def wound(solver):
             if monitor is not None:
                 monitor.step(solver)
-            if len(angles) and solver.t < t_end and np.max(np.abs(solver.y[angles])) > WINDING_BOUND:
+            if solver.t < t_end and np.max(np.abs(solver.y[angles])) > WINDING_BOUND:
                 raise _Wound
+
+        # a callback after each step only where there is something to do (a Python call per step costs)
+        step = wound if len(angles) else (None if monitor is None else monitor.step)
 
         done = 0  # steps of the solvers restarted before this one
         for t_stop in stops:

@@ -14,6 +14,7 @@ import numpy as np
 
 from . import kernels
 from .errors import ModelError
+from .flexible import SegmentJoint
 from .joints import Joint
 from .kernels.tree import TreeArrays
 
@@ -50,6 +51,8 @@ class Topology:
         joint's ``rotation_axes`` (joints with their own ``motion()``
         included): a coordinate that may wind up without bound
         (:class:`flexmb.stepping.Run` keeps its tolerance from loosening).
+        Not the elastic angles of a flexible body's segment joints, which
+        stay small (and would cost a check per step on every segment).
     external : ndarray of bool, shape (n_bodies,)
         Tree joints whose class computes its own ``motion()``.
 
@@ -200,7 +203,8 @@ class Topology:
             self.joint_slice[j] = slice(start, start + j.n_coords)
             names += [f"{j.name}.{c}" for c in j.coordinate_names]
             coord_body += [k] * j.n_coords
-            angle += [False] * len(j.translation_axes) + [True] * len(j.rotation_axes)
+            # a flexible body's elastic angles stay small: only joint angles may wind
+            angle += [False] * len(j.translation_axes) + [not isinstance(j, SegmentJoint)] * len(j.rotation_axes)
             start += j.n_coords
         self.n_coords = start
         self.coordinate_names = names

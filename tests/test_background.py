@@ -204,3 +204,37 @@ def test_a_worker_stuck_preparing_is_killed_and_the_call_made_here(tmp_path, mon
     assert "did not prepare within 0.5 s" in caplog.text
     with pytest.raises(ChildProcessError):  # killed and reaped
         os.waitpid(pid, os.WNOHANG)
+
+
+@linux
+def test_a_child_whose_parent_died_before_it_asked_to_die_with_it_leaves(tmp_path):
+    """The parent may die between the fork and the child's PR_SET_PDEATHSIG (a busy machine runs it first):
+    the request then never fires, and the child ran on (test_the_child_dies_with_its_parent failed in CI)."""
+    marker = tmp_path / "child.pid"
+    script = textwrap.dedent(f"""
+        import os, signal, time
+        from flexmb import _background
+        real = _background._die_with_parent
+
+        def late(*args):  # the child is scheduled only after its parent is gone
+            time.sleep(1.0)
+            real(*args)
+
+        _background._die_with_parent = late
+        job = _background.in_background(lambda: time.sleep(30))
+        open({str(marker)!r}, "w").write(str(job.pid))
+        os.kill(os.getpid(), signal.SIGKILL)
+    """)
+    subprocess.run([sys.executable, "-c", script], timeout=60)
+    child = int(marker.read_text())
+    for _ in range(100):
+        try:
+            os.kill(child, 0)
+        except ProcessLookupError:
+            return
+        with open(f"/proc/{child}/stat") as fh:
+            if fh.read().split()[2] == "Z":
+                return
+        time.sleep(0.05)
+    os.kill(child, signal.SIGKILL)
+    pytest.fail("the child outlived its parent, which died before the child asked to die with it")

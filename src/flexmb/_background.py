@@ -47,8 +47,13 @@ READY_TIMEOUT = 60.0
 log = logging.getLogger("flexmb")
 
 
-def _die_with_parent() -> None:
-    """Ask Linux to kill this process when its parent dies (best effort)."""
+def _die_with_parent(parent: int) -> None:
+    """Ask Linux to kill this process when its parent dies (best effort).
+
+    The request only covers a parent alive when it is made: a parent that
+    died between the fork and here (a busy machine can run it first) has
+    already left this process to init, so it leaves at once too.
+    """
     try:
         import ctypes
 
@@ -57,6 +62,8 @@ def _die_with_parent() -> None:
         libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
     except (OSError, AttributeError):
         pass
+    if os.getppid() != parent:
+        os._exit(1)
 
 
 class Job:
@@ -118,10 +125,11 @@ def _fork():
         # Python 3.12+ warns about forking a process with threads (BLAS pools, tqdm's monitor): the
         # child only runs numpy, matplotlib and file writes, no lock those threads could hold
         warnings.simplefilter("ignore", DeprecationWarning)
+        parent = os.getpid()
         pid = os.fork()
     if pid == 0:
         signal.signal(signal.SIGINT, signal.SIG_IGN)
-        _die_with_parent()
+        _die_with_parent(parent)
     return pid
 
 

@@ -34,12 +34,12 @@ def test_test_extra_has_what_unconditional_tests_import():
 
 
 #: flexmb calls in a tutorial that need a package of an extra: ``result.show()`` and the renders (pyvista)
-_CALLS_NEEDING = {"show": "pyvista", "render_state": "pyvista", "animate": "pyvista"}
+_CALLS_NEEDING = {"show": {"pyvista"}, "render_state": {"pyvista"}, "animate": {"pyvista", "imageio"}}
 
 
 def _needed_by(source: str) -> set[str]:
     """Third-party modules a tutorial needs to run: its imports and the packages behind the flexmb calls it
-    makes, but those in a ``try`` whose ``except ImportError`` does without them."""
+    makes, but those in the body of a ``try`` whose ``except ImportError`` does without them."""
     import ast
     import sys
 
@@ -49,7 +49,9 @@ def _needed_by(source: str) -> set[str]:
         if isinstance(node, ast.Try) and any(
                 isinstance(h.type, ast.Name) and h.type.id in ("ImportError", "ModuleNotFoundError")
                 for h in node.handlers):
-            optional |= {id(n) for stmt in node.body + node.orelse for n in ast.walk(stmt)}
+            # the try's own body may fail with ImportError; its else branch runs when that import worked
+            # (in the docs build, where the docs extra has it), so what the else branch needs counts
+            optional |= {id(n) for stmt in node.body for n in ast.walk(stmt)}
     needed = set()
     for node in ast.walk(tree):
         if id(node) in optional:
@@ -59,7 +61,7 @@ def _needed_by(source: str) -> set[str]:
         elif isinstance(node, ast.ImportFrom) and node.level == 0:
             needed.add(node.module.split(".")[0])
         elif isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and node.func.attr in _CALLS_NEEDING:
-            needed.add(_CALLS_NEEDING[node.func.attr])
+            needed |= _CALLS_NEEDING[node.func.attr]
     return {m for m in needed if m not in sys.stdlib_module_names and m not in ("flexmb", "flexmb_friction")}
 
 

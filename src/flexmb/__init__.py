@@ -16,9 +16,9 @@ from .drivers import Driver
 from .errors import (AssemblyError, ExportError, FlexmbError, ModelError, PluginError, SceneError, SimulationError,
                      StiffnessWarning)
 from .forces import BodyTorque, ForceElement, Gravity, JointSpringDamper, Loads, PointForce, SpringDamper
-from .forces import (CoulombLaw, FloresLaw, HuntCrossleyLaw, LankaraniNikraveshLaw, LinearContactLaw,
-                     SpherePlaneContact, SphereSphereContact, StribeckLaw, VelocityWeakeningLaw, ViscousLaw,
-                     hertz_stiffness)
+from .forces import (CoulombLaw, FloresLaw, HuntCrossleyLaw, JournalBearingContact, LankaraniNikraveshLaw,
+                     LinearContactLaw, SpherePlaneContact, SphereSphereContact, StribeckLaw, VelocityWeakeningLaw,
+                     ViscousLaw, hertz_stiffness)
 from .joints import Cylindrical, Fixed, Free, Joint, PlanarRevolute, Prismatic, Revolute, Spherical, Universal
 from .flexible import FlexibleBody, Segment
 from .analysis import (Calibration, Campbell, CriticalPoint, FrequencyResponse, Input, Linearization, LoadPath,
@@ -48,7 +48,8 @@ __all__ = [
     "Driver",
     "AssemblyError", "ExportError", "FlexmbError", "ModelError", "PluginError", "SimulationError",
     "BodyTorque", "ForceElement", "Gravity", "JointSpringDamper", "Loads", "PointForce", "SpringDamper",
-    "SpherePlaneContact", "SphereSphereContact", "LinearContactLaw", "HuntCrossleyLaw", "LankaraniNikraveshLaw",
+    "SpherePlaneContact", "SphereSphereContact", "JournalBearingContact", "LinearContactLaw", "HuntCrossleyLaw",
+    "LankaraniNikraveshLaw",
     "FloresLaw", "CoulombLaw", "ViscousLaw", "VelocityWeakeningLaw", "StribeckLaw", "hertz_stiffness",
     "Cylindrical", "Fixed", "Free", "Joint", "PlanarRevolute", "Prismatic", "Revolute", "Spherical", "Universal",
     "FlexibleBody", "Segment", "Material", "Section", "BeamProfile",

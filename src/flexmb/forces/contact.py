@@ -1,4 +1,4 @@
-"""Contact force elements: spheres (or points) against planes and against spheres.
+"""Contact force elements: spheres (or points) against planes and spheres, pins in bearings with clearance.
 
 A contact pushes two bodies apart when their surfaces overlap by the
 penetration ``delta > 0``, along the surfaces' common normal, with a force
@@ -65,7 +65,7 @@ from .tables import LoadTables, class_tables
 
 __all__ = ["NormalLaw", "LinearContactLaw", "HuntCrossleyLaw", "LankaraniNikraveshLaw", "FloresLaw", "FrictionLaw",
            "CoulombLaw", "ViscousLaw", "VelocityWeakeningLaw", "StribeckLaw", "Contact", "SpherePlaneContact",
-           "SphereSphereContact", "hertz_stiffness", "restitution_of_hysteresis"]
+           "SphereSphereContact", "JournalBearingContact", "hertz_stiffness", "restitution_of_hysteresis"]
 
 
 # ----------------------------------------------------------------------------- the elements
@@ -89,7 +89,8 @@ def _radius(instance, attribute, value):
 
 @frozen(eq=False)
 class Contact(ForceElement):
-    """Base class of the compiled contact elements (:class:`SpherePlaneContact`, :class:`SphereSphereContact`).
+    """Base class of the compiled contact elements (:class:`SpherePlaneContact`, :class:`SphereSphereContact`,
+    :class:`JournalBearingContact`).
 
     A subclass gives its geometry's code (``geometry``) and its row of the
     load tables (:meth:`_layout`); the laws, the loads, the powers and the
@@ -398,3 +399,112 @@ class SphereSphereContact(Contact):
         i, c1 = self._locate(topology, self.body1, self.centre1)
         j, c2 = self._locate(topology, self.body2, self.centre2)
         return (i, j), np.array([c1, c2, np.zeros(3)]), (self.radius1, self.radius2)
+
+
+@frozen(eq=False)
+class JournalBearingContact(Contact):
+    """A revolute joint with clearance: a pin (journal) of one body in a bearing's hole of another.
+
+    The pin and the hole are cylinders with parallel axes (the bearing's
+    axis); they touch where the pin's eccentricity across that axis exceeds
+    the radial clearance ``c = R_hole - r_pin``, and a normal law and a
+    friction law act there as in the other contacts: free flight inside
+    the clearance, impacts on its wall, sliding along it.
+
+    Parameters
+    ----------
+    name : str
+        Unique name.
+    pin_body : Body or str
+        The body carrying the pin, or its name.
+    pin_radius : float
+        r_pin, m (>= 0).
+    bearing_body : Body or str
+        The body with the hole (it may be the ground).
+    bearing_radius : float
+        R_hole, m (> r_pin).
+    normal_law : NormalLaw
+        The normal force of a penetration; for two steel cylinders in
+        internal contact Flores and Ambrosio's Hertz stiffness
+        ``K = 4 / (3 (s1 + s2)) sqrt(r_pin R_hole / (R_hole - r_pin))``,
+        ``s = (1 - nu^2) / E``.
+    friction : FrictionLaw, optional
+        The tangential force at the wall (the pin's spin in the hole
+        slides it); None: none.
+    pin_centre, bearing_centre : array_like, shape (3,)
+        The axes' points in their bodies' frames, m (default the origins).
+    bearing_axis : array_like, shape (3,)
+        The bearing's axis in the frame of ``bearing_body`` (normalised;
+        default z: planar mechanisms in the x-y plane).
+
+    Notes
+    -----
+    With ``e`` the pin's centre less the bearing's, across the axis, the
+    penetration is ``delta = |e| - c``; the normal points from the wall to
+    the bearing's centre, ``n = -e / |e|``, and the force on the pin acts at
+    ``c_pin - (r_pin - delta / 2) n``. The pin's axis is taken parallel to
+    the bearing's (no tilt in the hole).
+
+    Examples
+    --------
+    A pin of radius 9.5 mm in a hole of 10 mm, 0.6 mm off centre: 0.1 mm
+    into the wall, a linear law of 10^6 N/m pushes it back with 100 N.
+
+    >>> import numpy as np
+    >>> import flexmb as fm
+    >>> model = fm.Model()
+    >>> rod = fm.RigidBody("rod", mass=0.2, inertia=np.eye(3) * 1e-4)
+    >>> gap = fm.JournalBearingContact("gap", rod, 0.0095, model.ground, 0.010, fm.LinearContactLaw(1e6))
+    >>> system = model.add(fm.Free("free", model.ground, rod), gap).build()
+    >>> kin = system.kinematics(0.0, np.array([0.0006, 0, 0, 0, 0, 0]), np.zeros(6))
+    >>> system.forces.active_force(kin)[:3].round(9)
+    array([-100.,    0.,    0.])
+    """
+
+    geometry: ClassVar[int] = _k.JOURNAL
+
+    pin_body: Body = reference(Body)
+    pin_radius: float = field(converter=as_float, validator=_radius)
+    bearing_body: Body = reference(Body)
+    bearing_radius: float = field(converter=as_float, validator=_radius)
+    normal_law: NormalLaw = field(validator=_normal_law)
+    friction: FrictionLaw | None = field(default=None, validator=_friction_law)
+    pin_centre: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
+    bearing_centre: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
+    bearing_axis: np.ndarray = field(default=(0.0, 0.0, 1.0), converter=as_unit_vector, validator=unit_vector)
+
+    def __attrs_post_init__(self):
+        if not self.bearing_radius > self.pin_radius:
+            raise ModelError(f"{label(self)}: bearing_radius must exceed pin_radius (a radial clearance > 0), got "
+                             f"{self.bearing_radius!r} <= {self.pin_radius!r}")
+
+    @property
+    def clearance(self) -> float:
+        """The radial clearance ``R_hole - r_pin``, m."""
+        return self.bearing_radius - self.pin_radius
+
+    def _sides(self):
+        return self.pin_body, self.bearing_body
+
+    @classmethod
+    def load_tables(cls, elements, topology) -> LoadTables:
+        """The contacts' bodies, geometry, law codes and parameters (compiled, :mod:`flexmb.forces.tables`).
+
+        Parameters
+        ----------
+        elements : sequence of JournalBearingContact
+            The model's elements of this class.
+        topology : Topology
+            The model's tree.
+
+        Returns
+        -------
+        LoadTables
+            Their ``contact_*`` rows.
+        """
+        return cls._tables(elements, topology)
+
+    def _layout(self, topology):
+        i, c = self._locate(topology, self.pin_body, self.pin_centre)
+        j, p = self._locate(topology, self.bearing_body, self.bearing_centre)
+        return (i, j), np.array([c, p, self.bearing_axis]), (self.pin_radius, self.bearing_radius)

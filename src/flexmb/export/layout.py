@@ -23,9 +23,10 @@ ELASTIC_FIELDS = {"bend_y": "bending_y", "bend_z": "bending_z", "torsion": "tors
 SECTION_FIELDS = {"moment_torsion": "Mx", "moment_bend_y": "My", "moment_bend_z": "Mz"}
 
 #: what a cell draws, by its ``part_id``: a body's shape (box, bar or segment), a flexible body's centre
-#: line, a lever from a joint point to the shape, a joint (vertex), a body axis (``triad=``)
-PARTS = ("shape", "centre line", "lever", "joint", "triad")
-_SHAPE, _CENTRE, _LEVER, _JOINT, _TRIAD = range(len(PARTS))
+#: line, a lever from a joint point to the shape, a joint (vertex), a body axis (``triad=``), a contact
+#: element's point (vertex; :mod:`flexmb.export.meshes`)
+PARTS = ("shape", "centre line", "lever", "joint", "triad", "contact")
+_SHAPE, _CENTRE, _LEVER, _JOINT, _TRIAD, _CONTACT = range(len(PARTS))
 
 # written for every result, 0 where no body keeps them; the translational
 # ones only when some body keeps them

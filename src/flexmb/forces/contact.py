@@ -65,18 +65,59 @@ from .tables import LoadTables, class_tables
 
 __all__ = ["NormalLaw", "LinearContactLaw", "HuntCrossleyLaw", "LankaraniNikraveshLaw", "FloresLaw", "FrictionLaw",
            "CoulombLaw", "ViscousLaw", "VelocityWeakeningLaw", "StribeckLaw", "Contact", "SpherePlaneContact",
-           "SphereSphereContact", "JournalBearingContact", "hertz_stiffness", "restitution_of_hysteresis"]
+           "SphereSphereContact", "JournalBearingContact", "hertz_stiffness", "restitution_of_hysteresis",
+           "NORMAL_LAWS", "FRICTION_LAWS"]
 
 
 # ----------------------------------------------------------------------------- the elements
 
+#: the laws by the names a table gives as its ``type`` (scene files: ``normal_law = {type = "flores", ...}``)
+NORMAL_LAWS = {"linear": LinearContactLaw, "hunt_crossley": HuntCrossleyLaw,
+               "lankarani_nikravesh": LankaraniNikraveshLaw, "flores": FloresLaw}
+FRICTION_LAWS = {"coulomb": CoulombLaw, "viscous": ViscousLaw, "velocity_weakening": VelocityWeakeningLaw,
+                 "stribeck": StribeckLaw}
+
+
+class _LawTable(dict):
+    """A law's table that did not make a law: kept as given, for the validator to name the element."""
+
+    problem = ""
+
+
+def _law_of(laws):
+    """A converter: a mapping with ``type`` (a key of ``laws``) and the law's parameters makes that law."""
+
+    def convert(value):
+        if not isinstance(value, dict) or isinstance(value, _LawTable):
+            return value
+        params = dict(value)
+        kind = params.pop("type", None)
+        out = _LawTable(value)
+        if kind not in laws:
+            out.problem = f"a law's table needs type = one of {', '.join(map(repr, laws))}, got {kind!r}"
+            return out
+        try:
+            return laws[kind](**params)
+        except TypeError as exc:
+            out.problem = f"{kind!r} law: {exc}"
+        except ModelError as exc:
+            out.problem = str(exc)
+        return out
+
+    return convert
+
+
 def _normal_law(instance, attribute, value):
+    if isinstance(value, _LawTable):
+        raise ModelError(f"{label(instance)}: {attribute.name}: {value.problem}")
     if not isinstance(value, NormalLaw) or type(value).code < 0:
         raise ModelError(f"{label(instance)}: {attribute.name} must be a normal law (LinearContactLaw, "
                          f"HuntCrossleyLaw, LankaraniNikraveshLaw or FloresLaw), got {value!r}")
 
 
 def _friction_law(instance, attribute, value):
+    if isinstance(value, _LawTable):
+        raise ModelError(f"{label(instance)}: {attribute.name}: {value.problem}")
     if value is not None and (not isinstance(value, FrictionLaw) or type(value).code <= 0):
         raise ModelError(f"{label(instance)}: {attribute.name} must be None or a friction law (CoulombLaw, "
                          f"ViscousLaw, VelocityWeakeningLaw or StribeckLaw), got {value!r}")
@@ -236,13 +277,15 @@ class SpherePlaneContact(Contact):
         The body carrying the sphere (rigid or flexible), or its name.
     radius : float
         Sphere radius r, m (>= 0; 0: a point).
-    normal_law : NormalLaw
+    normal_law : NormalLaw or dict
         The normal force of a penetration (:class:`LinearContactLaw`,
         :class:`HuntCrossleyLaw`, :class:`LankaraniNikraveshLaw`,
         :class:`FloresLaw`).
-    friction : FrictionLaw, optional
+    friction : FrictionLaw or dict, optional
         The tangential force (:class:`CoulombLaw`, :class:`ViscousLaw`,
-        :class:`VelocityWeakeningLaw`, :class:`StribeckLaw`); None: none.
+        :class:`VelocityWeakeningLaw`, :class:`StribeckLaw`); None: none. Either law
+        may be a table: ``{"type": "flores", "stiffness": ..., "restitution": ...}``
+        (the types: ``NORMAL_LAWS``, ``FRICTION_LAWS``), as scene files give it.
     centre : array_like, shape (3,)
         Sphere centre in the frame of ``body``, m (default its origin).
     plane_body : Body or str
@@ -281,8 +324,8 @@ class SpherePlaneContact(Contact):
 
     body: Body = reference(Body)
     radius: float = field(converter=as_float, validator=_radius)
-    normal_law: NormalLaw = field(validator=_normal_law)
-    friction: FrictionLaw | None = field(default=None, validator=_friction_law)
+    normal_law: NormalLaw = field(converter=_law_of(NORMAL_LAWS), validator=_normal_law)
+    friction: FrictionLaw | None = field(default=None, converter=_law_of(FRICTION_LAWS), validator=_friction_law)
     centre: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
     plane_body: Body = reference(Body, default="ground")
     plane_point: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
@@ -332,10 +375,11 @@ class SphereSphereContact(Contact):
         The body carrying the second sphere (it may be the ground).
     radius2 : float
         Its radius, m (>= 0).
-    normal_law : NormalLaw
+    normal_law : NormalLaw or dict
         The normal force of a penetration.
-    friction : FrictionLaw, optional
-        The tangential force; None: none.
+    friction : FrictionLaw or dict, optional
+        The tangential force; None: none. Either law may be a table, as for
+        :class:`SpherePlaneContact`.
     centre1, centre2 : array_like, shape (3,)
         The centres in their bodies' frames, m (default the origins).
 
@@ -369,8 +413,8 @@ class SphereSphereContact(Contact):
     radius1: float = field(converter=as_float, validator=_radius)
     body2: Body = reference(Body)
     radius2: float = field(converter=as_float, validator=_radius)
-    normal_law: NormalLaw = field(validator=_normal_law)
-    friction: FrictionLaw | None = field(default=None, validator=_friction_law)
+    normal_law: NormalLaw = field(converter=_law_of(NORMAL_LAWS), validator=_normal_law)
+    friction: FrictionLaw | None = field(default=None, converter=_law_of(FRICTION_LAWS), validator=_friction_law)
     centre1: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
     centre2: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
 
@@ -423,14 +467,15 @@ class JournalBearingContact(Contact):
         The body with the hole (it may be the ground).
     bearing_radius : float
         R_hole, m (> r_pin).
-    normal_law : NormalLaw
+    normal_law : NormalLaw or dict
         The normal force of a penetration; for two steel cylinders in
         internal contact Flores and Ambrosio's Hertz stiffness
         ``K = 4 / (3 (s1 + s2)) sqrt(r_pin R_hole / (R_hole - r_pin))``,
         ``s = (1 - nu^2) / E``.
-    friction : FrictionLaw, optional
+    friction : FrictionLaw or dict, optional
         The tangential force at the wall (the pin's spin in the hole
-        slides it); None: none.
+        slides it); None: none. Either law may be a table, as for
+        :class:`SpherePlaneContact`.
     pin_centre, bearing_centre : array_like, shape (3,)
         The axes' points in their bodies' frames, m (default the origins).
     bearing_axis : array_like, shape (3,)
@@ -467,8 +512,8 @@ class JournalBearingContact(Contact):
     pin_radius: float = field(converter=as_float, validator=_radius)
     bearing_body: Body = reference(Body)
     bearing_radius: float = field(converter=as_float, validator=_radius)
-    normal_law: NormalLaw = field(validator=_normal_law)
-    friction: FrictionLaw | None = field(default=None, validator=_friction_law)
+    normal_law: NormalLaw = field(converter=_law_of(NORMAL_LAWS), validator=_normal_law)
+    friction: FrictionLaw | None = field(default=None, converter=_law_of(FRICTION_LAWS), validator=_friction_law)
     pin_centre: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
     bearing_centre: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
     bearing_axis: np.ndarray = field(default=(0.0, 0.0, 1.0), converter=as_unit_vector, validator=unit_vector)

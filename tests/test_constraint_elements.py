@@ -173,6 +173,34 @@ def test_rolling_disc_keeps_its_steady_precession(theta, omega):
     assert np.max(np.abs(off.x[:, lean] - theta)) > 1e-3
 
 
+@pytest.mark.parametrize("spin, rel", [(10.0, 1e-6), (2.0, 1e-4)])
+def test_rolling_disc_upright_lean_history_follows_the_linear_closed_form(spin, rel):
+    """A thin disc rolling upright at spin rate s, pushed to lean at rate theta'(0).
+
+    Linearised about upright rolling (Euler's equations about the centre,
+    the contact force from Newton's law; the same steps as
+    :func:`steady_spin`, to first order in the lean theta and heading psi):
+    ``(I_d + m r^2) theta'' = m g r theta + (I_a + m r^2) s psi'`` and
+    ``I_d psi'' = -I_a s theta'``, so ``psi' = -(I_a / I_d) s theta`` and, for
+    the thin disc, ``theta'' = (4 / 5)(g / r - 3 s^2) theta``: a lean
+    oscillation at ``w^2 = (4 / 5)(3 s^2 - g / r)`` above the classical
+    critical speed ``s^2 = g / (3 r)`` (the thin disc's self-stability, e.g.
+    Neimark and Fufaev 1972; Astrom, Klein and Lennartsson, IEEE Control
+    Systems 25, 2005, 26-47), an exponential fall below it. The relative
+    tolerance covers the neglected terms, of the order of the squared lean
+    amplitude (7e-5 and 7e-3 rad here).
+    """
+    lean_rate = 1e-3
+    res = fm.simulate(disc_model(), 1.0, positions={"heading.slide": R_DISC},
+                      speeds={"heading.angle": 0.0, "lean": lean_rate, "spin": spin}, fixed=["lean"],
+                      rtol=1e-11, atol=1e-13, n_out=51)
+    lean = res.x[:, res.coordinate_names.index("lean.angle")]
+    rate2 = 0.8 * (G / R_DISC - 3 * spin**2)
+    root = np.sqrt(abs(rate2))
+    ref = lean_rate / root * (np.sinh(root * res.t) if rate2 > 0 else np.sin(root * res.t))
+    assert np.max(np.abs(lean - ref)) < rel * np.max(np.abs(lean))
+
+
 def test_rolling_disc_perturbed_run_conserves_energy_and_rolls():
     theta, omega = 0.2, 3.0
     res = fm.simulate(disc_model(), 3.0, positions={"heading.slide": R_DISC, "lean": theta},

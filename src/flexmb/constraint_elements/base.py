@@ -37,11 +37,11 @@ class ConstraintElement:
        the model is built);
     2. set the class attributes (or properties) ``n_position`` and
        ``n_velocity``: how many rows of each kind the element adds;
-    3. implement ``rows(state)``, returning a
-       :class:`~flexmb.constraints.ConstraintRows` ``(phi, psi, b, gamma)``
-       with ``phi`` of shape ``(n_position,)`` and ``psi`` (n_rows x n),
-       ``b``, ``gamma`` (n_rows) for all rows, position rows first.
-       :func:`velocity_rows` builds it for an element of velocity rows only.
+    3. implement ``rows(state)``, returning ``(phi, psi, b, gamma)`` (a
+       tuple, or a :class:`~flexmb.constraints.ConstraintRows`) with ``phi``
+       of shape ``(n_position,)`` and ``psi`` (n_rows x n), ``b``, ``gamma``
+       (n_rows) for all rows, position rows first. :func:`velocity_rows`
+       builds it for an element of velocity rows only.
 
     ``state`` is the model's :class:`~flexmb.kinematics.Kinematics`: ``t``,
     ``x``, ``xd``, ``R``, ``r``, ``omega``, ``v``, the bias accelerations
@@ -75,7 +75,7 @@ class ConstraintElement:
     ...         j = state.coordinate_slice(self.joint2).start
     ...         psi = np.zeros((1, state.x.shape[0]))
     ...         psi[0, i], psi[0, j] = 1.0, self.k
-    ...         return fm.ConstraintRows(psi @ state.x, psi, np.zeros(1), np.zeros(1))
+    ...         return psi @ state.x, psi, np.zeros(1), np.zeros(1)
     >>> m = fm.Model()
     >>> a = fm.RigidBody("a", 1.0, (1.0, 1.0, 1.0))
     >>> b = fm.RigidBody("b", 1.0, (1.0, 1.0, 1.0))
@@ -86,9 +86,9 @@ class ConstraintElement:
 
     name: str = field(validator=name_check)
 
-    #: number of position rows ``phi = 0`` (first)
+    #: Number of position rows ``phi = 0`` (first).
     n_position = 0
-    #: number of velocity rows ``B xd = b`` (after the position rows)
+    #: Number of velocity rows ``B xd = b`` (after the position rows).
     n_velocity = 0
 
     def row_names(self) -> list[str]:
@@ -111,9 +111,9 @@ class ConstraintElement:
 
         Returns
         -------
-        ConstraintRows
-            ``phi`` (n_position), ``psi`` (n_rows x n), ``b`` and ``gamma``
-            (n_rows).
+        tuple of ndarray
+            ``(phi, psi, b, gamma)``: ``phi`` (n_position), ``psi`` (n_rows
+            x n), ``b`` and ``gamma`` (n_rows).
         """
         raise NotImplementedError(f"{type(self).__name__} must implement rows(state)")
 

@@ -15,7 +15,7 @@ __all__ = ["KnifeEdge"]
 
 @frozen(eq=False)
 class KnifeEdge(ConstraintElement):
-    """A blade at a body point that slides along itself only: ``n . v_P = 0`` (nonholonomic).
+    """A blade at a body point that slides along itself only, ``n^T v_P = 0`` (nonholonomic).
 
     ``n`` is the body-fixed unit normal of the blade (the direction the
     point may not move in), ``v_P`` the velocity of the point. The row is

@@ -18,7 +18,7 @@ __all__ = ["RollingDisc"]
 
 @frozen(eq=False)
 class RollingDisc(ConstraintElement):
-    """A thin disc (a wheel's rim) rolling without slipping on the plane ``normal . p = height``.
+    """A thin disc (a wheel's rim) rolling without slipping on the plane ``normal^T p = height``.
 
     With ``a`` the disc's axis and ``k`` the plane's unit normal (inertial),
     the rim point nearest the plane is ``P = C - radius d``, ``d`` the unit

@@ -101,6 +101,8 @@ def test_auto_takes_the_dense_complement_and_articulated_refuses():
     assert np.max(np.abs(sleigh_speeds(res)[2] - w)) < 1e-8
     with pytest.raises(fm.ModelError, match=r"articulated.*'blade'"):
         sleigh_model().build(complement="articulated")
+    with pytest.raises(fm.ModelError, match=r"articulated.*'blade'"):
+        fm.simulate(system, 0.1, complement="articulated")
 
 
 def test_nonholonomic_linearisation_and_statics_are_refused_by_name():

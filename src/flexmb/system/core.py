@@ -120,12 +120,7 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         elastic = [BeamElasticity(f"{b.name}.elasticity", b) for b in self.topology.flexible]
         self.forces = ForceAssembler(list(model.forces) + elastic)
         self.constraints = Constraints(self.topology, model.drivers, model.constraints)
-        if model.constraints and isinstance(strategy, ArticulatedComplement):
-            names = ", ".join(repr(e.name) for e in model.constraints)
-            raise ModelError(
-                f"complement='articulated' cannot take constraint elements ({names}): the loop kernel closes "
-                "only cut-joint and driver rows; use 'auto' (which takes the dense complement for such a model) "
-                "or 'svd'")
+        self._refuse_articulated(strategy)
         self.strategy = strategy
         self.n_coords = self.topology.n_coords
         self.n_constraints = self.constraints.n_rows
@@ -158,6 +153,15 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         nb1 = self.topology.n_bodies + 1
         self._no_loads = (np.zeros((nb1, 3)), np.zeros((nb1, 3)), np.zeros(self.n_coords))
         self._no_powers = np.zeros(0)
+
+    def _refuse_articulated(self, strategy):
+        """Refuse the 'articulated' strategy for a model with constraint elements, naming them."""
+        if self.constraints.elements and isinstance(strategy, ArticulatedComplement):
+            names = ", ".join(repr(e.name) for e in self.constraints.elements)
+            raise ModelError(
+                f"complement='articulated' cannot take constraint elements ({names}): the loop kernel closes "
+                "only cut-joint and driver rows; use 'auto' (which takes the dense complement for such a model) "
+                "or 'svd'")
 
     def _trial(self):
         """Evaluate every force and constraint element once so bad input fails at build time."""
@@ -237,9 +241,17 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         System
             A new system sharing this one's compiled model; this one is
             unchanged.
+
+        Raises
+        ------
+        ModelError
+            If the strategy is 'articulated' and the model has constraint
+            elements (the loop kernel cannot take their rows).
         """
+        strategy = get_complement(complement)
+        self._refuse_articulated(strategy)
         new = copy.copy(self)
-        new.strategy = get_complement(complement)
+        new.strategy = strategy
         return new
 
     # -- evaluation

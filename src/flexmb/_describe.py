@@ -88,6 +88,10 @@ def describe(system, x0, xd0, *, types=None, where="the initial state") -> list[
     if model.forces:
         lines.append("forces: " + ", ".join(f"{f.name} ({types.get(f.name, type(f).__name__)})"
                                             for f in model.forces))
+    for e in model.constraints:
+        kinds = [f"{k} {what} row{'s' if k > 1 else ''}" for k, what in ((e.n_position, "position"),
+                                                                        (e.n_velocity, "velocity")) if k]
+        lines.append(f"constraint {e.name}: {types.get(e.name, type(e).__name__)}, {' and '.join(kinds) or 'no rows'}")
     for d in model.drivers:
         lines.append(f"driver {d.name}: drives {names[system.coordinate_slice(d.joint).start + d.coordinate]}")
     m, rank, p = counts(system, x0, xd0)
@@ -96,7 +100,9 @@ def describe(system, x0, xd0, *, types=None, where="the initial state") -> list[
         f"constraint rows: m = {m}" + (f" ({', '.join(system.constraints.labels)})" if 0 < m <= 12 else ""),
         f"rank of psi at {where}: {rank}; redundant rows: {m - rank}",
         f"degrees of freedom: p = n - rank = {p}"
-        + (f" (drivers prescribe {len(model.drivers)})" if model.drivers else ""),
+        + (f" (drivers prescribe {len(model.drivers)})" if model.drivers else "")
+        + (f" independent speeds ({system.constraints.n_velocity} velocity rows: the configuration has more "
+           "freedoms than speeds)" if system.constraints.n_velocity else ""),
     ]
     return lines
 

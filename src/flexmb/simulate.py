@@ -334,8 +334,9 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         every half minute in a log (:mod:`flexmb.progress`). Default: shown,
         except in a CI job.
     track_work : bool
-        Integrate, with the state, the work done by each driver and by each
-        class of force elements (``Result.work``), for energy balances:
+        Integrate, with the state, the work done by each driver, by each
+        class of force elements and by each constraint element (a row with
+        ``b != 0``: ``lambda b``; ``Result.work``), for energy balances:
         ``sum of all works = change of kinetic energy``.
     max_steps : float
         The most steps a run may need: a run that needs more (given

@@ -294,3 +294,39 @@ def test_blow_up_diagnosed_by_every_integrator(method):
     with pytest.raises(fm.SimulationError, match=OVERFLOW.format(what=".*'slide.slide' = [\\d.]+e\\+\\d+")) as info:
         fm.simulate(m, 0.1, positions={"slide": 0.1}, method=method, rtol=1e-4, progress=False)
     assert 3e-4 < info.value.t < 4e-4 and "singular" not in str(info.value)
+
+
+# ----------------------------------------------------------------------------- info no denser than a run
+
+def test_info_of_an_open_tree_builds_no_n_by_n_matrix(monkeypatch):
+    """``flexmb info`` on 100,000 segments: MemoryError from np.eye(n) in the complement of a model without rows."""
+    from flexmb._describe import counts
+    from flexmb.complements.base import ComplementStrategy
+
+    def no_complement(self, psi):
+        raise AssertionError("counts built a complement")
+
+    m = fm.Model()
+    beam = fm.FlexibleBody.uniform_beam("beam", length=1.0, section=fm.Section.rectangular(0.02, 0.005),
+                                        material=fm.Material.aluminium(), n_segments=6)
+    m.add(fm.Fixed("clamp", m.ground, beam))
+    system = m.build()
+    monkeypatch.setattr(ComplementStrategy, "complement", no_complement)
+    n = system.n_coords
+    assert counts(system, np.zeros(n), np.zeros(n)) == (0, 0, n)
+
+
+def test_a_scene_builds_its_system_once(monkeypatch):
+    """``flexmb info`` and ``flexmb run`` built the model twice (the loader's checks, then the command)."""
+    builds = []
+    build = fm.Model.build
+
+    def counted(self, **options):
+        builds.append(options)
+        return build(self, **options)
+
+    monkeypatch.setattr(fm.Model, "build", counted)
+    scene = fm.load_scene(SCENES / "fourbar.toml")
+    scene.info()
+    scene.simulate(t_end=0.01, n_out=2)
+    assert len(builds) == 1

@@ -38,11 +38,22 @@ def generic_state(system):
 
 
 def counts(system, x0, xd0) -> tuple[int, int, int]:
-    """Constraint rows m, rank of psi at the state and degrees of freedom p = n - rank."""
+    """Constraint rows m, rank of psi at the state and degrees of freedom p = n - rank.
+
+    Takes no more memory than a run: no rows, no matrix (an open tree of
+    100,000 segments built an n x n identity); loops closed by the loop
+    kernel, its O(n m) rank; otherwise the complement a run uses.
+    """
+    n, m = system.n_coords, system.n_constraints
+    if m == 0:
+        return 0, 0, n
+    if system._loop_kernel:
+        rank, _ = system._loop_calibration(0.0, x0, xd0)
+        return m, rank, n - rank
     kin = system.kinematics(0.0, x0, xd0)
     psi = system.constraints.evaluate(kin, level=1).psi
     c = system.strategy.complement(psi)
-    return system.n_constraints, c.rank, c.p
+    return m, c.rank, c.p
 
 
 def describe(system, x0, xd0, *, types=None, where="the initial state") -> list[str]:

@@ -281,12 +281,17 @@ class Model:
             the loops closed through the recursion, the leanest way) is
             refused before anything is allocated.
         """
+        self._validated_topology()
+
+    def _validated_topology(self):
+        """:meth:`validate`, returning the :class:`~flexmb.topology.Topology` it built (for :meth:`build`)."""
         from .topology import Topology
 
         problems = self.problems()
+        topology = None
         try:
             memory.check(self, loops="articulated")  # before Topology allocates; the leanest strategy's need
-            Topology(self)
+            topology = Topology(self)
         except ModelError as exc:
             problems += [p for p in exc.problems if p not in problems]
         except Exception:
@@ -296,6 +301,7 @@ class Model:
             raise ModelError(
                 f"Model {self.name!r} is invalid:\n  - " + "\n  - ".join(problems), problems
             )
+        return topology
 
     def build(self, **options):
         """Validate and compile the model into a :class:`~flexmb.system.System`.
@@ -312,8 +318,8 @@ class Model:
         """
         from .system import System
 
-        self.validate()
-        return System(self, **options)
+        topology = self._validated_topology()  # built once: the System takes the tree validation built
+        return System(self, _topology=topology, **options)
 
 
 def as_system(model_or_system, error=ModelError, *, complement=None):

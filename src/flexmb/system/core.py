@@ -107,14 +107,15 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
 
         return "\n".join([repr(self)[1:-1], *describe(self, *generic_state(self), where=GENERIC)])
 
-    def __init__(self, model, complement="svd", sparse=None):
+    def __init__(self, model, complement="svd", sparse=None, *, _topology=None):
         if model.resolve():  # an element names one the model lacks: raise every problem
             model.validate()
         self.model = model
         strategy = get_complement(complement)
         loops = "articulated" if isinstance(strategy, (ArticulatedComplement, AutoComplement)) else "dense"
         memory.check(model, what=f"Model {model.name!r}", loops=loops)  # before Topology allocates its arrays
-        self.topology = Topology(model)
+        # the tree Model.build's validation built (the model has not changed since), or a new one
+        self.topology = Topology(model) if _topology is None else _topology
         from ..forces.elastic import BeamElasticity
 
         elastic = [BeamElasticity(f"{b.name}.elasticity", b) for b in self.topology.flexible]

@@ -18,9 +18,9 @@ import sys
 import tempfile
 from pathlib import Path
 
+import meshio
 import numpy as np
 
-from flexmb.export.vtk import read_vtu
 
 HERE = Path(__file__).resolve().parent
 
@@ -55,7 +55,7 @@ def main():
     files = sorted(glob.glob(str(out / "vtk" / "*.vtu")))
     peaks = []
     for f in files:
-        mesh = read_vtu(f)
+        mesh = meshio.read(f)
         peaks.append((np.linalg.norm(mesh.point_data["contact_force"], axis=1).max(),
                       float(mesh.field_data["time"][0])))
     force, time = max(peaks)

@@ -5,11 +5,12 @@ folder, then renames it into place. :class:`OutputFolder` is what ``flexmb
 run`` (:meth:`flexmb.scene.Scene.run`, for a scene file and a built-in scene alike)
 writes through:
 
-1. a lock file, ``.flexmb.lock``, holding the pid of the run that owns the
-   folder: a second run into the same folder is refused at once; the lock of
-   a run that died is taken over (the kernel releases its ``flock``); a
-   folder holding a complete run of another owner (another scene) is
-   refused too, unless the run is told to overwrite it;
+1. a lock file, ``.flexmb.lock``, on which the run that owns the folder
+   holds a ``flock`` (the file also names its pid, for the messages): a
+   second run into the same folder is refused at once; the lock of a run
+   that died is taken over (the kernel released its ``flock``, whatever pid
+   the file names); a folder holding a complete run of another owner
+   (another scene) is refused too, unless the run is told to overwrite it;
 2. a hidden staging folder inside the output folder, where the whole run is
    written (so that every move below is a rename within one file system);
 3. a commit: the staging folder is renamed to ``.flexmb-commit`` (the point
@@ -21,6 +22,15 @@ writes through:
 
 A reader therefore finds either the previous complete run or the new one;
 ``summary.json`` is present only beside the complete set of files it names.
+
+Nothing in the folder is trusted to point elsewhere (another user may be
+able to write into it, or a link may be left there by mistake): the lock
+file is opened without following a link, a symbolic link at a name flexmb
+uses (the lock, the manifest, the staging and commit folders, the ``vtk``
+and ``cases`` sub-folders) is refused with an error naming it, no file is
+moved or removed through a linked folder, and of the files a manifest lists
+only those named as flexmb's writers name their files (:data:`WRITTEN`)
+are removed, and only if the manifest is a plain file of this user's.
 Files that no flexmb run wrote are never removed.
 """
 
@@ -30,8 +40,10 @@ import contextlib
 import errno
 import json
 import os
+import re
 import shutil
 import signal
+import stat
 import threading
 import time
 from pathlib import Path
@@ -54,6 +66,18 @@ MANIFEST_NAME = ".flexmb-run.json"
 SUMMARY_NAME = "summary.json"
 _STAGING = ".flexmb-staging-"
 _COMMIT = ".flexmb-commit"
+#: the names flexmb's writers give the files of an output folder (scene/outputs.py, export/vtk.py,
+#: study/table.py): a run removes no other file, whatever a manifest lists
+WRITTEN = re.compile(r"""(?x)
+    summary\.json | summary\.txt | study\.json | study\.png | table\.(csv|npz|parquet) | open_in_paraview\.py
+  | \w[^/]*\.(npz|png)                     # <prefix>.npz, <prefix>_<label>.png, ...
+  | vtk(_[^/]+)?/\w[^/]*\.(vtu|pvd)        # vtk/<prefix>_0001.vtu, vtk_<label>/<prefix>_<label>.pvd
+""")
+#: sub-folders flexmb writes into: a symbolic link in their place is refused
+_FOLDERS = re.compile(r"vtk(_.+)?|cases")
+#: the largest manifest read (a run of 10**5 VTU files lists a few MB)
+_MANIFEST_LIMIT = 1 << 26
+_NOFOLLOW = getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_CLOEXEC", 0) | getattr(os, "O_NONBLOCK", 0)
 _SIGNALS = tuple(getattr(signal, s) for s in ("SIGINT", "SIGTERM", "SIGHUP", "SIGQUIT") if hasattr(signal, s))
 
 
@@ -144,16 +168,32 @@ def _pid_alive(pid: int) -> bool:
     return True
 
 
-def _read_pid(path) -> int | None:
+def _read_pid(fd: int) -> int | None:
+    """The pid a lock file names (information for messages; the ``flock`` decides who holds the lock)."""
     try:
-        text = Path(path).read_text().split()
+        text = os.pread(fd, 64, 0).split()
         return int(text[0]) if text else None
     except (OSError, ValueError):
         return None
 
 
+def _link_refused(path) -> ExportError:
+    return ExportError(f"{path} is a symbolic link: flexmb does not follow links at the names it uses inside an "
+                       "output folder (another user or an old run may have put it there); remove the link, or "
+                       "write to another folder")
+
+
 class _Lock:
-    """An exclusive lock on a folder: ``flock`` on ``.flexmb.lock``, which holds the owner's pid."""
+    """An exclusive lock on a folder: a ``flock`` on ``.flexmb.lock``, which names the owner's pid.
+
+    The file is opened without following a symbolic link and must be a plain
+    file with one name (a link or a hard link in its place is refused: the
+    pid written into it would overwrite another file). Where the file system
+    has ``flock``, it alone decides: a file naming any pid, alive or not, is
+    taken over when no process holds its ``flock`` (a pid may have been
+    reused since). Without ``flock`` (some network file systems, Windows)
+    the pid is all there is: a file naming a live process is respected.
+    """
 
     def __init__(self, folder: Path):
         self.path = folder / LOCK_NAME
@@ -164,51 +204,64 @@ class _Lock:
         return ExportError(f"output folder {self.path.parent} is in use by another flexmb run ({who}; lock file "
                            f"{self.path}): wait for it to finish or write to another folder")
 
+    def _open(self) -> int:
+        try:
+            fd = os.open(self.path, os.O_RDWR | os.O_CREAT | _NOFOLLOW, 0o666)
+        except OSError as exc:
+            if exc.errno == errno.ELOOP or os.path.islink(self.path):
+                raise _link_refused(self.path) from None
+            raise
+        st = os.fstat(fd)
+        if not stat.S_ISREG(st.st_mode) or st.st_nlink > 1:
+            os.close(fd)
+            what = "has other names (a hard link)" if stat.S_ISREG(st.st_mode) else "is not a plain file"
+            raise ExportError(f"the lock file {self.path} {what}: flexmb writes its pid into it, so it refuses; "
+                              "remove it, or write to another folder")
+        return fd
+
     def acquire(self) -> None:
         while self.fd is None:
-            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o666)
+            fd = self._open()
             try:
                 if not self._lock(fd):
                     continue  # the file we locked was the previous owner's, just removed
                 os.ftruncate(fd, 0)
                 os.write(fd, f"{os.getpid()}\n".encode())
             except BaseException:
-                os.close(fd)
+                with contextlib.suppress(OSError):
+                    os.close(fd)
                 raise
             self.fd = fd
 
     def _lock(self, fd) -> bool:
         """Lock ``fd``; False if it is no longer the file at ``self.path``; raise if held by a live run."""
-        locked = False
         if fcntl is not None:
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-                locked = True
             except OSError as exc:
                 if exc.errno in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES):
-                    raise self._busy(self._owner()) from None
+                    raise self._busy(self._owner(fd)) from None
                 # no flock on this file system (ENOLCK, ...): the pid below is all there is
-        if locked:
-            try:
-                now = os.stat(self.path)
-            except FileNotFoundError:
-                now = None
-            mine = os.fstat(fd)
-            if now is None or (now.st_ino, now.st_dev) != (mine.st_ino, mine.st_dev):
-                os.close(fd)
-                return False
-        # a lock file naming a live process is respected even without its flock (a file system
-        # without flock, a lock written by hand); one naming a dead process is stale: taken over
-        owner = _read_pid(self.path)
+            else:
+                try:
+                    now = os.lstat(self.path)
+                except FileNotFoundError:
+                    now = None
+                mine = os.fstat(fd)
+                if now is None or (now.st_ino, now.st_dev) != (mine.st_ino, mine.st_dev):
+                    os.close(fd)
+                    return False
+                return True  # the flock decides: the pid in the file (maybe reused since) is information only
+        owner = _read_pid(fd)
         if owner not in (None, os.getpid()) and _pid_alive(owner):
             raise self._busy(owner)
         return True
 
-    def _owner(self) -> int | None:
+    def _owner(self, fd) -> int | None:
         """The pid of the lock's holder; it writes it just after locking, so wait a moment for it."""
         end = time.monotonic() + 1.0
         while True:
-            pid = _read_pid(self.path)
+            pid = _read_pid(fd)
             if pid is not None or time.monotonic() > end:
                 return pid
             time.sleep(0.01)
@@ -260,19 +313,115 @@ def _remove_tree(path: Path) -> None:
     shutil.rmtree(path, ignore_errors=True)
 
 
-def _read_manifest(folder: Path) -> list[str]:
+def read_plain(path, limit: int = _MANIFEST_LIMIT, own: bool = False) -> bytes | None:
+    """The bytes of a plain file, read without following a link; None if it is anything else.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The file.
+    limit : int
+        Files longer than this many bytes are not read (None).
+    own : bool
+        Read only a file of this user's (its owner is the effective user).
+
+    Returns
+    -------
+    bytes or None
+        None if the file is missing, a symbolic link, not a plain file (a
+        FIFO, a device, a folder), too long, another user's (``own``) or
+        unreadable.
+    """
     try:
-        data = json.loads((folder / MANIFEST_NAME).read_text())
-        files = data["files"]
-    except (OSError, ValueError, KeyError, TypeError):
+        fd = os.open(path, os.O_RDONLY | _NOFOLLOW)
+    except OSError:
+        return None
+    try:
+        st = os.fstat(fd)
+        if not stat.S_ISREG(st.st_mode) or st.st_size > limit:
+            return None
+        if own and hasattr(os, "geteuid") and st.st_uid != os.geteuid():
+            return None
+        chunks, size = [], 0
+        while size <= limit:
+            chunk = os.read(fd, 1 << 20)
+            if not chunk:
+                return b"".join(chunks)
+            chunks.append(chunk)
+            size += len(chunk)
+        return None
+    except OSError:
+        return None
+    finally:
+        os.close(fd)
+
+
+def _manifest(folder: Path) -> dict | None:
+    """The manifest of ``folder``: a plain file of this user's, else None (another's is not trusted)."""
+    data = read_plain(folder / MANIFEST_NAME, own=True)
+    try:
+        manifest = json.loads(data) if data is not None else None
+    except ValueError:
+        return None
+    return manifest if isinstance(manifest, dict) else None
+
+
+def _read_manifest(folder: Path) -> list[str]:
+    """The files a manifest lists that are plain paths inside the folder, not the folder's own bookkeeping."""
+    files = (_manifest(folder) or {}).get("files")
+    if not isinstance(files, list):
         return []
-    return [f for f in files if isinstance(f, str) and _safe_relative(f)]
+    return [f for f in files if isinstance(f, str) and _safe_relative(f) and not f.startswith(".flexmb")]
 
 
 def _safe_relative(rel: str) -> bool:
     """A manifest entry names a file inside the folder (never outside it, never the folder itself)."""
     p = Path(rel)
-    return bool(rel) and not p.is_absolute() and ".." not in p.parts and p.parts[0] not in (".", "")
+    return bool(rel) and not p.is_absolute() and ".." not in p.parts and p.parts[0] not in (".", "") \
+        and "\\" not in rel and "\0" not in rel
+
+
+def _real_folder(root: Path, rel: str, create: bool = False) -> bool:
+    """Whether the folder of ``rel`` inside ``root`` is reached through real folders only, never a link.
+
+    With ``create``, missing folders are made (one by one: never through a link). Raises
+    :class:`~flexmb.errors.ExportError` where a link (or a file) stands in the way of a created one.
+    """
+    d = root
+    for part in Path(rel).parts[:-1]:
+        d = d / part
+        try:
+            st = os.lstat(d)
+        except FileNotFoundError:
+            if not create:
+                return False
+            os.mkdir(d)
+            continue
+        if stat.S_ISLNK(st.st_mode):
+            if create:
+                raise _link_refused(d)
+            return False
+        if not stat.S_ISDIR(st.st_mode):
+            if create:
+                raise ExportError(f"{d} is a file where the run writes a folder: remove it, or write to another "
+                                  "folder")
+            return False
+    return True
+
+
+def _check_folder(root: Path, rel: str) -> None:
+    """Raise :class:`~flexmb.errors.ExportError` if a link or a file stands where ``root/rel`` is a folder."""
+    d = root
+    for part in Path(rel).parts:
+        d = d / part
+        try:
+            st = os.lstat(d)
+        except FileNotFoundError:
+            return
+        if stat.S_ISLNK(st.st_mode):
+            raise _link_refused(d)
+        if not stat.S_ISDIR(st.st_mode):
+            raise ExportError(f"{d} is a file where the run writes a folder: remove it, or write to another folder")
 
 
 def _move_order(files) -> list[str]:
@@ -285,33 +434,39 @@ def _roll_forward(folder: Path) -> None:
     """Finish a commit: replace the previous run's files by the ones in ``.flexmb-commit``.
 
     Every step can be repeated, so a commit cut short (by a kill) is finished
-    by running this again.
+    by running this again. Of the previous run's files only those named as
+    flexmb names its files (:data:`WRITTEN`) are removed; nothing is moved or
+    removed through a linked folder.
     """
     commit = folder / _COMMIT
     new = _read_manifest(commit)
-    if (commit / MANIFEST_NAME).exists():
+    if os.path.lexists(commit / MANIFEST_NAME):
         old = _read_manifest(folder)
     else:  # the manifest was moved already: the old files are gone
         old = []
-    if (commit / SUMMARY_NAME).exists() or (commit / MANIFEST_NAME).exists():
+    if os.path.lexists(commit / SUMMARY_NAME) or os.path.lexists(commit / MANIFEST_NAME):
         # the previous summary goes first: from here on it would describe a mix
         with contextlib.suppress(FileNotFoundError):
             os.remove(folder / SUMMARY_NAME)
     keep = set(new)
     dirs = set()
     for rel in old:
-        if rel not in keep:
-            with contextlib.suppress(FileNotFoundError, IsADirectoryError, PermissionError):
+        if rel in keep or not WRITTEN.fullmatch(rel) or not _real_folder(folder, rel):
+            continue
+        with contextlib.suppress(OSError):
+            if stat.S_ISREG(os.lstat(folder / rel).st_mode):  # a run writes plain files only
                 os.remove(folder / rel)
-            dirs.update(Path(rel).parents)
+        dirs.update(Path(rel).parents)
     made = set()
     for rel in _move_order(new):
         src, dst = os.path.join(commit, rel), os.path.join(folder, rel)
         if not os.path.lexists(src):  # moved by the commit this one finishes
             continue
+        if not _real_folder(commit, rel):
+            continue  # not a file of the run's: the staging folder holds real folders only
         parent = os.path.dirname(dst)
         if parent not in made:
-            os.makedirs(parent, exist_ok=True)
+            _real_folder(folder, rel, create=True)
             made.add(parent)
         # the previous file is removed, not renamed over: ext4 writes a file renamed over another to
         # disk at once (auto_da_alloc), which made this loop over a VTK series six times slower
@@ -319,13 +474,21 @@ def _roll_forward(folder: Path) -> None:
             os.unlink(dst)
         os.rename(src, dst)
     for name in (MANIFEST_NAME, SUMMARY_NAME):
-        if (commit / name).exists():
+        if os.path.lexists(commit / name):
             os.replace(commit / name, folder / name)
     # folders the previous run's files were in, if that left them empty (never the output folder)
     for d in sorted((d for d in dirs if str(d) != "."), key=lambda d: len(d.parts), reverse=True):
         with contextlib.suppress(OSError):
             (folder / d).rmdir()
     _remove_tree(commit)
+
+
+def _check_links(folder: Path) -> None:
+    """Refuse a symbolic link at a name flexmb uses in ``folder`` (its bookkeeping, its sub-folders)."""
+    with os.scandir(folder) as entries:
+        for entry in entries:
+            if entry.is_symlink() and (entry.name.startswith(".flexmb") or _FOLDERS.fullmatch(entry.name)):
+                raise _link_refused(Path(entry.path))
 
 
 class OutputFolder:
@@ -400,6 +563,7 @@ class OutputFolder:
         except OSError as exc:
             raise ExportError(f"cannot write to the output folder {self.path}: {exc.strerror or exc}") from None
         try:
+            _check_links(self.path)
             self._recover()
             self._check_owner()
             self.staging = self.path / f"{_STAGING}{os.getpid()}"
@@ -419,22 +583,20 @@ class OutputFolder:
 
     def _recover(self) -> None:
         """Finish a commit a killed run left; remove the staging folders of dead runs."""
-        if (self.path / _COMMIT).is_dir():
+        if os.path.isdir(self.path / _COMMIT):  # not a link: _check_links refused one
             with _signals_held():
                 _roll_forward(self.path)
         for p in self.path.glob(f"{_STAGING}*"):
-            if p.is_dir():
-                _remove_tree(p)
+            _remove_tree(p)  # shutil.rmtree removes no link's target
 
     def _check_owner(self) -> None:
         """Refuse to replace a complete run of another owner (unless told to overwrite it)."""
         if self.owner is None or self.overwrite:
             return
-        try:
-            manifest = json.loads((self.path / MANIFEST_NAME).read_text())
-        except (OSError, ValueError):
-            return  # no complete run here: nothing of another run to remove
-        previous = manifest.get("owner") if isinstance(manifest, dict) else None
+        manifest = _manifest(self.path)
+        if manifest is None:
+            return  # no complete run of this user's here: nothing of another run to remove
+        previous = manifest.get("owner")
         if previous == self.owner or not _read_manifest(self.path):
             return
         what = f"the outputs of {previous}" if previous else "the outputs of an earlier flexmb run (its scene is not recorded)"
@@ -520,6 +682,9 @@ class OutputFolder:
         if self.owner is not None:
             manifest["owner"] = self.owner
         atomic_write(staging / MANIFEST_NAME, lambda tmp: Path(tmp).write_text(json.dumps(manifest, indent=1) + "\n"))
+        _check_links(self.path)  # refused now, not past the point of no return
+        for rel in {os.path.dirname(f) for f in files if "/" in f}:
+            _check_folder(self.path, rel)
         with _signals_held():
             os.replace(staging, self.path / _COMMIT)  # the point of no return
             self.committed = True

@@ -601,7 +601,7 @@ class OutputFolder:
             return
         what = f"the outputs of {previous}" if previous else "the outputs of an earlier flexmb run (its scene is not recorded)"
         raise ExportError(f"output folder {self.path} holds {what}; this run of {self.owner} would replace "
-                          "them: write to another folder (flexmb run --out DIR), or replace them with "
+                          "them: write to another folder (--out DIR), or replace them with "
                           "--overwrite (overwrite=True)")
 
     def stage(self, rel) -> Path:
@@ -624,6 +624,36 @@ class OutputFolder:
         p = self.staging / rel
         p.parent.mkdir(parents=True, exist_ok=True)
         return p
+
+    def folder(self, rel: str) -> Path:
+        """A sub-folder whose files are written directly, not staged: kept from run to run.
+
+        A study's ``cases/`` is one: each case's file is written as the case
+        ends, so that a study stopped at any moment resumes with the cases it
+        finished. It is created if missing, never through a link.
+
+        Parameters
+        ----------
+        rel : str
+            The folder's path relative to the output folder, e.g. ``"cases"``.
+
+        Returns
+        -------
+        pathlib.Path
+            The folder.
+
+        Raises
+        ------
+        ExportError
+            If a symbolic link or a file stands in its place.
+        """
+        if self.staging is None:
+            raise ExportError("OutputFolder.folder: use the folder in a `with` block")
+        if not _safe_relative(rel) or rel.startswith(".flexmb"):
+            raise ExportError(f"folder name {rel!r} is not a plain path inside the output folder")
+        _check_folder(self.path, rel)
+        _real_folder(self.path, f"{rel}/-", create=True)
+        return self.path / rel
 
     def final(self, rel) -> str:
         """The path an output file will have once committed (what a summary names).

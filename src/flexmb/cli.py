@@ -174,7 +174,8 @@ def _study(args) -> int:
     executor = "serial" if args.serial else "process"
     try:
         result = study.run(args.out, executor=executor, workers=args.workers, scheduler=args.scheduler,
-                           progress=not args.quiet, retry_failed=args.retry_failed, time_limit=args.time_limit)
+                           progress=not args.quiet, retry_failed=args.retry_failed, time_limit=args.time_limit,
+                           overwrite=args.overwrite)
     except KeyboardInterrupt:
         print(f"\nflexmb: interrupted: the finished cases are in {args.out}/cases/; "
               "run the same command again to resume", file=sys.stderr)
@@ -240,7 +241,10 @@ def main(argv=None) -> int:
     st.add_argument("--output", action="append", default=[], metavar="NAME",
                     help="an output per case, e.g. peak_speed:tip, peak_effort:motor, energy_balance, final:pin "
                          "(repeatable; default: tracked points, drivers, energy balance, residual)")
-    st.add_argument("--out", required=True, help="output folder (a study run again there resumes)")
+    st.add_argument("--out", required=True, help="output folder (a study run again there resumes); a folder "
+                                                 "holding a run's or another scene's study's outputs is refused")
+    st.add_argument("--overwrite", action="store_true",
+                    help="replace the outputs of a run or of another scene's study in the output folder")
     st.add_argument("--samples", type=int, default=None, help="number of samples of the random parameters")
     st.add_argument("--seed", type=int, default=0, help="seed of the random samples")
     st.add_argument("--sampling", default="lhs", choices=["lhs", "mc"], help="Latin hypercube or Monte Carlo")

@@ -283,6 +283,10 @@ if __name__ == "__main__":
 def console() -> None:
     """The ``flexmb`` command (and ``python -m flexmb``): :func:`main`, then a prompt exit.
 
+    Outside :func:`main` (the imports before it, the exit after it) SIGINT,
+    SIGTERM and SIGHUP end the process at once with one line and exit
+    status 128 + the signal (:mod:`flexmb_command`).
+
     Once :func:`main` has returned, the process has nothing left to do but
     free its objects one by one, the compiled kernels and their machine
     code among them: after the main job, about 0.3 s. With the standard
@@ -292,6 +296,9 @@ def console() -> None:
     raised. Writing into a pipe that its reader closed (``flexmb plugins |
     head -3``) ends the command quietly, with status 1.
     """
+    from flexmb_command import install
+
+    install()  # `python -m flexmb`: from here on (and once main has returned) a signal ends the process at once
     try:
         code = main()
     except BrokenPipeError:  # flexmb ... | head: the reader has what it wanted (Python's "Note on SIGPIPE")

@@ -25,7 +25,7 @@ import contextlib
 import signal
 import threading
 
-__all__ = ["Terminated", "as_interrupts", "in_callback", "interrupted_status", "interruption", "who"]
+__all__ = ["Terminated", "as_interrupts", "escaped", "in_callback", "interrupted_status", "interruption", "who"]
 
 #: the signals taken as an interruption, where the platform has them
 SIGNALS = tuple(getattr(signal, s) for s in ("SIGTERM", "SIGHUP") if hasattr(signal, s))
@@ -158,6 +158,31 @@ def interruption(exc: BaseException):
     seen = set()
     while exc is not None and id(exc) not in seen:
         if isinstance(exc, KeyboardInterrupt):
+            return exc
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return None
+
+
+def escaped(exc: BaseException) -> BaseException | None:
+    """A BaseException that is no Exception (a study case's time limit, SystemExit) behind numba's SystemError.
+
+    Raised in this thread while a compiled kernel returned, it comes out as
+    ``SystemError: CPUDispatcher(...) returned a result with an exception
+    set``, the exception as its cause; it must go on as itself.
+
+    Parameters
+    ----------
+    exc : BaseException
+
+    Returns
+    -------
+    BaseException or None
+    """
+    seen = set()
+    exc = exc.__cause__ or exc.__context__
+    while exc is not None and id(exc) not in seen:
+        if not isinstance(exc, Exception):
             return exc
         seen.add(id(exc))
         exc = exc.__cause__ or exc.__context__

@@ -31,7 +31,7 @@ import time as _time
 
 import numpy as np
 
-from ._signals import interruption, who
+from ._signals import escaped, interruption, who
 from .errors import AssemblyError
 from .integrators import adapt, capabilities
 from .integrators.monitor import ResolutionMonitor
@@ -73,23 +73,6 @@ OUTPUT_PROJECTION_GAIN = 1e3
 #: +-WINDING_BOUND keep a zero offset: those runs are unchanged.
 WINDING_PERIOD = 2.0 * np.pi
 WINDING_BOUND = 3.0 * np.pi
-
-
-def _escaped(exc: BaseException) -> BaseException | None:
-    """A BaseException that is no Exception (a study case's time limit, SystemExit) behind numba's SystemError.
-
-    Raised in this thread while a compiled kernel returned, it comes out as
-    ``SystemError: CPUDispatcher(...) returned a result with an exception
-    set``, the exception as its cause; it must go on as itself.
-    """
-    seen = set()
-    exc = exc.__cause__ or exc.__context__
-    while exc is not None and id(exc) not in seen:
-        if not isinstance(exc, Exception):
-            return exc
-        seen.add(id(exc))
-        exc = exc.__cause__ or exc.__context__
-    return None
 
 
 class _Wound(Exception):
@@ -320,11 +303,11 @@ class Run:
             self.status, self.message = "interrupted", f"interrupted by {who(exc)} at t = {self.t_now:.9g} s"
         except Exception as exc:  # anything else (a plugin's, the integrator's): failed, with the outputs so far
             stop = interruption(exc) if isinstance(exc, SystemError) else None
-            escaped = _escaped(exc) if isinstance(exc, SystemError) else None
+            through = escaped(exc) if isinstance(exc, SystemError) else None
             if stop is not None:  # an interruption as a compiled kernel returned (numba's SystemError)
                 self.status, self.message = "interrupted", f"interrupted by {who(stop)} at t = {self.t_now:.9g} s"
-            elif escaped is not None:  # e.g. a study case's time limit, raised as a kernel returned
-                raise escaped from None
+            elif through is not None:  # e.g. a study case's time limit, raised as a kernel returned
+                raise through from None
             else:
                 self.status, self.error = "failed", exc
                 self.message = f"at t = {self.t_now:.9g} s: {type(exc).__name__}: {exc}"

@@ -11,7 +11,8 @@ from pathlib import Path
 
 from attrs import field, frozen
 
-from .._files import OutputFolder, atomic_write, read_plain
+from .._files import OutputFolder, atomic_write
+from .._folder_lock import read_plain
 from ..errors import FlexmbError, SceneError
 from .cases import _build
 from .executors import _check_pool, _execute_dask, _execute_pool, _execute_serial, _Progress, default_workers, log

@@ -181,17 +181,41 @@ def test_a_study_into_a_busy_folder_is_refused_before_any_case_runs(scene_file, 
     assert not (tmp_path / "cases").exists() and not (tmp_path / "study.json").exists()
 
 
-def test_two_studies_started_together_never_mix(scene_file, tmp_path):
-    out = tmp_path / "out"
-    argv = [[sys.executable, "-m", "flexmb", "study", str(scene_file), "--vary", f"bodies.bar.mass={masses}",
-             "--output", "final:pin", "--set", "solver.t_end=0.2", "--serial", "--quiet", "--out", str(out)]
-            for masses in ("1,2,3", "4,5")]
-    procs = [subprocess.Popen(a, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) for a in argv]
-    results = [(*p.communicate(timeout=300), p.returncode) for p in procs]
-    assert sorted(r[2] for r in results) in ([0, 0], [0, 3]), results
-    assert all("Traceback" not in r[1] for r in results)
-    specs, values = _study_set(out)
-    assert values == specs  # study.json and table.csv describe one study
+HOLD = """
+import os, sys, time
+import flexmb.scene as scene
+simulate = scene.Scene.simulate
+def held(self, *args, **kw):
+    open(sys.argv[1], "w").close()  # started its first case: the study holds its folder
+    while not os.path.exists(sys.argv[2]):
+        time.sleep(0.01)
+    return simulate(self, *args, **kw)
+scene.Scene.simulate = held
+from flexmb.cli import main
+sys.exit(main(sys.argv[3:]))
+"""
+
+
+def test_a_second_study_while_one_runs_is_refused_and_nothing_mixes(scene_file, tmp_path):
+    out, started, go = tmp_path / "out", tmp_path / "started", tmp_path / "go"
+    argv = [["study", str(scene_file), "--vary", f"bodies.bar.mass={masses}", "--output", "final:pin", "--set",
+             "solver.t_end=0.2", "--serial", "--quiet", "--out", str(out)] for masses in ("1,2,3", "4,5")]
+    first = subprocess.Popen([sys.executable, "-c", HOLD, str(started), str(go), *argv[0]],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        end = time.monotonic() + 120
+        while not started.exists():
+            assert first.poll() is None and time.monotonic() < end, first.communicate()
+            time.sleep(0.01)
+        second = subprocess.run([sys.executable, "-m", "flexmb", *argv[1]], capture_output=True, text=True,
+                                timeout=300)
+    finally:
+        go.touch()
+        first.communicate(timeout=300)
+    # main: both exited 0, the second's study.json beside the first's table (the first ended last)
+    assert (first.returncode, second.returncode) == (0, 3), second.stderr
+    assert f"in use by another flexmb run (pid {first.pid}" in second.stderr and "Traceback" not in second.stderr
+    assert _study_set(out) == ([1.0, 2.0, 3.0], [1.0, 2.0, 3.0])
 
 
 def test_an_interrupted_study_leaves_the_previous_study_whole(scene_file, tmp_path, monkeypatch):

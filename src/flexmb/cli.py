@@ -5,8 +5,9 @@ scene, ``fourbar`` or ``wiper``: the scene files shipped in
 ``flexmb/scene/builtin/``, run by the same code) and writes results, plots
 and VTK; ``flexmb info
 SCENE.toml`` describes a scene; ``flexmb plugins`` lists the plugins. A run
-locks its output folder: a second run into the same folder is refused; the
-outputs replace the previous run's only once complete. ``flexmb study
+locks its output folder (as a study does): a second run or study into the
+same folder is refused; the outputs replace the previous run's only once
+complete. ``flexmb study
 SCENE.toml --vary KEY=SPEC ... --out DIR`` runs a parameter study
 (:mod:`flexmb.study`; ``--time-limit SECONDS`` stops a case that takes
 longer and records it as failed).

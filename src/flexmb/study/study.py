@@ -19,7 +19,7 @@ from ..scene.metrics import _check_output, _is_real, _output_name, default_outpu
 from .sampling import SAMPLINGS, Distribution, _unit_samples
 from ..scene.keys import key_paths as _paths
 from .spec import _as_spec
-from .table import META_COLUMNS, StudyResult
+from .table import META_COLUMNS, StudyResult, _scene_units
 
 __all__ = ['Study', 'case_id', 'run_study']
 
@@ -212,6 +212,10 @@ class Study:
         FlexmbError
             If an output does not fit the scene.
         """
+        return self._checked()[0]
+
+    def _checked(self) -> tuple[list, dict]:
+        """:meth:`validate`'s output specs, and the units of the columns the scene fixes (``peak_effort:<driver>``: N m or N)."""
         # every case sets the same key paths, so the first case checks them all
         scene = _build(self.data, self.source, self.fixed, self.cases()[0])
         outputs = list(self.outputs) or default_outputs(scene)
@@ -222,7 +226,7 @@ class Study:
         clash = (set(names) & set(self.vary)) | (set(names) & set(META_COLUMNS)) | (set(self.vary) & set(META_COLUMNS))
         if clash or len(set(names)) != len(names):
             raise FlexmbError(f"Study: column names must be unique; clash: {sorted(clash) or names}")
-        return outputs
+        return outputs, _scene_units(names, scene)
 
     def _time_limit(self, value) -> float | None:
         """The time limit per case: ``value``, else the scene's ``[study] time_limit`` (checked by the loader)."""
@@ -292,7 +296,7 @@ class Study:
             executor = "dask"
         if executor not in _EXECUTORS:
             raise FlexmbError(f"unknown executor {executor!r}; pick one of {', '.join(_EXECUTORS)}")
-        outputs = self.validate()
+        outputs, units = self._checked()
         time_limit = self._time_limit(time_limit)
         out = Path(os.fspath(out))
         study_key = self.key()
@@ -325,7 +329,7 @@ class Study:
             bar.close()
         rows = [dict(done[cid], case=i) for i, cid in enumerate(ids)]
         result = StudyResult(self.parameters, [_output_name(o) for o in outputs], rows, ran=ran,
-                             skipped=len(set(ids)) - len(set(ran)), out=out)
+                             skipped=len(set(ids)) - len(set(ran)), out=out, units=units)
         result.write(out)
         return result
 

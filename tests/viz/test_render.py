@@ -216,7 +216,7 @@ def test_offscreen_plotter_asks_for_egl_only_without_a_display_and_restores_the_
     monkeypatch.delenv("DISPLAY")
     monkeypatch.setenv("VTK_DEFAULT_OPENGL_WINDOW", "vtkOSOpenGLRenderWindow")  # the user's choice is kept
     viz.offscreen_plotter()
-    assert seen[-1][1] == "vtkOSOpenGLRenderWindow" and os.environ["VTK_DEFAULT_OPENGL_WINDOW"] == "vtkOSOpenGLRenderWindow"
+    assert seen[-1][1] == os.environ["VTK_DEFAULT_OPENGL_WINDOW"] == "vtkOSOpenGLRenderWindow"
 
 
 # ----------------------------------------------------------------------------- show() in a script (issue #32, trap 11)

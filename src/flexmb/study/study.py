@@ -215,7 +215,7 @@ class Study:
         return self._checked()[0]
 
     def _checked(self) -> tuple[list, dict]:
-        """:meth:`validate`'s output specs, and the units of the columns the scene fixes (``peak_effort:<driver>``: N m or N)."""
+        """:meth:`validate`'s output specs, and the units of the columns the scene fixes (a driver's effort)."""
         # every case sets the same key paths, so the first case checks them all
         scene = _build(self.data, self.source, self.fixed, self.cases()[0])
         outputs = list(self.outputs) or default_outputs(scene)

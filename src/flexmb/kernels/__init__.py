@@ -12,8 +12,8 @@ and memory for an open tree (the dense mass matrix of a model with loops
 costs O(n depth)).
 
 Compiled code is cached beside these sources (``cache=True``, :mod:`flexmb.kernels.cache`): the
-first run of a new installation compiles (see the README for the measured
-time), later runs load the machine code.
+first run of a new installation compiles (the README and ``docs/benchmarks.md``
+give the measured time), later runs load the machine code.
 """
 
 #: coordinate kinds in ``Topology.coord_kind``: a translation or a rotation
@@ -23,7 +23,7 @@ TRANSLATION, ROTATION, EXTERNAL = 0, 1, 2
 
 __all__ = ["TRANSLATION", "ROTATION", "EXTERNAL", "cached_on_disk"]
 
-#: what the first run of an installation costs, said before it compiles (README, "The compiled core")
+#: what the first run of an installation costs, said before it compiles (README; docs/benchmarks.md)
 FIRST_RUN_NOTE = ("flexmb: first run of this installation: compiling the numba kernels (about 40 s of CPU, "
                   "once; later runs load them from the cache)")
 

@@ -18,7 +18,7 @@ from ..joints import Joint
 from ..kinematics import Kinematics
 from ..topology import Topology
 from ..forces.tables import class_tables, merge
-from ..kernels.equations import cut_rows_at, tree_equations
+from ..kernels.equations import EQUATIONS, ROWS, tree_equations
 from ..kernels.packing import pack
 from .checks import StateChecks
 from .projection import Projection
@@ -392,7 +392,7 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         else:
             powers[:] = 0.0
         loads = self._python_loads(t, y, powers)
-        A, f, _, psi, gamma = tree_equations(self._packed, y, n, powers, *loads)
+        A, f, _, psi, gamma = tree_equations(self._packed, y, n, EQUATIONS, powers, *loads)
         if self.constraints.drivers:
             psi_d, gamma_d = self.constraints.driver_rows(t, n)
             m = psi.shape[0]
@@ -421,7 +421,8 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         """phi, psi and b at a state (all rows: cut joints, then drivers), compiled where it can be."""
         if self._packed is None:
             return self.constraints.evaluate(self._kinematics(t, x, xd), level=1)
-        phi, psi = cut_rows_at(self._packed, np.concatenate([x, xd]), self.n_coords)
+        _, _, phi, psi, _ = tree_equations(self._packed, np.concatenate([x, xd]), self.n_coords, ROWS,
+                                           self._no_powers, *self._no_loads)
         drivers = self.constraints.drivers
         if not drivers:
             return ConstraintRows(phi, psi, np.zeros(phi.shape[0]))

@@ -47,11 +47,13 @@ def test_a_family_compiling_is_said_once_on_stderr(fresh, capsys):
     _kernel("flexmb.kernels.loops", 1.0)(2.0)
     _kernel("flexmb.kernels.constraints", 2.0)(2.0)  # the same family: no second line
     _kernel("flexmb.kernels.tree", 3.0)(2.0)         # another family: its own line
+    _kernel("flexmb.kernels.genalpha", 4.0)(2.0)     # a family not measured: no figure
     err = capsys.readouterr().err.splitlines()
     assert err == [f"flexmb: compiling flexmb's kernels for loops, once: ~{compiling.ESTIMATE_S['loops']} s "
                    "(later runs load them from the cache)",
                    f"flexmb: compiling flexmb's kernels for open trees, once: ~{compiling.ESTIMATE_S['open trees']} s "
-                   "(later runs load them from the cache)"]
+                   "(later runs load them from the cache)",
+                   "flexmb: compiling flexmb's kernels for generalized-alpha, once (later runs load them from the cache)"]
 
 
 def test_other_functions_compiling_say_nothing_and_are_not_counted(fresh, capsys):

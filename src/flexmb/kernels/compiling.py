@@ -40,10 +40,10 @@ FAMILIES = {
     "genalpha": "generalized-alpha",
 }
 
-#: about how many seconds of CPU each family takes to compile on a 2-core machine (``benchmarks/cold_start.py``,
-#: docs/benchmarks.md "Cold and warm first runs": the README's pendulum for open trees, the main job's rest
-#: for loops); the notice rounds it
-ESTIMATE_S = {"open trees": 30, "loops": 20, "generalized-alpha": 5}
+#: about how many seconds of CPU each family takes to compile (``benchmarks/cold_start.py`` on a 2-core machine,
+#: docs/benchmarks.md "Cold and warm first runs": the README's pendulum cold less warm for open trees, the main
+#: job's cold less warm less that for loops); a family not measured is announced without a figure
+ESTIMATE_S = {"open trees": 30, "loops": 15}
 
 _PACKAGE = __name__.rsplit(".", 1)[0] + "."
 _lock = threading.Lock()

@@ -77,3 +77,28 @@ def test_a_study_stopped_by_sigterm_keeps_its_cases_and_exits_143(tmp_path):
     _, stderr = proc.communicate(timeout=120)
     assert proc.returncode == 143, (proc.returncode, stderr[-2000:])
     assert "Traceback" not in stderr and "interrupted" in stderr
+
+
+class _Stop(BaseException):
+    """What a study's timer raises in a case's thread (a BaseException, like study.cases._CaseTimeout)."""
+
+
+def test_a_base_exception_raised_as_a_kernel_returns_goes_on_as_itself(monkeypatch):
+    # raised in the thread while a compiled kernel returns, it comes out as numba's SystemError, itself the cause;
+    # main recorded the run as failed ("SystemError: CPUDispatcher(...) returned a result with an exception set"),
+    # so a serial study's time limit was now and then recorded as that failure instead
+    model = fm.Model("p")
+    bar = fm.RigidBody.slender_bar("bar", 1.0, 1.0)
+    model.add(fm.Revolute("pin", model.ground, bar, axis=(0, 0, 1)), fm.Gravity((0.0, -9.81, 0.0)))
+    system = model.build()
+    real, calls = type(system)._state_rate, []
+
+    def rate(self, t, y):
+        calls.append(t)
+        if len(calls) == 20:
+            raise SystemError("CPUDispatcher(<function rhs>) returned a result with an exception set") from _Stop()
+        return real(self, t, y)
+
+    monkeypatch.setattr(type(system), "_state_rate", rate)
+    with pytest.raises(_Stop):
+        fm.simulate(system, 1.0, positions={"pin": 0.5}, progress=False)

@@ -295,30 +295,6 @@ def test_a_reader_that_stops_early_ends_the_command_quietly(tmp_path):
     assert "Traceback" not in err and "BrokenPipeError" not in err
 
 
-# --------------------------------------------------------------------------- the first run of an installation
-
-
-def test_an_empty_kernel_cache_is_seen(tmp_path):
-    from flexmb import kernels
-
-    fm.simulate(fm.load_scene(PENDULUM).model, 0.01, n_out=2)  # the kinematics kernel, compiled or loaded
-    assert kernels.cached_on_disk()
-    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "empty"))
-    proc = subprocess.run([sys.executable, "-c", "from flexmb import kernels; print(kernels.cached_on_disk())"],
-                          capture_output=True, text=True, env=env, timeout=300)
-    assert proc.stdout.strip() == "False", proc.stderr
-
-
-def test_a_run_that_will_compile_says_so_first(tmp_path, monkeypatch, capsys):
-    from flexmb import kernels
-
-    monkeypatch.setattr(kernels, "cached_on_disk", lambda: False)
-    assert main(["run", PENDULUM, "--out", str(tmp_path / "a"), "--t-end", "0.05"]) == 0
-    assert capsys.readouterr().err.startswith(kernels.FIRST_RUN_NOTE + "\n")
-    assert main(["run", PENDULUM, "--out", str(tmp_path / "b"), "--t-end", "0.05", "--quiet"]) == 0
-    assert kernels.FIRST_RUN_NOTE not in capsys.readouterr().err
-
-
 def test_a_run_never_removes_another_scene_s_outputs(tmp_path, monkeypatch, capsys):
     """Issue #32: `flexmb run wiper --out results && flexmb run 01_pendulum.toml` removed the wiper's files.
 

@@ -117,10 +117,6 @@ def _scene(name):
 
 def _run_scene(args) -> int:
     """Run a scene file or a built-in scene; an interrupted run keeps (and writes) what it computed."""
-    from .kernels import FIRST_RUN_NOTE, cached_on_disk
-
-    if not args.quiet and not cached_on_disk():
-        print(FIRST_RUN_NOTE, file=sys.stderr)
     scene = _scene(args.scene)
     summary = scene.run(args.out, progress=not args.quiet, overwrite=args.overwrite, t_end=args.t_end,
                         rtol=args.rtol, complement=args.complement, method=args.method, n_out=args.n_out)

@@ -17,9 +17,9 @@ from .constraint_elements import ConstraintElement, GearPair, KnifeEdge, Rolling
 from .errors import (AssemblyError, ExportError, FlexmbError, ModelError, PluginError, SceneError, SimulationError,
                      StiffnessWarning)
 from .forces import BodyTorque, ForceElement, Gravity, JointSpringDamper, Loads, PointForce, SpringDamper
-from .forces import (CoulombLaw, FloresLaw, HuntCrossleyLaw, LankaraniNikraveshLaw, LinearContactLaw,
-                     SpherePlaneContact, SphereSphereContact, StribeckLaw, VelocityWeakeningLaw, ViscousLaw,
-                     hertz_stiffness)
+from .forces import (CoulombLaw, FloresLaw, HuntCrossleyLaw, JournalBearingContact, LankaraniNikraveshLaw,
+                     LinearContactLaw, SpherePlaneContact, SphereSphereContact, StribeckLaw, VelocityWeakeningLaw,
+                     ViscousLaw, hertz_stiffness)
 from .joints import Cylindrical, Fixed, Free, Joint, PlanarRevolute, Prismatic, Revolute, Spherical, Universal
 from .flexible import FlexibleBody, Segment
 from .analysis import (Calibration, Campbell, CriticalPoint, FrequencyResponse, Input, Linearization, LoadPath,
@@ -50,7 +50,8 @@ __all__ = [
     "ConstraintElement", "GearPair", "KnifeEdge", "RollingDisc", "velocity_rows",
     "AssemblyError", "ExportError", "FlexmbError", "ModelError", "PluginError", "SimulationError",
     "BodyTorque", "ForceElement", "Gravity", "JointSpringDamper", "Loads", "PointForce", "SpringDamper",
-    "SpherePlaneContact", "SphereSphereContact", "LinearContactLaw", "HuntCrossleyLaw", "LankaraniNikraveshLaw",
+    "SpherePlaneContact", "SphereSphereContact", "JournalBearingContact", "LinearContactLaw", "HuntCrossleyLaw",
+    "LankaraniNikraveshLaw",
     "FloresLaw", "CoulombLaw", "ViscousLaw", "VelocityWeakeningLaw", "StribeckLaw", "hertz_stiffness",
     "Cylindrical", "Fixed", "Free", "Joint", "PlanarRevolute", "Prismatic", "Revolute", "Spherical", "Universal",
     "FlexibleBody", "Segment", "Material", "Section", "BeamProfile",

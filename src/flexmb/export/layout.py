@@ -23,14 +23,16 @@ ELASTIC_FIELDS = {"bend_y": "bending_y", "bend_z": "bending_z", "torsion": "tors
 SECTION_FIELDS = {"moment_torsion": "Mx", "moment_bend_y": "My", "moment_bend_z": "Mz"}
 
 #: what a cell draws, by its ``part_id``: a body's shape (box, bar or segment), a flexible body's centre
-#: line, a lever from a joint point to the shape, a joint (vertex), a body axis (``triad=``)
-PARTS = ("shape", "centre line", "lever", "joint", "triad")
-_SHAPE, _CENTRE, _LEVER, _JOINT, _TRIAD = range(len(PARTS))
+#: line, a lever from a joint point to the shape, a joint (vertex), a body axis (``triad=``), a contact
+#: element's point (vertex; :mod:`flexmb.export.meshes`)
+PARTS = ("shape", "centre line", "lever", "joint", "triad", "contact")
+_SHAPE, _CENTRE, _LEVER, _JOINT, _TRIAD, _CONTACT = range(len(PARTS))
 
 #: the name tables in the field data: table -> the cell data its ids name. A table is one field-data
 #: entry ``"<table>:<name>"`` per name holding its id (``"body:crank" = [0]``): VTK files flexmb writes
-#: hold numbers only, as meshio reads no string arrays
-NAME_TABLES = {"body": "body_id", "joint": "joint_id", "part": "part_id"}
+#: hold numbers only, as meshio reads no string arrays; ``contact`` (and its cell data) only with contact
+#: elements (:mod:`flexmb.export.meshes`)
+NAME_TABLES = {"body": "body_id", "joint": "joint_id", "part": "part_id", "contact": "contact_id"}
 
 # written for every result, 0 where no body keeps them; the translational
 # ones only when some body keeps them

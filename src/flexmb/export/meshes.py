@@ -7,7 +7,7 @@ import numpy as np
 
 from ..errors import ExportError, FlexmbError
 from ..model import as_system
-from .layout import NAME_TABLES, SECTION_FIELDS, _check_index, _check_result, _check_triad, _Layout
+from .layout import NAME_TABLES, PARTS, SECTION_FIELDS, _check_index, _check_result, _check_triad, _Layout
 
 __all__ = ["body_names", "joint_names", "table_names", "to_meshio"]
 
@@ -70,6 +70,53 @@ def _fd_velocities(result, P_all) -> np.ndarray:
     return np.gradient(P_all, t, axis=0, edge_order=2 if len(t) > 2 else 1)
 
 
+def _contact_values(system, result, frames):
+    """The model's contact elements at the frames: names, points, forces and penetrations.
+
+    Returns ``(names, points, forces, penetrations)`` with shapes (c,),
+    (nf, c, 3), (nf, c, 3), (nf, c), or None without contact elements. The
+    point is the middle of the overlap (where the force acts; the point
+    nearest to it while separated), the force the one on the element's
+    first body (the sphere's, the pin's), 0 while separated.
+    """
+    from ..forces.contact import Contact
+
+    elements = [e for e in system.model.forces if isinstance(e, Contact)]
+    if not elements:
+        return None
+    nf, c = len(frames), len(elements)
+    points, forces, depth = np.zeros((nf, c, 3)), np.zeros((nf, c, 3)), np.zeros((nf, c))
+    t, x, xd = (np.asarray(getattr(result, k), dtype=float) for k in ("t", "x", "xd"))
+    for n, i in enumerate(frames):
+        kin = system.kinematics(t[i], x[i], xd[i])
+        for k, e in enumerate(elements):
+            delta, _, _, _, point, _, force, _ = type(e).states_all([e], kin)
+            points[n, k], forces[n, k], depth[n, k] = point[0], force[0], delta[0]
+    return np.array([e.name for e in elements], dtype=str), points, forces, depth
+
+
+def _with_contacts(P, point_data, cells, cell_data, contacts):
+    """Append one vertex per contact element (part ``contact``) and its point data to the meshes' arrays.
+
+    ``contact_force`` (N) and ``contact_penetration`` (m, negative: the
+    gap) are 0 at the bodies' points; the bodies' point data are 0 at the
+    contact points. The cell data ``contact_id`` names the contact of each
+    vertex (-1 for the other cells), by the name table ``contact``.
+    """
+    names, points, forces, depth = contacts
+    nf, npts, c = P.shape[0], P.shape[1], len(names)
+    point_data = {k: np.concatenate([v, np.zeros((nf, c) + v.shape[2:])], axis=1) for k, v in point_data.items()}
+    point_data["contact_force"] = np.concatenate([np.zeros((nf, npts, 3)), forces], axis=1)
+    point_data["contact_penetration"] = np.concatenate([np.zeros((nf, npts)), depth], axis=1)
+    cells = [*cells, meshio.CellBlock("vertex", (npts + np.arange(c)).reshape(-1, 1))]
+    part = PARTS.index("contact")
+    ids = [np.full(len(block.data), -1, dtype=np.int64) for block in cells[:-1]]
+    cell_data = {k: [*v, np.full(c, part if k == "part_id" else -1, dtype=np.asarray(v[0]).dtype)]
+                 for k, v in cell_data.items()}
+    cell_data["contact_id"] = [*ids, np.arange(c, dtype=np.int64)]
+    return np.concatenate([P, points], axis=1), point_data, cells, cell_data
+
+
 def _meshes(result, frames, system=None, triad=0.0, extra=None, reference=None):
     """Meshes at the given output indices, sharing one layout and one pass over the history.
 
@@ -97,6 +144,10 @@ def _meshes(result, frames, system=None, triad=0.0, extra=None, reference=None):
         point_data.update(_section_values(layout, result, frames))
     cells, cell_data = layout.cell_blocks()
     tables = layout.tables()
+    contacts = _contact_values(system, result, frames) if system is not None and reference is None else None
+    if contacts is not None:
+        P, point_data, cells, cell_data = _with_contacts(P, point_data, cells, cell_data, contacts)
+        tables.update({f"contact:{name}": np.array([k], dtype=np.int64) for k, name in enumerate(contacts[0])})
     base = layout.positions(result, [reference])[0] if reference is not None else None
     cache: dict = {}  # the XML of what the frames share (see _vtu_text)
     for n, i in enumerate(frames):

@@ -15,7 +15,10 @@ Each series opens as one time series (the ``.pvd``): bodies as their shapes
 stresses, else by body: the cell data ``body_id`` as categories, one colour
 each (matplotlib's tab10, as ``flexmb.viz`` draws them), labelled in the
 legend with the body names (the field data ``body:<name>``, holding the
-body's id). The first
+body's id); a series with contact elements shows their forces as red
+arrows at the contact points (the point data ``contact_force``, the
+largest over time a tenth of the scene's size: a Glyph filter named
+"contact forces"). The first
 series with stresses is shown, the others are loaded and hidden (the eye
 icon in the Pipeline Browser shows them). Run interactively (``pvpython
 -i``, or in the ParaView window) the time slider steps through the run.
@@ -83,6 +86,25 @@ def _colour_by_body(pv, display, view, names):
     bar.ComponentTitle = ""
 
 
+def _contact_arrows(pv, reader, view):
+    """Arrows of the contact forces (point data ``contact_force``), the largest over time a tenth of the scene."""
+    largest, size = 0.0, 0.0
+    for t in _times(reader):
+        reader.UpdatePipeline(t)
+        largest = max(largest, reader.PointData["contact_force"].GetRange(-1)[1])
+        b = reader.GetDataInformation().GetBounds()
+        size = max(size, ((b[1] - b[0]) ** 2 + (b[3] - b[2]) ** 2 + (b[5] - b[4]) ** 2) ** 0.5)
+    arrows = pv.Glyph(registrationName="contact forces", Input=reader, GlyphType="Arrow")
+    arrows.OrientationArray = ["POINTS", "contact_force"]
+    arrows.ScaleArray = ["POINTS", "contact_force"]
+    arrows.ScaleFactor = 0.1 * size / largest if largest > 0 else 0.0
+    arrows.GlyphMode = "All Points"
+    display = pv.Show(arrows, view)
+    pv.ColorBy(display, None)
+    display.AmbientColor = display.DiffuseColor = (0.84, 0.15, 0.16)
+    return arrows
+
+
 def _series(files, folder):
     if files:
         return [os.path.abspath(f) for f in files]
@@ -137,6 +159,8 @@ def main(argv=None, folder=None):
         elif "body_id" in reader.CellData.keys():
             _colour_by_body(pv, display, view, _body_names(reader))
         display.SetScalarBarVisibility(view, True)
+        if "contact_force" in reader.PointData.keys():
+            _contact_arrows(pv, reader, view)
         if shown is None and "von_mises" in reader.PointData.keys():
             shown = reader
         readers.append(reader)

@@ -9,14 +9,15 @@ gravity, springs, dampers, contact and friction all enter only through F
 
 from .base import ForceElement, Loads
 from .contact import (CoulombLaw, FloresLaw, FrictionLaw, HuntCrossleyLaw, LankaraniNikraveshLaw, LinearContactLaw,
-                      NormalLaw, SpherePlaneContact, SphereSphereContact, StribeckLaw, VelocityWeakeningLaw, ViscousLaw,
-                      hertz_stiffness)
+                      JournalBearingContact, NormalLaw, SpherePlaneContact, SphereSphereContact, StribeckLaw,
+                      VelocityWeakeningLaw, ViscousLaw, hertz_stiffness)
 from .elastic import BeamElasticity
 from .gravity import Gravity
 from .loads import BodyTorque, PointForce
 from .springs import JointSpringDamper, SpringDamper
 
 __all__ = ["ForceElement", "Loads", "Gravity", "SpringDamper", "JointSpringDamper", "PointForce", "BodyTorque",
-           "BeamElasticity", "SpherePlaneContact", "SphereSphereContact", "NormalLaw", "LinearContactLaw",
+           "BeamElasticity", "SpherePlaneContact", "SphereSphereContact", "JournalBearingContact", "NormalLaw",
+           "LinearContactLaw",
            "HuntCrossleyLaw", "LankaraniNikraveshLaw", "FloresLaw", "FrictionLaw", "CoulombLaw", "ViscousLaw",
            "VelocityWeakeningLaw", "StribeckLaw", "hertz_stiffness"]

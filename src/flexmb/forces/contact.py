@@ -1,4 +1,4 @@
-"""Contact force elements: spheres (or points) against planes and against spheres.
+"""Contact force elements: spheres (or points) against planes and spheres, pins in bearings with clearance.
 
 A contact pushes two bodies apart when their surfaces overlap by the
 penetration ``delta > 0``, along the surfaces' common normal, with a force
@@ -61,26 +61,16 @@ from .base import ForceElement
 from .contact_laws import (FloresLaw, HuntCrossleyLaw, LankaraniNikraveshLaw, LinearContactLaw, NormalLaw,
                            hertz_stiffness, restitution_of_hysteresis)
 from .friction_laws import CoulombLaw, FrictionLaw, StribeckLaw, VelocityWeakeningLaw, ViscousLaw
+from .law_tables import FRICTION_LAWS, NORMAL_LAWS, _friction_law, _law_of, _normal_law
 from .tables import LoadTables, class_tables
 
 __all__ = ["NormalLaw", "LinearContactLaw", "HuntCrossleyLaw", "LankaraniNikraveshLaw", "FloresLaw", "FrictionLaw",
            "CoulombLaw", "ViscousLaw", "VelocityWeakeningLaw", "StribeckLaw", "Contact", "SpherePlaneContact",
-           "SphereSphereContact", "hertz_stiffness", "restitution_of_hysteresis"]
+           "SphereSphereContact", "JournalBearingContact", "hertz_stiffness", "restitution_of_hysteresis",
+           "NORMAL_LAWS", "FRICTION_LAWS"]
 
 
 # ----------------------------------------------------------------------------- the elements
-
-def _normal_law(instance, attribute, value):
-    if not isinstance(value, NormalLaw) or type(value).code < 0:
-        raise ModelError(f"{label(instance)}: {attribute.name} must be a normal law (LinearContactLaw, "
-                         f"HuntCrossleyLaw, LankaraniNikraveshLaw or FloresLaw), got {value!r}")
-
-
-def _friction_law(instance, attribute, value):
-    if value is not None and (not isinstance(value, FrictionLaw) or type(value).code <= 0):
-        raise ModelError(f"{label(instance)}: {attribute.name} must be None or a friction law (CoulombLaw, "
-                         f"ViscousLaw, VelocityWeakeningLaw or StribeckLaw), got {value!r}")
-
 
 def _radius(instance, attribute, value):
     if not isinstance(value, float) or not np.isfinite(value) or value < 0:
@@ -89,7 +79,8 @@ def _radius(instance, attribute, value):
 
 @frozen(eq=False)
 class Contact(ForceElement):
-    """Base class of the compiled contact elements (:class:`SpherePlaneContact`, :class:`SphereSphereContact`).
+    """Base class of the compiled contact elements (:class:`SpherePlaneContact`, :class:`SphereSphereContact`,
+    :class:`JournalBearingContact`).
 
     A subclass gives its geometry's code (``geometry``) and its row of the
     load tables (:meth:`_layout`); the laws, the loads, the powers and the
@@ -177,6 +168,70 @@ class Contact(ForceElement):
         return contact_states(t.contact_rows, t.contact_local, t.contact_geom, t.contact_laws, t.contact_par,
                               state.R, state.origin, state.r, state.omega, state.v)
 
+    @classmethod
+    def pair_tangent_all(cls, elements, state):
+        """Stiffness and damping of the touching contacts, on the relative motion of their two bodies' points.
+
+        With F the force on the first body (the sphere's, the pin's) as a
+        function of the penetration (``d delta = -n . d(p1 - p2)``) and of
+        the relative velocity u at the contact point: ``K = F_delta n n^T -
+        k_N F_delta t n^T`` and ``D = F_rate n n^T + k P + 2 k' t t^T -
+        k_N F_rate t n^T``, with ``F_delta``, ``F_rate`` the normal law's
+        derivatives, ``k`` the friction factor (force ``-k t``), ``k'`` its
+        derivative in the squared slip ``|t|^2``, ``k_N`` in the normal
+        force, ``t`` the slip and ``P = I - n n^T``; the laws' derivatives
+        by central differences of their compiled functions. The turning of
+        the normal is left out. Without these the implicit integrators'
+        Newton iterations would not see a stiff contact or a regularised
+        friction at rest (a block sticking on a belt took 600 times the
+        steps).
+
+        Parameters
+        ----------
+        elements : sequence of Contact
+            Elements of this class in the model.
+        state : Kinematics
+            The current kinematic state.
+
+        Returns
+        -------
+        tuple of (rows, points, K, D)
+            The second body's row first (the force is on the second end of
+            each pair), both ends at the contact point; zeros for contacts
+            that do not touch.
+        """
+        t = class_tables(cls, elements, state.topology)
+        delta, rate, fn, _, point, normal, _, slip = cls.states_all(elements, state)
+        m = len(elements)
+        rows = np.ascontiguousarray(t.contact_rows[:, ::-1])
+        points = np.repeat(point[:, None, :], 2, axis=1)
+        K, D = np.zeros((m, 3, 3)), np.zeros((m, 3, 3))
+        for a in range(m):
+            if fn[a] <= 0.0:
+                continue
+            law, friction = t.contact_laws[a, 1], t.contact_laws[a, 2]
+            par = t.contact_par[a]
+            n, u_t = normal[a], slip[a]
+            hd, hr = 1e-6 * delta[a], 1e-6 * max(abs(rate[a]), 1e-6)
+            f_delta = (_k.normal_force(law, par[:5], delta[a] + hd, rate[a])
+                       - _k.normal_force(law, par[:5], delta[a] - hd, rate[a])) / (2 * hd)
+            f_rate = (_k.normal_force(law, par[:5], delta[a], rate[a] + hr)
+                      - _k.normal_force(law, par[:5], delta[a], rate[a] - hr)) / (2 * hr)
+            nn = np.outer(n, n)
+            K[a], D[a] = f_delta * nn, f_rate * nn
+            if friction == _k.NO_FRICTION:
+                continue
+            s2 = float(u_t @ u_t)
+            k = _k.friction_factor(friction, par[5:], fn[a], s2)
+            k_n = _k.friction_factor(friction, par[5:], fn[a] + 1.0, s2) - k  # the factors are affine in the load
+            h2 = 1e-6 * s2
+            k_s2 = 0.0 if h2 == 0.0 else (_k.friction_factor(friction, par[5:], fn[a], s2 + h2)
+                                          - _k.friction_factor(friction, par[5:], fn[a], s2 - h2)) / (2 * h2)
+            tn = np.outer(u_t, n)
+            K[a] -= k_n * f_delta * tn
+            D[a] += k * (np.eye(3) - nn) + 2.0 * k_s2 * np.outer(u_t, u_t) - k_n * f_rate * tn
+        return rows, points, K, D
+
     def apply(self, state, loads) -> None:
         """Add this contact's forces (compiled, with the rest of its class).
 
@@ -235,13 +290,15 @@ class SpherePlaneContact(Contact):
         The body carrying the sphere (rigid or flexible), or its name.
     radius : float
         Sphere radius r, m (>= 0; 0: a point).
-    normal_law : NormalLaw
+    normal_law : NormalLaw or dict
         The normal force of a penetration (:class:`LinearContactLaw`,
         :class:`HuntCrossleyLaw`, :class:`LankaraniNikraveshLaw`,
         :class:`FloresLaw`).
-    friction : FrictionLaw, optional
+    friction : FrictionLaw or dict, optional
         The tangential force (:class:`CoulombLaw`, :class:`ViscousLaw`,
-        :class:`VelocityWeakeningLaw`, :class:`StribeckLaw`); None: none.
+        :class:`VelocityWeakeningLaw`, :class:`StribeckLaw`); None: none. Either law
+        may be a table: ``{"type": "flores", "stiffness": ..., "restitution": ...}``
+        (the types: ``NORMAL_LAWS``, ``FRICTION_LAWS``), as scene files give it.
     centre : array_like, shape (3,)
         Sphere centre in the frame of ``body``, m (default its origin).
     plane_body : Body or str
@@ -280,8 +337,8 @@ class SpherePlaneContact(Contact):
 
     body: Body = reference(Body)
     radius: float = field(converter=as_float, validator=_radius)
-    normal_law: NormalLaw = field(validator=_normal_law)
-    friction: FrictionLaw | None = field(default=None, validator=_friction_law)
+    normal_law: NormalLaw = field(converter=_law_of(NORMAL_LAWS), validator=_normal_law)
+    friction: FrictionLaw | None = field(default=None, converter=_law_of(FRICTION_LAWS), validator=_friction_law)
     centre: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
     plane_body: Body = reference(Body, default="ground")
     plane_point: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
@@ -331,10 +388,11 @@ class SphereSphereContact(Contact):
         The body carrying the second sphere (it may be the ground).
     radius2 : float
         Its radius, m (>= 0).
-    normal_law : NormalLaw
+    normal_law : NormalLaw or dict
         The normal force of a penetration.
-    friction : FrictionLaw, optional
-        The tangential force; None: none.
+    friction : FrictionLaw or dict, optional
+        The tangential force; None: none. Either law may be a table, as for
+        :class:`SpherePlaneContact`.
     centre1, centre2 : array_like, shape (3,)
         The centres in their bodies' frames, m (default the origins).
 
@@ -368,8 +426,8 @@ class SphereSphereContact(Contact):
     radius1: float = field(converter=as_float, validator=_radius)
     body2: Body = reference(Body)
     radius2: float = field(converter=as_float, validator=_radius)
-    normal_law: NormalLaw = field(validator=_normal_law)
-    friction: FrictionLaw | None = field(default=None, validator=_friction_law)
+    normal_law: NormalLaw = field(converter=_law_of(NORMAL_LAWS), validator=_normal_law)
+    friction: FrictionLaw | None = field(default=None, converter=_law_of(FRICTION_LAWS), validator=_friction_law)
     centre1: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
     centre2: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
 
@@ -398,3 +456,113 @@ class SphereSphereContact(Contact):
         i, c1 = self._locate(topology, self.body1, self.centre1)
         j, c2 = self._locate(topology, self.body2, self.centre2)
         return (i, j), np.array([c1, c2, np.zeros(3)]), (self.radius1, self.radius2)
+
+
+@frozen(eq=False)
+class JournalBearingContact(Contact):
+    """A revolute joint with clearance: a pin (journal) of one body in a bearing's hole of another.
+
+    The pin and the hole are cylinders with parallel axes (the bearing's
+    axis); they touch where the pin's eccentricity across that axis exceeds
+    the radial clearance ``c = R_hole - r_pin``, and a normal law and a
+    friction law act there as in the other contacts: free flight inside
+    the clearance, impacts on its wall, sliding along it.
+
+    Parameters
+    ----------
+    name : str
+        Unique name.
+    pin_body : Body or str
+        The body carrying the pin, or its name.
+    pin_radius : float
+        r_pin, m (>= 0).
+    bearing_body : Body or str
+        The body with the hole (it may be the ground).
+    bearing_radius : float
+        R_hole, m (> r_pin).
+    normal_law : NormalLaw or dict
+        The normal force of a penetration; for two steel cylinders in
+        internal contact Flores and Ambrosio's Hertz stiffness
+        ``K = 4 / (3 (s1 + s2)) sqrt(r_pin R_hole / (R_hole - r_pin))``,
+        ``s = (1 - nu^2) / E``.
+    friction : FrictionLaw or dict, optional
+        The tangential force at the wall (the pin's spin in the hole
+        slides it); None: none. Either law may be a table, as for
+        :class:`SpherePlaneContact`.
+    pin_centre, bearing_centre : array_like, shape (3,)
+        The axes' points in their bodies' frames, m (default the origins).
+    bearing_axis : array_like, shape (3,)
+        The bearing's axis in the frame of ``bearing_body`` (normalised;
+        default z: planar mechanisms in the x-y plane).
+
+    Notes
+    -----
+    With ``e`` the pin's centre less the bearing's, across the axis, the
+    penetration is ``delta = |e| - c``; the normal points from the wall to
+    the bearing's centre, ``n = -e / |e|``, and the force on the pin acts at
+    ``c_pin - (r_pin - delta / 2) n``. The pin's axis is taken parallel to
+    the bearing's (no tilt in the hole).
+
+    Examples
+    --------
+    A pin of radius 9.5 mm in a hole of 10 mm, 0.6 mm off centre: 0.1 mm
+    into the wall, a linear law of 10^6 N/m pushes it back with 100 N.
+
+    >>> import numpy as np
+    >>> import flexmb as fm
+    >>> model = fm.Model()
+    >>> rod = fm.RigidBody("rod", mass=0.2, inertia=np.eye(3) * 1e-4)
+    >>> gap = fm.JournalBearingContact("gap", rod, 0.0095, model.ground, 0.010, fm.LinearContactLaw(1e6))
+    >>> system = model.add(fm.Free("free", model.ground, rod), gap).build()
+    >>> kin = system.kinematics(0.0, np.array([0.0006, 0, 0, 0, 0, 0]), np.zeros(6))
+    >>> system.forces.active_force(kin)[:3].round(9)
+    array([-100.,    0.,    0.])
+    """
+
+    geometry: ClassVar[int] = _k.JOURNAL
+
+    pin_body: Body = reference(Body)
+    pin_radius: float = field(converter=as_float, validator=_radius)
+    bearing_body: Body = reference(Body)
+    bearing_radius: float = field(converter=as_float, validator=_radius)
+    normal_law: NormalLaw = field(converter=_law_of(NORMAL_LAWS), validator=_normal_law)
+    friction: FrictionLaw | None = field(default=None, converter=_law_of(FRICTION_LAWS), validator=_friction_law)
+    pin_centre: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
+    bearing_centre: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
+    bearing_axis: np.ndarray = field(default=(0.0, 0.0, 1.0), converter=as_unit_vector, validator=unit_vector)
+
+    def __attrs_post_init__(self):
+        if not self.bearing_radius > self.pin_radius:
+            raise ModelError(f"{label(self)}: bearing_radius must exceed pin_radius (a radial clearance > 0), got "
+                             f"{self.bearing_radius!r} <= {self.pin_radius!r}")
+
+    @property
+    def clearance(self) -> float:
+        """The radial clearance ``R_hole - r_pin``, m."""
+        return self.bearing_radius - self.pin_radius
+
+    def _sides(self):
+        return self.pin_body, self.bearing_body
+
+    @classmethod
+    def load_tables(cls, elements, topology) -> LoadTables:
+        """The contacts' bodies, geometry, law codes and parameters (compiled, :mod:`flexmb.forces.tables`).
+
+        Parameters
+        ----------
+        elements : sequence of JournalBearingContact
+            The model's elements of this class.
+        topology : Topology
+            The model's tree.
+
+        Returns
+        -------
+        LoadTables
+            Their ``contact_*`` rows.
+        """
+        return cls._tables(elements, topology)
+
+    def _layout(self, topology):
+        i, c = self._locate(topology, self.pin_body, self.pin_centre)
+        j, p = self._locate(topology, self.bearing_body, self.bearing_centre)
+        return (i, j), np.array([c, p, self.bearing_axis]), (self.pin_radius, self.bearing_radius)

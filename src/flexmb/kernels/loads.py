@@ -6,7 +6,7 @@ from typing import NamedTuple
 
 import numpy as np
 from .cache import njit
-from .contact import SPHERE_PLANE, elastic_energy, friction_factor, normal_force
+from .contact import JOURNAL, SPHERE_PLANE, elastic_energy, friction_factor, normal_force
 
 __all__ = ["LoadTables", "add_point_forces", "add_torques", "body_points", "apply_load_tables", "contact_states"]
 
@@ -49,14 +49,15 @@ class LoadTables(NamedTuple):
         The force-element class (the model's group) each row belongs to,
         for the power of each group (``gravity_group`` has one entry).
     contact_rows : ndarray of int, shape (c, 2)
-        Body rows of the two sides of each contact: the sphere's, then the
-        plane's or the second sphere's.
+        Body rows of the two sides of each contact: the sphere's (or the
+        pin's), then the plane's, the second sphere's or the bearing's.
     contact_local : ndarray, shape (c, 3, 3)
-        In those rows' body frames: the sphere's centre, the plane's point
-        (or the second sphere's centre) and the plane's unit normal (zeros
-        for two spheres).
+        In those rows' body frames: the sphere's (pin's) centre, the
+        plane's point (the second sphere's, the bearing's centre) and the
+        plane's unit normal (the bearing's axis; zeros for two spheres).
     contact_geom : ndarray, shape (c, 2)
-        The radii, m (the second 0 for a plane).
+        The radii, m (the second 0 for a plane; the bearing's hole's for
+        a journal).
     contact_laws : ndarray of int, shape (c, 3)
         Codes of the geometry, the normal law and the friction law
         (:mod:`flexmb.kernels.contact`).
@@ -325,11 +326,12 @@ def _contact_eval(rows, local, geom, laws, par, R, origin, r, omega, v, centre, 
     """One contact: its penetration and normal force, and in place its point, relative velocity, normal and force.
 
     ``q`` is the middle of the overlap along the normal ``nrm`` (pointing
-    to the sphere of the first row), ``u`` the velocity of the first row's
-    material point at ``q`` less the second's, ``f`` the force on the first
-    row at ``q`` (the second takes ``-f``). Returns ``(delta, f_n)``; the
-    rate of the penetration is ``-u . nrm`` exactly (the spheres' spins
-    move their surfaces along the tangent plane only).
+    to the sphere, or the pin, of the first row), ``u`` the velocity of the
+    first row's material point at ``q`` less the second's, ``f`` the force
+    on the first row at ``q`` (the second takes ``-f``). Returns
+    ``(delta, f_n)``; the rate of the penetration is ``-u . nrm`` exactly
+    (the spheres' spins move their surfaces along the tangent plane only;
+    for a journal, while the bearing's axis turns about itself only).
     """
     a, b = rows[0], rows[1]
     _point_motion(R, origin, r, omega, v, a, local[0], centre[0], cvel[0])
@@ -340,6 +342,27 @@ def _contact_eval(rows, local, geom, laws, par, R, origin, r, omega, v, centre, 
             nrm[x] = R[b, x, 0] * local[2, 0] + R[b, x, 1] * local[2, 1] + R[b, x, 2] * local[2, 2]
             dist += (centre[0, x] - centre[1, x]) * nrm[x]
         delta = geom[0] - dist
+    elif laws[0] == JOURNAL:
+        dk = 0.0
+        for x in range(3):
+            nrm[x] = R[b, x, 0] * local[2, 0] + R[b, x, 1] * local[2, 1] + R[b, x, 2] * local[2, 2]
+            dk += (centre[0, x] - centre[1, x]) * nrm[x]
+        # the pin's eccentricity across the bearing's axis; the normal points back to the bearing's centre
+        d0 = centre[0, 0] - centre[1, 0] - dk * nrm[0]
+        d1 = centre[0, 1] - centre[1, 1] - dk * nrm[1]
+        d2 = centre[0, 2] - centre[1, 2] - dk * nrm[2]
+        dist = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+        if dist > 0.0:
+            nrm[0], nrm[1], nrm[2] = -d0 / dist, -d1 / dist, -d2 / dist
+        else:  # centred: no contact unless the clearance is 0; any direction across the axis
+            a0, a1, a2 = nrm[0], nrm[1], nrm[2]
+            if abs(a0) < 0.9:
+                nrm[0], nrm[1], nrm[2] = 0.0, a2, -a1
+            else:
+                nrm[0], nrm[1], nrm[2] = -a2, 0.0, a0
+            s = np.sqrt(nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2])
+            nrm[0], nrm[1], nrm[2] = nrm[0] / s, nrm[1] / s, nrm[2] / s
+        delta = dist - (geom[1] - geom[0])
     else:
         d0, d1, d2 = centre[0, 0] - centre[1, 0], centre[0, 1] - centre[1, 1], centre[0, 2] - centre[1, 2]
         dist = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)

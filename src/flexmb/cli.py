@@ -202,6 +202,22 @@ def _study(args) -> int:
     return EXIT_FAILED if result.failed else EXIT_OK
 
 
+def _view_parser(sub) -> None:
+    """The ``flexmb view`` command's arguments."""
+    from .viz.viewer import MAX_BYTES, MAX_FRAMES
+
+    view = sub.add_parser("view", help="write FOLDER/view.html: the results of flexmb run animated in 3-D, "
+                                       "in any browser (self-contained, no network)",
+                          epilog=_EXIT_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
+    view.add_argument("folder", help="the output folder of flexmb run (its summary.json and .npz results)")
+    view.add_argument("--out", default=None, metavar="FILE", help="the HTML file (default: FOLDER/view.html)")
+    view.add_argument("--max-frames", type=int, default=None, metavar="N",
+                      help=f"keep at most N output times, evenly spaced (default: {MAX_FRAMES}; the page also "
+                           f"keeps at most {MAX_BYTES / 1e6:g} MB of frame data)")
+    view.add_argument("--open", action="store_true", help="open the page in the web browser")
+    view.set_defaults(func=_view)
+
+
 def main(argv=None) -> int:
     """Entry point of the ``flexmb`` command.
 
@@ -244,16 +260,7 @@ def main(argv=None) -> int:
     info = sub.add_parser("info", help="describe a scene file: bodies, coordinates, constraints, freedoms")
     info.add_argument("scene", help=scene_help)
     info.set_defaults(func=_info)
-    view = sub.add_parser("view", help="write FOLDER/view.html: the results of flexmb run animated in 3-D, "
-                                       "in any browser (self-contained, no network)",
-                          epilog=_EXIT_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
-    view.add_argument("folder", help="the output folder of flexmb run (its summary.json and .npz results)")
-    view.add_argument("--out", default=None, metavar="FILE", help="the HTML file (default: FOLDER/view.html)")
-    view.add_argument("--max-frames", type=int, default=None, metavar="N",
-                      help="keep at most N output times, evenly spaced (default: 1000; the page also keeps "
-                           "at most 8 MB of frame data)")
-    view.add_argument("--open", action="store_true", help="open the page in the web browser")
-    view.set_defaults(func=_view)
+    _view_parser(sub)
     plug = sub.add_parser("plugins", help="list bodies, joints, forces, complements and integrators by name")
     plug.add_argument("--kind", default=None, help="bodies, joints, forces, complements or integrators")
     plug.set_defaults(func=_plugins)

@@ -161,11 +161,14 @@ def _run_data(label: str, result, system, max_frames, max_bytes) -> dict:
     frames = _frame_indices(nt, 4 * n_points * (3 + len(fields)), max_frames, max_bytes)
     meshes = list(_meshes(result, frames, system))
     P = np.array([m.points for m in meshes], dtype=float)
+    seen = P[np.isfinite(P).all(axis=-1)]
+    if not len(seen):
+        raise ExportError(f"{label or 'the result'}: no finite point positions to show")
     data = {"label": label, "t": [float(v) for v in np.asarray(result.t, dtype=float)[frames]],
             "outputs": [int(i) for i in frames], "n_outputs": nt, "n_points": n_points,
             "bodies": [str(n) for n in first.field_data["body_names"]],
-            "positions": _b64(P), "lo": P.reshape(-1, 3).min(axis=0).tolist(),
-            "hi": P.reshape(-1, 3).max(axis=0).tolist(), **_geometry(first), "fields": {}}
+            "positions": _b64(P), "lo": seen.min(axis=0).tolist(), "hi": seen.max(axis=0).tolist(),
+            **_geometry(first), "fields": {}}
     flexible = _points_of(data, [k for k, n in enumerate(data["bodies"]) if n in result.flexible], n_points)
     for name in fields:
         values = np.array([_magnitude(m.point_data[name]) for m in meshes])

@@ -8,6 +8,8 @@ same frame twice gives the same picture. Skips where Chromium is absent (``.ci/r
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 
@@ -29,7 +31,7 @@ CONTROLS = 60  # pixels at the bottom: the control bar and the help line
 def page(tmp_path_factory):
     model, initial = wiper(WiperOptions(flexible=True))
     system = model.build()
-    res = fm.simulate(system, 0.5, positions=initial, n_out=11, progress=False)
+    res = fm.simulate(system, 0.5, positions=initial, n_out=101, progress=False)
     return write_view(res, tmp_path_factory.mktemp("viewer") / "wiper.html", system=system, title="wiper")
 
 
@@ -45,21 +47,21 @@ def _picture(page, tmp_path, fragment):
 def test_the_wiper_is_drawn_and_moving_the_slider_moves_it(page, tmp_path):
     first = _picture(page, tmp_path, "frame=0&color=body")
     again = _picture(page, tmp_path, "frame=0&color=body")
-    last = _picture(page, tmp_path, "frame=10&color=body")
+    last = _picture(page, tmp_path, "frame=100&color=body")
     drawn = np.any(first < 0.95, axis=-1)  # anything not white (the background)
     assert drawn.sum() > 2000, f"only {drawn.sum()} pixels drawn"
     assert np.any(last < 0.95, axis=-1).sum() > 2000
     np.testing.assert_array_equal(first, again)  # one frame, one picture
     changed = np.any(np.abs(first - last) > 0.1, axis=-1)
-    assert changed.sum() > 1000, f"frames 0 and 10 differ in only {changed.sum()} pixels"
+    assert changed.sum() > 1000, f"frames 0 and 100 differ in only {changed.sum()} pixels"
 
 
 def test_the_fragment_sets_the_frame_and_the_colour(page, tmp_path):
-    html = dom(page, "frame=7&color=von_mises")
-    assert 'data-frame="7"' in html
-    assert "von Mises stress (Pa)" in html and "t = 0.3500 s (8/11)" in html
-    stressed = _picture(page, tmp_path, "frame=7&color=von_mises")
-    by_body = _picture(page, tmp_path, "frame=7&color=body")
+    html = dom(page, "frame=70&color=von_mises")
+    assert 'data-frame="70"' in html
+    assert "von Mises stress (Pa)" in html and "t = 0.3500 s (71/101)" in html
+    stressed = _picture(page, tmp_path, "frame=70&color=von_mises")
+    by_body = _picture(page, tmp_path, "frame=70&color=body")
     assert np.any(np.abs(stressed - by_body) > 0.1, axis=-1).sum() > 1000
 
 
@@ -71,3 +73,13 @@ def test_the_notebook_iframe_shows_the_playing_wiper(page, tmp_path):
     rgb = imread(screenshot(notebook, tmp_path / "notebook.png", window_size=SIZE))[..., :3]
     inside = rgb[40:540, 10:700]  # the iframe is 600 px high, the viewer's controls at its bottom
     assert np.any(inside < 0.95, axis=-1).sum() > 2000
+
+
+def test_play_runs_through_the_frames(page):
+    # at 0.1 simulated seconds per second, the browser's 3 s of virtual time (less what loading takes)
+    # play up to 0.3 s of the 0.5 s: frames 5 ms apart, up to frame 60
+    html = dom(page, "frame=0&speed=0.1&play=1")
+    frame = int(re.search(r'data-frame="(\d+)"', html).group(1))
+    assert 40 <= frame <= 60 and '<button id="play" type="button">pause</button>' in html
+    html = dom(page, "frame=0")
+    assert 'data-frame="0"' in html and '<button id="play" type="button">play</button>' in html

@@ -225,3 +225,17 @@ def test_flexmb_view_refuses_a_folder_without_results(tmp_path, capsys):
     assert "no such folder" in capsys.readouterr().err
     assert main(["view", str(tmp_path)]) == 3
     assert "no summary.json and no .npz result" in capsys.readouterr().err
+
+
+def test_browser_failures_are_export_errors(swing, tmp_path, monkeypatch):
+    from flexmb.viz import _browser
+
+    page = write_view(swing[1], tmp_path / "v.html")
+    with pytest.raises(ExportError, match="failed on file://"):
+        _browser.screenshot(page, tmp_path / "x.png", browser=shutil.which("false"))
+    with pytest.raises(ExportError, match="wrote no screenshot"):
+        _browser.screenshot(page, tmp_path / "x.png", browser=shutil.which("true"))
+    assert not (tmp_path / "x.png").exists()
+    monkeypatch.setattr(_browser, "find_chromium", lambda: None)
+    with pytest.raises(ExportError, match="no Chromium on the PATH"):
+        _browser.dom(page)

@@ -19,9 +19,10 @@ dependencies) are used: no extra is needed.
 
 The file size is bounded: the page keeps at most ``max_frames`` output
 times (default 1000) and at most ``max_bytes`` of per-frame data (default
-8 MB: positions and fields as 32-bit floats, base64 in the page, so that
-the file stays under about 4/3 of it plus 30 kB), taking evenly spaced
-outputs, the first and the last among them, when the result has more.
+8 MB: positions and fields as 32-bit floats, base64 in the page: about 4/3
+of it), taking evenly spaced outputs, the first and the last among them,
+when the result has more; besides, a page holds its renderer (17 kB), the
+frame times and the drawing's connectivity.
 """
 
 from __future__ import annotations

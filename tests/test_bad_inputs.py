@@ -170,6 +170,19 @@ def test_frequency_response_frequencies(spring_ss, kw, match):
         fm.frequency_response(spring_ss, **kw)
 
 
+def test_frequency_response_refuses_more_frequencies_than_it_can_evaluate(spring_ss):
+    """``n=10**18`` raised a raw MemoryError; ``n=10**9`` ran for hours (a Python-level solve per frequency)."""
+    from flexmb.analysis.statespace import MAX_FREQUENCIES
+
+    with pytest.raises(fm.ModelError, match=r"frequency_response: 1e\+18 frequencies, more than the 1,000,000"):
+        fm.frequency_response(spring_ss, n=10**18)
+    with pytest.raises(fm.ModelError, match=r"frequency_response: 1e\+09 frequencies"):
+        fm.frequency_response(spring_ss, n=10**9)
+    with pytest.raises(fm.ModelError, match=r"StateSpace.response: 1e\+06 frequencies"):
+        spring_ss.response(1j * np.linspace(1.0, 2.0, MAX_FREQUENCIES + 1))
+    assert fm.frequency_response(spring_ss, n=MAX_FREQUENCIES // 1000).w.shape == (MAX_FREQUENCIES // 1000,)
+
+
 # ----------------------------------------------------------------------------- a force plugin that raises
 
 @frozen(eq=False)
@@ -217,6 +230,27 @@ def test_wiper_with_an_absurd_blade_width():
         scene.info()
 
 
+def test_a_pendulum_spinning_at_1e30_rad_per_s_is_refused_before_it_runs():
+    """``speeds={"pin": 1e30}`` ran for ever: some 1e28 turns for DOP853 to resolve, no up-front bound counted them."""
+    with pytest.raises(fm.ModelError, match=r"simulate: coordinate 'pin.angle' turning at 1e\+30 rad/s \(1.59e\+29 "
+                                            r"turns, a step or more each\) needs at least 1.59e\+29 steps over "
+                                            r"\[0, 1\] s, more than max_steps = 1e\+09"):
+        fm.simulate(pendulum(), 1.0, speeds={"pin": 1e30}, progress=False)
+    # an angle no float resolves (the spring then drives it to some 1e15 rad/s)
+    m = fm.Model()
+    bar = fm.RigidBody.slender_bar("bar", 1.0, 1.0)
+    pin = fm.Revolute("pin", m.ground, bar, axis=(0, 0, 1))
+    m.add(pin, fm.JointSpringDamper("spring", pin, 3.0, 0.0))
+    with pytest.raises(fm.ModelError, match=r"coordinate 'pin.angle' = 1e\+30 rad is beyond what a float resolves "
+                                            r"\(neighbouring floats 1.41e\+14 rad apart\); give the angle modulo 2 pi"):
+        fm.simulate(m, 0.01, positions={"pin": 1e30}, progress=False)
+    # a fast run within the bound still runs, and max_steps moves the bound
+    res = fm.simulate(pendulum(), 0.01, speeds={"pin": 1e3}, rtol=1e-6, progress=False)
+    assert res.status == "finished"
+    with pytest.raises(fm.ModelError, match="turning at 1e\\+05 rad/s"):
+        fm.simulate(pendulum(), 1.0, speeds={"pin": 1e5}, max_steps=1e4, progress=False)
+
+
 # ----------------------------------------------------------------------------- a blow-up, named as such
 
 @frozen(eq=False)
@@ -260,3 +294,39 @@ def test_blow_up_diagnosed_by_every_integrator(method):
     with pytest.raises(fm.SimulationError, match=OVERFLOW.format(what=".*'slide.slide' = [\\d.]+e\\+\\d+")) as info:
         fm.simulate(m, 0.1, positions={"slide": 0.1}, method=method, rtol=1e-4, progress=False)
     assert 3e-4 < info.value.t < 4e-4 and "singular" not in str(info.value)
+
+
+# ----------------------------------------------------------------------------- info no denser than a run
+
+def test_info_of_an_open_tree_builds_no_n_by_n_matrix(monkeypatch):
+    """``flexmb info`` on 100,000 segments: MemoryError from np.eye(n) in the complement of a model without rows."""
+    from flexmb._describe import counts
+    from flexmb.complements.base import ComplementStrategy
+
+    def no_complement(self, psi):
+        raise AssertionError("counts built a complement")
+
+    m = fm.Model()
+    beam = fm.FlexibleBody.uniform_beam("beam", length=1.0, section=fm.Section.rectangular(0.02, 0.005),
+                                        material=fm.Material.aluminium(), n_segments=6)
+    m.add(fm.Fixed("clamp", m.ground, beam))
+    system = m.build()
+    monkeypatch.setattr(ComplementStrategy, "complement", no_complement)
+    n = system.n_coords
+    assert counts(system, np.zeros(n), np.zeros(n)) == (0, 0, n)
+
+
+def test_a_scene_builds_its_system_once(monkeypatch):
+    """``flexmb info`` and ``flexmb run`` built the model twice (the loader's checks, then the command)."""
+    builds = []
+    build = fm.Model.build
+
+    def counted(self, **options):
+        builds.append(options)
+        return build(self, **options)
+
+    monkeypatch.setattr(fm.Model, "build", counted)
+    scene = fm.load_scene(SCENES / "fourbar.toml")
+    scene.info()
+    scene.simulate(t_end=0.01, n_out=2)
+    assert len(builds) == 1

@@ -77,3 +77,44 @@ def test_a_study_stopped_by_sigterm_keeps_its_cases_and_exits_143(tmp_path):
     _, stderr = proc.communicate(timeout=120)
     assert proc.returncode == 143, (proc.returncode, stderr[-2000:])
     assert "Traceback" not in stderr and "interrupted" in stderr
+
+
+def test_a_time_limit_inside_a_compiled_call_stops_the_run_as_itself():
+    """A study case's time limit raised as a kernel returned came out as numba's SystemError and failed the case
+    as 'SystemError: CPUDispatcher(open_tree_rhs) returned a result with an exception set' (seen under load)."""
+    import flexmb as fm
+    from flexmb.study.cases import _CaseTimeout, _run_case_limited
+
+    m = fm.Model()
+    bar = fm.RigidBody.slender_bar("bar", mass=1.0, length=1.0)
+    m.add(fm.Revolute("pin", m.ground, bar), fm.Gravity((0.0, -9.81, 0.0)))
+    system = m.build()
+    rate = system._state_rate
+
+    def hit_in_a_kernel(t, y):
+        if t > 0.05:
+            try:
+                raise _CaseTimeout
+            except _CaseTimeout as exc:  # what the interpreter makes of it as a numba dispatcher returns
+                raise SystemError("CPUDispatcher(open_tree_rhs) returned a result with an exception set") from exc
+        return rate(t, y)
+
+    system._state_rate = hit_in_a_kernel
+    with pytest.raises(_CaseTimeout):
+        fm.simulate(system, 0.1, positions={"pin": 0.5}, method="DOP853", progress=False)
+    # and a case whose build is hit so: the time-limit row, not a failure of the scene
+    import flexmb.study.cases as cases
+
+    def build_hit(task):
+        try:
+            raise _CaseTimeout
+        except _CaseTimeout as exc:
+            raise SystemError("CPUDispatcher(tree_kinematics) returned a result with an exception set") from exc
+
+    original = cases._run_case
+    cases._run_case = build_hit
+    try:
+        row = _run_case_limited({"case": 0, "case_id": "c0", "parameters": {}, "time_limit": 30.0})
+    finally:
+        cases._run_case = original
+    assert row["status"] == "failed" and row["error"] == "exceeded the time limit of 30 s per case; stopped"

@@ -38,11 +38,22 @@ def generic_state(system):
 
 
 def counts(system, x0, xd0) -> tuple[int, int, int]:
-    """Constraint rows m, rank of psi at the state and degrees of freedom p = n - rank."""
+    """Constraint rows m, rank of psi at the state and degrees of freedom p = n - rank.
+
+    Takes no more memory than a run: no rows, no matrix (an open tree of
+    100,000 segments built an n x n identity); loops closed by the loop
+    kernel, its O(n m) rank; otherwise the complement a run uses.
+    """
+    n, m = system.n_coords, system.n_constraints
+    if m == 0:
+        return 0, 0, n
+    if system._loop_kernel:
+        rank, _ = system._loop_calibration(0.0, x0, xd0)
+        return m, rank, n - rank
     kin = system.kinematics(0.0, x0, xd0)
     psi = system.constraints.evaluate(kin, level=1).psi
     c = system.strategy.complement(psi)
-    return system.n_constraints, c.rank, c.p
+    return m, c.rank, c.p
 
 
 def describe(system, x0, xd0, *, types=None, where="the initial state") -> list[str]:
@@ -88,6 +99,10 @@ def describe(system, x0, xd0, *, types=None, where="the initial state") -> list[
     if model.forces:
         lines.append("forces: " + ", ".join(f"{f.name} ({types.get(f.name, type(f).__name__)})"
                                             for f in model.forces))
+    for e in model.constraints:
+        kinds = [f"{k} {what} row{'s' if k > 1 else ''}" for k, what in ((e.n_position, "position"),
+                                                                        (e.n_velocity, "velocity")) if k]
+        lines.append(f"constraint {e.name}: {types.get(e.name, type(e).__name__)}, {' and '.join(kinds) or 'no rows'}")
     for d in model.drivers:
         lines.append(f"driver {d.name}: drives {names[system.coordinate_slice(d.joint).start + d.coordinate]}")
     m, rank, p = counts(system, x0, xd0)
@@ -96,7 +111,9 @@ def describe(system, x0, xd0, *, types=None, where="the initial state") -> list[
         f"constraint rows: m = {m}" + (f" ({', '.join(system.constraints.labels)})" if 0 < m <= 12 else ""),
         f"rank of psi at {where}: {rank}; redundant rows: {m - rank}",
         f"degrees of freedom: p = n - rank = {p}"
-        + (f" (drivers prescribe {len(model.drivers)})" if model.drivers else ""),
+        + (f" (drivers prescribe {len(model.drivers)})" if model.drivers else "")
+        + (f" independent speeds ({system.constraints.n_velocity} velocity rows: the configuration has more "
+           "freedoms than speeds)" if system.constraints.n_velocity else ""),
     ]
     return lines
 

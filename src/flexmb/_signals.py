@@ -16,7 +16,7 @@ import contextlib
 import signal
 import threading
 
-__all__ = ["Terminated", "as_interrupts", "interrupted_status", "interruption", "who"]
+__all__ = ["Terminated", "as_interrupts", "interrupted_status", "interruption", "interruption_behind", "who"]
 
 #: the signals taken as an interruption, where the platform has them
 SIGNALS = tuple(getattr(signal, s) for s in ("SIGTERM", "SIGHUP") if hasattr(signal, s))
@@ -105,3 +105,34 @@ def interruption(exc: BaseException):
         seen.add(id(exc))
         exc = exc.__cause__ or exc.__context__
     return None
+
+
+def interruption_behind(exc: BaseException):
+    """:func:`interruption` of a numba ``SystemError``; any other BaseException behind it is raised.
+
+    An exception that is not an :class:`Exception` (a study case's time
+    limit, ``SystemExit``) raised while a compiled kernel returns comes out
+    as numba's ``SystemError`` too; it must go on, as it would have without
+    the kernel in between.
+
+    Parameters
+    ----------
+    exc : BaseException
+
+    Returns
+    -------
+    KeyboardInterrupt or None
+
+    Raises
+    ------
+    BaseException
+        The one behind ``exc``, if it is neither an Exception nor a KeyboardInterrupt.
+    """
+    seen = set()
+    cause = exc
+    while cause is not None and id(cause) not in seen:
+        if not isinstance(cause, (Exception, KeyboardInterrupt)):
+            raise cause from exc
+        seen.add(id(cause))
+        cause = cause.__cause__ or cause.__context__
+    return interruption(exc)

@@ -1,9 +1,12 @@
 """Constraint equations phi(x, t) = 0, psi and b (eqs. 28-29).
 
-Cut joints contribute rows of three kinds (see :mod:`flexmb.joints`), and
-drivers contribute ``q_c - theta(t) = 0``. For each row this module gives
-the residual ``phi``, the row of ``psi = dphi/dx``, ``b = -dphi/dt`` and the
-acceleration right-hand side ``gamma`` of ``psi xdd = gamma``.
+Cut joints contribute rows of three kinds (see :mod:`flexmb.joints`),
+constraint elements (:mod:`flexmb.constraint_elements`) position rows and
+velocity rows ``B xd = b``, and drivers ``q_c - theta(t) = 0``, in that
+order. For each row this module gives the residual ``phi`` (0 for a velocity
+row: it has no position form), the row of ``psi = dphi/dx`` (``B`` for a
+velocity row), ``b`` (``-dphi/dt`` for a position row) and the acceleration
+right-hand side ``gamma`` of ``psi xdd = gamma``.
 """
 
 from __future__ import annotations
@@ -12,6 +15,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .errors import ModelError
 from .kernels.constraints import cut_rows
 
 __all__ = ["Constraints", "ConstraintRows"]
@@ -41,7 +45,7 @@ class ConstraintRows(NamedTuple):
 
 
 class Constraints:
-    """Constraint rows of a model: cut joints (compiled, :mod:`flexmb.kernels.constraints`) and drivers.
+    """Constraint rows of a model: cut joints (compiled, :mod:`flexmb.kernels.constraints`), elements and drivers.
 
     Parameters
     ----------
@@ -49,16 +53,30 @@ class Constraints:
         The model's tree.
     drivers : list of Driver
         Prescribed motions.
+    elements : list of ConstraintElement, optional
+        Constraint elements (rows written in Python).
 
     Attributes
     ----------
     labels : list of str
-        One label per row, e.g. ``"loop C.point.x"`` or ``"driver motor"``.
+        One label per row, e.g. ``"loop C.point.x"``, ``"blade.normal"`` or
+        ``"driver motor"``.
     n_rows : int
         Number of constraint rows m.
+    n_cut : int
+        Number of cut-joint rows (the first).
+    elements : list of ConstraintElement
+        The elements, whose rows follow the cut rows.
+    element_start : ndarray of int, shape (n_elements + 1,)
+        Where each element's rows start (offsets from ``n_cut``).
+    holonomic : ndarray of bool, shape (m,)
+        Which rows are position rows (``phi = 0``); the others are velocity
+        rows, left out of every position projection.
+    n_velocity : int
+        Number of velocity rows.
     """
 
-    def __init__(self, topology, drivers):
+    def __init__(self, topology, drivers, elements=()):
         self.topology = topology
         idx = topology.index
         pts, dirs, perps, labels = [], [], [], []
@@ -91,9 +109,117 @@ class Constraints:
         self.cut_arrays = (*self.pt, *self.dr, *self.pp)  # cut_rows' arguments, as the kernels take them
         self._driver_psi = np.zeros((len(self.drivers), topology.n_coords))
         self._driver_psi[np.arange(len(self.drivers)), self.driver_cols] = 1.0
+        self.n_cut = len(labels)
+        self.elements = list(elements)
+        for e in self.elements:
+            for what in ("n_position", "n_velocity"):
+                k = getattr(e, what)
+                if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or k < 0:
+                    raise ModelError(f"constraint element {e.name!r} ({type(e).__name__}): {what} must be a whole "
+                                     f"number >= 0, got {k!r}")
+        counts = [e.n_position + e.n_velocity for e in self.elements]
+        self.element_start = np.concatenate([[0], np.cumsum(counts)]).astype(int)
+        holonomic = [True] * self.n_cut
+        for e in self.elements:
+            names = list(e.row_names())
+            if len(names) != e.n_position + e.n_velocity:
+                raise ModelError(f"constraint element {e.name!r} ({type(e).__name__}): row_names() gave "
+                                 f"{len(names)} names for {e.n_position} position and {e.n_velocity} velocity rows")
+            labels += [f"{e.name}.{r}" for r in names]
+            holonomic += [True] * e.n_position + [False] * e.n_velocity
         labels += [f"driver {d.name}" for d in self.drivers]
+        holonomic += [True] * len(self.drivers)
+        self.holonomic = np.array(holonomic, dtype=bool)
+        self.n_velocity = int(np.sum(~self.holonomic))
         self.labels = labels
         self.n_rows = len(labels)
+
+    def element_rows(self, kin):
+        """The constraint elements' rows at a state (checked: a bad row names its element).
+
+        Parameters
+        ----------
+        kin : Kinematics
+            The kinematic state.
+
+        Returns
+        -------
+        ConstraintRows
+            ``phi`` (0 on the velocity rows), ``psi``, ``b``, ``gamma`` of
+            the elements' rows.
+        """
+        n, m = kin.x.shape[0], int(self.element_start[-1])
+        phi, psi, b, gamma = np.zeros(m), np.zeros((m, n)), np.zeros(m), np.zeros(m)
+        for e, i in zip(self.elements, self.element_start):
+            rows = e.checked_rows(kin)
+            k = rows.psi.shape[0]
+            phi[i : i + e.n_position] = rows.phi
+            psi[i : i + k], b[i : i + k], gamma[i : i + k] = rows.psi, rows.b, rows.gamma
+        return ConstraintRows(phi, psi, b, gamma)
+
+    def element_powers(self, lam, kin) -> np.ndarray:
+        """The power ``lambda . b`` of each element's rows (nonzero only for rows with ``b != 0``).
+
+        Parameters
+        ----------
+        lam : ndarray, shape (m,)
+            The multipliers of all rows.
+        kin : Kinematics
+            The kinematic state.
+
+        Returns
+        -------
+        ndarray, shape (n_elements,)
+            W, as a driver's ``lambda theta'``.
+        """
+        start = self.element_start
+        power = lam[self.n_cut : self.n_cut + start[-1]] * self.element_rows(kin).b
+        return np.array([power[i:j].sum() for i, j in zip(start[:-1], start[1:])])
+
+    def refuse_velocity_rows(self, what: str) -> None:
+        """Raise a ModelError naming the elements with velocity rows, for an analysis that cannot take them.
+
+        Parameters
+        ----------
+        what : str
+            The analysis (the start of the message), e.g. ``"linearize"``.
+
+        Returns
+        -------
+        None
+            When no row is a velocity row.
+
+        Raises
+        ------
+        ModelError
+            If any row is a velocity row.
+        """
+        if not self.n_velocity:
+            return
+        names = ", ".join(repr(e.name) for e in self.elements if e.n_velocity)
+        raise ModelError(
+            f"{what}: the model has velocity (nonholonomic) constraint rows ({names}); this analysis works in "
+            "independent coordinates x = x0 + T z, which a velocity constraint does not give (its independent "
+            "speeds are fewer than its free coordinates: docs/constraints.md, 'Linearisation'), and is not "
+            "available for such a model yet")
+
+    def position_rows(self, rows):
+        """``rows`` (ConstraintRows of all rows) restricted to the position rows (all of them if none is a velocity row).
+
+        Parameters
+        ----------
+        rows : ConstraintRows
+            The rows of :meth:`evaluate`.
+
+        Returns
+        -------
+        ConstraintRows
+            Its position rows: what a position projection closes.
+        """
+        if not self.n_velocity:
+            return rows
+        h = self.holonomic
+        return ConstraintRows(*(None if a is None else a[h] for a in rows))
 
     def driver_rows(self, t: float, n: int):
         """The drivers' rows of psi and gamma (``xdd_c = theta''(t)``).
@@ -137,6 +263,12 @@ class Constraints:
                                          kin.a_bias, kin.Sw, kin.Sv, topo.parent, topo.coord_start, *self.pt,
                                          *self.dr, *self.pp)
         phis, psis, bs, gammas = [phi_c], [psi_c], [np.zeros(phi_c.shape[0])], [gamma_c]
+        if self.elements:
+            e = self.element_rows(kin)
+            phis.append(e.phi)
+            psis.append(e.psi)
+            bs.append(e.b)
+            gammas.append(e.gamma)
         if self.drivers:
             t = kin.t
             cols = self.driver_cols

@@ -1,4 +1,4 @@
-"""The Model: collects bodies, joints, force elements and drivers."""
+"""The Model: collects bodies, joints, force elements, constraint elements and drivers."""
 
 from __future__ import annotations
 
@@ -10,6 +10,7 @@ import numpy as np
 from . import memory
 from ._names import REFERENCE, find
 from .bodies import Body, Ground
+from .constraint_elements.base import ConstraintElement
 from .drivers import Driver
 from .errors import ModelError
 from .forces import ForceElement
@@ -44,15 +45,16 @@ class Model:
         self.joints: list[Joint] = []
         self.forces: list[ForceElement] = []
         self.drivers: list[Driver] = []
+        self.constraints: list[ConstraintElement] = []
         # elements replaced when their names were resolved: the object a user holds -> the model's
         self._aliases: dict = {}
 
     def add(self, *items):
-        """Add bodies, joints, force elements and drivers (in any order).
+        """Add bodies, joints, force elements, constraint elements and drivers (in any order).
 
         Parameters
         ----------
-        *items : Body, Joint, ForceElement or Driver
+        *items : Body, Joint, ForceElement, ConstraintElement or Driver
             Elements to add; bodies used by a joint are added with it
             (those it gives by name are added on their own). An element
             may name another that is added later: names are resolved by
@@ -83,9 +85,12 @@ class Model:
                 self.forces.append(item)
             elif isinstance(item, Driver):
                 self.drivers.append(item)
+            elif isinstance(item, ConstraintElement):
+                self.constraints.append(item)
             else:
                 raise ModelError(
-                    f"Model {self.name!r}: cannot add {item!r}; expected a Body, Joint, ForceElement or Driver"
+                    f"Model {self.name!r}: cannot add {item!r}; expected a Body, Joint, ForceElement, "
+                    "ConstraintElement or Driver"
                 )
         return self
 
@@ -94,7 +99,7 @@ class Model:
 
         Parameters
         ----------
-        ref : Body, Joint, ForceElement, Driver or str
+        ref : Body, Joint, ForceElement, ConstraintElement, Driver or str
             The element, or its name.
         kind : type
             Look among the elements of this class only (``fm.Joint``,
@@ -102,7 +107,7 @@ class Model:
 
         Returns
         -------
-        Body, Joint, ForceElement or Driver
+        Body, Joint, ForceElement, ConstraintElement or Driver
             The element of the model. For an element that named another by
             name, it is the one the model holds since it resolved the name
             (:meth:`resolve`).
@@ -122,7 +127,7 @@ class Model:
         >>> model.element("pin") is model.element(model["pin"], fm.Joint)
         True
         """
-        pool = [self.ground, *self.bodies, *self.joints, *self.forces, *self.drivers]
+        pool = [self.ground, *self.bodies, *self.joints, *self.forces, *self.constraints, *self.drivers]
         return find(ref, kind, pool, f"Model {self.name!r}", self._aliases)
 
     def resolve(self) -> list[str]:
@@ -141,8 +146,9 @@ class Model:
             naming the element that gave it (empty when all resolved).
         """
         problems = []
-        pool = [self.ground, *self.bodies, *self.joints, *self.forces, *self.drivers]
-        for what, group in (("joint", self.joints), ("force element", self.forces), ("driver", self.drivers)):
+        pool = [self.ground, *self.bodies, *self.joints, *self.forces, *self.constraints, *self.drivers]
+        for what, group in (("joint", self.joints), ("force element", self.forces),
+                            ("constraint element", self.constraints), ("driver", self.drivers)):
             for i, e in enumerate(group):
                 if not attrs.has(type(e)):
                     continue
@@ -169,7 +175,10 @@ class Model:
 
     def __repr__(self) -> str:
         counts = [(len(self.bodies), "body", "bodies"), (len(self.joints), "joint", "joints"),
-                  (len(self.forces), "force element", "force elements"), (len(self.drivers), "driver", "drivers")]
+                  (len(self.forces), "force element", "force elements"),
+                  *([(len(self.constraints), "constraint element", "constraint elements")] if self.constraints
+                    else []),
+                  (len(self.drivers), "driver", "drivers")]
         return (f"<Model {self.name!r}: " + ", ".join(f"{n} {one if n == 1 else many}" for n, one, many in counts)
                 + "; print() it for its coordinates, loops and freedoms>")
 
@@ -189,7 +198,7 @@ class Model:
         return "\n".join([f"Model {self.name!r}", *describe(system, *generic_state(system), where=GENERIC)])
 
     def __getitem__(self, name: str):
-        for group in (self.bodies, self.joints, self.forces, self.drivers):
+        for group in (self.bodies, self.joints, self.forces, self.constraints, self.drivers):
             for item in group:
                 if item.name == name:
                     return item
@@ -206,10 +215,10 @@ class Model:
             One message per problem, each naming the element.
         """
         out: list[str] = self.resolve()
-        unresolved = {e for group in (self.joints, self.forces, self.drivers) for e in group
+        unresolved = {e for group in (self.joints, self.forces, self.constraints, self.drivers) for e in group
                       if _names_left(e)}
-        for kind, group in (("body", self.bodies), ("joint", self.joints),
-                            ("force element", self.forces), ("driver", self.drivers)):
+        for kind, group in (("body", self.bodies), ("joint", self.joints), ("force element", self.forces),
+                            ("constraint element", self.constraints), ("driver", self.drivers)):
             for name, count in Counter(e.name for e in group).items():
                 if count > 1:
                     out.append(f"duplicate {kind} name {name!r} ({count} times)")
@@ -236,6 +245,16 @@ class Model:
             j = getattr(f, "joint", None)
             if isinstance(j, Joint) and j not in joints:
                 out.append(f"force element {f.name!r}: joint {j.name!r} is not in the model")
+        for c in self.constraints:
+            if c in unresolved:
+                continue
+            out.extend(c.check(self))
+            for a in attrs.fields(type(c)) if attrs.has(type(c)) else ():
+                value = getattr(c, a.name)
+                if isinstance(value, Body) and not isinstance(value, Ground) and value not in bodies:
+                    out.append(f"constraint element {c.name!r}: body {value.name!r} is not in the model")
+                if isinstance(value, Joint) and value not in joints:
+                    out.append(f"constraint element {c.name!r}: joint {value.name!r} is not in the model")
         out.extend(_freedoms_without_mass(self, unresolved))
         seen = {}
         for d in self.drivers:
@@ -262,12 +281,17 @@ class Model:
             the loops closed through the recursion, the leanest way) is
             refused before anything is allocated.
         """
+        self._validated_topology()
+
+    def _validated_topology(self):
+        """:meth:`validate`, returning the :class:`~flexmb.topology.Topology` it built (for :meth:`build`)."""
         from .topology import Topology
 
         problems = self.problems()
+        topology = None
         try:
             memory.check(self, loops="articulated")  # before Topology allocates; the leanest strategy's need
-            Topology(self)
+            topology = Topology(self)
         except ModelError as exc:
             problems += [p for p in exc.problems if p not in problems]
         except Exception:
@@ -277,6 +301,7 @@ class Model:
             raise ModelError(
                 f"Model {self.name!r} is invalid:\n  - " + "\n  - ".join(problems), problems
             )
+        return topology
 
     def build(self, **options):
         """Validate and compile the model into a :class:`~flexmb.system.System`.
@@ -293,8 +318,8 @@ class Model:
         """
         from .system import System
 
-        self.validate()
-        return System(self, **options)
+        topology = self._validated_topology()  # built once: the System takes the tree validation built
+        return System(self, _topology=topology, **options)
 
 
 def as_system(model_or_system, error=ModelError, *, complement=None):

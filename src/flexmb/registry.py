@@ -1,7 +1,7 @@
-"""Name tables of bodies, joints, forces, complements and integrators, filled from entry points.
+"""Name tables of bodies, joints, forces, constraints, complements and integrators, filled from entry points.
 
 Every named class flexmb can look up -- the built-ins included -- comes from
-an entry-point group ``flexmb.<kind>``: ``flexmb.bodies``, ``flexmb.joints``,
+an entry-point group ``flexmb.<kind>``: ``flexmb.bodies``, ``flexmb.joints``, ``flexmb.constraints``,
 ``flexmb.forces``, ``flexmb.complements`` and ``flexmb.integrators``. A third
 party adds a plugin by declaring an entry point in its own ``pyproject.toml``;
 a script adds one for the current session with :func:`register`.
@@ -43,11 +43,13 @@ KINDS = {
     "bodies": "flexmb.bodies:Body",
     "joints": "flexmb.joints:Joint",
     "forces": "flexmb.forces:ForceElement",
+    "constraints": "flexmb.constraint_elements:ConstraintElement",
     "complements": "flexmb.complements.base:ComplementStrategy",
     "integrators": "scipy.integrate:OdeSolver",
 }
 
-_ALIASES = {"body": "bodies", "joint": "joints", "force": "forces", "complement": "complements",
+_ALIASES = {"body": "bodies", "joint": "joints", "force": "forces", "constraint": "constraints",
+            "complement": "complements",
             "integrator": "integrators"}
 
 _SESSION = "session"
@@ -62,7 +64,7 @@ class PluginInfo:
 
     Parameters
     ----------
-    kind : {'bodies', 'joints', 'forces', 'complements', 'integrators'}
+    kind : {'bodies', 'joints', 'forces', 'constraints', 'complements', 'integrators'}
         The plugin kind (entry-point group ``flexmb.<kind>``).
     name : str
         The name it is looked up by.
@@ -216,7 +218,7 @@ def get(kind: str, name: str) -> type:
 
     Parameters
     ----------
-    kind : {'bodies', 'joints', 'forces', 'complements', 'integrators'}
+    kind : {'bodies', 'joints', 'forces', 'constraints', 'complements', 'integrators'}
         Plugin kind (the singular, e.g. ``'joint'``, is accepted too).
     name : str
         Plugin name, e.g. ``'revolute'`` or ``'RK45'``.
@@ -263,7 +265,7 @@ def names(kind: str) -> list[str]:
 
     Parameters
     ----------
-    kind : {'bodies', 'joints', 'forces', 'complements', 'integrators'}
+    kind : {'bodies', 'joints', 'forces', 'constraints', 'complements', 'integrators'}
         Plugin kind.
 
     Returns
@@ -285,7 +287,7 @@ def plugins(kind: str | None = None) -> list[PluginInfo]:
 
     Parameters
     ----------
-    kind : {'bodies', 'joints', 'forces', 'complements', 'integrators'}, optional
+    kind : {'bodies', 'joints', 'forces', 'constraints', 'complements', 'integrators'}, optional
         Only this kind (default: all).
 
     Returns
@@ -324,7 +326,7 @@ def register(kind: str, name: str, obj: type, *, replace: bool = False) -> None:
 
     Parameters
     ----------
-    kind : {'bodies', 'joints', 'forces', 'complements', 'integrators'}
+    kind : {'bodies', 'joints', 'forces', 'constraints', 'complements', 'integrators'}
         Plugin kind (the singular is accepted too).
     name : str
         Name to look it up by.
@@ -399,7 +401,7 @@ class BuiltinTable(Mapping):
 
     Parameters
     ----------
-    kind : {'bodies', 'joints', 'forces', 'complements', 'integrators'}
+    kind : {'bodies', 'joints', 'forces', 'constraints', 'complements', 'integrators'}
         Plugin kind.
 
     See Also
@@ -435,7 +437,7 @@ def builtin_table(kind: str) -> BuiltinTable:
 
     Parameters
     ----------
-    kind : {'bodies', 'joints', 'forces', 'complements', 'integrators'}
+    kind : {'bodies', 'joints', 'forces', 'constraints', 'complements', 'integrators'}
         Plugin kind (the singular is accepted too).
 
     Returns

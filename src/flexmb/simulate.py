@@ -11,7 +11,7 @@ from scipy.integrate import OdeSolver
 
 from . import memory, registry
 from ._validate import number, simulate_arguments, state_vector
-from .errors import ModelError, SimulationError, StiffnessWarning
+from .errors import FlexmbError, ModelError, SimulationError, StiffnessWarning
 from .initial_speeds import held_speeds, split_speeds
 from .joints import Joint
 from .model import as_system
@@ -260,12 +260,52 @@ def _check_work(system, solver_cls, name, t0, t1, x, xd, max_step, max_steps):
         if w > 0:
             bounds.append((span * w / 3.0, f"the stability of {name} (the fastest rate of the linearised motion is "
                                            f"{w:.4g} 1/s)"))
+    turns = _turn_bound(system, t0, x, xd, span, max_steps)
+    if turns is not None:
+        bounds.append(turns)
     steps, why = max(bounds, key=lambda b: b[0])
     if steps > max_steps:
         raise ModelError(
             f"simulate: {why} needs at least {steps:.3g} steps over [{t0:g}, {t1:g}] s, more than max_steps = "
             f"{max_steps:.3g}; shorten the span, give a larger step, choose another method, or pass a larger "
             "max_steps")
+
+
+#: the largest spacing of floats at an initial angle, rad: beyond (|angle| > 4e12 rad) the angle is refused
+ANGLE_RESOLUTION = 1e-3
+
+
+def _turn_bound(system, t0, x, xd, span, max_steps):
+    """A bound of the steps from the turns of a fast angle, ``(steps, why)``, if it exceeds ``max_steps``.
+
+    An angle whose turns change the motion (gravity on a pendulum, the
+    orientation in any load) needs a step or more per turn, at its initial
+    speed. Counted for every angle (where the loads ignore an angle, its
+    turns are still more than ``max_steps`` allows a run: ``max_steps``
+    raises the bound). An angle too large for floats to resolve (farther
+    apart than :data:`ANGLE_RESOLUTION`) is refused.
+
+    Returns
+    -------
+    (float, str) or None
+    """
+    angles = np.flatnonzero(system.topology.coord_angle)
+    if not len(angles) or not span > 0:
+        return None
+    far = angles[np.spacing(np.abs(x[angles])) > ANGLE_RESOLUTION]
+    if len(far):
+        k = far[0]
+        raise ModelError(f"simulate: coordinate {system.coordinate_names[k]!r} = {x[k]:.3g} rad is beyond what a float "
+                         f"resolves (neighbouring floats {np.spacing(abs(x[k])):.3g} rad apart); give the angle "
+                         "modulo 2 pi")
+    speed = np.abs(xd[angles])
+    turns = span * speed / (2 * np.pi)
+    j = int(np.argmax(turns))
+    if not turns[j] > max_steps:
+        return None
+    name = system.coordinate_names[angles[j]]
+    return turns[j], f"coordinate {name!r} turning at {speed[j]:.3g} rad/s ({turns[j]:.3g} turns, a step or more each)"
+    return None
 
 
 @limited_blas
@@ -334,8 +374,9 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         every half minute in a log (:mod:`flexmb.progress`). Default: shown,
         except in a CI job.
     track_work : bool
-        Integrate, with the state, the work done by each driver and by each
-        class of force elements (``Result.work``), for energy balances:
+        Integrate, with the state, the work done by each driver, by each
+        class of force elements and by each constraint element (a row with
+        ``b != 0``: ``lambda b``; ``Result.work``), for energy balances:
         ``sum of all works = change of kinetic energy``.
     max_steps : float
         The most steps a run may need: a run that needs more (given
@@ -356,8 +397,12 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     ModelError
         If an argument is out of range (non-finite ``t0`` or ``t_end``,
         ``rtol <= 0``, ``n_out < 1``, ``max_step <= 0``, ...; the message
-        names it), if the run needs more than ``max_steps`` steps, if the outputs would not fit in the available memory
-        (:mod:`flexmb.memory`), or if the model has no degree of freedom left.
+        names it), if the run needs more than ``max_steps`` steps (counted
+        from ``max_step``, a fixed step, an explicit method's stability, or
+        the turns of the fastest angle), if an initial angle is too large
+        for floats to resolve, if the outputs would not fit in the available
+        memory (:mod:`flexmb.memory`), or if the model has no degree of
+        freedom left.
 
     Warns
     -----

@@ -31,7 +31,7 @@ import time as _time
 
 import numpy as np
 
-from ._signals import interruption, who
+from ._signals import interruption_behind, who
 from .errors import AssemblyError
 from .integrators import adapt, capabilities
 from .integrators.monitor import ResolutionMonitor
@@ -165,9 +165,10 @@ class Run:
         self.projection_tol = projection_tol
         self.progress = progress
         self.n_drv = len(system.constraints.drivers)
+        elements = system.constraints.elements  # their work: that of their rows with b != 0
         self.work_names = ([f"driver {d.name}" for d in system.constraints.drivers] + system.forces.group_names()
-                           if track_work else [])
-        self.n_w = len(self.work_names)
+                           + [f"constraint {e.name}" for e in elements] if track_work else [])
+        self.n_w, self.n_el = len(self.work_names), len(elements) if track_work else 0
         self.counters = {"rhs": 0}
         self.start_complements = system.n_complements
         # what the integrator can use is declared by its class (flexmb.integrators.base)
@@ -226,7 +227,8 @@ class Run:
             if self.n_drv:
                 rates[: self.n_drv] = lam[-self.n_drv:] * np.array([d.velocity(t) for d in system.constraints.drivers])
             return np.concatenate([vs, xdd, rates])
-        A, f, psi, gamma = system._reduced_parts(t, y, powers=rates[self.n_drv:])
+        n_g = self.n_w - self.n_drv - self.n_el
+        A, f, psi, gamma = system._reduced_parts(t, y, powers=rates[self.n_drv : self.n_drv + n_g])
         try:
             xdd, lam = system._solve(t, A, f, psi, gamma, multipliers=True)
         except AssemblyError:
@@ -239,6 +241,8 @@ class Run:
             raise NonFinite(t, f"accelerations became non-finite ({', '.join(bad)})")
         if self.n_drv:
             rates[: self.n_drv] = lam[-self.n_drv:] * np.array([d.velocity(t) for d in system.constraints.drivers])
+        if self.n_el:
+            rates[self.n_drv + n_g:] = system.constraints.element_powers(lam, system._kinematics(t, xs, vs))
         return np.concatenate([vs, xdd, rates])
 
     def _jac(self, t, y):
@@ -302,7 +306,7 @@ class Run:
         except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM / SIGHUP in the flexmb command (_signals)
             self.status, self.message = "interrupted", f"interrupted by {who(exc)} at t = {self.t_now:.9g} s"
         except Exception as exc:  # anything else (a plugin's, the integrator's): failed, with the outputs so far
-            stop = interruption(exc) if isinstance(exc, SystemError) else None
+            stop = interruption_behind(exc) if isinstance(exc, SystemError) else None
             if stop is not None:  # an interruption as a compiled kernel returned (numba's SystemError)
                 self.status, self.message = "interrupted", f"interrupted by {who(stop)} at t = {self.t_now:.9g} s"
             else:
@@ -575,8 +579,8 @@ def _project_partial(system, t, x, xd, res, n_iter=3):
 
     limit = OUTPUT_PROJECTION_GAIN * res
     xp = np.array(x, dtype=float)
-    for _ in range(n_iter):
-        rows = system.constraints.evaluate(system.kinematics(t, xp, xd), level=1)
+    for _ in range(n_iter):  # the positions: by the position rows (a velocity row has no position form)
+        rows = system.constraints.position_rows(system.constraints.evaluate(system.kinematics(t, xp, xd), level=1))
         c = well_conditioned(rows.psi)
         if c.rank:
             xp -= c.particular(rows.phi)

@@ -7,6 +7,7 @@ from attrs import define
 
 from ..errors import ModelError
 from .._validate import whole
+from .statespace import _check_frequencies
 
 __all__ = ["FrequencyResponse", "frequency_response"]
 
@@ -207,7 +208,10 @@ def frequency_response(ss, w=None, *, f=None, pairs=None, n: int = 400) -> Frequ
     ------
     ModelError
         If both ``w`` and ``f`` are given, they are not a 1-d array of
-        finite real numbers, or a pair names an unknown signal.
+        finite real numbers, a pair names an unknown signal, or there are
+        more frequencies than
+        :data:`~flexmb.analysis.statespace.MAX_FREQUENCIES` (or than fit in
+        memory).
 
     Notes
     -----
@@ -233,7 +237,9 @@ def frequency_response(ss, w=None, *, f=None, pairs=None, n: int = 400) -> Frequ
     elif w is not None:
         w = _frequencies("w", w)
     else:
-        w = _default_w(ss, whole("frequency_response", "n", n))
+        n = whole("frequency_response", "n", n)
+        _check_frequencies(n, 1, "frequency_response")
+        w = _default_w(ss, n)
     if pairs is None:
         idx = [(i, o) for i in range(len(ss.inputs)) for o in range(len(ss.outputs))]
     else:

@@ -48,6 +48,7 @@ class _Equations:
     """
 
     def __init__(self, system, t, load, x0, h=1e-6):
+        system.constraints.refuse_velocity_rows("static equilibrium")
         self.system, self.t, self.h = system, float(t), h
         self.zero = np.zeros(system.n_coords)
         elements = [e for _, group in system.forces.groups for e in group]

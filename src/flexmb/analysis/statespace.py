@@ -29,6 +29,32 @@ from ..threads import limited_blas
 from .linear import Linearization, linearize
 from .signals import _as_input, _as_output, _input_force, _output_rows
 
+#: the most frequencies one response evaluates: each costs a Python-level solve, so 10^6 take minutes
+MAX_FREQUENCIES = 10**6
+
+
+def _check_frequencies(n_s: int, per_frequency: int, where: str) -> None:
+    """Refuse ``n_s`` frequencies above :data:`MAX_FREQUENCIES`, or transfer matrices that would not fit in memory.
+
+    Parameters
+    ----------
+    n_s : int
+        Number of frequencies.
+    per_frequency : int
+        Complex entries stored per frequency.
+    where : str
+        The function, for the message.
+    """
+    from .. import memory
+
+    if n_s > MAX_FREQUENCIES:
+        raise ModelError(f"{where}: {n_s:.3g} frequencies, more than the {MAX_FREQUENCIES:,} one response "
+                         "evaluates (each costs a solve); pass fewer, e.g. n=400 log-spaced")
+    need, room = 16.0 * n_s * max(per_frequency, 1), memory.limit()
+    if need > room:
+        raise ModelError(f"{where}: the response at {n_s:,} frequencies needs {memory._size(need)}, more than the "
+                         f"{memory._size(room)} available; pass fewer frequencies")
+
 __all__ = ["StateSpace", "state_space", "EQUILIBRIUM_TOL"]
 
 #: largest independent acceleration ``|M^-1 F|`` at the state linearised about, before
@@ -128,8 +154,15 @@ class StateSpace:
         -------
         ndarray, shape (n_s, k, m), complex
             One transfer matrix per ``s``.
+
+        Raises
+        ------
+        ModelError
+            If there are more than :data:`MAX_FREQUENCIES` values of ``s``, or
+            the transfer matrices would not fit in memory.
         """
         s = np.atleast_1d(np.asarray(s, dtype=complex))
+        _check_frequencies(s.shape[0], self.C.shape[0] * self.B.shape[1], "StateSpace.response")
         # Hessenberg form once: each frequency is then an O(p^2) solve (Laub 1981)
         H, Q = sla.hessenberg(self.A, calc_q=True)
         Bq, Cq = Q.T @ self.B, self.C @ Q

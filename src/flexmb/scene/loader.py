@@ -226,6 +226,7 @@ class _Loader:
         self.load_bodies(model)
         self.load_joints(model)
         self.load_forces(model)
+        self.load_constraints(model)
         self.load_drivers(model)
         solver = self.load_solver(complement)
         self.load_study()
@@ -387,6 +388,9 @@ class _Loader:
 
     def load_forces(self, model):
         self._load_plugins(model, "forces", "force")
+
+    def load_constraints(self, model):
+        self._load_plugins(model, "constraints", "constraint")
 
     def load_drivers(self, model):
         from ..drivers import Driver

@@ -52,6 +52,8 @@ class Scene:
     source: str = "<scene>"
     types: dict = field(factory=dict)
     runs: dict = field(factory=dict)
+    #: the systems built of ``model``, by complement (see :meth:`system`); not a parameter
+    _built: dict = field(factory=dict, init=False, repr=False, eq=False)
 
     def settings(self, **overrides) -> SolverSettings:
         """The solver settings with some replaced (``None`` values are ignored).
@@ -69,7 +71,11 @@ class Scene:
         return evolve(self.solver, **{k: v for k, v in overrides.items() if v is not None})
 
     def system(self, complement: str | None = None):
-        """Compile the model (:meth:`flexmb.Model.build`).
+        """Compile the model (:meth:`flexmb.Model.build`), once per complement strategy.
+
+        The scene's checks, its run and ``info`` share the system (a model
+        of 100,000 segments takes seconds to build); a scene whose ``model``
+        is replaced builds anew.
 
         Parameters
         ----------
@@ -81,7 +87,13 @@ class Scene:
         System
             The compiled system.
         """
-        return self.model.build(complement=complement or self.solver.complement)
+        complement = complement or self.solver.complement
+        key = (id(self.model), complement if isinstance(complement, str) else id(complement))
+        model, system = self._built.get(key, (None, None))
+        if model is not self.model:
+            system = self.model.build(complement=complement)
+            self._built[key] = (self.model, system)
+        return system
 
     def initial_state(self, system=None):
         """Consistent initial coordinates and speeds (:func:`flexmb.initial_state`).
@@ -127,7 +139,7 @@ class Scene:
         from ..simulate import simulate
 
         s = self.settings(**overrides)
-        return simulate(self.model, s.t_end, positions=self.initial.positions, speeds=self.initial.speeds,
+        return simulate(self.system(s.complement), s.t_end, positions=self.initial.positions, speeds=self.initial.speeds,
                         fixed=list(self.initial.fixed) or None, n_out=s.n_out, method=s.method, rtol=s.rtol,
                         atol=s.atol, complement=s.complement, projection_tol=s.projection_tol,
                         max_step=s.max_step, progress=progress, track_work=s.track_work)

@@ -19,6 +19,7 @@ SECTIONS = {
     "bodies": "rigid and flexible bodies by plugin name",
     "joints": "joints by plugin name",
     "forces": "force elements by plugin name",
+    "constraints": "constraint elements by plugin name (rolling, knife edges, gears, a user's rows)",
     "drivers": "prescribed joint motions",
     "initial": "initial positions, speeds and held coordinates",
     "solver": "end time, integrator, tolerances, outputs times, complement",

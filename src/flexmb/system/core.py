@@ -107,19 +107,21 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
 
         return "\n".join([repr(self)[1:-1], *describe(self, *generic_state(self), where=GENERIC)])
 
-    def __init__(self, model, complement="svd", sparse=None):
+    def __init__(self, model, complement="svd", sparse=None, *, _topology=None):
         if model.resolve():  # an element names one the model lacks: raise every problem
             model.validate()
         self.model = model
         strategy = get_complement(complement)
         loops = "articulated" if isinstance(strategy, (ArticulatedComplement, AutoComplement)) else "dense"
         memory.check(model, what=f"Model {model.name!r}", loops=loops)  # before Topology allocates its arrays
-        self.topology = Topology(model)
+        # the tree Model.build's validation built (the model has not changed since), or a new one
+        self.topology = Topology(model) if _topology is None else _topology
         from ..forces.elastic import BeamElasticity
 
         elastic = [BeamElasticity(f"{b.name}.elasticity", b) for b in self.topology.flexible]
         self.forces = ForceAssembler(list(model.forces) + elastic)
-        self.constraints = Constraints(self.topology, model.drivers)
+        self.constraints = Constraints(self.topology, model.drivers, model.constraints)
+        self._refuse_articulated(strategy)
         self.strategy = strategy
         self.n_coords = self.topology.n_coords
         self.n_constraints = self.constraints.n_rows
@@ -153,10 +155,24 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         self._no_loads = (np.zeros((nb1, 3)), np.zeros((nb1, 3)), np.zeros(self.n_coords))
         self._no_powers = np.zeros(0)
 
+    def _refuse_articulated(self, strategy):
+        """Refuse the 'articulated' strategy for a model with constraint elements, naming them."""
+        if self.constraints.elements and isinstance(strategy, ArticulatedComplement):
+            names = ", ".join(repr(e.name) for e in self.constraints.elements)
+            raise ModelError(
+                f"complement='articulated' cannot take constraint elements ({names}): the loop kernel closes "
+                "only cut-joint and driver rows; use 'auto' (which takes the dense complement for such a model) "
+                "or 'svd'")
+
     def _trial(self):
-        """Evaluate every force element once so bad input fails at build time."""
+        """Evaluate every force and constraint element once so bad input fails at build time."""
         x = np.zeros(self.n_coords)
         kin = self._kinematics(0.0, x, x)
+        for e in self.constraints.elements:
+            try:
+                e.checked_rows(kin)
+            except AssemblyError as exc:
+                raise ModelError(f"{str(exc).removeprefix('at t = 0 s: ')} (on the reference state x = 0)") from exc
         for cls, elements in self.forces.groups:
             for e in elements:
                 try:
@@ -226,9 +242,17 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         System
             A new system sharing this one's compiled model; this one is
             unchanged.
+
+        Raises
+        ------
+        ModelError
+            If the strategy is 'articulated' and the model has constraint
+            elements (the loop kernel cannot take their rows).
         """
+        strategy = get_complement(complement)
+        self._refuse_articulated(strategy)
         new = copy.copy(self)
-        new.strategy = get_complement(complement)
+        new.strategy = strategy
         return new
 
     # -- evaluation
@@ -393,6 +417,9 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
             powers[:] = 0.0
         loads = self._python_loads(t, y, powers)
         A, f, _, psi, gamma = tree_equations(self._packed, y, n, powers, *loads)
+        if self.constraints.elements:
+            rows = self.constraints.element_rows(self._kinematics(t, y[:n], y[n : 2 * n]))
+            psi, gamma = np.vstack((psi, rows.psi)), np.concatenate((gamma, rows.gamma))
         if self.constraints.drivers:
             psi_d, gamma_d = self.constraints.driver_rows(t, n)
             m = psi.shape[0]
@@ -418,19 +445,23 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         return acc.force, acc.torque, acc.generalized
 
     def _rows(self, t, x, xd) -> ConstraintRows:
-        """phi, psi and b at a state (all rows: cut joints, then drivers), compiled where it can be."""
+        """phi, psi and b at a state (all rows: cut joints, elements, then drivers), compiled where it can be."""
         if self._packed is None:
             return self.constraints.evaluate(self._kinematics(t, x, xd), level=1)
         phi, psi = cut_rows_at(self._packed, np.concatenate([x, xd]), self.n_coords)
+        b = np.zeros(phi.shape[0])
+        if self.constraints.elements:
+            rows = self.constraints.element_rows(self._kinematics(t, x, xd))
+            phi, psi, b = np.concatenate((phi, rows.phi)), np.vstack((psi, rows.psi)), np.concatenate((b, rows.b))
         drivers = self.constraints.drivers
         if not drivers:
-            return ConstraintRows(phi, psi, np.zeros(phi.shape[0]))
+            return ConstraintRows(phi, psi, b)
         cols = self.constraints.driver_cols
         m = phi.shape[0]
         full = np.empty((m + len(drivers), self.n_coords))
         full[:m], full[m:] = psi, self.constraints.driver_rows(t, self.n_coords)[0]
         phi_d = np.array([x[c] - d.position(t) for d, c in zip(drivers, cols)])
-        b = np.concatenate((np.zeros(m), [d.velocity(t) for d in drivers]))
+        b = np.concatenate((b, [d.velocity(t) for d in drivers]))
         return ConstraintRows(np.concatenate((phi, phi_d)), full, b)
 
     def accelerations(self, t, x, xd) -> np.ndarray:

@@ -23,10 +23,12 @@ class LoopSolve:
         wherever it can: it was the cheaper on every looped model measured,
         from the four-bar (3 coordinates) to B7 (benchmarks/rhs_cost.py;
         docs/benchmarks.md). Not for models whose joints compute their own
-        motion (plugins), which the compiled evaluation cannot take.
+        motion (plugins), which the compiled evaluation cannot take, nor for
+        models with constraint elements (rows written in Python: 'auto'
+        takes the dense complement for them, 'articulated' refuses them).
         """
         return (isinstance(self.strategy, (ArticulatedComplement, AutoComplement)) and self.n_constraints > 0
-                and self._packed is not None)
+                and self._packed is not None and not self.constraints.elements)
 
     @property
     def _loop_tol(self) -> float:

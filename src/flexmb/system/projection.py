@@ -32,6 +32,9 @@ class Projection:
     def project(self, t, x, xd, tol=1e-12, max_iter=50, fixed=None, max_step=0.5, speeds="min-norm"):
         """Project a state onto the constraints (Newton, minimum-norm steps).
 
+        The positions are moved onto the position rows (``phi = 0``) only;
+        the speeds onto all rows, velocity rows (``B xd = b``) included.
+
         Parameters
         ----------
         t : float
@@ -79,11 +82,13 @@ class Projection:
         free = np.ones(self.n_coords, bool) if fixed is None else ~fixed
         if self._loop_kernel:  # psi never dense: O(n m) steps (kernels/loop_projection.py)
             return self._project_loops(t, x, xd, tol, max_iter, free, max_step, speeds, fixed is None)
+        position_rows = self.constraints.position_rows  # velocity rows have no position form: left out here
         for _ in range(max_iter):
             rows = self._rows(t, x, xd)
             if np.max(np.abs(rows.phi)) <= tol:
                 break
-            step = self._min_norm(rows.psi[:, free], rows.phi)
+            held = position_rows(rows)
+            step = self._min_norm(held.psi[:, free], held.phi)
             big = np.max(np.abs(step))
             x[free] -= step * min(1.0, max_step / big) if big > 0 else step
         else:

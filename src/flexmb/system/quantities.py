@@ -144,6 +144,10 @@ class StateQuantities:
                 return 0.0, 0.0
             return float(np.max(np.abs(rows.phi))), float(np.max(np.abs(rows.psi @ xd - rows.b)))
         position, velocity = cut_residual(self._packed, np.concatenate([x, xd]), self.n_coords)
+        if self.constraints.elements:
+            rows = self.constraints.element_rows(self._kinematics(t, x, xd))
+            position = max(position, float(np.max(np.abs(rows.phi), initial=0.0)))
+            velocity = max(velocity, float(np.max(np.abs(rows.psi @ xd - rows.b), initial=0.0)))
         for d, c in zip(self.constraints.drivers, self.constraints.driver_cols):
             position = max(position, abs(x[c] - d.position(t)))
             velocity = max(velocity, abs(xd[c] - d.velocity(t)))

@@ -49,8 +49,6 @@ MAX_BYTES = 8_000_000
 #: colour fields: point-data name -> (label, unit); the page colours by body too
 FIELDS = {"velocity": ("speed", "m/s"), "von_mises": ("von Mises stress", "Pa")}
 
-# the part_id of centre lines and joints (flexmb.export.layout.PARTS)
-_CENTRE_PART, _JOINT_PART = 1, 3
 # the faces of a VTK hexahedron, each counter-clockwise seen from outside
 _HEX_FACES = ((0, 3, 2, 1), (4, 5, 6, 7), (0, 1, 5, 4), (1, 2, 6, 5), (2, 3, 7, 6), (3, 0, 4, 7))
 _DATA_MARK = "/*FLEXMB_DATA*/null"
@@ -111,6 +109,9 @@ def _b64(values) -> str:
 
 def _geometry(mesh) -> dict:
     """What the page draws of the mesh's cells: lines, faces, joints and dots, with their body rows."""
+    from ..export.layout import PARTS
+
+    centre_part, joint_part = PARTS.index("centre line"), PARTS.index("joint")
     lines, faces, joints, dots = [], [], [], []
     blocks = list(zip(mesh.cells, mesh.cell_data["body_id"], mesh.cell_data["part_id"]))
     # a flexible body's centre line runs inside its segments' blocks: drawn only without them (as viz.render)
@@ -120,13 +121,13 @@ def _geometry(mesh) -> dict:
         body = np.asarray(body, dtype=int)
         part = np.asarray(part, dtype=int)
         for cell, b, p in zip(data, body, part):
-            if block.type == "line" and (centre or p != _CENTRE_PART):
+            if block.type == "line" and (centre or p != centre_part):
                 lines.append([int(cell[0]), int(cell[1]), int(b)])
             elif block.type == "hexahedron":
                 faces.extend([*(int(cell[k]) for k in face), int(b)] for face in _HEX_FACES)
             elif block.type == "quad":
                 faces.append([*(int(c) for c in cell), int(b)])
-            elif block.type == "vertex" and p == _JOINT_PART:
+            elif block.type == "vertex" and p == joint_part:
                 joints.append(int(cell[0]))
             elif block.type == "vertex":
                 dots.append([int(cell[0]), int(b)])
@@ -153,7 +154,7 @@ def _points_of(drawing: dict, bodies: list[int], n_points: int) -> np.ndarray:
 def _run_data(label: str, result, system, max_frames, max_bytes) -> dict:
     """One result as the page's data: frame times, geometry, positions and colour fields."""
     from ..export.layout import _check_result
-    from ..export.meshes import _meshes
+    from ..export.meshes import _meshes, table_names
 
     nt = _check_result(result)
     first = next(_meshes(result, [0], system))
@@ -167,7 +168,7 @@ def _run_data(label: str, result, system, max_frames, max_bytes) -> dict:
         raise ExportError(f"{label or 'the result'}: no finite point positions to show")
     data = {"label": label, "t": [float(v) for v in np.asarray(result.t, dtype=float)[frames]],
             "outputs": [int(i) for i in frames], "n_outputs": nt, "n_points": n_points,
-            "bodies": [str(n) for n in first.field_data["body_names"]],
+            "bodies": table_names(first.field_data, "body"),
             "positions": _b64(P), "lo": seen.min(axis=0).tolist(), "hi": seen.max(axis=0).tolist(),
             **_geometry(first), "fields": {}}
     flexible = _points_of(data, [k for k, n in enumerate(data["bodies"]) if n in result.flexible], n_points)

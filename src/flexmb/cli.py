@@ -4,7 +4,9 @@
 scene, ``fourbar`` or ``wiper``: the scene files shipped in
 ``flexmb/scene/builtin/``, run by the same code) and writes results, plots
 and VTK; ``flexmb info
-SCENE.toml`` describes a scene; ``flexmb plugins`` lists the plugins. A run
+SCENE.toml`` describes a scene; ``flexmb view FOLDER`` writes ``FOLDER/view.html``,
+the results of a run animated in 3-D in a browser (:mod:`flexmb.viz.viewer`);
+``flexmb plugins`` lists the plugins. A run
 locks its output folder (as a study does): a second run or study into the
 same folder is refused; the outputs replace the previous run's only once
 complete. ``flexmb study
@@ -153,6 +155,22 @@ def _plugins(args) -> int:
     return 0
 
 
+def _view(args) -> int:
+    """Write FOLDER/view.html, the 3-D viewer of a results folder; print its path (and open it with --open)."""
+    from .scene.folder_view import view_folder
+
+    kw = {} if args.max_frames is None else {"max_frames": args.max_frames}
+    page, notes = view_folder(args.folder, args.out, **kw)
+    for note in notes:
+        print(f"flexmb: note: {note}", file=sys.stderr)
+    print(page)
+    if args.open:
+        import webbrowser
+
+        webbrowser.open(page.resolve().as_uri())
+    return EXIT_OK
+
+
 def _key_value(text: str, option: str):
     key, sep, value = text.partition("=")
     if not sep or not key.strip() or not value.strip():
@@ -180,6 +198,22 @@ def _study(args) -> int:
     print(result.summary())
     print(f"wrote {args.out}/ (table.csv, table.npz, cases/, study.png, summary.txt)")
     return EXIT_FAILED if result.failed else EXIT_OK
+
+
+def _view_parser(sub) -> None:
+    """The ``flexmb view`` command's arguments."""
+    from .viz.viewer import MAX_BYTES, MAX_FRAMES
+
+    view = sub.add_parser("view", help="write FOLDER/view.html: the results of flexmb run animated in 3-D, "
+                                       "in any browser (self-contained, no network)",
+                          epilog=_EXIT_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
+    view.add_argument("folder", help="the output folder of flexmb run (its summary.json and .npz results)")
+    view.add_argument("--out", default=None, metavar="FILE", help="the HTML file (default: FOLDER/view.html)")
+    view.add_argument("--max-frames", type=int, default=None, metavar="N",
+                      help=f"keep at most N output times, evenly spaced (default: {MAX_FRAMES}; the page also "
+                           f"keeps at most {MAX_BYTES / 1e6:g} MB of frame data)")
+    view.add_argument("--open", action="store_true", help="open the page in the web browser")
+    view.set_defaults(func=_view)
 
 
 def _deprecated_aliases(parser, args) -> None:
@@ -240,6 +274,7 @@ def main(argv=None) -> int:
     info = sub.add_parser("info", help="describe a scene file: bodies, coordinates, constraints, freedoms")
     info.add_argument("scene", help=scene_help)
     info.set_defaults(func=_info)
+    _view_parser(sub)
     plug = sub.add_parser("plugins", help="list bodies, joints, forces, complements and integrators by name")
     plug.add_argument("--kind", default=None, help="bodies, joints, forces, complements or integrators")
     plug.set_defaults(func=_plugins)

@@ -289,6 +289,43 @@ class Result(ResultPost):
                            **options)
         return Picture(out)
 
+    def view(self, path=None, *, system=None, **options):
+        """The mechanism animated in 3-D: a self-contained HTML page, shown inline in a notebook.
+
+        A time slider, play/pause, the playing speed, colour by body, speed
+        or von Mises stress, the camera turned with the mouse; no network
+        and no extra needed (:mod:`flexmb.viz.viewer`).
+
+        Parameters
+        ----------
+        path : str or path-like, optional
+            Where to write the HTML file (default: a temporary file).
+        system : System or Model, optional
+            The model the result came from (default: the one that made it,
+            if kept): bodies drawn through their joints, with stresses.
+        **options
+            ``title``, ``max_frames``, ``max_bytes``: see
+            :func:`flexmb.viz.write_view`.
+
+        Returns
+        -------
+        flexmb.viz.View
+            The HTML file's path (a :class:`pathlib.Path`: open it in a
+            browser), shown as the viewer when it ends a notebook cell.
+
+        Raises
+        ------
+        ExportError
+            On a bad result, system or option.
+        """
+        import tempfile
+
+        from .viz.viewer import write_view
+
+        if path is None:
+            path = Path(tempfile.mkdtemp(prefix="flexmb_view_")) / "view.html"
+        return write_view(self, path, system=self.system if system is None else system, **options)
+
     def coordinate(self, name) -> np.ndarray:
         """History of one coordinate by its name (``"joint.coordinate"``), or a joint's first coordinate.
 

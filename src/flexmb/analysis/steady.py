@@ -221,8 +221,9 @@ def linearize_steady(system, x0, xd0, ignorable=None, coordinates=None, speeds=N
     for row in psi_h:  # a position row may hold ignorable coordinates together, or non-ignorable ones, not both
         on = np.abs(row) > small
         if np.any(on & ig) and np.any(on & keep):
-            raise ModelError(f"linearize_steady: a position row ties the ignorable {[names[i] for i in np.flatnonzero(on & ig)]} "
-                             f"to {[names[i] for i in np.flatnonzero(on & keep)]}, which are not: name them all "
+            tied = [names[i] for i in np.flatnonzero(on & ig)]
+            raise ModelError(f"linearize_steady: a position row ties the ignorable {tied} to "
+                             f"{[names[i] for i in np.flatnonzero(on & keep)]}, which are not: name them all "
                              "ignorable or none")
 
     # the independent coordinates, the others from the position rows

@@ -119,3 +119,11 @@ def test_refusals_name_the_coordinates():
                                speeds={"heading.angle": 0.0, "lean": 0.0, "spin": 10.0}, fixed=["lean"])
     with pytest.raises(fm.ModelError, match=r"not a steady motion"):
         fm.linearize_steady(system, x1, xd1, ignorable=DISC_IGNORABLE)
+
+
+def test_a_position_row_tying_an_ignorable_coordinate_is_refused():
+    model = disc_model().add(fm.GearPair("gear", "spin", "lean", ratio=2.0))
+    system = model.build()
+    x0, xd0 = fm.initial_state(system, positions={"heading.slide": R_DISC})
+    with pytest.raises(fm.ModelError, match=r"position row ties the ignorable \['spin.angle'\] to \['lean.angle'\]"):
+        fm.linearize_steady(system, x0, xd0, ignorable=DISC_IGNORABLE)

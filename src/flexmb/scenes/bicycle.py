@@ -28,7 +28,7 @@ from ..forces import Gravity
 from ..joints import Joint, Revolute
 from ..model import Model
 
-__all__ = ["BENCHMARK", "YawLeanPitch", "benchmark_bicycle", "upright_state", "linearize_upright",
+__all__ = ["BENCHMARK", "SPEEDS", "IGNORABLE", "YawLeanPitch", "benchmark_bicycle", "upright_state", "linearize_upright",
            "upright_eigenvalues", "weave_and_capsize_speeds"]
 
 #: Meijaard et al. (2007), Table 1, in the paper's axes (x forward, y right, z down; positions of the

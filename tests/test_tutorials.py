@@ -168,6 +168,7 @@ def test_export_paraview(monkeypatch, tmp_path):
     assert ns["n_files"] == 16
     assert ns["time_error"] == 0.0
     assert ns["tip_error"] < 1e-15
+    assert ns["warp_error"] < 1e-15  # the tip's elastic displacement: from the straight beam clamped to the ground
     assert ns["bending_error"] < 1e-15
     # static bending moment at the clamp carries the whole weight: rho A g L^2 / 2 (rho 2700, A 20 mm x 5 mm)
     assert ns["clamp_moment_ref"] == pytest.approx(2700.0 * 0.02 * 0.005 * 9.81 * 1.0**2 / 2, rel=1e-12)

@@ -34,11 +34,12 @@ x5) and ``swing.gif`` (the swing coloured by bending moment).
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
+import meshio
 import numpy as np
 
 import flexmb as fm
 from flexmb.export.snapshots import export_snapshot
-from flexmb.export.vtk import read_vtu
+from flexmb.export.vtk import table_names
 
 # %%
 # The run
@@ -76,11 +77,13 @@ print(f"{res.method}: {res.n_steps} steps, status {res.status}")
 # the speeds through the kinematics) and add the section moments and the
 # von Mises stress; without it a Result alone gives the centre line and
 # finite-difference velocities. In ParaView: **File > Open** ``beam.pvd``,
-# **Apply**, then colour by ``von_mises``, ``moment_bend_y`` or ``body``;
-# the time slider shows the real times. The points are where the beam is at
-# each time: there is no displacement to warp by. ``flexmb run`` also
-# writes ``open_in_paraview.py`` (``flexmb.export.vtk.paraview_script``),
-# which ``pvpython`` runs to open every series coloured by stress.
+# **Apply**, then colour by ``von_mises``, ``moment_bend_y`` or
+# ``body_id``; the time slider shows the real times. The points are where
+# the beam is at each time; **Filters > Warp By Vector** (it takes
+# ``elastic_displacement``) with a scale factor of 10 shows the bending 11
+# times as large. ``flexmb run`` also writes ``open_in_paraview.py``
+# (``flexmb.export.vtk.paraview_script``), which ``pvpython`` runs to open
+# every series coloured by stress.
 
 out = Path("results") / "06_export_paraview"
 pvd = res.export_vtk(out, prefix="beam", system=system)
@@ -103,8 +106,10 @@ print(f"{n_files} files, {files[0].name} ... {files[-1].name}; max |t_pvd - t| =
 # %%
 # What a ``.vtu`` holds
 # ---------------------
-# ``read_vtu`` reads each file back (a meshio mesh; meshio itself cannot
-# read the string arrays that name the bodies). A flexible body is its
+# ``meshio.read`` reads each file back (as do pyvista and ParaView: the
+# files hold numbers only, the body names in the field data as entries
+# ``"body:<name>"`` holding the ``body_id``, which ``table_names`` lists).
+# A flexible body is its
 # deformed centre line, N + 1 points (root, the N - 1 interior segment
 # joints, tip) joined by N line cells, and one 8-corner block per segment,
 # the section's width and height; the clamp is a vertex at the root. Point
@@ -112,23 +117,28 @@ print(f"{n_files} files, {files[0].name} ... {files[-1].name}; max |t_pvd - t| =
 # the segment joint at each centre-line point (0 at the tip, where there is
 # no joint) and the section loads there (``moment_bend_y``, N m;
 # ``von_mises``, Pa); a block's corners carry the values of the joint at
-# their end. The tip read back, minus where it started, equals
-# ``res.shape("beam")`` minus the initial shape.
+# their end; ``elastic_displacement`` (m) is every point minus where it
+# would be on the beam undeformed (here, clamped to the ground, the
+# displacement from the straight beam). The tip read back, minus where it
+# started, equals ``res.shape("beam")`` minus the initial shape, and equals
+# the tip's elastic displacement.
 
-meshes = [read_vtu(f) for f in files]
+meshes = [meshio.read(f) for f in files]
 last = meshes[-1]
 print(f"points {last.points.shape}, cells {[(c.type, len(c.data)) for c in last.cells]}, "
-      f"point data {sorted(last.point_data)}, bodies {[str(b) for b in last.field_data['body_names']]}")
+      f"point data {sorted(last.point_data)}, bodies {table_names(last.field_data)}")
 shape = res.shape("beam")  # (n_times, N + 1, 3)
 tip_from_files = np.array([m.points[N] - meshes[0].points[N] for m in meshes])  # the centre line comes first
 tip_error = float(np.max(np.abs(tip_from_files - (shape[:, -1] - shape[0, -1]))))
+warp_error = float(np.max(np.abs(tip_from_files - np.array([m.point_data["elastic_displacement"][N] for m in meshes]))))
 names = [f"beam.j{j}.bend_y" for j in range(N)]
 bending_from_files = np.array([m.point_data["bending_y"][:N] for m in meshes])
 bending_error = float(np.max(np.abs(bending_from_files - np.column_stack([res.coordinate(n) for n in names]))))
 tip_z = tip_from_files[:, 2]
 i_min = int(np.argmin(tip_z))
 tip_z_min, t_min = float(tip_z[i_min]), float(res.t[i_min])
-print(f"read back: tip error {tip_error:.1e} m, bending error {bending_error:.1e} rad; "
+print(f"read back: tip error {tip_error:.1e} m, elastic displacement error {warp_error:.1e} m, "
+      f"bending error {bending_error:.1e} rad; "
       f"lowest tip {1e3 * tip_z_min:.2f} mm at t = {t_min:.2f} s")
 
 # %%
@@ -147,7 +157,7 @@ x_joint = np.arange(N) * L / N
 moment_ref = material.density * section.area * g * (L - x_joint) ** 2 / 2
 x_static = fm.linear_statics(system)
 static_file = export_snapshot(system, x_static, out / "static.vtu")
-static_moment = k * read_vtu(static_file).point_data["bending_y"][:N]
+static_moment = k * meshio.read(static_file).point_data["bending_y"][:N]
 static_moment_error = float(np.max(np.abs(static_moment - moment_ref)) / moment_ref[0])
 clamp_moment_ref = float(moment_ref[0])
 print(f"static bending moment [N m]: {static_moment.round(4)}")

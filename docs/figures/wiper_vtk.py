@@ -20,7 +20,7 @@ import numpy as np
 import pyvista as pv
 
 import flexmb as fm
-from flexmb.export.vtk import paraview_script
+from flexmb.export.vtk import paraview_script, table_names
 from flexmb.scenes.wiper import WiperOptions, wiper
 
 HERE = Path(__file__).resolve().parent
@@ -50,7 +50,7 @@ def main():
     p.set_background("white")
     cmap = matplotlib.colormaps["tab10"]
     for k, (t, grid) in enumerate(zip(TIMES, grids)):
-        names = [str(n) for n in grid.field_data["body_names"]]
+        names = table_names(grid.field_data, "body")
         colours = [matplotlib.colors.to_hex(cmap(i)) for i in range(len(names))]
         p.subplot(0, k)
         p.add_mesh(grid.extract_cells(np.flatnonzero(grid.cell_data["part_id"] != 3)), scalars="body_id",

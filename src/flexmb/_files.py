@@ -5,11 +5,12 @@ folder, then renames it into place. :class:`OutputFolder` is what ``flexmb
 run`` (:meth:`flexmb.scene.Scene.run`, for a scene file and a built-in scene alike)
 writes through:
 
-1. a lock file, ``.flexmb.lock``, holding the pid of the run that owns the
-   folder: a second run into the same folder is refused at once; the lock of
-   a run that died is taken over (the kernel releases its ``flock``); a
-   folder holding a complete run of another owner (another scene) is
-   refused too, unless the run is told to overwrite it;
+1. a lock file, ``.flexmb.lock``, on which the run that owns the folder
+   holds a ``flock`` (the file also names its pid, for the messages): a
+   second run into the same folder is refused at once; the lock of a run
+   that died is taken over (the kernel released its ``flock``, whatever pid
+   the file names); a folder holding a complete run of another owner
+   (another scene) is refused too, unless the run is told to overwrite it;
 2. a hidden staging folder inside the output folder, where the whole run is
    written (so that every move below is a rename within one file system);
 3. a commit: the staging folder is renamed to ``.flexmb-commit`` (the point
@@ -21,27 +22,32 @@ writes through:
 
 A reader therefore finds either the previous complete run or the new one;
 ``summary.json`` is present only beside the complete set of files it names.
+
+Nothing in the folder is trusted to point elsewhere (another user may be
+able to write into it, or a link may be left there by mistake): the lock
+file is opened without following a link, a symbolic link at a name flexmb
+uses (the lock, the manifest, the staging and commit folders, the ``vtk``
+and ``cases`` sub-folders) is refused with an error naming it, no file is
+moved or removed through a linked folder, and of the files a manifest lists
+only those named as flexmb's writers name their files (:data:`WRITTEN`)
+are removed, and only if the manifest is a plain file of this user's.
 Files that no flexmb run wrote are never removed.
 """
 
 from __future__ import annotations
 
 import contextlib
-import errno
 import json
 import os
+import re
 import shutil
 import signal
+import stat
 import threading
-import time
 from pathlib import Path
 from typing import Callable
 
-try:
-    import fcntl
-except ImportError:  # not on Windows: the pid in the lock file is all there is
-    fcntl = None
-
+from ._folder_lock import FolderLock, link_refused, read_plain
 from .errors import ExportError
 
 __all__ = ["atomic_write", "OutputFolder", "LOCK_NAME", "MANIFEST_NAME"]
@@ -54,6 +60,15 @@ MANIFEST_NAME = ".flexmb-run.json"
 SUMMARY_NAME = "summary.json"
 _STAGING = ".flexmb-staging-"
 _COMMIT = ".flexmb-commit"
+#: the names flexmb's writers give the files of an output folder (scene/outputs.py, export/vtk.py,
+#: study/table.py): a run removes no other file, whatever a manifest lists
+WRITTEN = re.compile(r"""(?x)
+    summary\.json | summary\.txt | study\.json | study\.png | table\.(csv|npz|parquet) | open_in_paraview\.py
+  | \w[^/]*\.(npz|png)                     # <prefix>.npz, <prefix>_<label>.png, ...
+  | vtk(_[^/]+)?/\w[^/]*\.(vtu|pvd)        # vtk/<prefix>_0001.vtu, vtk_<label>/<prefix>_<label>.pvd
+""")
+#: sub-folders flexmb writes into: a symbolic link in their place is refused
+_FOLDERS = re.compile(r"vtk(_.+)?|cases")
 _SIGNALS = tuple(getattr(signal, s) for s in ("SIGINT", "SIGTERM", "SIGHUP", "SIGQUIT") if hasattr(signal, s))
 
 
@@ -130,98 +145,6 @@ def _create_temp(path: Path, suffix: str) -> tuple[str, int]:
             os.close(fd)
 
 
-def _pid_alive(pid: int) -> bool:
-    if pid <= 0:
-        return False
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:  # alive, another user's
-        return True
-    except OSError:
-        return False
-    return True
-
-
-def _read_pid(path) -> int | None:
-    try:
-        text = Path(path).read_text().split()
-        return int(text[0]) if text else None
-    except (OSError, ValueError):
-        return None
-
-
-class _Lock:
-    """An exclusive lock on a folder: ``flock`` on ``.flexmb.lock``, which holds the owner's pid."""
-
-    def __init__(self, folder: Path):
-        self.path = folder / LOCK_NAME
-        self.fd = None
-
-    def _busy(self, pid):
-        who = f"pid {pid}" if pid else "another process"
-        return ExportError(f"output folder {self.path.parent} is in use by another flexmb run ({who}; lock file "
-                           f"{self.path}): wait for it to finish or write to another folder")
-
-    def acquire(self) -> None:
-        while self.fd is None:
-            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o666)
-            try:
-                if not self._lock(fd):
-                    continue  # the file we locked was the previous owner's, just removed
-                os.ftruncate(fd, 0)
-                os.write(fd, f"{os.getpid()}\n".encode())
-            except BaseException:
-                os.close(fd)
-                raise
-            self.fd = fd
-
-    def _lock(self, fd) -> bool:
-        """Lock ``fd``; False if it is no longer the file at ``self.path``; raise if held by a live run."""
-        locked = False
-        if fcntl is not None:
-            try:
-                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-                locked = True
-            except OSError as exc:
-                if exc.errno in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES):
-                    raise self._busy(self._owner()) from None
-                # no flock on this file system (ENOLCK, ...): the pid below is all there is
-        if locked:
-            try:
-                now = os.stat(self.path)
-            except FileNotFoundError:
-                now = None
-            mine = os.fstat(fd)
-            if now is None or (now.st_ino, now.st_dev) != (mine.st_ino, mine.st_dev):
-                os.close(fd)
-                return False
-        # a lock file naming a live process is respected even without its flock (a file system
-        # without flock, a lock written by hand); one naming a dead process is stale: taken over
-        owner = _read_pid(self.path)
-        if owner not in (None, os.getpid()) and _pid_alive(owner):
-            raise self._busy(owner)
-        return True
-
-    def _owner(self) -> int | None:
-        """The pid of the lock's holder; it writes it just after locking, so wait a moment for it."""
-        end = time.monotonic() + 1.0
-        while True:
-            pid = _read_pid(self.path)
-            if pid is not None or time.monotonic() > end:
-                return pid
-            time.sleep(0.01)
-
-    def release(self) -> None:
-        if self.fd is None:
-            return
-        with contextlib.suppress(OSError):
-            os.remove(self.path)  # while still locked: a waiting run then finds a new inode (see _lock)
-        os.close(self.fd)
-        self.fd = None
-
-
 @contextlib.contextmanager
 def _signals_held():
     """Hold back Ctrl-C, SIGTERM, ... until the block ends, then let them act.
@@ -260,19 +183,72 @@ def _remove_tree(path: Path) -> None:
     shutil.rmtree(path, ignore_errors=True)
 
 
-def _read_manifest(folder: Path) -> list[str]:
+def _manifest(folder: Path) -> dict | None:
+    """The manifest of ``folder``: a plain file of this user's, else None (another's is not trusted)."""
+    data = read_plain(folder / MANIFEST_NAME, own=True)
     try:
-        data = json.loads((folder / MANIFEST_NAME).read_text())
-        files = data["files"]
-    except (OSError, ValueError, KeyError, TypeError):
+        manifest = json.loads(data) if data is not None else None
+    except ValueError:
+        return None
+    return manifest if isinstance(manifest, dict) else None
+
+
+def _read_manifest(folder: Path) -> list[str]:
+    """The files a manifest lists that are plain paths inside the folder, not the folder's own bookkeeping."""
+    files = (_manifest(folder) or {}).get("files")
+    if not isinstance(files, list):
         return []
-    return [f for f in files if isinstance(f, str) and _safe_relative(f)]
+    return [f for f in files if isinstance(f, str) and _safe_relative(f) and not f.startswith(".flexmb")]
 
 
 def _safe_relative(rel: str) -> bool:
     """A manifest entry names a file inside the folder (never outside it, never the folder itself)."""
     p = Path(rel)
-    return bool(rel) and not p.is_absolute() and ".." not in p.parts and p.parts[0] not in (".", "")
+    return bool(rel) and not p.is_absolute() and ".." not in p.parts and p.parts[0] not in (".", "") \
+        and "\\" not in rel and "\0" not in rel
+
+
+def _real_folder(root: Path, rel: str, create: bool = False) -> bool:
+    """Whether the folder of ``rel`` inside ``root`` is reached through real folders only, never a link.
+
+    With ``create``, missing folders are made (one by one: never through a link). Raises
+    :class:`~flexmb.errors.ExportError` where a link (or a file) stands in the way of a created one.
+    """
+    d = root
+    for part in Path(rel).parts[:-1]:
+        d = d / part
+        try:
+            st = os.lstat(d)
+        except FileNotFoundError:
+            if not create:
+                return False
+            os.mkdir(d)
+            continue
+        if stat.S_ISLNK(st.st_mode):
+            if create:
+                raise link_refused(d)
+            return False
+        if not stat.S_ISDIR(st.st_mode):
+            if create:
+                raise ExportError(f"{d} is a file where the run writes a folder: remove it, or write to another "
+                                  "folder")
+            return False
+    return True
+
+
+def _check_folder(root: Path, rel: str) -> None:
+    """Raise :class:`~flexmb.errors.ExportError` if a link or a file stands where ``root/rel`` is a folder."""
+    d = root
+    for part in Path(rel).parts:
+        d = d / part
+        try:
+            st = os.lstat(d)
+        except FileNotFoundError:
+            return
+        if stat.S_ISLNK(st.st_mode):
+            raise link_refused(d)
+        if not stat.S_ISDIR(st.st_mode):
+            raise ExportError(f"{d} is a file where the run writes a folder: remove it, or write to another folder")
 
 
 def _move_order(files) -> list[str]:
@@ -285,33 +261,39 @@ def _roll_forward(folder: Path) -> None:
     """Finish a commit: replace the previous run's files by the ones in ``.flexmb-commit``.
 
     Every step can be repeated, so a commit cut short (by a kill) is finished
-    by running this again.
+    by running this again. Of the previous run's files only those named as
+    flexmb names its files (:data:`WRITTEN`) are removed; nothing is moved or
+    removed through a linked folder.
     """
     commit = folder / _COMMIT
     new = _read_manifest(commit)
-    if (commit / MANIFEST_NAME).exists():
+    if os.path.lexists(commit / MANIFEST_NAME):
         old = _read_manifest(folder)
     else:  # the manifest was moved already: the old files are gone
         old = []
-    if (commit / SUMMARY_NAME).exists() or (commit / MANIFEST_NAME).exists():
+    if os.path.lexists(commit / SUMMARY_NAME) or os.path.lexists(commit / MANIFEST_NAME):
         # the previous summary goes first: from here on it would describe a mix
         with contextlib.suppress(FileNotFoundError):
             os.remove(folder / SUMMARY_NAME)
     keep = set(new)
     dirs = set()
     for rel in old:
-        if rel not in keep:
-            with contextlib.suppress(FileNotFoundError, IsADirectoryError, PermissionError):
+        if rel in keep or not WRITTEN.fullmatch(rel) or not _real_folder(folder, rel):
+            continue
+        with contextlib.suppress(OSError):
+            if stat.S_ISREG(os.lstat(folder / rel).st_mode):  # a run writes plain files only
                 os.remove(folder / rel)
-            dirs.update(Path(rel).parents)
+        dirs.update(Path(rel).parents)
     made = set()
     for rel in _move_order(new):
         src, dst = os.path.join(commit, rel), os.path.join(folder, rel)
         if not os.path.lexists(src):  # moved by the commit this one finishes
             continue
+        if not _real_folder(commit, rel):
+            continue  # not a file of the run's: the staging folder holds real folders only
         parent = os.path.dirname(dst)
         if parent not in made:
-            os.makedirs(parent, exist_ok=True)
+            _real_folder(folder, rel, create=True)
             made.add(parent)
         # the previous file is removed, not renamed over: ext4 writes a file renamed over another to
         # disk at once (auto_da_alloc), which made this loop over a VTK series six times slower
@@ -319,13 +301,21 @@ def _roll_forward(folder: Path) -> None:
             os.unlink(dst)
         os.rename(src, dst)
     for name in (MANIFEST_NAME, SUMMARY_NAME):
-        if (commit / name).exists():
+        if os.path.lexists(commit / name):
             os.replace(commit / name, folder / name)
     # folders the previous run's files were in, if that left them empty (never the output folder)
     for d in sorted((d for d in dirs if str(d) != "."), key=lambda d: len(d.parts), reverse=True):
         with contextlib.suppress(OSError):
             (folder / d).rmdir()
     _remove_tree(commit)
+
+
+def _check_links(folder: Path) -> None:
+    """Refuse a symbolic link at a name flexmb uses in ``folder`` (its bookkeeping, its sub-folders)."""
+    with os.scandir(folder) as entries:
+        for entry in entries:
+            if entry.is_symlink() and (entry.name.startswith(".flexmb") or _FOLDERS.fullmatch(entry.name)):
+                raise link_refused(Path(entry.path))
 
 
 class OutputFolder:
@@ -386,7 +376,7 @@ class OutputFolder:
         self.overwrite = overwrite
         self.staging = None
         self.committed = False
-        self._lock = _Lock(self.path)
+        self._lock = FolderLock(self.path, LOCK_NAME)
 
     def __enter__(self) -> "OutputFolder":
         if self.path.exists() and not self.path.is_dir():
@@ -400,6 +390,7 @@ class OutputFolder:
         except OSError as exc:
             raise ExportError(f"cannot write to the output folder {self.path}: {exc.strerror or exc}") from None
         try:
+            _check_links(self.path)
             self._recover()
             self._check_owner()
             self.staging = self.path / f"{_STAGING}{os.getpid()}"
@@ -419,27 +410,25 @@ class OutputFolder:
 
     def _recover(self) -> None:
         """Finish a commit a killed run left; remove the staging folders of dead runs."""
-        if (self.path / _COMMIT).is_dir():
+        if os.path.isdir(self.path / _COMMIT):  # not a link: _check_links refused one
             with _signals_held():
                 _roll_forward(self.path)
         for p in self.path.glob(f"{_STAGING}*"):
-            if p.is_dir():
-                _remove_tree(p)
+            _remove_tree(p)  # shutil.rmtree removes no link's target
 
     def _check_owner(self) -> None:
         """Refuse to replace a complete run of another owner (unless told to overwrite it)."""
         if self.owner is None or self.overwrite:
             return
-        try:
-            manifest = json.loads((self.path / MANIFEST_NAME).read_text())
-        except (OSError, ValueError):
-            return  # no complete run here: nothing of another run to remove
-        previous = manifest.get("owner") if isinstance(manifest, dict) else None
+        manifest = _manifest(self.path)
+        if manifest is None:
+            return  # no complete run of this user's here: nothing of another run to remove
+        previous = manifest.get("owner")
         if previous == self.owner or not _read_manifest(self.path):
             return
         what = f"the outputs of {previous}" if previous else "the outputs of an earlier flexmb run (its scene is not recorded)"
         raise ExportError(f"output folder {self.path} holds {what}; this run of {self.owner} would replace "
-                          "them: write to another folder (flexmb run --out DIR), or replace them with "
+                          "them: write to another folder (--out DIR), or replace them with "
                           "--overwrite (overwrite=True)")
 
     def stage(self, rel) -> Path:
@@ -462,6 +451,36 @@ class OutputFolder:
         p = self.staging / rel
         p.parent.mkdir(parents=True, exist_ok=True)
         return p
+
+    def folder(self, rel: str) -> Path:
+        """A sub-folder whose files are written directly, not staged: kept from run to run.
+
+        A study's ``cases/`` is one: each case's file is written as the case
+        ends, so that a study stopped at any moment resumes with the cases it
+        finished. It is created if missing, never through a link.
+
+        Parameters
+        ----------
+        rel : str
+            The folder's path relative to the output folder, e.g. ``"cases"``.
+
+        Returns
+        -------
+        pathlib.Path
+            The folder.
+
+        Raises
+        ------
+        ExportError
+            If a symbolic link or a file stands in its place.
+        """
+        if self.staging is None:
+            raise ExportError("OutputFolder.folder: use the folder in a `with` block")
+        if not _safe_relative(rel) or rel.startswith(".flexmb"):
+            raise ExportError(f"folder name {rel!r} is not a plain path inside the output folder")
+        _check_folder(self.path, rel)
+        _real_folder(self.path, f"{rel}/-", create=True)
+        return self.path / rel
 
     def final(self, rel) -> str:
         """The path an output file will have once committed (what a summary names).
@@ -520,6 +539,9 @@ class OutputFolder:
         if self.owner is not None:
             manifest["owner"] = self.owner
         atomic_write(staging / MANIFEST_NAME, lambda tmp: Path(tmp).write_text(json.dumps(manifest, indent=1) + "\n"))
+        _check_links(self.path)  # refused now, not past the point of no return
+        for rel in {os.path.dirname(f) for f in files if "/" in f}:
+            _check_folder(self.path, rel)
         with _signals_held():
             os.replace(staging, self.path / _COMMIT)  # the point of no return
             self.committed = True

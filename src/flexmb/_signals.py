@@ -8,6 +8,15 @@ raise :class:`Terminated`, a KeyboardInterrupt, so every path that keeps a
 Ctrl-C'd run keeps theirs too; the command then exits with 128 + the
 signal's number, as a shell reports a process the signal ended (143 for
 SIGTERM, 129 for SIGHUP).
+
+Within :func:`as_interrupts` Ctrl-C raises KeyboardInterrupt as Python's own
+handler does, with one difference shared by all three: a signal that
+arrives while llvmlite calls back into Python (numba's object cache, as the
+compiled kernels load or compile) is answered a moment later, once the
+callback has returned. An exception raised inside such a callback cannot
+propagate through the compiled caller: it was printed ("Exception ignored
+on calling ctypes callback function"), the Ctrl-C was lost (a study went on
+and exited 0), or the caller went on with a missing result (a segfault).
 """
 
 from __future__ import annotations
@@ -16,7 +25,7 @@ import contextlib
 import signal
 import threading
 
-__all__ = ["Terminated", "as_interrupts", "interrupted_status", "interruption", "interruption_behind", "who"]
+__all__ = ["Terminated", "as_interrupts", "escaped", "in_callback", "interrupted_status", "interruption", "who"]
 
 #: the signals taken as an interruption, where the platform has them
 SIGNALS = tuple(getattr(signal, s) for s in ("SIGTERM", "SIGHUP") if hasattr(signal, s))
@@ -39,18 +48,66 @@ class Terminated(KeyboardInterrupt):
         self.signum = signum
 
 
+def _callback_codes() -> set:
+    """The code objects of llvmlite's Python callbacks (empty until llvmlite is imported)."""
+    import sys
+
+    ee = getattr(sys.modules.get("llvmlite.binding.executionengine"), "ExecutionEngine", None)
+    names = ("_raw_object_cache_notify", "_raw_object_cache_getbuffer")
+    return {getattr(ee, n).__code__ for n in names if ee is not None and hasattr(getattr(ee, n, None), "__code__")}
+
+
+def in_callback(frame) -> bool:
+    """Whether ``frame`` runs inside a callback of llvmlite (called from compiled code, not from Python).
+
+    Parameters
+    ----------
+    frame : frame or None
+        The frame a signal handler was given.
+
+    Returns
+    -------
+    bool
+    """
+    codes = _callback_codes()
+    while frame is not None and codes:
+        if frame.f_code in codes:
+            return True
+        frame = frame.f_back
+    return False
+
+
+def _later(signum) -> None:
+    """Send ``signum`` to this process again in a moment (the handler then runs outside the callback)."""
+    import os
+
+    timer = threading.Timer(0.005, os.kill, (os.getpid(), signum))
+    timer.daemon = True
+    timer.start()
+
+
 def _raise(signum, frame):
+    if in_callback(frame):
+        _later(signum)
+        return
+    if signum == signal.SIGINT:
+        raise KeyboardInterrupt
     received.append(signum)
     raise Terminated(signum)
 
 
 @contextlib.contextmanager
 def as_interrupts():
-    """Within the block, SIGTERM and SIGHUP raise :class:`Terminated` (on the main thread; elsewhere no change)."""
+    """Within the block, SIGTERM and SIGHUP raise :class:`Terminated`, Ctrl-C KeyboardInterrupt.
+
+    On the main thread; elsewhere nothing changes. A signal that arrives
+    inside a callback of llvmlite is answered once the callback has
+    returned (see the module's docstring).
+    """
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    previous = {s: signal.signal(s, _raise) for s in SIGNALS}
+    previous = {s: signal.signal(s, _raise) for s in (signal.SIGINT, *SIGNALS)}
     try:
         yield
     finally:
@@ -107,13 +164,12 @@ def interruption(exc: BaseException):
     return None
 
 
-def interruption_behind(exc: BaseException):
-    """:func:`interruption` of a numba ``SystemError``; any other BaseException behind it is raised.
+def escaped(exc: BaseException) -> BaseException | None:
+    """A BaseException that is no Exception (a study case's time limit, SystemExit) behind numba's SystemError.
 
-    An exception that is not an :class:`Exception` (a study case's time
-    limit, ``SystemExit``) raised while a compiled kernel returns comes out
-    as numba's ``SystemError`` too; it must go on, as it would have without
-    the kernel in between.
+    Raised in this thread while a compiled kernel returned, it comes out as
+    ``SystemError: CPUDispatcher(...) returned a result with an exception
+    set``, the exception as its cause; it must go on as itself.
 
     Parameters
     ----------
@@ -121,18 +177,13 @@ def interruption_behind(exc: BaseException):
 
     Returns
     -------
-    KeyboardInterrupt or None
-
-    Raises
-    ------
-    BaseException
-        The one behind ``exc``, if it is neither an Exception nor a KeyboardInterrupt.
+    BaseException or None
     """
     seen = set()
-    cause = exc
-    while cause is not None and id(cause) not in seen:
-        if not isinstance(cause, (Exception, KeyboardInterrupt)):
-            raise cause from exc
-        seen.add(id(cause))
-        cause = cause.__cause__ or cause.__context__
-    return interruption(exc)
+    exc = exc.__cause__ or exc.__context__
+    while exc is not None and id(exc) not in seen:
+        if not isinstance(exc, Exception):
+            return exc
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return None

@@ -5,8 +5,9 @@ scene, ``fourbar`` or ``wiper``: the scene files shipped in
 ``flexmb/scene/builtin/``, run by the same code) and writes results, plots
 and VTK; ``flexmb info
 SCENE.toml`` describes a scene; ``flexmb plugins`` lists the plugins. A run
-locks its output folder: a second run into the same folder is refused; the
-outputs replace the previous run's only once complete. ``flexmb study
+locks its output folder (as a study does): a second run or study into the
+same folder is refused; the outputs replace the previous run's only once
+complete. ``flexmb study
 SCENE.toml --vary KEY=SPEC ... --out DIR`` runs a parameter study
 (:mod:`flexmb.study`; ``--time-limit SECONDS`` stops a case that takes
 longer and records it as failed).
@@ -174,7 +175,8 @@ def _study(args) -> int:
     executor = "serial" if args.serial else "process"
     try:
         result = study.run(args.out, executor=executor, workers=args.workers, scheduler=args.scheduler,
-                           progress=not args.quiet, retry_failed=args.retry_failed, time_limit=args.time_limit)
+                           progress=not args.quiet, retry_failed=args.retry_failed, time_limit=args.time_limit,
+                           overwrite=args.overwrite)
     except KeyboardInterrupt:
         print(f"\nflexmb: interrupted: the finished cases are in {args.out}/cases/; "
               "run the same command again to resume", file=sys.stderr)
@@ -240,7 +242,10 @@ def main(argv=None) -> int:
     st.add_argument("--output", action="append", default=[], metavar="NAME",
                     help="an output per case, e.g. peak_speed:tip, peak_effort:motor, energy_balance, final:pin "
                          "(repeatable; default: tracked points, drivers, energy balance, residual)")
-    st.add_argument("--out", required=True, help="output folder (a study run again there resumes)")
+    st.add_argument("--out", required=True, help="output folder (a study run again there resumes); a folder "
+                                                 "holding a run's or another scene's study's outputs is refused")
+    st.add_argument("--overwrite", action="store_true",
+                    help="replace the outputs of a run or of another scene's study in the output folder")
     st.add_argument("--samples", type=int, default=None, help="number of samples of the random parameters")
     st.add_argument("--seed", type=int, default=0, help="seed of the random samples")
     st.add_argument("--sampling", default="lhs", choices=["lhs", "mc"], help="Latin hypercube or Monte Carlo")
@@ -279,6 +284,10 @@ if __name__ == "__main__":
 def console() -> None:
     """The ``flexmb`` command (and ``python -m flexmb``): :func:`main`, then a prompt exit.
 
+    Outside :func:`main` (the imports before it, the exit after it) SIGINT,
+    SIGTERM and SIGHUP end the process at once with one line and exit
+    status 128 + the signal (:mod:`flexmb_command`).
+
     Once :func:`main` has returned, the process has nothing left to do but
     free its objects one by one, the compiled kernels and their machine
     code among them: after the main job, about 0.3 s. With the standard
@@ -288,6 +297,9 @@ def console() -> None:
     raised. Writing into a pipe that its reader closed (``flexmb plugins |
     head -3``) ends the command quietly, with status 1.
     """
+    from flexmb_command import install
+
+    install()  # `python -m flexmb`: from here on (and once main has returned) a signal ends the process at once
     try:
         code = main()
     except BrokenPipeError:  # flexmb ... | head: the reader has what it wanted (Python's "Note on SIGPIPE")

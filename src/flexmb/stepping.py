@@ -31,7 +31,7 @@ import time as _time
 
 import numpy as np
 
-from ._signals import interruption_behind, who
+from ._signals import escaped, interruption, who
 from .errors import AssemblyError
 from .integrators import adapt, capabilities
 from .integrators.monitor import ResolutionMonitor
@@ -306,9 +306,12 @@ class Run:
         except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM / SIGHUP in the flexmb command (_signals)
             self.status, self.message = "interrupted", f"interrupted by {who(exc)} at t = {self.t_now:.9g} s"
         except Exception as exc:  # anything else (a plugin's, the integrator's): failed, with the outputs so far
-            stop = interruption_behind(exc) if isinstance(exc, SystemError) else None
+            stop = interruption(exc) if isinstance(exc, SystemError) else None
+            through = escaped(exc) if isinstance(exc, SystemError) else None
             if stop is not None:  # an interruption as a compiled kernel returned (numba's SystemError)
                 self.status, self.message = "interrupted", f"interrupted by {who(stop)} at t = {self.t_now:.9g} s"
+            elif through is not None:  # e.g. a study case's time limit, raised as a kernel returned
+                raise through from None
             else:
                 self.status, self.error = "failed", exc
                 self.message = f"at t = {self.t_now:.9g} s: {type(exc).__name__}: {exc}"

@@ -177,18 +177,6 @@ def test_a_stale_lock_is_taken_over(tmp_path, capsys):
     assert not (tmp_path / ".flexmb.lock").exists()
 
 
-def test_a_lock_naming_a_live_process_is_respected(tmp_path, capsys):
-    sleeper = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
-    try:
-        (tmp_path / ".flexmb.lock").write_text(f"{sleeper.pid}\n")
-        assert main(_run_argv(tmp_path, 0.1, 5)) == 3
-    finally:
-        sleeper.kill()
-        sleeper.wait()
-    assert f"pid {sleeper.pid}" in capsys.readouterr().err
-    assert main(_run_argv(tmp_path, 0.1, 5)) == 0
-
-
 def test_an_output_path_that_is_a_file_is_a_user_error(tmp_path, capsys):
     (tmp_path / "f").write_text("mine")
     assert main(_run_argv(tmp_path / "f", 0.1, 5)) == 3

@@ -152,3 +152,106 @@ def test_cli_study(scene_file, tmp_path, capsys):
     (tmp_path / "ok" / "cases" / next(p.name for p in (tmp_path / "ok" / "cases").glob("*.json"))).unlink()
     assert main(again) == 0
     assert "study: 2 of 3 cases done before, running the other 1\n" in capsys.readouterr().err
+
+
+# ----------------------------------------------------------------------------- one study per folder, whole (#33, 3)
+
+
+def _masses_study(scene_file, masses, t_end=0.2):
+    return Study.from_file(scene_file, {"bodies.bar.mass": masses}, outputs=["final:pin"],
+                           fixed={"solver.t_end": t_end})
+
+
+def _study_set(out) -> tuple:
+    """The study ``study.json`` describes and the parameter values of the table beside it."""
+    manifest = json.loads((out / "study.json").read_text())
+    lines = (out / "table.csv").read_text().splitlines()
+    column = lines[0].split(",").index("bodies.bar.mass")
+    return manifest["specs"]["bodies.bar.mass"], [float(line.split(",")[column]) for line in lines[1:]]
+
+
+def test_a_study_into_a_busy_folder_is_refused_before_any_case_runs(scene_file, tmp_path, capsys):
+    from flexmb._files import OutputFolder
+
+    with OutputFolder(tmp_path):
+        code = main(["study", str(scene_file), "--vary", "bodies.bar.mass=1,2", "--set", "solver.t_end=0.1",
+                     "--serial", "--quiet", "--out", str(tmp_path)])
+    assert code == 3  # main ran the study: two studies into one folder both exited 0, their files mixed
+    assert f"in use by another flexmb run (pid {os.getpid()}" in capsys.readouterr().err
+    assert not (tmp_path / "cases").exists() and not (tmp_path / "study.json").exists()
+
+
+HOLD = """
+import os, sys, time
+import flexmb.scene as scene
+simulate = scene.Scene.simulate
+def held(self, *args, **kw):
+    open(sys.argv[1], "w").close()  # started its first case: the study holds its folder
+    while not os.path.exists(sys.argv[2]):
+        time.sleep(0.01)
+    return simulate(self, *args, **kw)
+scene.Scene.simulate = held
+from flexmb.cli import main
+sys.exit(main(sys.argv[3:]))
+"""
+
+
+def test_a_second_study_while_one_runs_is_refused_and_nothing_mixes(scene_file, tmp_path):
+    out, started, go = tmp_path / "out", tmp_path / "started", tmp_path / "go"
+    argv = [["study", str(scene_file), "--vary", f"bodies.bar.mass={masses}", "--output", "final:pin", "--set",
+             "solver.t_end=0.2", "--serial", "--quiet", "--out", str(out)] for masses in ("1,2,3", "4,5")]
+    first = subprocess.Popen([sys.executable, "-c", HOLD, str(started), str(go), *argv[0]],
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        end = time.monotonic() + 120
+        while not started.exists():
+            assert first.poll() is None and time.monotonic() < end, first.communicate()
+            time.sleep(0.01)
+        second = subprocess.run([sys.executable, "-m", "flexmb", *argv[1]], capture_output=True, text=True,
+                                timeout=300)
+    finally:
+        go.touch()
+        first.communicate(timeout=300)
+    # main: both exited 0, the second's study.json beside the first's table (the first ended last)
+    assert (first.returncode, second.returncode) == (0, 3), second.stderr
+    assert f"in use by another flexmb run (pid {first.pid}" in second.stderr and "Traceback" not in second.stderr
+    assert _study_set(out) == ([1.0, 2.0, 3.0], [1.0, 2.0, 3.0])
+
+
+def test_an_interrupted_study_leaves_the_previous_study_whole(scene_file, tmp_path, monkeypatch):
+    from flexmb.study import study as study_module
+
+    _masses_study(scene_file, [1.0, 2.0]).run(tmp_path, executor="serial", progress=False)
+    real = study_module._execute
+
+    def interrupted(executor, tasks, record, *args):
+        real(executor, tasks[:1], record, *args)  # one case ends, then Ctrl-C (or a kill)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(study_module, "_execute", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        _masses_study(scene_file, [3.0, 4.0, 5.0]).run(tmp_path, executor="serial", progress=False)
+    # main left the new study.json beside the old table
+    assert _study_set(tmp_path) == ([1.0, 2.0], [1.0, 2.0])
+    assert sorted(p.name for p in tmp_path.iterdir() if p.name.startswith(".")) == [".flexmb-run.json"]
+    monkeypatch.setattr(study_module, "_execute", real)
+    res = _masses_study(scene_file, [3.0, 4.0, 5.0]).run(tmp_path, executor="serial", progress=False)
+    assert (len(res.ran), res.skipped) == (2, 1)  # resumed
+    assert _study_set(tmp_path) == ([3.0, 4.0, 5.0], [3.0, 4.0, 5.0])
+
+
+def test_a_study_and_a_run_do_not_replace_each_other_unasked(scene_file, tmp_path, capsys):
+    out = str(tmp_path)
+    study = ["study", str(scene_file), "--vary", "bodies.bar.mass=1,2", "--set", "solver.t_end=0.1", "--serial",
+             "--quiet", "--out", out]
+    run = ["run", str(scene_file), "--out", out, "--t-end", "0.1", "--n-out", "3", "--quiet"]
+    assert main(study) == 0
+    assert main(run) == 3
+    assert "holds the outputs of a study of" in capsys.readouterr().err
+    assert (tmp_path / "table.csv").exists()
+    assert main(run + ["--overwrite"]) == 0
+    assert not (tmp_path / "table.csv").exists() and (tmp_path / "summary.json").exists()
+    assert (tmp_path / "cases").is_dir()  # the cases are a study's record, never a run's to remove
+    assert main(study) == 3
+    assert main(study + ["--overwrite"]) == 0
+    assert (tmp_path / "table.csv").exists() and not (tmp_path / "summary.json").exists()

@@ -13,7 +13,7 @@ import numpy as np
 
 from ..errors import ExportError
 
-__all__ = ["ELASTIC_FIELDS", "SECTION_FIELDS", "PARTS"]
+__all__ = ["ELASTIC_FIELDS", "SECTION_FIELDS", "PARTS", "NAME_TABLES"]
 
 #: elastic coordinate of a segment joint -> point-data name (rad for rotations, m for translations)
 ELASTIC_FIELDS = {"bend_y": "bending_y", "bend_z": "bending_z", "torsion": "torsion",
@@ -26,6 +26,11 @@ SECTION_FIELDS = {"moment_torsion": "Mx", "moment_bend_y": "My", "moment_bend_z"
 #: line, a lever from a joint point to the shape, a joint (vertex), a body axis (``triad=``)
 PARTS = ("shape", "centre line", "lever", "joint", "triad")
 _SHAPE, _CENTRE, _LEVER, _JOINT, _TRIAD = range(len(PARTS))
+
+#: the name tables in the field data: table -> the cell data its ids name. A table is one field-data
+#: entry ``"<table>:<name>"`` per name holding its id (``"body:crank" = [0]``): VTK files flexmb writes
+#: hold numbers only, as meshio reads no string arrays
+NAME_TABLES = {"body": "body_id", "joint": "joint_id", "part": "part_id"}
 
 # written for every result, 0 where no body keeps them; the translational
 # ones only when some body keeps them
@@ -185,6 +190,7 @@ class _Layout:
         self.row = np.concatenate(self._row) if self._row else np.zeros(0, dtype=np.int64)
         self.local = np.concatenate(self._local).reshape(-1, 3) if self._local else np.zeros((0, 3))
         self.station = np.concatenate(self._station) if self._station else np.zeros(0, dtype=np.int64)
+        self._body_frames(names)
         self.blocks = []  # (meshio cell type, connectivity, {cell data name: values})
         for ctype, parts in self._cells.items():
             if parts:
@@ -323,6 +329,24 @@ class _Layout:
             idx = self._points(k, np.vstack([np.zeros(3), self.triad * np.eye(3)]))
             self._add_cells("line", np.stack([np.full(3, idx[0]), idx[1:]], axis=1), b, _TRIAD)
 
+    def _body_frames(self, names):
+        """Where each point of a flexible body sits on the body undeformed: ``frame_row``, ``frame_local``.
+
+        A flexible body's frame is carried by its clamp frame ``<body>.base``
+        (clamped) or its first segment (unclamped); undeformed, segment i's
+        frame is that frame moved ``i l`` along its x axis. ``frame_row`` is
+        -1 for the points of rigid bodies and the ground.
+        """
+        frame = np.full(self.n_rows + 1, -1, dtype=np.int64)
+        offset = np.zeros((self.n_rows + 1, 3))
+        for name, rows, l in self.flexible:
+            base = names.index(f"{name}.base") if f"{name}.base" in names else int(rows[0])
+            frame[base] = base
+            frame[rows] = base
+            offset[rows, 0] = l * np.arange(len(rows))
+        self.frame_row = frame[self.row]
+        self.frame_local = offset[self.row] + self.local
+
     def _elastic_columns(self, result):
         """Which column of x feeds which station, per elastic point-data field."""
         self.elastic: dict[str, tuple[list, list]] = {}
@@ -358,6 +382,23 @@ class _Layout:
         O = self._extended(np.asarray(result.origins)[sel], np.zeros(3))[:, self.row]
         return np.einsum("tpij,pj->tpi", R, self.local) + O
 
+    def elastic_displacement(self, result, frames, P) -> np.ndarray:
+        """The elastic displacement of the points at positions P (n_frames, n_points, 3), m.
+
+        A point of a flexible body minus where it would be on the body
+        undeformed, moved rigidly with the body's frame (its clamp frame or
+        first segment); 0 for rigid bodies. Warped by it at scale s, a
+        flexible body shows its bending magnified 1 + s times.
+        """
+        out = np.zeros_like(P)
+        has = self.frame_row >= 0
+        if has.any():
+            sel = np.asarray(frames)
+            R = np.asarray(result.rotations, dtype=float)[sel][:, self.frame_row[has]]
+            O = np.asarray(result.origins, dtype=float)[sel][:, self.frame_row[has]]
+            out[:, has] = P[:, has] - (np.einsum("tpij,pj->tpi", R, self.frame_local[has]) + O)
+        return out
+
     def station_values(self, values: np.ndarray) -> np.ndarray:
         """Point values from station values (n_frames, n_stations); 0 at points without a station."""
         out = np.zeros((len(values), self.n_points))
@@ -391,6 +432,7 @@ class _Layout:
         return cells, {name: [data[name] for _, _, data in self.blocks] for name in names}
 
     def tables(self) -> dict:
-        """The name tables (field data)."""
-        return {"body_names": np.array(self.names, dtype=str), "joint_names": np.array(self.joint_names, dtype=str),
-                "part_names": np.array(PARTS, dtype=str)}
+        """The name tables (field data): ``"<table>:<name>"`` -> its id, see :data:`NAME_TABLES`."""
+        return {f"{table}:{name}": np.array([k], dtype=np.int64)
+                for table, names in (("body", self.names), ("joint", self.joint_names), ("part", PARTS))
+                for k, name in enumerate(names)}

@@ -7,9 +7,9 @@ import numpy as np
 
 from ..errors import ExportError, FlexmbError
 from ..model import as_system
-from .layout import SECTION_FIELDS, _check_index, _check_result, _check_triad, _Layout
+from .layout import NAME_TABLES, SECTION_FIELDS, _check_index, _check_result, _check_triad, _Layout
 
-__all__ = ["body_names", "joint_names", "to_meshio"]
+__all__ = ["body_names", "joint_names", "table_names", "to_meshio"]
 
 
 def _check_system(system, result):
@@ -91,7 +91,8 @@ def _meshes(result, frames, system=None, triad=0.0, extra=None, reference=None):
         P_all = layout.positions(result)
         V = _fd_velocities(result, P_all)[frames]
         P = P_all[frames]
-    point_data = {"velocity": V, **layout.elastic_values(x[frames])}
+    point_data = {"elastic_displacement": layout.elastic_displacement(result, frames, P), "velocity": V,
+                  **layout.elastic_values(x[frames])}
     if system is not None and layout.bodies:
         point_data.update(_section_values(layout, result, frames))
     cells, cell_data = layout.cell_blocks()
@@ -99,7 +100,8 @@ def _meshes(result, frames, system=None, triad=0.0, extra=None, reference=None):
     base = layout.positions(result, [reference])[0] if reference is not None else None
     cache: dict = {}  # the XML of what the frames share (see _vtu_text)
     for n, i in enumerate(frames):
-        field_data = {"time": np.array([t[i]]), **tables}
+        # TimeValue: the name ParaView reads as the time of a file opened without the .pvd
+        field_data = {"time": np.array([t[i]]), "TimeValue": np.array([t[i]]), **tables}
         field_data.update({k: np.atleast_1d(np.asarray(v)) for k, v in (extra or {}).items()})
         pd = {name: v[n] for name, v in point_data.items()}
         points = P[n]
@@ -151,6 +153,52 @@ def joint_names(system) -> list[str]:
     return [j.name for j in model.joints]
 
 
+def table_names(field_data, table: str = "body") -> list[str]:
+    """Return the names of a name table of an exported mesh or file, in the order of their ids.
+
+    Parameters
+    ----------
+    field_data : dict
+        The field data of a mesh from :func:`to_meshio`, of a ``.vtu``
+        file read back (``meshio.read(path).field_data``,
+        ``pyvista.read(path).field_data``), or of one block of a ``.pvd``.
+    table : {'body', 'joint', 'part'}
+        The table: the names of the cell data ``body_id``, ``joint_id`` or
+        ``part_id``.
+
+    Returns
+    -------
+    list of str
+        ``names[k]`` is the name of id ``k``: the field-data entries
+        ``"<table>:<name>"`` holding ``k``.
+
+    Raises
+    ------
+    ExportError
+        If ``table`` is not one of the tables, or the ids are not 0, 1, ...
+        (a field data that is not flexmb's).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from flexmb.export.vtk import table_names
+    >>> table_names({"time": np.array([0.5]), "body:rocker": np.array([1]), "body:crank": np.array([0])})
+    ['crank', 'rocker']
+    """
+    if table not in NAME_TABLES:
+        raise ExportError(f"table must be one of {sorted(NAME_TABLES)}, got {table!r}")
+    prefix = f"{table}:"
+    ids = {}
+    for key, value in field_data.items():
+        if str(key).startswith(prefix):
+            ids[str(key)[len(prefix):]] = int(np.ravel(value)[0])
+    names = sorted(ids, key=ids.get)
+    if sorted(ids.values()) != list(range(len(ids))):
+        raise ExportError(f"the field data's '{prefix}<name>' entries hold ids {sorted(ids.values())}, "
+                          f"expected 0 to {len(ids) - 1}: not a flexmb export")
+    return names
+
+
 def to_meshio(result, i: int, *, system=None, triad: float = 0.0) -> "meshio.Mesh":
     """The bodies at one output time as a meshio mesh.
 
@@ -177,16 +225,22 @@ def to_meshio(result, i: int, *, system=None, triad: float = 0.0) -> "meshio.Mes
         Points in m, in the current configuration. Cells: ``"hexahedron"``
         (rigid boxes, flexible segments), ``"quad"``, ``"line"`` (slender
         bars, levers to joint points, centre lines, triads), ``"vertex"``
-        (joint points). Point data ``velocity`` (m/s), ``bending_y``,
-        ``bending_z``, ``torsion`` (rad, at the centre-line points of the
-        segment joints and the segment corners at that end, 0 elsewhere) and
-        ``axial``, ``shear_y``, ``shear_z`` (m) if kept; with ``system``,
-        also the section loads ``moment_torsion``, ``moment_bend_y``,
+        (joint points). Point data ``elastic_displacement`` (m: a flexible
+        body's points minus where they would be on the body undeformed,
+        moved rigidly with its clamp frame or first segment; 0 for rigid
+        bodies), ``velocity`` (m/s), ``bending_y``, ``bending_z``,
+        ``torsion`` (rad, at the centre-line points of the segment joints
+        and the segment corners at that end, 0 elsewhere) and ``axial``,
+        ``shear_y``, ``shear_z`` (m) if kept; with ``system``, also the
+        section loads ``moment_torsion``, ``moment_bend_y``,
         ``moment_bend_z`` (N m) and ``von_mises`` (Pa) there. Cell data
-        ``body_id`` (into field data ``body_names``, see :func:`body_names`),
-        ``joint_id`` (into ``joint_names``, -1 for cells that are not a
-        joint's), ``segment`` (-1 for rigid bodies), ``part_id`` (into
-        ``part_names``: :data:`PARTS`). Field data ``time`` (s).
+        ``body_id`` (see :func:`body_names`), ``joint_id`` (-1 for cells
+        that are not a joint's), ``segment`` (-1 for rigid bodies),
+        ``part_id`` (:data:`PARTS`). Field data ``time`` and ``TimeValue``
+        (s), and the name tables of the ids, one entry ``"body:<name>"``,
+        ``"joint:<name>"``, ``"part:<name>"`` holding the id per name
+        (:func:`table_names` reads them back). The mesh is what the
+        ``.vtu`` file holds: numbers only.
 
     Raises
     ------
@@ -205,7 +259,7 @@ def to_meshio(result, i: int, *, system=None, triad: float = 0.0) -> "meshio.Mes
     Examples
     --------
     >>> import flexmb as fm
-    >>> from flexmb.export.vtk import to_meshio
+    >>> from flexmb.export.vtk import table_names, to_meshio
     >>> model = fm.Model()
     >>> bar = fm.RigidBody.slender_bar("bar", mass=1.0, length=1.0)
     >>> _ = model.add(fm.Revolute("pin", model.ground, bar), fm.Gravity((0, -9.81, 0)))
@@ -213,7 +267,7 @@ def to_meshio(result, i: int, *, system=None, triad: float = 0.0) -> "meshio.Mes
     >>> mesh = to_meshio(res, -1, system=model)
     >>> [(c.type, len(c.data)) for c in mesh.cells]
     [('vertex', 1), ('line', 1)]
-    >>> [str(n) for n in mesh.field_data["joint_names"]]
+    >>> table_names(mesh.field_data, "joint")
     ['pin']
     """
     nt = _check_result(result)

@@ -14,7 +14,8 @@ Each series opens as one time series (the ``.pvd``): bodies as their shapes
 (``von_mises``, Pa, range over all times) where a series carries section
 stresses, else by body: the cell data ``body_id`` as categories, one colour
 each (matplotlib's tab10, as ``flexmb.viz`` draws them), labelled in the
-legend with the body names (the field data ``body_names``). The first
+legend with the body names (the field data ``body:<name>``, holding the
+body's id). The first
 series with stresses is shown, the others are loaded and hidden (the eye
 icon in the Pipeline Browser shows them). Run interactively (``pvpython
 -i``, or in the ParaView window) the time slider steps through the run.
@@ -60,16 +61,12 @@ _TAB10 = [(0.122, 0.467, 0.706), (1.0, 0.498, 0.055), (0.173, 0.627, 0.173), (0.
 
 
 def _body_names(reader):
-    """The names in a series' field data ``body_names`` (index = ``body_id``), read through ParaView."""
-    from paraview import servermanager
-
-    data = servermanager.Fetch(reader)
-    if data is not None and data.IsA("vtkCompositeDataSet"):  # a multiblock: its first leaf
-        it = data.NewIterator()
-        it.InitTraversal()
-        data = None if it.IsDoneWithTraversal() else it.GetCurrentDataObject()
-    array = None if data is None else data.GetFieldData().GetAbstractArray("body_names")
-    return [] if array is None else [str(array.GetValue(k)) for k in range(array.GetNumberOfValues())]
+    """The body names of a series, index = ``body_id``: its field data ``body:<name>`` holds the id."""
+    ids = {}
+    for key in reader.FieldData.keys():
+        if key.startswith("body:"):
+            ids[key[len("body:"):]] = int(reader.FieldData[key].GetRange()[0])
+    return sorted(ids, key=ids.get)
 
 
 def _colour_by_body(pv, display, view, names):

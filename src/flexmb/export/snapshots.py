@@ -143,6 +143,6 @@ def export_modes(system, frequencies, shapes, folder, *, scale: float = 0.1, pre
         res = _states(system, 0.0, np.array([x0 + scale * S[:, k], x0]), np.zeros((2, n)))
         mesh = next(_meshes(res, [0], system, triad, extra={"frequency": f[k], "mode": np.int64(k + 1)},
                             reference=1))
-        del mesh.field_data["time"]
+        del mesh.field_data["time"], mesh.field_data["TimeValue"]
         paths.append(_write_mesh(mesh, folder / f"{prefix}_{k + 1:0{width}d}.vtu"))
     return paths

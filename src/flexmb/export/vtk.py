@@ -1,9 +1,9 @@
-"""VTK export for ParaView: one ``.vtu`` file per output time and a ``.pvd`` collection.
+"""VTK export for ParaView: one ``.vtu`` per output time and a ``.pvd`` collection.
 
 Every file is an unstructured grid holding the bodies where they are at
-that time (the current configuration: no displacement to warp by), drawn
-as their shapes through their joint points. With the system the result
-came from (``system=``, a System or the Model):
+that time (the current configuration), drawn as their shapes through their
+joint points. With the system the result came from (``system=``, a System
+or the Model):
 
 * a rigid body is the uniform box with its mass and central inertia
   (a ``hexahedron``; a ``line`` for a slender bar, a ``quad`` for a plate),
@@ -23,28 +23,33 @@ rigid body is then a line from its body-frame origin through its mass
 centre to the mirror point (the whole of a bar whose frame sits at one end),
 a flexible body its centre line, and velocities are finite differences.
 
-Point data: ``velocity`` (m/s, exact with a system: ``v + omega x (p -
-r)`` of the body that carries the point), the elastic coordinates of the
-segment joints (``bending_y``, ``bending_z``, ``torsion``, plus ``axial``,
-``shear_y``, ``shear_z`` when a body keeps them) and, with a system, the
-section loads ``moment_torsion``, ``moment_bend_y``, ``moment_bend_z`` (N m)
-and ``von_mises`` (Pa) (:mod:`flexmb.post`). Cell data: ``body_id``,
-``joint_id``, ``segment``, ``part_id`` and, in the files, their names as
-string arrays ``body``, ``joint`` and ``part`` (ParaView colours by them
-category by category). Field data: ``time``, ``TimeValue`` (ParaView's
-time of a file), and the name tables ``body_names``, ``joint_names``,
-``part_names``. Mode shapes (and snapshots given a ``reference``) are the
-exception to the current configuration: drawn at the reference
-configuration with a ``displacement`` to warp by. See ``docs/export.md``.
+Point data: ``elastic_displacement`` (m, the active vectors, so ParaView's
+Warp By Vector takes it: a flexible body's points minus where they would be
+on the body undeformed, moved rigidly with its clamp frame or first
+segment; 0 on rigid bodies), ``velocity`` (m/s, exact with a system: ``v +
+omega x (p - r)`` of the body that carries the point), the elastic
+coordinates of the segment joints (``bending_y``, ``bending_z``,
+``torsion``, plus ``axial``, ``shear_y``, ``shear_z`` when a body keeps
+them) and, with a system, the section loads ``moment_torsion``,
+``moment_bend_y``, ``moment_bend_z`` (N m) and ``von_mises`` (Pa)
+(:mod:`flexmb.post`). Cell data: ``body_id``, ``joint_id``, ``segment``,
+``part_id``. Field data: ``time``, ``TimeValue`` (ParaView's time of a
+file), and the names of the ids, one entry ``"body:<name>"``,
+``"joint:<name>"``, ``"part:<name>"`` holding its id (:func:`table_names`;
+``open_in_paraview.py`` colours by ``body_id`` as categories labelled with
+them). The files hold numbers only, so that meshio reads them as well as
+VTK and ParaView. Mode shapes (and snapshots given a ``reference``) are
+drawn at the reference configuration with a ``displacement`` to warp by.
+See ``docs/export.md``.
 
 meshio is imported by :mod:`flexmb.export`'s modules and nowhere else in
 flexmb: ``import flexmb`` does not load it. A mesh is a
 :class:`meshio.Mesh` (:mod:`flexmb.export.layout` places the cells,
-:mod:`flexmb.export.meshes` builds the meshes); the files are written and
-read by :mod:`flexmb.export.vtu` rather than by meshio, whose VTU writer
-drops field data and cannot write string arrays, and meshio 5.3 cannot read
-string arrays. meshio has no ``.pvd`` writer, so
-:func:`write_pvd` writes the collection XML itself with :mod:`xml.etree`.
+:mod:`flexmb.export.meshes` builds the meshes), holding what its file
+holds; the files are written by :mod:`flexmb.export.vtu` rather than by
+meshio, whose VTU writer drops field data; read them with
+``meshio.read``. meshio has no ``.pvd`` writer, so :func:`write_pvd` writes
+the collection XML itself with :mod:`xml.etree`.
 """
 from __future__ import annotations
 
@@ -58,11 +63,11 @@ import numpy as np
 from .._files import atomic_write
 from ..errors import ExportError
 from .layout import ELASTIC_FIELDS, PARTS, SECTION_FIELDS, _check_result
-from .meshes import _meshes, body_names, joint_names, to_meshio
-from .vtu import _write_mesh, read_vtu
+from .meshes import _meshes, body_names, joint_names, table_names, to_meshio
+from .vtu import _write_mesh
 
-__all__ = ["ELASTIC_FIELDS", "SECTION_FIELDS", "PARTS", "body_names", "joint_names", "to_meshio", "write_vtu",
-           "write_pvd", "export_vtk", "read_vtu", "paraview_script"]
+__all__ = ["ELASTIC_FIELDS", "SECTION_FIELDS", "PARTS", "body_names", "joint_names", "table_names", "to_meshio",
+           "write_vtu", "write_pvd", "export_vtk", "paraview_script"]
 
 def _check_prefix(prefix: str) -> str:
     if not isinstance(prefix, str) or not prefix or os.sep in prefix or "/" in prefix or prefix.startswith("."):

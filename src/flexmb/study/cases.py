@@ -59,17 +59,6 @@ class _CaseTimeout(BaseException):
     """Raised in the thread of a case that passed its time limit (a BaseException: no ``except Exception`` stops it)."""
 
 
-def _timed_out(exc: BaseException) -> bool:
-    """Whether a :class:`_CaseTimeout` is behind ``exc`` (numba's SystemError when it hit a compiled call)."""
-    seen = set()
-    while exc is not None and id(exc) not in seen:
-        if isinstance(exc, _CaseTimeout):
-            return True
-        seen.add(id(exc))
-        exc = exc.__cause__ or exc.__context__
-    return False
-
-
 def _timeout_message(limit: float) -> str:
     return f"exceeded the time limit of {limit:g} s per case; stopped"
 
@@ -104,9 +93,7 @@ def _run_case_limited(task: dict) -> dict:
             with lock:
                 state["done"] = True
             timer.cancel()
-    except (_CaseTimeout, SystemError) as exc:
-        if isinstance(exc, SystemError) and not _timed_out(exc):
-            raise
+    except _CaseTimeout:
         row = _failed_row(task, _timeout_message(limit))
         row.update(wall_time_s=time.perf_counter() - t0, worker=f"{socket.gethostname()}:{os.getpid()}")
         return row

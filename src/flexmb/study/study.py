@@ -11,7 +11,8 @@ from pathlib import Path
 
 from attrs import field, frozen
 
-from .._files import atomic_write
+from .._files import OutputFolder, atomic_write
+from .._folder_lock import read_plain
 from ..errors import FlexmbError, SceneError
 from .cases import _build
 from .executors import _check_pool, _execute_dask, _execute_pool, _execute_serial, _Progress, default_workers, log
@@ -237,7 +238,7 @@ class Study:
 
     def run(self, out, executor: str = "process", workers: int | None = None, client=None,
             scheduler: str | None = None, progress: bool = True, retry_failed: bool = False,
-            time_limit: float | None = None) -> "StudyResult":
+            time_limit: float | None = None, overwrite: bool = False) -> "StudyResult":
         """Run the cases not yet done, write the table, the plot and the summary.
 
         Parameters
@@ -267,6 +268,9 @@ class Study:
             goes on. The process executor kills the case's process; the
             serial and Dask executors interrupt the case's thread (see
             ``docs/study.md``).
+        overwrite : bool
+            Replace the outputs of a run or a study of another scene in
+            ``out`` (else refused before any case runs).
 
         Returns
         -------
@@ -281,12 +285,23 @@ class Study:
             study at the top level of a script whose outputs are functions
             defined in that script; the message says what to add), before
             any case runs.
+        ExportError
+            If another run or study is writing into ``out`` (the message
+            names its pid), or ``out`` holds the outputs of another scene and
+            ``overwrite`` is False, before any case runs.
 
         Notes
         -----
         Cases recorded as failed by an earlier run into ``out`` are not run
         again unless ``retry_failed``; a warning says so when the study
         starts, and :meth:`StudyResult.summary` marks them.
+
+        The folder is locked for the study as for a run
+        (:class:`flexmb._files.OutputFolder`): a second study or run into it
+        is refused. Each case's file is written into ``cases/`` as the case
+        ends; ``study.json`` and the tables, plot and summary replace the
+        previous ones together at the end, so a study stopped or killed on
+        the way leaves the previous study's set whole.
         """
         if client is not None or scheduler is not None:
             executor = "dask"
@@ -294,13 +309,25 @@ class Study:
             raise FlexmbError(f"unknown executor {executor!r}; pick one of {', '.join(_EXECUTORS)}")
         outputs = self.validate()
         time_limit = self._time_limit(time_limit)
-        out = Path(os.fspath(out))
         study_key = self.key()
         manifest = self._manifest(study_key, outputs)
-        atomic_write(out / "study.json", lambda tmp: Path(tmp).write_text(json.dumps(manifest, indent=2) + "\n"))
+        with OutputFolder(out, owner=f"a study of {_source_name(self.source)}", overwrite=overwrite) as folder:
+            result = self._run_cases(folder, study_key, outputs, time_limit, executor, workers, client, scheduler,
+                                     progress, retry_failed)
+            result._write_into(folder)
+            atomic_write(folder.stage("study.json"),
+                         lambda tmp: Path(tmp).write_text(json.dumps(manifest, indent=2) + "\n"))
+            folder.commit()
+        return result
+
+    def _run_cases(self, folder, study_key, outputs, time_limit, executor, workers, client, scheduler, progress,
+                   retry_failed) -> "StudyResult":
+        """Run the cases not yet done in the locked folder (each case's file in ``cases/`` as it ends)."""
+        out = folder.path
+        case_dir = folder.folder("cases")
         cases = self.cases()
         ids = [case_id(p) for p in cases]
-        done = _done_cases(out, ids, study_key, retry_failed)
+        done = _done_cases(case_dir, ids, study_key, retry_failed)
         tasks = self._tasks(cases, ids, done, outputs, study_key, time_limit)
         if executor == "process":
             _check_pool(tasks)
@@ -313,7 +340,7 @@ class Study:
 
         def record(task, row):
             row = dict(row, study=study_key)
-            atomic_write(out / "cases" / f"{task['case_id']}.json",
+            atomic_write(case_dir / f"{task['case_id']}.json",
                          lambda tmp: Path(tmp).write_text(json.dumps(row, indent=1) + "\n"))
             done[task["case_id"]] = row
             ran.append(task["case_id"])
@@ -324,10 +351,8 @@ class Study:
         finally:
             bar.close()
         rows = [dict(done[cid], case=i) for i, cid in enumerate(ids)]
-        result = StudyResult(self.parameters, [_output_name(o) for o in outputs], rows, ran=ran,
-                             skipped=len(set(ids)) - len(set(ran)), out=out)
-        result.write(out)
-        return result
+        return StudyResult(self.parameters, [_output_name(o) for o in outputs], rows, ran=ran,
+                           skipped=len(set(ids)) - len(set(ran)), out=out)
 
     def _manifest(self, study_key: str, outputs: list) -> dict:
         """What ``study.json`` records: the scene, the study's hash, parameters, specs and outputs."""
@@ -352,11 +377,17 @@ class Study:
 _EXECUTORS = {"serial": _execute_serial, "process": _execute_pool, "dask": _execute_dask}
 
 
-def _done_cases(out: Path, ids: list, study_key: str, retry_failed: bool) -> dict:
-    """The cases of this study found done in ``out/cases/`` (failed ones only if not retried), by id."""
+def _source_name(source) -> str:
+    """A scene file's real path (one file, however named), else the source as given."""
+    source = os.fspath(source)
+    return os.path.realpath(source) if os.path.isfile(source) else source
+
+
+def _done_cases(case_dir: Path, ids: list, study_key: str, retry_failed: bool) -> dict:
+    """The cases of this study found done in ``case_dir`` (failed ones only if not retried), by id."""
     done = {}
     for i, cid in enumerate(ids):
-        row = _read_case(out / "cases" / f"{cid}.json", study_key)
+        row = _read_case(case_dir / f"{cid}.json", study_key)
         if row is not None and (row["status"] == "finished" or not retry_failed):
             row["case"] = i
             done[cid] = row
@@ -382,11 +413,15 @@ def _execute(executor: str, tasks: list, record, workers, client, scheduler) -> 
 
 
 def _read_case(path: Path, study_key: str) -> dict | None:
+    """A case's row of this study, read from its file; None if missing, another study's or not a case's row."""
+    data = read_plain(path)
     try:
-        row = json.loads(path.read_text())
-    except (OSError, ValueError):
+        row = json.loads(data) if data is not None else None
+    except ValueError:
         return None
-    return row if row.get("study") == study_key else None
+    if not isinstance(row, dict) or row.get("study") != study_key or not isinstance(row.get("status"), str):
+        return None
+    return row
 
 
 

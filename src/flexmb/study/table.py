@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 from attrs import define, field
 
-from .._files import atomic_write
+from .._files import OutputFolder, atomic_write
 from ..errors import FlexmbError
 from ..scene.metrics import _is_real
 from ..scene.keys import key_paths as _paths
@@ -121,6 +121,10 @@ class StudyResult:
     def write(self, out) -> dict:
         """Write ``table.csv``, ``table.npz``, ``table.parquet`` (with pyarrow), ``study.png`` and ``summary.txt``.
 
+        The folder is locked and the files replace the previous ones together
+        (:class:`flexmb._files.OutputFolder`): a reader finds the old set or
+        the new one, never a mix.
+
         Parameters
         ----------
         out : str or path-like
@@ -131,7 +135,13 @@ class StudyResult:
         dict of str to pathlib.Path
             The files written.
         """
-        out = Path(os.fspath(out))
+        with OutputFolder(out) as folder:
+            files = self._write_into(folder)
+            folder.commit()
+        return files
+
+    def _write_into(self, folder) -> dict:
+        """Stage the table files in an open :class:`~flexmb._files.OutputFolder`; return their final paths."""
         files = {}
         buf = io.StringIO()
         w = csv.writer(buf, lineterminator="\n")
@@ -139,10 +149,12 @@ class StudyResult:
         for cells in self.table():
             w.writerow(["" if v is None else repr(v) if isinstance(v, float) else json.dumps(v)
                         if isinstance(v, (list, dict)) else v for v in cells])
-        files["csv"] = atomic_write(out / "table.csv", lambda tmp: Path(tmp).write_text(buf.getvalue()))
+        atomic_write(folder.stage("table.csv"), lambda tmp: Path(tmp).write_text(buf.getvalue()))
+        files["csv"] = "table.csv"
         arrays = {c: self.column(c) for c in self.columns}
         arrays = {c: (a.astype(str) if a.dtype == object else a) for c, a in arrays.items()}
-        files["npz"] = atomic_write(out / "table.npz", lambda tmp: np.savez(tmp, **arrays), suffix=".npz")
+        atomic_write(folder.stage("table.npz"), lambda tmp: np.savez(tmp, **arrays), suffix=".npz")
+        files["npz"] = "table.npz"
         try:
             import pyarrow as pa
             import pyarrow.parquet as pq
@@ -150,13 +162,14 @@ class StudyResult:
             pass
         else:
             tab = pa.table({c: (list(arrays[c]) if arrays[c].ndim > 1 else arrays[c]) for c in self.columns})
-            files["parquet"] = atomic_write(out / "table.parquet", lambda tmp: pq.write_table(tab, tmp))
-        png = self.plot(out / "study.png")
-        if png is not None:
-            files["plot"] = png
+            atomic_write(folder.stage("table.parquet"), lambda tmp: pq.write_table(tab, tmp))
+            files["parquet"] = "table.parquet"
+        if self.plot(folder.stage("study.png")) is not None:
+            files["plot"] = "study.png"
         text = self.summary()
-        files["summary"] = atomic_write(out / "summary.txt", lambda tmp: Path(tmp).write_text(text + "\n"))
-        return files
+        atomic_write(folder.stage("summary.txt"), lambda tmp: Path(tmp).write_text(text + "\n"))
+        files["summary"] = "summary.txt"
+        return {k: Path(folder.final(rel)) for k, rel in files.items()}
 
     def unit(self, name: str) -> str:
         """The unit of a parameter or output column, read from its name (``'-'`` when unknown).

@@ -82,6 +82,9 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         (False). None (default): the recursion for every open tree. Models
         with loops use their strategy (``"articulated"``: O(n m), A never
         formed).
+    _topology : Topology, optional
+        The model's tree, if already built (:meth:`flexmb.Model.build`
+        passes the one its validation built); private.
 
     Attributes
     ----------

@@ -230,7 +230,9 @@ class _Scene:
             import matplotlib
 
             cmap = matplotlib.colormaps[self.opts.cmap or "tab10"].resampled(max(self.n_bodies, 2))
-            names = [str(n) for n in mesh.field_data.get("body_names", [])]
+            from ..export.vtk import table_names
+
+            names = table_names(mesh.field_data, "body")
             self.legend = self.plotter.add_legend([[n, cmap(k)[:3]] for k, n in enumerate(names)],
                                                   bcolor="white", face="rectangle", loc="lower right",
                                                   size=(0.2, 0.04 * len(names)))

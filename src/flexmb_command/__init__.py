@@ -1,0 +1,57 @@
+"""The ``flexmb`` command's entry point: Ctrl-C and signals answered from its first instant.
+
+The command's code lives in :mod:`flexmb.cli`, but importing it imports
+:mod:`flexmb` first: numba, scipy and the compiled kernels, seconds of
+start-up during which a Ctrl-C raised KeyboardInterrupt somewhere inside an
+import (a traceback), or inside llvmlite's callback while the kernels
+loaded (a crash). This package imports nothing heavy: :func:`console`
+installs :func:`leave_at_once` for SIGINT, SIGTERM and SIGHUP, then imports
+the command. Until the command has begun (and again once it has ended, while
+the process exits) such a signal ends the process at once, with one line,
+``flexmb: interrupted``, and exit status 128 + the signal's number (130 for
+Ctrl-C): nothing has been written yet, or all of it has. While the command
+runs, its own handlers answer them (:mod:`flexmb._signals`): the run stops
+where it is and writes what it computed.
+"""
+
+import os
+import signal
+
+__all__ = ["SIGNALS", "console", "install", "leave_at_once"]
+
+#: the signals answered, where the platform has them
+SIGNALS = tuple(getattr(signal, s) for s in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, s))
+
+
+def leave_at_once(signum, frame) -> None:
+    """A signal handler: write ``flexmb: interrupted`` to stderr and end the process with 128 + ``signum``.
+
+    :func:`os._exit` leaves wherever the interpreter is (an import, a
+    callback from compiled code) without unwinding it.
+
+    Parameters
+    ----------
+    signum : int
+        The signal's number.
+    frame : frame or None
+        Unused.
+    """
+    try:
+        os.write(2, b"\nflexmb: interrupted\n")
+    except OSError:
+        pass
+    os._exit(128 + signum)
+
+
+def install() -> None:
+    """Answer SIGINT, SIGTERM and SIGHUP by :func:`leave_at_once` (the main thread only)."""
+    for s in SIGNALS:
+        signal.signal(s, leave_at_once)
+
+
+def console() -> None:
+    """The ``flexmb`` command: :func:`install`, then :func:`flexmb.cli.console`."""
+    install()
+    from flexmb.cli import console as run
+
+    run()

@@ -205,29 +205,49 @@ def linearize_steady(system, x0, xd0, ignorable=None, coordinates=None, speeds=N
     xd0 = state_vector("linearize_steady", "xd0", xd0, n)
     if not (h > 0 and np.isfinite(h)):
         raise ModelError(f"linearize_steady: h must be a positive step, got {h!r}")
-    eq = system.equations(t, x0, xd0)
-    psi = eq.psi
-    hol = system.constraints.holonomic
-    psi_h = psi[hol] if psi.shape[0] else psi
+    psi = system.equations(t, x0, xd0).psi
+    psi_h = psi[system.constraints.holonomic] if psi.shape[0] else psi
     small = 1e-10 * max(1.0, float(np.max(np.abs(psi)))) if psi.size else 0.0
+    ig = _ignorable(system, xd0, ignorable, psi_h, small)
+    ind_c, Xc = _independent_coordinates(system, psi_h, ig, coordinates)
+    ind_s, dep_s = _independent_speeds(system, psi, ind_c, speeds)
+    ref = _Reference(system, t, x0, xd0, psi, ind_c, ind_s, dep_s, h)
+    k, p = len(ind_c), len(ind_s)
+    X = np.zeros((n, k + p))
+    X[:, :k] = Xc
+    Xd = np.column_stack([ref.speeds_of(Xc[:, j]) for j in range(k)]
+                         + [ref.dependent_speeds(np.zeros(psi.shape[0]), np.eye(p)[j]) for j in range(p)])
+    residual = _steady_residual(system, t, x0, xd0, ind_s, np.flatnonzero(~ig), tol)
+    A = np.column_stack([ref.column(X[:, j], Xd[:, j]) for j in range(k + p)]) if k + p else np.zeros((0, 0))
+    _check_ignorable(ref, ig, psi_h, small, A)
+    return SteadyLinearization(A=A, coordinates=[names[i] for i in ind_c], speeds=[names[i] for i in ind_s],
+                               ignorable=[names[i] for i in np.flatnonzero(ig)], X=X, Xd=Xd, x0=x0, xd0=xd0, t=t,
+                               residual=residual)
 
+
+def _ignorable(system, xd0, ignorable, psi_h, small):
+    """The mask of ignorable coordinates (default: those that move), checked against the state and the rows."""
+    names = system.coordinate_names
     moving = np.abs(xd0) > 1e-12 * max(1.0, float(np.max(np.abs(xd0))))
     ig = moving.copy() if ignorable is None else _names_mask(system, ignorable, "ignorable")
     if np.any(moving & ~ig):
         raise ModelError(f"linearize_steady: {[names[i] for i in np.flatnonzero(moving & ~ig)]} move in the state "
                          "given (xd0 != 0) but are not named ignorable: a steady motion moves only ignorable "
                          "coordinates")
-    keep = ~ig
     for row in psi_h:  # a position row may hold ignorable coordinates together, or non-ignorable ones, not both
         on = np.abs(row) > small
-        if np.any(on & ig) and np.any(on & keep):
+        if np.any(on & ig) and np.any(on & ~ig):
             tied = [names[i] for i in np.flatnonzero(on & ig)]
             raise ModelError(f"linearize_steady: a position row ties the ignorable {tied} to "
-                             f"{[names[i] for i in np.flatnonzero(on & keep)]}, which are not: name them all "
+                             f"{[names[i] for i in np.flatnonzero(on & ~ig)]}, which are not: name them all "
                              "ignorable or none")
+    return ig
 
-    # the independent coordinates, the others from the position rows
-    N = np.flatnonzero(keep)
+
+def _independent_coordinates(system, psi_h, ig, coordinates):
+    """The independent coordinates among the non-ignorable ones, and ``Xc`` (``dx = Xc dq``, 0 where ignorable)."""
+    names, n = system.coordinate_names, system.n_coords
+    N = np.flatnonzero(~ig)
     Pn = psi_h[:, N]
     rank_h = _rank(Pn, 1e-10)
     if coordinates is None:
@@ -239,7 +259,7 @@ def linearize_steady(system, x0, xd0, ignorable=None, coordinates=None, speeds=N
         if np.any(chosen & ig):
             raise ModelError(f"linearize_steady: {[names[i] for i in np.flatnonzero(chosen & ig)]} are named both "
                              "coordinates and ignorable")
-        ind_c, dep_c = np.flatnonzero(chosen), np.flatnonzero(keep & ~chosen)
+        ind_c, dep_c = np.flatnonzero(chosen), np.flatnonzero(~ig & ~chosen)
         if len(ind_c) != len(N) - rank_h or _rank(psi_h[:, dep_c], 1e-10) != rank_h:
             raise ModelError(f"linearize_steady: the coordinates {[names[i] for i in ind_c]} are not independent "
                              f"ones: the position rows leave {len(N) - rank_h} of the non-ignorable "
@@ -249,11 +269,15 @@ def linearize_steady(system, x0, xd0, ignorable=None, coordinates=None, speeds=N
     Xc[ind_c, np.arange(k)] = 1.0
     if len(dep_c):
         Xc[dep_c] = -np.linalg.lstsq(psi_h[:, dep_c], psi_h[:, ind_c], rcond=None)[0]
+    return ind_c, Xc
 
-    # the independent speeds, the others from the rows
+
+def _independent_speeds(system, psi, ind_c, speeds):
+    """The coordinates whose rates are the independent speeds, and the others (their rates from the rows)."""
+    names, n = system.coordinate_names, system.n_coords
     rank_v = _rank(psi, 1e-10) if psi.size else 0
     p = n - rank_v
-    if speeds is None:
+    if speeds is None:  # the independent coordinates' rates first, if the rows leave them free
         rest = np.array([i for i in range(n) if i not in set(ind_c)], dtype=int)
         piv, r = _pivots(psi[:, rest], 1e-10)
         if r == rank_v:
@@ -261,72 +285,84 @@ def linearize_steady(system, x0, xd0, ignorable=None, coordinates=None, speeds=N
         else:
             piv, _ = _pivots(psi, 1e-10)
             dep_s = np.sort(piv[:rank_v])
-        ind_s = np.array([i for i in range(n) if i not in set(dep_s)], dtype=int)
-    else:
-        chosen = _names_mask(system, speeds, "speeds")
-        ind_s, dep_s = np.flatnonzero(chosen), np.flatnonzero(~chosen)
-        if len(ind_s) != p or (rank_v and _rank(psi[:, dep_s], 1e-10) != rank_v):
-            raise ModelError(f"linearize_steady: the rates of {[names[i] for i in ind_s]} are not independent "
-                             f"speeds: the model has {p}, and the constraint rows must fix the rates of the others")
+        return np.array([i for i in range(n) if i not in set(dep_s)], dtype=int), dep_s
+    chosen = _names_mask(system, speeds, "speeds")
+    ind_s, dep_s = np.flatnonzero(chosen), np.flatnonzero(~chosen)
+    if len(ind_s) != p or (rank_v and _rank(psi[:, dep_s], 1e-10) != rank_v):
+        raise ModelError(f"linearize_steady: the rates of {[names[i] for i in ind_s]} are not independent "
+                         f"speeds: the model has {p}, and the constraint rows must fix the rates of the others")
+    return ind_s, dep_s
 
-    def rows_residual(dx):
-        e = system.equations(t, x0 + dx, xd0)
-        return e.psi @ xd0 - e.b
 
-    def dependent_speeds(G, given):
-        """``dxd`` with ``given`` on the independent speeds, the rest from ``psi dxd = -G``."""
-        out = np.zeros(n)
-        out[ind_s] = given
-        if len(dep_s):
-            out[dep_s] = np.linalg.lstsq(psi[:, dep_s], -G - psi[:, ind_s] @ given, rcond=None)[0]
-        return out
-
-    X = np.zeros((n, k + p))
-    X[:, :k] = Xc
-    Xd = np.zeros((n, k + p))
-    for j in range(k):
-        G = _derivative(lambda s, d=Xc[:, j]: rows_residual(s * d), h) if psi.size else np.zeros(0)
-        Xd[:, j] = dependent_speeds(G, np.zeros(p))
-    for j in range(p):
-        Xd[:, k + j] = dependent_speeds(np.zeros(psi.shape[0]), np.eye(p)[j])
-
+def _steady_residual(system, t, x0, xd0, ind_s, N, tol):
+    """How far from steady: the largest acceleration of an independent speed or a kept coordinate ``N``, or
+    speed of a kept coordinate; above ``tol`` it is refused."""
+    names, n = system.coordinate_names, system.n_coords
     a0 = system.accelerations(t, x0, xd0)
-    parts = [np.abs(a0[ind_s]), np.abs(a0[N]), np.abs(xd0[N])]
-    residual = float(max((np.max(q) for q in parts if q.size), default=0.0))
+    held = np.union1d(ind_s, N).astype(int)
+    residual = float(max(np.max(np.abs(a0[held]), initial=0.0), np.max(np.abs(xd0[N]), initial=0.0)))
     if residual > tol:
-        worst = int(np.argmax(np.abs(a0) * np.isin(np.arange(n), np.concatenate([ind_s, N]))))
+        worst = int(np.argmax(np.abs(a0) * np.isin(np.arange(n), held)))
         raise ModelError(f"linearize_steady: the state is not a steady motion: residual {residual:.3g} > tol = "
                          f"{tol:.3g} (the acceleration of {names[worst]!r} is {a0[worst]:.3g}); a steady motion "
                          "keeps the non-ignorable coordinates and the independent speeds constant")
+    return residual
 
-    def column(dx, dxd):
-        acc = _derivative(lambda s: system.accelerations(t, x0 + s * dx, xd0 + s * dxd), h)
-        return np.concatenate([dxd[ind_c], acc[ind_s]])
 
-    A = np.column_stack([column(X[:, j], Xd[:, j]) for j in range(k + p)]) if k + p else np.zeros((0, 0))
+class _Reference:
+    """The steady state linearised about, and the admissible perturbations' speeds and derivatives."""
 
-    # every ignorable coordinate is checked: the linear model must not depend on it
+    def __init__(self, system, t, x0, xd0, psi, ind_c, ind_s, dep_s, h):
+        self.system, self.t, self.x0, self.xd0, self.psi, self.h = system, t, x0, xd0, psi, h
+        self.ind_c, self.ind_s, self.dep_s = ind_c, ind_s, dep_s
+        self.n = system.n_coords
+
+    def rows_residual(self, dx):
+        """``psi(x0 + dx) xd0 - b(x0 + dx)``."""
+        e = self.system.equations(self.t, self.x0 + dx, self.xd0)
+        return e.psi @ self.xd0 - e.b
+
+    def dependent_speeds(self, G, given):
+        """``dxd`` with ``given`` on the independent speeds, the rest from ``psi dxd = -G``."""
+        out = np.zeros(self.n)
+        out[self.ind_s] = given
+        if len(self.dep_s):
+            out[self.dep_s] = np.linalg.lstsq(self.psi[:, self.dep_s], -G - self.psi[:, self.ind_s] @ given,
+                                              rcond=None)[0]
+        return out
+
+    def speeds_of(self, dx):
+        """The speeds' perturbation that a coordinate perturbation ``dx`` needs, the independent speeds held."""
+        G = _derivative(lambda s: self.rows_residual(s * dx), self.h) if self.psi.size else np.zeros(0)
+        return self.dependent_speeds(G, np.zeros(len(self.ind_s)))
+
+    def column(self, dx, dxd):
+        """The derivative of ``(rates of the independent coordinates, independent speeds' accelerations)``."""
+        acc = _derivative(lambda s: self.system.accelerations(self.t, self.x0 + s * dx, self.xd0 + s * dxd), self.h)
+        return np.concatenate([dxd[self.ind_c], acc[self.ind_s]])
+
+
+def _check_ignorable(ref, ig, psi_h, small, A):
+    """Refuse, by name, an ignorable coordinate that the linear model depends on."""
+    names, n = ref.system.coordinate_names, ref.n
     scale = max(1.0, float(np.max(np.abs(A)))) if A.size else 1.0
     I = np.flatnonzero(ig)
-    if len(I):
-        Pi = psi_h[:, I]
-        free = np.all(np.abs(Pi) <= small, axis=0)
-        basis = [np.eye(len(I))[:, i] for i in np.flatnonzero(free)]
-        tied = np.flatnonzero(~free)
-        if len(tied):
-            Z = sla.null_space(Pi[:, tied])
-            basis += [np.eye(len(I))[:, tied] @ Z[:, c] for c in range(Z.shape[1])]
-        for v in basis:
-            dx = np.zeros(n)
-            dx[I] = v
-            G = _derivative(lambda s: rows_residual(s * dx), h) if psi.size else np.zeros(0)
-            c = column(dx, dependent_speeds(G, np.zeros(p)))
-            if np.max(np.abs(c), initial=0.0) > 1e-6 * scale:
-                who = names[I[int(np.argmax(np.abs(v)))]]
-                raise ModelError(f"linearize_steady: the linear model depends on {who!r}, named ignorable "
-                                 f"(a change of {np.max(np.abs(c)):.3g} per unit, against {scale:.3g} in A): keep "
-                                 "it among the coordinates, or choose independent speeds that do not turn with it "
-                                 "(speeds=)")
-    return SteadyLinearization(A=A, coordinates=[names[i] for i in ind_c], speeds=[names[i] for i in ind_s],
-                               ignorable=[names[i] for i in I], X=X, Xd=Xd, x0=x0, xd0=xd0, t=t,
-                               residual=residual)
+    if not len(I):
+        return
+    Pi = psi_h[:, I]
+    free = np.all(np.abs(Pi) <= small, axis=0)
+    basis = [np.eye(len(I))[:, i] for i in np.flatnonzero(free)]
+    tied = np.flatnonzero(~free)
+    if len(tied):  # ignorable coordinates held together by position rows move together
+        Z = sla.null_space(Pi[:, tied])
+        basis += [np.eye(len(I))[:, tied] @ Z[:, c] for c in range(Z.shape[1])]
+    for v in basis:
+        dx = np.zeros(n)
+        dx[I] = v
+        c = ref.column(dx, ref.speeds_of(dx))
+        if np.max(np.abs(c), initial=0.0) > 1e-6 * scale:
+            who = names[I[int(np.argmax(np.abs(v)))]]
+            raise ModelError(f"linearize_steady: the linear model depends on {who!r}, named ignorable "
+                             f"(a change of {np.max(np.abs(c)):.3g} per unit, against {scale:.3g} in A): keep "
+                             "it among the coordinates, or choose independent speeds that do not turn with it "
+                             "(speeds=)")

@@ -1,0 +1,98 @@
+"""The output states of a run with constraints, projected onto them (eqs. 28-29) unless that is ill-conditioned.
+
+The integrator's interpolant leaves the constraints by about rtol between
+steps; :class:`flexmb.stepping.Run` stores each output state projected by
+:func:`project_output`, by the rule its steps follow.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .errors import AssemblyError
+
+__all__ = ["project_output"]
+
+#: largest ratio of an output projection's correction to the residual it removes
+OUTPUT_PROJECTION_GAIN = 1e3
+
+
+def project_output(system, t, x, xd, tol):
+    """An output state projected onto the constraints, unless that is ill-conditioned.
+
+    Near a singular position (a flattened four-bar) the minimum-norm
+    correction divides the residual by a tiny singular value of psi; such a
+    correction, larger than ``OUTPUT_PROJECTION_GAIN`` times the residual,
+    is refused, and the state is projected in the well-conditioned
+    directions only (:func:`_project_partial`). Speeds are projected
+    mass-orthogonally, as after the steps.
+
+    Parameters
+    ----------
+    system : System
+        The system.
+    t : float
+        Time, s.
+    x, xd : ndarray, shape (n,)
+        The state.
+    tol : float
+        Residual below which the state is kept as it is.
+
+    Returns
+    -------
+    x, xd : ndarray, shape (n,)
+        The projected state.
+    """
+    res = system.constraint_residual(t, x, xd)
+    if res <= tol:
+        return x, xd
+    try:
+        xp, vp = system.project(t, x, xd, tol=min(1e-12, tol), speeds="mass")
+    except AssemblyError:
+        return _project_partial(system, t, x, xd, res)
+    if max(np.max(np.abs(xp - x)), np.max(np.abs(vp - xd))) > OUTPUT_PROJECTION_GAIN * res:
+        return _project_partial(system, t, x, xd, res)
+    return xp, vp
+
+
+def _project_partial(system, t, x, xd, res, n_iter=3):
+    """Project a state near a singular position in the well-conditioned directions only.
+
+    The rows of psi along singular values below ``system.singular_window()``
+    are left out (on the flattened parallelogram the violation along them is
+    of second order in the state's error, and correcting it would move the
+    state along the other branch); the speeds are projected
+    mass-orthogonally onto what remains. The positions and the speeds are
+    judged apart: each correction is kept only if it reduces its own
+    residual (``|phi|``, ``|psi xd - b|``) and is no larger than
+    ``OUTPUT_PROJECTION_GAIN`` times the state's residual.
+    """
+    window = system.singular_window()
+    if window <= 0.0:
+        return x, xd
+
+    def well_conditioned(psi):
+        c = system.complement(psi)
+        return c.truncated(int(np.sum(c.scale >= window)))
+
+    limit = OUTPUT_PROJECTION_GAIN * res
+    xp = np.array(x, dtype=float)
+    for _ in range(n_iter):  # the positions: by the position rows (a velocity row has no position form)
+        rows = system.constraints.position_rows(system.constraints.evaluate(system.kinematics(t, xp, xd), level=1))
+        c = well_conditioned(rows.psi)
+        if c.rank:
+            xp -= c.particular(rows.phi)
+    kin = system.kinematics(t, xp, xd)
+    rows = system.constraints.evaluate(kin, level=1)
+    phi0 = system.constraints.evaluate(system.kinematics(t, x, xd), level=0).phi
+    if np.max(np.abs(rows.phi)) >= np.max(np.abs(phi0)) or np.max(np.abs(xp - x)) > limit:
+        xp = np.array(x, dtype=float)  # the positions are kept
+        kin = system.kinematics(t, xp, xd)
+        rows = system.constraints.evaluate(kin, level=1)
+    psi, b = rows.psi, rows.b
+    # the speeds, judged apart: a speed residual along the singular direction
+    # (not corrected) must not veto the positions' correction
+    vp = system._mass_orthogonal_speeds(kin, psi, b, xd, c=well_conditioned(psi))
+    if np.max(np.abs(psi @ vp - b)) >= np.max(np.abs(psi @ xd - b)) or np.max(np.abs(vp - xd)) > limit:
+        vp = np.array(xd, dtype=float)
+    return xp, vp

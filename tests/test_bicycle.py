@@ -95,9 +95,9 @@ def pushed(system, v, lean_rate, t_end, **kw):
 
 
 def test_a_pushed_bicycle_at_4_6_m_s_stays_upright(bicycle):
-    """At 4.6 m/s (between the weave and capsize speeds) a push to 0.5 rad/s of lean rate dies out: the
-    run of Meijaard et al. (2007, sec. 7) and Basu-Mandal, Chatterjee and Papadopoulos (Proc. R. Soc. A 463,
-    2007). Rolling without slipping does no work: the energy stays, the lean's energy goes into speed."""
+    """At 4.6 m/s (between the weave and capsize speeds, where every eigenvalue has a negative real part) a
+    push to 0.5 rad/s of lean rate dies out. Rolling without slipping does no work: the energy stays, the
+    lateral motion's energy goes into forward speed."""
     res = pushed(bicycle, 4.6, 0.5, 5.0, rtol=1e-9, atol=1e-11, n_out=501)
     names = res.coordinate_names
     lean, steer = res.x[:, names.index("frame.lean")], res.x[:, names.index("steer.angle")]

@@ -79,11 +79,32 @@ def test_run_writes_results_summary_plot_and_vtk(tmp_path, capsys):
 def test_run_options_override_the_scene(tmp_path, capsys):
     out = tmp_path / "o"
     argv = ["run", FOURBAR, "--out", str(out), "--t-end", "0.1", "--n-out", "5", "--rtol", "1e-6",
-            "--complement", "eigen", "--integrator", "RK45", "--quiet"]
+            "--complement", "eigen", "--method", "RK45", "--quiet"]
     assert main(argv) == 0
     s = json.loads((out / "summary.json").read_text())
     assert (s["method"], s["complement"], s["n_out"]) == ("RK45", "eigen", 5)
     assert s["max_loop_residual"] < 1e-7
+
+
+def test_run_takes_method_as_the_scenes_and_the_api_do_and_integrator_as_its_deprecated_alias(tmp_path, capsys):
+    """The option is --method, the name of the scene key ([solver] method) and of simulate's argument (issue #32:
+    the command said --integrator); --integrator still works, with a note, and contradicting --method is a usage
+    error."""
+    argv = ["run", PENDULUM, "--t-end", "0.05", "--n-out", "3", "--quiet"]
+    assert main(argv + ["--out", str(tmp_path / "m"), "--method", "RK23"]) == 0
+    assert "deprecated" not in capsys.readouterr().err
+    assert main(argv + ["--out", str(tmp_path / "i"), "--integrator", "RK23"]) == 0
+    assert "--integrator is deprecated, use --method" in capsys.readouterr().err
+    for name in "mi":
+        assert json.loads((tmp_path / name / "summary.json").read_text())["method"] == "RK23"
+    with pytest.raises(SystemExit) as usage:
+        main(argv + ["--out", str(tmp_path / "x"), "--integrator", "RK23", "--method", "DOP853"])
+    assert usage.value.code == 2 and "give --method alone" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["run", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "--method NAME integrator, as the scene's [solver] method" in text
+    assert "--integrator NAME deprecated alias of --method" in text
 
 
 def interrupt_after(t_stop):
@@ -219,6 +240,10 @@ def test_docs_list_the_built_in_complements_and_integrators():
     assert set(choices) == set(groups["flexmb.complements"])
     for name in groups["flexmb.complements"]:
         assert f"`{name}`" in scenes, name
+    # the [solver] keys' table: method names every integrator, not only scipy's (issue #32)
+    row = next(line for line in scenes.splitlines() if line.startswith("| `method` |"))
+    for name in ["auto", *groups["flexmb.integrators"]]:
+        assert f"`{name}`" in row, name
 
 
 # --------------------------------------------------------------------------- the command's exit (cli.console)
@@ -270,30 +295,6 @@ def test_a_reader_that_stops_early_ends_the_command_quietly(tmp_path):
     assert "Traceback" not in err and "BrokenPipeError" not in err
 
 
-# --------------------------------------------------------------------------- the first run of an installation
-
-
-def test_an_empty_kernel_cache_is_seen(tmp_path):
-    from flexmb import kernels
-
-    fm.simulate(fm.load_scene(PENDULUM).model, 0.01, n_out=2)  # the kinematics kernel, compiled or loaded
-    assert kernels.cached_on_disk()
-    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "empty"))
-    proc = subprocess.run([sys.executable, "-c", "from flexmb import kernels; print(kernels.cached_on_disk())"],
-                          capture_output=True, text=True, env=env, timeout=300)
-    assert proc.stdout.strip() == "False", proc.stderr
-
-
-def test_a_run_that_will_compile_says_so_first(tmp_path, monkeypatch, capsys):
-    from flexmb import kernels
-
-    monkeypatch.setattr(kernels, "cached_on_disk", lambda: False)
-    assert main(["run", PENDULUM, "--out", str(tmp_path / "a"), "--t-end", "0.05"]) == 0
-    assert capsys.readouterr().err.startswith(kernels.FIRST_RUN_NOTE + "\n")
-    assert main(["run", PENDULUM, "--out", str(tmp_path / "b"), "--t-end", "0.05", "--quiet"]) == 0
-    assert kernels.FIRST_RUN_NOTE not in capsys.readouterr().err
-
-
 def test_a_run_never_removes_another_scene_s_outputs(tmp_path, monkeypatch, capsys):
     """Issue #32: `flexmb run wiper --out results && flexmb run 01_pendulum.toml` removed the wiper's files.
 
@@ -337,7 +338,7 @@ def test_exit_statuses_tell_usage_input_failure_and_interruption_apart(tmp_path,
     failing.write_text(pathlib.Path(PENDULUM).read_text().replace("g = [0.0, -9.81, 0.0]", "g = [0.0, -1e300, 0.0]"))
     # (an implicit method: an explicit one is refused before it starts, for the steps it would need)
     code_failed = main(["run", str(failing), "--out", str(tmp_path / "failing"), "--t-end", "0.01", "--quiet",
-                        "--integrator", "CVODE_BDF"])
+                        "--method", "CVODE_BDF"])
     assert (tmp_path / "failing" / "summary.json").is_file()  # the partial outputs are written
     monkeypatch.setattr(STEPPING, "Progress", interrupt_after(0.1))  # Ctrl-C at t = 0.1 s
     code_interrupted = main(["run", PENDULUM, "--out", str(tmp_path / "int"), "--t-end", "1.0"])

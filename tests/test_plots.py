@@ -133,7 +133,7 @@ def test_study_plot_labels_parameters_and_outputs_with_units(tmp_path):
     assert [ax.get_xlabel() for ax in axes[-1]] == ["bodies.bar.mass (kg)", "drivers.motor.rpm (rev/min)"]
     assert [ax.get_ylabel() for ax in axes[:, 0]] == [
         "peak_speed:tip (m/s)", "final:pin.angle (rad)",
-        # a driver's effort is N m or N by its joint, which the table does not know
+        # a driver's effort is N m or N by its joint: a table built without its study's scene (units) does not know
         "peak_effort:motor (-)", "energy_balance (-)"]
     path = study.plot(tmp_path / "study.png")
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -65,7 +65,7 @@ def _check_run(out: pathlib.Path) -> str | None:
     if not (out / "summary.json").exists():
         return "a manifest without summary.json" if (out / ".flexmb-run.json").exists() else None
     summary = json.loads((out / "summary.json").read_text())
-    missing = [p for p in summary["files"].values() if not os.path.isfile(p)]
+    missing = [p for p in summary["files"].values() if not (out / p).is_file()]  # relative to the folder
     if missing:
         return f"summary.json names missing files {missing}"
     res = fm.Result.load(out / "pendulum.npz")

@@ -23,7 +23,8 @@ import runpy
 import numpy as np
 import pytest
 
-TUTORIALS = pathlib.Path(__file__).resolve().parents[1] / "tutorials"
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+TUTORIALS = ROOT / "tutorials"
 
 
 @pytest.fixture(scope="module")
@@ -198,6 +199,25 @@ def test_parameter_study(monkeypatch, tmp_path):
     assert np.all(np.diff(ns["torque"]) > 0)
     # sum of the works = change of kinetic energy, in every case
     assert np.all(ns["energy_balance"] < 1e-7)
+    _full_sweep_is_the_documented_study(ns["full_study"]())
+
+
+def _full_sweep_is_the_documented_study(study):
+    """Tutorial 08's full sweep is docs/study.md's command, on the scene's solver: method 'auto' (issue #32: the
+    tutorial pinned Radau where the page describes what 'auto' takes)."""
+    import shlex
+
+    from flexmb.study import Study, parse_spec
+
+    text = (ROOT / "docs" / "study.md").read_text()
+    start = text.index("flexmb study tutorials/04_wiper.toml")
+    words = shlex.split(text[start:text.index("```", start)].replace("\\\n", " "))
+    options = list(zip(words[3::2], words[4::2]))
+    vary = dict(v.split("=", 1) for o, v in options if o == "--vary")
+    documented = Study.from_file(ROOT / words[2], {k: parse_spec(v) for k, v in vary.items()},
+                                 outputs=[v for o, v in options if o == "--output"])
+    assert study.fixed == {} and study.data["solver"].get("method", "auto") == "auto"
+    assert study.key() == documented.key() and study.cases() == documented.cases()
 
 
 def test_notebook(monkeypatch):

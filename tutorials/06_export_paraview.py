@@ -176,7 +176,8 @@ print(f"dynamic clamp moment peaks at {clamp_moment_peak:.4f} N m "
 # The short form, ``flexmb.viz.animate``, colours by ``|displacement|``.
 # The long form reads the ``.pvd`` with pyvista, adds the bending moment as
 # point data, draws the centre line as a tube and writes a PNG and a GIF,
-# off-screen (VTK falls back to EGL or OSMesa without a display).
+# off-screen (:func:`flexmb.viz.offscreen_plotter`: without a display, VTK's
+# EGL or OSMesa window, with no attempt at X and no warning about it).
 
 if __name__ == "__main__":
     try:
@@ -205,7 +206,7 @@ if __name__ == "__main__":
 
         def plotter(first):
             """A plotter looking along -y at the beam of output ``first``, z scaled 5 times."""
-            p = pv.Plotter(off_screen=True, window_size=[800, 400])
+            p = viz.offscreen_plotter(window_size=[800, 400])
             p.set_background("white")
             p.set_scale(zscale=5.0)  # the deflection is 5 % of the length: exaggerate it
             p.add_mesh(frame(first), scalars="bending moment", cmap="viridis", clim=clim, name="beam",

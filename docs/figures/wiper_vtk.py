@@ -20,6 +20,7 @@ import numpy as np
 import pyvista as pv
 
 import flexmb as fm
+from flexmb import viz
 from flexmb.export.vtk import paraview_script, table_names
 from flexmb.scenes.wiper import WiperOptions, wiper
 
@@ -46,7 +47,7 @@ def main():
     centre = (lo + hi) / 2
     scale = 1.08 * max((hi - lo)[1] / 2, (hi - lo)[0] / 2 / aspect)
     pv.OFF_SCREEN = True
-    p = pv.Plotter(shape=(1, len(TIMES)), window_size=size, off_screen=True, border=False)
+    p = viz.offscreen_plotter(shape=(1, len(TIMES)), window_size=size, border=False)
     p.set_background("white")
     cmap = matplotlib.colormaps["tab10"]
     for k, (t, grid) in enumerate(zip(TIMES, grids)):

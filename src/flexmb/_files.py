@@ -21,7 +21,8 @@ writes through:
    commit cut short by a kill is finished by the next run into the folder.
 
 A reader therefore finds either the previous complete run or the new one;
-``summary.json`` is present only beside the complete set of files it names.
+``summary.json`` is present only beside the complete set of files it names,
+by paths relative to the folder (a moved or shared folder stays valid).
 
 Nothing in the folder is trusted to point elsewhere (another user may be
 able to write into it, or a link may be left there by mistake): the lock
@@ -365,9 +366,9 @@ class OutputFolder:
     >>> out = tempfile.mkdtemp()
     >>> with OutputFolder(out) as folder:
     ...     _ = atomic_write(folder.stage("a.txt"), lambda tmp: Path(tmp).write_text("a"))
-    ...     folder.commit({"files": {"a": folder.final("a.txt")}})
-    >>> sorted(json.load(open(out + "/summary.json"))["files"])
-    ['a']
+    ...     folder.commit({"files": {"a": "a.txt"}})
+    >>> json.load(open(out + "/summary.json"))["files"]
+    {'a': 'a.txt'}
     """
 
     def __init__(self, path, owner: str | None = None, overwrite: bool = False):
@@ -483,7 +484,7 @@ class OutputFolder:
         return self.path / rel
 
     def final(self, rel) -> str:
-        """The path an output file will have once committed (what a summary names).
+        """The path an output file will have once committed (for the caller; a summary names ``rel`` itself).
 
         Parameters
         ----------
@@ -520,15 +521,23 @@ class OutputFolder:
         summary : dict, optional
             Written as ``summary.json`` (``None``: no summary; a previous one
             is removed all the same, since it would describe another run).
+            The files it names (``"files"``, ``"vtk"``) are paths relative
+            to the output folder, so that the folder stays valid when it is
+            moved, copied or shared.
 
         Raises
         ------
         ExportError
-            If the summary's ``"files"`` name a file that was not written.
+            If the summary's ``"files"`` name a file that was not written, or
+            a path that is not relative to the folder.
         """
         staging = self.staging
         if summary is not None:
-            missing = [p for p in _summary_files(summary) if not self.staged(os.path.relpath(p, self.path))]
+            named = _summary_files(summary)
+            outside = [p for p in named if not _safe_relative(p)]
+            if outside:
+                raise ExportError(f"the summary names files by paths not relative to the output folder: {outside[:3]}")
+            missing = [p for p in named if not self.staged(p)]
             if missing:
                 raise ExportError(f"the summary names files that were not written: {missing[:3]}")
             atomic_write(staging / SUMMARY_NAME,

@@ -117,13 +117,9 @@ def _scene(name):
 
 def _run_scene(args) -> int:
     """Run a scene file or a built-in scene; an interrupted run keeps (and writes) what it computed."""
-    from .kernels import FIRST_RUN_NOTE, cached_on_disk
-
-    if not args.quiet and not cached_on_disk():
-        print(FIRST_RUN_NOTE, file=sys.stderr)
     scene = _scene(args.scene)
     summary = scene.run(args.out, progress=not args.quiet, overwrite=args.overwrite, t_end=args.t_end,
-                        rtol=args.rtol, complement=args.complement, method=args.integrator, n_out=args.n_out)
+                        rtol=args.rtol, complement=args.complement, method=args.method, n_out=args.n_out)
     print(json.dumps(summary, indent=2))
     print(f"wrote {args.out}/ ({', '.join(sorted(summary.get('files', {}))) or 'nothing'}"
           f"{', summary.json' if scene.output.summary else ''})")
@@ -186,6 +182,19 @@ def _study(args) -> int:
     return EXIT_FAILED if result.failed else EXIT_OK
 
 
+def _deprecated_aliases(parser, args) -> None:
+    """``flexmb run --integrator NAME`` (the old name of ``--method``): taken as ``--method NAME``, with a note."""
+    alias = getattr(args, "integrator", None)
+    if alias is None:
+        return
+    if args.method is not None and args.method != alias:
+        parser.error(f"--integrator {alias} and --method {args.method}: give --method alone "
+                     "(--integrator is its deprecated alias)")
+    print("flexmb: note: --integrator is deprecated, use --method (the scene's [solver] method, "
+          "simulate(method=...)); it still works for now", file=sys.stderr)
+    args.method = alias
+
+
 def main(argv=None) -> int:
     """Entry point of the ``flexmb`` command.
 
@@ -220,8 +229,11 @@ def main(argv=None) -> int:
     run.add_argument("--rtol", type=float, default=None, help="relative tolerance (default: the scene's)")
     run.add_argument("--complement", default=None, help="orthogonal complement strategy: "
                      f"{', '.join(registry.names('complements'))} (default: the scene's)")
-    run.add_argument("--integrator", default=None, help=f"auto, {', '.join(registry.names('integrators'))} "
-                                                        "(default: the scene's)")
+    run.add_argument("--method", default=None, metavar="NAME",
+                     help=f"integrator, as the scene's [solver] method and simulate(method=...): auto, "
+                          f"{', '.join(registry.names('integrators'))} (default: the scene's)")
+    run.add_argument("--integrator", default=None, metavar="NAME",
+                     help="deprecated alias of --method (still accepted, with a note on stderr)")
     run.add_argument("--n-out", type=int, default=None, help="number of output times (default: the scene's)")
     run.add_argument("--quiet", action="store_true", help="no progress bar")
     run.set_defaults(func=_run)
@@ -260,6 +272,7 @@ def main(argv=None) -> int:
     st.add_argument("--quiet", action="store_true", help="no progress on stderr")
     st.set_defaults(func=_study)
     args = parser.parse_args(argv)
+    _deprecated_aliases(parser, args)
     received.clear()
     try:
         with _messages(getattr(args, "quiet", False)), as_interrupts():

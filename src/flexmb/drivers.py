@@ -74,6 +74,21 @@ class Driver:
                 f"{self.joint.name!r} with {self.joint.n_coords} coordinate(s)"
             )
 
+    @property
+    def effort_unit(self) -> str:
+        """Unit of the effort that holds the driven coordinate: ``'N m'`` (a rotation), ``'N'`` (a translation).
+
+        ``'-'`` when the joint does not say (a joint class computing its own
+        motion, or a joint still given by name).
+        """
+        joint = self.joint
+        if isinstance(joint, str):
+            return "-"
+        n_t, n_r = len(joint.translation_axes), len(joint.rotation_axes)
+        if len(joint.coordinate_names) != n_t + n_r:
+            return "-"
+        return "N" if self.coordinate < n_t else "N m"
+
     @classmethod
     def constant_speed(cls, name: str, joint: Joint | str, speed: float, start: float = 0.0, coordinate: int = 0):
         """``theta(t) = start + speed * t``.

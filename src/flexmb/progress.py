@@ -10,6 +10,11 @@ Where the output goes decides how progress is shown:
   none for a run shorter than that, so that a log holds no carriage
   returns and short runs add nothing;
 * a CI job (the ``CI`` environment variable set): nothing.
+
+Time spent compiling flexmb's kernels while a bar runs (a cold cache:
+:mod:`flexmb.kernels.compiling` says so on one line) is taken off the
+bar's clock: the bar appears only once they have compiled, and its rate and
+remaining time count the simulation alone.
 """
 
 from __future__ import annotations
@@ -17,6 +22,8 @@ from __future__ import annotations
 import os
 import shutil
 import sys
+
+from .kernels.compiling import compile_seconds
 
 __all__ = ["Progress", "LOG_INTERVAL", "shown"]
 
@@ -118,6 +125,7 @@ class Progress:
         self._bar = None
         if not enabled:
             return
+        self._compiled = compile_seconds()
         stream = sys.stderr
         if _notebook():
             from tqdm.auto import tqdm
@@ -147,7 +155,30 @@ class Progress:
             The amount done so far.
         """
         if self._bar is not None:
+            self._skip_compilation()
             self._bar.update(float(amount) - self._bar.n)
+
+    def _skip_compilation(self) -> None:
+        """Move the bar's clock past the kernels' compilation since the last update (not shown, not timed)."""
+        compiled = compile_seconds()
+        if compiled > self._compiled:
+            self._bar.start_t += compiled - self._compiled
+            self._bar.last_print_t += compiled - self._compiled
+            self._compiled = compiled
+
+    @property
+    def start_time(self) -> float | None:
+        """The bar's start on tqdm's clock (:func:`time.time`), moved past any compilation seen so far.
+
+        Returns
+        -------
+        float or None
+            tqdm's start time, moved past compilation.
+        """
+        if self._bar is None:
+            return None
+        self._skip_compilation()
+        return self._bar.start_t
 
     def note(self, text: str) -> None:
         """Show ``text`` after the counts (e.g. ``"2 failed"``).

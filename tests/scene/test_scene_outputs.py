@@ -65,8 +65,8 @@ def check_complete(out, prefix="pendulum", killed=False) -> dict:
                                          for part in n.split("/"))]
     assert not leftovers, f"left behind: {leftovers}"
     summary = json.loads((out / "summary.json").read_text())
-    for path in summary["files"].values():
-        assert os.path.isfile(path), f"the summary names {path}, which does not exist"
+    for path in summary["files"].values():  # relative to the folder (issue #32)
+        assert not os.path.isabs(path) and os.path.isfile(out / path), f"the summary names {path}, not in {out}"
     res = fm.Result.load(out / f"{prefix}.npz")
     assert (summary["n_out"], summary["status"]) == (len(res.t), res.status)
     assert summary["t_end"] == res.t[-1]
@@ -341,8 +341,44 @@ def test_builtin_scene_rerun_replaces_its_files(tmp_path, capsys):
     assert main(["run", "fourbar", "--out", str(tmp_path), "--t-end", "0.05", "--n-out", "9", "--quiet"]) == 0
     assert main(["run", "fourbar", "--out", str(tmp_path), "--t-end", "0.05", "--n-out", "4", "--quiet"]) == 0
     summary = json.loads((tmp_path / "summary.json").read_text())
-    files, _ = _pvd(summary["vtk"])
+    files, _ = _pvd(tmp_path / summary["vtk"])
     assert sorted(files) == sorted(p.name for p in (tmp_path / "vtk").glob("*.vtu")) and len(files) == 4
+
+
+def _paths_in(summary: dict) -> list[str]:
+    """The files a summary names: ``files``, ``paraview``, and ``vtk`` at the top and in each run's entry."""
+    runs = [v for v in summary.values() if isinstance(v, dict) and "status" in v]
+    return (list(summary["files"].values()) + [summary[k] for k in ("vtk", "paraview") if k in summary]
+            + [run["vtk"] for run in runs if "vtk" in run])
+
+
+@pytest.mark.parametrize("scene", [PENDULUM, "wiper"])
+def test_a_moved_output_folder_stays_valid(tmp_path, capsys, scene):
+    """summary.json named its files by absolute paths: a moved or shared folder pointed at the old place (issue #32).
+    Now relative to the folder: after a move every file it names is there, a result and a series load from the
+    new place, and a rerun into the moved folder replaces its files."""
+    import shutil
+
+    first = tmp_path / "first"
+    assert main(_run_argv(first, 0.05, 6, scene)) == 0
+    moved = tmp_path / "elsewhere" / "moved"
+    moved.parent.mkdir()
+    shutil.move(first, moved)
+    summary = json.loads((moved / "summary.json").read_text())
+    named = _paths_in(summary)
+    assert len(named) >= 4 and not [p for p in named if os.path.isabs(p) or ".." in p], named
+    for path in named:
+        assert (moved / path).is_file(), path
+    results = [v for k, v in summary["files"].items() if k.startswith("result")]
+    for path in results:
+        assert fm.Result.load(moved / path).t[-1] == pytest.approx(0.05)
+    for path in [v for k, v in summary["files"].items() if k.startswith("vtk")]:
+        files, times = _pvd(moved / path)
+        assert len(files) == 6 and all(((moved / path).parent / f).is_file() for f in files)
+    assert main(_run_argv(moved, 0.05, 4, scene)) == 0  # the manifest is relative too: the rerun owns its files
+    capsys.readouterr()
+    check_complete(moved, prefix="pendulum") if scene == PENDULUM else None
+    assert len(list(moved.rglob("*.vtu"))) == 4 * len([k for k in summary["files"] if k.startswith("vtk")])
 
 
 # ----------------------------------------------------------------------------- one writer, honouring the umask

@@ -86,6 +86,31 @@ def _assert_only_the_endless_case_failed(res, limit):
     assert limit <= wall[ENDLESS] < limit + 30.0
 
 
+def test_a_time_limit_that_lands_as_a_kernel_returns_is_still_the_time_limit(monkeypatch):
+    """The serial executor's time limit is an exception raised in the case's thread; raised just as a compiled
+    kernel returns, numba turns it into 'SystemError: CPUDispatcher(...) returned a result with an exception set',
+    which the step loop records as a failed simulation (seen under load: the case read 'simulation failed at
+    t = 20.47 s: SystemError: ...' instead of the time limit). A case that fails after the limit fired is the
+    time limit's."""
+    from flexmb.study import cases
+
+    def run_case(task):  # the step loop's record of such a failure, once the limit has fired
+        end = time.monotonic() + 30.0
+        while time.monotonic() < end:
+            try:
+                time.sleep(0.01)
+            except cases._CaseTimeout as exc:  # what numba's SystemError wraps; the step loop catches that
+                return {**cases._failed_row(task, f"SimulationError: simulation failed: SystemError: {exc!r}"),
+                        "wall_time_s": 0.1}
+        return {**cases._failed_row(task, "the limit never fired"), "status": "finished"}
+
+    monkeypatch.setattr(cases, "_run_case", run_case)
+    task = {"case": 0, "case_id": "c", "parameters": {}, "time_limit": 0.2}
+    row = cases._run_case_limited(task)
+    assert (row["status"], row["error"]) == ("failed", "exceeded the time limit of 0.2 s per case; stopped")
+    assert row["wall_time_s"] >= 0.2
+
+
 @pytest.mark.parametrize("executor", ["serial", "process"])
 def test_a_case_past_its_time_limit_is_recorded_and_the_study_goes_on(scene_file, tmp_path, executor):
     """One case that never ends used to hang the whole study."""

@@ -163,3 +163,87 @@ def test_show_renders_the_last_state_with_the_system_that_made_it(result, tmp_pa
     # the same picture as render_state of the last output with the result's own system
     ref = viz.render_state(result, len(result.t) - 1, tmp_path / "ref.png", system=result.system, window_size=SIZE)
     assert np.array_equal(iio.imread(ref), img)
+
+
+# ----------------------------------------------------------------------------- no display (issue #32, trap 11)
+
+_QUIET_RENDER = """
+import flexmb as fm
+model = fm.Model("pendulum")
+bar = fm.RigidBody.slender_bar("bar", mass=1.0, length=1.0)
+model.add(fm.Revolute("pin", model.ground, bar), fm.Gravity((0.0, -9.81, 0.0)))
+res = fm.simulate(model, 0.1, positions={"pin": 1.0}, n_out=3, progress=False)
+first = res.show(path=FIRST, window_size=(120, 90))
+second = fm.viz.animate(res, GIF, window_size=(120, 90))
+print(type(first).__name__, first, second)
+"""
+
+
+def test_rendering_without_a_display_logs_no_x_server_warning(tmp_path):
+    """Every render without a display printed VTK's 'bad X server connection. DISPLAY=' (it tried X before EGL);
+    offscreen_plotter asks for the EGL window there. In a fresh interpreter: VTK warns once per process."""
+    import os
+    import subprocess
+    import sys
+
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "VTK_DEFAULT_OPENGL_WINDOW")}
+    code = f"FIRST, GIF = {str(tmp_path / 'a.png')!r}, {str(tmp_path / 'a.gif')!r}\n" + _QUIET_RENDER
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    assert "bad X server connection" not in proc.stderr, proc.stderr
+    assert "VTK_DEFAULT_OPENGL_WINDOW" not in proc.stderr, proc.stderr  # EGL was there: no fallback either
+    assert proc.stdout.split()[0] == "Picture"
+    assert _foreground(iio.imread(tmp_path / "a.png")).any()
+    assert iio.imread(tmp_path / "a.gif", index=None).shape[0] == 3
+
+
+def test_offscreen_plotter_asks_for_egl_only_without_a_display_and_restores_the_environment(monkeypatch):
+    import os
+
+    from flexmb.viz import offscreen
+
+    monkeypatch.delenv("VTK_DEFAULT_OPENGL_WINDOW", raising=False)
+    monkeypatch.delenv("DISPLAY", raising=False)
+    seen = []
+    monkeypatch.setattr(pv, "Plotter", lambda **kw: seen.append((kw, os.environ.get("VTK_DEFAULT_OPENGL_WINDOW"))))
+    viz.offscreen_plotter(window_size=(20, 20))
+    assert seen[-1] == ({"window_size": (20, 20), "off_screen": True}, "vtkEGLRenderWindow")
+    assert "VTK_DEFAULT_OPENGL_WINDOW" not in os.environ  # for the plotter's creation only
+    monkeypatch.setenv("DISPLAY", ":0")  # a display: VTK's own choice
+    viz.offscreen_plotter()
+    assert seen[-1][1] is None and offscreen.headless_window() is None
+    monkeypatch.delenv("DISPLAY")
+    monkeypatch.setenv("VTK_DEFAULT_OPENGL_WINDOW", "vtkOSOpenGLRenderWindow")  # the user's choice is kept
+    viz.offscreen_plotter()
+    assert seen[-1][1] == os.environ["VTK_DEFAULT_OPENGL_WINDOW"] == "vtkOSOpenGLRenderWindow"
+
+
+# ----------------------------------------------------------------------------- show() in a script (issue #32, trap 11)
+
+
+def _fake_ipython(monkeypatch, shell):
+    """An importable IPython whose get_ipython() returns ``shell`` and whose display.Image records its use."""
+    import sys
+    import types
+
+    made = []
+    ipython = types.ModuleType("IPython")
+    ipython.get_ipython = lambda: shell
+    display = types.ModuleType("IPython.display")
+    display.Image = lambda *a, **kw: made.append((a, kw)) or ("Image", a, kw)
+    ipython.display = display
+    monkeypatch.setitem(sys.modules, "IPython", ipython)
+    monkeypatch.setitem(sys.modules, "IPython.display", display)
+    return made
+
+
+@pytest.mark.parametrize("shell", [None, type("ZMQInteractiveShell", (), {})()], ids=["script", "notebook"])
+def test_show_returns_the_path_with_ipython_installed_and_shows_the_png_in_a_shell(result, tmp_path, monkeypatch,
+                                                                                   shell):
+    """With IPython importable, show() returned an IPython Image even in a plain script (documented: the path).
+    Now a Picture, the PNG's path, in a script; in a running IPython shell the same object, which IPython's
+    display (the ``_repr_png_`` it looks up) shows as the picture."""
+    made = _fake_ipython(monkeypatch, shell)
+    shown = result.show(path=tmp_path / "s.png", window_size=SIZE)
+    assert isinstance(shown, viz.Picture) and shown == tmp_path / "s.png" and not made
+    assert shown._repr_png_() == (tmp_path / "s.png").read_bytes()

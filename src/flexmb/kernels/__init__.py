@@ -12,8 +12,9 @@ and memory for an open tree (the dense mass matrix of a model with loops
 costs O(n depth)).
 
 Compiled code is cached beside these sources (``cache=True``, :mod:`flexmb.kernels.cache`): the
-first run of a new installation compiles (see the README for the measured
-time), later runs load the machine code.
+first run of a new installation compiles (the README and ``docs/benchmarks.md``
+give the measured time), later runs load the machine code. A compilation says so, once per
+family of kernels, on stderr (:mod:`flexmb.kernels.compiling`).
 """
 
 #: coordinate kinds in ``Topology.coord_kind``: a translation or a rotation
@@ -21,28 +22,8 @@ time), later runs load the machine code.
 #: computes its own motion (called back from Python)
 TRANSLATION, ROTATION, EXTERNAL = 0, 1, 2
 
-__all__ = ["TRANSLATION", "ROTATION", "EXTERNAL", "cached_on_disk"]
+__all__ = ["TRANSLATION", "ROTATION", "EXTERNAL"]
 
-#: what the first run of an installation costs, said before it compiles (README, "The compiled core")
-FIRST_RUN_NOTE = ("flexmb: first run of this installation: compiling the numba kernels (about 40 s of CPU, "
-                  "once; later runs load them from the cache)")
+from . import compiling as _compiling
 
-
-def cached_on_disk() -> bool:
-    """Whether the kernels' machine code is in numba's cache for these sources (else the next run compiles).
-
-    Judged by the kinematics kernel, which every run needs: its cache
-    index must exist and match the source file. If numba's cache cannot be
-    read for another reason, True (nothing to announce).
-
-    Returns
-    -------
-    bool
-        True if the kernels load from the cache.
-    """
-    from .tree import tree_kinematics
-
-    try:
-        return bool(tree_kinematics._cache._cache_file._load_index())  # numba's index, {} if absent or stale
-    except Exception:  # numba's private cache layout changed: say nothing
-        return True
+_compiling.install()  # one line on stderr when a family of kernels compiles; progress bars' clocks skip it

@@ -61,7 +61,7 @@ def sources_stamp(folder: str = KERNELS) -> str:
     """A hash of every kernel source file in ``folder`` (names and contents), computed once per process."""
     h = hashlib.sha256()
     for path in sorted(glob.glob(os.path.join(glob.escape(folder), "*.py"))):
-        if os.path.basename(path) == "cache.py":  # this file holds no kernel
+        if os.path.basename(path) in ("cache.py", "compiling.py"):  # these files hold no kernel
             continue
         h.update(os.path.basename(path).encode())
         with open(path, "rb") as f:

@@ -22,10 +22,10 @@ from .loads import apply_load_tables
 from .packing import unpack
 from .tree import tree_state
 
-__all__ = ["loaded_state", "tree_equations", "cut_residual", "cut_rows_at"]
+__all__ = ["loaded_state", "tree_equations", "RESIDUALS", "ROWS", "EQUATIONS"]
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def loaded_state(packed, y, n, powers, force0, torque0, generalized0):
     """The tree's kinematics, spatial inertias and loads at ``y = (x, xd, ...)``: what eq. 3 is made of.
 
@@ -75,9 +75,17 @@ def loaded_state(packed, y, n, powers, force0, torque0, generalized0):
     return tree, cuts, kin, spatial, fw, tw, generalized
 
 
+#: what :func:`tree_equations` computes: the cut joints' residuals only, their rows, or the whole equations
+RESIDUALS, ROWS, EQUATIONS = 0, 1, 2
+
+
 @njit(cache=True)
-def tree_equations(packed, y, n, powers, force0, torque0, generalized0):
-    """A, f and the cut joints' rows at the state ``y = (x, xd, ...)``.
+def tree_equations(packed, y, n, what, powers, force0, torque0, generalized0):
+    """A, f and the cut joints' rows at the state ``y = (x, xd, ...)``; or only the rows; or only their residuals.
+
+    One entry point for the three, so that the kernels they share (the
+    tree's kinematics, the cut rows) compile into one machine-code module
+    once, not into one per entry point.
 
     Parameters
     ----------
@@ -90,6 +98,13 @@ def tree_equations(packed, y, n, powers, force0, torque0, generalized0):
         Coordinates and speeds first.
     n : int
         Number of coordinates.
+    what : int
+        :data:`EQUATIONS`: everything below; :data:`ROWS`: ``phi`` and
+        ``psi`` (``A``, ``f``, ``gamma`` empty, the loads not read);
+        :data:`RESIDUALS`: ``phi = [position, velocity]``, the largest
+        residuals of the cut joints' positions and velocities (``psi_a
+        xd`` read from the two bodies' spatial velocities, psi not formed:
+        O(n + m); 0 without cut joints), all else empty.
     powers : ndarray, shape (n_groups,) or (0,)
         If not empty, the power of each compiled force-element class is
         added to its entry.
@@ -108,43 +123,34 @@ def tree_equations(packed, y, n, powers, force0, torque0, generalized0):
     phi, gamma : ndarray, shape (m_cut,)
         The cut joints' residuals and right-hand sides of ``psi xdd = gamma``.
     psi : ndarray, shape (m_cut, n)
-        Their rows of the constraint Jacobian (eq. 29).
+        Their rows of the constraint Jacobian (eq. 29; with ``what =
+        ROWS`` their b is zero).
     """
-    tree, cuts, kin, spatial, fw, tw, generalized = loaded_state(packed, y, n, powers, force0, torque0, generalized0)
-    R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = kin
-    A = mass_matrix(tree.parent, tree.coord_start, tree.coord_body, composite_inertias(tree.parent, spatial), Sw, Sv)
-    f = generalized_force(tree.parent, tree.coord_body, r, fw, tw, Sw, Sv) + generalized
-    phi, psi, gamma = cut_rows(2, n, R, origin, r, omega, v, alpha, acc, Sw, Sv, tree.parent, tree.coord_start,
-                               *cuts)
-    return A, f, phi, psi, gamma
-
-
-@njit(cache=True)
-def cut_residual(packed, y, n):
-    """The cut joints' largest position and velocity residuals, ``max |phi|`` and ``max |psi xd|`` (eqs. 28-29).
-
-    ``psi_a xd`` is read from the two bodies' spatial velocities
-    (:func:`~flexmb.kernels.constraints.cut_row_wrenches`), psi not formed:
-    O(n + m).
-
-    Parameters
-    ----------
-    packed : tuple
-        The model's constant arrays (:func:`~flexmb.kernels.packing.pack`).
-    y : ndarray, shape (>= 2 n,)
-        Coordinates and speeds first.
-    n : int
-        Number of coordinates.
-
-    Returns
-    -------
-    position, velocity : float
-        The residuals (0 without cut joints).
-    """
+    if what == EQUATIONS:
+        tree, cuts, kin, spatial, fw, tw, generalized = loaded_state(packed, y, n, powers, force0, torque0,
+                                                                     generalized0)
+        R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = kin
+        A = mass_matrix(tree.parent, tree.coord_start, tree.coord_body, composite_inertias(tree.parent, spatial),
+                        Sw, Sv)
+        f = generalized_force(tree.parent, tree.coord_body, r, fw, tw, Sw, Sv) + generalized
+        phi, psi, gamma = cut_rows(2, n, R, origin, r, omega, v, alpha, acc, Sw, Sv, tree.parent, tree.coord_start,
+                                   *cuts)
+        return A, f, phi, psi, gamma
     tree, _, cuts = unpack(packed)
     x = y[:n]
     xd = y[n : 2 * n]
     R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = tree_state(tree, x, xd)
+    if what == ROWS:
+        phi, psi, _ = cut_rows(1, n, R, origin, r, omega, v, alpha, acc, Sw, Sv, tree.parent, tree.coord_start,
+                               *cuts)
+        return np.empty((0, 0)), np.empty(0), phi, psi, np.empty(0)
+    return np.empty((0, 0)), np.empty(0), _cut_residuals(R, origin, r, omega, v, alpha, acc, cuts), \
+        np.empty((0, 0)), np.empty(0)
+
+
+@njit(cache=True)
+def _cut_residuals(R, origin, r, omega, v, alpha, acc, cuts):
+    """``[position, velocity]``: the largest residuals of the cut joints (see :func:`tree_equations`)."""
     phi, W, body, _ = cut_row_wrenches(1, R, origin, r, omega, v, alpha, acc, *cuts)
     position = 0.0
     velocity = 0.0
@@ -160,32 +166,7 @@ def cut_residual(packed, y, n):
                 s += W[a, side, 4] * (v[k, 1] - (w[2] * r[k, 0] - w[0] * r[k, 2]))
                 s += W[a, side, 5] * (v[k, 2] - (w[0] * r[k, 1] - w[1] * r[k, 0]))
         velocity = max(velocity, abs(s))
-    return position, velocity
-
-
-@njit(cache=True)
-def cut_rows_at(packed, y, n):
-    """The cut joints' residuals phi and rows of psi at the state ``y = (x, xd, ...)`` (eqs. 28-29).
-
-    Parameters
-    ----------
-    packed : tuple
-        The model's constant arrays (:func:`~flexmb.kernels.packing.pack`).
-    y : ndarray, shape (>= 2 n,)
-        Coordinates and speeds first.
-    n : int
-        Number of coordinates.
-
-    Returns
-    -------
-    phi : ndarray, shape (m_cut,)
-        Residuals.
-    psi : ndarray, shape (m_cut, n)
-        Rows of the constraint Jacobian (their b is zero).
-    """
-    tree, _, cuts = unpack(packed)
-    x = y[:n]
-    xd = y[n : 2 * n]
-    R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = tree_state(tree, x, xd)
-    phi, psi, _ = cut_rows(1, n, R, origin, r, omega, v, alpha, acc, Sw, Sv, tree.parent, tree.coord_start, *cuts)
-    return phi, psi
+    out = np.empty(2)
+    out[0] = position
+    out[1] = velocity
+    return out

@@ -117,7 +117,7 @@ def _view3(buffer, index, k):
     return buffer[o : o + n].reshape((index[k, 1], index[k, 2], index[k, 3]))
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def unpack(packed):
     """The tree layout, the load tables and the cut rows as views of :func:`pack`'s buffers.
 

@@ -70,21 +70,12 @@ def _fourbar_figure(res):
     return _draw_fourbar(_fourbar_data(res))
 
 
-def _effort_unit(driver) -> str:
-    """N m for a driven rotation, N for a driven translation, '-' when the joint does not say."""
-    joint = type(driver.joint)
-    n_t, n_r = len(joint.translation_axes), len(joint.rotation_axes)
-    if len(joint.coordinate_names) != n_t + n_r:
-        return "-"
-    return "N" if driver.coordinate < n_t else "N m"
-
-
 def _scene_data(scene, res, tracks, speeds) -> dict:
     """The curves of a scene-file run's plot: coordinates, energy, residual, tracked speeds, driver efforts."""
     drivers = {}
     for d in scene.model.drivers:
         if d.name in res.driver_names:
-            drivers.setdefault(_effort_unit(d), []).append((d.name, res.driver_effort(d.name)))
+            drivers.setdefault(d.effort_unit, []).append((d.name, res.driver_effort(d.name)))
     return {"t": res.t, "coordinates": _coordinate_curves(res), "energy": res.energy - res.energy[0],
             "residual": np.maximum(res.residual, 1e-18), "speeds": {k: speeds[k] for k in tracks},
             "drivers": list(drivers.items()), "title": f"{scene.name}: {res.status}"}

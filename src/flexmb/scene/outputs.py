@@ -59,7 +59,7 @@ def _plotter(scene, background: bool):
 
 
 def _vtk(res, folder, sub, prefix, system, jobs=None):
-    """Write the VTK series into ``sub/`` of the staging folder; return the final ``.pvd`` path or None.
+    """Write the VTK series into ``sub/`` of the staging folder; return the ``.pvd``'s path in the folder, or None.
 
     With the system the run came from: bodies drawn through their joints, exact velocities, section
     loads and stresses. The ParaView script that opens the series comes along, once per folder. Given
@@ -85,7 +85,7 @@ def _vtk(res, folder, sub, prefix, system, jobs=None):
         export()
     else:
         jobs.append(in_background(export))
-    return folder.final(rel)
+    return rel
 
 
 def _owner(scene) -> str:
@@ -180,7 +180,8 @@ def write_outputs(scene, res, out, overwrite: bool = False) -> dict:
     Returns
     -------
     dict
-        The summary (also written to ``out/summary.json`` unless disabled).
+        The summary (also written to ``out/summary.json`` unless disabled);
+        the files it names are paths relative to ``out``.
 
     Raises
     ------
@@ -252,20 +253,20 @@ def _write_outputs(scene, res, folder, plotter) -> dict:
     files, jobs = {}, []
     if o.npz:
         res.save(folder.stage(o.prefix + ".npz"))
-        files["result"] = folder.final(o.prefix + ".npz")
+        files["result"] = o.prefix + ".npz"
     try:
         if plotter is not None and len(res.t):
             figure = FIGURES[o.figure][1]
             rel = o.prefix + ".png"
             data = figure.data(scene, res, tracks, speeds)
             jobs.append(plotter.run(_draw_pngs, [(figure.draw, data, folder.stage(rel), 110)]))
-            files["plot"] = folder.final(rel)
+            files["plot"] = rel
         if o.vtk and len(res.t):
             # "vtk" as in the entry of each run of a scene with [runs]
             summary["vtk"] = pvd = _vtk(res, folder, "vtk", o.prefix, scene.model)
             if pvd:
                 files["vtk"] = pvd
-                files["paraview"] = folder.final(PARAVIEW_SCRIPT)
+                files["paraview"] = PARAVIEW_SCRIPT
     finally:
         for job in jobs:
             job.wait()
@@ -305,7 +306,7 @@ def _write_runs(scene, folder, progress: bool, overrides: dict, plotter):
         for job in jobs:
             job.wait()
     if any(k.startswith("vtk_") for k in files):
-        summary["paraview"] = files["paraview"] = folder.final(PARAVIEW_SCRIPT)
+        summary["paraview"] = files["paraview"] = PARAVIEW_SCRIPT
     summary["files"] = files
     folder.commit(summary if o.summary else None)
     return summary, failure
@@ -318,7 +319,7 @@ def _write_run(run, res, system, folder, label, files, jobs) -> dict:
     entry = run_summary(run, res, *_tracks(run, res))
     if o.npz:
         res.save(folder.stage(stem + ".npz"))
-        files[f"result_{label}"] = folder.final(stem + ".npz")
+        files[f"result_{label}"] = stem + ".npz"
     if o.vtk and len(res.t):
         entry["vtk"] = _vtk(res, folder, f"vtk_{label}", stem, system, jobs)
         if entry["vtk"]:
@@ -332,11 +333,11 @@ def _plot_runs(scene, done: dict, folder, files: dict, plotter, jobs: list) -> N
     prefix = scene.output.prefix
     if kind == "runs":
         pngs = [(figure.draw, figure.data(done), folder.stage(prefix + ".png"), 120)]
-        files["plot"] = folder.final(prefix + ".png")
+        files["plot"] = prefix + ".png"
     else:
         pngs = []
         for label, (run, res, _) in done.items():
             rel = f"{prefix}_{label}.png"
             pngs.append((figure.draw, figure.data(run, res, *_tracks(run, res)), folder.stage(rel), 110))
-            files[f"plot_{label}"] = folder.final(rel)
+            files[f"plot_{label}"] = rel
     jobs.append(plotter.run(_draw_pngs, pngs))

@@ -200,7 +200,8 @@ class Scene:
         Returns
         -------
         dict
-            The summary (also written to ``out/summary.json``).
+            The summary (also written to ``out/summary.json``); the files
+            it names are paths relative to ``out``.
 
         Raises
         ------

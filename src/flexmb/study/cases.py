@@ -69,34 +69,42 @@ def _run_case_limited(task: dict) -> dict:
     A timer thread raises :class:`_CaseTimeout` in this thread
     (``PyThreadState_SetAsyncExc``); it takes effect at the next Python
     bytecode, so a case stuck inside one long call of compiled code stops
-    when that call returns. The process executor kills the case's process
-    instead (:func:`_execute_pool`).
+    when that call returns. Raised just as a compiled kernel returns, it
+    comes out as numba's ``SystemError`` instead, which the step loop
+    records as a failure: a case that failed after the timer fired is
+    recorded as stopped by its time limit all the same. The process
+    executor kills the case's process instead (:func:`_execute_pool`).
     """
     limit = task.get("time_limit")
     if not limit:
         return _run_case(task)
     t0 = time.perf_counter()
-    tid, lock, state = threading.get_ident(), threading.Lock(), {"done": False}
+    tid, lock, state = threading.get_ident(), threading.Lock(), {"done": False, "fired": False}
 
     def fire():
         with lock:  # never after the case has ended: the exception would hit the caller
             if not state["done"]:
+                state["fired"] = True
                 ctypes.pythonapi.PyThreadState_SetAsyncExc(ctypes.c_ulong(tid), ctypes.py_object(_CaseTimeout))
+
+    def stopped():
+        row = _failed_row(task, _timeout_message(limit))
+        row.update(wall_time_s=time.perf_counter() - t0, worker=f"{socket.gethostname()}:{os.getpid()}")
+        return row
 
     timer = threading.Timer(limit, fire)
     timer.daemon = True
     try:
         try:
             timer.start()
-            return _run_case(task)
+            row = _run_case(task)
         finally:
             with lock:
                 state["done"] = True
             timer.cancel()
+        return stopped() if state["fired"] and row["status"] != "finished" else row
     except _CaseTimeout:
-        row = _failed_row(task, _timeout_message(limit))
-        row.update(wall_time_s=time.perf_counter() - t0, worker=f"{socket.gethostname()}:{os.getpid()}")
-        return row
+        return stopped()
 
 
 def _watch_study(pid: int) -> None:

@@ -20,7 +20,7 @@ from ..scene.metrics import _check_output, _is_real, _output_name, default_outpu
 from .sampling import SAMPLINGS, Distribution, _unit_samples
 from ..scene.keys import key_paths as _paths
 from .spec import _as_spec
-from .table import META_COLUMNS, StudyResult
+from .table import META_COLUMNS, StudyResult, _scene_units
 
 __all__ = ['Study', 'case_id', 'run_study']
 
@@ -213,6 +213,10 @@ class Study:
         FlexmbError
             If an output does not fit the scene.
         """
+        return self._checked()[0]
+
+    def _checked(self) -> tuple[list, dict]:
+        """:meth:`validate`'s output specs, and the units of the columns the scene fixes (a driver's effort)."""
         # every case sets the same key paths, so the first case checks them all
         scene = _build(self.data, self.source, self.fixed, self.cases()[0])
         outputs = list(self.outputs) or default_outputs(scene)
@@ -223,7 +227,7 @@ class Study:
         clash = (set(names) & set(self.vary)) | (set(names) & set(META_COLUMNS)) | (set(self.vary) & set(META_COLUMNS))
         if clash or len(set(names)) != len(names):
             raise FlexmbError(f"Study: column names must be unique; clash: {sorted(clash) or names}")
-        return outputs
+        return outputs, _scene_units(names, scene)
 
     def _time_limit(self, value) -> float | None:
         """The time limit per case: ``value``, else the scene's ``[study] time_limit`` (checked by the loader)."""
@@ -307,21 +311,21 @@ class Study:
             executor = "dask"
         if executor not in _EXECUTORS:
             raise FlexmbError(f"unknown executor {executor!r}; pick one of {', '.join(_EXECUTORS)}")
-        outputs = self.validate()
+        outputs, units = self._checked()
         time_limit = self._time_limit(time_limit)
         study_key = self.key()
         manifest = self._manifest(study_key, outputs)
         with OutputFolder(out, owner=f"a study of {_source_name(self.source)}", overwrite=overwrite) as folder:
-            result = self._run_cases(folder, study_key, outputs, time_limit, executor, workers, client, scheduler,
-                                     progress, retry_failed)
+            result = self._run_cases(folder, study_key, outputs, units, time_limit, executor, workers, client,
+                                     scheduler, progress, retry_failed)
             result._write_into(folder)
             atomic_write(folder.stage("study.json"),
                          lambda tmp: Path(tmp).write_text(json.dumps(manifest, indent=2) + "\n"))
             folder.commit()
         return result
 
-    def _run_cases(self, folder, study_key, outputs, time_limit, executor, workers, client, scheduler, progress,
-                   retry_failed) -> "StudyResult":
+    def _run_cases(self, folder, study_key, outputs, units, time_limit, executor, workers, client, scheduler,
+                   progress, retry_failed) -> "StudyResult":
         """Run the cases not yet done in the locked folder (each case's file in ``cases/`` as it ends)."""
         out = folder.path
         case_dir = folder.folder("cases")
@@ -352,7 +356,7 @@ class Study:
             bar.close()
         rows = [dict(done[cid], case=i) for i, cid in enumerate(ids)]
         return StudyResult(self.parameters, [_output_name(o) for o in outputs], rows, ran=ran,
-                           skipped=len(set(ids)) - len(set(ran)), out=out)
+                           skipped=len(set(ids)) - len(set(ran)), out=out, units=units)
 
     def _manifest(self, study_key: str, outputs: list) -> dict:
         """What ``study.json`` records: the scene, the study's hash, parameters, specs and outputs."""

@@ -44,6 +44,10 @@ class StudyResult:
         Number of cases found done and not run again.
     out : pathlib.Path or None
         The output folder.
+    units : dict of str to str
+        Units of columns that the study's scene fixes and the name alone
+        does not (``peak_effort:<driver>`` in N m or N, from the
+        driver's joint); the others are read from the name (:meth:`unit`).
     """
 
     parameters: list
@@ -52,6 +56,7 @@ class StudyResult:
     ran: list = field(factory=list)
     skipped: int = 0
     out: Any = None
+    units: dict = field(factory=dict)
 
     @property
     def columns(self) -> list[str]:
@@ -172,7 +177,7 @@ class StudyResult:
         return {k: Path(folder.final(rel)) for k, rel in files.items()}
 
     def unit(self, name: str) -> str:
-        """The unit of a parameter or output column, read from its name (``'-'`` when unknown).
+        """The unit of a parameter or output column: from :attr:`units`, else its name (``'-'`` when unknown).
 
         Parameters
         ----------
@@ -183,11 +188,12 @@ class StudyResult:
         -------
         str
             E.g. ``'kg'`` for ``bodies.bar.mass``, ``'m/s'`` for
-            ``peak_speed:tip``, ``'rad'`` for ``final:pin.angle``; ``'-'``
-            for a dimensionless number, a count, or a unit the name does not
-            fix (``stiffness``, ``peak_effort:<driver>``, a bare joint name).
+            ``peak_speed:tip``, ``'rad'`` for ``final:pin.angle``, ``'N m'``
+            for ``peak_effort:motor`` of a study whose motor turns a joint;
+            ``'-'`` for a dimensionless number, a count, or a unit neither
+            the name nor the scene fixes (``stiffness``, a bare joint name).
         """
-        return _column_unit(name)
+        return self.units.get(name) or _column_unit(name)
 
     def figure(self):
         """Each output against each parameter, one panel each, axes labelled with units.
@@ -328,6 +334,32 @@ _TABLE_KEY_UNITS = {("bodies", "damping"): "s"}
 _OUTPUT_UNITS = {"peak_speed": "m/s", "peak_speed_exact": "m/s", "max_displacement": "m", "driver_work": "J", "energy_balance": "-",
                  "final": "coordinate", "max": "coordinate", "min": "coordinate", "history": "coordinate",
                  "time": "s", "n_rhs": "-"}
+
+
+def _scene_units(names, scene) -> dict:
+    """Units of output columns that the scene fixes and their name alone does not.
+
+    Parameters
+    ----------
+    names : iterable of str
+        Output names.
+    scene : flexmb.scene.Scene
+        The study's scene (its first case).
+
+    Returns
+    -------
+    dict of str to str
+        ``peak_effort:<driver>``: the driver's
+        :attr:`~flexmb.Driver.effort_unit` (``'N m'`` for a driven rotation,
+        ``'N'`` for a driven translation).
+    """
+    drivers = {d.name: d for d in scene.model.drivers}
+    units = {}
+    for name in names:
+        kind, _, arg = name.partition(":")
+        if kind == "peak_effort" and arg in drivers and drivers[arg].effort_unit != "-":
+            units[name] = drivers[arg].effort_unit
+    return units
 
 
 def _column_unit(name: str) -> str:

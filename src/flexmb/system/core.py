@@ -18,7 +18,7 @@ from ..joints import Joint
 from ..kinematics import Kinematics
 from ..topology import Topology
 from ..forces.tables import class_tables, merge
-from ..kernels.equations import cut_rows_at, tree_equations
+from ..kernels.equations import EQUATIONS, ROWS, tree_equations
 from ..kernels.packing import pack
 from .checks import StateChecks
 from .projection import Projection
@@ -419,7 +419,7 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         else:
             powers[:] = 0.0
         loads = self._python_loads(t, y, powers)
-        A, f, _, psi, gamma = tree_equations(self._packed, y, n, powers, *loads)
+        A, f, _, psi, gamma = tree_equations(self._packed, y, n, EQUATIONS, powers, *loads)
         if self.constraints.elements:
             rows = self.constraints.element_rows(self._kinematics(t, y[:n], y[n : 2 * n]))
             psi, gamma = np.vstack((psi, rows.psi)), np.concatenate((gamma, rows.gamma))
@@ -451,7 +451,8 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         """phi, psi and b at a state (all rows: cut joints, elements, then drivers), compiled where it can be."""
         if self._packed is None:
             return self.constraints.evaluate(self._kinematics(t, x, xd), level=1)
-        phi, psi = cut_rows_at(self._packed, np.concatenate([x, xd]), self.n_coords)
+        _, _, phi, psi, _ = tree_equations(self._packed, np.concatenate([x, xd]), self.n_coords, ROWS,
+                                           self._no_powers, *self._no_loads)
         b = np.zeros(phi.shape[0])
         if self.constraints.elements:
             rows = self.constraints.element_rows(self._kinematics(t, x, xd))

@@ -6,7 +6,7 @@ import numpy as np
 
 from ..errors import ModelError
 from ..flexible import FlexibleBody
-from ..kernels.equations import cut_residual
+from ..kernels.equations import RESIDUALS, tree_equations
 from .solve import _plain
 
 
@@ -143,7 +143,8 @@ class StateQuantities:
             if not rows.phi.size:
                 return 0.0, 0.0
             return float(np.max(np.abs(rows.phi))), float(np.max(np.abs(rows.psi @ xd - rows.b)))
-        position, velocity = cut_residual(self._packed, np.concatenate([x, xd]), self.n_coords)
+        position, velocity = tree_equations(self._packed, np.concatenate([x, xd]), self.n_coords, RESIDUALS,
+                                            self._no_powers, *self._no_loads)[2]
         if self.constraints.elements:
             rows = self.constraints.element_rows(self._kinematics(t, x, xd))
             position = max(position, float(np.max(np.abs(rows.phi), initial=0.0)))

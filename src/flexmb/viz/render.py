@@ -19,6 +19,7 @@ from attrs import evolve, field, frozen
 
 from .._files import atomic_write
 from ..errors import ExportError
+from .offscreen import _pyvista, offscreen_plotter
 
 __all__ = ["Picture", "RenderOptions", "render_state", "animate"]
 
@@ -97,14 +98,6 @@ def _options(options, kw) -> RenderOptions:
         raise ExportError(f"unknown render option: {exc}") from None
 
 
-def _pyvista():
-    try:
-        import pyvista as pv
-    except ImportError as exc:
-        raise ExportError("rendering needs pyvista: pip install 'flexmb[viz]'") from exc
-    return pv
-
-
 def _parts(pv, mesh, scalars):
     """The mesh's lines (PolyData), solids (hexahedra and quads), joint balls and other points.
 
@@ -180,7 +173,7 @@ class _Scene:
                     for m in meshes]
             top = max(float(np.nanmax(v)) if np.isfinite(v).any() else 0.0 for v in vals)
             self.clim = [0.0, top or 1.0]
-        self.plotter = pv.Plotter(off_screen=True, window_size=list(opts.window_size))
+        self.plotter = offscreen_plotter(window_size=list(opts.window_size))
         self.plotter.set_background(opts.background)
         view = opts.view
         if view == "auto":
@@ -328,8 +321,8 @@ def render_state(result, i: int, path, options: RenderOptions | None = None, *, 
 
     Notes
     -----
-    Renders with ``Plotter(off_screen=True)``; without a display VTK falls
-    back to EGL (or OSMesa) by itself. See ``docs/export.md``.
+    Renders off-screen (:func:`flexmb.viz.offscreen_plotter`: without a
+    display, VTK's EGL window, or OSMesa). See ``docs/export.md``.
     """
     opts = _options(options, kw)
     mesh = _frames(result, [i], opts, system)[0]

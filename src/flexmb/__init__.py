@@ -23,8 +23,8 @@ from .forces import (CoulombLaw, FloresLaw, HuntCrossleyLaw, JournalBearingConta
 from .joints import Cylindrical, Fixed, Free, Joint, PlanarRevolute, Prismatic, Revolute, Spherical, Universal
 from .flexible import FlexibleBody, Segment
 from .analysis import (Calibration, Campbell, CriticalPoint, FrequencyResponse, Input, Linearization, LoadPath,
-                       Output, PathOptions, StateSpace, calibrate, campbell, frequency_response, linear_statics,
-                       linearize, load_path, modes, state_space, static_equilibrium)
+                       Output, PathOptions, StateSpace, SteadyLinearization, calibrate, campbell, frequency_response,
+                       linear_statics, linearize, linearize_steady, load_path, modes, state_space, static_equilibrium)
 from .model import Model
 from .registry import PluginInfo, plugins, register
 from .profiles import BeamProfile
@@ -55,7 +55,8 @@ __all__ = [
     "FloresLaw", "CoulombLaw", "ViscousLaw", "VelocityWeakeningLaw", "StribeckLaw", "hertz_stiffness",
     "Cylindrical", "Fixed", "Free", "Joint", "PlanarRevolute", "Prismatic", "Revolute", "Spherical", "Universal",
     "FlexibleBody", "Segment", "Material", "Section", "BeamProfile",
-    "Linearization", "linear_statics", "linearize", "modes", "static_equilibrium", "Calibration", "calibrate",
+    "Linearization", "linear_statics", "linearize", "SteadyLinearization", "linearize_steady", "modes",
+    "static_equilibrium", "Calibration", "calibrate",
     "Input", "Output", "StateSpace", "state_space", "FrequencyResponse", "frequency_response", "Campbell",
     "campbell",
     "CriticalPoint", "LoadPath", "PathOptions", "load_path",

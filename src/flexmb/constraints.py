@@ -176,13 +176,15 @@ class Constraints:
         power = lam[self.n_cut : self.n_cut + start[-1]] * self.element_rows(kin).b
         return np.array([power[i:j].sum() for i, j in zip(start[:-1], start[1:])])
 
-    def refuse_velocity_rows(self, what: str) -> None:
+    def refuse_velocity_rows(self, what: str, instead: str = "") -> None:
         """Raise a ModelError naming the elements with velocity rows, for an analysis that cannot take them.
 
         Parameters
         ----------
         what : str
             The analysis (the start of the message), e.g. ``"linearize"``.
+        instead : str
+            What to use instead (ends the message), if anything.
 
         Returns
         -------
@@ -201,7 +203,7 @@ class Constraints:
             f"{what}: the model has velocity (nonholonomic) constraint rows ({names}); this analysis works in "
             "independent coordinates x = x0 + T z, which a velocity constraint does not give (its independent "
             "speeds are fewer than its free coordinates: docs/constraints.md, 'Linearisation'), and is not "
-            "available for such a model yet")
+            f"available for such a model{'; ' + instead if instead else ''}")
 
     def position_rows(self, rows):
         """``rows`` (ConstraintRows of all rows) restricted to the position rows (all of them if none is a velocity row).

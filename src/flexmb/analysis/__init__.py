@@ -21,6 +21,8 @@ frequency
     Frequency responses (Bode).
 campbell_diagram
     Campbell diagrams: frequencies and damping against a parameter.
+steady
+    First-order linearisation about a steady motion (velocity rows allowed).
 """
 
 from .linear import Linearization, linear_statics, linearize, modes, tangent_gap
@@ -32,7 +34,9 @@ from .signals import Input, Output
 from .statespace import StateSpace, state_space
 from .frequency import FrequencyResponse, frequency_response
 from .campbell_diagram import Campbell, campbell
+from .steady import SteadyLinearization, linearize_steady
 
 __all__ = ["Linearization", "linearize", "modes", "linear_statics", "tangent_gap", "static_equilibrium",
            "load_path", "LoadPath", "CriticalPoint", "PathOptions", "Calibration", "calibrate", "Input", "Output",
-           "StateSpace", "state_space", "FrequencyResponse", "frequency_response", "Campbell", "campbell"]
+           "StateSpace", "state_space", "FrequencyResponse", "frequency_response", "Campbell", "campbell",
+           "SteadyLinearization", "linearize_steady"]

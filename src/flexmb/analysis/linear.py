@@ -185,7 +185,8 @@ def linearize(system, x0=None, xd0=None, t: float = 0.0, h: float = 1e-6, method
     ModelError
         If ``method`` is not one of :data:`LINEARIZE_METHODS`, or is
         'analytic' where the tangent is not exact (the message says why),
-        or the model has velocity (nonholonomic) constraint rows.
+        or the model has velocity (nonholonomic) constraint rows (about a
+        steady motion :func:`flexmb.linearize_steady` takes them).
 
     Notes
     -----
@@ -211,7 +212,8 @@ def linearize(system, x0=None, xd0=None, t: float = 0.0, h: float = 1e-6, method
     """
     if method not in LINEARIZE_METHODS:
         raise ModelError(f"linearize: unknown method {method!r}; pick one of {list(LINEARIZE_METHODS)}")
-    system.constraints.refuse_velocity_rows("linearize")
+    system.constraints.refuse_velocity_rows(
+        "linearize", "about a steady motion, flexmb.linearize_steady takes it (naming the ignorable coordinates)")
     n = system.n_coords
     t = state_time("linearize", t)
     x0 = np.zeros(n) if x0 is None else state_vector("linearize", "x0", x0, n)

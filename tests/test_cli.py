@@ -355,3 +355,22 @@ def test_exit_statuses_tell_usage_input_failure_and_interruption_apart(tmp_path,
     for what, code in EXIT_STATUS.items():
         assert f"\n  {code:<4} " in text, what
         assert f"| {code} |" in docs, what
+
+
+def test_a_full_disk_is_one_line_and_exit_5_with_nothing_half_written(tmp_path, monkeypatch, capsys):
+    """Disk full (OSError 28) while a run wrote its outputs printed a Python traceback (exit 1)."""
+    import errno
+
+    def full(*args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(np, "savez_compressed", full)
+    out = tmp_path / "full"
+    code = main(["run", PENDULUM, "--out", str(out), "--t-end", "0.05", "--quiet"])
+    err = capsys.readouterr().err
+    assert code == 5
+    assert "flexmb: error: [Errno 28] No space left on device" in err and "Traceback" not in err
+    assert not any(p.suffix in (".npz", ".json") for p in out.rglob("*"))  # no result, no summary: nothing half-written
+    from flexmb.cli import EXIT_STATUS
+
+    assert EXIT_STATUS["system"] == 5

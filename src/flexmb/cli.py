@@ -45,15 +45,16 @@ from .errors import FlexmbError, SceneError, SimulationError
 __all__ = ["EXIT_STATUS", "main"]
 
 #: the exit statuses of the ``flexmb`` command, by what happened
-EXIT_STATUS = {"done": 0, "usage": 2, "input": 3, "failed": 4, "interrupted": 130}
+EXIT_STATUS = {"done": 0, "usage": 2, "input": 3, "failed": 4, "system": 5, "interrupted": 130}
 #: ... and 128 + N when signal N (SIGTERM 15, SIGHUP 1) stopped the command (handled as Ctrl-C)
-EXIT_OK, EXIT_USAGE, EXIT_INPUT, EXIT_FAILED, EXIT_INTERRUPTED = EXIT_STATUS.values()
+EXIT_OK, EXIT_USAGE, EXIT_INPUT, EXIT_FAILED, EXIT_SYSTEM, EXIT_INTERRUPTED = EXIT_STATUS.values()
 
 _EXIT_HELP = """exit status:
   0    done
   2    usage error: the command line (an unknown option, a missing argument)
   3    input error: the scene file, the model it builds or the output folder is at fault
   4    numerical failure: the simulation failed (partial outputs written); study: some case failed
+  5    system error: the machine refused (disk full, a read-only or forbidden folder): nothing half-written
   130  interrupted (Ctrl-C): what was computed is written
   143  stopped by SIGTERM (129: SIGHUP), as Ctrl-C: what was computed is written"""
 
@@ -241,8 +242,9 @@ def main(argv=None) -> int:
     -------
     int
         Exit status (:data:`EXIT_STATUS`): 0 done, 3 input error, 4
-        numerical failure, 130 interrupted; a usage error exits with 2
-        (``SystemExit``, from :mod:`argparse`).
+        numerical failure, 5 system error (a file or folder refused), 130
+        interrupted; a usage error exits with 2 (``SystemExit``, from
+        :mod:`argparse`).
     """
     from .scene import builtin_scenes
 
@@ -323,6 +325,9 @@ def main(argv=None) -> int:
     except FlexmbError as exc:
         print(f"flexmb: error: {exc}".replace("\n", " "), file=sys.stderr)
         return EXIT_INPUT
+    except OSError as exc:  # the machine's refusal (ENOSPC, EROFS, EACCES): files are written whole or not at all
+        print(f"flexmb: error: {exc}".replace("\n", " "), file=sys.stderr)
+        return EXIT_SYSTEM
 
 
 if __name__ == "__main__":

@@ -273,3 +273,20 @@ def test_a_rerun_says_which_failures_are_from_an_earlier_run(scene_file, tmp_pat
     assert "0 run now, 2 done before" in text
     assert "failed (in an earlier run, not run again)" in text and "--retry-failed" in text
     assert study.run(tmp_path, executor="serial", progress=False, retry_failed=True).ran == [first.failed[0]["case_id"]]
+
+
+@pytest.mark.parametrize("address, why", [("garbage", "missing port number in address 'garbage'"),
+                                           ("tcp://127.0.0.1:1", "Timed out trying to connect")])
+def test_an_unreachable_scheduler_is_one_line_and_writes_nothing(scene_file, tmp_path, capsys, address, why):
+    """``--scheduler garbage`` or an address nobody answers printed a traceback and left the folder begun."""
+    pytest.importorskip("distributed")
+    import dask
+
+    out = tmp_path / "unreachable"
+    with dask.config.set({"distributed.comm.timeouts.connect": "1s"}):
+        code = main(["study", str(scene_file), "--vary", "bodies.bar.length=0.5,1.0", "--output", "final:pin",
+                     "--scheduler", address, "--quiet", "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 3 and "Traceback" not in err
+    assert f"flexmb: error: Study: cannot reach the Dask scheduler {address!r}: " in err and why in err
+    assert not out.exists()  # reached before the folder is made

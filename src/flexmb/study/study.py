@@ -287,8 +287,9 @@ class Study:
             If a parameter, output or the time limit is invalid, or if the
             process pool cannot run the study from where it is called (a
             study at the top level of a script whose outputs are functions
-            defined in that script; the message says what to add), before
-            any case runs.
+            defined in that script; the message says what to add), or the
+            Dask scheduler cannot be reached (a malformed address, none
+            answering), before any case runs or anything is written.
         ExportError
             If another run or study is writing into ``out`` (the message
             names its pid), or ``out`` holds the outputs of another scene and
@@ -315,17 +316,23 @@ class Study:
         time_limit = self._time_limit(time_limit)
         study_key = self.key()
         manifest = self._manifest(study_key, outputs)
-        with OutputFolder(out, owner=f"a study of {_source_name(self.source)}", overwrite=overwrite) as folder:
-            result = self._run_cases(folder, study_key, outputs, units, time_limit, executor, workers, client,
-                                     scheduler, progress, retry_failed)
-            result._write_into(folder)
-            atomic_write(folder.stage("study.json"),
-                         lambda tmp: Path(tmp).write_text(json.dumps(manifest, indent=2) + "\n"))
-            folder.commit()
+        # the cluster is reached before anything is written: an unreachable one leaves the folder as it was
+        own_client = _dask_client(scheduler) if executor == "dask" and client is None else None
+        try:
+            with OutputFolder(out, owner=f"a study of {_source_name(self.source)}", overwrite=overwrite) as folder:
+                result = self._run_cases(folder, study_key, outputs, units, time_limit, executor, workers,
+                                         client or own_client, progress, retry_failed)
+                result._write_into(folder)
+                atomic_write(folder.stage("study.json"),
+                             lambda tmp: Path(tmp).write_text(json.dumps(manifest, indent=2) + "\n"))
+                folder.commit()
+        finally:
+            if own_client is not None:
+                own_client.close()
         return result
 
-    def _run_cases(self, folder, study_key, outputs, units, time_limit, executor, workers, client, scheduler,
-                   progress, retry_failed) -> "StudyResult":
+    def _run_cases(self, folder, study_key, outputs, units, time_limit, executor, workers, client, progress,
+                   retry_failed) -> "StudyResult":
         """Run the cases not yet done in the locked folder (each case's file in ``cases/`` as it ends)."""
         out = folder.path
         case_dir = folder.folder("cases")
@@ -351,7 +358,7 @@ class Study:
             bar.update(row)
 
         try:
-            _execute(executor, tasks, record, workers, client, scheduler)
+            _execute(executor, tasks, record, workers, client)
         finally:
             bar.close()
         rows = [dict(done[cid], case=i) for i, cid in enumerate(ids)]
@@ -398,22 +405,22 @@ def _done_cases(case_dir: Path, ids: list, study_key: str, retry_failed: bool) -
     return done
 
 
-def _execute(executor: str, tasks: list, record, workers, client, scheduler) -> None:
-    """Run ``tasks`` on the executor, calling ``record(task, row)`` as each ends; a client opened here is closed."""
-    own_client = None
-    if executor == "dask" and client is None:
-        try:
-            from distributed import Client
-        except ImportError as exc:
-            raise FlexmbError("running on a Dask cluster needs dask.distributed: "
-                              "pip install -e '.[dask]'") from exc
-        client = own_client = Client(scheduler)
+def _dask_client(scheduler):
+    """A Dask client of the scheduler at ``scheduler`` (a local cluster if None); a FlexmbError if it cannot be had."""
     try:
-        arg = client if executor == "dask" else max(1, int(workers or default_workers()))
-        _EXECUTORS[executor](tasks, record, arg)
-    finally:
-        if own_client is not None:
-            own_client.close()
+        from distributed import Client
+    except ImportError as exc:
+        raise FlexmbError("running on a Dask cluster needs dask.distributed: pip install -e '.[dask]'") from exc
+    try:
+        return Client(scheduler)
+    except (ValueError, TypeError, OSError, TimeoutError) as exc:  # a malformed address, or none answering
+        raise FlexmbError(f"Study: cannot reach the Dask scheduler {scheduler!r}: {exc}") from exc
+
+
+def _execute(executor: str, tasks: list, record, workers, client) -> None:
+    """Run ``tasks`` on the executor (``client``: Dask's, opened by :meth:`Study.run`), calling ``record(task, row)``."""
+    arg = client if executor == "dask" else max(1, int(workers or default_workers()))
+    _EXECUTORS[executor](tasks, record, arg)
 
 
 def _read_case(path: Path, study_key: str) -> dict | None:

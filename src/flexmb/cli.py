@@ -319,15 +319,23 @@ def main(argv=None) -> int:
             raise
         print("\nflexmb: interrupted", file=sys.stderr)
         return interrupted_status()
-    except SimulationError as exc:
-        print(f"flexmb: error: {exc}".replace("\n", " "), file=sys.stderr)
+    except (FlexmbError, OSError) as exc:
+        if isinstance(exc, BrokenPipeError):  # flexmb ... | head: console() ends quietly
+            raise
+        return _error(exc)
+
+
+def _error(exc: BaseException) -> int:
+    """Print ``flexmb: error: ...`` on one line; the exit status of the error.
+
+    A failed simulation is 4 (its partial outputs are written), another
+    flexmb error 3 (the input), an OSError 5 (the machine refused a file or
+    folder: disk full, read-only; files are written whole or not at all).
+    """
+    print(f"flexmb: error: {exc}".replace("\n", " "), file=sys.stderr)
+    if isinstance(exc, SimulationError):
         return EXIT_FAILED
-    except FlexmbError as exc:
-        print(f"flexmb: error: {exc}".replace("\n", " "), file=sys.stderr)
-        return EXIT_INPUT
-    except OSError as exc:  # the machine's refusal (ENOSPC, EROFS, EACCES): files are written whole or not at all
-        print(f"flexmb: error: {exc}".replace("\n", " "), file=sys.stderr)
-        return EXIT_SYSTEM
+    return EXIT_INPUT if isinstance(exc, FlexmbError) else EXIT_SYSTEM
 
 
 if __name__ == "__main__":

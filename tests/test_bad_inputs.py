@@ -330,3 +330,34 @@ def test_a_scene_builds_its_system_once(monkeypatch):
     scene.info()
     scene.simulate(t_end=0.01, n_out=2)
     assert len(builds) == 1
+
+
+# ----------------------------------------------------------------------------- scene files bounded up front
+
+def test_a_fifo_is_no_scene_file(tmp_path):
+    """``flexmb info`` on a FIFO blocked for ever (open() waits for a writer)."""
+    import os
+
+    fifo = tmp_path / "scene.toml"
+    os.mkfifo(fifo)
+    with pytest.raises(fm.SceneError, match=r"scene.toml: not a regular file"):
+        fm.load_scene(fifo)
+
+
+def test_a_key_of_50000_parts_is_refused_before_parsing():
+    """A 50,000-part dotted key kept tomllib busy for about 100 s."""
+    text = '[model]\nname = "x"\n' + ".".join(["a"] * 50_000) + " = 1\n"
+    with pytest.raises(fm.SceneError, match=r"line 3: a dotted key of 50,000 parts, more than the 64"):
+        fm.loads_scene(text, "deep.toml")
+    # a value's continuation line (numbers with 100 decimal points) is no key
+    from flexmb.scene.load import _check_key_parts
+
+    _check_key_parts("x = [\n" + ", ".join(["0.5"] * 100) + ",\n]\n[a.b]\n", "values.toml")
+
+
+@pytest.mark.parametrize("label", ["..", ".hidden", "../../evil", "a/b"])
+def test_a_run_named_as_a_path_is_refused_when_the_scene_is_read(label):
+    """``[runs."../../evil"]`` was refused only after the simulation, ``[runs.".."]`` and ``.hidden`` never."""
+    text = (SCENES / "fourbar.toml").read_text() + f'\n[runs."{label}"]\n"solver.t_end" = 0.1\n'
+    with pytest.raises(fm.SceneError, match=r"a run's name must be a plain file-name stem"):
+        fm.loads_scene(text, "fourbar.toml")

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import os
+import re
+import stat
 import tomllib
 from importlib import resources
 from pathlib import Path
@@ -12,6 +14,27 @@ from .loader import _Loader
 from .scene import Scene
 
 __all__ = ["builtin_scenes", "load_builtin", "load_scene", "loads_scene", "scene_from_dict"]
+
+
+#: the largest scene file read, bytes (a scene is text of a few kB; the limit bounds the parse)
+MAX_SCENE_BYTES = 16 * 2**20
+
+#: the most parts of a dotted key (``a.b.c`` has 3); a scene's deepest key paths have a few
+MAX_KEY_PARTS = 64
+#: a line's key (``a.b = ...``) or table header (``[a.b]``, ``[[a.b]]``); not a value's continuation line
+_KEY = re.compile(r"^\s*([A-Za-z0-9_\-.\"' ]+?)\s*=")
+_HEADER = re.compile(r"^\s*\[\[?([^\[\],=#]*)\]\]?\s*(?:#.*)?$")
+
+
+def _check_key_parts(text: str, source: str) -> None:
+    """Refuse a dotted key of more than :data:`MAX_KEY_PARTS` parts before parsing (tomllib's time grows
+    with the square of the parts: 50,000 of them took minutes)."""
+    for number, line in enumerate(text.splitlines(), 1):
+        match = _KEY.match(line) or _HEADER.match(line)
+        key = match.group(1) if match else ""
+        if key.count(".") >= MAX_KEY_PARTS:
+            raise SceneError(f"{source}: line {number}: a dotted key of {key.count('.') + 1:,} parts, more than "
+                             f"the {MAX_KEY_PARTS} a scene's key paths can have")
 
 
 def loads_scene(text: str, source: str = "<scene>") -> Scene:
@@ -39,6 +62,7 @@ def loads_scene(text: str, source: str = "<scene>") -> Scene:
     --------
     load_scene : Read a scene file.
     """
+    _check_key_parts(text, source)
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -80,7 +104,14 @@ def load_scene(path) -> Scene:
     """
     path = os.fspath(path)
     try:
-        with open(path, "rb") as fh:
+        # a FIFO or a device would block or never end: a scene is a regular file of bounded size
+        with open(path, "rb", opener=lambda p, flags: os.open(p, flags | os.O_NONBLOCK)) as fh:
+            info = os.fstat(fh.fileno())
+            if not stat.S_ISREG(info.st_mode):
+                raise SceneError(f"{path}: not a regular file (a scene file is read whole, once)")
+            if info.st_size > MAX_SCENE_BYTES:
+                raise SceneError(f"{path}: {info.st_size:,} bytes, more than a scene file holds "
+                                 f"(at most {MAX_SCENE_BYTES:,})")
             raw = fh.read()
     except OSError as exc:
         raise SceneError(f"{path}: cannot read the scene file: {exc.strerror or exc}") from exc

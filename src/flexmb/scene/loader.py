@@ -272,6 +272,9 @@ class _Loader:
 
         runs = {}
         for label, keys in self.named("runs", "runs").items():
+            problem = _prefix_problem(label)  # it names the run's files: <prefix>_<label>.npz, vtk_<label>/
+            if problem:
+                self.fail(f"runs.{label}", f"a run's name {problem}")
             if not keys:
                 runs[label] = attrs.evolve(scene, runs={})
                 continue

@@ -92,6 +92,17 @@ class Rates:
         return float(np.max(np.abs(np.linalg.eigvals(J)), initial=0.0))
 
     def _rates(self, t, x, xd) -> tuple[float, float]:
+        # the last state's rates are kept: 'auto', the stiffness warning and `flexmb info` ask for them in turn
+        key = (float(t), np.asarray(x, dtype=float).tobytes(), np.asarray(xd, dtype=float).tobytes(),
+               id(self.strategy))
+        last = getattr(self, "_last_rates", None)
+        if last is not None and last[0] == key:
+            return last[1]
+        rates = self._rates_at(t, x, xd)
+        self._last_rates = (key, rates)
+        return rates
+
+    def _rates_at(self, t, x, xd) -> tuple[float, float]:
         if (self.articulated or self._loop_kernel) and self.n_coords > DENSE_RATES_MAX:
             rates = self._rates_iterative(t, x, xd)
             if rates is not None:
@@ -100,9 +111,12 @@ class Rates:
         if J is None:
             return 0.0, 0.0
         n = self.n_coords
-        stiff = np.linalg.eigvals(-J[n:, :n])
-        damp = np.linalg.eigvals(-J[n:, n:])
-        rates = (float(np.sqrt(max(np.max(stiff.real), 0.0))), float(np.max(np.abs(damp))))
+        if n > DENSE_RATES_MAX:  # the largest eigenvalues alone, by Arnoldi iteration: O(n^2) products, not O(n^3)
+            rates = (float(np.sqrt(_largest(-J[n:, :n]))), _largest(-J[n:, n:]))
+        else:
+            stiff = np.linalg.eigvals(-J[n:, :n])
+            damp = np.linalg.eigvals(-J[n:, n:])
+            rates = (float(np.sqrt(max(np.max(stiff.real), 0.0))), float(np.max(np.abs(damp))))
         return tuple(r if np.isfinite(r) else np.inf for r in rates)
 
     def _rates_iterative(self, t, x, xd):
@@ -149,3 +163,17 @@ class Rates:
         rates = (float(np.sqrt(largest(pre.stiffness))), largest(pre.damping))
         return tuple(v if np.isfinite(v) else np.inf for v in rates)
 
+
+
+def _largest(M: np.ndarray) -> float:
+    """The largest ``|eigenvalue|`` of a dense square matrix by Arnoldi iteration (to 1e-3; inf if not finite)."""
+    from scipy.sparse.linalg import ArpackNoConvergence, eigs
+
+    if not np.all(np.isfinite(M)):
+        return np.inf
+    if not np.any(M):
+        return 0.0
+    try:
+        return float(np.max(np.abs(eigs(M, k=1, which="LM", tol=1e-3, return_eigenvectors=False))))
+    except ArpackNoConvergence as exc:
+        return float(np.max(np.abs(exc.eigenvalues))) if len(exc.eigenvalues) else np.inf

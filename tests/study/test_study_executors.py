@@ -290,3 +290,19 @@ def test_an_unreachable_scheduler_is_one_line_and_writes_nothing(scene_file, tmp
     assert code == 3 and "Traceback" not in err
     assert f"flexmb: error: Study: cannot reach the Dask scheduler {address!r}: " in err and why in err
     assert not out.exists()  # reached before the folder is made
+
+
+@pytest.mark.parametrize("broken", [{"outputs": 5}, {"parameters": [1, 2]}, {"case": "0"}, {"case_id": None}])
+def test_a_case_file_of_the_wrong_shape_is_run_again_on_resume(scene_file, serial, tmp_path, broken):
+    """A case file of valid JSON but the wrong shape crashed every resume (AttributeError: 'int' ... 'get')."""
+    import json
+
+    out = tmp_path / "resume"
+    _study(scene_file).run(out, executor="serial", progress=False)
+    path = sorted((out / "cases").glob("*.json"))[0]
+    row = json.loads(path.read_text())
+    row.update(broken)
+    path.write_text(json.dumps(row))
+    again = _study(scene_file).run(out, executor="serial", progress=False)
+    _assert_same_table(again, serial)
+    assert isinstance(json.loads(path.read_text())["outputs"], dict)  # the case ran again and wrote its row

@@ -432,6 +432,10 @@ def _read_case(path: Path, study_key: str) -> dict | None:
         return None
     if not isinstance(row, dict) or row.get("study") != study_key or not isinstance(row.get("status"), str):
         return None
+    # a file of the right study but the wrong shape (a crash, a hand edit) is no row: its case runs again
+    shapes = {"outputs": dict, "parameters": dict, "case": int, "case_id": str}
+    if any(not isinstance(row.get(k), t) or isinstance(row.get(k), bool) for k, t in shapes.items()):
+        return None
     return row
 
 

@@ -272,9 +272,10 @@ class _Loader:
 
         runs = {}
         for label, keys in self.named("runs", "runs").items():
-            problem = _prefix_problem(label)  # it names the run's files: <prefix>_<label>.npz, vtk_<label>/
-            if problem:
-                self.fail(f"runs.{label}", f"a run's name {problem}")
+            # it names the run's files (<prefix>_<label>.npz, vtk_<label>/): no folder, no hidden file, no option
+            if len(label) > 200 or not re.fullmatch(r"\w[\w.\- ]*", label):
+                self.fail(f"runs.{label}", "a run's name must start with a letter, digit or _ and hold only those, "
+                                           f"spaces and . -, got {label!r}")
             if not keys:
                 runs[label] = attrs.evolve(scene, runs={})
                 continue

@@ -70,9 +70,16 @@ def test_the_notebook_iframe_shows_the_playing_wiper(page, tmp_path):
     notebook = tmp_path / "notebook.html"
     notebook.write_text(f"<!DOCTYPE html><html><body style='margin:0'>{page._repr_html_()}</body></html>",
                         encoding="utf-8")
-    rgb = imread(screenshot(notebook, tmp_path / "notebook.png", window_size=SIZE))[..., :3]
-    inside = rgb[40:540, 10:700]  # the iframe is 600 px high, the viewer's controls at its bottom
-    assert np.any(inside < 0.95, axis=-1).sum() > 2000
+    # headless Chromium may take its screenshot before a srcdoc iframe of 2 MB has painted (a busy machine:
+    # it passed and failed on one commit); the iframe must show the wiper in one of three screenshots
+    drawn = []
+    for attempt in range(3):
+        rgb = imread(screenshot(notebook, tmp_path / f"notebook_{attempt}.png", window_size=SIZE))[..., :3]
+        inside = rgb[40:540, 10:700]  # the iframe is 600 px high, the viewer's controls at its bottom
+        drawn.append(int(np.any(inside < 0.95, axis=-1).sum()))
+        if drawn[-1] > 2000:
+            break
+    assert drawn[-1] > 2000, drawn
 
 
 def test_play_runs_through_the_frames(page):

@@ -405,7 +405,8 @@ class OutputFolder:
     def __exit__(self, *exc) -> None:
         try:
             if self.staging is not None and not self.committed:
-                _remove_tree(self.staging)
+                with _signals_held():  # a SIGTERM inside rmtree left the staging folder half removed
+                    _remove_tree(self.staging)
         finally:
             self._lock.release()
 

@@ -200,7 +200,20 @@ class ContactEvents:
         return len(self.names)
 
     def gaps(self, t, y) -> np.ndarray:
-        """The penetrations at the true state ``y = (x, xd, ...)``."""
+        """The penetrations at the true state ``y = (x, xd, ...)``.
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        y : ndarray
+            The true state.
+
+        Returns
+        -------
+        ndarray, shape (c,)
+            The penetrations, m (negative: the gaps).
+        """
         n = self.n
         return contact_gaps(self.system, t, y[:n], y[n : 2 * n])[0]
 
@@ -232,6 +245,7 @@ class ContactEvents:
         Returns
         -------
         ndarray, shape (c,)
+            How far past its switch each contact is, m.
         """
         return self._switch(self.gaps(t, y))
 

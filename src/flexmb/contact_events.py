@@ -21,11 +21,15 @@ these crossings events of the run (:class:`flexmb.stepping.Run`):
   roundoffs), or by the integrator itself where it finds roots (CVODE's
   root finding, ``finds_roots``: :mod:`flexmb.integrators.base`, on the
   penetrations :data:`ROOT_OFFSET` past the touch);
-* the run keeps the outputs up to the event, records it with the rate of
-  penetration there (the impact speed at an onset; ``Result.contact_events``)
-  and restarts the integrator there, from the
-  interpolated state: the step is restarted at the event, not stepped
-  through;
+* the run takes the step again from its start up to the event (the new
+  integrator's bound), so that the state there comes from a smooth
+  interval and not from an interpolant across the kink, keeps the outputs
+  up to it, records the event with the rate of penetration there (the
+  impact speed at an onset; ``Result.contact_events``) and restarts the
+  integrator there: the step is restarted at the event, not stepped
+  through. A contact changes state :data:`ROOT_OFFSET` past the touch
+  (or, just after an event whose state lies on the old side by more, twice
+  that distance), so that no restart begins on a root;
 * a step from free flight into a surface is thus never kept: it is taken
   again up to the touch. A step that carries a touching body through the
   other (its contact normal reversed between the step's ends: a sphere's

@@ -46,10 +46,11 @@ from flexmb.scenes.wiper import WiperOptions, wiper
 # stop is the plane through the pin at ``phi = 60 deg`` below the
 # horizontal; its normal points towards the approaching beam. A
 # Hunt-Crossley law (``K delta^1.5 (1 + alpha delta_dot)``) is a hard pad.
+# The same scene as a file: ``tutorials/11_contact.toml``
+# (``flexmb run tutorials/11_contact.toml``).
 
 L, g, radius, phi = 0.5, 9.81, 0.005, np.radians(60.0)
-aluminium = fm.Material(70e9, 2700.0, 0.33, name="aluminium")
-beam = fm.FlexibleBody.uniform_beam("beam", L, fm.Section.rectangular(0.02, 0.005), aluminium, 8,
+beam = fm.FlexibleBody.uniform_beam("beam", L, fm.Section.rectangular(0.02, 0.005), fm.Material.aluminium(), 8,
                                     keep=("bend_y",), damping_ratio=0.01, clamped=False)
 normal = np.array([np.sin(phi), 0.0, np.cos(phi)])
 stop = fm.SpherePlaneContact("stop", beam, radius, fm.HuntCrossleyLaw(1e8, 0.5), centre=(L, 0.0, 0.0),

@@ -136,6 +136,22 @@ class Refused(Exception):
     """A step carried a touching contact through its surface (the run retries it shorter)."""
 
 
+class StepFailure(Exception):
+    """A step around a contact event failed at time ``t`` (the run stops with status 'failed').
+
+    Parameters
+    ----------
+    t : float
+        The time, s.
+    what : str
+        What failed.
+    """
+
+    def __init__(self, t, what):
+        super().__init__(what)
+        self.t = t
+
+
 class ContactEvents:
     """The contact events of one run (see the module docstring).
 

@@ -32,7 +32,8 @@ import time as _time
 import numpy as np
 
 from ._signals import escaped, interruption, who
-from .contact_events import ContactEvents, Refused, MIN_REFUSED_STEP, REFUSED_STEP_SHRINK
+from .contact_events import ContactEvents, StepFailure
+from .event_restart import cut_at_event
 from .errors import AssemblyError
 from .integrators import adapt, capabilities
 from .integrators.monitor import ResolutionMonitor
@@ -316,7 +317,7 @@ class Run:
             else:
                 self._step(solver, bar)
             self.status, self.message = "finished", "reached t_end"
-        except (NonFinite, AssemblyError) as exc:
+        except (NonFinite, StepFailure, AssemblyError) as exc:
             self.status = "failed"
             self.t_now = getattr(exc, "t", self.t_now)
             self.message = str(exc) if isinstance(exc, AssemblyError) else f"at t = {self.t_now:.9g} s: {exc}"
@@ -413,7 +414,7 @@ class Run:
             if self.monitor is not None:  # warns once if the steps resolve ringing modes (StiffnessWarning)
                 self.monitor.step(solver)
             if events is not None:
-                cut = self._event(solver, t_start, z_start)
+                cut = cut_at_event(self, solver, t_start, z_start)
                 if cut is not None:
                     solver = cut
                     bar.update_to(self.t_now - self.t0)
@@ -425,64 +426,6 @@ class Run:
                 if self.system.n_constraints:
                     solver = self._restart_if_drifted(solver)
             bar.update_to(self.t_now - self.t0)
-
-    def _event(self, solver, t_start, z_start):
-        """After a step: the solver restarted at a contact event within it, or from its start if refused; else None.
-
-        The step is taken again from its start up to the event (its end
-        the new integrator's bound), so that the state there comes from a
-        smooth interval and not from an interpolant across the contact's
-        kink; the outputs up to it are stored, and the integrator restarts
-        at the event.
-
-        Parameters
-        ----------
-        solver : OdeSolver
-            The solver, after its step from ``t_start``.
-        t_start : float
-            The step's start, s.
-        z_start : ndarray
-            The integrator's state there.
-
-        Returns
-        -------
-        OdeSolver or None
-            The restarted solver, or None (the step stands, no event in it).
-        """
-        offset = self.offset
-        true = (lambda z: z) if offset is None else (lambda z: z + offset)
-        dense = solver.dense_output()
-        try:
-            hit = self.events.after_step(t_start, solver.t, true(np.array(solver.y, dtype=float)),
-                                         lambda t: true(dense(t)), getattr(solver, "root", None))
-        except Refused as exc:
-            h = REFUSED_STEP_SHRINK * (solver.t - t_start)
-            if h < MIN_REFUSED_STEP * max(abs(t_start), 1.0):
-                raise NonFinite(solver.t, f"{exc}, even with steps of {h:.3g} s: the contact cannot hold the body "
-                                          "(stiffen its normal law, or check the load)") from None
-            self.n_steps_refused += 1
-            return self._make(t_start, z_start, first_step=h)
-        if hit is None:
-            return None
-        t_e, changed = hit
-        h = solver.t - t_start
-        z_e = z_start
-        if t_e > t_start:  # the step again, to the event
-            sub = self._make(t_start, z_start, first_step=t_e - t_start, t_bound=t_e, events=False)
-            while sub.status == "running":
-                msg = sub.step()
-                self.n_steps += 1
-                if sub.status == "failed" or not np.all(np.isfinite(sub.y)):
-                    raise NonFinite(sub.t, f"the integrator failed: {msg or 'the state became non-finite'}")
-                self.t_now = sub.t
-                self._store(sub)
-            z_e = np.array(sub.y, dtype=float)
-        self.t_now = t_e
-        self.events.confirm(t_start, t_e, true(z_e), changed)
-        if t_e >= self.t_end:  # at the end of the run (reached by the step again): nothing left to restart
-            return sub if t_e > t_start else solver
-        first = min(max(h, 1e-14), self.t_end - t_e) if self.caps.cheap_restart else None
-        return self._make(t_e, z_e, first_step=first)
 
     def _store(self, solver, y_now=None) -> None:
         """Store the states at the output times the last step passed (up to :attr:`t_now`).

@@ -311,6 +311,8 @@ class CVODEBDF(CVODE):
         State Jacobian (see :class:`CVODE`).
     preconditioner : NewtonPreconditioner, optional
         O(n) preconditioned Krylov solves of an open tree (see :class:`CVODE`).
+    events : (callable, int, array_like), optional
+        Root finding on the functions ``g(t, y)`` (see :class:`CVODE`).
     vectorized : bool
         Ignored.
     **extraneous
@@ -351,6 +353,8 @@ class CVODEAdams(CVODE):
         State Jacobian (see :class:`CVODE`).
     preconditioner : NewtonPreconditioner, optional
         O(n) preconditioned Krylov solves of an open tree (see :class:`CVODE`).
+    events : (callable, int, array_like), optional
+        Root finding on the functions ``g(t, y)`` (see :class:`CVODE`).
     vectorized : bool
         Ignored.
     **extraneous
@@ -401,6 +405,9 @@ class IDA(CVODE):
         O(n) preconditioned Krylov solves of an open tree (see
         :class:`CVODE`): ``(cj I - J) z = r`` is solved as
         ``(I - J / cj) z = r / cj``.
+    events : (callable, int, array_like), optional
+        Root finding on the functions ``g(t, y)``, by IDA's root finding (see
+        :class:`CVODE`).
     vectorized : bool
         Ignored.
     **extraneous

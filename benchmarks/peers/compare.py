@@ -715,9 +715,20 @@ def _sizes(rows):
     return [(s, n) for s in ("B1", "B2") for n in sorted({r["n_segments"] for r in rows if r.get("scene") == s})]
 
 
-def flexmb_startup(proc: dict | None, warm: dict | None):
-    """flexmb's start-up in a new process: import + first build + first simulate less the warm simulate, s."""
-    if proc is None or warm is None or proc.get("import_s") is None or warm.get("wall_s") is None:
+def flexmb_startup(proc: dict | None, warm: dict | None, cpu: bool = False):
+    """flexmb's start-up in a new process, s, or None.
+
+    ``cpu=False``: wall time inside the process, import + first build +
+    first simulate less the warm in-process simulate's wall time (beside
+    PyDy's derivation, a wall time too). ``cpu=True``: the whole process's
+    CPU time less the warm in-process simulate's CPU time (interpreter
+    start-up and exit included; a loaded machine inflates it less).
+    """
+    if proc is None or warm is None:
+        return None
+    if cpu:
+        return None if warm.get("cpu_s") is None else proc["cpu_s"] - warm["cpu_s"]
+    if proc.get("import_s") is None or warm.get("wall_s") is None:
         return None
     return proc["import_s"] + proc["build_s"] + proc["simulate_s"] - warm["wall_s"]
 
@@ -725,6 +736,7 @@ def flexmb_startup(proc: dict | None, warm: dict | None):
 def summary(rows, procs, agreement, args, started) -> str:
     """The markdown summary: flexmb robust / default / best pick against the tuned peers, in and out of process."""
     target = args.target
+    agreement = dict(agreement)
     rows = [r for r in rows if r.get("error_kind", "integration") == "integration"]
     k = max((len(r.get("wall_rounds") or []) for r in rows), default=0)
     kp = max((len(p.get("cpu_rounds") or []) for p in procs), default=0)
@@ -765,10 +777,12 @@ def summary(rows, procs, agreement, args, started) -> str:
         lines += ["", f"## One process per simulation (CPU time of the whole process, warm caches, min of {kp} "
                       "alternating rounds)", "",
                   "A new interpreter that imports the tool, builds the model (PyDy: derives it) and simulates "
-                  "once, as a script, a test or a study case does. flexmb's start-up = its import + first "
-                  "`build()` + first `simulate()` (which loads the kernels) less the warm in-process simulate.",
+                  "once, as a script, a test or a study case does. flexmb's start-up: the process's CPU time "
+                  "less the warm in-process simulate's CPU time; in brackets the wall times inside the process "
+                  "of its import, first `build()` and first `simulate()` (which loads the kernels).",
                   "",
-                  "| scene | N | flexmb robust | flexmb default | flexmb start-up s (import, build, first simulate) "
+                  "| scene | N | flexmb robust | flexmb default | flexmb start-up, CPU s (import, build, first "
+                  "simulate: wall s) "
                   "| Exudyn tuned | Exudyn, Newton 1e-8 | **robust / tuned** | default / tuned |",
                   "|---|---|---|---|---|---|---|---|---|"]
         for scene, n in _sizes(rows):
@@ -779,23 +793,28 @@ def summary(rows, procs, agreement, args, started) -> str:
             fx, _ = picks_of[(scene, n)]
             fr, fd = p.get(("flexmb", "robust")), p.get(("flexmb", "default"))
             et, e8 = p.get(("exudyn", "tuned")), p.get(("exudyn", "newton 1e-08"))
-            su = flexmb_startup(fr, fx["robust"])
+            su = flexmb_startup(fr, fx["robust"], cpu=True)
             phases = (f"{_fmt(su)} ({fr['import_s']:.2f}, {fr['build_s']:.3f}, {fr['simulate_s']:.3f})"
-                      if su is not None else "—")
+                      if su is not None and fr.get("import_s") is not None else "—")
             lines.append(f"| {scene} | {n} | {_secs(fr)} | {_secs(fd)} | {phases} | {_secs(et)} | {_secs(e8)} | "
                          f"**{_fmt(_ratio(fr, et, 'cpu_s'))}** | {_fmt(_ratio(fd, et, 'cpu_s'))} |")
     others = [(s, n, t) for s, n in _sizes(rows) for t in ("mujoco", "pydy")
               if any(r["tool"] == t and r.get("scene") == s and r["n_segments"] == n for r in rows)]
     if others:
         lines += ["", "## MuJoCo and PyDy (tuned), against flexmb robust", "",
-                  "With start-up: PyDy's setup (symbolic derivation and code generation, redone for every new "
-                  "model) plus its run; flexmb's start-up (above) plus its warm run; MuJoCo's model compilation "
-                  "plus its run.", "",
+                  "With start-up (wall times inside the processes): PyDy's setup (symbolic derivation and code "
+                  "generation, redone for every new model) plus its run; flexmb's import, first build and first "
+                  "simulate (= its start-up plus its warm run); MuJoCo's model compilation plus its run. Process "
+                  "CPU: one process per simulation, as above. Agreement: the peer's closest run to flexmb's "
+                  "reference (its smallest error over the grid).", "",
                   "| scene | N | tool | tuned setting | error | setup s | wall s | with start-up s | process CPU s "
                   "| flexmb/peer wall | flexmb/peer with start-up | flexmb/peer process | agreement |",
                   "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
         for scene, n, tool in others:
             size = [r for r in rows if r.get("scene") == scene and r["n_segments"] == n]
+            errs = [r["error"] for r in size if r["tool"] == tool and r.get("error") is not None]
+            if errs:  # the peer's closest run: how well it reproduces the model
+                agreement.setdefault((tool, scene, n), min(errs))
             t = peer_picks(tool, [r for r in size if r["tool"] == tool], target)["tuned"]
             fx, _ = picks_of[(scene, n)]
             p = {(q["tool"], q["pick"]): q for q in procs if q.get("scene") == scene and q["n_segments"] == n

@@ -14,8 +14,11 @@ fixed steps, the fast module (``sys.exudynFast = True``).
 
 Tuned as Exudyn's documentation allows: the Newton iteration's relative
 tolerance (``timeIntegration.newton.relativeTolerance``, default 1e-8) is
-a setting of each run (``--newton-rtol``; its absolute tolerance stays at
-the default 1e-10, which only matters when the residual starts near zero).
+a setting of each run (``--newton-rtol``); its absolute tolerance
+(``newton.absoluteTolerance``, default 1e-10) is ``--newton-atol`` (loosened
+to the relative tolerance it changed the CPU time by at most 3 % at B1
+N = 8 and B2 N = 16: ``docs/benchmarks.md``, so compare.py keeps the
+default).
 ``--configs NEWTON_RTOL:STEPS ...`` runs just those pairs instead of the
 grid ``--newton-rtol`` x ``--steps``.
 
@@ -110,14 +113,20 @@ def build(scene: str, n: int, damped: bool = True):
     return SC, mbs, sensor, nc
 
 
-def settings(t_end: float, steps: int, newton_rtol: float = 1e-8) -> "exu.SimulationSettings":
-    """Implicit generalized-alpha with Exudyn's recommended defaults and the given Newton tolerance, no files."""
+def settings(t_end: float, steps: int, newton_rtol: float = 1e-8,
+             newton_atol: float | None = None) -> "exu.SimulationSettings":
+    """Implicit generalized-alpha with Exudyn's recommended defaults and the given Newton tolerances, no files.
+
+    ``newton_atol`` None keeps Exudyn's default absolute tolerance.
+    """
     s = exu.SimulationSettings()
     s.timeIntegration.endTime = t_end
     s.timeIntegration.numberOfSteps = int(steps)
     s.timeIntegration.verboseMode = 0
     s.timeIntegration.newton.useModifiedNewton = True
     s.timeIntegration.newton.relativeTolerance = newton_rtol
+    if newton_atol is not None:
+        s.timeIntegration.newton.absoluteTolerance = newton_atol
     s.timeIntegration.generalizedAlpha.spectralRadius = 0.9
     s.solution.file.write = False
     s.solution.sensors.writePeriod = t_end
@@ -126,11 +135,12 @@ def settings(t_end: float, steps: int, newton_rtol: float = 1e-8) -> "exu.Simula
     return s
 
 
-def run(scene: str, n: int, steps: int, t_end: float = 1.0, newton_rtol: float = 1e-8):
+def run(scene: str, n: int, steps: int, t_end: float = 1.0, newton_rtol: float = 1e-8,
+        newton_atol: float | None = None):
     """One simulation: (setup_s, wall_s, tip position at t_end, counters dict, n_coords)."""
     t0 = time.perf_counter()
     SC, mbs, sensor, nc = build(scene, n)
-    sim = settings(t_end, steps, newton_rtol)
+    sim = settings(t_end, steps, newton_rtol, newton_atol)
     solver = exu.MainSolverImplicitSecondOrder()
     setup = time.perf_counter() - t0
     t0, c0 = time.perf_counter(), time.process_time()
@@ -149,6 +159,8 @@ def main(argv=None):
     ap.add_argument("--steps", type=int, nargs="+", default=[250, 500, 1000, 2000, 4000, 8000])
     ap.add_argument("--newton-rtol", type=float, nargs="+", default=[1e-8],
                     help="Newton relative tolerances (timeIntegration.newton.relativeTolerance; default 1e-8)")
+    ap.add_argument("--newton-atol", type=float,
+                    help="Newton absolute tolerance (timeIntegration.newton.absoluteTolerance; default: Exudyn's)")
     ap.add_argument("--configs", nargs="+",
                     help="NEWTON_RTOL:STEPS pairs to run instead of the grid --newton-rtol x --steps")
     ap.add_argument("--t-end", type=float, default=1.0)
@@ -181,11 +193,11 @@ def main(argv=None):
         for n, nt, steps in configs:
             if (n, nt, steps) in failed:  # a failed run is not repeated
                 continue
-            s, w, tip, cnt, nc = run(args.scene, n, steps, args.t_end, nt)
+            s, w, tip, cnt, nc = run(args.scene, n, steps, args.t_end, nt, args.newton_atol)
             err = float(np.linalg.norm(tip - np.asarray(args.reference))) if args.reference else None
             rows.append(row("exudyn", args.scene, n, n_coords=nc, n_dof=nc,
                             integrator="generalized-alpha (rho_inf 0.9, modified Newton)", rtol=None,
-                            newton_rtol=nt, h=args.t_end / steps, setup_s=s, wall_s=w, cpu_s=cnt["cpu_s"],
+                            newton_rtol=nt, newton_atol=args.newton_atol, h=args.t_end / steps, setup_s=s, wall_s=w, cpu_s=cnt["cpu_s"],
                             steps=cnt["steps"], rhs_evals=cnt["newton"],
                             jac_evals=cnt["jac"], error=err, reference=args.reference_label or None,
                             output=tip.tolist(), status="finished" if cnt["ok"] else "failed",

@@ -493,13 +493,10 @@ class GeneralizedAlpha(OdeSolver):
     def _accept(self, t1, h_abs, end, n_iter, rate, err, h_next):
         """Take the step to t1: the new state, the error history, the Jacobian's fate, the next step size.
 
-        The next step is the error control's ``h_next``, but no more than
-        the step of the last Newton failure (halved) times
-        ``NEWTON_REGROWTH`` per step accepted since: the error control knows
-        nothing of Newton's convergence, and without the bound it returns to
-        the step that failed within a few steps (its factor is up to
-        ``MAX_FACTOR``), fails again and pays for a Jacobian, a factorisation
-        and the lost iterations each time.
+        The next step is the error control's, but at most the halved step of
+        the last Newton failure times ``NEWTON_REGROWTH`` per step since: the
+        error control knows nothing of Newton, and without the bound went
+        straight back to the failing step (a Jacobian and an LU each time).
         """
         self._dense = (self.y, self.abar, self.g)
         self.y, self.a, self.abar, self.g = end

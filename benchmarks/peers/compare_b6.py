@@ -209,8 +209,8 @@ def summary(rows, agreement, args, started) -> str:
     for n in sorted({r["n_segments"] for r in timed}):
         fx = [r for r in timed if r["n_segments"] == n and r["tool"] == "flexmb"]
         er, _ = robust_pick([r for r in timed if r["n_segments"] == n and r["tool"] == "exudyn"], target)
-        for fam in sorted({family(r) for r in fx}):
-            fr, _ = robust_pick([r for r in fx if family(r) == fam], target)
+        for fam in sorted({picks.family(r) for r in fx}):
+            fr, _ = robust_pick([r for r in fx if picks.family(r) == fam], target)
             ratio = fr["wall_s"] / er["wall_s"] if fr and er else None
             lines.append(f"| {n} | {fam} | {_conf(fr)} | {_fmt(fr and fr['error'], '.1e')} "
                          f"| {_fmt(fr and fr['wall_s'])} | {_fmt(fr and fr['steps'], 'd')} "

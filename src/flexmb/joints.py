@@ -137,6 +137,15 @@ class Joint:
         """Number of coordinates the joint contributes."""
         return len(self.translation_axes) + len(self.rotation_axes)
 
+    @property
+    def n_speeds(self) -> int:
+        """Number of generalized speeds the joint contributes (:mod:`flexmb.state_layout`).
+
+        A joint's speeds are the rates of its coordinates (``W = I``), one
+        per coordinate.
+        """
+        return self.n_coords
+
     def _default_frame(self) -> np.ndarray:
         return np.eye(3)
 

@@ -41,6 +41,10 @@ class Topology:
         Parent body index (-1: ground).
     coord_body : ndarray of int, shape (n_coords,)
         Body whose tree joint owns each coordinate.
+    n_coords, n_speeds : int
+        Numbers of generalized coordinates q and speeds u
+        (:mod:`flexmb.state_layout`; equal while every joint's speeds are
+        its coordinates' rates).
     coord_start : ndarray of int, shape (n_bodies + 1,)
         Body k's tree joint owns ``x[coord_start[k]:coord_start[k + 1]]``.
     coord_kind, coord_axis : ndarray of int, shape (n_coords,)
@@ -207,6 +211,7 @@ class Topology:
             angle += [False] * len(j.translation_axes) + [not isinstance(j, SegmentJoint)] * len(j.rotation_axes)
             start += j.n_coords
         self.n_coords = start
+        self.n_speeds = sum(j.n_speeds for j in self.tree_joints)
         self.coordinate_names = names
         self.coord_body = np.array(coord_body, dtype=np.int64)
         self.coord_angle = np.array(angle, dtype=bool)

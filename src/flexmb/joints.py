@@ -146,6 +146,11 @@ class Joint:
         """
         return self.n_coords
 
+    @property
+    def speed_names(self) -> tuple[str, ...]:
+        """Names of the joint's generalized speeds: its coordinates' names (the speeds are their rates)."""
+        return tuple(self.coordinate_names)
+
     def _default_frame(self) -> np.ndarray:
         return np.eye(3)
 

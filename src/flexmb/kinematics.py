@@ -43,8 +43,10 @@ class Kinematics:
         The model's tree.
     t : float
         Time, s.
-    x, xd : ndarray, shape (n_coords,)
-        Generalized coordinates and speeds.
+    x : ndarray, shape (n_coords,)
+        Generalized coordinates q.
+    xd : ndarray, shape (n_speeds,)
+        Generalized speeds u (the partial velocities below are per speed).
 
     Attributes
     ----------
@@ -75,7 +77,7 @@ class Kinematics:
         self.t = float(t)
         self.x = x
         self.xd = xd
-        nb, n = topo.n_bodies, topo.n_coords
+        nb, n = topo.n_bodies, topo.n_speeds
         self.mass = topo.mass
         self._inertias = None
         self._composite = None  # assembly.composite_inertias
@@ -284,7 +286,7 @@ class Kinematics:
     def _upstream(self, k) -> np.ndarray:
         """0/1 rows: which coordinates move each body in ``k`` (none for the ground)."""
         topo = self.topology
-        return _tree.upstream_rows(np.asarray(k, dtype=np.int64), topo.parent, topo.coord_start, topo.n_coords)
+        return _tree.upstream_rows(np.asarray(k, dtype=np.int64), topo.parent, topo.coord_start, topo.n_speeds)
 
     def spatial_inertia(self) -> np.ndarray:
         """Spatial inertia of each body about the inertial origin, shape (n_bodies, 6, 6).

@@ -45,6 +45,9 @@ class Topology:
         Numbers of generalized coordinates q and speeds u
         (:mod:`flexmb.state_layout`; equal while every joint's speeds are
         its coordinates' rates).
+    speed_names : list of str
+        ``"joint.speed"`` names (the coordinates' names where the speeds
+        are their rates).
     coord_start : ndarray of int, shape (n_bodies + 1,)
         Body k's tree joint owns ``x[coord_start[k]:coord_start[k + 1]]``.
     coord_kind, coord_axis : ndarray of int, shape (n_coords,)
@@ -212,6 +215,7 @@ class Topology:
             start += j.n_coords
         self.n_coords = start
         self.n_speeds = sum(j.n_speeds for j in self.tree_joints)
+        self.speed_names = [f"{j.name}.{c}" for j in self.tree_joints for c in j.speed_names]
         self.coordinate_names = names
         self.coord_body = np.array(coord_body, dtype=np.int64)
         self.coord_angle = np.array(angle, dtype=bool)

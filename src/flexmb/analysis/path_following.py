@@ -50,7 +50,8 @@ class _Equations:
     def __init__(self, system, t, load, x0, h=1e-6):
         system.constraints.refuse_velocity_rows("static equilibrium")
         self.system, self.t, self.h = system, float(t), h
-        self.zero = np.zeros(system.n_coords)
+        self.zero = np.zeros(system.n_speeds)
+        self.move = system.layout.displace  # coordinates moved along the speeds (x + W(x) d)
         elements = [e for _, group in system.forces.groups for e in group]
         if load is None:
             self.rest, self.load, self.name = system.forces, None, "Newton homotopy F(x) - (1 - lambda) F(x0)"
@@ -93,7 +94,7 @@ class _Equations:
 
     def __call__(self, x, lam, tangent=True) -> _Point:
         g, g_lam, psi = self._forces(x, lam)
-        n = x.shape[0]
+        n = self.system.n_speeds
         mu = None
         if psi is None:
             T = np.eye(n)
@@ -110,7 +111,8 @@ class _Equations:
         J = np.empty((T.shape[1], T.shape[1]))
         for i in range(T.shape[1]):
             d = self.h * T[:, i]
-            J[:, i] = T.T @ (self._balance(x + d, lam, mu) - self._balance(x - d, lam, mu)) / (2 * self.h)
+            J[:, i] = T.T @ (self._balance(self.move(x, d), lam, mu) - self._balance(self.move(x, -d), lam, mu)) / (
+                2 * self.h)
         return _Point(T, R, R_lam, J)
 
     def _balance(self, x, lam, mu):
@@ -145,7 +147,7 @@ def _newton(eq, x, lam, tol, max_iter, counts, monotone=False):
             dz = -np.linalg.solve(pt.J, pt.R)
         except np.linalg.LinAlgError:
             raise _NotConverged("the tangent stiffness is singular", step, res, k) from None
-        x = eq.project(x + pt.T @ dz)
+        x = eq.project(eq.move(x, pt.T @ dz))
         step = _norm(dz)
         if step < tol:
             return x, eq(x, lam, tangent=False)
@@ -389,7 +391,7 @@ def _tangent_or(pt, tx, tl, c):
 
 def _corrector(eq, x_a, lam_a, tx, tl, ds, c, options, counts):
     """One arc-length step: predictor along the tangent, Newton on the normal plane (Riks)."""
-    x = eq.project(x_a + ds * tx)
+    x = eq.project(eq.move(x_a, ds * tx))
     lam = lam_a + ds * tl
     step = np.inf
     for k in range(1, options.max_iter + 1):
@@ -409,7 +411,7 @@ def _corrector(eq, x_a, lam_a, tx, tl, ds, c, options, counts):
             sol = np.linalg.solve(M, -np.append(pt.R, plane))
         except np.linalg.LinAlgError:
             raise _NotConverged("the bordered tangent matrix is singular", step, res, k) from None
-        x = eq.project(x + pt.T @ sol[:p])
+        x = eq.project(eq.move(x, pt.T @ sol[:p]))
         lam = lam + sol[p]
         step = max(_norm(sol[:p]), abs(sol[p]))
         if step < options.tol:
@@ -539,7 +541,7 @@ def load_path(system, load=None, x0=None, t: float = 0.0, *, lam_end: float = 1.
     """
     options = PathOptions() if options is None else options
     x = _start(system, x0)
-    x = system.project(t, x, np.zeros_like(x))[0]
+    x = system.project(t, x, np.zeros(system.n_speeds))[0]
     eq = _Equations(system, t, load, x)
     counts = {"iterations": 0, "tangents": 0}
     if load is not None:

@@ -102,6 +102,9 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         Number of constraint rows m.
     coordinate_names : list of str
         ``"joint.coordinate"`` per coordinate.
+    speed_names : list of str
+        ``"joint.speed"`` per speed (the coordinates' names where the
+        speeds are their rates).
     n_complements : int
         Count of complement computations so far.
     articulated : bool
@@ -139,6 +142,7 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         self.layout = StateLayout(self.n_coords, self.n_speeds)
         self.n_constraints = self.constraints.n_rows
         self.coordinate_names = self.topology.coordinate_names
+        self.speed_names = self.topology.speed_names
         self.body_names = [b.name for b in self.topology.bodies]
         self.n_complements = 0
         self._shared: dict = {}  # what is built lazily once per model, shared by the calibrated copies
@@ -598,7 +602,7 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         x, xd = self.layout.split(y)
         xdd = self._accelerations(t, x, xd)
         if not np.all(np.isfinite(xdd)):
-            bad = [self.coordinate_names[i] for i in np.flatnonzero(~np.isfinite(xdd))[:5]]
+            bad = [self.speed_names[i] for i in np.flatnonzero(~np.isfinite(xdd))[:5]]
             err = AssemblyError(f"at t = {t:.9g} s: accelerations became non-finite ({', '.join(bad)})")
             err.t = t
             raise err

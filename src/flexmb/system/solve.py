@@ -43,7 +43,7 @@ class ReducedSolve:
             return None
         nq = self.layout.nq
         what = f"coordinate {self.coordinate_names[i]!r} = {x[i]:.3g}" if i < nq else \
-            f"the speed of {self.coordinate_names[i - nq]!r} = {xd[i - nq]:.3g}"
+            f"the speed of {self.speed_names[i - nq]!r} = {xd[i - nq]:.3g}"
         msg = (f"at t = {t:.9g} s: the state overflowed: {what} (beyond {LARGEST:.3g}, where products in the "
                "equations overflow)")
         loudest = self._loudest_force(t, x, xd)

@@ -149,7 +149,7 @@ class Tangent:
         if not np.all(np.isfinite(Y)):
             i = int(np.flatnonzero(~np.all(np.isfinite(Y), axis=1))[0])
             raise AssemblyError(f"the state Jacobian is not finite at t = {t:.6g} s (in the row of coordinate "
-                                f"{self.coordinate_names[i]!r}): stiffness, damping or loads beyond the range of "
+                                f"{self.speed_names[i]!r}): stiffness, damping or loads beyond the range of "
                                 "floats")
         return Y
 
@@ -167,7 +167,7 @@ class Tangent:
         if not reduced:  # name the freedom where the factorization broke down
             c, info = sla.lapack.dpotrf(M, lower=False, clean=False)
             if info > 0:
-                where = f" at coordinate {self.coordinate_names[info - 1]!r}"
+                where = f" at coordinate {self.speed_names[info - 1]!r}"
         span = (f"; its diagonal spans {d.min():.3g} to {d.max():.3g}, beyond what double precision resolves"
                 if d.min() > 0 and d.max() > d.min() / np.finfo(float).eps else "")
         raise AssemblyError(

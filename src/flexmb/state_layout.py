@@ -85,6 +85,7 @@ class StateLayout:
         Returns
         -------
         ndarray, shape (nq,) or (m, nq)
+            The coordinates.
         """
         return y[..., : self.nq]
 
@@ -99,6 +100,7 @@ class StateLayout:
         Returns
         -------
         ndarray, shape (n,) or (m, n)
+            The speeds.
         """
         return y[..., self.nq : self.size]
 
@@ -113,7 +115,9 @@ class StateLayout:
         Returns
         -------
         q : ndarray, shape (nq,) or (m, nq)
+            The coordinates.
         u : ndarray, shape (n,) or (m, n)
+            The speeds.
         """
         return y[..., : self.nq], y[..., self.nq : self.size]
 
@@ -128,6 +132,7 @@ class StateLayout:
         Returns
         -------
         ndarray, shape (len(y) - size,) or (m, len(y) - size)
+            The works.
         """
         return y[..., self.size :]
 
@@ -146,6 +151,7 @@ class StateLayout:
         Returns
         -------
         ndarray, shape (size + len(extra),)
+            The state.
         """
         return np.concatenate([np.asarray(q, dtype=float), np.asarray(u, dtype=float),
                                np.asarray(extra, dtype=float)])
@@ -164,6 +170,7 @@ class StateLayout:
         Returns
         -------
         ndarray, shape (nq,)
+            ``qd``.
         """
         return np.array(u, dtype=float)
 
@@ -178,6 +185,7 @@ class StateLayout:
         Returns
         -------
         ndarray, shape (nq, n)
+            ``W``.
         """
         return np.eye(self.nq, self.n)
 
@@ -194,6 +202,7 @@ class StateLayout:
         Returns
         -------
         ndarray, shape (nq, nq)
+            The Jacobian.
         """
         return np.zeros((self.nq, self.nq))
 
@@ -214,6 +223,7 @@ class StateLayout:
         Returns
         -------
         ndarray, shape (m, nq)
+            ``Y P(q)``.
         """
         return Y
 
@@ -235,6 +245,7 @@ class StateLayout:
         Returns
         -------
         ndarray, shape (nq,)
+            The moved coordinates.
         """
         q, du = np.asarray(q, dtype=float), np.asarray(du, dtype=float)
         if self.identity:
@@ -252,5 +263,6 @@ class StateLayout:
         Returns
         -------
         ndarray, shape (nq,)
+            The normalised coordinates.
         """
         return np.array(q, dtype=float)

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import copy
-from typing import NamedTuple
 
 import numpy as np
 
@@ -22,6 +21,7 @@ from ..forces.tables import class_tables, merge
 from ..kernels.equations import EQUATIONS, ROWS, tree_equations
 from ..kernels.packing import pack
 from .checks import StateChecks
+from .equations import Equations
 from .projection import Projection
 from .quantities import StateQuantities
 from .rates import Rates
@@ -32,38 +32,6 @@ from ..kernels.articulated import open_tree_accelerations, open_tree_rhs
 
 
 __all__ = ["System"]
-
-
-class Equations(NamedTuple):
-    """The pieces of the equations of motion at one state (:meth:`System.equations`).
-
-    Each parameter is kept as the attribute of the same name.
-
-    Parameters
-    ----------
-    kin : Kinematics
-        Kinematics at the state (eqs. 6-18).
-    A : ndarray, shape (n, n)
-        Generalized mass matrix (eq. 2).
-    f : ndarray, shape (n,)
-        Force array (eq. 3).
-    phi : ndarray, shape (m,)
-        Constraint residual (eq. 28).
-    psi : ndarray, shape (m, n)
-        Constraint Jacobian (eq. 29).
-    b : ndarray, shape (m,)
-        Right-hand side of ``psi xd = b``.
-    gamma : ndarray, shape (m,)
-        Right-hand side of ``psi xdd = gamma``.
-    """
-
-    kin: Kinematics
-    A: np.ndarray
-    f: np.ndarray
-    phi: np.ndarray
-    psi: np.ndarray
-    b: np.ndarray
-    gamma: np.ndarray
 
 
 class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projection, StateChecks):

@@ -46,9 +46,10 @@ def _coordinate_mask(system, names, speeds=False):
 
 
 def _fill(system, values, what):
-    """The vector of ``{name: value}`` (``what``: 'position' per coordinate, 'speed' per speed), and which were given."""
+    """The vector of ``{name: value}`` (``what``: 'position' per coordinate from the reference configuration,
+    'speed' per speed from rest), and which were given."""
     speeds = what == "speed"
-    out = np.zeros(system.n_speeds if speeds else system.n_coords)
+    out = np.zeros(system.n_speeds) if speeds else system.layout.reference()
     given = np.zeros(out.shape, bool)
     if values is not None and not isinstance(values, Mapping):
         raise ModelError(f"initial state: {what}s must be a dict {{name: value}} of coordinate or joint names, got "
@@ -128,6 +129,7 @@ def initial_state(system, t0: float = 0.0, positions=None, speeds=None, x0=None,
     xd, held_v = _fill(system, speeds, "speed")
     if x0 is not None:
         x = state_vector("initial state", "x0", x0, system.n_coords).copy()
+    x = system.layout.normalized(x)  # Euler parameters given of any length
     if xd0 is not None:
         xd = state_vector("initial state", "xd0", xd0, system.n_speeds).copy()
     if fixed is not None and not isinstance(fixed, (list, tuple, set, frozenset, np.ndarray)):

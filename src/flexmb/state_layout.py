@@ -11,20 +11,33 @@ follow the speeds by the kinematic equations
 A correction or a perturbation of the coordinates is a vector of speed
 size (a step along the partial velocities), applied by :meth:`displace`:
 ``q + W(q) du`` followed by whatever keeps q on its own manifold
-(:meth:`normalized`). Every joint of flexmb's today has ``W = I`` and
-``nq = n``: then the kinematic equations are ``qd = u``, a displacement
-is ``q + du`` and this layout changes nothing.
+(:meth:`normalized`).
+
+The coordinates come in two blocks: first one coordinate per speed, in
+the speeds' order, then the coordinates a joint has beyond its speeds
+(its last ones), joint after joint. A joint whose speeds are its
+coordinates' rates (a revolute, a slider, the Bryant angles of
+:class:`~flexmb.Spherical`) has ``W = I`` there: its coordinate i and its
+speed i share one index, so that every table built on joint coordinates
+(springs, drivers, a flexible body's elastic angles, the compiled
+kernels) reads the speeds at the coordinates' indices. A rotation in Euler
+parameters (``rotation='quaternion'``, :mod:`flexmb.quaternions`) puts
+``qx, qy, qz`` at its angular speeds' indices and ``qw`` in the second
+block, with ``qd = W(q) w = 1/2 q * (w, 0)``; a displacement turns the
+quaternion by the exact rotation (:func:`flexmb.quaternions.compose`), and
+:meth:`normalized` keeps it of unit length. A model without quaternions
+has ``nq = n`` and ``W = I``: then ``qd = u``, a displacement is ``q + du``
+and this layout changes nothing.
 
 Everything that splits a state, forms its rate or moves its coordinates
-goes through one :class:`StateLayout` (``System.layout``), so that a joint
-whose coordinates are not its speeds only has to supply ``W(q)`` and its
-normalisation here.
+goes through one :class:`StateLayout` (``System.layout``).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from . import quaternions as quat
 from .errors import ModelError
 
 __all__ = ["StateLayout"]
@@ -39,6 +52,11 @@ class StateLayout:
         Number of generalized coordinates q.
     n : int
         Number of generalized speeds u (``n <= nq``).
+    quaternions : tuple of two ndarray of int, optional
+        The Euler parameters: their coordinates' indices
+        ``(qx, qy, qz, qw)`` (shape (k, 4)) and their angular speeds'
+        indices ``(wx, wy, wz)`` (shape (k, 3)); default none. Every other
+        coordinate i < n has the rate of speed i.
 
     Attributes
     ----------
@@ -48,7 +66,7 @@ class StateLayout:
         ``nq + n``: the length of ``(q, u)``.
     identity : bool
         Whether ``W = I`` (then ``qd = u``): true for every model whose
-        joints use their coordinates' rates as speeds.
+        joints use their coordinates' rates as speeds (no quaternions).
 
     Examples
     --------
@@ -62,13 +80,19 @@ class StateLayout:
     array([3., 4.])
     """
 
-    def __init__(self, nq: int, n: int):
+    def __init__(self, nq: int, n: int, quaternions=None):
         if not 0 <= n <= nq:
             raise ModelError(f"a state needs at least as many coordinates as speeds, got nq = {nq}, n = {n}")
         self.nq = int(nq)
         self.n = int(n)
         self.size = self.nq + self.n
-        self.identity = self.nq == self.n
+        qi, ui = quaternions if quaternions is not None else (np.zeros((0, 4), int), np.zeros((0, 3), int))
+        self._q = np.asarray(qi, dtype=np.int64).reshape(-1, 4)
+        self._u = np.asarray(ui, dtype=np.int64).reshape(-1, 3)
+        if self.nq - self.n != len(self._q):
+            raise ModelError(f"a state of {nq} coordinates and {n} speeds needs {nq - n} quaternions, got "
+                             f"{len(self._q)}")
+        self.identity = not len(self._q)
 
     def __repr__(self) -> str:
         return f"StateLayout(nq={self.nq}, n={self.n})"
@@ -172,10 +196,14 @@ class StateLayout:
         ndarray, shape (nq,)
             ``qd``.
         """
-        return np.array(u, dtype=float)
+        qd = np.zeros(self.nq)
+        qd[: self.n] = u
+        if not self.identity:
+            qd[self._q] = quat.rates(q[self._q], u[self._u])
+        return qd
 
     def kinematic_matrix(self, q: np.ndarray) -> np.ndarray:
-        """``W(q)``: the coordinates' rates per unit speed.
+        """``W(q)``: the coordinates' rates per unit speed (dense: for analyses, not for every step).
 
         Parameters
         ----------
@@ -187,7 +215,11 @@ class StateLayout:
         ndarray, shape (nq, n)
             ``W``.
         """
-        return np.eye(self.nq, self.n)
+        W = np.eye(self.nq, self.n)
+        if not self.identity:
+            W[self._q.ravel()] = 0.0
+            W[self._q[:, :, None], self._u[:, None, :]] = quat.kinematic_matrix(q[self._q])
+        return W
 
     def rate_jacobian(self, q: np.ndarray, u: np.ndarray) -> np.ndarray:
         """``d(W(q) u)/dq`` at fixed u: the kinematic equations' own Jacobian (zeros with ``W = I``).
@@ -204,7 +236,10 @@ class StateLayout:
         ndarray, shape (nq, nq)
             The Jacobian.
         """
-        return np.zeros((self.nq, self.nq))
+        J = np.zeros((self.nq, self.nq))
+        if not self.identity:
+            J[self._q[:, :, None], self._q[:, None, :]] = quat.rate_matrix(u[self._u])
+        return J
 
     def per_coordinate(self, q: np.ndarray, Y: np.ndarray) -> np.ndarray:
         """Columns per unit displacement along the speeds turned into columns per unit coordinate change.
@@ -225,7 +260,15 @@ class StateLayout:
         ndarray, shape (m, nq)
             ``Y P(q)``.
         """
-        return Y
+        if self.identity:
+            return Y
+        out = np.zeros((Y.shape[0], self.nq))
+        out[:, : self.n] = Y
+        out[:, self._q.ravel()] = 0.0
+        P = quat.displacement_matrix(quat.normalized(q[self._q]))
+        for qi, ui, Pk in zip(self._q, self._u, P):
+            out[:, qi] += Y[:, ui] @ Pk
+        return out
 
     def displace(self, q: np.ndarray, du: np.ndarray) -> np.ndarray:
         """The coordinates moved by ``du`` along the speeds: ``q + W(q) du``, normalised (a new array).
@@ -250,7 +293,10 @@ class StateLayout:
         q, du = np.asarray(q, dtype=float), np.asarray(du, dtype=float)
         if self.identity:
             return q + du
-        return self.normalized(q + self.kinematic_matrix(q) @ du)
+        out = q.copy()
+        out[: self.n] += du
+        out[self._q] = quat.compose(q[self._q], du[self._u])
+        return out
 
     def normalized(self, q: np.ndarray) -> np.ndarray:
         """The coordinates put back on their own manifold (a new array; with ``W = I`` a copy).
@@ -265,4 +311,20 @@ class StateLayout:
         ndarray, shape (nq,)
             The normalised coordinates.
         """
-        return np.array(q, dtype=float)
+        out = np.array(q, dtype=float)
+        if not self.identity:
+            out[self._q] = quat.normalized(out[self._q])
+        return out
+
+    def reference(self) -> np.ndarray:
+        """The coordinates of the reference configuration: zeros, the quaternions ``(0, 0, 0, 1)``.
+
+        Returns
+        -------
+        ndarray, shape (nq,)
+            The coordinates with every joint at its reference (all markers
+            coinciding).
+        """
+        out = np.zeros(self.nq)
+        out[self._q[:, 3]] = 1.0
+        return out

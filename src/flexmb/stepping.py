@@ -32,7 +32,7 @@ import time as _time
 import numpy as np
 
 from ._signals import escaped, interruption, who
-from .errors import AssemblyError
+from .errors import AssemblyError, ModelError
 from .integrators import adapt, capabilities
 from .integrators.monitor import ResolutionMonitor
 from .output_projection import project_output
@@ -255,6 +255,10 @@ class Run:
         """What the integrator is given besides the rhs: a Jacobian or a preconditioner, the second-order size."""
         caps, system, n = self.caps, self.system, self.n
         if caps.needs_n_second:  # written for y = (x, xd, ...) itself, qd = u (GeneralizedAlpha)
+            if not system.layout.identity:
+                raise ModelError(f"integrator {self.name!r} integrates coordinates whose rates are the speeds; "
+                                 "this model's Euler parameters (rotation='quaternion') are not: use another "
+                                 "integrator, or rotation='bryant'")
             self.options["n_second"] = n
         if (caps.uses_preconditioner and (system.articulated or system._loop_kernel) and n >= KRYLOV_MIN_COORDS
                 and system.layout.identity):  # the preconditioner's block form [[0, I], [Jx, Jv]] needs qd = u

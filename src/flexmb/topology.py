@@ -181,6 +181,9 @@ class Topology:
         for d in model.drivers:
             if d.joint in self.joint_map and self.joint_map[d.joint] not in tree_set:
                 problems.append(f"driver {d.name!r}: joint {d.joint.name!r} is a cut joint and has no coordinates")
+            elif getattr(d.joint, "quaternions", ()):
+                problems.append(f"driver {d.name!r}: joint {d.joint.name!r} describes its rotation by Euler "
+                                "parameters, whose rates are not its speeds; drive a joint with rotation='bryant'")
         if problems:
             raise ModelError("; ".join(problems), problems)
 
@@ -202,28 +205,68 @@ class Topology:
         self.depth = int(depth.max()) if nb else 0
 
     def _number_coordinates(self) -> None:
-        """Coordinates: contiguous per tree joint, in body order."""
-        self.joint_slice = {}
-        names, coord_body, angle = [], [], []
+        """Speeds contiguous per tree joint, in body order; a coordinate per speed at its index, the rest after.
+
+        A joint's first ``n_speeds`` coordinates share their speeds'
+        indices; its coordinates beyond (a quaternion's ``qw``) follow all
+        of those, joint after joint (:mod:`flexmb.state_layout`).
+        """
+        self.joint_slice, self.joint_extra = {}, {}
+        names, extra_names, coord_body, angle = [], [], [], []
         start = 0
         for k, j in enumerate(self.tree_joints):
-            self.joint_slice[j] = slice(start, start + j.n_coords)
-            names += [f"{j.name}.{c}" for c in j.coordinate_names]
-            coord_body += [k] * j.n_coords
-            # a flexible body's elastic angles stay small: only joint angles may wind
+            ns = j.n_speeds
+            self.joint_slice[j] = slice(start, start + ns)
+            names += [f"{j.name}.{c}" for c in j.coordinate_names[:ns]]
+            extra_names += [f"{j.name}.{c}" for c in j.coordinate_names[ns:]]
+            coord_body += [k] * ns
+            # a flexible body's elastic angles stay small: only joint angles may wind (not Euler parameters)
             angle += [False] * len(j.translation_axes) + [not isinstance(j, SegmentJoint)] * len(j.rotation_axes)
-            start += j.n_coords
+            start += ns
+        self.n_speeds = start
+        for j in self.tree_joints:
+            self.joint_extra[j] = np.arange(start, start + j.n_coords - j.n_speeds)
+            start += j.n_coords - j.n_speeds
         self.n_coords = start
-        self.n_speeds = sum(j.n_speeds for j in self.tree_joints)
+        self.coordinate_names = names + extra_names
         self.speed_names = [f"{j.name}.{c}" for j in self.tree_joints for c in j.speed_names]
-        self.coordinate_names = names
         self.coord_body = np.array(coord_body, dtype=np.int64)
-        self.coord_angle = np.array(angle, dtype=bool)
+        self.coord_angle = np.zeros(self.n_coords, dtype=bool)
+        self.coord_angle[: len(angle)] = angle
         self.coord_start = np.array([0] + [self.joint_slice[j].stop for j in self.tree_joints], dtype=np.int64)
-        starts = np.zeros(start, dtype=np.int64)
+        starts = np.zeros(self.n_speeds, dtype=np.int64)
         for sl in self.joint_slice.values():
             starts[sl] = sl.start
         self.coord_joint_start = starts
+        self.quaternions = self._quaternion_indices()
+
+    def joint_coordinates(self, joint) -> np.ndarray:
+        """Indices in q of a tree joint's coordinates, in the joint's own order.
+
+        Parameters
+        ----------
+        joint : Joint
+            A tree joint (as the topology holds it).
+
+        Returns
+        -------
+        ndarray of int, shape (joint.n_coords,)
+            Its speeds' indices, then its coordinates beyond its speeds.
+        """
+        sl = self.joint_slice[joint]
+        return np.concatenate([np.arange(sl.start, sl.stop), self.joint_extra[joint]]).astype(np.int64)
+
+    def _quaternion_indices(self):
+        """The Euler parameters' coordinate indices (k, 4) and their angular speeds' indices (k, 3)."""
+        qs, us = [], []
+        for j in self.tree_joints:
+            if not j.quaternions:
+                continue
+            coords, speeds = self.joint_coordinates(j), self.joint_slice[j].start
+            for qpos, upos in j.quaternions:
+                qs.append(coords[list(qpos)])
+                us.append([speeds + p for p in upos])
+        return (np.array(qs, dtype=np.int64).reshape(-1, 4), np.array(us, dtype=np.int64).reshape(-1, 3))
 
     def _joint_motions(self) -> None:
         """Joint motions: the generic one is compiled; a class overriding motion() is called back.
@@ -240,8 +283,8 @@ class Topology:
             if getattr(type(j).motion, "__func__", None) is not Joint.motion.__func__:
                 self.external[k] = True
                 groups[type(j)].append(k)
-                kind += [kernels.EXTERNAL] * j.n_coords
-                axis += [0] * j.n_coords
+                kind += [kernels.EXTERNAL] * j.n_speeds
+                axis += [0] * j.n_speeds
                 continue
             kind += [kernels.TRANSLATION] * len(j.translation_axes) + [kernels.ROTATION] * len(j.rotation_axes)
             axis += list(j.translation_axes) + list(j.rotation_axes)
@@ -251,10 +294,11 @@ class Topology:
         self.external_groups = []
         for cls, ks in groups.items():
             ks = np.array(ks, dtype=np.int64)
-            cols = np.array([np.arange(self.joint_slice[self.tree_joints[k]].start,
-                                       self.joint_slice[self.tree_joints[k]].stop) for k in ks],
-                            dtype=np.int64).reshape(len(ks), -1)
-            self.external_groups.append((cls, ks, cols))
+            joints = [self.tree_joints[k] for k in ks]
+            qcols = np.array([self.joint_coordinates(j) for j in joints], dtype=np.int64).reshape(len(ks), -1)
+            ucols = np.array([np.arange(self.joint_slice[j].start, self.joint_slice[j].stop) for j in joints],
+                             dtype=np.int64).reshape(len(ks), -1)
+            self.external_groups.append((cls, ks, qcols, ucols))
 
     def _body_data(self) -> None:
         """Per-body constant data and the flat arrays of the compiled kernels (:class:`TreeArrays`)."""

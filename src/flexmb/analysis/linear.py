@@ -222,7 +222,7 @@ def linearize(system, x0=None, xd0=None, t: float = 0.0, h: float = 1e-6, method
         "linearize", "about a steady motion, flexmb.linearize_steady takes it (naming the ignorable coordinates)")
     nq, n = system.n_coords, system.n_speeds
     t = state_time("linearize", t)
-    x0 = np.zeros(nq) if x0 is None else state_vector("linearize", "x0", x0, nq)
+    x0 = system.layout.reference() if x0 is None else state_vector("linearize", "x0", x0, nq)
     xd0 = np.zeros(n) if xd0 is None else state_vector("linearize", "xd0", xd0, n)
     eq = system.equations(t, x0, xd0)
     kin, A, f, psi, gamma = eq.kin, eq.A, eq.f, eq.psi, eq.gamma

@@ -422,7 +422,7 @@ def _corrector(eq, x_a, lam_a, tx, tl, ds, c, options, counts):
 
 def _start(system, x0):
     n = system.n_coords
-    return np.zeros(n) if x0 is None else state_vector("static equilibrium", "x0", x0, n).copy()
+    return system.layout.reference() if x0 is None else state_vector("static equilibrium", "x0", x0, n).copy()
 
 
 @limited_blas

@@ -289,7 +289,7 @@ def _about(system, about):
     """``(x0, xd0, t)`` from None, ``(x0, xd0[, t])`` or ``(result, t)``."""
     nq, n = system.n_coords, system.n_speeds
     if about is None:
-        return np.zeros(nq), np.zeros(n), 0.0
+        return system.layout.reference(), np.zeros(n), 0.0
     if not isinstance(about, (tuple, list)) or len(about) not in (2, 3):
         raise ModelError("state_space: about must be None, (x0, xd0), (x0, xd0, t) or (result, t), got "
                          f"{type(about).__name__}")

@@ -68,7 +68,7 @@ def export_snapshot(system, x, path, *, xd=None, t: float = 0.0, reference=None,
     system = as_system(system, ExportError)
     nq, n = system.n_coords, system.n_speeds
     xd = np.zeros(n) if xd is None else xd
-    ref = np.zeros(nq) if reference is None else reference
+    ref = system.layout.reference() if reference is None else reference
     res = _states(system, t, _stack(x, ref, nq), _stack(xd, np.zeros(n), n))
     mesh = next(_meshes(res, [0], system, triad, reference=None if reference is None else 1))
     return _write_mesh(mesh, path)
@@ -134,7 +134,7 @@ def export_modes(system, frequencies, shapes, folder, *, scale: float = 0.1, pre
         raise ExportError(f"shapes must have shape (n_speeds, n_modes) = ({n}, {f.size}), got {S.shape}")
     if not np.isfinite(scale):
         raise ExportError(f"scale must be finite, got {scale}")
-    x0 = _stack(np.zeros(nq), np.zeros(nq) if x0 is None else x0, nq)[1]
+    x0 = _stack(np.zeros(nq), system.layout.reference() if x0 is None else x0, nq)[1]
     width = max(2, len(str(f.size)))
     folder = Path(os.fspath(folder))
     paths = []

@@ -107,7 +107,7 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         self.strategy = strategy
         self.n_coords = self.topology.n_coords
         self.n_speeds = self.topology.n_speeds
-        self.layout = StateLayout(self.n_coords, self.n_speeds)
+        self.layout = StateLayout(self.n_coords, self.n_speeds, self.topology.quaternions)
         self.n_constraints = self.constraints.n_rows
         self.coordinate_names = self.topology.coordinate_names
         self.speed_names = self.topology.speed_names
@@ -151,7 +151,7 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
 
     def _trial(self):
         """Evaluate every force and constraint element once so bad input fails at build time."""
-        kin = self._kinematics(0.0, np.zeros(self.n_coords), np.zeros(self.n_speeds))
+        kin = self._kinematics(0.0, self.layout.reference(), np.zeros(self.n_speeds))
         for e in self.constraints.elements:
             try:
                 e.checked_rows(kin)
@@ -291,7 +291,11 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
             raise ModelError(f"body {getattr(body, 'name', body)!r} is not in the model") from None
 
     def coordinate_slice(self, joint) -> slice:
-        """Slice of x holding a joint's coordinates.
+        """Slice of xd holding a joint's speeds, and of x its first ``n_speeds`` coordinates.
+
+        For every joint whose speeds are its coordinates' rates, the slice
+        of all its coordinates in x; a joint in Euler parameters has one
+        coordinate more per quaternion (:meth:`coordinate_indices`).
 
         Parameters
         ----------
@@ -301,9 +305,26 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         Returns
         -------
         slice
-            Its coordinates' positions in x.
+            Its speeds' (and coordinates') positions.
         """
         return self.topology.coordinate_slice(self.model.element(joint, Joint))
+
+    def coordinate_indices(self, joint) -> np.ndarray:
+        """Indices in x of a joint's coordinates, in the joint's order (:mod:`flexmb.state_layout`).
+
+        Parameters
+        ----------
+        joint : Joint or str
+            A tree (not cut) joint of the model, or its name.
+
+        Returns
+        -------
+        ndarray of int, shape (joint.n_coords,)
+            The first ``n_speeds`` at their speeds' indices, the rest (``qw``) after all of those.
+        """
+        joint = self.model.element(joint, Joint)
+        self.coordinate_slice(joint)  # refuses a cut joint or one not in the model, naming it
+        return self.topology.joint_coordinates(self.topology.joint_map.get(joint, joint))
 
     def complement(self, psi):
         """Orthogonal complement of psi by the system's strategy (eqs. 30-37).

@@ -109,7 +109,7 @@ class StateQuantities:
         int
             Number of independent speeds p.
         """
-        t, x = self._state("System.dof", t, x=np.zeros(self.n_coords) if x is None else x)
+        t, x = self._state("System.dof", t, x=self.layout.reference() if x is None else x)
         if not self.n_constraints:
             return self.n_speeds
         if self._loop_kernel:  # the rank as the loop kernel sees it, psi not formed

@@ -311,7 +311,7 @@ class NewtonPreconditioner:
             K and C on each coordinate.
         """
         n = system.n_speeds
-        kin = system.kinematics(0.0, np.zeros(system.n_coords), np.zeros(n))
+        kin = system.kinematics(0.0, system.layout.reference(), np.zeros(n))
         stiffness = np.zeros(n)
         damping = np.zeros(n)
         for cls, elements in system.forces.groups:

@@ -110,6 +110,7 @@ def test_quaternion_layout_names_and_kinematic_equations():
     # one coordinate per speed at the speed's index, qw after all of them
     assert system.coordinate_names == ["f.x", "f.y", "f.z", "f.qx", "f.qy", "f.qz", "pin.angle", "f.qw"]
     assert system.speed_names == ["f.x", "f.y", "f.z", "f.wx", "f.wy", "f.wz", "pin.angle"]
+    assert np.flatnonzero(system.topology.coord_angle).tolist() == [6]  # only the pin's angle may wind
     layout = system.layout
     assert (layout.nq, layout.n, layout.identity) == (8, 7, False)
     rng = np.random.default_rng(3)
@@ -235,3 +236,25 @@ speeds = { "pivot.qw" = 1.0 }
 [solver]
 t_end = 0.1
 """)
+
+
+def test_linearisation_and_statics_move_the_quaternion_along_the_speeds():
+    # a pendulum on a ball joint, hanging: at the reference the body angular velocity is the Bryant rates, so
+    # both descriptions give the same M and K (central differences along W(q) T for the quaternion)
+    def pendulum(rotation, gravity=(0.0, 0.0, -9.81), push=(0.0, 0.0, 0.0)):
+        model = fm.Model()
+        bob = fm.RigidBody("bob", 2.0, (0.01, 0.02, 0.03), com=(0.0, 0.0, -0.5))
+        return model.add(fm.Spherical("ball", model.ground, bob, rotation=rotation), fm.Gravity(gravity),
+                         fm.PointForce("push", bob, push, point=(0.2, 0.0, -0.5))).build()
+
+    lq, lb = fm.linearize(pendulum("quaternion")), fm.linearize(pendulum("bryant"))
+    assert lq.method == "fd"
+    np.testing.assert_allclose(lq.M, lb.M, atol=1e-12)
+    np.testing.assert_allclose(lq.K, lb.K, atol=1e-6)
+    np.testing.assert_allclose(np.diag(lq.K), [9.81, 9.81, 0.0], atol=1e-6)  # m g l about x and y
+    # statics under a sideways gravity and a push off the bob's axis (Newton's steps turn the quaternion):
+    # at rest there, of unit length
+    system = pendulum("quaternion", gravity=(9.81, 0.0, 0.0), push=(0.0, 2.0, 0.0))
+    x = fm.static_equilibrium(system, system.layout.normalized(np.array([0.1, 0.2, 0.0, 1.0])))
+    assert abs(np.linalg.norm(x) - 1.0) < 1e-14
+    np.testing.assert_allclose(system.accelerations(0.0, x, np.zeros(3)), 0.0, atol=1e-8)

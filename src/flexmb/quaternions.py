@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["rotation_matrix", "rates", "kinematic_matrix", "displacement_matrix", "rate_matrix", "compose",
-           "normalized", "from_rotation_matrix", "bryant_angles", "rotation_vector"]
+           "turn_between", "normalized", "from_rotation_matrix", "bryant_angles", "rotation_vector"]
 
 
 def _skew(v: np.ndarray) -> np.ndarray:
@@ -168,6 +168,32 @@ def compose(q: np.ndarray, theta: np.ndarray) -> np.ndarray:
     out = np.concatenate([s * pv + ps * v + np.cross(v, pv), s * ps - np.sum(v * pv, axis=-1, keepdims=True)],
                          axis=-1)
     return normalized(out)
+
+
+def turn_between(q0: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """The rotation vector ``theta`` (in q0's axes, the shorter way) with ``q = q0 * exp(theta / 2)``.
+
+    The inverse of :func:`compose`: ``compose(q0, turn_between(q0, q))``
+    is q (normalised, up to its sign).
+
+    Parameters
+    ----------
+    q0, q : ndarray, shape (m, 4)
+        Quaternions, scalar last.
+
+    Returns
+    -------
+    ndarray, shape (m, 3)
+        Rotation vectors, rad (length at most pi).
+    """
+    q0, q = normalized(q0), normalized(q)
+    v0, s0, v, s = q0[..., :3], q0[..., 3:], q[..., :3], q[..., 3:]
+    pv = s0 * v - s * v0 - np.cross(v0, v)  # conj(q0) * q
+    ps = s0 * s + np.sum(v0 * v, axis=-1, keepdims=True)
+    pv = np.where(ps < 0.0, -pv, pv)
+    size = np.linalg.norm(pv, axis=-1, keepdims=True)
+    angle = 2.0 * np.arctan2(size, np.abs(ps))
+    return pv * np.where(size > 1e-12, angle / np.where(size > 0, size, 1.0), 2.0 / np.maximum(np.abs(ps), 0.5))
 
 
 def from_rotation_matrix(R: np.ndarray) -> np.ndarray:

@@ -298,6 +298,27 @@ class StateLayout:
         out[self._q] = quat.compose(q[self._q], du[self._u])
         return out
 
+    def difference(self, q: np.ndarray, q0: np.ndarray) -> np.ndarray:
+        """The displacement along the speeds from ``q0`` to ``q``: the inverse of :meth:`displace`.
+
+        Parameters
+        ----------
+        q, q0 : ndarray, shape (nq,)
+            Coordinates.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            ``du`` with ``displace(q0, du) = q`` (``q - q0`` where the
+            speeds are the coordinates' rates; a quaternion's turn the
+            shorter way).
+        """
+        q, q0 = np.asarray(q, dtype=float), np.asarray(q0, dtype=float)
+        du = q[: self.n] - q0[: self.n]
+        if not self.identity:
+            du[self._u] = quat.turn_between(q0[self._q], q[self._q])
+        return du
+
     def normalized(self, q: np.ndarray) -> np.ndarray:
         """The coordinates put back on their own manifold (a new array; with ``W = I`` a copy).
 

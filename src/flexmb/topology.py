@@ -39,18 +39,26 @@ class Topology:
         Joints that close loops (they give constraint equations).
     parent : ndarray of int, shape (n_bodies,)
         Parent body index (-1: ground).
-    coord_body : ndarray of int, shape (n_coords,)
-        Body whose tree joint owns each coordinate.
+    coord_body : ndarray of int, shape (n_speeds,)
+        Body whose tree joint owns each speed (and the coordinate at its
+        index).
     n_coords, n_speeds : int
         Numbers of generalized coordinates q and speeds u
-        (:mod:`flexmb.state_layout`; equal while every joint's speeds are
-        its coordinates' rates).
+        (:mod:`flexmb.state_layout`; equal unless a joint has Euler
+        parameters, one coordinate more than speeds per quaternion).
     speed_names : list of str
         ``"joint.speed"`` names (the coordinates' names where the speeds
         are their rates).
     coord_start : ndarray of int, shape (n_bodies + 1,)
-        Body k's tree joint owns ``x[coord_start[k]:coord_start[k + 1]]``.
-    coord_kind, coord_axis : ndarray of int, shape (n_coords,)
+        Body k's tree joint owns the speeds ``xd[coord_start[k]:coord_start[k + 1]]``
+        and the coordinates at the same indices (its others: ``joint_extra``).
+    joint_slice, joint_extra : dict
+        Per tree joint: the slice of its speeds, and the indices in x of
+        its coordinates beyond them (``qw``; empty for most joints).
+    quaternions : tuple of two ndarray of int
+        The Euler parameters' indices in x, shape (k, 4), and their angular
+        speeds' in xd, shape (k, 3) (:class:`~flexmb.state_layout.StateLayout`).
+    coord_kind, coord_axis : ndarray of int, shape (n_speeds,)
         Translation or rotation (:mod:`flexmb.kernels`) and the joint-frame
         axis of each coordinate of a generic joint motion.
     coord_angle : ndarray of bool, shape (n_coords,)
@@ -221,7 +229,8 @@ class Topology:
             extra_names += [f"{j.name}.{c}" for c in j.coordinate_names[ns:]]
             coord_body += [k] * ns
             # a flexible body's elastic angles stay small: only joint angles may wind (not Euler parameters)
-            angle += [False] * len(j.translation_axes) + [not isinstance(j, SegmentJoint)] * len(j.rotation_axes)
+            angle += ([False] * ns if j.quaternions else
+                      [False] * len(j.translation_axes) + [not isinstance(j, SegmentJoint)] * len(j.rotation_axes))
             start += ns
         self.n_speeds = start
         for j in self.tree_joints:

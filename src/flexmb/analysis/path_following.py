@@ -249,9 +249,10 @@ class _Path:
         x_a, lam_a, tx_a, tl_a = self.x[i], self.lam[i], self.t_x[i], self.t_lam[i]
         h = self.arc[i + 1] - self.arc[i]
         s, lam, u = _hermite_extreme(0.0, h, lam_a, self.lam[i + 1], tl_a, self.t_lam[i + 1])
-        # cubic Hermite interpolation of x, the fallback if the secant iteration fails
-        h00, h10, h01, h11 = 2 * u**3 - 3 * u**2 + 1, u**3 - 2 * u**2 + u, -2 * u**3 + 3 * u**2, u**3 - u**2
-        x = h00 * x_a + h10 * h * tx_a + h01 * self.x[i + 1] + h11 * h * self.t_x[i + 1]
+        # cubic Hermite interpolation of x (as a displacement from x_a), the fallback if the secant iteration fails
+        h10, h01, h11 = u**3 - 2 * u**2 + u, -2 * u**3 + 3 * u**2, u**3 - u**2
+        d = self.eq.system.layout.difference(self.x[i + 1], x_a)
+        x = self.eq.move(x_a, h10 * h * tx_a + h01 * d + h11 * h * self.t_x[i + 1])
         lo, f_lo, hi, f_hi = 0.0, tl_a, h, self.t_lam[i + 1]
         kept = 0  # which end the last two brackets kept (Illinois: halve a stuck end's value)
         try:
@@ -337,7 +338,8 @@ def _follow(eq, x, lam, lam_end, options, tol_end, who="load path"):
             # the target lies in this step: interpolate, then Newton at the target load factor
             u = (lam_end - lam_a) / (lam_new - lam_a)
             try:
-                x_end, pt_end = _newton(eq, eq.project(x_a + u * (x_new - x_a)), lam_end, tol_end,
+                x_mid = eq.move(x_a, u * eq.system.layout.difference(x_new, x_a))
+                x_end, pt_end = _newton(eq, eq.project(x_mid), lam_end, tol_end,
                                         max(options.max_iter, 20), path.counts)
             except _NotConverged as exc:
                 path.counts["rejected"] += 1
@@ -406,7 +408,7 @@ def _corrector(eq, x_a, lam_a, tx, tl, ds, c, options, counts):
         M[:p, :p], M[:p, p] = pt.J, pt.R_lam
         M[p, :p], M[p, p] = pt.T.T @ tx / c**2, tl
         # normal plane through the predictor: (x - x_a) . tx / c^2 + (lam - lam_a) tl = ds
-        plane = (x - x_a) @ tx / c**2 + (lam - lam_a) * tl - ds
+        plane = eq.system.layout.difference(x, x_a) @ tx / c**2 + (lam - lam_a) * tl - ds
         try:
             sol = np.linalg.solve(M, -np.append(pt.R, plane))
         except np.linalg.LinAlgError:

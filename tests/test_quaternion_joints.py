@@ -258,3 +258,25 @@ def test_linearisation_and_statics_move_the_quaternion_along_the_speeds():
     x = fm.static_equilibrium(system, system.layout.normalized(np.array([0.1, 0.2, 0.0, 1.0])))
     assert abs(np.linalg.norm(x) - 1.0) < 1e-14
     np.testing.assert_allclose(system.accelerations(0.0, x, np.zeros(3)), 0.0, atol=1e-8)
+
+
+@pytest.mark.parametrize("cls", [fm.joints.SphericalQuaternion, fm.joints.FreeQuaternion], ids=lambda c: c.__name__)
+def test_quaternion_joint_motion_against_differences(cls):
+    """The partial angular velocities and velocities are the motion's rates along qd = W(q) u (central differences)."""
+    rng = np.random.default_rng(8)
+    m, nq = 4, len(cls.coordinate_names)
+    q = rng.normal(size=(m, nq))
+    q[:, -4:] = quat.normalized(q[:, -4:])
+    u = rng.normal(size=(m, nq - 1))
+    qd = np.concatenate([u[:, : nq - 4], quat.rates(q[:, -4:], u[:, -3:])], axis=1)
+    R, d, Hw, Hv, aw, av = cls.motion(q, u)
+    h = 1e-6
+    Rp, dp, *_ = cls.motion(q + h * qd, u)
+    Rm, dm, *_ = cls.motion(q - h * qd, u)
+    S = (Rp - Rm) / (2 * h) @ np.swapaxes(R, 1, 2)
+    omega = np.stack([S[:, 2, 1], S[:, 0, 2], S[:, 1, 0]], axis=1)
+    np.testing.assert_allclose(np.einsum("mij,mj->mi", Hw, u), omega, atol=1e-8)
+    np.testing.assert_allclose(np.einsum("mij,mj->mi", Hv, u), (dp - dm) / (2 * h), atol=1e-8)
+    # H changes along the motion by R [w]x, whose product with w vanishes: no velocity-product terms
+    assert not np.any(aw) and not np.any(av)
+    np.testing.assert_allclose(R, quat.rotation_matrix(q[:, -4:]), atol=1e-15)

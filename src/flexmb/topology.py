@@ -329,7 +329,10 @@ class Topology:
                                  self.mass, self.inertia, self.coord_body)
 
     def coordinate_slice(self, joint) -> slice:
-        """Slice of ``x`` holding a tree joint's coordinates.
+        """Slice of ``xd`` holding a tree joint's speeds, and of ``x`` its first ``n_speeds`` coordinates.
+
+        All its coordinates unless it has Euler parameters (their ``qw``:
+        :meth:`joint_coordinates`).
 
         Parameters
         ----------
@@ -339,7 +342,7 @@ class Topology:
         Returns
         -------
         slice
-            Its coordinates in ``x``.
+            Its speeds (and those coordinates).
 
         Raises
         ------

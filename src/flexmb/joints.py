@@ -72,10 +72,10 @@ class Joint:
        set of Euler parameters in ``quaternions``: the positions of
        ``(qx, qy, qz, qw)`` among the joint's coordinates and of the
        angular speeds ``(wx, wy, wz)`` (in the child marker's axes) among
-       its speeds, and override ``n_coords``, ``n_speeds`` and
-       ``speed_names`` (:class:`SphericalQuaternion`); the joint's first
+       its speeds (:class:`SphericalQuaternion`; ``n_coords``,
+       ``n_speeds`` and ``speed_names`` follow); the joint's first
        ``n_speeds`` coordinates share their speeds' places in the state
-       (:mod:`flexmb.state_layout`);
+       (:mod:`flexmb.state_layout`), and its ``motion()`` takes them apart;
     4. optionally override ``_default_frame()`` (the parent marker
        orientation when ``parent_frame`` is not given) or ``motion()`` for a
        motion that is not a translation/rotation sequence.

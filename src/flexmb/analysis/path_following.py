@@ -71,6 +71,10 @@ class _Equations:
         self.name = ", ".join(e.name for e in chosen)
         self.ref = None
 
+    def between(self, x_a, x_b, u):
+        """The coordinates a fraction ``u`` of the way from ``x_a`` to ``x_b``, along the speeds."""
+        return self.move(x_a, u * self.system.layout.difference(x_b, x_a))
+
     def _kin(self, x):
         return self.system.kinematics(self.t, x, self.zero)
 
@@ -338,8 +342,7 @@ def _follow(eq, x, lam, lam_end, options, tol_end, who="load path"):
             # the target lies in this step: interpolate, then Newton at the target load factor
             u = (lam_end - lam_a) / (lam_new - lam_a)
             try:
-                x_mid = eq.move(x_a, u * eq.system.layout.difference(x_new, x_a))
-                x_end, pt_end = _newton(eq, eq.project(x_mid), lam_end, tol_end,
+                x_end, pt_end = _newton(eq, eq.project(eq.between(x_a, x_new, u)), lam_end, tol_end,
                                         max(options.max_iter, 20), path.counts)
             except _NotConverged as exc:
                 path.counts["rejected"] += 1

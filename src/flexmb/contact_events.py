@@ -181,7 +181,7 @@ class ContactEvents:
     """
 
     def __init__(self, system, t0, t_end, explicit, name):
-        self.system, self.n = system, system.n_coords
+        self.system, self.layout = system, system.layout
         groups = _contact_groups(system)
         elements = [e for _, els in groups for e in els]
         self.names = [e.name for e in elements]
@@ -234,8 +234,7 @@ class ContactEvents:
         ndarray, shape (c,)
             The penetrations, m (negative: the gaps).
         """
-        n = self.n
-        return contact_gaps(self.system, t, y[:n], y[n : 2 * n])[0]
+        return contact_gaps(self.system, t, *self.layout.split(y))[0]
 
     def _switch(self, delta):
         """How far each contact is past its switch: ``delta - band`` apart, ``-(delta + band)`` touching.
@@ -279,8 +278,7 @@ class ContactEvents:
         y : ndarray
             The true state.
         """
-        n = self.n
-        self.delta, self.rate, self.normal = contact_gaps(self.system, t, y[:n], y[n : 2 * n])
+        self.delta, self.rate, self.normal = contact_gaps(self.system, t, *self.layout.split(y))
         self.touching = self.delta > 0
         self.band = np.full(len(self.names), ROOT_OFFSET)
 
@@ -315,8 +313,7 @@ class ContactEvents:
         Refused
             If a touching contact's normal reversed within the step.
         """
-        n = self.n
-        delta, rate, normal = contact_gaps(self.system, t_end, y_end[:n], y_end[n : 2 * n])
+        delta, rate, normal = contact_gaps(self.system, t_end, *self.layout.split(y_end))
         h = t_end - t_start
         if root is not None and np.any(root != 0):
             return t_end, np.flatnonzero(root != 0)
@@ -369,8 +366,7 @@ class ContactEvents:
         changed : ndarray of int
             The contacts whose state changes.
         """
-        n = self.n
-        delta, rate, normal = contact_gaps(self.system, t, y[:n], y[n : 2 * n])
+        delta, rate, normal = contact_gaps(self.system, t, *self.layout.split(y))
         self._count(t - t_start, bool(np.any(self.touching)))
         self._record(t, changed, rate)
         short = np.where(self.touching, -delta, delta)[changed]  # > 0: on the side it left

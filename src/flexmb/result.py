@@ -36,8 +36,13 @@ class Result(ResultPost):
     ----------
     t : ndarray, shape (nt,)
         Output times, s.
-    x, xd, xdd : ndarray, shape (nt, n)
-        Coordinates, speeds and accelerations.
+    x : ndarray, shape (nt, nq)
+        Generalized coordinates q.
+    xd, xdd : ndarray, shape (nt, n)
+        Generalized speeds u and their rates (:mod:`flexmb.state_layout`:
+        ``qd = W(q) u``; for joints whose speeds are their coordinates'
+        rates, as every joint's today, ``W = I`` and ``xd`` is the rate of
+        ``x``).
     positions : ndarray, shape (nt, n_bodies, 3)
         Mass-centre positions, m.
     origins : ndarray, shape (nt, n_bodies, 3)
@@ -171,12 +176,12 @@ class Result(ResultPost):
         ----------
         system : System or Model
             The model (a Model is built with the default options).
-        x : array_like, shape (n,) or (m, n)
+        x : array_like, shape (nq,) or (m, nq)
             Coordinates of one or m states (e.g. from
             :func:`flexmb.linear_statics`).
-        xd : array_like, same shape, optional
+        xd : array_like, shape (n,) or (m, n), optional
             Speeds (default zero).
-        xdd : array_like, same shape, optional
+        xdd : array_like, shape (n,) or (m, n), optional
             Accelerations; default: from the equations of motion (eqs.
             36-39), with the reactions of the same solve (a state where the
             solve fails gets NaN accelerations and reactions). Pass zeros for
@@ -198,7 +203,8 @@ class Result(ResultPost):
         Raises
         ------
         FlexmbError
-            If the states do not hold ``n`` finite coordinates each.
+            If the states do not hold ``nq`` finite coordinates and ``n``
+            finite speeds each.
 
         Examples
         --------
@@ -216,18 +222,19 @@ class Result(ResultPost):
         from .model import as_system
 
         system = as_system(system)
-        n = system.n_coords
+        nq, n = system.n_coords, system.n_speeds
         X = np.atleast_2d(np.asarray(x, dtype=float))
-        XD = np.zeros_like(X) if xd is None else np.atleast_2d(np.asarray(xd, dtype=float))
-        if X.shape[1:] != (n,) or XD.shape != X.shape or not (np.all(np.isfinite(X)) and np.all(np.isfinite(XD))):
-            raise FlexmbError(f"x and xd must hold {n} finite coordinates per state, got shapes "
-                              f"{X.shape}, {XD.shape}")
+        XD = np.zeros((len(X), n)) if xd is None else np.atleast_2d(np.asarray(xd, dtype=float))
+        if (X.shape[1:] != (nq,) or XD.shape != (len(X), n)
+                or not (np.all(np.isfinite(X)) and np.all(np.isfinite(XD)))):
+            what = f"{n} finite coordinates" if nq == n else f"{nq} finite coordinates and {n} speeds"
+            raise FlexmbError(f"x and xd must hold {what} per state, got shapes {X.shape}, {XD.shape}")
         nt = len(X)
         at = np.broadcast_to(np.asarray(t, dtype=float), (nt,)).copy()
         if not np.all(np.isfinite(at)):
             raise ModelError(f"Result.from_states: the times must be finite, got {t!r}")
         times = at + np.arange(nt) if np.ndim(t) == 0 else at
-        XDD = None if xdd is None else np.atleast_2d(np.asarray(xdd, dtype=float)).reshape(X.shape)
+        XDD = None if xdd is None else np.atleast_2d(np.asarray(xdd, dtype=float)).reshape(XD.shape)
         arrays = _evaluate_states(system, at, X, XD, XDD)
         topo = system.topology
         fields.setdefault("status", "finished")
@@ -556,7 +563,7 @@ class Result(ResultPost):
 
 def _evaluate_states(system, t, X, XD, XDD) -> dict:
     """The output quantities of :meth:`Result.from_states` at each state."""
-    nt, n = X.shape
+    nt, n = XD.shape
     nb, m = system.topology.n_bodies, system.n_constraints
     out = {"xdd": np.zeros((nt, n)) if XDD is None else XDD.copy(), "positions": np.zeros((nt, nb, 3)),
            "origins": np.zeros((nt, nb, 3)), "rotations": np.zeros((nt, nb, 3, 3)), "kinetic": np.zeros(nt),
@@ -571,7 +578,7 @@ def _evaluate_states(system, t, X, XD, XDD) -> dict:
             elif m == 0:  # no reactions: the system's own route (O(n) for an open tree)
                 out["xdd"][i] = system._accelerations(t[i], x, xd)
             else:
-                out["xdd"][i], out["reactions"][i] = system._with_reactions(t[i], np.concatenate([x, xd]))
+                out["xdd"][i], out["reactions"][i] = system._with_reactions(t[i], system.layout.join(x, xd))
         except FlexmbError:
             if XDD is None:
                 out["xdd"][i] = np.nan

@@ -34,7 +34,7 @@ import numpy as np
 from ._signals import escaped, interruption, who
 from .contact_events import ContactEvents, StepFailure
 from .event_restart import cut_at_event
-from .errors import AssemblyError
+from .errors import AssemblyError, ModelError
 from .integrators import adapt, capabilities
 from .integrators.monitor import ResolutionMonitor
 from .output_projection import project_output
@@ -150,7 +150,7 @@ class Run:
     ----------
     status, message : str
         How the run ended, after :meth:`execute`.
-    offset : ndarray, shape (2 n + n_w,) or None
+    offset : ndarray, shape (nq + n + n_w,) or None
         What the integrator's state lacks of the true one, ``y = z + offset``
         (multiples of ``WINDING_PERIOD`` on the angles); None until an angle
         first winds past ``WINDING_BOUND``.
@@ -163,7 +163,8 @@ class Run:
     def __init__(self, system, solver_cls, name, times, *, t0, t_end, rtol, atol, max_step, projection_tol,
                  track_work, progress, auto, contact_events=True):
         self.system = system
-        self.n = system.n_coords
+        self.n = system.n_speeds
+        self.layout = system.layout  # y = (q, u, works), qd = W(q) u
         self.name = name
         self.times = times
         self.t0, self.t_end = t0, t_end
@@ -208,18 +209,18 @@ class Run:
         self.wall = 0.0
 
     def rhs(self, t, y) -> np.ndarray:
-        """The state rate ``(xd, xdd[, work rates])``; non-finite accelerations raise :class:`NonFinite`.
+        """The state rate ``(qd, ud[, work rates])``; non-finite accelerations raise :class:`NonFinite`.
 
         Parameters
         ----------
         t : float
             Time, s.
-        y : ndarray, shape (2 n + n_w,)
+        y : ndarray, shape (nq + n + n_w,)
             The integrator's state ``z``; the rate is that of ``y = z + offset``.
 
         Returns
         -------
-        ndarray, shape (2 n + n_w,)
+        ndarray, shape (nq + n + n_w,)
             Its rate.
         """
         self.counters["rhs"] += 1
@@ -228,13 +229,13 @@ class Run:
             y = y + self.offset
         if not self.n_w:
             return system._state_rate(t, y)  # finite, or AssemblyError naming the cause
-        xs, vs = y[:n], y[n : 2 * n]
+        xs, vs = self.layout.split(y)
         rates = np.zeros(self.n_w)
         if system._loop_kernel:  # finite, or AssemblyError naming the cause
             xdd, lam = system._loop_solve(t, y, powers=rates[self.n_drv:], multipliers=True)
             if self.n_drv:
                 rates[: self.n_drv] = lam[-self.n_drv:] * np.array([d.velocity(t) for d in system.constraints.drivers])
-            return np.concatenate([vs, xdd, rates])
+            return self.layout.join(self.layout.coordinate_rates(xs, vs), xdd, rates)
         n_g = self.n_w - self.n_drv - self.n_el
         A, f, psi, gamma = system._reduced_parts(t, y, powers=rates[self.n_drv : self.n_drv + n_g])
         try:
@@ -245,32 +246,36 @@ class Run:
             if not (np.all(np.isfinite(f)) and np.all(np.isfinite(A))):
                 system._accelerations(t, xs, vs)  # raises with the diagnosis
             system._solve(t, A, f, psi, gamma)  # raises if the reduced equations are singular
-            bad = [system.coordinate_names[i] for i in np.flatnonzero(~np.isfinite(xdd))[:5]]
+            bad = [system.speed_names[i] for i in np.flatnonzero(~np.isfinite(xdd))[:5]]
             raise NonFinite(t, f"accelerations became non-finite ({', '.join(bad)})")
         if self.n_drv:
             rates[: self.n_drv] = lam[-self.n_drv:] * np.array([d.velocity(t) for d in system.constraints.drivers])
         if self.n_el:
             rates[self.n_drv + n_g:] = system.constraints.element_powers(lam, system._kinematics(t, xs, vs))
-        return np.concatenate([vs, xdd, rates])
+        return self.layout.join(self.layout.coordinate_rates(xs, vs), xdd, rates)
 
     def _jac(self, t, y):
         self.counters["jac"] += 1
-        n = self.n
         if self.offset is not None:
             y = y + self.offset
-        J = self.system.state_jacobian(t, y[:n], y[n : 2 * n])
+        J = self.system.state_jacobian(t, *self.layout.split(y))
         return np.pad(J, ((0, self.n_w), (0, self.n_w))) if self.n_w else J
 
     def _set_options(self, x, xd) -> None:
         """What the integrator is given besides the rhs: a Jacobian or a preconditioner, the second-order size."""
         caps, system, n = self.caps, self.system, self.n
-        if caps.needs_n_second:  # written for y = (x, xd, ...) itself (GeneralizedAlpha)
+        if caps.needs_n_second:  # written for y = (x, xd, ...) itself, qd = u (GeneralizedAlpha)
+            if not system.layout.identity:
+                raise ModelError(f"integrator {self.name!r} integrates coordinates whose rates are the speeds; "
+                                 "this model's Euler parameters (rotation='quaternion') are not: use another "
+                                 "integrator, or rotation='bryant'")
             self.options["n_second"] = n
         if self.events is not None and caps.finds_roots:  # the integrator's root finding, on the true state
             events = self.events
             self.options["events"] = (
                 lambda t, z: events.root_functions(t, z if self.offset is None else z + self.offset), events.count)
-        if caps.uses_preconditioner and (system.articulated or system._loop_kernel) and n >= KRYLOV_MIN_COORDS:
+        if (caps.uses_preconditioner and (system.articulated or system._loop_kernel) and n >= KRYLOV_MIN_COORDS
+                and system.layout.identity):  # the preconditioner's block form [[0, I], [Jx, Jv]] needs qd = u
             # an open tree, or loops closed through the recursion: O(n) Newton solves, no matrix
             # (System.newton_preconditioner)
             self.preconditioner = system.newton_preconditioner()
@@ -278,8 +283,8 @@ class Run:
         elif caps.uses_jacobian and system.state_jacobian(self.t0, x, xd) is not None:
             self.counters["jac"] = 0
             self.options["jac"] = self._jac
-            if caps.second_order:
-                # the Jacobian has the block form [[0, I], [Jx, Jv]]: factor n x n only
+            if caps.second_order and system.layout.identity:
+                # the Jacobian has the block form [[0, I], [Jx, Jv]] (qd = u): factor n x n only
                 self.options["n_second"] = n
 
     def _make(self, tstart, ystart, first_step=None, t_bound=None, events=True):
@@ -296,11 +301,11 @@ class Run:
 
         Parameters
         ----------
-        x, xd : ndarray, shape (n,)
-            The assembled initial state.
+        x, xd : ndarray, shape (nq,) and (n,)
+            The assembled initial state: coordinates q and speeds u.
         """
         self._set_options(x, xd)
-        y = np.concatenate([x, xd, np.zeros(self.n_w)])
+        y = self.layout.join(x, xd, np.zeros(self.n_w))
         if self.times[0] == self.t0:
             self.out_y.append(y.copy())
             self.k_out = 1
@@ -438,7 +443,7 @@ class Run:
             The true state at :attr:`t_now` when that is not the step's end
             (a contact event within the step).
         """
-        times, n, system = self.times, self.n, self.system
+        times, system, layout = self.times, self.system, self.layout
         if not (self.k_out < len(times) and times[self.k_out] <= self.t_now):
             return
         dense = solver.dense_output()
@@ -452,19 +457,20 @@ class Run:
                 y_out = dense(t_out)
                 if self.offset is not None:
                     y_out = y_out + self.offset
+            q, u = layout.split(y_out)
+            q[:] = layout.normalized(q)  # coordinates on their own manifold (W = I: unchanged)
             if system.n_constraints:
                 # the interpolant leaves the constraints by about rtol between steps: store
                 # consistent states, by the rule the steps follow
-                y_out[:n], y_out[n : 2 * n] = project_output(system, t_out, y_out[:n], y_out[n : 2 * n],
-                                                             self.projection_tol)
+                q[:], u[:] = project_output(system, t_out, q, u, self.projection_tol)
             self.out_y.append(y_out)
             self.k_out += 1
 
     def _restart_if_drifted(self, solver):
         """The solver, restarted from the projected state if the constraints drifted past the bound."""
-        n, t_now, offset = self.n, self.t_now, self.offset
+        t_now, offset = self.t_now, self.offset
         y = solver.y if offset is None else solver.y + offset
-        xs, vs = y[:n], y[n : 2 * n]
+        xs, vs = self.layout.split(y)
         residual = self.system.constraint_residual(t_now, xs, vs)
         if residual <= self.state_tol:
             return solver
@@ -476,7 +482,7 @@ class Run:
         xs, vs = self.system.project(t_now, xs, vs, tol=min(1e-12, self.projection_tol), speeds="mass")
         self.n_proj += 1
         self.last_restart = self.n_steps
-        y = np.concatenate([xs, vs, y[2 * n :]])
+        y = self.layout.join(xs, vs, self.layout.extra(y))
         return self._restart(solver, y if offset is None else y - offset)
 
     def _restart(self, solver, z):
@@ -508,12 +514,12 @@ class Run:
 
         Parameters
         ----------
-        y : ndarray, shape (2 n + n_w,)
+        y : ndarray, shape (nq + n + n_w,)
             The integrator's state.
 
         Returns
         -------
-        shift : ndarray, shape (2 n + n_w,) or None
+        shift : ndarray, shape (nq + n + n_w,) or None
             What to subtract from the integrator's state.
         """
         if not len(self.angles):
@@ -549,7 +555,7 @@ class Run:
 
         Parameters
         ----------
-        x : ndarray, shape (n,)
+        x : ndarray, shape (nq,)
             The initial coordinates (the degrees of freedom are counted
             there).
 
@@ -558,12 +564,13 @@ class Run:
         Result
             With ``status`` and ``message`` of the run.
         """
-        system, n = self.system, self.n
-        Y = np.array(self.out_y).reshape(len(self.out_y), 2 * n + self.n_w)
+        system, layout = self.system, self.layout
+        Y = np.array(self.out_y).reshape(len(self.out_y), layout.size + self.n_w)
         preconditioner = self.preconditioner
+        works = layout.extra(Y)
         return Result.from_states(
-            system, Y[:, :n], Y[:, n : 2 * n], t=self.times[: len(self.out_y)],
-            work={name: Y[:, 2 * n + i].copy() for i, name in enumerate(self.work_names)},
+            system, *layout.split(Y), t=self.times[: len(self.out_y)],
+            work={name: works[:, i].copy() for i, name in enumerate(self.work_names)},
             n_dof=system.dof(self.t0, x), n_rhs=self.counters["rhs"],
             n_jac=self.counters.get("jac", 0) if preconditioner is None else preconditioner.n_setups,
             n_steps=self.n_steps, n_complements=system.n_complements - self.start_complements,

@@ -175,19 +175,20 @@ class CVODE(OdeSolver):
         """CVODE options for GMRES preconditioned by the O(n) Newton solve of an open tree."""
         import sksundae
 
-        n = pre.system.n_coords
+        layout = pre.system.layout  # y = (q, u, works) with qd = u: the preconditioner's block form
 
         def setup(t, y, yp, jok, jnew, gamma):
             if jok and pre.n_setups:
                 jnew[0] = 0
                 return
             self.njev += 1
-            pre.setup(t, y[:n], y[n : 2 * n])
+            pre.setup(t, *layout.split(y))
             jnew[0] = 1
 
         def solve(t, y, yp, rvec, zvec, gamma, delta, lr):
-            zvec[:n], zvec[n : 2 * n] = pre.solve(rvec[:n], rvec[n : 2 * n], gamma)
-            zvec[2 * n :] = rvec[2 * n :]  # states nothing depends on (work terms)
+            zq, zu = layout.split(zvec)
+            zq[:], zu[:] = pre.solve(*layout.split(rvec), gamma)
+            layout.extra(zvec)[:] = layout.extra(rvec)  # states nothing depends on (work terms)
 
         return dict(linsolver="gmres", krylov_dim=KRYLOV_DIM,
                     precond=sksundae.cvode.CVODEPrecond(setup, solve, side="left"))
@@ -475,14 +476,16 @@ class IDA(CVODE):
     def _krylov(self, pre) -> dict:
         import sksundae
 
-        n = pre.system.n_coords
+        layout = pre.system.layout  # y = (q, u, works) with qd = u: the preconditioner's block form
 
         def setup(t, y, yp, res, cj):
             self.njev += 1
-            pre.setup(t, y[:n], y[n : 2 * n])
+            pre.setup(t, *layout.split(y))
 
         def solve(t, y, yp, res, rvec, zvec, cj, delta):
-            zvec[:n], zvec[n : 2 * n] = pre.solve(rvec[:n] / cj, rvec[n : 2 * n] / cj, 1.0 / cj)
-            zvec[2 * n :] = rvec[2 * n :] / cj  # states nothing depends on (work terms)
+            zq, zu = layout.split(zvec)
+            rq, ru = layout.split(rvec)
+            zq[:], zu[:] = pre.solve(rq / cj, ru / cj, 1.0 / cj)
+            layout.extra(zvec)[:] = layout.extra(rvec) / cj  # states nothing depends on (work terms)
 
         return dict(linsolver="gmres", krylov_dim=KRYLOV_DIM, precond=sksundae.ida.IDAPrecond(setup, solve))

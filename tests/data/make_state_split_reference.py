@@ -1,10 +1,13 @@
 """Write state_split_reference.npz: runs and analyses before the state became (q, u).
 
-Generated once on main at commit a8859b4, before the state was split
+Generated on main at commit a8859b4, before the state was split
 into coordinates q and speeds u (``qd = W(q) u``, issue #29 item 1);
 tests/test_state_split.py checks that every model whose joints have
-``W = I`` gives the same results to 1e-10. Rerun only to add cases, from
-a checkout of that commit:
+``W = I`` gives the same results to 1e-10. Written again at 9b10609
+(a8859b4 with the generalized-alpha Newton norm of branch h-ga, before
+the split), since that change moves generalized-alpha runs within their
+tolerance: only ``fourbar_ga`` changed. Rerun only to add cases, from a
+checkout of that commit:
 
     python tests/data/make_state_split_reference.py
 """

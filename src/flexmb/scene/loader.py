@@ -456,7 +456,7 @@ class _Loader:
 
     def load_initial(self) -> InitialState:
         t = self.table("initial", self.data.get("initial", {}))
-        self.keys("initial", t, optional=("positions", "speeds", "fixed"))
+        self.keys("initial", t, optional=("positions", "speeds", "fixed", "hold_speeds"))
         out = {}
         for what in ("positions", "speeds"):
             values = _flatten(self.table(f"initial.{what}", t.get(what, {})))
@@ -472,7 +472,8 @@ class _Loader:
             self.fail("initial.fixed", f"must be an array of coordinate or joint names, got {_toml_type(fixed)}")
         for i, f in enumerate(fixed):
             self.string(f"initial.fixed[{i}]", f)
-        return InitialState(out["positions"], out["speeds"], tuple(fixed))
+        hold = self.boolean("initial.hold_speeds", t.get("hold_speeds", True))
+        return InitialState(out["positions"], out["speeds"], tuple(fixed), hold)
 
     def check_coordinates(self, system, initial: InitialState) -> None:
         names = system.coordinate_names

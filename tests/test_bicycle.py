@@ -156,3 +156,8 @@ def test_flexmb_run_bicycle(tmp_path, capsys):
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["status"] == "finished" and summary["scene"] == "bicycle"
     assert 0.05 < summary["max_lean_rad"] < 0.1 and summary["energy_balance"] < 1e-8
+    # a body and a joint share a name (rear_wheel): each is described by its own type
+    assert main(["info", "bicycle"]) == 0
+    out = capsys.readouterr().out
+    assert "  rear_wheel: rigid_body, mass 2 kg" in out and "  rear_wheel: revolute rear_frame -> rear_wheel" in out
+    assert "  frame: yaw_lean_pitch ground -> rear_frame" in out

@@ -1,6 +1,6 @@
 """
-Rolling and other velocity constraints: the Whipple bicycle, a rolling disc, a constraint of your own
-====================================================================================================
+Velocity constraints: the Whipple bicycle, a rolling disc, your own constraint
+==============================================================================
 
 Kane's method treats "holonomic and simple non-holonomic systems without
 introducing undetermined multipliers": the orthogonal complement that
@@ -39,6 +39,7 @@ published values, and its lean and steer after the push, in
 """
 
 import os
+import shutil
 import sys
 import tempfile
 import textwrap
@@ -332,8 +333,9 @@ swing_error = float(np.max(np.abs(q1 - 0.4 * np.cos(w * train.t))))
 print(f"element {type(gears.model.element('mesh')).__name__} ({train.constraint_labels[0]}): q1 - n q2 within "
       f"{ratio_error:.1e} rad; q1 = 0.4 cos({w:.4f} t) to {swing_error:.1e} rad")
 
-# a plugin installed for good would stay; this one leaves with its folder
-sys.path.remove(site)
+# a plugin installed for good would stay; this one leaves with its folder (the gallery may have reset the path)
+sys.path[:] = [p for p in sys.path if p != site]
+shutil.rmtree(site)
 sys.modules.pop("tutorial_gears", None)
 registry.refresh()
 
@@ -359,7 +361,7 @@ if __name__ == "__main__":
         ax1.set_ylim(-10, 10)
         ax1.plot([], [], ".", color="C0", label="flexmb")
         ax1.plot([], [], "o", mfc="none", color="C3", label="Meijaard et al. (2007), Table 2")
-        ax1.legend(fontsize="small", loc="lower left")
+        ax1.legend(fontsize="small", loc="upper right")
         fig.suptitle("The benchmark bicycle: lean and steer eigenvalues against speed")
         fig.tight_layout()
         fig.savefig(os.path.join("results", "11_velocity_constraints_bicycle.png"), dpi=120)

@@ -372,7 +372,7 @@ class _Loader:
                 ctor, what = shapes[shape], f"shape {shape!r}"
             body = self.call(path, ctor, name, rest, what)
             self.bodies[name] = body
-            self.types[path] = type_name
+            self.types[name] = self.types[path] = type_name
             model.add(body)
 
     def _load_plugins(self, model, section, what):
@@ -383,7 +383,7 @@ class _Loader:
             type_name, cls = self.plugin(path, section, t)
             built[name] = self.call(path, cls, name, {k: v for k, v in t.items() if k != "type"},
                                     f"{what} type {type_name!r}")
-            self.types[path] = type_name
+            self.types[name] = self.types[path] = type_name
             model.add(built[name])
         return built
 

@@ -33,9 +33,9 @@ class Scene:
     source : str
         The file the scene came from (for messages).
     types : dict of str to str
-        Plugin name of each body, joint, force and constraint element, by its
-        table (``"bodies.crank"``, ``"joints.A"``: a body and a joint may
-        share a name).
+        Plugin name of each body, joint, force and constraint element, by
+        element name, and by its table (``"bodies.crank"``, ``"joints.A"``),
+        which tells apart a body and a joint that share a name.
     runs : dict of str to Scene
         The scene's ``[runs]``, in file order: each the scene with some keys
         replaced. :meth:`run` runs each of them in turn into one folder

@@ -35,7 +35,7 @@ removes the loop rows removes velocity rows ``B(x, t) xd = b`` too
 
 Run as a script, it saves the bicycle's eigenvalues against speed with the
 published values, and its lean and steer after the push, in
-``results/11_velocity_constraints_*.png``.
+``results/12_velocity_constraints_*.png``.
 """
 
 import os
@@ -364,7 +364,7 @@ if __name__ == "__main__":
         ax1.legend(fontsize="small", loc="upper right")
         fig.suptitle("The benchmark bicycle: lean and steer eigenvalues against speed")
         fig.tight_layout()
-        fig.savefig(os.path.join("results", "11_velocity_constraints_bicycle.png"), dpi=120)
+        fig.savefig(os.path.join("results", "12_velocity_constraints_bicycle.png"), dpi=120)
 
         fig, ax = plt.subplots(figsize=(7.0, 3.5))
         ax.plot(ride.t, lean, label="lean (rad)")
@@ -374,5 +374,5 @@ if __name__ == "__main__":
         ax.legend(fontsize="small")
         ax.grid(True, alpha=0.3)
         fig.tight_layout()
-        fig.savefig(os.path.join("results", "11_velocity_constraints_push.png"), dpi=120)
+        fig.savefig(os.path.join("results", "12_velocity_constraints_push.png"), dpi=120)
         plt.show()

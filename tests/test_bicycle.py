@@ -126,3 +126,38 @@ def test_a_small_push_follows_the_linear_model(bicycle):
         got = res.x[:, res.coordinate_names.index(name)]
         want = linear[:, lin.states.index(name)]
         assert np.max(np.abs(got - want)) < 2e-6 * np.max(np.abs(want))
+
+
+def test_the_builtin_scene_is_the_benchmark_bicycle(bicycle):
+    """``flexmb run bicycle`` runs a scene file: the same model as :func:`benchmark_bicycle` (Table 2's
+    eigenvalues from the scene's system) and the push at 4.6 m/s as :func:`pushed` runs it."""
+    from flexmb.scene import load_builtin
+
+    scene = load_builtin("bicycle")
+    system = scene.system()
+    assert system.coordinate_names == bicycle.coordinate_names and system.dof() == 3
+    for v in (0, 5):
+        np.testing.assert_allclose(np.sort_complex(upright_eigenvalues(system, float(v))),
+                                   np.sort_complex(published(v)), rtol=1e-8, atol=0)
+    res = scene.simulate(t_end=0.5, n_out=11)
+    ref = pushed(bicycle, 4.6, 0.5, 0.5, rtol=scene.solver.rtol, atol=scene.solver.atol, n_out=11)
+    np.testing.assert_allclose(res.x, ref.x, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(res.xd, ref.xd, rtol=0, atol=1e-11)
+    assert res.xd[0, res.coordinate_names.index("frame.x")] == pytest.approx(4.6, rel=1e-12)
+
+
+def test_flexmb_run_bicycle(tmp_path, capsys):
+    import json
+
+    from flexmb.cli import main
+
+    assert main(["run", "bicycle", "--out", str(tmp_path), "--t-end", "0.2", "--quiet"]) == 0
+    capsys.readouterr()
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["status"] == "finished" and summary["scene"] == "bicycle"
+    assert 0.05 < summary["max_lean_rad"] < 0.1 and summary["energy_balance"] < 1e-8
+    # a body and a joint share a name (rear_wheel): each is described by its own type
+    assert main(["info", "bicycle"]) == 0
+    out = capsys.readouterr().out
+    assert "  rear_wheel: rigid_body, mass 2 kg" in out and "  rear_wheel: revolute rear_frame -> rear_wheel" in out
+    assert "  frame: yaw_lean_pitch ground -> rear_frame" in out

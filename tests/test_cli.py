@@ -159,7 +159,7 @@ def test_an_unknown_scene_name_lists_the_built_in_scenes(capsys):
     assert main(["run", "wipper", "--out", "unused"]) == 3
     err = capsys.readouterr().err
     assert err == ("flexmb: error: wipper: cannot read the scene file: no such file, and no built-in scene of "
-                   "that name (the built-in scenes: fourbar, wiper)\n")
+                   "that name (the built-in scenes: bicycle, fourbar, wiper)\n")
 
 
 def test_builtin_scene_names_still_run(tmp_path, capsys):

@@ -343,7 +343,10 @@ def test_files_hold_numbers_only_and_meshio_and_vtk_read_the_same(cantilever, tm
     np.testing.assert_array_equal(mesh.points, expected.points)
     for name, value in expected.point_data.items():
         np.testing.assert_array_equal(mesh.point_data[name], value)
-    assert mesh.cell_data.keys() == expected.cell_data.keys() == {"body_id", "joint_id", "segment", "part_id"}
+    assert mesh.cell_data.keys() == expected.cell_data.keys() == {"body_id", "joint_id", "segment", "part_id",
+                                                                  "angular_velocity"}
+    for name, value in expected.cell_data.items():
+        np.testing.assert_array_equal(np.concatenate(mesh.cell_data[name]), np.concatenate(value))
     pv = pytest.importorskip("pyvista")
     grid = pv.read(path)
     assert vtk.table_names(grid.field_data) == ["beam"]
@@ -674,3 +677,39 @@ def test_paraview_script_in_pvbatch(cantilever, tmp_path):
                               cwd=tmp_path, env={**os.environ, "DISPLAY": display})
     assert proc.returncode == 0, proc.stderr[:1500] + "\n...\n" + proc.stderr[-1000:]
     assert (tmp_path / "beam.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def _top():
+    model = fm.Model("top")
+    body = fm.RigidBody("top", 2.0, (0.05, 0.08, 0.03), com=(0.1, 0.2, -0.5))
+    return model.add(fm.Spherical("ball", model.ground, body), fm.Gravity((0.0, 0.0, -9.81)))
+
+
+@pytest.mark.parametrize("which", ["fourbar", "top"])
+def test_angular_velocity_cell_data_read_back_by_meshio(which, fourbar_result, tmp_path):
+    """Every cell carries the angular velocity of the body it draws: exact with the system, O(dt^2) without."""
+    if which == "fourbar":
+        res, model = fourbar_result, fourbar()
+    else:
+        model = _top()
+        res = fm.simulate(model, 0.2, speeds=[fm.AngularVelocity("top", (1.5, -0.5, 3.0))], n_out=41, rtol=1e-10,
+                          atol=1e-12)
+    system = model.build()
+    exact = {b: res.angular_velocity(b, system=system) for b in res.body_names}
+    assert max(np.abs(w).max() for w in exact.values()) > 0.5
+    _, files = _read_all(vtk.export_vtk(res, tmp_path / "sys", system=system))
+    _, plain = _read_all(vtk.export_vtk(res, tmp_path / "plain"))
+    for i in (0, len(res.t) // 2, len(res.t) - 1):
+        for path, tol in ((files[i][1], 1e-12), (plain[i][1], 2e-2)):
+            mesh = meshio.read(path)
+            names = vtk.table_names(mesh.field_data, "body")
+            ids = np.concatenate(mesh.cell_data["body_id"])
+            w = np.concatenate(mesh.cell_data["angular_velocity"])
+            parts = np.concatenate(mesh.cell_data["part_id"])
+            assert w.shape == (len(ids), 3)
+            shape = parts == vtk.PARTS.index("shape")
+            assert shape.sum() == len(res.body_names)
+            for k, name in enumerate(names):
+                on = shape & (ids == k)
+                np.testing.assert_allclose(w[on], np.broadcast_to(exact[name][i], w[on].shape), rtol=0,
+                                           atol=tol * max(1.0, np.abs(exact[name]).max()), err_msg=f"{name} {path}")

@@ -103,3 +103,71 @@ def test_bad_specifications_are_refused():
         m = fourbar()
         fm.initial_state(m.build(), positions=fourbar_initial(THETA),
                          speeds=[fm.PointVelocity(m.ground, (0, 0, 0), (1, 0, 0))])
+
+
+BETA, THETA1, W1 = 0.5, 0.7, 2.0
+
+CARDAN = f"""
+[model]
+name = "cardan"
+
+[bodies.shaft1]
+mass = 1.0
+inertia = [0.01, 0.1, 0.1]
+[bodies.shaft2]
+mass = 1.0
+inertia = [0.01, 0.1, 0.1]
+
+[joints.bearing1]
+type = "revolute"
+parent = "ground"
+child = "shaft1"
+axis = [1.0, 0.0, 0.0]
+[joints.bearing2]
+type = "revolute"
+parent = "ground"
+child = "shaft2"
+axis = [{np.cos(BETA)}, {np.sin(BETA)}, 0.0]
+[joints.cardan]
+type = "universal"
+parent = "shaft1"
+child = "shaft2"
+axis = [0.0, 0.0, 1.0]
+axis2 = [{-np.sin(BETA)}, {np.cos(BETA)}, 0.0]
+cut = true
+
+[drivers.motor]
+joint = "bearing1"
+speed = {W1}
+start = {THETA1}
+
+[initial]
+positions = {{ bearing1 = {THETA1}, bearing2 = 0.6 }}
+speeds = {{ bearing2 = 1.0 }}
+
+[solver]
+t_end = 0.01
+n_out = 2
+"""
+
+
+def test_a_cardan_joint_speed_that_contradicts_its_driver_is_refused_unless_the_driver_wins():
+    """Issue #29's example: a driven Hooke joint between two bearings at BETA, the output bearing given a speed.
+
+    The output turns at ``w2 = w1 cos(BETA) / (1 - sin(BETA)^2 sin(theta1)^2)`` (theta1 from where the input
+    fork is normal to the shafts' plane), so 1 rad/s contradicts the driver's 2 rad/s: refused naming the speed
+    and the driver (it was accepted, and the first output row violated the driver); with hold_speeds = false
+    the driver wins and the output bearing turns at the Hooke joint's rate.
+    """
+    scene = fm.loads_scene(CARDAN)
+    with pytest.raises(ModelError, match=r"bearing2\.angle.*contradict.*driver motor.*hold_speeds=False"):
+        scene.simulate()
+    scene = fm.loads_scene(CARDAN.replace("speeds = {", "hold_speeds = false\nspeeds = {"))
+    assert scene.initial.hold_speeds is False
+    res = scene.simulate()
+    w2 = W1 * np.cos(BETA) / (1 - np.sin(BETA) ** 2 * np.sin(THETA1) ** 2)
+    assert res.xd[0, res.coordinate_names.index("bearing1.angle")] == pytest.approx(W1, abs=1e-12)
+    assert abs(res.xd[0, res.coordinate_names.index("bearing2.angle")]) == pytest.approx(w2, rel=1e-10)
+    assert w2 - 1.0 > 0.5  # the speed given was far from the one allowed
+    with pytest.raises(fm.SceneError, match=r"initial\.hold_speeds.*true or false"):
+        fm.loads_scene(CARDAN.replace("speeds = {", "hold_speeds = 1\nspeeds = {"))

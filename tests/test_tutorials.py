@@ -12,7 +12,11 @@ tanh law, energy lost = drag work) and screw joint (finite differences, a
 falling nut's constant acceleration), used from a scene by plugin name;
 Southwell's coefficient of a spinning beam, the rigid inertia of a flexible
 arm and its clamped-blade zeros, and a PD loop's static gain and its
-nonlinear simulation against the linear prediction.
+nonlinear simulation against the linear prediction; the Whipple bicycle's
+eigenvalues, weave and capsize speeds against Meijaard et al. (2007), a
+rolling disc's steady precession and critical spin against their closed
+forms, and a user's gear pair found through its entry point and run from a
+scene file.
 """
 
 from __future__ import annotations
@@ -44,7 +48,7 @@ def test_every_tutorial_is_tested():
     assert sorted(p.name for p in TUTORIALS.glob("[0-9][0-9]_*.py")) == [
         "01_pendulum.py", "02_fourbar.py", "03_cantilever.py", "04_wiper.py", "05_custom_elements.py",
         "06_export_paraview.py", "07_speed_vs_error.py", "08_parameter_study.py", "09_notebook.py",
-        "10_linear_control.py", "11_contact.py"]
+        "10_linear_control.py", "11_contact.py", "12_velocity_constraints.py"]
 
 
 def test_pendulum(run):
@@ -310,3 +314,33 @@ def test_contact(run):
     assert 5.0 < ns["right_normal_mean"] < 20.0
     assert ns["tip_gap"] < 2e-3
     assert ns["friction_work"]["pressed by a spring"] > ns["friction_work"]["prescribed load"] > 0
+
+
+def test_velocity_constraints(run):
+    import sys
+
+    from flexmb import registry
+
+    ns = run("12_velocity_constraints.py")
+    # Meijaard et al. (2007), Table 2 and the weave and capsize speeds (published to 14 digits)
+    assert ns["table_error"] < 1e-8
+    assert ns["weave_error"] < 1e-8 and ns["capsize_error"] < 1e-8
+    assert ns["weave"] == pytest.approx(4.29238253634111, rel=1e-8)
+    assert ns["capsize"] == pytest.approx(6.02426201538837, rel=1e-8)
+    stable = ns["speeds"][ns["stable"]]
+    assert stable.min() == pytest.approx(4.3) and stable.max() == pytest.approx(6.0)
+    # the push at 4.6 m/s dies out; rolling does no work
+    assert ns["lean_first"] > 0.1 and ns["lean_last"] < 0.25 * ns["lean_first"]
+    assert ns["energy_drift"] < 1e-8
+    # the disc: steady precession held, the critical spin's eigenvalues, omega along the axis = w3
+    assert ns["steady_error"] < 1e-8
+    assert ns["disc_error"] < 1e-8
+    assert ns["critical"] == pytest.approx(np.sqrt(9.81 / 0.9), rel=1e-15)
+    np.testing.assert_allclose(ns["w_body"][:, 1], ns["w3"], rtol=1e-9)
+    # the user's gear pair, found through its entry point: the ratio, and the reflected inertia's swing
+    assert ns["origin"] == "tutorial-gears 1.0"
+    assert ns["ratio_error"] < 1e-10
+    assert ns["w"] == pytest.approx(np.sqrt(40.0 / (0.02 + 0.5 / 9.0)), rel=1e-15)
+    assert ns["swing_error"] < 1e-7
+    # and it leaves nothing installed
+    assert "user_gear_pair" not in registry.names("constraints") and "tutorial_gears" not in sys.modules

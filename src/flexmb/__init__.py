@@ -13,7 +13,8 @@ import logging as _logging
 from .bodies import Body, Ground, Marker, RigidBody
 from .complements import COMPLEMENTS, ComplementStrategy, EigenComplement, SVDComplement, get_complement
 from .drivers import Driver
-from .constraint_elements import ConstraintElement, GearPair, KnifeEdge, RollingDisc, velocity_rows
+from .constraint_elements import (ConstraintElement, CurveConstraint, Distance, GearPair, KnifeEdge, PointOnCircle,
+                                  PointOnCurve, PointOnLine, RollingDisc, velocity_rows)
 from .errors import (AssemblyError, ExportError, FlexmbError, ModelError, PluginError, SceneError, SimulationError,
                      StiffnessWarning)
 from .forces import BodyTorque, ForceElement, Gravity, JointSpringDamper, Loads, PointForce, SpringDamper
@@ -47,7 +48,8 @@ __all__ = [
     "Body", "Ground", "Marker", "RigidBody",
     "COMPLEMENTS", "ComplementStrategy", "EigenComplement", "SVDComplement", "get_complement",
     "Driver",
-    "ConstraintElement", "GearPair", "KnifeEdge", "RollingDisc", "velocity_rows",
+    "ConstraintElement", "CurveConstraint", "Distance", "GearPair", "KnifeEdge", "PointOnCircle", "PointOnCurve",
+    "PointOnLine", "RollingDisc", "velocity_rows",
     "AssemblyError", "ExportError", "FlexmbError", "ModelError", "PluginError", "SimulationError",
     "BodyTorque", "ForceElement", "Gravity", "JointSpringDamper", "Loads", "PointForce", "SpringDamper",
     "SpherePlaneContact", "SphereSphereContact", "JournalBearingContact", "LinearContactLaw", "HuntCrossleyLaw",

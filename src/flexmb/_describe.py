@@ -67,7 +67,9 @@ def describe(system, x0, xd0, *, types=None, where="the initial state") -> list[
         The state at which the rank of psi is taken.
     types : dict of str to str, optional
         The name each element is known by (a scene's plugin names,
-        ``rigid_body``, ``revolute``, ...); default: the class names.
+        ``rigid_body``, ``revolute``, ...), by its scene table
+        (``"bodies.crank"``, ``"joints.A"``, ``"forces.gravity"``,
+        ``"constraints.roll"``); default: the class names.
     where : str
         What the state is, for the rank's line.
 
@@ -85,7 +87,8 @@ def describe(system, x0, xd0, *, types=None, where="the initial state") -> list[
         extra = ""
         if isinstance(b, FlexibleBody):
             extra = f", {b.n_segments} segments keeping {', '.join(b.keep)} ({b.n_elastic} elastic coordinates)"
-        lines.append(f"  {b.name}: {types.get(b.name, type(b).__name__)}, mass {b.mass:.6g} kg{extra}")
+        kind = types.get("bodies." + b.name, type(b).__name__)
+        lines.append(f"  {b.name}: {kind}, mass {b.mass:.6g} kg{extra}")
     cuts = set(system.topology.cut_joints)
     lines.append(f"joints ({len(model.joints)}):")
     for j in model.joints:
@@ -95,14 +98,16 @@ def describe(system, x0, xd0, *, types=None, where="the initial state") -> list[
             what = f"cut joint closing a loop, {rows} constraint rows"
         else:
             what = "coordinates " + (", ".join(mine) if mine else "none")
-        lines.append(f"  {j.name}: {types.get(j.name, type(j).__name__)} {j.parent.name} -> {j.child.name}; {what}")
+        kind = types.get("joints." + j.name, type(j).__name__)
+        lines.append(f"  {j.name}: {kind} {j.parent.name} -> {j.child.name}; {what}")
     if model.forces:
-        lines.append("forces: " + ", ".join(f"{f.name} ({types.get(f.name, type(f).__name__)})"
+        lines.append("forces: " + ", ".join(f"{f.name} ({types.get('forces.' + f.name, type(f).__name__)})"
                                             for f in model.forces))
     for e in model.constraints:
         kinds = [f"{k} {what} row{'s' if k > 1 else ''}" for k, what in ((e.n_position, "position"),
                                                                         (e.n_velocity, "velocity")) if k]
-        lines.append(f"constraint {e.name}: {types.get(e.name, type(e).__name__)}, {' and '.join(kinds) or 'no rows'}")
+        kind = types.get("constraints." + e.name, type(e).__name__)
+        lines.append(f"constraint {e.name}: {kind}, {' and '.join(kinds) or 'no rows'}")
     for d in model.drivers:
         lines.append(f"driver {d.name}: drives {names[system.coordinate_slice(d.joint).start + d.coordinate]}")
     m, rank, p = counts(system, x0, xd0)

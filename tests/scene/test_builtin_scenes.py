@@ -40,7 +40,7 @@ def _run(scene, out, capsys) -> dict:
 
 
 def test_builtin_scenes_are_the_shipped_files():
-    assert builtin_scenes() == ["fourbar", "wiper"]
+    assert builtin_scenes() == ["bicycle", "fourbar", "wiper"]
     assert WIPER.is_file()
     scene = load_builtin("wiper")
     assert scene.source == "wiper" and list(scene.runs) == ["rigid", "flexible"]

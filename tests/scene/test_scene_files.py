@@ -87,6 +87,8 @@ NO_SCENE_FILE = {
     "05_custom_elements.py",
     # its models are built in Python for a sweep (a spin rate per model) and with a controller the script defines
     "10_linear_control.py",
+    # it runs the built-in scene 'bicycle', and a scene string naming the constraint plugin the script installs
+    "12_velocity_constraints.py",
 }
 # tutorials that use another tutorial's model: 07 measures tutorial 03's beam, 08 varies the wiper's scene files,
 # 09 shows the four-bar in a notebook

@@ -53,3 +53,20 @@ def test_time_series_outputs(scene_file, tmp_path):
     assert (tmp_path / "study.png").is_file()
     header, first = (tmp_path / "table.csv").read_text().splitlines()[:2]
     assert json.loads(next(c for c in first.split('"') if c.startswith("[")))[-1] == history[0, -1]
+
+
+def test_time_series_of_vectors(scene_file, tmp_path):
+    """A point's velocity and a body's angular velocity per case: (n_cases, n_t, 3) arrays, NaN for a failed case."""
+    res = Study.from_file(scene_file, {"bodies.bar.mass": [1.0, -1.0]},
+                          outputs=["velocity:tip", "angular_velocity:bar", "peak_angular_speed:bar"],
+                          fixed={"solver.t_end": 0.2, "solver.n_out": 11}).run(tmp_path, executor="serial",
+                                                                             progress=False)
+    v, w = res.column("velocity:tip"), res.column("angular_velocity:bar")
+    assert v.shape == w.shape == (2, 11, 3) and np.all(np.isnan(v[1]))
+    # the tip 1 m along the bar pinned about z: v = omega x r, |v| = |omega_z| 1 m, omega along z only
+    assert np.abs(w[0, :, :2]).max() == 0.0 and np.abs(w[0, -1, 2]) > 0.5
+    np.testing.assert_allclose(np.linalg.norm(v[0], axis=1), np.abs(w[0, :, 2]), rtol=1e-12)
+    assert res.column("peak_angular_speed:bar")[0] == pytest.approx(np.abs(w[0, :, 2]).max(), rel=1e-14)
+    assert res.scalar_outputs == ["peak_angular_speed:bar"]
+    npz = np.load(tmp_path / "table.npz")
+    assert npz["velocity:tip"].shape == (2, 11, 3)

@@ -417,15 +417,46 @@ class _Layout:
             out[field] = self.station_values(s)
         return out
 
-    def exact_velocities(self, system, t, x, xd, P) -> np.ndarray:
-        """Velocities of the points from the kinematics of ``system`` (eq. 17), m/s, shape like P."""
+    def exact_velocities(self, system, t, x, xd, P):
+        """Velocities of the points from the kinematics of ``system`` (eq. 17), and the rows' angular velocities.
+
+        Returns ``(V, omega)``: V in m/s, shaped like P; omega (rad/s, inertial axes), shape
+        (len(t), n_rows + 1, 3), the ground's (0) last.
+        """
         nt = len(t)
         omega, v, r = (np.empty((nt, self.n_rows + 1, 3)) for _ in range(3))
         for i in range(nt):  # one compiled kinematics per output time; the points are vectorised
             kin = system.kinematics(t[i], x[i], xd[i])
             omega[i], v[i], r[i] = kin.omega, kin.v, kin.r
         k = self.row
-        return v[:, k] + np.cross(omega[:, k], P - r[:, k])
+        return v[:, k] + np.cross(omega[:, k], P - r[:, k]), omega
+
+    def differenced_angular_velocities(self, result) -> np.ndarray:
+        """The rows' angular velocities from differences of their rotations over the output times.
+
+        ``omega`` is the axial vector of ``Rdot R^T`` (its skew part), with
+        ``Rdot`` from ``np.gradient`` as the points' velocities without a
+        system (O(dt^2) in the output spacing; NaN with one output).
+
+        Returns
+        -------
+        ndarray, shape (nt, n_rows + 1, 3)
+            rad/s, inertial axes, the ground's (0) last.
+        """
+        t = np.asarray(result.t, dtype=float)
+        R = self._extended(np.asarray(result.rotations, dtype=float), np.eye(3))
+        if len(t) < 2:
+            return np.full(R.shape[:2] + (3,), np.nan)
+        if np.any(np.diff(t) <= 0):
+            raise ExportError("result.t must be increasing to difference rotations into angular velocities")
+        Rd = np.gradient(R, t, axis=0, edge_order=2 if len(t) > 2 else 1)
+        W = np.einsum("tkij,tklj->tkil", Rd, R)
+        W = 0.5 * (W - np.swapaxes(W, -1, -2))
+        return np.stack([W[..., 2, 1], W[..., 0, 2], W[..., 1, 0]], axis=-1)
+
+    def cell_rows(self) -> list[np.ndarray]:
+        """For each cell block, the body row of each cell: that of its first point (a segment's, a joint's body)."""
+        return [self.row[conn[:, 0]] for _, conn, _ in self.blocks]
 
     def cell_blocks(self):
         """meshio cell blocks and cell data (constant over time)."""

@@ -133,21 +133,25 @@ def _meshes(result, frames, system=None, triad=0.0, extra=None, reference=None):
     x = np.asarray(result.x, dtype=float)
     if system is not None:
         P = layout.positions(result, frames)
-        V = layout.exact_velocities(system, t[frames], x[frames], np.asarray(result.xd, dtype=float)[frames], P)
+        V, omega = layout.exact_velocities(system, t[frames], x[frames], np.asarray(result.xd, dtype=float)[frames],
+                                           P)
     else:
         P_all = layout.positions(result)
         V = _fd_velocities(result, P_all)[frames]
+        omega = layout.differenced_angular_velocities(result)[frames]
         P = P_all[frames]
     point_data = {"elastic_displacement": layout.elastic_displacement(result, frames, P), "velocity": V,
                   **layout.elastic_values(x[frames])}
     if system is not None and layout.bodies:
         point_data.update(_section_values(layout, result, frames))
     cells, cell_data = layout.cell_blocks()
+    cell_rows = layout.cell_rows()
     tables = layout.tables()
     contacts = _contact_values(system, result, frames) if system is not None and reference is None else None
     if contacts is not None:
         P, point_data, cells, cell_data = _with_contacts(P, point_data, cells, cell_data, contacts)
         tables.update({f"contact:{name}": np.array([k], dtype=np.int64) for k, name in enumerate(contacts[0])})
+        cell_rows.append(np.full(len(contacts[0]), layout.n_rows))  # a contact point: the ground's 0
     base = layout.positions(result, [reference])[0] if reference is not None else None
     cache: dict = {}  # the XML of what the frames share (see _vtu_text)
     for n, i in enumerate(frames):
@@ -159,7 +163,10 @@ def _meshes(result, frames, system=None, triad=0.0, extra=None, reference=None):
         if base is not None:
             pd = {"displacement": points - base, **pd}
             points = base
-        mesh = meshio.Mesh(points, cells, point_data=pd, cell_data=cell_data, field_data=field_data)
+        # the cells' angular velocities (those of the bodies or segments they draw) change with the frame; the
+        # other cell data are the same arrays in every frame (their XML is made once, flexmb.export.vtu)
+        cd = {**cell_data, "angular_velocity": [omega[n][rows] for rows in cell_rows]}
+        mesh = meshio.Mesh(points, cells, point_data=pd, cell_data=cd, field_data=field_data)
         mesh._vtu_cache = cache
         yield mesh
 
@@ -287,7 +294,10 @@ def to_meshio(result, i: int, *, system=None, triad: float = 0.0) -> "meshio.Mes
         ``moment_bend_z`` (N m) and ``von_mises`` (Pa) there. Cell data
         ``body_id`` (see :func:`body_names`), ``joint_id`` (-1 for cells
         that are not a joint's), ``segment`` (-1 for rigid bodies),
-        ``part_id`` (:data:`PARTS`). Field data ``time`` and ``TimeValue``
+        ``part_id`` (:data:`PARTS`) and ``angular_velocity`` (rad/s,
+        inertial axes: that of the body, or the flexible body's segment, the
+        cell draws, the body of its first point; exact with ``system``, from
+        differences of the rotations without it; 0 for contact points). Field data ``time`` and ``TimeValue``
         (s), and the name tables of the ids, one entry ``"body:<name>"``,
         ``"joint:<name>"``, ``"part:<name>"`` holding the id per name
         (:func:`table_names` reads them back). The mesh is what the

@@ -33,7 +33,9 @@ coordinates of the segment joints (``bending_y``, ``bending_z``,
 them) and, with a system, the section loads ``moment_torsion``,
 ``moment_bend_y``, ``moment_bend_z`` (N m) and ``von_mises`` (Pa)
 (:mod:`flexmb.post`). Cell data: ``body_id``, ``joint_id``, ``segment``,
-``part_id``. Field data: ``time``, ``TimeValue`` (ParaView's time of a
+``part_id`` and ``angular_velocity`` (rad/s, inertial axes: that of the
+body or segment a cell draws; exact with a system, from differences of the
+rotations without). Field data: ``time``, ``TimeValue`` (ParaView's time of a
 file), and the names of the ids, one entry ``"body:<name>"``,
 ``"joint:<name>"``, ``"part:<name>"`` holding its id (:func:`table_names`;
 ``open_in_paraview.py`` colours by ``body_id`` as categories labelled with

@@ -61,8 +61,23 @@ def _data_array(name, a, field=False) -> str:
             f'{_binary(a)}</DataArray>\n')
 
 
+def _cell_data_text(mesh, cache) -> str:
+    """The CellData XML of a mesh; an array given as the same per-block arrays as before is taken from ``cache``."""
+    parts = []
+    for name, values in mesh.cell_data.items():
+        hit = cache.get(("cell", name)) if cache is not None else None
+        if hit is not None and len(hit[0]) == len(values) and all(a is b for a, b in zip(hit[0], values)):
+            parts.append(hit[1])
+            continue
+        text = _data_array(name, np.concatenate([np.asarray(v) for v in values]))
+        if cache is not None:
+            cache[("cell", name)] = (list(values), text)
+        parts.append(text)
+    return "".join(["<CellData>\n", *parts, "</CellData>\n"])
+
+
 def _cells_text(mesh) -> tuple[str, int]:
-    """The CellData and Cells XML of a mesh, and its number of cells."""
+    """The Cells XML of a mesh, and its number of cells."""
     conn, offsets, types = [], [], []
     end = 0
     for block in mesh.cells:
@@ -72,11 +87,7 @@ def _cells_text(mesh) -> tuple[str, int]:
         end += data.size
         vtk_type = _VTK_CELLS.get(block.type) or meshio._vtk_common.meshio_to_vtk_type[block.type]
         types.append(np.full(len(data), vtk_type, dtype=np.uint8))
-    cell_data = {name: np.concatenate([np.asarray(v) for v in values]) for name, values in mesh.cell_data.items()}
     text = "".join([
-        "<CellData>\n",
-        *(_data_array(k, v) for k, v in cell_data.items()),
-        "</CellData>\n",
         "<Cells>\n",
         _data_array("connectivity", np.concatenate(conn) if conn else np.zeros(0, dtype=np.int64)),
         _data_array("offsets", np.concatenate(offsets) if offsets else np.zeros(0, dtype=np.int64)),
@@ -89,20 +100,21 @@ def _cells_text(mesh) -> tuple[str, int]:
 def _vtu_text(mesh) -> str:
     """The VTU XML of a meshio mesh: binary point and cell data, ASCII field data.
 
-    The meshes of one export share their cells, cell data and name tables
-    (and a ``_vtu_cache`` dict): their XML is made once.
+    The meshes of one export share their cells, the cell data that do not
+    change, and name tables (and a ``_vtu_cache`` dict): their XML is made
+    once.
     """
     byte_order = "LittleEndian" if sys.byteorder == "little" else "BigEndian"
     field = dict(mesh.field_data)
     cache = getattr(mesh, "_vtu_cache", None)
     hit = cache.get("cells") if cache is not None else None
-    if hit and len(hit[0]) == len(mesh.cells) and all(a is b for a, b in zip(hit[0], mesh.cells)) \
-            and hit[1] is mesh.cell_data:
-        cells, n_cells = hit[2:]
+    if hit and len(hit[0]) == len(mesh.cells) and all(a is b for a, b in zip(hit[0], mesh.cells)):
+        cells, n_cells = hit[1:]
     else:
         cells, n_cells = _cells_text(mesh)
         if cache is not None:
-            cache["cells"] = (list(mesh.cells), mesh.cell_data, cells, n_cells)
+            cache["cells"] = (list(mesh.cells), cells, n_cells)
+    cells = _cell_data_text(mesh, cache) + cells
 
     def field_array(name, value):
         if cache is None:

@@ -178,13 +178,13 @@ def builtin_scenes() -> list[str]:
     Returns
     -------
     list of str
-        Sorted names (``'fourbar'``, ``'wiper'``), each runnable as ``flexmb run NAME``.
+        Sorted names (``'bicycle'``, ``'fourbar'``, ``'wiper'``), each runnable as ``flexmb run NAME``.
 
     Examples
     --------
     >>> from flexmb.scene import builtin_scenes
     >>> builtin_scenes()
-    ['fourbar', 'wiper']
+    ['bicycle', 'fourbar', 'wiper']
     """
     return sorted(f.name.removesuffix(".toml") for f in _builtin_folder().iterdir() if f.name.endswith(".toml"))
 

@@ -372,7 +372,7 @@ class _Loader:
                 ctor, what = shapes[shape], f"shape {shape!r}"
             body = self.call(path, ctor, name, rest, what)
             self.bodies[name] = body
-            self.types[name] = type_name
+            self.types[name] = self.types[path] = type_name
             model.add(body)
 
     def _load_plugins(self, model, section, what):
@@ -383,7 +383,7 @@ class _Loader:
             type_name, cls = self.plugin(path, section, t)
             built[name] = self.call(path, cls, name, {k: v for k, v in t.items() if k != "type"},
                                     f"{what} type {type_name!r}")
-            self.types[name] = type_name
+            self.types[name] = self.types[path] = type_name
             model.add(built[name])
         return built
 
@@ -456,7 +456,7 @@ class _Loader:
 
     def load_initial(self) -> InitialState:
         t = self.table("initial", self.data.get("initial", {}))
-        self.keys("initial", t, optional=("positions", "speeds", "fixed"))
+        self.keys("initial", t, optional=("positions", "speeds", "fixed", "hold_speeds"))
         out = {}
         for what in ("positions", "speeds"):
             values = _flatten(self.table(f"initial.{what}", t.get(what, {})))
@@ -472,7 +472,8 @@ class _Loader:
             self.fail("initial.fixed", f"must be an array of coordinate or joint names, got {_toml_type(fixed)}")
         for i, f in enumerate(fixed):
             self.string(f"initial.fixed[{i}]", f)
-        return InitialState(out["positions"], out["speeds"], tuple(fixed))
+        hold = self.boolean("initial.hold_speeds", t.get("hold_speeds", True))
+        return InitialState(out["positions"], out["speeds"], tuple(fixed), hold)
 
     def check_coordinates(self, system, initial: InitialState) -> None:
         for what, values in (("positions", initial.positions), ("speeds", initial.speeds),

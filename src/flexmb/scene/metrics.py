@@ -23,12 +23,51 @@ def _peak_speed(scene, res, label):
 
 
 def _peak_speed_exact(scene, res, label):
+    return float(np.linalg.norm(_point_motion(scene, res, label, 1), axis=1).max())
+
+
+def _point_motion(scene, res, label, derivative):
+    """A tracked point's position, velocity or acceleration history, exact from the kinematics (eq. 17)."""
     from ..post.motion import point_motion
 
-    body, point = scene.output.points[label]
     # the system the result came from, kept on it (a loaded result has none: compile the scene's)
-    v = point_motion(res, body, point, 1, res.system if res.system is not None else scene.system())
-    return float(np.linalg.norm(v, axis=1).max())
+    body, point = scene.output.points[label]
+    return point_motion(res, body, point, derivative, res.system if res.system is not None else scene.system())
+
+
+def _position(scene, res, label):
+    return _point_motion(scene, res, label, 0).tolist()
+
+
+def _velocity(scene, res, label):
+    return _point_motion(scene, res, label, 1).tolist()
+
+
+def _acceleration(scene, res, label):
+    return _point_motion(scene, res, label, 2).tolist()
+
+
+def _peak_acceleration(scene, res, label):
+    return float(np.linalg.norm(_point_motion(scene, res, label, 2), axis=1).max())
+
+
+def _omega(scene, res, body, frame):
+    from ..post.motion import angular_velocity
+
+    system = res.system if res.system is not None else scene.system()
+    return angular_velocity(res, body, frame, (0.0, 0.0, 0.0), system)
+
+
+def _angular_velocity(scene, res, body):
+    return _omega(scene, res, body, "inertial").tolist()
+
+
+def _body_angular_velocity(scene, res, body):
+    return _omega(scene, res, body, "body").tolist()
+
+
+def _peak_angular_speed(scene, res, body):
+    return float(np.linalg.norm(_omega(scene, res, body, "inertial"), axis=1).max())
 
 
 def _max_displacement(scene, res, label):
@@ -92,6 +131,18 @@ OUTPUTS = {
     "peak_speed_exact": (_peak_speed_exact, "point", "largest speed of a tracked point, exact from the kinematics "
                                                      "of each output state (eq. 17), m/s"),
     "max_displacement": (_max_displacement, "point", "largest distance of a tracked point from its start, m"),
+    "position": (_position, "point", "a tracked point's inertial position at every output time, m (a time series of "
+                                     "3-vectors)"),
+    "velocity": (_velocity, "point", "a tracked point's inertial velocity at every output time, exact (eq. 17), m/s "
+                                     "(a time series of 3-vectors)"),
+    "acceleration": (_acceleration, "point", "a tracked point's inertial acceleration at every output time, exact, "
+                                             "m/s^2 (a time series of 3-vectors)"),
+    "peak_acceleration": (_peak_acceleration, "point", "largest acceleration of a tracked point, exact, m/s^2"),
+    "angular_velocity": (_angular_velocity, "body", "a body's angular velocity in inertial axes at every output "
+                                                    "time, rad/s (a time series of 3-vectors)"),
+    "body_angular_velocity": (_body_angular_velocity, "body", "a body's angular velocity in its own axes at every "
+                                                              "output time, rad/s (a time series of 3-vectors)"),
+    "peak_angular_speed": (_peak_angular_speed, "body", "largest magnitude of a body's angular velocity, rad/s"),
     "peak_effort": (_peak_effort, "driver", "largest |torque| (N m) or |force| (N) a driver supplies"),
     "driver_work": (_driver_work, "driver", "work of a driver over the run, J (needs track_work)"),
     "energy_balance": (_energy_balance, None, "energy-balance error relative to the largest work or energy"),
@@ -121,10 +172,12 @@ def _check_output(spec, scene, system) -> None:
             raise FlexmbError(f"output {spec!r}: {name} takes no argument")
         return
     known = {"point": list(scene.output.points), "driver": [d.name for d in scene.model.drivers],
+             "body": [b.name for b in scene.model.bodies],
              "coordinate": list(system.coordinate_names)
              + sorted({n.rsplit(".", 1)[0] for n in system.coordinate_names})}[needs]
     if arg not in known:
-        raise FlexmbError(f"output {spec!r}: write {name}:<{needs}>; {needs}s of this scene: "
+        plural = "bodies" if needs == "body" else f"{needs}s"
+        raise FlexmbError(f"output {spec!r}: write {name}:<{needs}>; {plural} of this scene: "
                           f"{', '.join(known) or 'none'}")
 
 

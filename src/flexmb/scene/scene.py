@@ -33,7 +33,9 @@ class Scene:
     source : str
         The file the scene came from (for messages).
     types : dict of str to str
-        Plugin name of each body, joint and force element, by element name.
+        Plugin name of each body, joint, force and constraint element, by
+        element name, and by its table (``"bodies.crank"``, ``"joints.A"``),
+        which tells apart a body and a joint that share a name.
     runs : dict of str to Scene
         The scene's ``[runs]``, in file order: each the scene with some keys
         replaced. :meth:`run` runs each of them in turn into one folder
@@ -112,7 +114,7 @@ class Scene:
 
         system = system or self.system()
         return initial_state(system, 0.0, self.initial.positions, self.initial.speeds,
-                             fixed=list(self.initial.fixed) or None)
+                             fixed=list(self.initial.fixed) or None, hold_speeds=self.initial.hold_speeds)
 
     def simulate(self, progress: bool | None = False, **overrides):
         """Simulate the scene.
@@ -140,9 +142,10 @@ class Scene:
 
         s = self.settings(**overrides)
         return simulate(self.system(s.complement), s.t_end, positions=self.initial.positions, speeds=self.initial.speeds,
-                        fixed=list(self.initial.fixed) or None, n_out=s.n_out, method=s.method, rtol=s.rtol,
-                        atol=s.atol, complement=s.complement, projection_tol=s.projection_tol,
-                        max_step=s.max_step, progress=progress, track_work=s.track_work)
+                        fixed=list(self.initial.fixed) or None, hold_speeds=self.initial.hold_speeds, n_out=s.n_out,
+                        method=s.method, rtol=s.rtol, atol=s.atol, complement=s.complement,
+                        projection_tol=s.projection_tol, max_step=s.max_step, progress=progress,
+                        track_work=s.track_work)
 
     def track(self, result) -> dict:
         """Trajectories of the ``[output.points]`` of the scene.

@@ -149,8 +149,14 @@ class InitialState:
         ``{coordinate or joint name: value}``, rad or m and rad/s or m/s.
     fixed : tuple of str
         Coordinates held at their given values while the loops are closed.
+    hold_speeds : bool
+        True (default): the speeds given are kept, and speeds that
+        contradict a driver or a constraint are refused naming both; False:
+        the constraints and drivers win, the speeds given are the closest
+        they allow (see :func:`flexmb.initial_state`).
     """
 
     positions: dict = field(factory=dict)
     speeds: dict = field(factory=dict)
     fixed: tuple = ()
+    hold_speeds: bool = True

@@ -78,9 +78,10 @@ class StudyResult:
 
         Returns
         -------
-        ndarray, shape (n_cases,) or (n_cases, n_t)
+        ndarray, shape (n_cases,), (n_cases, n_t) or (n_cases, n_t, 3)
             Floats for numeric columns, a 2-d float array (padded with NaN)
-            for time series, else strings or objects.
+            for time series, a 3-d one for time series of 3-vectors, else
+            strings or objects.
         """
         if name not in self.columns:
             raise FlexmbError(f"no column {name!r}; columns: {', '.join(self.columns)}")
@@ -89,6 +90,15 @@ class StudyResult:
             if all(v is None or (isinstance(v, list) and all(_is_real(x) for x in v)) for v in values):
                 n_t = max(len(v) for v in values if v is not None)
                 series = np.full((len(values), n_t), np.nan)
+                for i, v in enumerate(values):
+                    if v:
+                        series[i, :len(v)] = v
+                return series
+            if all(v is None or (isinstance(v, list) and all(isinstance(x, list) and len(x) == 3
+                                                             and all(_is_real(c) for c in x) for x in v))
+                   for v in values):  # time series of 3-vectors (a point's velocity, a body's angular velocity)
+                n_t = max(len(v) for v in values if v is not None)
+                series = np.full((len(values), n_t, 3), np.nan)
                 for i, v in enumerate(values):
                     if v:
                         series[i, :len(v)] = v
@@ -331,7 +341,10 @@ _KEY_UNITS = {
 #: keys whose unit depends on their table: (first part, last part) -> unit
 _TABLE_KEY_UNITS = {("bodies", "damping"): "s"}
 #: outputs by kind: a fixed unit, or "coordinate" (the unit of the coordinate named)
-_OUTPUT_UNITS = {"peak_speed": "m/s", "peak_speed_exact": "m/s", "max_displacement": "m", "driver_work": "J", "energy_balance": "-",
+_OUTPUT_UNITS = {"peak_speed": "m/s", "peak_speed_exact": "m/s", "max_displacement": "m", "driver_work": "J",
+                 "energy_balance": "-", "position": "m", "velocity": "m/s", "acceleration": "m/s^2",
+                 "peak_acceleration": "m/s^2", "angular_velocity": "rad/s", "body_angular_velocity": "rad/s",
+                 "peak_angular_speed": "rad/s",
                  "final": "coordinate", "max": "coordinate", "min": "coordinate", "history": "coordinate",
                  "time": "s", "n_rhs": "-"}
 

@@ -241,6 +241,22 @@ def test_gear_pair_holds_the_ratio_and_oscillates_at_the_reflected_inertia(compl
     assert np.ptp(res.energy) < 1e-9 * res.energy[0]
 
 
+def test_a_gear_pair_beside_a_quaternion_joint_sizes_its_rows_per_speed():
+    """Beside a free body in Euler parameters (4 coordinates, 3 speeds) a model has more coordinates than speeds:
+    a constraint element's rows are per speed (psi was sized by the coordinates and refused)."""
+    n, k, I1, I2, A = -3.0, 40.0, 0.02, 0.5, 0.4
+    model = gear_model(n, k, I1, I2)
+    model.add(fm.Free("float", model.ground, fm.RigidBody("probe", 1.0, (0.1, 0.2, 0.3)), rotation="quaternion"))
+    res = fm.simulate(model, 2.0, positions={"shaft1": A, "shaft2": 0.1}, fixed=["shaft1"],
+                      speeds={"float.wx": 0.3, "float.wy": 2.0, "float.wz": 0.2}, rtol=1e-10, atol=1e-12, n_out=41)
+    names = res.coordinate_names
+    q1, q2 = res.x[:, names.index("shaft1.angle")], res.x[:, names.index("shaft2.angle")]
+    assert res.x.shape[1] == res.xd.shape[1] + 1
+    assert np.max(np.abs(q1 - n * q2)) < 1e-10
+    w = np.sqrt(k / (I1 + I2 / n**2))
+    assert np.max(np.abs(q1 - A * np.cos(w * res.t))) < 1e-7
+
+
 def test_a_rack_and_pinion_is_a_gear_pair_of_a_prismatic_and_a_revolute():
     model = fm.Model("rack")
     rack, pinion = fm.RigidBody("rack", 2.0, (0.1, 0.1, 0.1)), fm.RigidBody("pinion", 1.0, (0.01, 0.01, 0.01))

@@ -245,10 +245,11 @@ PLUGIN = textwrap.dedent('''
             return ["mesh"]
 
         def rows(self, state):
-            psi = np.zeros((1, state.x.shape[0]))
-            psi[0, state.coordinate_slice(self.joint1).start] = 1.0
-            psi[0, state.coordinate_slice(self.joint2).start] = -self.n
-            return psi @ state.x, psi, np.zeros(1), np.zeros(1)
+            i = state.coordinate_slice(self.joint1).start
+            j = state.coordinate_slice(self.joint2).start
+            psi = np.zeros((1, state.xd.shape[0]))  # a row per constraint, a column per speed
+            psi[0, i], psi[0, j] = 1.0, -self.n
+            return np.array([state.x[i] - self.n * state.x[j]]), psi, np.zeros(1), np.zeros(1)
 ''')
 
 # %%

@@ -73,9 +73,9 @@ class ConstraintElement:
     ...     def rows(self, state):
     ...         i = state.coordinate_slice(self.joint1).start
     ...         j = state.coordinate_slice(self.joint2).start
-    ...         psi = np.zeros((1, state.x.shape[0]))
-    ...         psi[0, i], psi[0, j] = 1.0, self.k
-    ...         return psi @ state.x, psi, np.zeros(1), np.zeros(1)
+    ...         psi = np.zeros((1, state.xd.shape[0]))
+    ...         psi[0, i], psi[0, j] = 1.0, self.k  # per speed (a revolute's speed is its angle's rate)
+    ...         return np.array([state.x[i] + self.k * state.x[j]]), psi, np.zeros(1), np.zeros(1)
     >>> m = fm.Model()
     >>> a = fm.RigidBody("a", 1.0, (1.0, 1.0, 1.0))
     >>> b = fm.RigidBody("b", 1.0, (1.0, 1.0, 1.0))
@@ -151,7 +151,7 @@ class ConstraintElement:
             If :meth:`rows` fails, returns arrays of the wrong shapes or
             non-finite values (``.t``: the time).
         """
-        n, k, kp = state.x.shape[0], self.n_position + self.n_velocity, self.n_position
+        n, k, kp = state.xd.shape[0], self.n_position + self.n_velocity, self.n_position
         what = f"constraint element {self.name!r} ({type(self).__name__})"
         try:
             out = self.rows(state)

@@ -105,7 +105,7 @@ class GearPair(ConstraintElement):
         j = state.coordinate_slice(self.joint2).start + self.coordinate2
         if i == j:
             raise ModelError(f"constraint element {self.name!r}: joint1 and joint2 name the same coordinate")
-        psi = np.zeros((1, state.x.shape[0]))
+        psi = np.zeros((1, state.xd.shape[0]))
         psi[0, i], psi[0, j] = 1.0, -self.ratio
-        phi = psi[0] @ state.x - self.offset
+        phi = state.x[i] - self.ratio * state.x[j] - self.offset  # a revolute's or slider's speed: its rate
         return ConstraintRows(np.array([phi]), psi, np.zeros(1), np.zeros(1))

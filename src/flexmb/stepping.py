@@ -33,8 +33,6 @@ import numpy as np
 
 from ._signals import escaped, interruption, who
 from .errors import AssemblyError
-from .integrators import adapt, capabilities
-from .integrators.monitor import ResolutionMonitor
 from .output_projection import project_output
 from .progress import Progress
 from .result import Result
@@ -154,6 +152,9 @@ class Run:
 
     def __init__(self, system, solver_cls, name, times, *, t0, t_end, rtol, atol, max_step, projection_tol,
                  track_work, progress, auto):
+        from .integrators import adapt, capabilities  # on first use: they import scipy.integrate
+        from .integrators.monitor import ResolutionMonitor
+
         self.system = system
         self.n = system.n_coords
         self.name = name

@@ -66,7 +66,7 @@ import flexmb as fm
 from scenes import b1
 system = b1(8).build()
 res = fm.simulate(system, 1.0, method="CVODE_BDF", rtol=2e-5, atol=2e-7, n_out=2, progress=False)
-print(list(res.shape("beam")[-1, -1]))
+print([float(v) for v in res.shape("beam")[-1, -1]])
 """
 
 #: Exudyn's run, the peer script's own function (its harness, as compare.py times it)
@@ -76,7 +76,7 @@ sys.path.insert(0, {peers!r})
 import exudyn_beam
 setup, wall, tip, counters, nc = exudyn_beam.run("B1", 8, 4000, 1.0)
 assert counters["ok"], counters
-print(list(tip))
+print([float(v) for v in tip])
 """
 
 #: the breakdown, in one new process of the venv's Python

@@ -23,6 +23,10 @@ loading, the simulation, the clean-up. The kernels' cache must be warm
   with Exudyn").
 * Exudyn: ``benchmarks/peers/exudyn_beam.py``'s ``run("B1", 8, 4000)``:
   the same beam, generalized-alpha with h = 2.5e-4 s, the pick of that run.
+* The dependencies alone (in the last venv given): a process that only
+  imports numpy, numba, scipy.integrate and scikit-sundae's CVODE, what
+  flexmb's CVODE run cannot do without (scikit-sundae imports
+  scipy.optimize): the floor of that run.
 
 Both print the beam tip's position at t = 1 s; they must agree to 1e-5 m
 (each is within 1e-6 m of the reference). One JSON line per run goes to
@@ -37,9 +41,10 @@ the first ``build()`` and ``simulate()`` and the same again in the same
 process (warm: the kernels loaded), and numba's cache loads inside the first
 ones: how many, and their CPU split into the index lookup (reading the
 kernel's index and finding the signature), reading and unpickling the entry,
-rebuilding the machine code (LLVM: parsing the linked bitcode, loading the
-object code, resolving its symbols), and numba's target refresh (numba loads
-its compiler's registries before a cache load). Written to ``--breakdown-out``
+rebuilding the machine code (LLVM: parsing the bitcode kept for linking into
+later compilations, of it ``of_it_parse_bitcode_s``, loading the object code,
+resolving its symbols), and numba's target refresh (numba loads its
+compiler's registries before a cache load). Written to ``--breakdown-out``
 (default ``benchmarks/results/startup_breakdown.jsonl``, appended).
 """
 
@@ -79,6 +84,13 @@ assert counters["ok"], counters
 print([float(v) for v in tip])
 """
 
+#: the floor of flexmb's CVODE run: importing what it cannot run without (numba for the kernels, scipy.integrate for
+#: the integrators' base class, scikit-sundae for CVODE, which imports scipy.optimize), and the interpreter's exit
+DEPENDENCIES_RUN = """
+import numpy, numba, scipy.integrate, sksundae.cvode
+print("[]")
+"""
+
 #: the breakdown, in one new process of the venv's Python
 BREAKDOWN = """
 import time
@@ -109,7 +121,8 @@ out["modules_at_import"] = len(sys.modules)
 
 from numba.core import caching
 from numba.core.base import BaseContext
-loads = {{"n": 0, "index_s": 0.0, "read_unpickle_s": 0.0, "rebuild_s": 0.0, "refresh_s": 0.0}}
+loads = {{"n": 0, "index_s": 0.0, "read_unpickle_s": 0.0, "rebuild_s": 0.0, "of_it_parse_bitcode_s": 0.0,
+          "refresh_s": 0.0}}
 def timed(key, f):
     def wrapper(*a, **k):
         t = time.process_time()
@@ -122,6 +135,8 @@ caching.IndexDataCacheFile._load_index = timed("index_s", caching.IndexDataCache
 caching.IndexDataCacheFile._load_data = timed("read_unpickle_s", caching.IndexDataCacheFile._load_data)
 caching.CompileResultCacheImpl.rebuild = timed("rebuild_s", caching.CompileResultCacheImpl.rebuild)
 BaseContext.refresh = timed("refresh_s", BaseContext.refresh)
+from llvmlite import binding as ll
+ll.parse_bitcode = timed("of_it_parse_bitcode_s", ll.parse_bitcode)
 count = caching.Cache._load_overload
 def counted(self, *a, **k):
     loads["n"] += 1
@@ -208,6 +223,8 @@ def measure(venvs: dict[str, str], peers_python: str, repeat: int, out: str) -> 
             tips["exudyn"] = res["output"]
             _write(out, _row("exudyn", "peers", "", r, res))
             _check_tips(tips)
+            label, (python, commit) = list(info.items())[-1]
+            _write(out, _row("dependencies", label, commit, r, run_process(python, DEPENDENCIES_RUN, work)))
 
 
 def _check_tips(tips: dict) -> None:
@@ -275,6 +292,10 @@ def summary(out: str) -> str:
              f"| Exudyn | - | {len(exudyn)} | {ex:.3f} | - |"]
     for (venv, commit), cpus in sorted(best.items()):
         lines.append(f"| flexmb ({venv}) | {commit} | {len(cpus)} | {min(cpus):.3f} | {min(cpus) / ex:.2f} |")
+    deps = [r["cpu_s"] for r in rows if r["tool"] == "dependencies" and r["status"] == 0]
+    if deps:
+        lines.append(f"| only importing numpy, numba, scipy.integrate, sksundae.cvode | - | {len(deps)} | "
+                     f"{min(deps):.3f} | {min(deps) / ex:.2f} |")
     return "\n".join(lines)
 
 

@@ -310,6 +310,10 @@ def main(argv=None) -> int:
     st.set_defaults(func=_study)
     args = parser.parse_args(argv)
     _deprecated_aliases(parser, args)
+    if args.command in ("run", "study"):
+        # the integrators (and scipy.integrate) that `import flexmb` leaves to the first simulation, imported
+        # before the command begins: a signal meanwhile ends it at once, nothing written (flexmb_command)
+        from . import integrators  # noqa: F401
     received.clear()
     try:
         with _messages(getattr(args, "quiet", False)), as_interrupts():

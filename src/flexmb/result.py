@@ -21,7 +21,8 @@ __all__ = ["Result"]
 _ARRAYS = ("t", "x", "xd", "xdd", "positions", "origins", "rotations", "kinetic", "potential",
            "residual", "velocity_residual", "reactions")
 _LISTS = ("coordinate_names", "body_names", "constraint_labels", "driver_names")
-_SCALARS = ("n_dof", "n_rhs", "n_jac", "n_steps", "n_complements", "n_projections", "n_rebases", "wall_time",
+_SCALARS = ("n_dof", "n_rhs", "n_jac", "n_steps", "n_complements", "n_projections", "n_rebases", "n_refused",
+            "wall_time",
             "status", "message", "method", "complement", "method_reason")
 
 
@@ -68,6 +69,9 @@ class Result(ResultPost):
     n_rhs, n_jac, n_steps, n_complements, n_projections, n_rebases : int
         Work counters (right-hand sides, Jacobians, steps, complements,
         projections, moves of the winding angles' offsets: :mod:`flexmb.stepping`).
+    n_refused : int
+        Steps refused because they carried a touching body through its
+        surface, and taken again shorter (:mod:`flexmb.contact_events`).
     wall_time : float
         Wall-clock time of the integration, s.
     work : dict of str to ndarray, shape (nt,)
@@ -86,6 +90,14 @@ class Result(ResultPost):
         it dissipates (empty otherwise).
     complement : str
         Name of the complement strategy used.
+    contact_events : list of (float, str, str, float)
+        The contacts' onsets and separations located during the run,
+        ``(time, contact name, 'onset' or 'separation', rate)`` in time
+        order, with the rate of penetration there (m/s: the impact speed at
+        an onset, minus the speed of separation at a separation)
+        (:mod:`flexmb.contact_events`; empty without contacts);
+        :attr:`n_contact_onsets` and :attr:`n_contact_separations` count
+        them.
     system : System, optional
         The compiled model the result came from (set by
         :func:`~flexmb.simulate`), so that bodies can be given by name to
@@ -124,7 +136,19 @@ class Result(ResultPost):
     method: str = ""
     method_reason: str = ""
     complement: str = ""
+    contact_events: list = field(factory=list)
+    n_refused: int = 0
     system: object = field(default=None, repr=False, eq=False)
+
+    @property
+    def n_contact_onsets(self) -> int:
+        """Number of contact onsets located during the run (:attr:`contact_events`)."""
+        return sum(1 for e in self.contact_events if e[2] == "onset")
+
+    @property
+    def n_contact_separations(self) -> int:
+        """Number of contact separations located during the run (:attr:`contact_events`)."""
+        return sum(1 for e in self.contact_events if e[2] == "separation")
 
     def __getstate__(self):
         # the compiled system holds the model's callables (drivers, loads), often lambdas
@@ -491,6 +515,10 @@ class Result(ResultPost):
         data.update({k: np.array(getattr(self, k)) for k in _SCALARS})
         wnames = list(self.work)
         data["work_names"] = np.array(wnames, dtype=str)
+        data["event_times"] = np.array([e[0] for e in self.contact_events], dtype=float)
+        data["event_names"] = np.array([e[1] for e in self.contact_events], dtype=str)
+        data["event_kinds"] = np.array([e[2] for e in self.contact_events], dtype=str)
+        data["event_rates"] = np.array([e[3] for e in self.contact_events], dtype=float)
         for i, k in enumerate(wnames):
             data[f"work_{i}"] = self.work[k]
         names = sorted(self.flexible)
@@ -519,6 +547,9 @@ class Result(ResultPost):
             kw.update({k: [str(s) for s in z[k]] for k in _LISTS})
             kw.update({k: z[k].item() for k in _SCALARS if k in z})  # method_reason: absent from older files
             kw["work"] = {str(k): z[f"work_{i}"] for i, k in enumerate(z["work_names"])} if "work_names" in z else {}
+            if "event_times" in z:  # absent from older files
+                kw["contact_events"] = [(float(t), str(n), str(k), float(r)) for t, n, k, r in
+                                        zip(z["event_times"], z["event_names"], z["event_kinds"], z["event_rates"])]
             kw["flexible"] = {str(k): (z[f"flexible_rows_{i}"].tolist(), float(z["flexible_lengths"][i]))
                               for i, k in enumerate(z["flexible_names"])}
         return cls(**kw)

@@ -314,7 +314,7 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
              fixed=None, n_out: int = 201, t_eval=None, method: str = "auto", rtol: float = 1e-8,
              atol: float | None = None, complement=None, projection_tol: float = 1e-10,
              max_step: float = np.inf, progress: bool | None = None, track_work: bool = False,
-             hold_speeds: bool = True, max_steps: float = MAX_STEPS) -> Result:
+             hold_speeds: bool = True, max_steps: float = MAX_STEPS, contact_events: bool = True) -> Result:
     """Simulate a model from ``t0`` to ``t_end``.
 
     The state (x, xd) is integrated by an OdeSolver (scipy's, or SUNDIALS'
@@ -384,6 +384,15 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         ``max_step``, a generalized-alpha ``fixed_step``, or the stability
         bound of an explicit method on a stiff scene) is refused before it
         starts, instead of running for hours (default ``MAX_STEPS``, 1e9).
+    contact_events : bool
+        With contact elements: locate each contact's onset and separation
+        as an event (CVODE's root finding; on the dense output for the
+        other integrators), store the outputs up to it and restart the
+        integrator there, refuse a step that carries a touching body
+        through its surface and take it again shorter, and warn
+        (:class:`~flexmb.errors.StiffnessWarning`) when the contacts force
+        tiny steps (:mod:`flexmb.contact_events`). The events are in
+        ``Result.contact_events``. False: the contacts are stepped through.
 
     Returns
     -------
@@ -412,7 +421,9 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         stiff over [t0, t_end] (see ``method='auto'``), before the run; and
         once, early in the run, if an error-controlled method spends its
         steps resolving nearly undamped modes far above the scene's motion
-        (:class:`flexmb.integrators.monitor.ResolutionMonitor`).
+        (:class:`flexmb.integrators.monitor.ResolutionMonitor`); and once
+        if the steps taken while a contact touches are tiny
+        (:mod:`flexmb.contact_events`).
 
     Examples
     --------
@@ -453,7 +464,8 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     if not capabilities(adapt(solver_cls)).has_dense_output:
         raise ModelError(f"integrator {name!r} has no dense output, which simulate needs for its output times")
     run = Run(system, solver_cls, name, times, t0=t0, t_end=t_end, rtol=rtol, atol=atol, max_step=max_step,
-              projection_tol=projection_tol, track_work=track_work, progress=progress, auto=auto)
+              projection_tol=projection_tol, track_work=track_work, progress=progress, auto=auto,
+              contact_events=bool(contact_events))
     run.execute(x, xd)
     result = run.result(x)
     result.method_reason = reason

@@ -32,6 +32,8 @@ import time as _time
 import numpy as np
 
 from ._signals import escaped, interruption, who
+from .contact_events import ContactEvents, StepFailure
+from .event_restart import cut_at_event
 from .errors import AssemblyError
 from .output_projection import project_output
 from .progress import Progress
@@ -137,6 +139,10 @@ class Run:
     auto : bool
         Whether ``method='auto'`` chose the integrator (the resolution
         monitor words its warning accordingly).
+    contact_events : bool
+        Locate the onsets and separations of the contacts as events and
+        restart the integrator there, refusing steps through a surface
+        (:mod:`flexmb.contact_events`); no effect without contact elements.
 
     Attributes
     ----------
@@ -148,10 +154,12 @@ class Run:
         first winds past ``WINDING_BOUND``.
     n_rebases : int
         How many times the offsets moved.
+    events : ContactEvents or None
+        The run's contact events (None without contacts or events).
     """
 
     def __init__(self, system, solver_cls, name, times, *, t0, t_end, rtol, atol, max_step, projection_tol,
-                 track_work, progress, auto):
+                 track_work, progress, auto, contact_events=True):
         from .integrators import adapt, capabilities  # on first use: they import scipy.integrate
         from .integrators.monitor import ResolutionMonitor
 
@@ -180,7 +188,9 @@ class Run:
         # projection_tol all the same
         self.state_tol = (projection_tol if self.caps.cheap_restart
                           else max(projection_tol, min(RESTART_ATOL_FACTOR * atol, RESTART_TOL_MAX)))
-        self.own_loop = self.caps.advances and not system.n_constraints
+        self.events = (ContactEvents.of(system, t0, t_end, self.caps.explicit, name) if contact_events else None)
+        # an event needs the step that crossed it: the run steps the integrator itself then
+        self.own_loop = self.caps.advances and not system.n_constraints and self.events is None
         self.angles = np.flatnonzero(system.topology.coord_angle)
         self.offset = None
         self.n_rebases = 0
@@ -191,7 +201,7 @@ class Run:
         self.options: dict = {}
         self.out_y: list = []
         self.k_out = 0
-        self.n_steps = self.n_proj = 0
+        self.n_steps = self.n_proj = self.n_steps_refused = 0
         self.last_restart = -RESTART_MIN_STEPS  # the step count at the last projection and restart
         self.t_now = t0
         self.status, self.message = "running", ""
@@ -257,6 +267,10 @@ class Run:
         caps, system, n = self.caps, self.system, self.n
         if caps.needs_n_second:  # written for y = (x, xd, ...) itself (GeneralizedAlpha)
             self.options["n_second"] = n
+        if self.events is not None and caps.finds_roots:  # the integrator's root finding, on the true state
+            events = self.events
+            self.options["events"] = (
+                lambda t, z: events.root_functions(t, z if self.offset is None else z + self.offset), events.count)
         if caps.uses_preconditioner and (system.articulated or system._loop_kernel) and n >= KRYLOV_MIN_COORDS:
             # an open tree, or loops closed through the recursion: O(n) Newton solves, no matrix
             # (System.newton_preconditioner)
@@ -269,9 +283,14 @@ class Run:
                 # the Jacobian has the block form [[0, I], [Jx, Jv]]: factor n x n only
                 self.options["n_second"] = n
 
-    def _make(self, tstart, ystart, first_step=None):
-        return self.solver_cls(self._fun, tstart, ystart, self.t_end, rtol=self.rtol, atol=self.atol,
-                               max_step=self.max_step, first_step=first_step, **self.options)
+    def _make(self, tstart, ystart, first_step=None, t_bound=None, events=True):
+        options = self.options if events else {k: v for k, v in self.options.items() if k != "events"}
+        if events and "events" in options:  # the root functions rise through 0 where a contact's state changes
+            g, m = options["events"]
+            options = dict(options, events=(g, m, np.ones(m)))
+        return self.solver_cls(self._fun, tstart, ystart, self.t_end if t_bound is None else t_bound,
+                               rtol=self.rtol, atol=self.atol, max_step=self.max_step, first_step=first_step,
+                               **options)
 
     def execute(self, x, xd) -> None:
         """Integrate from ``(x, xd)`` at ``t0`` to ``t_end``; set :attr:`status` and :attr:`message`.
@@ -290,6 +309,8 @@ class Run:
         solver = None
         bar = Progress(self.t_end - self.t0, "simulating", "s", enabled=self.progress)
         try:
+            if self.events is not None:
+                self.events.start(self.t0, y)
             shift = self._winding(y)
             solver = self._make(self.t0, y if shift is None else y - shift)
             if self.own_loop:
@@ -297,7 +318,7 @@ class Run:
             else:
                 self._step(solver, bar)
             self.status, self.message = "finished", "reached t_end"
-        except (NonFinite, AssemblyError) as exc:
+        except (NonFinite, StepFailure, AssemblyError) as exc:
             self.status = "failed"
             self.t_now = getattr(exc, "t", self.t_now)
             self.message = str(exc) if isinstance(exc, AssemblyError) else f"at t = {self.t_now:.9g} s: {exc}"
@@ -370,8 +391,18 @@ class Run:
             bar.update_to(self.t_now - t0)
 
     def _step(self, solver, bar) -> None:
-        """Step by step: check each step, store the outputs it passed, project a drifted state."""
+        """Step by step: check each step, store the outputs it passed, project a drifted state.
+
+        With contact events (:mod:`flexmb.contact_events`), a step within
+        which a contact touches or separates is cut at the event: the
+        outputs up to it are stored and the integrator restarted there; a
+        step that carries a touching body through its surface is refused
+        and taken again from its start, shorter.
+        """
+        events = self.events
         while solver.status == "running":
+            if events is not None:
+                t_start, z_start = solver.t, np.array(solver.y, dtype=float)
             try:
                 msg = solver.step()
             except (ValueError, np.linalg.LinAlgError) as exc:  # scipy's checks on a non-finite Jacobian
@@ -383,6 +414,12 @@ class Run:
                 raise NonFinite(solver.t, "the state became non-finite")
             if self.monitor is not None:  # warns once if the steps resolve ringing modes (StiffnessWarning)
                 self.monitor.step(solver)
+            if events is not None:
+                cut = cut_at_event(self, solver, t_start, z_start)
+                if cut is not None:
+                    solver = cut
+                    bar.update_to(self.t_now - self.t0)
+                    continue
             self.t_now = solver.t
             self._store(solver)
             if solver.status == "running":
@@ -391,17 +428,31 @@ class Run:
                     solver = self._restart_if_drifted(solver)
             bar.update_to(self.t_now - self.t0)
 
-    def _store(self, solver) -> None:
-        """Store the states at the output times the last step passed."""
+    def _store(self, solver, y_now=None) -> None:
+        """Store the states at the output times the last step passed (up to :attr:`t_now`).
+
+        Parameters
+        ----------
+        solver : OdeSolver
+            The solver, after its step.
+        y_now : ndarray, optional
+            The true state at :attr:`t_now` when that is not the step's end
+            (a contact event within the step).
+        """
         times, n, system = self.times, self.n, self.system
         if not (self.k_out < len(times) and times[self.k_out] <= self.t_now):
             return
         dense = solver.dense_output()
         while self.k_out < len(times) and times[self.k_out] <= self.t_now:
             t_out = times[self.k_out]
-            y_out = dense(t_out) if t_out != self.t_now else solver.y.copy()
-            if self.offset is not None:
-                y_out = y_out + self.offset
+            if t_out == self.t_now:
+                y_out = solver.y.copy() if y_now is None else y_now.copy()
+                if y_now is None and self.offset is not None:
+                    y_out = y_out + self.offset
+            else:
+                y_out = dense(t_out)
+                if self.offset is not None:
+                    y_out = y_out + self.offset
             if system.n_constraints:
                 # the interpolant leaves the constraints by about rtol between steps: store
                 # consistent states, by the rule the steps follow
@@ -518,4 +569,5 @@ class Run:
             n_jac=self.counters.get("jac", 0) if preconditioner is None else preconditioner.n_setups,
             n_steps=self.n_steps, n_complements=system.n_complements - self.start_complements,
             n_projections=self.n_proj, n_rebases=self.n_rebases, wall_time=self.wall, status=self.status, message=self.message,
-            method=self.name, complement=system.strategy.name)
+            method=self.name, complement=system.strategy.name,
+            contact_events=[] if self.events is None else list(self.events.events), n_refused=self.n_steps_refused)

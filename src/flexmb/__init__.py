@@ -8,6 +8,7 @@ the ``logging`` loggers ``flexmb.*``: silent unless the application
 configures logging (the ``flexmb`` command shows them on stderr).
 """
 
+import importlib as _importlib
 import logging as _logging
 
 from .bodies import Body, Ground, Marker, RigidBody
@@ -23,21 +24,44 @@ from .forces import (CoulombLaw, FloresLaw, HuntCrossleyLaw, JournalBearingConta
                      ViscousLaw, hertz_stiffness)
 from .joints import Cylindrical, Fixed, Free, Joint, PlanarRevolute, Prismatic, Revolute, Spherical, Universal
 from .flexible import FlexibleBody, Segment
-from .analysis import (Calibration, Campbell, CriticalPoint, FrequencyResponse, Input, Linearization, LoadPath,
-                       Output, PathOptions, StateSpace, SteadyLinearization, calibrate, campbell, frequency_response,
-                       linear_statics, linearize, linearize_steady, load_path, modes, state_space, static_equilibrium)
 from .model import Model
 from .registry import PluginInfo, plugins, register
 from .profiles import BeamProfile
 from .sections import Material, Section
 from .result import Result
+# the module flexmb.simulate is imported here, not on first use: importing it later would bind the
+# package's attribute ``simulate`` to the module over the function
 from .simulate import INTEGRATORS, initial_state, simulate
 from .initial_speeds import AngularVelocity, PointVelocity
-from .genalpha import GeneralizedAlpha, generalized_alpha
-from .system import System
-from .scene import Scene, load_scene, loads_scene
 from .complements import ArticulatedComplement, AutoComplement, QRComplement
 from ._names import reference
+
+#: public names imported on first use (module-level ``__getattr__``, PEP 562): what a model's build and
+#: simulation do not need (the analyses import scipy.optimize, scenes and studies their readers and executors)
+_LAZY = {
+    **dict.fromkeys(("Calibration", "Campbell", "CriticalPoint", "FrequencyResponse", "Input", "Linearization",
+                     "LoadPath", "Output", "PathOptions", "StateSpace", "SteadyLinearization", "calibrate",
+                     "campbell", "frequency_response", "linear_statics", "linearize", "linearize_steady",
+                     "load_path", "modes", "state_space", "static_equilibrium"), ".analysis"),
+    **dict.fromkeys(("GeneralizedAlpha", "generalized_alpha"), ".genalpha"),
+    "System": ".system",
+    **dict.fromkeys(("Scene", "load_scene", "loads_scene", "scene_from_dict"), ".scene"),
+    **dict.fromkeys(("Study", "StudyResult", "run_study"), ".study"),
+}
+
+
+def __getattr__(name):
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(_importlib.import_module(module, __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY))
+
 
 __version__ = "0.1.0"
 
@@ -69,8 +93,5 @@ __all__ = [
     "ArticulatedComplement", "AutoComplement", "QRComplement",
     "reference",
 ]
-
-from .scene import scene_from_dict
-from .study import Study, StudyResult, run_study
 
 __all__ += ["scene_from_dict", "Study", "StudyResult", "run_study"]

@@ -310,6 +310,7 @@ def main(argv=None) -> int:
     st.set_defaults(func=_study)
     args = parser.parse_args(argv)
     _deprecated_aliases(parser, args)
+    _import_what_it_runs(args.command)
     received.clear()
     try:
         with _messages(getattr(args, "quiet", False)), as_interrupts():
@@ -323,6 +324,18 @@ def main(argv=None) -> int:
         if isinstance(exc, BrokenPipeError):  # flexmb ... | head: console() ends quietly
             raise
         return _error(exc)
+
+
+def _import_what_it_runs(command: str) -> None:
+    """Import what ``flexmb run`` and ``flexmb study`` simulate with before they begin.
+
+    ``import flexmb`` leaves the integrators (and scipy.integrate) to the
+    first simulation; the commands import them before they begin, so that a
+    signal meanwhile ends the command at once with nothing written
+    (:mod:`flexmb_command`), as during the command's other imports.
+    """
+    if command in ("run", "study"):
+        from . import integrators  # noqa: F401
 
 
 def _error(exc: BaseException) -> int:

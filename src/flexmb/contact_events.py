@@ -53,7 +53,6 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
-from scipy.optimize import brentq
 
 from .errors import StiffnessWarning
 
@@ -333,6 +332,8 @@ class ContactEvents:
                     candidates[i] = tm
                     break
         if candidates:
+            from scipy.optimize import brentq  # here, not at import: import flexmb leaves scipy.optimize out
+
             tol = EVENT_TOL * max(abs(t_end), 1.0)
             roots = {}
             for i, tb in candidates.items():

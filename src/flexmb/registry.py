@@ -152,6 +152,29 @@ def _not_subclass(kind: str, obj) -> str | None:
     return f"{what}; it must be a subclass of {KINDS[kind]}"
 
 
+_dists: dict[int, tuple] = {}  # id(distribution) -> (distribution, name, version), for the session
+
+
+def _name_version(dist) -> tuple[str | None, str | None]:
+    """A distribution's name and version, its metadata parsed once per session.
+
+    ``importlib.metadata`` parses a distribution's metadata file again at
+    every ``dist.name`` and ``dist.version``: twice per entry point, for
+    every entry point of a group, without this.
+    """
+    if dist is None:
+        return None, None
+    known = _dists.get(id(dist))
+    if known is None or known[0] is not dist:
+        if isinstance(dist, importlib.metadata.Distribution):
+            meta = dist.metadata
+            known = (dist, meta["Name"], meta["Version"])
+        else:
+            known = (dist, getattr(dist, "name", None), getattr(dist, "version", None))
+        _dists[id(dist)] = known
+    return known[1], known[2]
+
+
 def _read(kind: str) -> dict[str, list[_Entry]]:
     """Read the entry-point group of ``kind`` (the only place entry points are read).
 
@@ -163,9 +186,8 @@ def _read(kind: str) -> dict[str, list[_Entry]]:
     table: dict[str, list[_Entry]] = {}
     flexmb_seen = False
     for ep in importlib.metadata.entry_points(group=f"flexmb.{kind}"):
-        dist = getattr(ep, "dist", None)
-        dist_name = getattr(dist, "name", None)
-        origin = f"{dist_name} {getattr(dist, 'version', '?')}" if dist_name else _UNKNOWN
+        dist_name, dist_version = _name_version(getattr(ep, "dist", None))
+        origin = f"{dist_name} {dist_version or '?'}" if dist_name else _UNKNOWN
         flexmb_seen |= _normalize(dist_name) == "flexmb"
         claimants = table.setdefault(ep.name, [])
         # one distribution found twice on the path (egg-info and dist-info) is not a conflict
@@ -386,6 +408,7 @@ def refresh() -> None:
     """
     with _lock:
         _groups.clear()
+        _dists.clear()
 
 
 def _builtin_entries(kind: str) -> dict[str, _Entry]:

@@ -7,7 +7,6 @@ import warnings
 from collections.abc import Mapping
 
 import numpy as np
-from scipy.integrate import OdeSolver
 
 from . import memory, registry
 from ._validate import number, simulate_arguments, state_vector
@@ -15,8 +14,6 @@ from .errors import FlexmbError, ModelError, SimulationError, StiffnessWarning
 from .initial_speeds import held_speeds, split_speeds
 from .joints import Joint
 from .model import as_system
-from .integrators import adapt, capabilities
-from .integrators.monitor import stiff_choice
 from .result import Result
 from .stepping import Run
 from .progress import shown
@@ -144,6 +141,7 @@ def initial_state(system, t0: float = 0.0, positions=None, speeds=None, x0=None,
 
 def _solver_class(method):
     """The OdeSolver class: ``method`` itself, or looked up by name in the plugin registry."""
+    from scipy.integrate import OdeSolver  # on first use: it imports scipy.optimize
     if not isinstance(method, str):
         if not (isinstance(method, type) and issubclass(method, OdeSolver)):
             raise ModelError(f"simulate: method must be an integrator's name or an OdeSolver class, got "
@@ -189,6 +187,7 @@ def _choose_method(system, t0, t1, x, xd, rtol=1e-8, atol=1e-10, log=True):
     reason : str
         The statement of the choice (also logged to the ``flexmb`` logger if ``log``).
     """
+    from .integrators.monitor import stiff_choice
     w = system.fastest_rate(t0, x, xd)
     steps = (t1 - t0) * w / 3.0 + 0.0  # + 0.0: a rate of -0.0 (no motion to integrate) reads 0
     if steps == 0:  # no freedom left to vibrate (every coordinate driven or locked by the loops), or no stiffness
@@ -206,6 +205,7 @@ def _choose_method(system, t0, t1, x, xd, rtol=1e-8, atol=1e-10, log=True):
 
 def _warn_if_stiff(system, solver_cls, t0, t1, x, xd):
     """Warn (:class:`StiffnessWarning`) when an explicit method meets a scene stiff over [t0, t1]."""
+    from .integrators import capabilities
     if not capabilities(solver_cls).explicit:
         return
     wn = system.highest_frequency(t0, x, xd)
@@ -261,6 +261,7 @@ def _check_work(system, solver_cls, name, t0, t1, x, xd, max_step, max_steps):
     motion (:meth:`System.stability_rate`). Each gives a lower
     bound of the number of steps; the largest is compared with ``max_steps``.
     """
+    from .integrators import capabilities
     span = t1 - t0
     bounds = [(span / max_step, f"max_step = {max_step:g} s")]
     fixed = getattr(solver_cls, "fixed_step", None)
@@ -445,6 +446,7 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     >>> res.status
     'finished'
     """
+    from .integrators import adapt, capabilities
     t0, t_end, n_out, t_eval, rtol, atol, max_step, projection_tol = simulate_arguments(
         t0, t_end, n_out, t_eval, rtol, atol, max_step, projection_tol)
     max_steps = number("simulate", "max_steps", max_steps, minimum=0.0)

@@ -35,8 +35,6 @@ from ._signals import escaped, interruption, who
 from .contact_events import ContactEvents, StepFailure
 from .event_restart import cut_at_event
 from .errors import AssemblyError, ModelError
-from .integrators import adapt, capabilities
-from .integrators.monitor import ResolutionMonitor
 from .output_projection import project_output
 from .progress import Progress
 from .result import Result
@@ -162,6 +160,9 @@ class Run:
 
     def __init__(self, system, solver_cls, name, times, *, t0, t_end, rtol, atol, max_step, projection_tol,
                  track_work, progress, auto, contact_events=True):
+        from .integrators import adapt, capabilities  # on first use: they import scipy.integrate
+        from .integrators.monitor import ResolutionMonitor
+
         self.system = system
         self.n = system.n_speeds
         self.layout = system.layout  # y = (q, u, works), qd = W(q) u

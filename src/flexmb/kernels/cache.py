@@ -187,16 +187,56 @@ class _KernelCacheImpl(CompileResultCacheImpl):
     _locator_classes = [_UserProvided, _InTree, _ReadOnly, _UserWide, _PerUserTemp, _InMemory]
 
 
+def _ready_to_load(target_context) -> None:
+    """Make ``target_context`` able to link cached machine code, without loading numba's compiler registries.
+
+    numba's own cache calls ``target_context.refresh()`` before every load:
+    the first call in a process imports and installs all of numba's typing
+    and lowering registries (numba.np, numba.cpython, typed containers,
+    jitclass, ...), which only a *compilation* uses, and which cost more than
+    loading all the kernels of a run (``benchmarks/startup.py --breakdown``).
+    Machine code read from the cache needs only the symbols it may call:
+    numba's C helpers and the C math functions (installed when the context
+    is created), the runtime's allocation functions (``rtsys.initialize``)
+    and the hash secrets (installed by ``numba.cpython.hashing`` on import).
+    A compilation in the same process (a miss) still refreshes the context
+    fully, as numba's compiler does before every compilation.
+    """
+    from numba.core.runtime import rtsys
+
+    import numba.cpython.hashing  # noqa: F401 - installs the hash secrets' symbols
+
+    rtsys.initialize(target_context)
+
+
 class KernelCache(FunctionCache):
-    """numba's per-function cache, with the locators above and damage taken as a miss."""
+    """numba's per-function cache, with the locators above and damage taken as a miss.
+
+    Parameters
+    ----------
+    py_func : function
+        The kernel's Python function.
+    full_refresh : bool
+        Refresh numba's target context fully before a load, as numba does
+        (needed for kernels whose machine code calls into numba's threading
+        layer: ``parallel=True``); otherwise :func:`_ready_to_load`.
+    """
 
     _impl_class = _KernelCacheImpl
+
+    def __init__(self, py_func, full_refresh: bool = False):
+        super().__init__(py_func)
+        self._full_refresh = full_refresh
 
     def load_overload(self, sig, target_context):
         if isinstance(self._impl.locator, _InMemory):
             return None
         try:
-            return super().load_overload(sig, target_context)
+            if self._full_refresh:
+                return super().load_overload(sig, target_context)
+            _ready_to_load(target_context)
+            with self._guard_against_spurious_io_errors():
+                return self._load_overload(sig, target_context)
         except Exception:  # noqa: BLE001 - any unreadable entry (EOFError, UnpicklingError, ...) is a miss
             self._discard()
             return None
@@ -247,7 +287,7 @@ def njit(*args, cache: bool = False, **options):
     def decorate(func):
         dispatcher = numba.njit(*args, **options)(func)
         if cache:
-            dispatcher._cache = KernelCache(dispatcher.py_func)
+            dispatcher._cache = KernelCache(dispatcher.py_func, full_refresh=bool(options.get("parallel")))
         return dispatcher
 
     return decorate

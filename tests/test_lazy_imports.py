@@ -1,0 +1,97 @@
+"""What ``import flexmb`` and a simulation import: only what they use (issue 31, the warm start-up).
+
+Every process that runs flexmb pays for its imports (a script, a test, a
+study's case): the analyses import scipy.optimize, the integrators
+scipy.integrate (which imports scipy.optimize and scipy.special), the VTK
+export meshio, the plots matplotlib. ``import flexmb`` imports none of them;
+the public names that need them are imported on first use (the package's
+``__getattr__``), and a model's build and simulation import the integrators
+but not the analyses, scenes, studies, exports or plots. Each check runs in
+a new interpreter and reads ``sys.modules`` (no timing: the times are in
+``benchmarks/startup.py``).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+
+import flexmb
+
+#: never imported by ``import flexmb``
+NOT_AT_IMPORT = ["matplotlib", "meshio", "scipy.optimize", "scipy.integrate", "scipy.special", "sksundae", "dask",
+                 "pyvista", "flexmb.analysis", "flexmb.study", "flexmb.scene", "flexmb.viz", "flexmb.export",
+                 "flexmb.genalpha", "flexmb.integrators", "flexmb.system"]
+
+#: never imported by building and simulating a model (the integrators are)
+NOT_IN_A_RUN = ["matplotlib", "meshio", "dask", "pyvista", "flexmb.analysis", "flexmb.study", "flexmb.scene",
+                "flexmb.viz", "flexmb.export"]
+
+BENCH = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "benchmarks")
+
+
+def _modules_after(code: str) -> dict:
+    """Run ``code`` in a new interpreter; the names of NOT_AT_IMPORT and NOT_IN_A_RUN then in sys.modules."""
+    check = sorted(set(NOT_AT_IMPORT) | set(NOT_IN_A_RUN))
+    script = textwrap.dedent(code) + textwrap.dedent(f"""
+        import json, sys
+        print(json.dumps({{m: m in sys.modules for m in {check!r}}}))
+    """)
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300,
+                         env=dict(os.environ, OPENBLAS_NUM_THREADS="1"))
+    assert out.returncode == 0, out.stderr
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def test_import_flexmb_imports_no_analysis_integrator_export_or_plot():
+    loaded = _modules_after("import flexmb")
+    assert [m for m in NOT_AT_IMPORT if loaded[m]] == []
+
+
+def test_a_simulation_imports_no_analysis_scene_study_export_or_plot():
+    loaded = _modules_after(f"""
+        import sys
+        sys.path.insert(0, {BENCH!r})
+        import flexmb as fm
+        from scenes import b1
+        res = fm.simulate(b1(2).build(), 0.01, method="CVODE_BDF", n_out=2, progress=False)
+        assert res.status == "finished", res.status
+    """)
+    assert [m for m in NOT_IN_A_RUN if loaded[m]] == []
+    assert loaded["flexmb.integrators"]  # the check reads sys.modules of the run
+
+
+def test_every_public_name_resolves_and_is_listed():
+    assert set(flexmb.__all__) <= set(dir(flexmb))
+    for name in flexmb.__all__:
+        assert getattr(flexmb, name) is not None, name
+    assert callable(flexmb.simulate) and flexmb.simulate.__module__ == "flexmb.simulate"
+
+
+def test_star_import_and_lazy_names_in_a_new_interpreter():
+    code = textwrap.dedent("""
+        import sys
+        import flexmb
+        import flexmb.simulate  # the submodule, imported again: the package's name stays the function
+        assert callable(flexmb.simulate), flexmb.simulate
+        assert "flexmb.analysis" not in sys.modules
+        assert flexmb.linearize.__module__.startswith("flexmb.analysis")
+        ns = {}
+        exec("from flexmb import *", ns)
+        missing = [n for n in flexmb.__all__ if n not in ns]
+        assert not missing, missing
+        assert ns["Study"] is flexmb.Study and ns["System"] is flexmb.System
+        try:
+            flexmb.no_such_name
+        except AttributeError as exc:
+            assert "no_such_name" in str(exc)
+        else:
+            raise AssertionError("no AttributeError")
+        print("ok")
+    """)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "ok"

@@ -17,6 +17,7 @@ from .constraint_elements import ConstraintElement, GearPair, KnifeEdge, Rolling
 from .errors import (AssemblyError, ExportError, FlexmbError, ModelError, PluginError, SceneError, SimulationError,
                      StiffnessWarning)
 from .forces import BodyTorque, ForceElement, Gravity, JointSpringDamper, Loads, PointForce, SpringDamper
+from .forces import CapsuleCapsuleContact, CapsulePlaneContact, CapsuleSphereContact
 from .forces import (CoulombLaw, FloresLaw, HuntCrossleyLaw, JournalBearingContact, LankaraniNikraveshLaw,
                      LinearContactLaw, SpherePlaneContact, SphereSphereContact, StribeckLaw, VelocityWeakeningLaw,
                      ViscousLaw, hertz_stiffness)
@@ -50,7 +51,8 @@ __all__ = [
     "ConstraintElement", "GearPair", "KnifeEdge", "RollingDisc", "velocity_rows",
     "AssemblyError", "ExportError", "FlexmbError", "ModelError", "PluginError", "SimulationError",
     "BodyTorque", "ForceElement", "Gravity", "JointSpringDamper", "Loads", "PointForce", "SpringDamper",
-    "SpherePlaneContact", "SphereSphereContact", "JournalBearingContact", "LinearContactLaw", "HuntCrossleyLaw",
+    "SpherePlaneContact", "SphereSphereContact", "JournalBearingContact", "CapsulePlaneContact", "CapsuleSphereContact",
+    "CapsuleCapsuleContact", "LinearContactLaw", "HuntCrossleyLaw",
     "LankaraniNikraveshLaw",
     "FloresLaw", "CoulombLaw", "ViscousLaw", "VelocityWeakeningLaw", "StribeckLaw", "hertz_stiffness",
     "Cylindrical", "Fixed", "Free", "Joint", "PlanarRevolute", "Prismatic", "Revolute", "Spherical", "Universal",

@@ -8,6 +8,7 @@ gravity, springs, dampers, contact and friction all enter only through F
 """
 
 from .base import ForceElement, Loads
+from .capsules import CapsuleCapsuleContact, CapsulePlaneContact, CapsuleSphereContact
 from .contact import (CoulombLaw, FloresLaw, FrictionLaw, HuntCrossleyLaw, LankaraniNikraveshLaw, LinearContactLaw,
                       JournalBearingContact, NormalLaw, SpherePlaneContact, SphereSphereContact, StribeckLaw,
                       VelocityWeakeningLaw, ViscousLaw, hertz_stiffness)
@@ -17,7 +18,8 @@ from .loads import BodyTorque, PointForce
 from .springs import JointSpringDamper, SpringDamper
 
 __all__ = ["ForceElement", "Loads", "Gravity", "SpringDamper", "JointSpringDamper", "PointForce", "BodyTorque",
-           "BeamElasticity", "SpherePlaneContact", "SphereSphereContact", "JournalBearingContact", "NormalLaw",
+           "BeamElasticity", "SpherePlaneContact", "SphereSphereContact", "JournalBearingContact", "CapsulePlaneContact",
+           "CapsuleSphereContact", "CapsuleCapsuleContact", "NormalLaw",
            "LinearContactLaw",
            "HuntCrossleyLaw", "LankaraniNikraveshLaw", "FloresLaw", "FrictionLaw", "CoulombLaw", "ViscousLaw",
            "VelocityWeakeningLaw", "StribeckLaw", "hertz_stiffness"]

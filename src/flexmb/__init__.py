@@ -17,7 +17,8 @@ from .constraint_elements import ConstraintElement, GearPair, KnifeEdge, Rolling
 from .errors import (AssemblyError, ExportError, FlexmbError, ModelError, PluginError, SceneError, SimulationError,
                      StiffnessWarning)
 from .forces import BodyTorque, ForceElement, Gravity, JointSpringDamper, Loads, PointForce, SpringDamper
-from .forces import CapsuleCapsuleContact, CapsulePlaneContact, CapsuleSphereContact
+from .forces import (CapsuleCapsuleContact, CapsulePlaneContact, CapsuleSphereContact, Capsules, ContactGroup, Plane,
+                     Spheres)
 from .forces import (CoulombLaw, FloresLaw, HuntCrossleyLaw, JournalBearingContact, LankaraniNikraveshLaw,
                      LinearContactLaw, SpherePlaneContact, SphereSphereContact, StribeckLaw, VelocityWeakeningLaw,
                      ViscousLaw, hertz_stiffness)
@@ -52,7 +53,7 @@ __all__ = [
     "AssemblyError", "ExportError", "FlexmbError", "ModelError", "PluginError", "SimulationError",
     "BodyTorque", "ForceElement", "Gravity", "JointSpringDamper", "Loads", "PointForce", "SpringDamper",
     "SpherePlaneContact", "SphereSphereContact", "JournalBearingContact", "CapsulePlaneContact", "CapsuleSphereContact",
-    "CapsuleCapsuleContact", "LinearContactLaw", "HuntCrossleyLaw",
+    "CapsuleCapsuleContact", "ContactGroup", "Capsules", "Spheres", "Plane", "LinearContactLaw", "HuntCrossleyLaw",
     "LankaraniNikraveshLaw",
     "FloresLaw", "CoulombLaw", "ViscousLaw", "VelocityWeakeningLaw", "StribeckLaw", "hertz_stiffness",
     "Cylindrical", "Fixed", "Free", "Joint", "PlanarRevolute", "Prismatic", "Revolute", "Spherical", "Universal",

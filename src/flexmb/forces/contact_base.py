@@ -70,6 +70,13 @@ class Contact(ForceElement):
         """This contact's rows of the tables: a list of (rows (2,), points (4, 3), radii (2,), geometry code)."""
         raise NotImplementedError
 
+    def _rows(self, topology):
+        """:meth:`_layout`, once per model (kept in the topology's cache)."""
+        key = ("contact layout", id(self))
+        if key not in topology.cache:
+            topology.cache[key] = self._layout(topology)
+        return topology.cache[key]
+
     @staticmethod
     def _body(topology, body):
         """The body of the model a name names (the element held by the caller keeps names), or ``body``."""
@@ -111,7 +118,7 @@ class Contact(ForceElement):
         rows, local, geom, laws, par = [], [], [], [], []
         for e in elements:
             friction = [0.0] * _k.N_FRICTION if e.friction is None else e.friction.row()
-            for (i, j), pts, radii, kind in e._layout(topology):
+            for (i, j), pts, radii, kind in e._rows(topology):
                 # bodies have mass > 0 (their constructors say so); the ground's is infinite
                 m_eff = 1.0 / sum(1.0 / float(topology.mass[k]) for k in (i, j) if k >= 0)
                 rows.append((i, j))
@@ -129,7 +136,7 @@ class Contact(ForceElement):
         key = ("contact owners", cls, tuple(id(e) for e in elements))
         if key not in topology.cache:
             topology.cache[key] = np.repeat(np.arange(len(elements)),
-                                            [len(e._layout(topology)) for e in elements]).astype(np.int64)
+                                            [len(e._rows(topology)) for e in elements]).astype(np.int64)
         return topology.cache[key]
 
     @classmethod

@@ -277,8 +277,10 @@ def main(argv=None) -> int:
     info.add_argument("scene", help=scene_help)
     info.set_defaults(func=_info)
     _view_parser(sub)
-    plug = sub.add_parser("plugins", help="list bodies, joints, forces, complements and integrators by name")
-    plug.add_argument("--kind", default=None, help="bodies, joints, forces, complements or integrators")
+    plug = sub.add_parser("plugins", help="list bodies, joints, forces, constraints, contacts, complements and "
+                                          "integrators by name")
+    plug.add_argument("--kind", default=None, help="bodies, joints, forces, constraints, contacts, complements or "
+                                                   "integrators")
     plug.set_defaults(func=_plugins)
     st = sub.add_parser("study", help="run a parameter study of a scene file on a process pool or a Dask cluster",
                         epilog=_EXIT_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)

@@ -35,7 +35,7 @@ from ..kernels import contact as _k
 from .contact_base import ZERO, Contact, compiled_tables, radius_check
 from .contact_laws import NormalLaw
 from .friction_laws import FrictionLaw
-from .law_tables import FRICTION_LAWS, NORMAL_LAWS, _friction_law, _law_of, _normal_law
+from .law_tables import friction_field, normal_law_field
 
 __all__ = ["CapsulePlaneContact", "CapsuleSphereContact", "CapsuleCapsuleContact", "capsule_ends"]
 
@@ -142,8 +142,8 @@ class CapsulePlaneContact(Contact):
     body: Body = reference(Body)
     radius: float = field(converter=as_float, validator=radius_check)
     ends: np.ndarray = field(converter=as_array, validator=_ends)
-    normal_law: NormalLaw = field(converter=_law_of(NORMAL_LAWS), validator=_normal_law)
-    friction: FrictionLaw | None = field(default=None, converter=_law_of(FRICTION_LAWS), validator=_friction_law)
+    normal_law: NormalLaw = normal_law_field()
+    friction: FrictionLaw | None = friction_field()
     plane_body: Body = reference(Body, default="ground")
     plane_point: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
     plane_normal: np.ndarray = field(default=(0.0, 0.0, 1.0), converter=as_unit_vector, validator=unit_vector)
@@ -215,8 +215,8 @@ class CapsuleSphereContact(Contact):
     ends: np.ndarray = field(converter=as_array, validator=_ends)
     sphere_body: Body = reference(Body)
     sphere_radius: float = field(converter=as_float, validator=radius_check)
-    normal_law: NormalLaw = field(converter=_law_of(NORMAL_LAWS), validator=_normal_law)
-    friction: FrictionLaw | None = field(default=None, converter=_law_of(FRICTION_LAWS), validator=_friction_law)
+    normal_law: NormalLaw = normal_law_field()
+    friction: FrictionLaw | None = friction_field()
     centre: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
 
     load_tables = compiled_tables
@@ -290,8 +290,8 @@ class CapsuleCapsuleContact(Contact):
     body2: Body = reference(Body)
     radius2: float = field(converter=as_float, validator=radius_check)
     ends2: np.ndarray = field(converter=as_array, validator=_ends)
-    normal_law: NormalLaw = field(converter=_law_of(NORMAL_LAWS), validator=_normal_law)
-    friction: FrictionLaw | None = field(default=None, converter=_law_of(FRICTION_LAWS), validator=_friction_law)
+    normal_law: NormalLaw = normal_law_field()
+    friction: FrictionLaw | None = friction_field()
 
     load_tables = compiled_tables
 

@@ -60,12 +60,11 @@ from .contact_base import ZERO, Contact, compiled_tables, radius_check
 from .contact_laws import (FloresLaw, HuntCrossleyLaw, LankaraniNikraveshLaw, LinearContactLaw, NormalLaw,
                            hertz_stiffness, restitution_of_hysteresis)
 from .friction_laws import CoulombLaw, FrictionLaw, StribeckLaw, VelocityWeakeningLaw, ViscousLaw
-from .law_tables import FRICTION_LAWS, NORMAL_LAWS, _friction_law, _law_of, _normal_law
+from .law_tables import friction_field, normal_law_field
 
 __all__ = ["NormalLaw", "LinearContactLaw", "HuntCrossleyLaw", "LankaraniNikraveshLaw", "FloresLaw", "FrictionLaw",
            "CoulombLaw", "ViscousLaw", "VelocityWeakeningLaw", "StribeckLaw", "Contact", "SpherePlaneContact",
-           "SphereSphereContact", "JournalBearingContact", "hertz_stiffness", "restitution_of_hysteresis",
-           "NORMAL_LAWS", "FRICTION_LAWS"]
+           "SphereSphereContact", "JournalBearingContact", "hertz_stiffness", "restitution_of_hysteresis"]
 
 
 # ----------------------------------------------------------------------------- the elements
@@ -90,7 +89,7 @@ class SpherePlaneContact(Contact):
         The tangential force (:class:`CoulombLaw`, :class:`ViscousLaw`,
         :class:`VelocityWeakeningLaw`, :class:`StribeckLaw`); None: none. Either law
         may be a table: ``{"type": "flores", "stiffness": ..., "restitution": ...}``
-        (the types: ``NORMAL_LAWS``, ``FRICTION_LAWS``), as scene files give it.
+        (the types: the laws of the plugin group ``flexmb.contacts``), as scene files give it.
     centre : array_like, shape (3,)
         Sphere centre in the frame of ``body``, m (default its origin).
     plane_body : Body or str
@@ -129,8 +128,8 @@ class SpherePlaneContact(Contact):
 
     body: Body = reference(Body)
     radius: float = field(converter=as_float, validator=radius_check)
-    normal_law: NormalLaw = field(converter=_law_of(NORMAL_LAWS), validator=_normal_law)
-    friction: FrictionLaw | None = field(default=None, converter=_law_of(FRICTION_LAWS), validator=_friction_law)
+    normal_law: NormalLaw = normal_law_field()
+    friction: FrictionLaw | None = friction_field()
     centre: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
     plane_body: Body = reference(Body, default="ground")
     plane_point: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
@@ -202,8 +201,8 @@ class SphereSphereContact(Contact):
     radius1: float = field(converter=as_float, validator=radius_check)
     body2: Body = reference(Body)
     radius2: float = field(converter=as_float, validator=radius_check)
-    normal_law: NormalLaw = field(converter=_law_of(NORMAL_LAWS), validator=_normal_law)
-    friction: FrictionLaw | None = field(default=None, converter=_law_of(FRICTION_LAWS), validator=_friction_law)
+    normal_law: NormalLaw = normal_law_field()
+    friction: FrictionLaw | None = friction_field()
     centre1: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
     centre2: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
 
@@ -285,8 +284,8 @@ class JournalBearingContact(Contact):
     pin_radius: float = field(converter=as_float, validator=radius_check)
     bearing_body: Body = reference(Body)
     bearing_radius: float = field(converter=as_float, validator=radius_check)
-    normal_law: NormalLaw = field(converter=_law_of(NORMAL_LAWS), validator=_normal_law)
-    friction: FrictionLaw | None = field(default=None, converter=_law_of(FRICTION_LAWS), validator=_friction_law)
+    normal_law: NormalLaw = normal_law_field()
+    friction: FrictionLaw | None = friction_field()
     pin_centre: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
     bearing_centre: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
     bearing_axis: np.ndarray = field(default=(0.0, 0.0, 1.0), converter=as_unit_vector, validator=unit_vector)

@@ -40,7 +40,7 @@ from .contact import SpherePlaneContact, SphereSphereContact
 from .contact_base import Contact, compiled_tables, radius_check
 from .contact_laws import NormalLaw
 from .friction_laws import FrictionLaw
-from .law_tables import FRICTION_LAWS, NORMAL_LAWS, _friction_law, _law_of, _normal_law
+from .law_tables import friction_field, normal_law_field
 
 __all__ = ["Capsules", "Spheres", "Plane", "ContactGroup", "SHAPES"]
 
@@ -246,8 +246,8 @@ class ContactGroup(Contact):
 
     group1: tuple = field(converter=_as_group, validator=_group)
     group2: tuple = field(converter=_as_group, validator=_group)
-    normal_law: NormalLaw = field(converter=_law_of(NORMAL_LAWS), validator=_normal_law)
-    friction: FrictionLaw | None = field(default=None, converter=_law_of(FRICTION_LAWS), validator=_friction_law)
+    normal_law: NormalLaw = normal_law_field()
+    friction: FrictionLaw | None = friction_field()
 
     load_tables = compiled_tables
 

@@ -75,7 +75,7 @@ def capsule_ends(element, topology, body, ends) -> tuple[int, np.ndarray]:
         capsule is rigid: one per segment).
     """
     middle = 0.5 * (ends[0] + ends[1])
-    row, local = Contact._locate(topology, body, middle)
+    row, local = Contact.locate(topology, body, middle)
     shifted = ends + (local - middle)  # a flexible body's segment frames are its frame shifted at the reference
     length = getattr(Contact._body(topology, body), "segment_length", None)
     if length is not None and (shifted[:, 0].min() < -1e-9 * length or shifted[:, 0].max() > length * (1 + 1e-9)):
@@ -153,9 +153,21 @@ class CapsulePlaneContact(Contact):
     def _sides(self):
         return self.body, self.plane_body
 
-    def _layout(self, topology):
+    def layout(self, topology) -> list:
+        """Two rows, one per end: each end's sphere against the plane.
+
+        Parameters
+        ----------
+        topology : Topology
+            The model's tree.
+
+        Returns
+        -------
+        list of tuple
+            The rows, as :meth:`~flexmb.forces.contact_base.Contact.layout` describes them.
+        """
         i, ends = capsule_ends(self, topology, self.body, self.ends)
-        j, p = self._locate(topology, self.plane_body, self.plane_point)
+        j, p = self.locate(topology, self.plane_body, self.plane_point)
         return [((i, j), np.array([e, p, self.plane_normal, ZERO]), (self.radius, 0.0), self.geometry) for e in ends]
 
 
@@ -224,9 +236,21 @@ class CapsuleSphereContact(Contact):
     def _sides(self):
         return self.body, self.sphere_body
 
-    def _layout(self, topology):
+    def layout(self, topology) -> list:
+        """One row: the capsule's ends and the sphere's centre.
+
+        Parameters
+        ----------
+        topology : Topology
+            The model's tree.
+
+        Returns
+        -------
+        list of tuple
+            The rows, as :meth:`~flexmb.forces.contact_base.Contact.layout` describes them.
+        """
         i, ends = capsule_ends(self, topology, self.body, self.ends)
-        j, c = self._locate(topology, self.sphere_body, self.centre)
+        j, c = self.locate(topology, self.sphere_body, self.centre)
         return [((i, j), np.array([ends[0], c, ZERO, ends[1]]), (self.radius, self.sphere_radius), self.geometry)]
 
 
@@ -298,7 +322,19 @@ class CapsuleCapsuleContact(Contact):
     def _sides(self):
         return self.body1, self.body2
 
-    def _layout(self, topology):
+    def layout(self, topology) -> list:
+        """One row: the two capsules' ends.
+
+        Parameters
+        ----------
+        topology : Topology
+            The model's tree.
+
+        Returns
+        -------
+        list of tuple
+            The rows, as :meth:`~flexmb.forces.contact_base.Contact.layout` describes them.
+        """
         i, e1 = capsule_ends(self, topology, self.body1, self.ends1)
         j, e2 = capsule_ends(self, topology, self.body2, self.ends2)
         return [((i, j), np.array([e1[0], e2[0], e2[1], e1[1]]), (self.radius1, self.radius2), self.geometry)]

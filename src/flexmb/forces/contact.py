@@ -140,9 +140,21 @@ class SpherePlaneContact(Contact):
 
     load_tables = compiled_tables
 
-    def _layout(self, topology):
-        i, c = self._locate(topology, self.body, self.centre)
-        j, p = self._locate(topology, self.plane_body, self.plane_point)
+    def layout(self, topology) -> list:
+        """One row: the sphere's centre, the plane's point and its normal.
+
+        Parameters
+        ----------
+        topology : Topology
+            The model's tree.
+
+        Returns
+        -------
+        list of tuple
+            The rows, as :meth:`~flexmb.forces.contact_base.Contact.layout` describes them.
+        """
+        i, c = self.locate(topology, self.body, self.centre)
+        j, p = self.locate(topology, self.plane_body, self.plane_point)
         # a flexible body's segment frames are parallel to the body frame at the reference state
         return [((i, j), np.array([c, p, self.plane_normal, ZERO]), (self.radius, 0.0), self.geometry)]
 
@@ -211,9 +223,21 @@ class SphereSphereContact(Contact):
 
     load_tables = compiled_tables
 
-    def _layout(self, topology):
-        i, c1 = self._locate(topology, self.body1, self.centre1)
-        j, c2 = self._locate(topology, self.body2, self.centre2)
+    def layout(self, topology) -> list:
+        """One row: the two centres.
+
+        Parameters
+        ----------
+        topology : Topology
+            The model's tree.
+
+        Returns
+        -------
+        list of tuple
+            The rows, as :meth:`~flexmb.forces.contact_base.Contact.layout` describes them.
+        """
+        i, c1 = self.locate(topology, self.body1, self.centre1)
+        j, c2 = self.locate(topology, self.body2, self.centre2)
         return [((i, j), np.array([c1, c2, ZERO, ZERO]), (self.radius1, self.radius2), self.geometry)]
 
 
@@ -305,8 +329,20 @@ class JournalBearingContact(Contact):
 
     load_tables = compiled_tables
 
-    def _layout(self, topology):
-        i, c = self._locate(topology, self.pin_body, self.pin_centre)
-        j, p = self._locate(topology, self.bearing_body, self.bearing_centre)
+    def layout(self, topology) -> list:
+        """One row: the pin's centre, the bearing's centre and its axis.
+
+        Parameters
+        ----------
+        topology : Topology
+            The model's tree.
+
+        Returns
+        -------
+        list of tuple
+            The rows, as :meth:`~flexmb.forces.contact_base.Contact.layout` describes them.
+        """
+        i, c = self.locate(topology, self.pin_body, self.pin_centre)
+        j, p = self.locate(topology, self.bearing_body, self.bearing_centre)
         return [((i, j), np.array([c, p, self.bearing_axis, ZERO]), (self.pin_radius, self.bearing_radius),
                  self.geometry)]

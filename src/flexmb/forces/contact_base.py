@@ -50,13 +50,17 @@ def radius_check(instance, attribute, value):
 
 @frozen(eq=False)
 class Contact(ForceElement):
-    """Base class of the compiled contact elements (:class:`SpherePlaneContact`, :class:`SphereSphereContact`,
-    :class:`JournalBearingContact`).
+    """Base class of the compiled contact elements (spheres, capsules, journals, groups of shapes).
 
-    A subclass gives its geometry's code (``geometry``) and its row of the
-    load tables (:meth:`_layout`); the laws, the loads, the powers and the
-    elastic energy are shared, and so are the histories of a result
-    (:func:`flexmb.post.contact_history`).
+    A subclass gives its rows of the load tables (:meth:`layout`: pairs of
+    surfaces of the compiled geometries), a ``normal_law`` and a
+    ``friction`` field (:func:`~flexmb.forces.law_tables.normal_law_field`,
+    :func:`~flexmb.forces.law_tables.friction_field`) and names
+    ``load_tables = compiled_tables`` to be compiled; the laws, the loads,
+    the powers, the implicit Jacobian's tangents and the elastic energy are
+    shared, and so are the histories of a result
+    (:func:`flexmb.post.contact_history`). A plugin's geometry does the
+    same (docs/plugins.md).
 
     Parameters
     ----------
@@ -66,15 +70,32 @@ class Contact(ForceElement):
 
     geometry: ClassVar[int] = -1
 
-    def _layout(self, topology):
-        """This contact's rows of the tables: a list of (rows (2,), points (4, 3), radii (2,), geometry code)."""
+    def layout(self, topology) -> list:
+        """This contact's rows of the load tables (a subclass's geometry; once per model).
+
+        Parameters
+        ----------
+        topology : Topology
+            The model's tree: :meth:`locate` gives a body's row and a point
+            in that row's frame.
+
+        Returns
+        -------
+        list of tuple
+            One ``(rows, points, radii, geometry)`` per pair of touching
+            surfaces: the two body rows, four points (or directions) in
+            their frames (shape (4, 3)), the two radii and the geometry's
+            code, as :mod:`flexmb.kernels.contact_geometry` lays them out
+            (a sphere on a plane: ``(centre, plane point, plane normal, 0)``
+            and ``(r, 0)``).
+        """
         raise NotImplementedError
 
     def _rows(self, topology):
-        """:meth:`_layout`, once per model (kept in the topology's cache)."""
+        """:meth:`layout`, once per model (kept in the topology's cache)."""
         key = ("contact layout", id(self))
         if key not in topology.cache:
-            topology.cache[key] = self._layout(topology)
+            topology.cache[key] = self.layout(topology)
         return topology.cache[key]
 
     @staticmethod
@@ -86,8 +107,25 @@ class Contact(ForceElement):
         return body
 
     @staticmethod
-    def _locate(topology, body, point):
-        """:meth:`Topology.locate`, a body given by name too."""
+    def locate(topology, body, point) -> tuple[int, np.ndarray]:
+        """The body row carrying a point and the point in that row's frame (a flexible body's segment).
+
+        Parameters
+        ----------
+        topology : Topology
+            The model's tree.
+        body : Body or str
+            A body of the model, or its name.
+        point : array_like, shape (3,)
+            The point in the body's frame, m.
+
+        Returns
+        -------
+        row : int
+            Body row (-1: the ground).
+        local : ndarray, shape (3,)
+            The point in that row's frame.
+        """
         return topology.locate(Contact._body(topology, body), point)
 
     def _sides(self):

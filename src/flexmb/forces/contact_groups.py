@@ -85,7 +85,7 @@ class Capsules:
     ends: np.ndarray | None = field(default=None, converter=lambda v: v if v is None else as_array(v),
                                     validator=_optional_ends)
 
-    def primitives(self, topology) -> list:
+    def _primitives(self, topology) -> list:
         """The capsules' axes, ``("capsule", body, ends (2, 3), radius)`` each."""
         body = Contact._body(topology, self.body)
         if self.ends is not None:
@@ -127,7 +127,7 @@ class Spheres:
     radius: float = field(converter=as_float, validator=radius_check)
     centres: np.ndarray = field(default=((0.0, 0.0, 0.0),), converter=as_array, validator=_centres)
 
-    def primitives(self, topology) -> list:
+    def _primitives(self, topology) -> list:
         """``("sphere", body, centre, radius)`` each."""
         body = Contact._body(topology, self.body)
         return [("sphere", body, c, self.radius) for c in self.centres]
@@ -151,7 +151,7 @@ class Plane:
     point: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
     normal: np.ndarray = field(default=(0.0, 0.0, 1.0), converter=as_unit_vector, validator=unit_vector)
 
-    def primitives(self, topology) -> list:
+    def _primitives(self, topology) -> list:
         """One ``("plane", body, point, normal)``."""
         return [("plane", Contact._body(topology, self.body), self.point, self.normal)]
 
@@ -288,12 +288,24 @@ class ContactGroup(Contact):
         raise ModelError(f"{label(self)}: a plane of {getattr(p[1], 'name', p[1])!r} against a plane of "
                          f"{getattr(q[1], 'name', q[1])!r}: planes touch nothing but spheres and capsules")
 
-    def _layout(self, topology):
-        first = [p for shape in self.group1 for p in shape.primitives(topology)]
-        second = [q for shape in self.group2 for q in shape.primitives(topology)]
+    def layout(self, topology) -> list:
+        """The rows of every pair of shapes of the two groups on different bodies.
+
+        Parameters
+        ----------
+        topology : Topology
+            The model's tree.
+
+        Returns
+        -------
+        list of tuple
+            The rows, as :meth:`~flexmb.forces.contact_base.Contact.layout` describes them.
+        """
+        first = [p for shape in self.group1 for p in shape._primitives(topology)]
+        second = [q for shape in self.group2 for q in shape._primitives(topology)]
         rows = []
         for p in first:
             for q in second:
                 if not _same_body(p[1], q[1]):
-                    rows.extend(self._pair(len(rows), p, q)._layout(topology))
+                    rows.extend(self._pair(len(rows), p, q).layout(topology))
         return rows

@@ -49,7 +49,8 @@ def test_a_failed_child_raises_its_error_here(tmp_path, capfd):
 
 
 @linux
-def test_the_child_finishes_through_ctrl_c(tmp_path):
+@pytest.mark.parametrize("signame", ["SIGINT", "SIGTERM", "SIGHUP"])
+def test_the_child_finishes_through_ctrl_c_and_termination(tmp_path, signame):
     target = tmp_path / "done.txt"
 
     def slow():
@@ -58,7 +59,7 @@ def test_the_child_finishes_through_ctrl_c(tmp_path):
 
     job = in_background(slow)
     time.sleep(0.05)
-    os.kill(job.pid, signal.SIGINT)
+    os.kill(job.pid, getattr(signal, signame))  # as a group's signal reaches it: the parent answers it
     assert job.wait(rerun_on_failure=False)
     assert target.read_text() == "done"
 

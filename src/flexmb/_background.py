@@ -6,8 +6,9 @@ and the plots are drawn, on the machine's second core. The child:
 
 * is a fork, so it shares the parent's data and compiled kernels and
   starts at once;
-* ignores Ctrl-C (the job is short; the parent handles the interruption and
-  waits for it, so that what was written is complete);
+* ignores Ctrl-C, SIGTERM and SIGHUP (the job is short; the parent handles
+  the interruption and waits for it, so that what was written is complete:
+  a terminal's Ctrl-C, SLURM and systemd signal the whole process group);
 * dies with its parent (``PR_SET_PDEATHSIG``): a killed job leaves no
   process writing on;
 * leaves by ``os._exit``, running none of the parent's clean-up.
@@ -36,6 +37,9 @@ import traceback
 import warnings
 
 __all__ = ["in_background", "Job", "Worker", "start_worker"]
+
+#: what a child ignores: its parent answers them (a terminal's Ctrl-C, SLURM and systemd signal the whole group)
+_INTERRUPTIONS = tuple(getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, n))
 
 #: pipe capacity asked for the worker's message (Linux; a larger message is sent in pieces as the child reads)
 _PIPE_SIZE = 1 << 20
@@ -118,17 +122,29 @@ def _can_fork() -> bool:
 
 
 def _fork():
-    """``os.fork()`` with the streams flushed first; in the child, Ctrl-C ignored and death with the parent."""
+    """``os.fork()`` with the streams flushed first; in the child, interruptions ignored and death with the parent.
+
+    The interruptions are blocked across the fork, so that none reaches the
+    child before it ignores them (it would run the parent's handler there).
+    """
     for stream in (sys.stdout, sys.stderr):
         stream.flush()
-    with warnings.catch_warnings():
-        # Python 3.12+ warns about forking a process with threads (BLAS pools, tqdm's monitor): the
-        # child only runs numpy, matplotlib and file writes, no lock those threads could hold
-        warnings.simplefilter("ignore", DeprecationWarning)
-        parent = os.getpid()
-        pid = os.fork()
+    mask = hasattr(signal, "pthread_sigmask")
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, _INTERRUPTIONS) if mask else None
+    try:
+        with warnings.catch_warnings():
+            # Python 3.12+ warns about forking a process with threads (BLAS pools, tqdm's monitor): the
+            # child only runs numpy, matplotlib and file writes, no lock those threads could hold
+            warnings.simplefilter("ignore", DeprecationWarning)
+            parent = os.getpid()
+            pid = os.fork()
+        if pid == 0:
+            for s in _INTERRUPTIONS:
+                signal.signal(s, signal.SIG_IGN)
+    finally:
+        if mask:
+            signal.pthread_sigmask(signal.SIG_SETMASK, previous)
     if pid == 0:
-        signal.signal(signal.SIGINT, signal.SIG_IGN)
         _die_with_parent(parent)
     return pid
 

@@ -118,6 +118,10 @@ def test_groups_refuse_planes_against_planes_and_bad_shapes_by_name():
         model.build().forces.active_force(model.build().kinematics(0.0, np.zeros(12), np.zeros(12)))
     with pytest.raises(fm.ModelError, match=r"bad.*group1: a shape's table needs shape = one of 'capsules'"):
         fm.ContactGroup("bad", [{"shape": "cube", "body": "beam"}], [fm.Plane()], fm.LinearContactLaw(1e4))
+    with pytest.raises(fm.ModelError, match=r"Spheres of 'a': centres must be a list of centres, shape \(k, 3\)"):
+        fm.Spheres("a", 0.1, centres=[1.0, 2.0, 3.0])
+    with pytest.raises(fm.ModelError, match=r"Capsules of 'a': ends must be .* shape \(k, 2, 3\), got shape \(2, 3\)"):
+        fm.Capsules("a", 0.1, ends=[[0.0, 0, 0], [1.0, 0, 0]])
     with pytest.raises(fm.ModelError, match="group2 must be a non-empty list of shapes"):
         fm.ContactGroup("empty", [fm.Plane()], [], fm.LinearContactLaw(1e4))
     model = fm.Model()

@@ -52,12 +52,18 @@ def _segments(instance, attribute, value):
                          f"(all) or segment numbers >= 0, got {value!r}")
 
 
-def _optional_ends(instance, attribute, value):
-    if value is not None:
+def _point_lists(what, words, tail):
+    """A validator of a shape's points: None, or finite numbers of shape ``(k,) + tail``."""
+
+    def check(instance, attribute, value):
+        if value is None:
+            return
         finite_array(instance, attribute, value)
-        if value.ndim != 3 or value.shape[1:] != (2, 3):
-            raise ModelError(f"Capsules of {getattr(instance.body, 'name', instance.body)!r}: ends must be a list "
-                             f"of capsules' two ends, shape (k, 2, 3), got shape {value.shape}")
+        if value.ndim != len(tail) + 1 or value.shape[1:] != tail:
+            raise ModelError(f"{what} of {getattr(instance.body, 'name', instance.body)!r}: {attribute.name} must be "
+                             f"{words}, shape (k, {', '.join(map(str, tail))}), got shape {value.shape}")
+
+    return check
 
 
 @frozen
@@ -83,7 +89,7 @@ class Capsules:
     segments: tuple | None = field(default=None, converter=lambda v: v if v is None else tuple(v),
                                    validator=_segments)
     ends: np.ndarray | None = field(default=None, converter=lambda v: v if v is None else as_array(v),
-                                    validator=_optional_ends)
+                                    validator=_point_lists("Capsules", "a list of capsules' two ends", (2, 3)))
 
     def _primitives(self, topology) -> list:
         """The capsules' axes, ``("capsule", body, ends (2, 3), radius)`` each."""
@@ -102,13 +108,6 @@ class Capsules:
                 for i in picked]
 
 
-def _centres(instance, attribute, value):
-    finite_array(instance, attribute, value)
-    if value.ndim != 2 or value.shape[1] != 3:
-        raise ModelError(f"Spheres of {getattr(instance.body, 'name', instance.body)!r}: centres must have shape "
-                         f"(k, 3), got shape {value.shape}")
-
-
 @frozen
 class Spheres:
     """Spheres (or points) on a body.
@@ -125,7 +124,8 @@ class Spheres:
 
     body: Body = reference(Body)
     radius: float = field(converter=as_float, validator=radius_check)
-    centres: np.ndarray = field(default=((0.0, 0.0, 0.0),), converter=as_array, validator=_centres)
+    centres: np.ndarray = field(default=((0.0, 0.0, 0.0),), converter=as_array,
+                              validator=_point_lists("Spheres", "a list of centres", (3,)))
 
     def _primitives(self, topology) -> list:
         """``("sphere", body, centre, radius)`` each."""

@@ -239,3 +239,43 @@ def test_a_child_whose_parent_died_before_it_asked_to_die_with_it_leaves(tmp_pat
         time.sleep(0.05)
     os.kill(child, signal.SIGKILL)
     pytest.fail("the child outlived its parent, which died before the child asked to die with it")
+
+
+@linux
+def test_an_interrupted_wait_kills_the_children_before_it_is_raised(tmp_path):
+    """Ctrl-C while waiting: no child writes on into a staging folder its parent then removes."""
+    from flexmb._background import wait_all
+
+    target = tmp_path / "late.txt"
+    jobs = []
+    in_background(lambda: (time.sleep(3), target.write_text("late")), jobs)
+    in_background(lambda: time.sleep(30), jobs)
+    pids = [job.pid for job in jobs]
+    timer = __import__("threading").Timer(0.3, os.kill, (os.getpid(), signal.SIGINT))
+    timer.start()
+    t0 = time.monotonic()
+    with pytest.raises(KeyboardInterrupt):
+        wait_all(jobs)
+    assert time.monotonic() - t0 < 2.5
+    for pid in pids:  # killed and reaped: no such process any more
+        with pytest.raises(ChildProcessError):
+            os.waitpid(pid, os.WNOHANG)
+    time.sleep(3.5)
+    assert not target.exists()
+
+
+@pytest.mark.skipif(not hasattr(signal, "SIGHUP"), reason="POSIX signals")
+@pytest.mark.parametrize("signame", ["SIGINT", "SIGTERM", "SIGHUP"])
+def test_held_signals_act_once_the_block_ends(signame):
+    from flexmb._signals import Terminated, as_interrupts, held
+
+    done = []
+    with as_interrupts():
+        with pytest.raises(KeyboardInterrupt) as caught:
+            with held():
+                os.kill(os.getpid(), getattr(signal, signame))
+                for _ in range(1000):  # give the interpreter every chance to run a handler in here
+                    time.sleep(0)
+                done.append(True)
+    assert done == [True]
+    assert isinstance(caught.value, Terminated) == (signame != "SIGINT")

@@ -36,7 +36,9 @@ import time
 import traceback
 import warnings
 
-__all__ = ["in_background", "Job", "Worker", "start_worker"]
+from ._signals import held
+
+__all__ = ["in_background", "Job", "Worker", "start_worker", "wait_all"]
 
 #: what a child ignores: its parent answers them (a terminal's Ctrl-C, SLURM and systemd signal the whole group)
 _INTERRUPTIONS = tuple(getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, n))
@@ -89,6 +91,11 @@ class Job:
     def wait(self, rerun_on_failure: bool = True) -> bool:
         """Wait for the child; True if it succeeded (or ran inline).
 
+        An interruption (Ctrl-C, SIGTERM) while waiting kills the child
+        before it is raised here: what the child was writing goes with the
+        staging folder of the interrupted write, and no child writes on
+        into it once the caller has removed it.
+
         Parameters
         ----------
         rerun_on_failure : bool
@@ -103,12 +110,11 @@ class Job:
         if self.pid is None:
             return True
         pid, self.pid = self.pid, None
-        while True:
-            try:
-                _, status = os.waitpid(pid, 0)
-                break
-            except InterruptedError:
-                continue
+        try:
+            status = _reap(pid)
+        except BaseException:
+            _kill(pid)
+            raise
         if os.waitstatus_to_exitcode(status) == 0:
             return True
         if rerun_on_failure:
@@ -116,22 +122,73 @@ class Job:
             return True
         return False
 
+    def kill(self) -> None:
+        """End the child at once (nothing if it ran inline or was waited for)."""
+        pid, self.pid = self.pid, None
+        if pid is not None:
+            _kill(pid)
+
+
+def _reap(pid: int) -> int:
+    """The wait status of child ``pid``, once it has ended."""
+    while True:
+        try:
+            return os.waitpid(pid, 0)[1]
+        except InterruptedError:
+            continue
+
+
+def _kill(pid: int) -> None:
+    """SIGKILL child ``pid`` and reap it; an interruption meanwhile is raised once it is reaped."""
+    with contextlib.suppress(ProcessLookupError):
+        os.kill(pid, signal.SIGKILL)
+    interrupted = None
+    while True:
+        try:
+            _reap(pid)
+            break
+        except ChildProcessError:
+            break
+        except KeyboardInterrupt as exc:  # a second Ctrl-C: the child dies at once all the same
+            interrupted = interrupted or exc
+    if interrupted is not None:
+        raise interrupted
+
+
+def wait_all(jobs) -> None:
+    """:meth:`Job.wait` for each of ``jobs``; an interruption kills the jobs not yet waited for, then is raised.
+
+    Parameters
+    ----------
+    jobs : iterable of Job
+        The jobs writing into a staging folder that is committed (or
+        removed) once they have ended.
+    """
+    jobs = list(jobs)
+    for i, job in enumerate(jobs):
+        try:
+            job.wait()
+        except BaseException:
+            for rest in jobs[i + 1:]:
+                rest.kill()
+            raise
+
 
 def _can_fork() -> bool:
     return sys.platform.startswith("linux") and hasattr(os, "fork")
 
 
-def _fork():
+def _fork(register=None):
     """``os.fork()`` with the streams flushed first; in the child, interruptions ignored and death with the parent.
 
     The interruptions are blocked across the fork, so that none reaches the
-    child before it ignores them (it would run the parent's handler there).
+    child before it ignores them (it would run the parent's handler there),
+    and none interrupts the parent before ``register(pid)`` has recorded the
+    child (a child nobody knows of would write on after an interruption).
     """
     for stream in (sys.stdout, sys.stderr):
         stream.flush()
-    mask = hasattr(signal, "pthread_sigmask")
-    previous = signal.pthread_sigmask(signal.SIG_BLOCK, _INTERRUPTIONS) if mask else None
-    try:
+    with held():
         with warnings.catch_warnings():
             # Python 3.12+ warns about forking a process with threads (BLAS pools, tqdm's monitor): the
             # child only runs numpy, matplotlib and file writes, no lock those threads could hold
@@ -141,15 +198,14 @@ def _fork():
         if pid == 0:
             for s in _INTERRUPTIONS:
                 signal.signal(s, signal.SIG_IGN)
-    finally:
-        if mask:
-            signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+        elif register is not None:
+            register(pid)
     if pid == 0:
         _die_with_parent(parent)
     return pid
 
 
-def in_background(fn) -> Job:
+def in_background(fn, jobs: list | None = None) -> Job:
     """Start ``fn()`` in a forked child process (Linux), or run it now (elsewhere).
 
     Parameters
@@ -157,6 +213,10 @@ def in_background(fn) -> Job:
     fn : callable
         Work without a result: writing files (the child's return value and
         changes to objects are lost).
+    jobs : list of Job, optional
+        Where the job is appended, before an interruption can be raised:
+        the caller that waits for ``jobs`` (:func:`wait_all`) then knows
+        every child it started.
 
     Returns
     -------
@@ -165,8 +225,18 @@ def in_background(fn) -> Job:
     """
     if not _can_fork():
         fn()
-        return Job(None, fn)
-    pid = _fork()
+        job = Job(None, fn)
+        if jobs is not None:
+            jobs.append(job)
+        return job
+    made = []
+
+    def register(pid):
+        made.append(Job(pid, fn))
+        if jobs is not None:
+            jobs.append(made[0])
+
+    pid = _fork(register)
     if pid == 0:  # the child
         code = 1
         try:
@@ -176,7 +246,7 @@ def in_background(fn) -> Job:
             traceback.print_exc()
         finally:
             os._exit(code)
-    return Job(pid, fn)
+    return made[0]
 
 
 def _read_exactly(fd: int, size: int) -> bytes:

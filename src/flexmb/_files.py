@@ -42,13 +42,12 @@ import json
 import os
 import re
 import shutil
-import signal
 import stat
-import threading
 from pathlib import Path
 from typing import Callable
 
 from ._folder_lock import FolderLock, link_refused, read_plain
+from ._signals import held
 from .errors import ExportError
 
 __all__ = ["atomic_write", "OutputFolder", "LOCK_NAME", "MANIFEST_NAME"]
@@ -70,7 +69,6 @@ WRITTEN = re.compile(r"""(?x)
 """)
 #: sub-folders flexmb writes into: a symbolic link in their place is refused
 _FOLDERS = re.compile(r"vtk(_.+)?|cases")
-_SIGNALS = tuple(getattr(signal, s) for s in ("SIGINT", "SIGTERM", "SIGHUP", "SIGQUIT") if hasattr(signal, s))
 
 
 def atomic_write(path, write: Callable[[str], None], suffix: str = ".tmp") -> Path:
@@ -144,40 +142,6 @@ def _create_temp(path: Path, suffix: str) -> tuple[str, int]:
             return tmp, os.fstat(fd).st_mode & 0o7777
         finally:
             os.close(fd)
-
-
-@contextlib.contextmanager
-def _signals_held():
-    """Hold back Ctrl-C, SIGTERM, ... until the block ends, then let them act.
-
-    Blocking the signals is not enough for Ctrl-C: one that arrived just
-    before the block may still be pending in the interpreter and would raise
-    KeyboardInterrupt inside it. So, on the main thread, a handler that only
-    records SIGINT stands in for the block's duration; the recorded signal is
-    handed to the previous handler at the end.
-    """
-    caught = []
-    previous = None
-    if threading.current_thread() is threading.main_thread():
-        current = signal.getsignal(signal.SIGINT)
-        if current is not None:
-            previous = signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
-    block = getattr(signal, "pthread_sigmask", None)
-    mask = block(signal.SIG_BLOCK, []) if block else None  # the current mask, unchanged
-    try:
-        if block:
-            block(signal.SIG_BLOCK, _SIGNALS)
-        yield
-    finally:
-        if block:
-            block(signal.SIG_SETMASK, mask)
-        if previous is not None:
-            signal.signal(signal.SIGINT, previous)
-    if caught:
-        if callable(previous):
-            previous(signal.SIGINT, None)  # Python's default handler raises KeyboardInterrupt
-        elif previous == signal.SIG_DFL:
-            raise KeyboardInterrupt
 
 
 def _remove_tree(path: Path) -> None:
@@ -405,7 +369,7 @@ class OutputFolder:
     def __exit__(self, *exc) -> None:
         try:
             if self.staging is not None and not self.committed:
-                with _signals_held():  # a SIGTERM inside rmtree left the staging folder half removed
+                with held():  # a SIGTERM inside rmtree left the staging folder half removed
                     _remove_tree(self.staging)
         finally:
             self._lock.release()
@@ -413,7 +377,7 @@ class OutputFolder:
     def _recover(self) -> None:
         """Finish a commit a killed run left; remove the staging folders of dead runs."""
         if os.path.isdir(self.path / _COMMIT):  # not a link: _check_links refused one
-            with _signals_held():
+            with held():
                 _roll_forward(self.path)
         for p in self.path.glob(f"{_STAGING}*"):
             _remove_tree(p)  # shutil.rmtree removes no link's target
@@ -552,7 +516,7 @@ class OutputFolder:
         _check_links(self.path)  # refused now, not past the point of no return
         for rel in {os.path.dirname(f) for f in files if "/" in f}:
             _check_folder(self.path, rel)
-        with _signals_held():
+        with held():
             os.replace(staging, self.path / _COMMIT)  # the point of no return
             self.committed = True
             _roll_forward(self.path)

@@ -25,10 +25,13 @@ import contextlib
 import signal
 import threading
 
-__all__ = ["Terminated", "as_interrupts", "escaped", "in_callback", "interrupted_status", "interruption", "who"]
+__all__ = ["Terminated", "as_interrupts", "escaped", "held", "in_callback", "interrupted_status", "interruption", "who"]
 
 #: the signals taken as an interruption, where the platform has them
 SIGNALS = tuple(getattr(signal, s) for s in ("SIGTERM", "SIGHUP") if hasattr(signal, s))
+
+#: the signals :func:`held` holds back: the interruptions and SIGQUIT, where the platform has them
+HELD = tuple(getattr(signal, s) for s in ("SIGINT", "SIGTERM", "SIGHUP", "SIGQUIT") if hasattr(signal, s))
 
 #: the signals received within :func:`as_interrupts` in this process, in order
 received: list[int] = []
@@ -75,6 +78,58 @@ def in_callback(frame) -> bool:
             return True
         frame = frame.f_back
     return False
+
+
+def _restore(previous: dict) -> None:
+    """Put back each signal's handler; an interruption raised meanwhile is raised once all are back."""
+    pending = None
+    for signum, handler in previous.items():
+        while True:
+            try:
+                signal.signal(signum, handler)
+                break
+            except KeyboardInterrupt as exc:  # a handler ran between two lines: set this one again
+                pending = pending or exc
+    if pending is not None:
+        raise pending
+
+
+@contextlib.contextmanager
+def held():
+    """Hold back Ctrl-C, SIGTERM, SIGHUP and SIGQUIT until the block ends, then let the first of them act.
+
+    Blocking the signals is not enough: one that arrived just before the
+    block may already be pending in the interpreter, whose Python handler
+    (Ctrl-C's KeyboardInterrupt, :class:`Terminated`) would then raise inside
+    the block. So, on the main thread, a handler that only records the
+    signal stands in for each Python handler for the block's duration; the
+    first recorded signal is handed to its own handler at the end. A signal
+    left pending by the block acts as it arrives, once the mask is lifted.
+    In a child forked inside the block, leaving it only lifts the mask: the
+    child keeps the handlers it set (:mod:`flexmb._background` ignores the
+    interruptions there).
+    """
+    import os
+
+    caught, previous = [], {}
+    pid = os.getpid()
+    if threading.current_thread() is threading.main_thread():
+        for signum in HELD:
+            if callable(signal.getsignal(signum)):
+                previous[signum] = signal.signal(signum, lambda s, frame: caught.append(s))
+    block = getattr(signal, "pthread_sigmask", None)
+    mask = block(signal.SIG_BLOCK, HELD) if block else None
+    try:
+        yield
+    finally:
+        try:
+            if os.getpid() == pid:
+                _restore(previous)
+        finally:
+            if block:
+                block(signal.SIG_SETMASK, mask)
+    if caught and os.getpid() == pid:
+        previous[caught[0]](caught[0], None)  # Python's default handler raises KeyboardInterrupt
 
 
 def _later(signum) -> None:

@@ -16,7 +16,7 @@ import os
 
 import numpy as np
 
-from .._background import Worker, in_background, start_worker
+from .._background import Worker, in_background, start_worker, wait_all
 from .._files import OutputFolder, atomic_write
 from ..errors import SimulationError
 from .figures import FIGURES
@@ -84,7 +84,7 @@ def _vtk(res, folder, sub, prefix, system, jobs=None):
     if jobs is None:
         export()
     else:
-        jobs.append(in_background(export))
+        in_background(export, jobs)
     return rel
 
 
@@ -268,8 +268,7 @@ def _write_outputs(scene, res, folder, plotter) -> dict:
                 files["vtk"] = pvd
                 files["paraview"] = PARAVIEW_SCRIPT
     finally:
-        for job in jobs:
-            job.wait()
+        wait_all(jobs)  # interrupted: the jobs are killed, no child writes on into the removed staging folder
     summary["files"] = files
     folder.commit(summary if o.summary else None)
     return summary
@@ -303,8 +302,7 @@ def _write_runs(scene, folder, progress: bool, overrides: dict, plotter):
         if plotter is not None and summary["status"] == "finished":
             _plot_runs(scene, done, folder, files, plotter, jobs)
     finally:
-        for job in jobs:
-            job.wait()
+        wait_all(jobs)  # interrupted: the jobs are killed, no child writes on into the removed staging folder
     if any(k.startswith("vtk_") for k in files):
         summary["paraview"] = files["paraview"] = PARAVIEW_SCRIPT
     summary["files"] = files

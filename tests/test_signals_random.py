@@ -129,8 +129,9 @@ def _deliver_one(lane: int, i: int, root: pathlib.Path, rng: random.Random):
     sig = SIGNALS[(i // 2 + lane) % len(SIGNALS)]
     out = root / f"lane{lane}" / kind
     delay = rng.uniform(0.0, 6.0)
+    env = dict(os.environ, PYTHONFAULTHANDLER="1")  # a crash prints where each thread was
     proc = subprocess.Popen(_script() + _command(kind, i // 2, out), stdout=subprocess.DEVNULL,
-                            stderr=subprocess.PIPE, text=True, cwd=root)
+                            stderr=subprocess.PIPE, text=True, cwd=root, env=env)
     _wait_for_handlers(proc)
     try:
         proc.wait(delay)

@@ -356,9 +356,14 @@ def console() -> None:
     code among them: after the main job, about 0.3 s. With the standard
     streams flushed and the exit handlers run (``atexit``: logging's, a
     plugin's), the process leaves with :func:`os._exit` instead. It exits
-    the usual way if a thread of its own still runs, or if :func:`main`
-    raised. Writing into a pipe that its reader closed (``flexmb plugins |
-    head -3``) ends the command quietly, with status 1.
+    the usual way if a thread of its own that the interpreter would wait for
+    (not a daemon) still runs, or if :func:`main` raised. A daemon thread
+    (the timer that answers a signal deferred out of llvmlite's callback) is
+    no reason to free everything: an interruption can leave numba's
+    compiler half-way, and an interrupted study whose files were all written
+    crashed once in some 600 signal deliveries as it exited that way.
+    Writing into a pipe that its reader closed (``flexmb plugins | head
+    -3``) ends the command quietly, with status 1.
     """
     from flexmb_command import install
 
@@ -368,8 +373,8 @@ def console() -> None:
     except BrokenPipeError:  # flexmb ... | head: the reader has what it wanted (Python's "Note on SIGPIPE")
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         sys.exit(1)
-    if threading.active_count() > 1:  # a thread would be cut short: let the interpreter join it
-        sys.exit(code)
+    if any(t.is_alive() and not t.daemon for t in threading.enumerate() if t is not threading.main_thread()):
+        sys.exit(code)  # a thread would be cut short: let the interpreter join it
     atexit._run_exitfuncs()
     for stream in (sys.stdout, sys.stderr):
         try:

@@ -306,3 +306,26 @@ def test_a_case_file_of_the_wrong_shape_is_run_again_on_resume(scene_file, seria
     again = _study(scene_file).run(out, executor="serial", progress=False)
     _assert_same_table(again, serial)
     assert isinstance(json.loads(path.read_text())["outputs"], dict)  # the case ran again and wrote its row
+
+
+@pytest.mark.parametrize("stage", ["_build", "_evaluate"])
+def test_an_interruption_as_a_kernel_returns_outside_the_run_stops_the_study(monkeypatch, stage):
+    """A SIGTERM as a compiled kernel returned while a case was built (numba's SystemError) was a failed case:
+    the study went on and exited 4."""
+    from flexmb._signals import Terminated
+    from flexmb.study import cases
+
+    def interrupted(*args, **kwargs):
+        try:
+            raise Terminated(signal.SIGTERM)
+        except Terminated as exc:
+            raise SystemError("CPUDispatcher(<function tree_kinematics>) returned a result with an exception set") \
+                from exc
+
+    monkeypatch.setattr(cases, stage, interrupted)
+    if stage == "_evaluate":
+        monkeypatch.setattr(cases, "_build", lambda *a: type("Scene", (), {"simulate": lambda self, progress:
+                                                                            type("R", (), {"status": "finished"})()})())
+    task = {"case": 0, "case_id": "c", "parameters": {}, "data": {}, "source": "", "fixed": {}, "outputs": ["x"]}
+    with pytest.raises(Terminated):
+        cases._run_case(task)

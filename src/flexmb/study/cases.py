@@ -10,6 +10,7 @@ import socket
 import threading
 import time
 
+from .._signals import interruption
 from ..scene.metrics import _evaluate, _output_name
 from ..scene.keys import key_paths as _paths, set_key as _set
 
@@ -44,6 +45,9 @@ def _run_case(task: dict) -> dict:
         for spec in task["outputs"]:
             row["outputs"][_output_name(spec)] = _evaluate(spec, scene, res)
     except Exception as exc:  # recorded, and the study goes on
+        stop = interruption(exc)
+        if stop is not None:  # Ctrl-C or a signal as a compiled kernel returned (numba's SystemError): the study's
+            raise stop from None
         row["status"] = "failed"
         row["error"] = f"{type(exc).__name__}: {exc}".replace("\n", " ")
     row["wall_time_s"] = time.perf_counter() - t0

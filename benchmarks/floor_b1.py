@@ -227,7 +227,7 @@ def run_flexmb(n, scene, ref, ref_label, methods, rtols, repeat, log):
         for rtol in rtols:
             setups, walls = [], []
             for _ in range(repeat):
-                s, w, res, system = wp.run_once(scene, n, method, rtol)
+                s, w, _, res, system = wp.run_once(scene, n, method, rtol)
                 setups.append(s)
                 walls.append(w)
             out = np.asarray(scene.output(res), float)
@@ -289,7 +289,7 @@ def duel(n, scene, floor_row, flexmb_row, ref, repeat, log):
         t0 = time.perf_counter()
         tip, _ = chain.simulate(floor_row["method"], floor_row["rtol"], jac=jac)
         walls["floor"].append(time.perf_counter() - t0)
-        _, w, res, _ = wp.run_once(scene, n, flexmb_row["method"], flexmb_row["rtol"])
+        _, w, _, res, _ = wp.run_once(scene, n, flexmb_row["method"], flexmb_row["rtol"])
         walls["flexmb"].append(w)
     out = {"n_segments": n, "floor": f"{floor_row['method']} rtol {floor_row['rtol']:g}",
            "flexmb": f"{flexmb_row['integrator']} rtol {flexmb_row['rtol']:g}",

@@ -30,7 +30,9 @@ RESULTS = os.path.join(HERE, "results")
 
 #: result files left out by default: other runs of the same tools (one figure
 #: shows one run) that have their own tables and figures
-OWN_FIGURES = {"compare_first_run.jsonl", "floor_B1.jsonl", "flexmb_B2_scaling.jsonl"}
+OWN_FIGURES = {"compare_first_run.jsonl", "floor_B1.jsonl", "flexmb_B2_scaling.jsonl",
+               "compare_best_pick.jsonl",  # the run of 2026-11-26, before issue 31 (best picks)
+               "compare_processes.jsonl"}  # one process per simulation: CPU of whole processes, no work-precision
 
 
 def load(paths) -> list:

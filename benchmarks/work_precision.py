@@ -142,16 +142,24 @@ def atol_for(rtol: float) -> float:
     return rtol * 1e-2
 
 
-def run_once(scene: Scene, n: int, method: str, rtol: float):
-    """Build and simulate once; returns (setup_s, wall_s, result, system)."""
+def run_once(scene: Scene, n: int, method: str, rtol: float, atol: float | None = None):
+    """Build and simulate once (``atol`` None: :func:`atol_for`).
+
+    Returns
+    -------
+    tuple
+        ``(setup_s, wall_s, cpu_s, result, system)``: the build's wall time,
+        the simulation's wall time and its CPU time (this process's, which
+        a loaded machine inflates less than the wall time).
+    """
     t0 = time.perf_counter()
     system, kw = scene.build(n)
     setup = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    res = fm.simulate(system, scene.t_end, method=method, rtol=rtol, atol=atol_for(rtol), n_out=2,
-                      progress=False, **kw)
-    wall = time.perf_counter() - t0
-    return setup, wall, res, system
+    t0, c0 = time.perf_counter(), time.process_time()
+    res = fm.simulate(system, scene.t_end, method=method, rtol=rtol, atol=atol_for(rtol) if atol is None else atol,
+                      n_out=2, progress=False, **kw)
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    return setup, wall, cpu, res, system
 
 
 def _ref_path(refdir, scene, n, method, rtol):
@@ -166,7 +174,7 @@ def reference(scene: Scene, n: int, rtol: float, refdir: str = REFS, method: str
     if os.path.exists(path):
         with np.load(path, allow_pickle=False) as z:
             return {k: z[k].item() if z[k].ndim == 0 else z[k] for k in z.files}
-    setup, wall, res, system = run_once(scene, n, method, rtol)
+    setup, wall, _, res, system = run_once(scene, n, method, rtol)
     ref = {"output": np.asarray(scene.output(res), float), "setup_s": setup, "wall_s": wall,
            "steps": res.n_steps, "rhs_evals": res.n_rhs, "jac_evals": res.n_jac, "n_coords": system.n_coords,
            "n_dof": res.n_dof, "rtol": rtol, "method": method}
@@ -218,7 +226,7 @@ def prepare(scene: Scene, n: int, integrators, ref_rtol: float, refdir: str = RE
             "methods": integrators_for(scene, n, integrators)}
 
 
-def run_config(scene: Scene, n: int, method: str, rtol: float, prep: dict) -> dict:
+def run_config(scene: Scene, n: int, method: str, rtol: float, prep: dict, atol: float | None = None) -> dict:
     """One timed run of one configuration: its row (``wall_s`` and ``setup_s`` of this run), or a failure row.
 
     Parameters
@@ -228,22 +236,27 @@ def run_config(scene: Scene, n: int, method: str, rtol: float, prep: dict) -> di
     method : str
         flexmb method name (``"auto"`` lets flexmb choose).
     rtol : float
-        Relative tolerance (``atol = rtol / 100``).
+        Relative tolerance.
     prep : dict
         From :func:`prepare` for this scene and N.
+    atol : float, optional
+        Absolute tolerance (default :func:`atol_for`, ``rtol / 100``).
     """
+    atol = atol_for(rtol) if atol is None else atol
     try:
-        s, w, res, _ = run_once(scene, n, method, rtol)
+        s, w, cpu, res, _ = run_once(scene, n, method, rtol, atol)
     except fm.SimulationError as exc:
-        return _row(scene, n, integrator=method, rtol=rtol, status=f"failed: {exc}", reference=prep["label"])
+        return _row(scene, n, integrator=method, rtol=rtol, atol=atol, status=f"failed: {exc}",
+                    reference=prep["label"])
     out = np.asarray(scene.output(res), float)
     ref = prep["ref"]
     return _row(
         scene, n, n_coords=int(ref["n_coords"]), n_dof=int(res.n_dof),
         integrator=res.method if method != "auto" else f"auto ({res.method})", rtol=rtol,
-        setup_s=s, wall_s=w, steps=int(res.n_steps), rhs_evals=int(res.n_rhs), jac_evals=int(res.n_jac),
-        error=float(np.linalg.norm(out - ref["output"])), reference=prep["label"], status="finished",
-        atol=atol_for(rtol), t_end=scene.t_end, ref_uncertainty=prep["unc"], output=out.tolist())
+        setup_s=s, wall_s=w, cpu_s=cpu, steps=int(res.n_steps), rhs_evals=int(res.n_rhs), jac_evals=int(res.n_jac),
+        error=float(np.linalg.norm(out - ref["output"])), reference=prep["label"],
+        status="finished" if res.status == "finished" else f"failed: {res.status}: {res.message}",
+        atol=atol, t_end=scene.t_end, ref_uncertainty=prep["unc"], output=out.tolist())
 
 
 def run_scene(scene: Scene, ns, integrators=("Radau", "BDF", "DOP853", "auto"), rtols=(1e-3, 1e-5, 1e-7),

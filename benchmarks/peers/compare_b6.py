@@ -52,6 +52,7 @@ BENCH = os.path.dirname(HERE)
 sys.path.insert(0, BENCH)
 sys.path.insert(0, HERE)
 
+import picks  # noqa: E402
 import scenes  # noqa: E402
 from b6_data import b6_data  # noqa: E402
 from compare import Peer, peer_env, peer_rows, timed_rounds  # noqa: E402
@@ -148,39 +149,14 @@ def flexmb_configs(specs, n: int) -> list:
     return out
 
 
-def family(row) -> str:
-    """The family of a configuration: flexmb's method, Exudyn's Newton tolerance."""
-    return str(row.get("integrator")).split(" (")[0]
-
-
-def looseness(row) -> float:
-    """Larger is looser: rtol (flexmb) or step size (Exudyn)."""
-    return row["rtol"] if row.get("rtol") is not None else row["h"]
-
-
-def passes(row, target) -> bool:
-    return row.get("status") == "finished" and row.get("error") is not None and row["error"] <= target
-
-
 def robust_pick(rows, target):
     """The fastest robust setting and the fastest passing one: (row or None, row or None).
 
     A setting is robust when it passes (error <= ``target``) and so does
-    every tighter setting of its family (smaller rtol or step); a failed run
-    passes nothing.
+    every tighter setting of its family (flexmb: the method; Exudyn: the
+    Newton tolerance; ``picks.py``); a failed run passes nothing.
     """
-    fams = {}
-    for r in rows:
-        fams.setdefault(family(r), []).append(r)
-    robust = []
-    for runs in fams.values():
-        for r in sorted(runs, key=looseness):  # tightest first: the chain of passing settings
-            if not passes(r, target):
-                break
-            robust.append(r)
-    best = [r for r in rows if passes(r, target) and r.get("wall_s") is not None]
-    pick = min(robust, key=lambda r: r["wall_s"]) if robust else None
-    return pick, (min(best, key=lambda r: r["wall_s"]) if best else None)
+    return picks.tuned(rows, target, which="fastest"), picks.best_pick(rows, target)
 
 
 def _fmt(x, spec=".3g"):
@@ -194,7 +170,7 @@ def _conf(r):
     rounds = f" ({k} round{'s' if k != 1 else ''} only)" if k < 3 else ""
     if r["tool"] == "flexmb":
         return f"{r['integrator']}, rtol {r['rtol']:g}{rounds}"
-    return f"{family(r)}, h {r['h']:g} s{rounds}"
+    return f"{r['integrator'].split(' (')[0]}, h {r['h']:g} s{rounds}"
 
 
 def summary(rows, agreement, args, started) -> str:

@@ -12,6 +12,16 @@ the last link's rigid-body inertia (parallel-axis theorem). Implicit
 generalized-alpha (Exudyn's default spectral radius 0.9, modified Newton),
 fixed steps, the fast module (``sys.exudynFast = True``).
 
+Tuned as Exudyn's documentation allows: the Newton iteration's relative
+tolerance (``timeIntegration.newton.relativeTolerance``, default 1e-8) is
+a setting of each run (``--newton-rtol``); its absolute tolerance
+(``newton.absoluteTolerance``, default 1e-10) is ``--newton-atol`` (loosened
+to the relative tolerance it changed the CPU time by at most 3 % at B1
+N = 8 and B2 N = 16: ``docs/benchmarks.md``, so compare.py keeps the
+default).
+``--configs NEWTON_RTOL:STEPS ...`` runs just those pairs instead of the
+grid ``--newton-rtol`` x ``--steps``.
+
 Prints one JSON line per configuration (BENCHMARKS.md fields plus
 ``output``, the tip position at t_end, and ``wall_rounds``): ``--repeat``
 rounds each run every configuration once, and the least wall time is
@@ -103,13 +113,20 @@ def build(scene: str, n: int, damped: bool = True):
     return SC, mbs, sensor, nc
 
 
-def settings(t_end: float, steps: int) -> "exu.SimulationSettings":
-    """Implicit generalized-alpha with Exudyn's recommended defaults, no output files."""
+def settings(t_end: float, steps: int, newton_rtol: float = 1e-8,
+             newton_atol: float | None = None) -> "exu.SimulationSettings":
+    """Implicit generalized-alpha with Exudyn's recommended defaults and the given Newton tolerances, no files.
+
+    ``newton_atol`` None keeps Exudyn's default absolute tolerance.
+    """
     s = exu.SimulationSettings()
     s.timeIntegration.endTime = t_end
     s.timeIntegration.numberOfSteps = int(steps)
     s.timeIntegration.verboseMode = 0
     s.timeIntegration.newton.useModifiedNewton = True
+    s.timeIntegration.newton.relativeTolerance = newton_rtol
+    if newton_atol is not None:
+        s.timeIntegration.newton.absoluteTolerance = newton_atol
     s.timeIntegration.generalizedAlpha.spectralRadius = 0.9
     s.solution.file.write = False
     s.solution.sensors.writePeriod = t_end
@@ -118,19 +135,20 @@ def settings(t_end: float, steps: int) -> "exu.SimulationSettings":
     return s
 
 
-def run(scene: str, n: int, steps: int, t_end: float = 1.0):
+def run(scene: str, n: int, steps: int, t_end: float = 1.0, newton_rtol: float = 1e-8,
+        newton_atol: float | None = None):
     """One simulation: (setup_s, wall_s, tip position at t_end, counters dict, n_coords)."""
     t0 = time.perf_counter()
     SC, mbs, sensor, nc = build(scene, n)
-    sim = settings(t_end, steps)
+    sim = settings(t_end, steps, newton_rtol, newton_atol)
     solver = exu.MainSolverImplicitSecondOrder()
     setup = time.perf_counter() - t0
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     ok = solver.SolveSystem(mbs, sim)
-    wall = time.perf_counter() - t0
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     tip = np.array(mbs.GetSensorValues(sensor), float)
     counters = {"steps": int(solver.it.currentStepIndex), "newton": int(solver.it.newtonStepsCount),
-                "jac": int(solver.it.newtonJacobiCount), "ok": bool(ok)}
+                "jac": int(solver.it.newtonJacobiCount), "ok": bool(ok), "cpu_s": cpu}
     return setup, wall, tip, counters, nc
 
 
@@ -139,6 +157,12 @@ def main(argv=None):
     ap.add_argument("--scene", default="B1", choices=["B1", "B2"])
     ap.add_argument("--n", type=int, nargs="+", default=[8])
     ap.add_argument("--steps", type=int, nargs="+", default=[250, 500, 1000, 2000, 4000, 8000])
+    ap.add_argument("--newton-rtol", type=float, nargs="+", default=[1e-8],
+                    help="Newton relative tolerances (timeIntegration.newton.relativeTolerance; default 1e-8)")
+    ap.add_argument("--newton-atol", type=float,
+                    help="Newton absolute tolerance (timeIntegration.newton.absoluteTolerance; default: Exudyn's)")
+    ap.add_argument("--configs", nargs="+",
+                    help="NEWTON_RTOL:STEPS pairs to run instead of the grid --newton-rtol x --steps")
     ap.add_argument("--t-end", type=float, default=1.0)
     ap.add_argument("--repeat", type=int, default=3,
                     help="rounds (each runs every configuration once); the least wall time is reported")
@@ -157,24 +181,29 @@ def main(argv=None):
                   "output": y.tolist(), "output_fine": y2.tolist(), "change": float(np.linalg.norm(y2 - y1)),
                   "wall_s": w1 + w2})
         return
-    configs = [(n, steps) for n in args.n for steps in args.steps]
+    if args.configs:
+        pairs = [(float(c.split(":")[0]), int(c.split(":")[1])) for c in args.configs]
+    else:
+        pairs = [(nt, steps) for nt in args.newton_rtol for steps in args.steps]
+    configs = [(n, nt, steps) for n in args.n for nt, steps in pairs]
     failed = set()
 
     def run_round(r):
         rows = []
-        for n, steps in configs:
-            if (n, steps) in failed:  # a failed run is not repeated
+        for n, nt, steps in configs:
+            if (n, nt, steps) in failed:  # a failed run is not repeated
                 continue
-            s, w, tip, cnt, nc = run(args.scene, n, steps, args.t_end)
+            s, w, tip, cnt, nc = run(args.scene, n, steps, args.t_end, nt, args.newton_atol)
             err = float(np.linalg.norm(tip - np.asarray(args.reference))) if args.reference else None
             rows.append(row("exudyn", args.scene, n, n_coords=nc, n_dof=nc,
                             integrator="generalized-alpha (rho_inf 0.9, modified Newton)", rtol=None,
-                            h=args.t_end / steps, setup_s=s, wall_s=w, steps=cnt["steps"], rhs_evals=cnt["newton"],
+                            newton_rtol=nt, newton_atol=args.newton_atol, h=args.t_end / steps, setup_s=s, wall_s=w, cpu_s=cnt["cpu_s"],
+                            steps=cnt["steps"], rhs_evals=cnt["newton"],
                             jac_evals=cnt["jac"], error=err, reference=args.reference_label or None,
                             output=tip.tolist(), status="finished" if cnt["ok"] else "failed",
                             version=exu.config.Version(), t_end=args.t_end))
             if not cnt["ok"]:
-                failed.add((n, steps))
+                failed.add((n, nt, steps))
         return rows
 
     drive(run_round, args.repeat, args.rounds_from_stdin, emit)

@@ -143,7 +143,9 @@ def main(argv=None):
     ap.add_argument("--scene", default="B1", choices=["B1", "B2"])
     ap.add_argument("--n", type=int, nargs="+", default=[4, 8])
     ap.add_argument("--rtols", type=float, nargs="+", default=[1e-4, 1e-6])
-    ap.add_argument("--method", default="LSODA", choices=["Radau", "BDF", "LSODA"])
+    ap.add_argument("--method", nargs="+", default=["LSODA"], choices=["Radau", "BDF", "LSODA"],
+                    help="scipy methods run at every --rtols")
+    ap.add_argument("--configs", nargs="+", help="METHOD:RTOL pairs to run instead of the grid --method x --rtols")
     ap.add_argument("--t-end", type=float, default=1.0)
     ap.add_argument("--repeat", type=int, default=3,
                     help="rounds (each runs every configuration once, the model derived in the first); the least "
@@ -160,6 +162,10 @@ def main(argv=None):
     args = ap.parse_args(argv)
     from scipy.integrate import solve_ivp
 
+    if args.configs:
+        pairs = [(c.split(":")[0], float(c.split(":")[1])) for c in args.configs]
+    else:
+        pairs = [(method, rtol) for method in args.method for rtol in args.rtols]
     models = {}  # n -> (derived model or the status of a skipped N, setup seconds)
     state = {"over": False}  # a setup overran the budget: larger N are skipped
     failed = set()
@@ -189,12 +195,12 @@ def main(argv=None):
             ref = args.reference[i_n] if args.reference and i_n < len(args.reference) else None
             derived, setup = model(n)
             if isinstance(derived, str):
-                rows += [row("pydy", args.scene, n, integrator=args.method, rtol=rtol, setup_s=setup, status=derived)
-                         for rtol in args.rtols]
+                rows += [row("pydy", args.scene, n, integrator=method, rtol=rtol, setup_s=setup, status=derived)
+                         for method, rtol in pairs]
                 continue
             rhs, tip, p, nc, used, _ = derived
-            for rtol in args.rtols:
-                if (n, rtol) in failed:  # a failed solve is not repeated
+            for method, rtol in pairs:
+                if (n, method, rtol) in failed:  # a failed solve is not repeated
                     continue
                 counter = {"rhs": 0}
 
@@ -202,20 +208,20 @@ def main(argv=None):
                     counter["rhs"] += 1
                     return rhs(x, t, p)
 
-                t0 = time.perf_counter()
-                sol = solve_ivp(f, (0.0, args.t_end), np.zeros(2 * nc), method=args.method, rtol=rtol,
+                t0, c0 = time.perf_counter(), time.process_time()
+                sol = solve_ivp(f, (0.0, args.t_end), np.zeros(2 * nc), method=method, rtol=rtol,
                                 atol=rtol / 100, t_eval=[args.t_end])
-                wall = time.perf_counter() - t0
+                wall, cpu = time.perf_counter() - t0, time.process_time() - c0
                 if not sol.success or np.shape(sol.y)[-1:] != (1,):
                     rows.append(row("pydy", args.scene, n, n_coords=nc, n_dof=nc, rtol=rtol, setup_s=setup,
-                                    integrator=f"scipy {args.method} (pydy {used})", status=f"failed: {sol.message}"))
-                    failed.add((n, rtol))
+                                    integrator=f"scipy {method} (pydy {used})", status=f"failed: {sol.message}"))
+                    failed.add((n, method, rtol))
                     continue
                 out = tip(np.asarray(sol.y)[:, -1])
                 err = float(np.linalg.norm(out - np.asarray(ref))) if ref else None
                 rows.append(row("pydy", args.scene, n, n_coords=nc, n_dof=nc,
-                                integrator=f"scipy {args.method} (pydy {used})", rtol=rtol, setup_s=setup,
-                                wall_s=wall, steps=None, rhs_evals=int(sol.nfev), jac_evals=int(sol.njev),
+                                integrator=f"scipy {method} (pydy {used})", rtol=rtol, setup_s=setup,
+                                wall_s=wall, cpu_s=cpu, steps=None, rhs_evals=int(sol.nfev), jac_evals=int(sol.njev),
                                 error=err, reference=args.reference_label or None, output=out.tolist(),
                                 status="finished", atol=rtol / 100, t_end=args.t_end))
         return rows

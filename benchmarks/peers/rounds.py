@@ -25,7 +25,7 @@ import sys
 
 #: the fields that name a configuration (the integrator without its parenthesised detail, so that
 #: flexmb's "auto" and its "auto (Radau)" or a peer's failure row and its finished row match)
-KEY_FIELDS = ("tool", "scene", "variant", "n_segments", "rtol", "h")
+KEY_FIELDS = ("tool", "scene", "variant", "n_segments", "rtol", "h", "newton_rtol", "atol")
 
 
 def config_key(row: dict) -> tuple:
@@ -59,7 +59,8 @@ def merge_rounds(rounds, stat=min) -> list:
         stat(setups)`` (where every round has one) and ``wall_rounds`` (the
         walls in round order); its other fields (error, counters, output)
         are those of its first run. A configuration that failed in any round
-        is that failure row, unchanged.
+        is that failure row, unchanged. Rows with ``cpu_s`` (the run's CPU
+        time) get ``cpu_s = stat(cpus)`` and ``cpu_rounds`` the same way.
     """
     groups: dict = {}
     for rows in rounds:
@@ -78,6 +79,10 @@ def merge_rounds(rounds, stat=min) -> list:
         if all(s is not None for s in setups):
             merged["setup_s"] = stat(setups)
         merged["wall_rounds"] = walls
+        cpus = [r.get("cpu_s") for r in runs]
+        if all(c is not None for c in cpus):
+            merged["cpu_s"] = stat(cpus)
+            merged["cpu_rounds"] = cpus
         out.append(merged)
     return out
 

@@ -20,7 +20,10 @@ reference's peak force):
   below the stop's far side (tunnelling: the penetration exceeding the
   sphere's radius).
 
-Tunnelling is prevented by bounding the step, not by events: every run
+The runs locate the contact's onsets and separations as events (the
+default of ``simulate``, ``flexmb.contact_events``: the integrator restarts
+at each touch, and a step through the pad is refused); the results in
+``docs/benchmarks.md`` were measured before the events. Every run also
 uses ``max_step`` = ``--max-step`` (default 1e-4 s: about a third of the
 contact time ``3 delta_max / v_in``, 3.3e-4 s here with delta_max = 57 um
 at v_in = 0.53 m/s, and a free flight at v_in covers 53 um in one step,

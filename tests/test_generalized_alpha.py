@@ -122,6 +122,55 @@ def test_step_control_reacts_to_rtol():
     assert errs[2] < 5e-5
 
 
+def _hard_pair(t, y):
+    """A forced pair with a strong cubic spring: Newton fails on steps of a few hundredths of a second."""
+    x, v = y[:2], y[2:]
+    return np.concatenate([v, [-2e4 * x[0] ** 3 - 10 * x[0] + 5 * np.sin(20 * t) + 100 * (x[1] - x[0]),
+                               -100 * (x[1] - x[0]) - 1e3 * x[1] * abs(x[1])]])
+
+
+def _run_logging_newton_failures(regrowth, monkeypatch):
+    """The hard pair at a step floor Newton fails on: (solver, steps halved by failures, steps bounded)."""
+    import flexmb.genalpha.solver as solver_module
+
+    monkeypatch.setattr(solver_module, "NEWTON_REGROWTH", regrowth)
+    solver = generalized_alpha(0.5, min_step=0.02)(_hard_pair, 0.0, np.array([0.3, -0.2, 0.0, 1.0]), 1.0,
+                                                   rtol=1e-6, atol=1e-8)
+    halved = []  # the steps a Newton failure with a current Jacobian halved to
+    newton = solver._newton
+
+    def logged(t1, h):
+        out = newton(t1, h)
+        if out[0] is None and solver.jac_current:
+            halved.append(0.5 * abs(h))
+        return out
+
+    solver._newton = logged
+    since, n_failed, held = 0, 0, 0  # steps accepted since the last failure; failures; steps the bound set
+    while solver.status == "running":
+        solver.step()
+        if len(halved) > n_failed:
+            n_failed, since = len(halved), 0
+        if n_failed:
+            bound = halved[-1] * regrowth**since
+            assert solver.step_size <= bound * (1 + 1e-12), (solver.t, solver.step_size, bound)
+            held += solver.step_size > bound * (1 - 1e-9)
+        since += 1
+    assert solver.status == "finished"
+    return solver, halved, held
+
+
+def test_after_a_newton_failure_the_step_grows_back_by_at_most_newton_regrowth(monkeypatch):
+    from flexmb.genalpha.solver import NEWTON_REGROWTH
+
+    solver, halved, held = _run_logging_newton_failures(NEWTON_REGROWTH, monkeypatch)
+    assert halved and held > 20, "Newton failed, and the bound set the step after it (the floor asked for more)"
+    # without the bound the steps go straight back to the floor and Newton fails there again and again
+    unbounded, halved_unbounded, _ = _run_logging_newton_failures(1e300, monkeypatch)
+    assert len(halved_unbounded) > 5 * len(halved)
+    assert solver.nfev < unbounded.nfev
+
+
 def test_f_max_lets_the_steps_skip_a_stiff_mode_and_keeps_the_slow_one():
     fun, jac = oscillator([1.0, 1000.0])
     y0 = [1.0, 1e-3, 0.0, 0.0]

@@ -86,10 +86,11 @@ def test_scipy_solvers_get_their_capabilities_from_the_table():
 def test_flexmb_integrators_declare_their_capabilities():
     assert capabilities(SecondOrderRadau) == Capabilities(uses_jacobian=True, second_order=True)
     assert capabilities(CVODEBDF) == Capabilities(uses_jacobian=True, uses_preconditioner=True, cheap_restart=False,
-                                                  advances=True)
-    assert capabilities(CVODEAdams) == Capabilities(uses_jacobian=True, cheap_restart=False, advances=True)
+                                                  advances=True, finds_roots=True)
+    assert capabilities(CVODEAdams) == Capabilities(uses_jacobian=True, cheap_restart=False, advances=True,
+                                                    finds_roots=True)
     assert capabilities(IDA) == Capabilities(uses_jacobian=True, uses_preconditioner=True, cheap_restart=False,
-                                             advances=True)
+                                             advances=True, finds_roots=True)
 
 
 def test_declared_capability_decides_what_simulate_passes():

@@ -44,7 +44,7 @@ def test_every_tutorial_is_tested():
     assert sorted(p.name for p in TUTORIALS.glob("[0-9][0-9]_*.py")) == [
         "01_pendulum.py", "02_fourbar.py", "03_cantilever.py", "04_wiper.py", "05_custom_elements.py",
         "06_export_paraview.py", "07_speed_vs_error.py", "08_parameter_study.py", "09_notebook.py",
-        "10_linear_control.py"]
+        "10_linear_control.py", "11_contact.py"]
 
 
 def test_pendulum(run):
@@ -291,3 +291,22 @@ def test_linear_control(run):
     assert 0.15 < large["tip y"] < 0.25 and large["tip bending"] < 1e-2 and large["hub angle"] < 1e-3
     theta, tip_y = ns["large"]["hub angle"][0], ns["large"]["tip y"][0]
     assert tip_y[-1] == pytest.approx(1.05 * np.sin(theta[-1]), abs=1e-3)
+
+
+def test_contact(run):
+    ns = run("11_contact.py")
+    events = ns["events"]
+    # a flexible beam into a stop: onsets and separations alternate; the first strike within 0.1 % of a
+    # rigid bar's time (closed form); the ledger closes; the tip never through the pad
+    assert ns["beam_res"].status == "finished"
+    assert [e[2] for e in events] == ["onset", "separation"] * (len(events) // 2) and len(events) >= 4
+    assert abs(ns["first_impact_lag"]) < 1e-3
+    assert ns["ledger_error"] < 1e-5
+    assert 0 < ns["max_penetration"] < 0.05 * ns["radius"]
+    # the wiper pressed by a spring: the blades touch and stay on the glass, pressed with a load of the
+    # order of the 5 N the preload is set for, and the tips follow the prescribed-load wiper's
+    pressed = ns["pressed"]
+    assert pressed.status == "finished" and pressed.n_contact_onsets >= 8
+    assert 5.0 < ns["right_normal_mean"] < 20.0
+    assert ns["tip_gap"] < 2e-3
+    assert ns["friction_work"]["pressed by a spring"] > ns["friction_work"]["prescribed load"] > 0

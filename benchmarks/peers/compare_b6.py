@@ -203,6 +203,19 @@ def summary(rows, agreement, args, started) -> str:
         lines.append(f"| {n} | {_conf(fr)} | {_fmt(fr and fr['error'], '.1e')} | {_fmt(fr and fr['wall_s'])} "
                      f"| {_conf(er)} | {_fmt(er and er['error'], '.1e')} | {_fmt(er and er['wall_s'])} "
                      f"| {_fmt(ratio)} | {_fmt(ratio_b)} | {_fmt(agreement.get(n), '.1e')} | {_fmt(unc, '.1e')} |")
+    lines += ["", "Per flexmb method: its fastest robust setting against Exudyn's.", "",
+              "| N | flexmb method | robust setting | error | wall s | steps | rhs | Jacobians | flexmb/Exudyn |",
+              "|---|---|---|---|---|---|---|---|---|"]
+    for n in sorted({r["n_segments"] for r in timed}):
+        fx = [r for r in timed if r["n_segments"] == n and r["tool"] == "flexmb"]
+        er, _ = robust_pick([r for r in timed if r["n_segments"] == n and r["tool"] == "exudyn"], target)
+        for fam in sorted({picks.family(r) for r in fx}):
+            fr, _ = robust_pick([r for r in fx if picks.family(r) == fam], target)
+            ratio = fr["wall_s"] / er["wall_s"] if fr and er else None
+            lines.append(f"| {n} | {fam} | {_conf(fr)} | {_fmt(fr and fr['error'], '.1e')} "
+                         f"| {_fmt(fr and fr['wall_s'])} | {_fmt(fr and fr['steps'], 'd')} "
+                         f"| {_fmt(fr and fr['rhs_evals'], 'd')} | {_fmt(fr and fr['jac_evals'], 'd')} "
+                         f"| {_fmt(ratio)} |")
     return "\n".join(lines) + "\n"
 
 

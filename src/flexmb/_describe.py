@@ -33,8 +33,8 @@ def generic_state(system):
     x0, xd0 : ndarray
         The state.
     """
-    n = system.n_coords
-    return np.random.default_rng(0).uniform(-1.0, 1.0, n), np.zeros(n)
+    x0 = system.layout.normalized(np.random.default_rng(0).uniform(-1.0, 1.0, system.n_coords))
+    return x0, np.zeros(system.n_speeds)
 
 
 def counts(system, x0, xd0) -> tuple[int, int, int]:
@@ -44,7 +44,7 @@ def counts(system, x0, xd0) -> tuple[int, int, int]:
     100,000 segments built an n x n identity); loops closed by the loop
     kernel, its O(n m) rank; otherwise the complement a run uses.
     """
-    n, m = system.n_coords, system.n_constraints
+    n, m = system.n_speeds, system.n_constraints
     if m == 0:
         return 0, 0, n
     if system._loop_kernel:

@@ -70,7 +70,7 @@ def mass_matrix(kin) -> np.ndarray:
 
     Returns
     -------
-    ndarray, shape (n_coords, n_coords)
+    ndarray, shape (n_speeds, n_speeds)
         ``A = sum_k m_k V_k^T V_k + W_k^T I_k W_k``.
 
     Notes
@@ -120,7 +120,7 @@ def generalized_force(kin, force, torque) -> np.ndarray:
 
     Returns
     -------
-    ndarray, shape (n_coords,)
+    ndarray, shape (n_speeds,)
         ``sum_k V_k^T force_k + W_k^T torque_k``, summed per subtree: each
         coordinate sees the resultant wrench, about the origin, of the
         bodies it moves.
@@ -145,14 +145,14 @@ def geometric_stiffness(kin, xdd, force, torque) -> np.ndarray:
     ----------
     kin : Kinematics
         The kinematic state.
-    xdd : ndarray, shape (n_coords,)
+    xdd : ndarray, shape (n_speeds,)
         Accelerations.
     force, torque : ndarray, shape (n_bodies, 3)
         Applied forces at the mass centres and torques, inertial.
 
     Returns
     -------
-    ndarray, shape (n_coords, n_coords)
+    ndarray, shape (n_speeds, n_speeds)
         G; the Jacobian of the accelerations is ``A^-1 (G - K)`` in an
         open tree with coordinate springs K.
 

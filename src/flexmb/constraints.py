@@ -107,7 +107,7 @@ class Constraints:
             [topology.coordinate_slice(d.joint).start + d.coordinate for d in self.drivers], dtype=int
         )
         self.cut_arrays = (*self.pt, *self.dr, *self.pp)  # cut_rows' arguments, as the kernels take them
-        self._driver_psi = np.zeros((len(self.drivers), topology.n_coords))
+        self._driver_psi = np.zeros((len(self.drivers), topology.n_speeds))
         self._driver_psi[np.arange(len(self.drivers)), self.driver_cols] = 1.0
         self.n_cut = len(labels)
         self.elements = list(elements)
@@ -148,7 +148,7 @@ class Constraints:
             ``phi`` (0 on the velocity rows), ``psi``, ``b``, ``gamma`` of
             the elements' rows.
         """
-        n, m = kin.x.shape[0], int(self.element_start[-1])
+        n, m = kin.xd.shape[0], int(self.element_start[-1])
         phi, psi, b, gamma = np.zeros(m), np.zeros((m, n)), np.zeros(m), np.zeros(m)
         for e, i in zip(self.elements, self.element_start):
             rows = e.checked_rows(kin)
@@ -259,7 +259,7 @@ class Constraints:
             = b``) for level >= 1; ``gamma`` (``psi xdd = gamma``) for level
             2; None for what the level leaves out.
         """
-        n = kin.x.shape[0]
+        n = kin.xd.shape[0]
         topo = self.topology
         phi_c, psi_c, gamma_c = cut_rows(level, n, kin.R, kin.origin, kin.r, kin.omega, kin.v, kin.alpha_bias,
                                          kin.a_bias, kin.Sw, kin.Sv, topo.parent, topo.coord_start, *self.pt,

@@ -94,7 +94,7 @@ class SceneError(ModelError):
 class StiffnessWarning(UserWarning):
     """A run spends its steps on stiffness or on vibrations far above the scene's motion.
 
-    Issued by :func:`flexmb.simulate` in two cases, each naming the
+    Issued by :func:`flexmb.simulate` in three cases, each naming the
     frequency and the remedy:
 
     - before the run, when ``method`` is an explicit Runge-Kutta method
@@ -108,7 +108,11 @@ class StiffnessWarning(UserWarning):
       (:class:`flexmb.integrators.monitor.ResolutionMonitor`; remedy:
       ``method='auto'`` or :func:`flexmb.generalized_alpha` with a step
       floor, which dissipate them, or 'Radau' where they are hardly
-      excited).
+      excited);
+    - once, during the run, when a contact is held over thousands of steps
+      a hundredth or less of those taken off contact
+      (:mod:`flexmb.contact_events`; remedy: an implicit method for an
+      explicit one, a softer or damped normal law, or a step floor).
 
     Turn it into an error with
     ``warnings.simplefilter("error", flexmb.StiffnessWarning)``.

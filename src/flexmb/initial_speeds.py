@@ -177,7 +177,7 @@ def motion_rows(system, t, x, motions):
     owner : list of int
         The index in ``motions`` of each row.
     """
-    kin = system.kinematics(t, x, np.zeros_like(x))
+    kin = system.kinematics(t, x, np.zeros(system.n_speeds))
     C, c, owner = [], [], []
     for j, spec in enumerate(motions):
         body = system.model.element(spec.body, Body)
@@ -208,12 +208,12 @@ def held_speeds(system, t, x, xd, held, motions, hold):
     ----------
     system : System
     t : float
-    x : ndarray, shape (n,)
-        Assembled positions.
+    x : ndarray, shape (nq,)
+        Assembled coordinates.
     xd : ndarray, shape (n,)
         Speeds given (zeros where none).
     held : ndarray of bool, shape (n,)
-        The coordinate speeds given.
+        The speeds given.
     motions : list
         Point and angular velocities given.
     hold : bool
@@ -231,7 +231,7 @@ def held_speeds(system, t, x, xd, held, motions, hold):
         If the speeds held contradict the constraints or drivers, naming
         both.
     """
-    n = system.n_coords
+    n = system.n_speeds
     rows = system._rows(t, x, xd) if system.n_constraints else None
     if not motions:
         if rows is None:

@@ -31,6 +31,7 @@ from .errors import ModelError
 from .fields import as_array, as_bool, boolean, label, rotation_matrix, vector3
 from .kernels import ROTATION, TRANSLATION
 from .kernels.tree import joint_motions
+from . import quaternions
 from .rotations import frame_from_axis
 
 __all__ = [
@@ -43,6 +44,9 @@ __all__ = [
     "Spherical",
     "Fixed",
     "Free",
+    "SphericalQuaternion",
+    "FreeQuaternion",
+    "ROTATIONS",
 ]
 
 
@@ -64,7 +68,15 @@ class Joint:
        and ``coordinate_names``;
     2. set ``cut_point``, ``cut_directions`` and ``cut_perpendicular`` to say
        which constraints the joint imposes when it closes a loop;
-    3. optionally override ``_default_frame()`` (the parent marker
+    3. for coordinates that are not the integrals of the speeds, list each
+       set of Euler parameters in ``quaternions``: the positions of
+       ``(qx, qy, qz, qw)`` among the joint's coordinates and of the
+       angular speeds ``(wx, wy, wz)`` (in the child marker's axes) among
+       its speeds (:class:`SphericalQuaternion`; ``n_coords``,
+       ``n_speeds`` and ``speed_names`` follow); the joint's first
+       ``n_speeds`` coordinates share their speeds' places in the state
+       (:mod:`flexmb.state_layout`), and its ``motion()`` takes them apart;
+    4. optionally override ``_default_frame()`` (the parent marker
        orientation when ``parent_frame`` is not given) or ``motion()`` for a
        motion that is not a translation/rotation sequence.
 
@@ -115,6 +127,7 @@ class Joint:
     cut_point: ClassVar[bool] = True
     cut_directions: ClassVar[tuple[int, ...]] = ()
     cut_perpendicular: ClassVar[tuple[tuple[int, int], ...]] = ()
+    quaternions: ClassVar[tuple[tuple[tuple[int, int, int, int], tuple[int, int, int]], ...]] = ()
 
     name: str = field(validator=name_check)
     parent: Body = reference(Body)
@@ -134,8 +147,26 @@ class Joint:
 
     @property
     def n_coords(self) -> int:
-        """Number of coordinates the joint contributes."""
-        return len(self.translation_axes) + len(self.rotation_axes)
+        """Number of coordinates the joint contributes (four per set of Euler parameters)."""
+        return len(self.translation_axes) + len(self.rotation_axes) + 4 * len(self.quaternions)
+
+    @property
+    def n_speeds(self) -> int:
+        """Number of generalized speeds the joint contributes (:mod:`flexmb.state_layout`).
+
+        One per coordinate (its rate), three per set of Euler parameters
+        (the angular velocity).
+        """
+        return self.n_coords - len(self.quaternions)
+
+    @property
+    def speed_names(self) -> tuple[str, ...]:
+        """Names of the joint's speeds: its coordinates' names, ``wx, wy, wz`` for a set of Euler parameters."""
+        names = list(self.coordinate_names[: self.n_speeds])
+        for _, speeds in self.quaternions:
+            for p, axis in zip(speeds, "xyz"):
+                names[p] = "w" + axis
+        return tuple(names)
 
     def _default_frame(self) -> np.ndarray:
         return np.eye(3)
@@ -158,8 +189,11 @@ class Joint:
 
         Parameters
         ----------
-        q, qd : ndarray, shape (m, n_coords)
-            Coordinates and their rates for m joints of this class.
+        q : ndarray, shape (m, n_coords)
+            Coordinates of m joints of this class.
+        qd : ndarray, shape (m, n_speeds)
+            Their speeds (the coordinates' rates, unless the class lists
+            ``quaternions``).
 
         Returns
         -------
@@ -167,7 +201,7 @@ class Joint:
             Rotation of the child marker frame.
         d : ndarray, shape (m, 3)
             Position of the child marker point.
-        Hw, Hv : ndarray, shape (m, 3, n_coords)
+        Hw, Hv : ndarray, shape (m, 3, n_speeds)
             Partial angular velocities and partial velocities of the child
             marker (at its point), in the parent marker frame.
         aw, av : ndarray, shape (m, 3)
@@ -356,25 +390,6 @@ class Universal(Joint):
 
 
 @frozen(eq=False)
-class Spherical(Joint):
-    """Three rotations Rx Ry Rz (Bryant angles, rad) about the joint frame axes.
-
-    The angles are singular where the second one reaches +-90 deg; as a cut
-    joint (three point rows) it has no such limit.
-
-    Parameters
-    ----------
-    name, parent, child, parent_point, child_point, parent_frame, child_frame, cut
-        As for :class:`Joint`: the unique name, the parent and child bodies,
-        the joint point (m) and frame in each body frame, and whether the
-        joint is forced to be a cut joint.
-    """
-
-    rotation_axes = (0, 1, 2)
-    coordinate_names = ("rx", "ry", "rz")
-
-
-@frozen(eq=False)
 class Fixed(Joint):
     """No relative motion (no coordinates); welds the child to the parent.
 
@@ -389,9 +404,45 @@ class Fixed(Joint):
     cut_perpendicular = ((0, 1), (1, 2), (2, 0))
 
 
+def _rotation_kind(instance, attribute, value):
+    if value not in ROTATIONS:
+        raise ModelError(f"{label(instance)}: rotation must be one of {list(ROTATIONS)}, got {value!r}")
+    if value == "quaternion" and not instance.quaternions:
+        raise ModelError(f"{label(instance)}: rotation='quaternion' is not available for the subclass "
+                         f"{type(instance).__name__} (Spherical and Free make their Euler-parameter variants)")
+
+
+#: how a Spherical or Free joint's rotation is described: Bryant angles, or Euler parameters
+ROTATIONS = ("bryant", "quaternion")
+
+
+class _RotationChoice:
+    """``rotation='quaternion'`` makes the Euler-parameter variant of the class (its ``_quaternion_class``)."""
+
+    __slots__ = ()
+
+    def __new__(cls, *args, rotation="bryant", **kwargs):
+        if rotation == "quaternion" and cls._quaternion_class() is not None:
+            cls = cls._quaternion_class()
+        return object.__new__(cls)
+
+    @classmethod
+    def _quaternion_class(cls):
+        return None
+
+
 @frozen(eq=False)
-class Free(Joint):
-    """Six freedoms: translations x, y, z (m) then Bryant angles rx, ry, rz (rad).
+class Spherical(_RotationChoice, Joint):
+    """Three rotations about the joint frame axes: Bryant angles, or Euler parameters.
+
+    ``rotation='bryant'`` (the default): the angles rx, ry, rz (rad) of
+    ``Rx Ry Rz``, their rates the speeds; singular where ry reaches
+    +-90 deg. ``rotation='quaternion'``: the Euler parameters ``qx, qy, qz,
+    qw`` (scalar last, unit length) as coordinates and the angular velocity
+    ``wx, wy, wz`` (rad/s) of the child marker frame relative to the parent
+    marker frame, in the child marker's axes, as speeds
+    (:mod:`flexmb.quaternions`): no singular position. As a cut joint
+    (three point rows) neither has a limit.
 
     Parameters
     ----------
@@ -399,9 +450,139 @@ class Free(Joint):
         As for :class:`Joint`: the unique name, the parent and child bodies,
         the joint point (m) and frame in each body frame, and whether the
         joint is forced to be a cut joint.
+    rotation : {'bryant', 'quaternion'}
+        How the rotation is described (keyword only).
+
+    Examples
+    --------
+    >>> import flexmb as fm
+    >>> model = fm.Model()
+    >>> top = fm.RigidBody("top", 1.0, (0.02, 0.02, 0.01), com=(0, 0, 0.1))
+    >>> j = fm.Spherical("pivot", model.ground, top, rotation="quaternion")
+    >>> j.coordinate_names, j.speed_names
+    (('qx', 'qy', 'qz', 'qw'), ('wx', 'wy', 'wz'))
+    """
+
+    rotation_axes = (0, 1, 2)
+    coordinate_names = ("rx", "ry", "rz")
+
+    rotation: str = field(default="bryant", kw_only=True, validator=_rotation_kind)
+
+    @classmethod
+    def _quaternion_class(cls):
+        return SphericalQuaternion if cls is Spherical else None
+
+
+@frozen(eq=False)
+class SphericalQuaternion(Spherical):
+    """:class:`Spherical` in Euler parameters (``Spherical(..., rotation='quaternion')`` makes one).
+
+    Parameters
+    ----------
+    name, parent, child, parent_point, child_point, parent_frame, child_frame, cut
+        As for :class:`Joint`.
+    rotation : {'quaternion'}
+        Always 'quaternion'.
+    """
+
+    rotation_axes = ()
+    coordinate_names = ("qx", "qy", "qz", "qw")
+    quaternions = (((0, 1, 2, 3), (0, 1, 2)),)
+
+    rotation: str = field(default="quaternion", kw_only=True, validator=validators.in_(("quaternion",)))
+
+    @classmethod
+    def motion(cls, q, u):
+        """The rotation of the Euler parameters; the angular velocity along the child marker's axes.
+
+        Parameters
+        ----------
+        q : ndarray, shape (m, 4)
+            ``qx, qy, qz, qw`` (normalised here).
+        u : ndarray, shape (m, 3)
+            Angular velocities in the child marker's axes, rad/s.
+
+        Returns
+        -------
+        R, d, Hw, Hv, aw, av
+            As :meth:`Joint.motion`: ``Hw = R`` (the child marker's axes),
+            the rest zero (``d/dt(R) u = R (u x u) = 0``).
+        """
+        m = q.shape[0]
+        R = quaternions.rotation_matrix(q)
+        return R, np.zeros((m, 3)), R.copy(), np.zeros((m, 3, 3)), np.zeros((m, 3)), np.zeros((m, 3))
+
+
+@frozen(eq=False)
+class Free(_RotationChoice, Joint):
+    """Six freedoms: translations x, y, z (m), then the rotation as in :class:`Spherical`.
+
+    ``rotation='bryant'`` (the default): Bryant angles rx, ry, rz (rad).
+    ``rotation='quaternion'``: coordinates ``x, y, z, qx, qy, qz, qw`` and
+    speeds ``x, y, z`` (the translations' rates, m/s) and ``wx, wy, wz``
+    (the angular velocity in the child marker's axes, rad/s).
+
+    Parameters
+    ----------
+    name, parent, child, parent_point, child_point, parent_frame, child_frame, cut
+        As for :class:`Joint`: the unique name, the parent and child bodies,
+        the joint point (m) and frame in each body frame, and whether the
+        joint is forced to be a cut joint.
+    rotation : {'bryant', 'quaternion'}
+        How the rotation is described (keyword only).
     """
 
     translation_axes = (0, 1, 2)
     rotation_axes = (0, 1, 2)
     coordinate_names = ("x", "y", "z", "rx", "ry", "rz")
     cut_point = False
+
+    rotation: str = field(default="bryant", kw_only=True, validator=_rotation_kind)
+
+    @classmethod
+    def _quaternion_class(cls):
+        return FreeQuaternion if cls is Free else None
+
+
+@frozen(eq=False)
+class FreeQuaternion(Free):
+    """:class:`Free` in Euler parameters (``Free(..., rotation='quaternion')`` makes one).
+
+    Parameters
+    ----------
+    name, parent, child, parent_point, child_point, parent_frame, child_frame, cut
+        As for :class:`Joint`.
+    rotation : {'quaternion'}
+        Always 'quaternion'.
+    """
+
+    rotation_axes = ()
+    coordinate_names = ("x", "y", "z", "qx", "qy", "qz", "qw")
+    quaternions = (((3, 4, 5, 6), (3, 4, 5)),)
+
+    rotation: str = field(default="quaternion", kw_only=True, validator=validators.in_(("quaternion",)))
+
+    @classmethod
+    def motion(cls, q, u):
+        """Translation along the parent marker's axes, then the rotation of the Euler parameters.
+
+        Parameters
+        ----------
+        q : ndarray, shape (m, 7)
+            ``x, y, z`` (m) and ``qx, qy, qz, qw`` (normalised here).
+        u : ndarray, shape (m, 6)
+            Translation rates (m/s) and the angular velocity in the child
+            marker's axes (rad/s).
+
+        Returns
+        -------
+        R, d, Hw, Hv, aw, av
+            As :meth:`Joint.motion`.
+        """
+        m = q.shape[0]
+        R = quaternions.rotation_matrix(q[:, 3:7])
+        Hw = np.zeros((m, 3, 6))
+        Hv = np.zeros((m, 3, 6))
+        Hw[:, :, 3:] = R
+        Hv[:, :, :3] = np.eye(3)
+        return R, np.array(q[:, :3], dtype=float), Hw, Hv, np.zeros((m, 3)), np.zeros((m, 3))

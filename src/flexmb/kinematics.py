@@ -43,8 +43,10 @@ class Kinematics:
         The model's tree.
     t : float
         Time, s.
-    x, xd : ndarray, shape (n_coords,)
-        Generalized coordinates and speeds.
+    x : ndarray, shape (n_coords,)
+        Generalized coordinates q.
+    xd : ndarray, shape (n_speeds,)
+        Generalized speeds u (the partial velocities below are per speed).
 
     Attributes
     ----------
@@ -75,7 +77,7 @@ class Kinematics:
         self.t = float(t)
         self.x = x
         self.xd = xd
-        nb, n = topo.n_bodies, topo.n_coords
+        nb, n = topo.n_bodies, topo.n_speeds
         self.mass = topo.mass
         self._inertias = None
         self._composite = None  # assembly.composite_inertias
@@ -87,18 +89,18 @@ class Kinematics:
             ext = (np.empty((nb, 3, 3)), np.empty((nb, 3)), np.empty((n, 3)), np.empty((n, 3)), np.empty((nb, 3)),
                    np.empty((nb, 3)))
             Rj, d, hw, hv, aw, av = ext
-            for i, (cls, ks, cols) in enumerate(topo.external_groups):
-                if cols.shape[1]:
-                    R_, d_, Hw, Hv, aw_, av_ = cls.motion(x[cols], xd[cols])
+            for i, (cls, ks, qcols, ucols) in enumerate(topo.external_groups):
+                if qcols.shape[1]:
+                    R_, d_, Hw, Hv, aw_, av_ = cls.motion(x[qcols], xd[ucols])
                 else:  # no coordinates: a constant motion, evaluated once per model
                     key = ("constant motion", i)
                     if key not in topo.cache:
-                        topo.cache[key] = cls.motion(x[cols], xd[cols])
+                        topo.cache[key] = cls.motion(x[qcols], xd[ucols])
                     R_, d_, Hw, Hv, aw_, av_ = topo.cache[key]
                 Rj[ks], d[ks], aw[ks], av[ks] = R_, d_, aw_, av_
-                if cols.shape[1]:
-                    hw[cols] = Hw.transpose(0, 2, 1)
-                    hv[cols] = Hv.transpose(0, 2, 1)
+                if ucols.shape[1]:
+                    hw[ucols] = Hw.transpose(0, 2, 1)
+                    hv[ucols] = Hv.transpose(0, 2, 1)
 
         (self.R, self.origin, self.r, self.omega, self.v, self.alpha_bias, self.a_bias, self.joint_point,
          self.Sw, self.Sv) = _tree.tree_kinematics(
@@ -284,7 +286,7 @@ class Kinematics:
     def _upstream(self, k) -> np.ndarray:
         """0/1 rows: which coordinates move each body in ``k`` (none for the ground)."""
         topo = self.topology
-        return _tree.upstream_rows(np.asarray(k, dtype=np.int64), topo.parent, topo.coord_start, topo.n_coords)
+        return _tree.upstream_rows(np.asarray(k, dtype=np.int64), topo.parent, topo.coord_start, topo.n_speeds)
 
     def spatial_inertia(self) -> np.ndarray:
         """Spatial inertia of each body about the inertial origin, shape (n_bodies, 6, 6).

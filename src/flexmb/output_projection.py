@@ -33,14 +33,14 @@ def project_output(system, t, x, xd, tol):
         The system.
     t : float
         Time, s.
-    x, xd : ndarray, shape (n,)
-        The state.
+    x, xd : ndarray, shape (nq,) and (n,)
+        The state: coordinates q and speeds u.
     tol : float
         Residual below which the state is kept as it is.
 
     Returns
     -------
-    x, xd : ndarray, shape (n,)
+    x, xd : ndarray, shape (nq,) and (n,)
         The projected state.
     """
     res = system.constraint_residual(t, x, xd)
@@ -81,7 +81,7 @@ def _project_partial(system, t, x, xd, res, n_iter=3):
         rows = system.constraints.position_rows(system.constraints.evaluate(system.kinematics(t, xp, xd), level=1))
         c = well_conditioned(rows.psi)
         if c.rank:
-            xp -= c.particular(rows.phi)
+            xp = system.layout.displace(xp, -c.particular(rows.phi))
     kin = system.kinematics(t, xp, xd)
     rows = system.constraints.evaluate(kin, level=1)
     phi0 = system.constraints.evaluate(system.kinematics(t, x, xd), level=0).phi

@@ -21,7 +21,8 @@ __all__ = ["Result"]
 _ARRAYS = ("t", "x", "xd", "xdd", "positions", "origins", "rotations", "kinetic", "potential",
            "residual", "velocity_residual", "reactions")
 _LISTS = ("coordinate_names", "body_names", "constraint_labels", "driver_names")
-_SCALARS = ("n_dof", "n_rhs", "n_jac", "n_steps", "n_complements", "n_projections", "n_rebases", "wall_time",
+_SCALARS = ("n_dof", "n_rhs", "n_jac", "n_steps", "n_complements", "n_projections", "n_rebases", "n_refused",
+            "wall_time",
             "status", "message", "method", "complement", "method_reason")
 
 
@@ -35,8 +36,13 @@ class Result(ResultPost):
     ----------
     t : ndarray, shape (nt,)
         Output times, s.
-    x, xd, xdd : ndarray, shape (nt, n)
-        Coordinates, speeds and accelerations.
+    x : ndarray, shape (nt, nq)
+        Generalized coordinates q.
+    xd, xdd : ndarray, shape (nt, n)
+        Generalized speeds u and their rates (:mod:`flexmb.state_layout`:
+        ``qd = W(q) u``; for joints whose speeds are their coordinates'
+        rates, as every joint's today, ``W = I`` and ``xd`` is the rate of
+        ``x``).
     positions : ndarray, shape (nt, n_bodies, 3)
         Mass-centre positions, m.
     origins : ndarray, shape (nt, n_bodies, 3)
@@ -68,6 +74,9 @@ class Result(ResultPost):
     n_rhs, n_jac, n_steps, n_complements, n_projections, n_rebases : int
         Work counters (right-hand sides, Jacobians, steps, complements,
         projections, moves of the winding angles' offsets: :mod:`flexmb.stepping`).
+    n_refused : int
+        Steps refused because they carried a touching body through its
+        surface, and taken again shorter (:mod:`flexmb.contact_events`).
     wall_time : float
         Wall-clock time of the integration, s.
     work : dict of str to ndarray, shape (nt,)
@@ -86,6 +95,14 @@ class Result(ResultPost):
         it dissipates (empty otherwise).
     complement : str
         Name of the complement strategy used.
+    contact_events : list of (float, str, str, float)
+        The contacts' onsets and separations located during the run,
+        ``(time, contact name, 'onset' or 'separation', rate)`` in time
+        order, with the rate of penetration there (m/s: the impact speed at
+        an onset, minus the speed of separation at a separation)
+        (:mod:`flexmb.contact_events`; empty without contacts);
+        :attr:`n_contact_onsets` and :attr:`n_contact_separations` count
+        them.
     system : System, optional
         The compiled model the result came from (set by
         :func:`~flexmb.simulate`), so that bodies can be given by name to
@@ -124,7 +141,19 @@ class Result(ResultPost):
     method: str = ""
     method_reason: str = ""
     complement: str = ""
+    contact_events: list = field(factory=list)
+    n_refused: int = 0
     system: object = field(default=None, repr=False, eq=False)
+
+    @property
+    def n_contact_onsets(self) -> int:
+        """Number of contact onsets located during the run (:attr:`contact_events`)."""
+        return sum(1 for e in self.contact_events if e[2] == "onset")
+
+    @property
+    def n_contact_separations(self) -> int:
+        """Number of contact separations located during the run (:attr:`contact_events`)."""
+        return sum(1 for e in self.contact_events if e[2] == "separation")
 
     def __getstate__(self):
         # the compiled system holds the model's callables (drivers, loads), often lambdas
@@ -147,12 +176,12 @@ class Result(ResultPost):
         ----------
         system : System or Model
             The model (a Model is built with the default options).
-        x : array_like, shape (n,) or (m, n)
+        x : array_like, shape (nq,) or (m, nq)
             Coordinates of one or m states (e.g. from
             :func:`flexmb.linear_statics`).
-        xd : array_like, same shape, optional
+        xd : array_like, shape (n,) or (m, n), optional
             Speeds (default zero).
-        xdd : array_like, same shape, optional
+        xdd : array_like, shape (n,) or (m, n), optional
             Accelerations; default: from the equations of motion (eqs.
             36-39), with the reactions of the same solve (a state where the
             solve fails gets NaN accelerations and reactions). Pass zeros for
@@ -174,7 +203,8 @@ class Result(ResultPost):
         Raises
         ------
         FlexmbError
-            If the states do not hold ``n`` finite coordinates each.
+            If the states do not hold ``nq`` finite coordinates and ``n``
+            finite speeds each.
 
         Examples
         --------
@@ -192,18 +222,19 @@ class Result(ResultPost):
         from .model import as_system
 
         system = as_system(system)
-        n = system.n_coords
+        nq, n = system.n_coords, system.n_speeds
         X = np.atleast_2d(np.asarray(x, dtype=float))
-        XD = np.zeros_like(X) if xd is None else np.atleast_2d(np.asarray(xd, dtype=float))
-        if X.shape[1:] != (n,) or XD.shape != X.shape or not (np.all(np.isfinite(X)) and np.all(np.isfinite(XD))):
-            raise FlexmbError(f"x and xd must hold {n} finite coordinates per state, got shapes "
-                              f"{X.shape}, {XD.shape}")
+        XD = np.zeros((len(X), n)) if xd is None else np.atleast_2d(np.asarray(xd, dtype=float))
+        if (X.shape[1:] != (nq,) or XD.shape != (len(X), n)
+                or not (np.all(np.isfinite(X)) and np.all(np.isfinite(XD)))):
+            what = f"{n} finite coordinates" if nq == n else f"{nq} finite coordinates and {n} speeds"
+            raise FlexmbError(f"x and xd must hold {what} per state, got shapes {X.shape}, {XD.shape}")
         nt = len(X)
         at = np.broadcast_to(np.asarray(t, dtype=float), (nt,)).copy()
         if not np.all(np.isfinite(at)):
             raise ModelError(f"Result.from_states: the times must be finite, got {t!r}")
         times = at + np.arange(nt) if np.ndim(t) == 0 else at
-        XDD = None if xdd is None else np.atleast_2d(np.asarray(xdd, dtype=float)).reshape(X.shape)
+        XDD = None if xdd is None else np.atleast_2d(np.asarray(xdd, dtype=float)).reshape(XD.shape)
         arrays = _evaluate_states(system, at, X, XD, XDD)
         topo = system.topology
         fields.setdefault("status", "finished")
@@ -491,6 +522,10 @@ class Result(ResultPost):
         data.update({k: np.array(getattr(self, k)) for k in _SCALARS})
         wnames = list(self.work)
         data["work_names"] = np.array(wnames, dtype=str)
+        data["event_times"] = np.array([e[0] for e in self.contact_events], dtype=float)
+        data["event_names"] = np.array([e[1] for e in self.contact_events], dtype=str)
+        data["event_kinds"] = np.array([e[2] for e in self.contact_events], dtype=str)
+        data["event_rates"] = np.array([e[3] for e in self.contact_events], dtype=float)
         for i, k in enumerate(wnames):
             data[f"work_{i}"] = self.work[k]
         names = sorted(self.flexible)
@@ -519,13 +554,16 @@ class Result(ResultPost):
             kw.update({k: [str(s) for s in z[k]] for k in _LISTS})
             kw.update({k: z[k].item() for k in _SCALARS if k in z})  # method_reason: absent from older files
             kw["work"] = {str(k): z[f"work_{i}"] for i, k in enumerate(z["work_names"])} if "work_names" in z else {}
+            if "event_times" in z:  # absent from older files
+                kw["contact_events"] = [(float(t), str(n), str(k), float(r)) for t, n, k, r in
+                                        zip(z["event_times"], z["event_names"], z["event_kinds"], z["event_rates"])]
             kw["flexible"] = {str(k): (z[f"flexible_rows_{i}"].tolist(), float(z["flexible_lengths"][i]))
                               for i, k in enumerate(z["flexible_names"])}
         return cls(**kw)
 
 def _evaluate_states(system, t, X, XD, XDD) -> dict:
     """The output quantities of :meth:`Result.from_states` at each state."""
-    nt, n = X.shape
+    nt, n = XD.shape
     nb, m = system.topology.n_bodies, system.n_constraints
     out = {"xdd": np.zeros((nt, n)) if XDD is None else XDD.copy(), "positions": np.zeros((nt, nb, 3)),
            "origins": np.zeros((nt, nb, 3)), "rotations": np.zeros((nt, nb, 3, 3)), "kinetic": np.zeros(nt),
@@ -540,7 +578,7 @@ def _evaluate_states(system, t, X, XD, XDD) -> dict:
             elif m == 0:  # no reactions: the system's own route (O(n) for an open tree)
                 out["xdd"][i] = system._accelerations(t[i], x, xd)
             else:
-                out["xdd"][i], out["reactions"][i] = system._with_reactions(t[i], np.concatenate([x, xd]))
+                out["xdd"][i], out["reactions"][i] = system._with_reactions(t[i], system.layout.join(x, xd))
         except FlexmbError:
             if XDD is None:
                 out["xdd"][i] = np.nan

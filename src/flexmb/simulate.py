@@ -31,26 +31,31 @@ INTEGRATORS = registry.builtin_table("integrators")
 _SUNDIALS = "flexmb.integrators.sundials"
 
 
-def _coordinate_mask(system, names):
-    """Boolean mask of coordinates from names (coordinate or joint names) or joints."""
-    mask = np.zeros(system.n_coords, bool)
+def _coordinate_mask(system, names, speeds=False):
+    """Boolean mask of coordinates (``speeds``: of speeds) from names (coordinate or joint names) or joints."""
+    all_names = system.speed_names if speeds else system.coordinate_names
+    mask = np.zeros(len(all_names), bool)
     for name in names:
         name = name if isinstance(name, str) else system.model.element(name, Joint).name
-        hits = [i for i, c in enumerate(system.coordinate_names) if c == name or c.rsplit(".", 1)[0] == name]
+        hits = [i for i, c in enumerate(all_names) if c == name or c.rsplit(".", 1)[0] == name]
         if not hits:
-            raise ModelError(f"no coordinate or joint named {name!r}; coordinates are {system.coordinate_names}")
+            what = "speed" if speeds and all_names != system.coordinate_names else "coordinate"
+            raise ModelError(f"no {what} or joint named {name!r}; {what}s are {all_names}")
         mask[hits] = True
     return mask
 
 
 def _fill(system, values, what):
-    out = np.zeros(system.n_coords)
-    given = np.zeros(system.n_coords, bool)
+    """The vector of ``{name: value}`` (``what``: 'position' per coordinate from the reference configuration,
+    'speed' per speed from rest), and which were given."""
+    speeds = what == "speed"
+    out = np.zeros(system.n_speeds) if speeds else system.layout.reference()
+    given = np.zeros(out.shape, bool)
     if values is not None and not isinstance(values, Mapping):
         raise ModelError(f"initial state: {what}s must be a dict {{name: value}} of coordinate or joint names, got "
                          f"{type(values).__name__} {values!r:.60}")
     for name, value in (values or {}).items():
-        mask = _coordinate_mask(system, [name])
+        mask = _coordinate_mask(system, [name], speeds)
         k = int(mask.sum())
         try:
             v = np.broadcast_to(np.asarray(value, dtype=float), (k,))
@@ -87,11 +92,14 @@ def initial_state(system, t0: float = 0.0, positions=None, speeds=None, x0=None,
     speeds : dict or list, optional
         As ``positions``; or a list of such dicts,
         :class:`~flexmb.PointVelocity` and :class:`~flexmb.AngularVelocity`.
-    x0, xd0 : array_like, shape (n,), optional
-        Full initial vectors (override ``positions`` / ``speeds``).
+    x0 : array_like, shape (nq,), optional
+        All initial coordinates q (override ``positions``).
+    xd0 : array_like, shape (n,), optional
+        All initial speeds u (override ``speeds``).
     fixed : list of str or Joint, optional
         Coordinates (or joints, or their names) to hold at their given values
-        during assembly.
+        during assembly (with their speeds: a coordinate held is one whose
+        speeds do not move it).
     hold_speeds : bool
         True (default): the speeds given are kept, and speeds the
         constraints or drivers do not allow are refused; False: the
@@ -99,8 +107,10 @@ def initial_state(system, t0: float = 0.0, positions=None, speeds=None, x0=None,
 
     Returns
     -------
-    x0, xd0 : ndarray, shape (n,)
-        The assembled state.
+    x0 : ndarray, shape (nq,)
+        The assembled coordinates q.
+    xd0 : ndarray, shape (n,)
+        The assembled speeds u.
 
     Raises
     ------
@@ -114,18 +124,19 @@ def initial_state(system, t0: float = 0.0, positions=None, speeds=None, x0=None,
         both).
     """
     x, _ = _fill(system, positions, "position")
-    held_x = np.zeros(system.n_coords, bool)
+    held_x = np.zeros(system.n_speeds, bool)
     speeds, motions = split_speeds(speeds)
     xd, held_v = _fill(system, speeds, "speed")
     if x0 is not None:
         x = state_vector("initial state", "x0", x0, system.n_coords).copy()
+    x = system.layout.normalized(x)  # Euler parameters given of any length
     if xd0 is not None:
-        xd = state_vector("initial state", "xd0", xd0, system.n_coords).copy()
+        xd = state_vector("initial state", "xd0", xd0, system.n_speeds).copy()
     if fixed is not None and not isinstance(fixed, (list, tuple, set, frozenset, np.ndarray)):
         raise ModelError(f"initial state: fixed must be a list of coordinate or joint names (or joints), got "
                          f"{type(fixed).__name__} {fixed!r:.60}")
     if fixed is not None and len(fixed):
-        held_x |= _coordinate_mask(system, fixed)
+        held_x |= _coordinate_mask(system, fixed, speeds=True)
     if system.n_constraints:
         x, _ = system.project(t0, x, xd, fixed=held_x)
     return x, held_speeds(system, t0, x, xd, held_v, motions, bool(hold_speeds))
@@ -225,9 +236,9 @@ def _calibrated(system, t0, x, xd):
     n_drv = len(system.constraints.drivers)
     if system._loop_kernel:  # the rank and the scale of the filter as the loop kernel sees them
         cut_rank = system._loop_calibration(t0, x, xd, drivers=False)[0]
-        if cut_rank is not None and cut_rank >= system.n_coords:
+        if cut_rank is not None and cut_rank >= system.n_speeds:
             raise ModelError(
-                f"the model has no degree of freedom left: its {system.n_coords} coordinates are all fixed by "
+                f"the model has no degree of freedom left: its {system.n_speeds} coordinates are all fixed by "
                 f"{system.n_constraints - n_drv} loop-closure rows (a structure, not a mechanism)"
             )
         return system.calibrated(*system._loop_calibration(t0, x, xd))
@@ -298,7 +309,7 @@ def _turn_bound(system, t0, x, xd, span, max_steps):
         raise ModelError(f"simulate: coordinate {system.coordinate_names[k]!r} = {x[k]:.3g} rad is beyond what a float "
                          f"resolves (neighbouring floats {np.spacing(abs(x[k])):.3g} rad apart); give the angle "
                          "modulo 2 pi")
-    speed = np.abs(xd[angles])
+    speed = np.abs(system.layout.coordinate_rates(x, xd)[angles])
     turns = span * speed / (2 * np.pi)
     j = int(np.argmax(turns))
     if not turns[j] > max_steps:
@@ -313,7 +324,7 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
              fixed=None, n_out: int = 201, t_eval=None, method: str = "auto", rtol: float = 1e-8,
              atol: float | None = None, complement=None, projection_tol: float = 1e-10,
              max_step: float = np.inf, progress: bool | None = None, track_work: bool = False,
-             hold_speeds: bool = True, max_steps: float = MAX_STEPS) -> Result:
+             hold_speeds: bool = True, max_steps: float = MAX_STEPS, contact_events: bool = True) -> Result:
     """Simulate a model from ``t0`` to ``t_end``.
 
     The state (x, xd) is integrated by an OdeSolver (scipy's, or SUNDIALS'
@@ -383,6 +394,15 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         ``max_step``, a generalized-alpha ``fixed_step``, or the stability
         bound of an explicit method on a stiff scene) is refused before it
         starts, instead of running for hours (default ``MAX_STEPS``, 1e9).
+    contact_events : bool
+        With contact elements: locate each contact's onset and separation
+        as an event (CVODE's root finding; on the dense output for the
+        other integrators), store the outputs up to it and restart the
+        integrator there, refuse a step that carries a touching body
+        through its surface and take it again shorter, and warn
+        (:class:`~flexmb.errors.StiffnessWarning`) when the contacts force
+        tiny steps (:mod:`flexmb.contact_events`). The events are in
+        ``Result.contact_events``. False: the contacts are stepped through.
 
     Returns
     -------
@@ -411,7 +431,9 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         stiff over [t0, t_end] (see ``method='auto'``), before the run; and
         once, early in the run, if an error-controlled method spends its
         steps resolving nearly undamped modes far above the scene's motion
-        (:class:`flexmb.integrators.monitor.ResolutionMonitor`).
+        (:class:`flexmb.integrators.monitor.ResolutionMonitor`); and once
+        if the steps taken while a contact touches are tiny
+        (:mod:`flexmb.contact_events`).
 
     Examples
     --------
@@ -451,7 +473,8 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     if not capabilities(adapt(solver_cls)).has_dense_output:
         raise ModelError(f"integrator {name!r} has no dense output, which simulate needs for its output times")
     run = Run(system, solver_cls, name, times, t0=t0, t_end=t_end, rtol=rtol, atol=atol, max_step=max_step,
-              projection_tol=projection_tol, track_work=track_work, progress=progress, auto=auto)
+              projection_tol=projection_tol, track_work=track_work, progress=progress, auto=auto,
+              contact_events=bool(contact_events))
     run.execute(x, xd)
     result = run.result(x)
     result.method_reason = reason

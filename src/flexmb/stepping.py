@@ -32,7 +32,9 @@ import time as _time
 import numpy as np
 
 from ._signals import escaped, interruption, who
-from .errors import AssemblyError
+from .contact_events import ContactEvents, StepFailure
+from .event_restart import cut_at_event
+from .errors import AssemblyError, ModelError
 from .integrators import adapt, capabilities
 from .integrators.monitor import ResolutionMonitor
 from .output_projection import project_output
@@ -139,23 +141,30 @@ class Run:
     auto : bool
         Whether ``method='auto'`` chose the integrator (the resolution
         monitor words its warning accordingly).
+    contact_events : bool
+        Locate the onsets and separations of the contacts as events and
+        restart the integrator there, refusing steps through a surface
+        (:mod:`flexmb.contact_events`); no effect without contact elements.
 
     Attributes
     ----------
     status, message : str
         How the run ended, after :meth:`execute`.
-    offset : ndarray, shape (2 n + n_w,) or None
+    offset : ndarray, shape (nq + n + n_w,) or None
         What the integrator's state lacks of the true one, ``y = z + offset``
         (multiples of ``WINDING_PERIOD`` on the angles); None until an angle
         first winds past ``WINDING_BOUND``.
     n_rebases : int
         How many times the offsets moved.
+    events : ContactEvents or None
+        The run's contact events (None without contacts or events).
     """
 
     def __init__(self, system, solver_cls, name, times, *, t0, t_end, rtol, atol, max_step, projection_tol,
-                 track_work, progress, auto):
+                 track_work, progress, auto, contact_events=True):
         self.system = system
-        self.n = system.n_coords
+        self.n = system.n_speeds
+        self.layout = system.layout  # y = (q, u, works), qd = W(q) u
         self.name = name
         self.times = times
         self.t0, self.t_end = t0, t_end
@@ -179,7 +188,9 @@ class Run:
         # projection_tol all the same
         self.state_tol = (projection_tol if self.caps.cheap_restart
                           else max(projection_tol, min(RESTART_ATOL_FACTOR * atol, RESTART_TOL_MAX)))
-        self.own_loop = self.caps.advances and not system.n_constraints
+        self.events = (ContactEvents.of(system, t0, t_end, self.caps.explicit, name) if contact_events else None)
+        # an event needs the step that crossed it: the run steps the integrator itself then
+        self.own_loop = self.caps.advances and not system.n_constraints and self.events is None
         self.angles = np.flatnonzero(system.topology.coord_angle)
         self.offset = None
         self.n_rebases = 0
@@ -190,7 +201,7 @@ class Run:
         self.options: dict = {}
         self.out_y: list = []
         self.k_out = 0
-        self.n_steps = self.n_proj = 0
+        self.n_steps = self.n_proj = self.n_steps_refused = 0
         self.last_restart = -RESTART_MIN_STEPS  # the step count at the last projection and restart
         self.t_now = t0
         self.status, self.message = "running", ""
@@ -198,18 +209,18 @@ class Run:
         self.wall = 0.0
 
     def rhs(self, t, y) -> np.ndarray:
-        """The state rate ``(xd, xdd[, work rates])``; non-finite accelerations raise :class:`NonFinite`.
+        """The state rate ``(qd, ud[, work rates])``; non-finite accelerations raise :class:`NonFinite`.
 
         Parameters
         ----------
         t : float
             Time, s.
-        y : ndarray, shape (2 n + n_w,)
+        y : ndarray, shape (nq + n + n_w,)
             The integrator's state ``z``; the rate is that of ``y = z + offset``.
 
         Returns
         -------
-        ndarray, shape (2 n + n_w,)
+        ndarray, shape (nq + n + n_w,)
             Its rate.
         """
         self.counters["rhs"] += 1
@@ -218,13 +229,13 @@ class Run:
             y = y + self.offset
         if not self.n_w:
             return system._state_rate(t, y)  # finite, or AssemblyError naming the cause
-        xs, vs = y[:n], y[n : 2 * n]
+        xs, vs = self.layout.split(y)
         rates = np.zeros(self.n_w)
         if system._loop_kernel:  # finite, or AssemblyError naming the cause
             xdd, lam = system._loop_solve(t, y, powers=rates[self.n_drv:], multipliers=True)
             if self.n_drv:
                 rates[: self.n_drv] = lam[-self.n_drv:] * np.array([d.velocity(t) for d in system.constraints.drivers])
-            return np.concatenate([vs, xdd, rates])
+            return self.layout.join(self.layout.coordinate_rates(xs, vs), xdd, rates)
         n_g = self.n_w - self.n_drv - self.n_el
         A, f, psi, gamma = system._reduced_parts(t, y, powers=rates[self.n_drv : self.n_drv + n_g])
         try:
@@ -235,28 +246,36 @@ class Run:
             if not (np.all(np.isfinite(f)) and np.all(np.isfinite(A))):
                 system._accelerations(t, xs, vs)  # raises with the diagnosis
             system._solve(t, A, f, psi, gamma)  # raises if the reduced equations are singular
-            bad = [system.coordinate_names[i] for i in np.flatnonzero(~np.isfinite(xdd))[:5]]
+            bad = [system.speed_names[i] for i in np.flatnonzero(~np.isfinite(xdd))[:5]]
             raise NonFinite(t, f"accelerations became non-finite ({', '.join(bad)})")
         if self.n_drv:
             rates[: self.n_drv] = lam[-self.n_drv:] * np.array([d.velocity(t) for d in system.constraints.drivers])
         if self.n_el:
             rates[self.n_drv + n_g:] = system.constraints.element_powers(lam, system._kinematics(t, xs, vs))
-        return np.concatenate([vs, xdd, rates])
+        return self.layout.join(self.layout.coordinate_rates(xs, vs), xdd, rates)
 
     def _jac(self, t, y):
         self.counters["jac"] += 1
-        n = self.n
         if self.offset is not None:
             y = y + self.offset
-        J = self.system.state_jacobian(t, y[:n], y[n : 2 * n])
+        J = self.system.state_jacobian(t, *self.layout.split(y))
         return np.pad(J, ((0, self.n_w), (0, self.n_w))) if self.n_w else J
 
     def _set_options(self, x, xd) -> None:
         """What the integrator is given besides the rhs: a Jacobian or a preconditioner, the second-order size."""
         caps, system, n = self.caps, self.system, self.n
-        if caps.needs_n_second:  # written for y = (x, xd, ...) itself (GeneralizedAlpha)
+        if caps.needs_n_second:  # written for y = (x, xd, ...) itself, qd = u (GeneralizedAlpha)
+            if not system.layout.identity:
+                raise ModelError(f"integrator {self.name!r} integrates coordinates whose rates are the speeds; "
+                                 "this model's Euler parameters (rotation='quaternion') are not: use another "
+                                 "integrator, or rotation='bryant'")
             self.options["n_second"] = n
-        if caps.uses_preconditioner and (system.articulated or system._loop_kernel) and n >= KRYLOV_MIN_COORDS:
+        if self.events is not None and caps.finds_roots:  # the integrator's root finding, on the true state
+            events = self.events
+            self.options["events"] = (
+                lambda t, z: events.root_functions(t, z if self.offset is None else z + self.offset), events.count)
+        if (caps.uses_preconditioner and (system.articulated or system._loop_kernel) and n >= KRYLOV_MIN_COORDS
+                and system.layout.identity):  # the preconditioner's block form [[0, I], [Jx, Jv]] needs qd = u
             # an open tree, or loops closed through the recursion: O(n) Newton solves, no matrix
             # (System.newton_preconditioner)
             self.preconditioner = system.newton_preconditioner()
@@ -264,24 +283,29 @@ class Run:
         elif caps.uses_jacobian and system.state_jacobian(self.t0, x, xd) is not None:
             self.counters["jac"] = 0
             self.options["jac"] = self._jac
-            if caps.second_order:
-                # the Jacobian has the block form [[0, I], [Jx, Jv]]: factor n x n only
+            if caps.second_order and system.layout.identity:
+                # the Jacobian has the block form [[0, I], [Jx, Jv]] (qd = u): factor n x n only
                 self.options["n_second"] = n
 
-    def _make(self, tstart, ystart, first_step=None):
-        return self.solver_cls(self._fun, tstart, ystart, self.t_end, rtol=self.rtol, atol=self.atol,
-                               max_step=self.max_step, first_step=first_step, **self.options)
+    def _make(self, tstart, ystart, first_step=None, t_bound=None, events=True):
+        options = self.options if events else {k: v for k, v in self.options.items() if k != "events"}
+        if events and "events" in options:  # the root functions rise through 0 where a contact's state changes
+            g, m = options["events"]
+            options = dict(options, events=(g, m, np.ones(m)))
+        return self.solver_cls(self._fun, tstart, ystart, self.t_end if t_bound is None else t_bound,
+                               rtol=self.rtol, atol=self.atol, max_step=self.max_step, first_step=first_step,
+                               **options)
 
     def execute(self, x, xd) -> None:
         """Integrate from ``(x, xd)`` at ``t0`` to ``t_end``; set :attr:`status` and :attr:`message`.
 
         Parameters
         ----------
-        x, xd : ndarray, shape (n,)
-            The assembled initial state.
+        x, xd : ndarray, shape (nq,) and (n,)
+            The assembled initial state: coordinates q and speeds u.
         """
         self._set_options(x, xd)
-        y = np.concatenate([x, xd, np.zeros(self.n_w)])
+        y = self.layout.join(x, xd, np.zeros(self.n_w))
         if self.times[0] == self.t0:
             self.out_y.append(y.copy())
             self.k_out = 1
@@ -289,6 +313,8 @@ class Run:
         solver = None
         bar = Progress(self.t_end - self.t0, "simulating", "s", enabled=self.progress)
         try:
+            if self.events is not None:
+                self.events.start(self.t0, y)
             shift = self._winding(y)
             solver = self._make(self.t0, y if shift is None else y - shift)
             if self.own_loop:
@@ -296,7 +322,7 @@ class Run:
             else:
                 self._step(solver, bar)
             self.status, self.message = "finished", "reached t_end"
-        except (NonFinite, AssemblyError) as exc:
+        except (NonFinite, StepFailure, AssemblyError) as exc:
             self.status = "failed"
             self.t_now = getattr(exc, "t", self.t_now)
             self.message = str(exc) if isinstance(exc, AssemblyError) else f"at t = {self.t_now:.9g} s: {exc}"
@@ -369,8 +395,18 @@ class Run:
             bar.update_to(self.t_now - t0)
 
     def _step(self, solver, bar) -> None:
-        """Step by step: check each step, store the outputs it passed, project a drifted state."""
+        """Step by step: check each step, store the outputs it passed, project a drifted state.
+
+        With contact events (:mod:`flexmb.contact_events`), a step within
+        which a contact touches or separates is cut at the event: the
+        outputs up to it are stored and the integrator restarted there; a
+        step that carries a touching body through its surface is refused
+        and taken again from its start, shorter.
+        """
+        events = self.events
         while solver.status == "running":
+            if events is not None:
+                t_start, z_start = solver.t, np.array(solver.y, dtype=float)
             try:
                 msg = solver.step()
             except (ValueError, np.linalg.LinAlgError) as exc:  # scipy's checks on a non-finite Jacobian
@@ -382,6 +418,12 @@ class Run:
                 raise NonFinite(solver.t, "the state became non-finite")
             if self.monitor is not None:  # warns once if the steps resolve ringing modes (StiffnessWarning)
                 self.monitor.step(solver)
+            if events is not None:
+                cut = cut_at_event(self, solver, t_start, z_start)
+                if cut is not None:
+                    solver = cut
+                    bar.update_to(self.t_now - self.t0)
+                    continue
             self.t_now = solver.t
             self._store(solver)
             if solver.status == "running":
@@ -390,30 +432,45 @@ class Run:
                     solver = self._restart_if_drifted(solver)
             bar.update_to(self.t_now - self.t0)
 
-    def _store(self, solver) -> None:
-        """Store the states at the output times the last step passed."""
-        times, n, system = self.times, self.n, self.system
+    def _store(self, solver, y_now=None) -> None:
+        """Store the states at the output times the last step passed (up to :attr:`t_now`).
+
+        Parameters
+        ----------
+        solver : OdeSolver
+            The solver, after its step.
+        y_now : ndarray, optional
+            The true state at :attr:`t_now` when that is not the step's end
+            (a contact event within the step).
+        """
+        times, system, layout = self.times, self.system, self.layout
         if not (self.k_out < len(times) and times[self.k_out] <= self.t_now):
             return
         dense = solver.dense_output()
         while self.k_out < len(times) and times[self.k_out] <= self.t_now:
             t_out = times[self.k_out]
-            y_out = dense(t_out) if t_out != self.t_now else solver.y.copy()
-            if self.offset is not None:
-                y_out = y_out + self.offset
+            if t_out == self.t_now:
+                y_out = solver.y.copy() if y_now is None else y_now.copy()
+                if y_now is None and self.offset is not None:
+                    y_out = y_out + self.offset
+            else:
+                y_out = dense(t_out)
+                if self.offset is not None:
+                    y_out = y_out + self.offset
+            q, u = layout.split(y_out)
+            q[:] = layout.normalized(q)  # coordinates on their own manifold (W = I: unchanged)
             if system.n_constraints:
                 # the interpolant leaves the constraints by about rtol between steps: store
                 # consistent states, by the rule the steps follow
-                y_out[:n], y_out[n : 2 * n] = project_output(system, t_out, y_out[:n], y_out[n : 2 * n],
-                                                             self.projection_tol)
+                q[:], u[:] = project_output(system, t_out, q, u, self.projection_tol)
             self.out_y.append(y_out)
             self.k_out += 1
 
     def _restart_if_drifted(self, solver):
         """The solver, restarted from the projected state if the constraints drifted past the bound."""
-        n, t_now, offset = self.n, self.t_now, self.offset
+        t_now, offset = self.t_now, self.offset
         y = solver.y if offset is None else solver.y + offset
-        xs, vs = y[:n], y[n : 2 * n]
+        xs, vs = self.layout.split(y)
         residual = self.system.constraint_residual(t_now, xs, vs)
         if residual <= self.state_tol:
             return solver
@@ -425,7 +482,7 @@ class Run:
         xs, vs = self.system.project(t_now, xs, vs, tol=min(1e-12, self.projection_tol), speeds="mass")
         self.n_proj += 1
         self.last_restart = self.n_steps
-        y = np.concatenate([xs, vs, y[2 * n :]])
+        y = self.layout.join(xs, vs, self.layout.extra(y))
         return self._restart(solver, y if offset is None else y - offset)
 
     def _restart(self, solver, z):
@@ -457,12 +514,12 @@ class Run:
 
         Parameters
         ----------
-        y : ndarray, shape (2 n + n_w,)
+        y : ndarray, shape (nq + n + n_w,)
             The integrator's state.
 
         Returns
         -------
-        shift : ndarray, shape (2 n + n_w,) or None
+        shift : ndarray, shape (nq + n + n_w,) or None
             What to subtract from the integrator's state.
         """
         if not len(self.angles):
@@ -498,7 +555,7 @@ class Run:
 
         Parameters
         ----------
-        x : ndarray, shape (n,)
+        x : ndarray, shape (nq,)
             The initial coordinates (the degrees of freedom are counted
             there).
 
@@ -507,14 +564,16 @@ class Run:
         Result
             With ``status`` and ``message`` of the run.
         """
-        system, n = self.system, self.n
-        Y = np.array(self.out_y).reshape(len(self.out_y), 2 * n + self.n_w)
+        system, layout = self.system, self.layout
+        Y = np.array(self.out_y).reshape(len(self.out_y), layout.size + self.n_w)
         preconditioner = self.preconditioner
+        works = layout.extra(Y)
         return Result.from_states(
-            system, Y[:, :n], Y[:, n : 2 * n], t=self.times[: len(self.out_y)],
-            work={name: Y[:, 2 * n + i].copy() for i, name in enumerate(self.work_names)},
+            system, *layout.split(Y), t=self.times[: len(self.out_y)],
+            work={name: works[:, i].copy() for i, name in enumerate(self.work_names)},
             n_dof=system.dof(self.t0, x), n_rhs=self.counters["rhs"],
             n_jac=self.counters.get("jac", 0) if preconditioner is None else preconditioner.n_setups,
             n_steps=self.n_steps, n_complements=system.n_complements - self.start_complements,
             n_projections=self.n_proj, n_rebases=self.n_rebases, wall_time=self.wall, status=self.status, message=self.message,
-            method=self.name, complement=system.strategy.name)
+            method=self.name, complement=system.strategy.name,
+            contact_events=[] if self.events is None else list(self.events.events), n_refused=self.n_steps_refused)

@@ -39,11 +39,26 @@ class Topology:
         Joints that close loops (they give constraint equations).
     parent : ndarray of int, shape (n_bodies,)
         Parent body index (-1: ground).
-    coord_body : ndarray of int, shape (n_coords,)
-        Body whose tree joint owns each coordinate.
+    coord_body : ndarray of int, shape (n_speeds,)
+        Body whose tree joint owns each speed (and the coordinate at its
+        index).
+    n_coords, n_speeds : int
+        Numbers of generalized coordinates q and speeds u
+        (:mod:`flexmb.state_layout`; equal unless a joint has Euler
+        parameters, one coordinate more than speeds per quaternion).
+    speed_names : list of str
+        ``"joint.speed"`` names (the coordinates' names where the speeds
+        are their rates).
     coord_start : ndarray of int, shape (n_bodies + 1,)
-        Body k's tree joint owns ``x[coord_start[k]:coord_start[k + 1]]``.
-    coord_kind, coord_axis : ndarray of int, shape (n_coords,)
+        Body k's tree joint owns the speeds ``xd[coord_start[k]:coord_start[k + 1]]``
+        and the coordinates at the same indices (its others: ``joint_extra``).
+    joint_slice, joint_extra : dict
+        Per tree joint: the slice of its speeds, and the indices in x of
+        its coordinates beyond them (``qw``; empty for most joints).
+    quaternions : tuple of two ndarray of int
+        The Euler parameters' indices in x, shape (k, 4), and their angular
+        speeds' in xd, shape (k, 3) (:class:`~flexmb.state_layout.StateLayout`).
+    coord_kind, coord_axis : ndarray of int, shape (n_speeds,)
         Translation or rotation (:mod:`flexmb.kernels`) and the joint-frame
         axis of each coordinate of a generic joint motion.
     coord_angle : ndarray of bool, shape (n_coords,)
@@ -174,6 +189,9 @@ class Topology:
         for d in model.drivers:
             if d.joint in self.joint_map and self.joint_map[d.joint] not in tree_set:
                 problems.append(f"driver {d.name!r}: joint {d.joint.name!r} is a cut joint and has no coordinates")
+            elif getattr(d.joint, "quaternions", ()):
+                problems.append(f"driver {d.name!r}: joint {d.joint.name!r} describes its rotation by Euler "
+                                "parameters, whose rates are not its speeds; drive a joint with rotation='bryant'")
         if problems:
             raise ModelError("; ".join(problems), problems)
 
@@ -195,26 +213,69 @@ class Topology:
         self.depth = int(depth.max()) if nb else 0
 
     def _number_coordinates(self) -> None:
-        """Coordinates: contiguous per tree joint, in body order."""
-        self.joint_slice = {}
-        names, coord_body, angle = [], [], []
+        """Speeds contiguous per tree joint, in body order; a coordinate per speed at its index, the rest after.
+
+        A joint's first ``n_speeds`` coordinates share their speeds'
+        indices; its coordinates beyond (a quaternion's ``qw``) follow all
+        of those, joint after joint (:mod:`flexmb.state_layout`).
+        """
+        self.joint_slice, self.joint_extra = {}, {}
+        names, extra_names, coord_body, angle = [], [], [], []
         start = 0
         for k, j in enumerate(self.tree_joints):
-            self.joint_slice[j] = slice(start, start + j.n_coords)
-            names += [f"{j.name}.{c}" for c in j.coordinate_names]
-            coord_body += [k] * j.n_coords
-            # a flexible body's elastic angles stay small: only joint angles may wind
-            angle += [False] * len(j.translation_axes) + [not isinstance(j, SegmentJoint)] * len(j.rotation_axes)
-            start += j.n_coords
+            ns = j.n_speeds
+            self.joint_slice[j] = slice(start, start + ns)
+            names += [f"{j.name}.{c}" for c in j.coordinate_names[:ns]]
+            extra_names += [f"{j.name}.{c}" for c in j.coordinate_names[ns:]]
+            coord_body += [k] * ns
+            # a flexible body's elastic angles stay small: only joint angles may wind (not Euler parameters)
+            angle += ([False] * ns if j.quaternions else
+                      [False] * len(j.translation_axes) + [not isinstance(j, SegmentJoint)] * len(j.rotation_axes))
+            start += ns
+        self.n_speeds = start
+        for j in self.tree_joints:
+            self.joint_extra[j] = np.arange(start, start + j.n_coords - j.n_speeds)
+            start += j.n_coords - j.n_speeds
         self.n_coords = start
-        self.coordinate_names = names
+        self.coordinate_names = names + extra_names
+        self.speed_names = [f"{j.name}.{c}" for j in self.tree_joints for c in j.speed_names]
         self.coord_body = np.array(coord_body, dtype=np.int64)
-        self.coord_angle = np.array(angle, dtype=bool)
+        self.coord_angle = np.zeros(self.n_coords, dtype=bool)
+        self.coord_angle[: len(angle)] = angle
         self.coord_start = np.array([0] + [self.joint_slice[j].stop for j in self.tree_joints], dtype=np.int64)
-        starts = np.zeros(start, dtype=np.int64)
+        starts = np.zeros(self.n_speeds, dtype=np.int64)
         for sl in self.joint_slice.values():
             starts[sl] = sl.start
         self.coord_joint_start = starts
+        self.quaternions = self._quaternion_indices()
+
+    def joint_coordinates(self, joint) -> np.ndarray:
+        """Indices in q of a tree joint's coordinates, in the joint's own order.
+
+        Parameters
+        ----------
+        joint : Joint
+            A tree joint (as the topology holds it).
+
+        Returns
+        -------
+        ndarray of int, shape (joint.n_coords,)
+            Its speeds' indices, then its coordinates beyond its speeds.
+        """
+        sl = self.joint_slice[joint]
+        return np.concatenate([np.arange(sl.start, sl.stop), self.joint_extra[joint]]).astype(np.int64)
+
+    def _quaternion_indices(self):
+        """The Euler parameters' coordinate indices (k, 4) and their angular speeds' indices (k, 3)."""
+        qs, us = [], []
+        for j in self.tree_joints:
+            if not j.quaternions:
+                continue
+            coords, speeds = self.joint_coordinates(j), self.joint_slice[j].start
+            for qpos, upos in j.quaternions:
+                qs.append(coords[list(qpos)])
+                us.append([speeds + p for p in upos])
+        return (np.array(qs, dtype=np.int64).reshape(-1, 4), np.array(us, dtype=np.int64).reshape(-1, 3))
 
     def _joint_motions(self) -> None:
         """Joint motions: the generic one is compiled; a class overriding motion() is called back.
@@ -231,8 +292,8 @@ class Topology:
             if getattr(type(j).motion, "__func__", None) is not Joint.motion.__func__:
                 self.external[k] = True
                 groups[type(j)].append(k)
-                kind += [kernels.EXTERNAL] * j.n_coords
-                axis += [0] * j.n_coords
+                kind += [kernels.EXTERNAL] * j.n_speeds
+                axis += [0] * j.n_speeds
                 continue
             kind += [kernels.TRANSLATION] * len(j.translation_axes) + [kernels.ROTATION] * len(j.rotation_axes)
             axis += list(j.translation_axes) + list(j.rotation_axes)
@@ -242,10 +303,11 @@ class Topology:
         self.external_groups = []
         for cls, ks in groups.items():
             ks = np.array(ks, dtype=np.int64)
-            cols = np.array([np.arange(self.joint_slice[self.tree_joints[k]].start,
-                                       self.joint_slice[self.tree_joints[k]].stop) for k in ks],
-                            dtype=np.int64).reshape(len(ks), -1)
-            self.external_groups.append((cls, ks, cols))
+            joints = [self.tree_joints[k] for k in ks]
+            qcols = np.array([self.joint_coordinates(j) for j in joints], dtype=np.int64).reshape(len(ks), -1)
+            ucols = np.array([np.arange(self.joint_slice[j].start, self.joint_slice[j].stop) for j in joints],
+                             dtype=np.int64).reshape(len(ks), -1)
+            self.external_groups.append((cls, ks, qcols, ucols))
 
     def _body_data(self) -> None:
         """Per-body constant data and the flat arrays of the compiled kernels (:class:`TreeArrays`)."""
@@ -267,7 +329,10 @@ class Topology:
                                  self.mass, self.inertia, self.coord_body)
 
     def coordinate_slice(self, joint) -> slice:
-        """Slice of ``x`` holding a tree joint's coordinates.
+        """Slice of ``xd`` holding a tree joint's speeds, and of ``x`` its first ``n_speeds`` coordinates.
+
+        All its coordinates unless it has Euler parameters (their ``qw``:
+        :meth:`joint_coordinates`).
 
         Parameters
         ----------
@@ -277,7 +342,7 @@ class Topology:
         Returns
         -------
         slice
-            Its coordinates in ``x``.
+            Its speeds (and those coordinates).
 
         Raises
         ------

@@ -51,6 +51,17 @@ def export_cantilever():
     return model, {}, None, {"rtol": 1e-6}
 
 
+def beam_stop():
+    model = fm.Model("beam_stop")
+    beam = fm.FlexibleBody.uniform_beam("beam", 0.5, fm.Section.rectangular(0.02, 0.005), fm.Material.aluminium(),
+                                        8, keep=("bend_y",), damping_ratio=0.01, clamped=False)
+    phi = np.radians(60.0)
+    stop = fm.SpherePlaneContact("stop", beam, 0.005, fm.HuntCrossleyLaw(1e8, 0.5), centre=(0.5, 0.0, 0.0),
+                                 plane_normal=(np.sin(phi), 0.0, np.cos(phi)))
+    model.add(fm.Revolute("pin", model.ground, beam, axis=(0, 1, 0)), fm.Gravity((0.0, 0.0, -9.81)), stop)
+    return model, {}, None, {"rtol": 1e-8, "track_work": True}
+
+
 def wiper_ref(flexible):
     def build():
         model, initial = wiper(WiperOptions(flexible=flexible))
@@ -66,6 +77,7 @@ SCENES = {
     "06_export_paraview.toml": export_cantilever,
     "04_wiper.toml": wiper_ref(True),
     "04_wiper_rigid.toml": wiper_ref(False),
+    "11_contact.toml": beam_stop,
 }
 
 

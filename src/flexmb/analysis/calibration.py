@@ -205,10 +205,10 @@ def _station_matrix(system, body: FlexibleBody, stations: np.ndarray, h: float =
                          f"keep exactly one of 'bend_y', 'bend_z', keeps {list(body.keep)}")
     topo = system.topology
     where = [topo.locate(body, np.array([s, 0.0, 0.0])) for s in stations]
-    n = system.n_coords
+    n = system.n_coords  # a flexible body's test set-up: its speeds are its coordinates' rates
 
     def points(x):
-        kin = system.kinematics(0.0, x, np.zeros(n))
+        kin = system.kinematics(0.0, x, np.zeros(system.n_speeds))
         return np.array([kin.origin[k] + kin.R[k] @ local for k, local in where]), kin
 
     _, kin0 = points(np.zeros(n))

@@ -42,9 +42,13 @@ class Linearization:
         Generalized force left at the linearisation state (0 at an
         equilibrium).
     T : ndarray, shape (n, p)
-        Orthogonal complement: ``x = x0 + T z``.
-    x0, xd0 : ndarray, shape (n,)
-        The state linearised about.
+        Orthogonal complement over the speeds: the coordinates are
+        ``x0`` displaced by ``T z`` (``x0 + T z`` while the speeds are the
+        coordinates' rates; :meth:`flexmb.state_layout.StateLayout.displace`).
+    x0 : ndarray, shape (nq,)
+        The coordinates linearised about.
+    xd0 : ndarray, shape (n,)
+        The speeds linearised about.
     t : float
         Time, s.
     method : {'analytic', 'fd'}
@@ -143,7 +147,7 @@ def _analytic(system, kin, T, xdd):
     system's own (:meth:`flexmb.System.coordinate_terms`,
     :meth:`flexmb.System.load_stiffness`).
     """
-    n = system.n_coords
+    n = system.n_speeds
     terms = system.coordinate_terms(kin)
     Kc, Cc = terms if terms is not None else (np.zeros((n, n)), np.zeros((n, n)))
     G = system.load_stiffness(kin, xdd)
@@ -158,8 +162,10 @@ def linearize(system, x0=None, xd0=None, t: float = 0.0, h: float = 1e-6, method
     ----------
     system : System
         Compiled model.
-    x0, xd0 : ndarray, shape (n,), optional
-        State (default zeros); it should satisfy the constraints.
+    x0 : ndarray, shape (nq,), optional
+        Coordinates (default zeros); the state should satisfy the constraints.
+    xd0 : ndarray, shape (n,), optional
+        Speeds (default zeros).
     t : float
         Time, s.
     h : float
@@ -214,9 +220,9 @@ def linearize(system, x0=None, xd0=None, t: float = 0.0, h: float = 1e-6, method
         raise ModelError(f"linearize: unknown method {method!r}; pick one of {list(LINEARIZE_METHODS)}")
     system.constraints.refuse_velocity_rows(
         "linearize", "about a steady motion, flexmb.linearize_steady takes it (naming the ignorable coordinates)")
-    n = system.n_coords
+    nq, n = system.n_coords, system.n_speeds
     t = state_time("linearize", t)
-    x0 = np.zeros(n) if x0 is None else state_vector("linearize", "x0", x0, n)
+    x0 = system.layout.reference() if x0 is None else state_vector("linearize", "x0", x0, nq)
     xd0 = np.zeros(n) if xd0 is None else state_vector("linearize", "xd0", xd0, n)
     eq = system.equations(t, x0, xd0)
     kin, A, f, psi, gamma = eq.kin, eq.A, eq.f, eq.psi, eq.gamma
@@ -234,9 +240,10 @@ def linearize(system, x0=None, xd0=None, t: float = 0.0, h: float = 1e-6, method
         return Linearization(M=M, C=C, K=K, F=F, T=T, x0=x0, xd0=xd0, t=t, method="analytic")
     Jx = np.zeros((n, p))
     Jv = np.zeros((n, p))
+    move = system.layout.displace  # the coordinates perturbed along the speeds: x0 + W(x0) d
     for i in range(p):
         d = h * T[:, i]
-        Jx[:, i] = (system.accelerations(t, x0 + d, xd0) - system.accelerations(t, x0 - d, xd0)) / (2 * h)
+        Jx[:, i] = (system.accelerations(t, move(x0, d), xd0) - system.accelerations(t, move(x0, -d), xd0)) / (2 * h)
         Jv[:, i] = (system.accelerations(t, x0, xd0 + d) - system.accelerations(t, x0, xd0 - d)) / (2 * h)
     return Linearization(M=M, C=-T.T @ A @ Jv, K=-T.T @ A @ Jx, F=F, T=T, x0=x0, xd0=xd0, t=t, method="fd",
                          reason=reason)
@@ -295,15 +302,15 @@ def linear_statics(system, x0=None, t: float = 0.0):
     ----------
     system : System
         Compiled model.
-    x0 : ndarray, shape (n,), optional
+    x0 : ndarray, shape (nq,), optional
         Reference configuration (default zeros).
     t : float
         Time, s.
 
     Returns
     -------
-    ndarray, shape (n,)
-        ``x0 + T K^-1 F``: the linear-statics coordinates.
+    ndarray, shape (nq,)
+        ``x0`` displaced by ``T K^-1 F``: the linear-statics coordinates.
     """
     lin = linearize(system, x0, None, t)
-    return lin.x0 + lin.T @ np.linalg.solve(lin.K, lin.F)
+    return system.layout.displace(lin.x0, lin.T @ np.linalg.solve(lin.K, lin.F))

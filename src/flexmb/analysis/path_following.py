@@ -50,7 +50,8 @@ class _Equations:
     def __init__(self, system, t, load, x0, h=1e-6):
         system.constraints.refuse_velocity_rows("static equilibrium")
         self.system, self.t, self.h = system, float(t), h
-        self.zero = np.zeros(system.n_coords)
+        self.zero = np.zeros(system.n_speeds)
+        self.move = system.layout.displace  # coordinates moved along the speeds (x + W(x) d)
         elements = [e for _, group in system.forces.groups for e in group]
         if load is None:
             self.rest, self.load, self.name = system.forces, None, "Newton homotopy F(x) - (1 - lambda) F(x0)"
@@ -69,6 +70,10 @@ class _Equations:
         self.load = ForceAssembler(chosen)
         self.name = ", ".join(e.name for e in chosen)
         self.ref = None
+
+    def between(self, x_a, x_b, u):
+        """The coordinates a fraction ``u`` of the way from ``x_a`` to ``x_b``, along the speeds."""
+        return self.move(x_a, u * self.system.layout.difference(x_b, x_a))
 
     def _kin(self, x):
         return self.system.kinematics(self.t, x, self.zero)
@@ -93,7 +98,7 @@ class _Equations:
 
     def __call__(self, x, lam, tangent=True) -> _Point:
         g, g_lam, psi = self._forces(x, lam)
-        n = x.shape[0]
+        n = self.system.n_speeds
         mu = None
         if psi is None:
             T = np.eye(n)
@@ -110,7 +115,8 @@ class _Equations:
         J = np.empty((T.shape[1], T.shape[1]))
         for i in range(T.shape[1]):
             d = self.h * T[:, i]
-            J[:, i] = T.T @ (self._balance(x + d, lam, mu) - self._balance(x - d, lam, mu)) / (2 * self.h)
+            J[:, i] = T.T @ (self._balance(self.move(x, d), lam, mu) - self._balance(self.move(x, -d), lam, mu)) / (
+                2 * self.h)
         return _Point(T, R, R_lam, J)
 
     def _balance(self, x, lam, mu):
@@ -145,7 +151,7 @@ def _newton(eq, x, lam, tol, max_iter, counts, monotone=False):
             dz = -np.linalg.solve(pt.J, pt.R)
         except np.linalg.LinAlgError:
             raise _NotConverged("the tangent stiffness is singular", step, res, k) from None
-        x = eq.project(x + pt.T @ dz)
+        x = eq.project(eq.move(x, pt.T @ dz))
         step = _norm(dz)
         if step < tol:
             return x, eq(x, lam, tangent=False)
@@ -247,9 +253,10 @@ class _Path:
         x_a, lam_a, tx_a, tl_a = self.x[i], self.lam[i], self.t_x[i], self.t_lam[i]
         h = self.arc[i + 1] - self.arc[i]
         s, lam, u = _hermite_extreme(0.0, h, lam_a, self.lam[i + 1], tl_a, self.t_lam[i + 1])
-        # cubic Hermite interpolation of x, the fallback if the secant iteration fails
-        h00, h10, h01, h11 = 2 * u**3 - 3 * u**2 + 1, u**3 - 2 * u**2 + u, -2 * u**3 + 3 * u**2, u**3 - u**2
-        x = h00 * x_a + h10 * h * tx_a + h01 * self.x[i + 1] + h11 * h * self.t_x[i + 1]
+        # cubic Hermite interpolation of x (as a displacement from x_a), the fallback if the secant iteration fails
+        h10, h01, h11 = u**3 - 2 * u**2 + u, -2 * u**3 + 3 * u**2, u**3 - u**2
+        d = self.eq.system.layout.difference(self.x[i + 1], x_a)
+        x = self.eq.move(x_a, h10 * h * tx_a + h01 * d + h11 * h * self.t_x[i + 1])
         lo, f_lo, hi, f_hi = 0.0, tl_a, h, self.t_lam[i + 1]
         kept = 0  # which end the last two brackets kept (Illinois: halve a stuck end's value)
         try:
@@ -335,7 +342,7 @@ def _follow(eq, x, lam, lam_end, options, tol_end, who="load path"):
             # the target lies in this step: interpolate, then Newton at the target load factor
             u = (lam_end - lam_a) / (lam_new - lam_a)
             try:
-                x_end, pt_end = _newton(eq, eq.project(x_a + u * (x_new - x_a)), lam_end, tol_end,
+                x_end, pt_end = _newton(eq, eq.project(eq.between(x_a, x_new, u)), lam_end, tol_end,
                                         max(options.max_iter, 20), path.counts)
             except _NotConverged as exc:
                 path.counts["rejected"] += 1
@@ -389,7 +396,7 @@ def _tangent_or(pt, tx, tl, c):
 
 def _corrector(eq, x_a, lam_a, tx, tl, ds, c, options, counts):
     """One arc-length step: predictor along the tangent, Newton on the normal plane (Riks)."""
-    x = eq.project(x_a + ds * tx)
+    x = eq.project(eq.move(x_a, ds * tx))
     lam = lam_a + ds * tl
     step = np.inf
     for k in range(1, options.max_iter + 1):
@@ -404,12 +411,12 @@ def _corrector(eq, x_a, lam_a, tx, tl, ds, c, options, counts):
         M[:p, :p], M[:p, p] = pt.J, pt.R_lam
         M[p, :p], M[p, p] = pt.T.T @ tx / c**2, tl
         # normal plane through the predictor: (x - x_a) . tx / c^2 + (lam - lam_a) tl = ds
-        plane = (x - x_a) @ tx / c**2 + (lam - lam_a) * tl - ds
+        plane = eq.system.layout.difference(x, x_a) @ tx / c**2 + (lam - lam_a) * tl - ds
         try:
             sol = np.linalg.solve(M, -np.append(pt.R, plane))
         except np.linalg.LinAlgError:
             raise _NotConverged("the bordered tangent matrix is singular", step, res, k) from None
-        x = eq.project(x + pt.T @ sol[:p])
+        x = eq.project(eq.move(x, pt.T @ sol[:p]))
         lam = lam + sol[p]
         step = max(_norm(sol[:p]), abs(sol[p]))
         if step < options.tol:
@@ -420,7 +427,7 @@ def _corrector(eq, x_a, lam_a, tx, tl, ds, c, options, counts):
 
 def _start(system, x0):
     n = system.n_coords
-    return np.zeros(n) if x0 is None else state_vector("static equilibrium", "x0", x0, n).copy()
+    return system.layout.reference() if x0 is None else state_vector("static equilibrium", "x0", x0, n).copy()
 
 
 @limited_blas
@@ -539,7 +546,7 @@ def load_path(system, load=None, x0=None, t: float = 0.0, *, lam_end: float = 1.
     """
     options = PathOptions() if options is None else options
     x = _start(system, x0)
-    x = system.project(t, x, np.zeros_like(x))[0]
+    x = system.project(t, x, np.zeros(system.n_speeds))[0]
     eq = _Equations(system, t, load, x)
     counts = {"iterations": 0, "tangents": 0}
     if load is not None:

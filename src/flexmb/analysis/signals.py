@@ -339,7 +339,7 @@ def _as_output(spec) -> Output:
 def _input_force(system, kin, spec: Input) -> np.ndarray:
     """Generalized force per unit input, shape (n,) (eq. 5: ``V_P^T F`` for a point force)."""
     where = f"input {spec.name!r}"
-    Q = np.zeros(system.n_coords)
+    Q = np.zeros(system.n_speeds)
     if spec.kind == "joint":
         Q[_coordinate_column(system, spec.element, spec.coord, where)] = 1.0
     elif spec.kind == "point":
@@ -415,9 +415,10 @@ def _output_rows(system, kin, spec: Output, T, xd0, xdd0, t):
     moving = np.any(xd0 != 0) or (spec.derivative == 2 and np.any(xdd0 != 0))
     dz, dzd = zero.copy(), zero.copy()
     if moving:
+        move = system.layout.displace  # the coordinates perturbed along the speeds
         for i in range(p):
             e = _H * T[:, i]
-            dz[i] = (measure(x0 + e, xd0) - measure(x0 - e, xd0)) / (2 * _H)
+            dz[i] = (measure(move(x0, e), xd0) - measure(move(x0, -e), xd0)) / (2 * _H)
             if spec.derivative == 2:
                 dzd[i] = (measure(x0, xd0 + e) - measure(x0, xd0 - e)) / (2 * _H)
     if spec.derivative == 1:

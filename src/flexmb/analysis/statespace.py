@@ -287,9 +287,9 @@ class StateSpace:
 
 def _about(system, about):
     """``(x0, xd0, t)`` from None, ``(x0, xd0[, t])`` or ``(result, t)``."""
-    n = system.n_coords
+    nq, n = system.n_coords, system.n_speeds
     if about is None:
-        return np.zeros(n), np.zeros(n), 0.0
+        return system.layout.reference(), np.zeros(n), 0.0
     if not isinstance(about, (tuple, list)) or len(about) not in (2, 3):
         raise ModelError("state_space: about must be None, (x0, xd0), (x0, xd0, t) or (result, t), got "
                          f"{type(about).__name__}")
@@ -300,7 +300,7 @@ def _about(system, about):
         times = np.asarray(first.t, dtype=float)
         i = int(np.argmin(np.abs(times - float(about[1]))))
         return (np.array(first.x[i], dtype=float), np.array(first.xd[i], dtype=float), float(times[i]))
-    x0 = state_vector("state_space", "about's x0", first, n)
+    x0 = state_vector("state_space", "about's x0", first, nq)
     xd0 = state_vector("state_space", "about's xd0", about[1], n)
     t = state_time("state_space", about[2]) if len(about) == 3 else 0.0
     return x0, xd0, t
@@ -413,7 +413,7 @@ def state_space(system, inputs=(), outputs=(), about=None, *, method: str = "aut
     T = lin.T
     p = T.shape[1]
     kin = system.kinematics(t, x0, xd0)
-    Q = np.array([_input_force(system, kin, s) for s in ins]).reshape(len(ins), system.n_coords).T
+    Q = np.array([_input_force(system, kin, s) for s in ins]).reshape(len(ins), system.n_speeds).T
     cho = sla.cho_factor(lin.M)
     Minv = lambda rhs: sla.cho_solve(cho, rhs)  # noqa: E731
     A = np.zeros((2 * p, 2 * p))

@@ -107,8 +107,7 @@ def static_equilibrium(system, x0=None, t: float = 0.0, tol: float = 1e-10, max_
     tol = number("static_equilibrium", "tol", tol, minimum=0.0)
     max_iter = whole("static_equilibrium", "max_iter", max_iter)
     x = _start(system, x0)
-    zero = np.zeros_like(x)
-    x, _ = system.project(t, x, zero)
+    x, _ = system.project(t, x, np.zeros(system.n_speeds))
     eq = _Equations(system, t, None, x)
     counts = {"iterations": 0, "tangents": 0}
     try:

@@ -198,6 +198,9 @@ def linearize_steady(system, x0, xd0, ignorable=None, coordinates=None, speeds=N
     >>> lin.states, np.round(lin.A, 9).tolist()
     (['pin.angle', 'pin.angle rate'], [[0.0, 1.0], [-9.81, 0.0]])
     """
+    if not system.layout.identity:
+        raise ModelError("linearize_steady chooses independent coordinates and their rates as speeds; Euler "
+                         "parameters (rotation='quaternion') have no such rates: use rotation='bryant'")
     n = system.n_coords
     names = system.coordinate_names
     t = state_time("linearize_steady", t)

@@ -24,12 +24,11 @@ __all__ = ["export_snapshot", "export_modes"]
 
 def _states(system, t: float, xs, xds) -> Result:
     """A Result holding a few states of ``system``, held at rest (``xdd = 0``), for export."""
-    n = system.n_coords
-    for name, v in (("x", xs), ("xd", xds)):
+    for name, v, n, what in (("x", xs, system.n_coords, "coordinates"), ("xd", xds, system.n_speeds, "speeds")):
         if v.shape != (len(xs), n) or not np.all(np.isfinite(v)):
-            raise ExportError(f"{name} must be a finite array of {n} coordinates per state, got shape "
+            raise ExportError(f"{name} must be a finite array of {n} {what} per state, got shape "
                               f"{v.shape[1:]}")
-    return Result.from_states(system, xs, xds, xdd=np.zeros_like(xs), t=np.full(len(xs), float(t)),
+    return Result.from_states(system, xs, xds, xdd=np.zeros_like(xds), t=np.full(len(xs), float(t)),
                               message="exported state")
 
 
@@ -40,7 +39,7 @@ def export_snapshot(system, x, path, *, xd=None, t: float = 0.0, reference=None,
     ----------
     system : System or Model
         The model (a Model is built with the default complement).
-    x : array_like, shape (n,)
+    x : array_like, shape (nq,)
         Coordinates.
     path : str or path-like
         The ``.vtu`` file to write.
@@ -48,7 +47,7 @@ def export_snapshot(system, x, path, *, xd=None, t: float = 0.0, reference=None,
         Speeds (default 0); velocities are exact.
     t : float
         Time written to the field data, s.
-    reference : array_like, shape (n,), optional
+    reference : array_like, shape (nq,), optional
         Draw the bodies at these coordinates instead and add the point data
         ``displacement`` from there to ``x`` (ParaView: Warp By Vector,
         scale 1, shows the state ``x``). Default: drawn at ``x``, no
@@ -67,10 +66,10 @@ def export_snapshot(system, x, path, *, xd=None, t: float = 0.0, reference=None,
         If ``x``, ``xd`` or ``reference`` has the wrong length or is not finite.
     """
     system = as_system(system, ExportError)
-    n = system.n_coords
+    nq, n = system.n_coords, system.n_speeds
     xd = np.zeros(n) if xd is None else xd
-    ref = np.zeros(n) if reference is None else reference
-    res = _states(system, t, _stack(x, ref, n), _stack(xd, np.zeros(n), n))
+    ref = system.layout.reference() if reference is None else reference
+    res = _states(system, t, _stack(x, ref, nq), _stack(xd, np.zeros(n), n))
     mesh = next(_meshes(res, [0], system, triad, reference=None if reference is None else 1))
     return _write_mesh(mesh, path)
 
@@ -126,21 +125,21 @@ def export_modes(system, frequencies, shapes, folder, *, scale: float = 0.1, pre
     """
     system = as_system(system, ExportError)
     prefix = _check_prefix(prefix)
-    n = system.n_coords
+    nq, n = system.n_coords, system.n_speeds
     f = np.asarray(frequencies, dtype=float).ravel()
     S = np.asarray(shapes, dtype=float)
     if S.ndim == 1:
         S = S[:, None]
     if S.shape != (n, f.size):
-        raise ExportError(f"shapes must have shape (n_coords, n_modes) = ({n}, {f.size}), got {S.shape}")
+        raise ExportError(f"shapes must have shape (n_speeds, n_modes) = ({n}, {f.size}), got {S.shape}")
     if not np.isfinite(scale):
         raise ExportError(f"scale must be finite, got {scale}")
-    x0 = _stack(np.zeros(n), np.zeros(n) if x0 is None else x0, n)[1]
+    x0 = _stack(np.zeros(nq), system.layout.reference() if x0 is None else x0, nq)[1]
     width = max(2, len(str(f.size)))
     folder = Path(os.fspath(folder))
     paths = []
     for k in range(f.size):
-        res = _states(system, 0.0, np.array([x0 + scale * S[:, k], x0]), np.zeros((2, n)))
+        res = _states(system, 0.0, np.array([system.layout.displace(x0, scale * S[:, k]), x0]), np.zeros((2, n)))
         mesh = next(_meshes(res, [0], system, triad, extra={"frequency": f[k], "mode": np.int64(k + 1)},
                             reference=1))
         del mesh.field_data["time"], mesh.field_data["TimeValue"]

@@ -32,7 +32,7 @@ class Loads:
         the ground and is discarded).
     torque : ndarray, shape (n_bodies + 1, 3)
         Resultant torque on each body about its mass centre, N m.
-    generalized : ndarray, shape (n_coords,)
+    generalized : ndarray, shape (n_speeds,)
         Generalized forces acting directly on coordinates (joint springs).
     """
 
@@ -41,7 +41,7 @@ class Loads:
         nb1 = state.R.shape[0]
         self.force = np.zeros((nb1, 3))
         self.torque = np.zeros((nb1, 3))
-        self.generalized = np.zeros(state.x.shape[0])
+        self.generalized = np.zeros(state.xd.shape[0])
 
     def add_point_force(self, body_index, point, force) -> None:
         """Add forces applied at inertial points.

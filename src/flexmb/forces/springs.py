@@ -249,6 +249,9 @@ class JointSpringDamper(ForceElement):
                 out.append(f"{label(self)}: {name} must be a scalar or have {n} entries, got shape {v.shape}")
         if n == 0:
             out.append(f"{label(self)}: joint {self.joint.name!r} has no coordinates")
+        if self.joint.quaternions:
+            out.append(f"{label(self)}: joint {self.joint.name!r} describes its rotation by Euler parameters, not "
+                       "angles; a joint spring needs rotation='bryant'")
         return out
 
     def apply(self, state, loads) -> None:

@@ -18,7 +18,13 @@ nonlinear problems, the second order of Chung & Hulbert [1]_::
 ``I - gamma' h Jv - beta' h^2 Jx`` with ``beta' = beta (1 - alpha_f) / (1 -
 alpha_m)``, ``gamma' = gamma (1 - alpha_f) / (1 - alpha_m)`` and the blocks
 of the state Jacobian ``[[0, I], [Jx, Jv]]``, reused over steps while
-Newton converges fast.
+Newton converges fast. Newton stops when its update is small against the
+position tolerance ``atol + rtol |x|`` in ``x1`` and against that
+tolerance divided by the step in ``xd1`` (the speed error that moves the
+positions by the tolerance over a step; derived in
+:func:`flexmb.kernels.genalpha.newton_update`). After a Newton failure
+the step is halved, and the steps that follow grow back to what the error
+control asks for by at most 5 % a step.
 
 The step size follows a local error estimate of the positions,
 ``(1/6 - beta - (alpha_m - alpha_f) / 2) h^2 (abar1 - abar0)`` (the

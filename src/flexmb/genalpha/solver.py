@@ -30,6 +30,8 @@ from .parameters import DEFAULT_RHO_INF, alpha_parameters
 __all__ = ["GeneralizedAlpha", "GeneralizedAlphaDenseOutput", "generalized_alpha"]
 
 _EPS = np.finfo(float).eps
+#: after a Newton failure, the factor per accepted step by which the step may grow back (see ``_accept``)
+NEWTON_REGROWTH = 1.05
 #: the error estimate's projector when there is none (``f_max`` not set, or no mode above it)
 _NO_LOW_PASS = np.empty((0, 0))
 
@@ -158,8 +160,9 @@ class GeneralizedAlpha(OdeSolver):
         accepted even when its error estimate exceeds the tolerance, so every
         mode above ``1 / (2 pi min_step)`` Hz is integrated at ``h omega >=
         1`` and dissipated (:func:`numerical_damping`) rather than resolved.
-        Newton failures may still halve the step below it (default: the
-        class's, None: no floor).
+        Newton failures may still halve the step below it, and the steps
+        after one grow back by at most ``NEWTON_REGROWTH`` a step (default:
+        the class's, None: no floor).
     vectorized : bool
         Ignored (accepted for ``solve_ivp``).
     **extraneous
@@ -255,6 +258,7 @@ class GeneralizedAlpha(OdeSolver):
         self.lu_h = None
         self.err_old = None
         self.h_abs_old = None
+        self.h_newton = np.inf  # the bound on the step after a Newton failure (see _accept)
         h_next = self._start(fun, t0)
         if self.fixed_step is not None:
             self.h_abs = min(abs(self.fixed_step), self.max_step)
@@ -312,7 +316,7 @@ class GeneralizedAlpha(OdeSolver):
         memory = self._recall(fun, t0)
         if memory is not None and memory[0] is not None:
             (self.J, self.low_pass, self.lu, self.lu_h, self.err_old, self.h_abs_old, offset, h_next,
-             y_end, a_end, g_end) = memory
+             y_end, a_end, g_end, self.h_newton) = memory
             # the state was moved by a projection (about the tolerance): a to first order in the move
             Jx, Jv = self.J
             self.a, self.abar = kernels.restart_accelerations(self.y, y_end, a_end, Jx, Jv, offset, n)
@@ -344,7 +348,7 @@ class GeneralizedAlpha(OdeSolver):
         try:
             _MEMORY[self._fun_key] = (self.t, (self.J, self.low_pass, self.lu, self.lu_h, self.err_old,
                                                self.h_abs_old, self.abar - self.a, self.h_abs, self.y, self.a,
-                                               self.g))
+                                               self.g, self.h_newton))
         except TypeError:
             pass
 
@@ -469,6 +473,7 @@ class GeneralizedAlpha(OdeSolver):
                     return False, f"Newton's method failed at t = {t1:.9g} with the fixed step {h_abs:.3g}"
                 self.n_rejected += 1
                 h_abs *= 0.5
+                self.h_newton = h_abs
                 self.lu = None
                 continue
             if fixed:
@@ -486,7 +491,13 @@ class GeneralizedAlpha(OdeSolver):
         return True, None
 
     def _accept(self, t1, h_abs, end, n_iter, rate, err, h_next):
-        """Take the step to t1: the new state, the error history, the Jacobian's fate, the next step size."""
+        """Take the step to t1: the new state, the error history, the Jacobian's fate, the next step size.
+
+        The next step is the error control's, but at most the halved step of
+        the last Newton failure times ``NEWTON_REGROWTH`` per step since: the
+        error control knows nothing of Newton, and without the bound went
+        straight back to the failing step (a Jacobian and an LU each time).
+        """
         self._dense = (self.y, self.abar, self.g)
         self.y, self.a, self.abar, self.g = end
         self.t = t1
@@ -498,7 +509,8 @@ class GeneralizedAlpha(OdeSolver):
         elif n_iter > 2 and rate > 1e-3:
             self.J = None
         if h_next is not None:
-            self.h_abs = h_next
+            self.h_newton *= NEWTON_REGROWTH
+            self.h_abs = min(h_next, self.h_newton)
         self._remember()
 
     def rebase(self, shift) -> None:

@@ -49,6 +49,16 @@ from these class attributes,
     the offsets of winding angles so (:mod:`flexmb.stepping`); an
     integrator without it is restarted from the moved state instead
     (:class:`~flexmb.GeneralizedAlpha` rebases, keeping its memory).
+``finds_roots``
+    The constructor takes ``events = (g, m, direction)``, a function
+    ``g(t, y)`` returning m values and the direction of the crossings to
+    watch in each (+1 rising, -1 falling, 0 both), and each step ends at
+    the first such sign change of any of them within it (CVODE's root
+    finding), with ``root`` the array of
+    the m directions that changed there (``+1`` rising, ``-1`` falling, 0
+    unchanged) or None after a step that met none. simulate locates
+    contact onsets and separations so (:mod:`flexmb.contact_events`); for
+    any other integrator it locates them itself on the dense output.
 
 flexmb's own integrators declare them; scipy's get them from
 :data:`SCIPY_CAPABILITIES` (looked up along the class's bases, so a subclass
@@ -95,6 +105,8 @@ class Capabilities:
         Has ``advance(t)``: steps to ``t`` without simulate's per-step checks.
     rebases : bool
         Has ``rebase(shift)``: moves the origin of its state in place.
+    finds_roots : bool
+        Takes ``events=(g, m, direction)`` and ends a step at the first root of ``g``.
 
     Examples
     --------
@@ -112,6 +124,7 @@ class Capabilities:
     cheap_restart: bool = True
     advances: bool = False
     rebases: bool = False
+    finds_roots: bool = False
 
 
 #: scipy's solvers, which declare nothing themselves. LSODA could take a

@@ -214,12 +214,12 @@ def ringing_modes(system, t0: float, t1: float, x, xd, rtol: float, atol: float,
 
     Notes
     -----
-    With the state Jacobian ``J`` (2n x 2n) and its eigenpairs ``lambda_k``,
+    With the state Jacobian ``J`` (of ``y = (q, u)``) and its eigenpairs ``lambda_k``,
     left ``u_k`` and right ``r_k``, the free vibration of mode k in the
     state has the modal amplitude ``u_k^H ydot / (lambda_k u_k^H r_k)``,
-    ``ydot = (xd, xdd)``: the forced (quasi-static) part of the response
+    ``ydot = (qd, ud)``: the forced (quasi-static) part of the response
     changes slowly and adds little to ``ydot``. Its coordinates are the
-    first n entries of ``2 |c_k r_k|`` (a complex pair).
+    first nq entries of ``2 |c_k r_k|`` (a complex pair).
     """
     n = system.n_coords
     if n > MODES_MAX_COORDS:
@@ -240,9 +240,10 @@ def ringing_modes(system, t0: float, t1: float, x, xd, rtol: float, atol: float,
     lam, left, right = lam[order], left[:, order], right[:, order]
     omega = np.abs(lam)
     zeta = -lam.real / omega
-    ydot = np.concatenate([xd, system.accelerations(t0, x, xd)])
+    layout = system.layout
+    ydot = layout.join(layout.coordinate_rates(x, xd), system.accelerations(t0, x, xd))
     c = (left.conj().T @ ydot) / (lam * np.einsum("ik,ik->k", left.conj(), right))
-    amplitude = 2.0 * np.abs(c[None, :] * right[:n])
+    amplitude = 2.0 * np.abs(c[None, :] * layout.coordinates(right.T).T)
     tol = atol + rtol * np.abs(np.asarray(x, float))
     excitation = np.max(amplitude / tol[:, None], axis=0) if len(lam) else np.zeros(0)
     freq = omega * np.sqrt(np.clip(1.0 - zeta**2, 0.0, None)) / (2 * np.pi)
@@ -443,15 +444,13 @@ class ResolutionMonitor:
         self.next_check *= 2
         h = float(np.median(self.steps))
         self.steps = []
-        n = self.system.n_coords
         # a run that stays short at this rate, or steps too long to resolve anything far above the
         # motion: nothing to analyse
         if ((self.t1 - self.t0) / h <= RESOLVE_STEP_LIMIT
                 or h * 2 * np.pi * FAR_ABOVE * motion_frequency(self.system, self.t0, self.t1) >= RESOLVING_HW):
             return
-        y = solver.y
-        modes = ringing_modes(self.system, solver.t, self.t1, y[:n], y[n : 2 * n], self.rtol, self.atol,
-                              t_start=self.t0)
+        modes = ringing_modes(self.system, solver.t, self.t1, *self.system.layout.split(solver.y), self.rtol,
+                              self.atol, t_start=self.t0)
         if modes is None:
             return
         resolved = modes.ringing(excited=False) & (h * 2 * np.pi * modes.frequency < RESOLVING_HW)

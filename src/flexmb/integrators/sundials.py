@@ -26,6 +26,9 @@ KRYLOV_DIM = 10
 #: CVODE's bound on the internal steps of one call
 MAX_STEPS = 10**9
 
+#: the flag of a call that returned at a root (CV_ROOT_RETURN, IDA_ROOT_RETURN)
+ROOT_RETURN = 2
+
 
 class CVODE(OdeSolver):
     """SUNDIALS CVODE, stepped one internal step at a time (base of :class:`CVODEBDF` and :class:`CVODEAdams`).
@@ -55,6 +58,15 @@ class CVODE(OdeSolver):
     jac : callable or array_like, optional
         State Jacobian ``jac(t, y) -> (m, m)``, or a constant matrix;
         default: CVODE's internal finite differences.
+    events : (callable, int, array_like), optional
+        ``(g, m, direction)``: CVODE's root finding on the m functions
+        ``g(t, y)`` (contact gaps, :mod:`flexmb.contact_events`), each
+        watched for crossings in its ``direction`` (+1 rising, -1 falling,
+        0 both); a step then ends at the first root within it, located to
+        CVODE's root tolerance (about 100 unit roundoffs of
+        ``max(|t|, |h|)``), and :attr:`root` holds the directions that
+        changed there (``+1``, ``-1``, 0), None after a step without a
+        root.
     preconditioner : NewtonPreconditioner, optional
         For an open tree (:meth:`flexmb.System.newton_preconditioner`):
         the linear systems are solved by GMRES, preconditioned by its O(n)
@@ -99,13 +111,15 @@ class CVODE(OdeSolver):
     has_dense_output = True
     cheap_restart = False
     advances = True
+    finds_roots = True
 
     def __init__(self, fun, t0, y0, t_bound, *, rtol: float = 1e-3, atol=1e-6, max_step: float = np.inf,
-                 first_step: float | None = None, jac=None, preconditioner=None, vectorized: bool = False,
-                 **extraneous):
+                 first_step: float | None = None, jac=None, preconditioner=None, events=None,
+                 vectorized: bool = False, **extraneous):
         super().__init__(fun, t0, y0, t_bound, vectorized=False)
         self._raw_fun = fun
         self.n_steps = 0
+        self.root = None
         atol = np.asarray(atol, dtype=float)
         options = dict(
             max_num_steps=MAX_STEPS, max_order=self.max_order, linsolver=self.linsolver, rtol=float(rtol),
@@ -113,6 +127,8 @@ class CVODE(OdeSolver):
             max_step=0.0 if not np.isfinite(max_step) else float(max_step),
             first_step=0.0 if first_step is None else float(first_step),
         )
+        if events is not None:
+            options.update(self._events(*events))
         if preconditioner is not None:
             options.update(self._krylov(preconditioner))
         elif jac is not None:
@@ -136,6 +152,16 @@ class CVODE(OdeSolver):
         mem.init_step(float(self.t), np.array(self.y, dtype=float))
         return mem
 
+    def _events(self, g, m, direction) -> dict:
+        """scikit-sundae's root-finding options for the m functions ``g(t, y)`` (:class:`IDA` overrides it)."""
+
+        def eventsfn(t, y, events):
+            events[:] = g(t, y)
+
+        eventsfn.terminal = [False] * m  # each root ends CVode's call (CV_ROOT_RETURN) all the same
+        eventsfn.direction = [int(d) for d in direction]
+        return dict(eventsfn=eventsfn, num_events=int(m))
+
     def _jacfn(self, jac):
         """scikit-sundae's Jacobian callback, filling ``J = jac(t, y)`` (:class:`IDA` overrides it)."""
 
@@ -149,19 +175,20 @@ class CVODE(OdeSolver):
         """CVODE options for GMRES preconditioned by the O(n) Newton solve of an open tree."""
         import sksundae
 
-        n = pre.system.n_coords
+        layout = pre.system.layout  # y = (q, u, works) with qd = u: the preconditioner's block form
 
         def setup(t, y, yp, jok, jnew, gamma):
             if jok and pre.n_setups:
                 jnew[0] = 0
                 return
             self.njev += 1
-            pre.setup(t, y[:n], y[n : 2 * n])
+            pre.setup(t, *layout.split(y))
             jnew[0] = 1
 
         def solve(t, y, yp, rvec, zvec, gamma, delta, lr):
-            zvec[:n], zvec[n : 2 * n] = pre.solve(rvec[:n], rvec[n : 2 * n], gamma)
-            zvec[2 * n :] = rvec[2 * n :]  # states nothing depends on (work terms)
+            zq, zu = layout.split(zvec)
+            zq[:], zu[:] = pre.solve(*layout.split(rvec), gamma)
+            layout.extra(zvec)[:] = layout.extra(rvec)  # states nothing depends on (work terms)
 
         return dict(linsolver="gmres", krylov_dim=KRYLOV_DIM,
                     precond=sksundae.cvode.CVODEPrecond(setup, solve, side="left"))
@@ -177,6 +204,8 @@ class CVODE(OdeSolver):
             return False, f"{type(self._mem).__name__}: {out.message} (flag {out.status})"
         self.t = float(out.t)
         self.y = out.y
+        # a root: CVODE returns at it (CV_ROOT_RETURN, IDA_ROOT_RETURN: 2), its step reaching beyond
+        self.root = np.array(out.i_events[-1]) if out.status == ROOT_RETURN else None
         return True, None
 
     def _call(self, t, method):
@@ -283,6 +312,8 @@ class CVODEBDF(CVODE):
         State Jacobian (see :class:`CVODE`).
     preconditioner : NewtonPreconditioner, optional
         O(n) preconditioned Krylov solves of an open tree (see :class:`CVODE`).
+    events : (callable, int, array_like), optional
+        Root finding on the functions ``g(t, y)`` (see :class:`CVODE`).
     vectorized : bool
         Ignored.
     **extraneous
@@ -323,6 +354,8 @@ class CVODEAdams(CVODE):
         State Jacobian (see :class:`CVODE`).
     preconditioner : NewtonPreconditioner, optional
         O(n) preconditioned Krylov solves of an open tree (see :class:`CVODE`).
+    events : (callable, int, array_like), optional
+        Root finding on the functions ``g(t, y)`` (see :class:`CVODE`).
     vectorized : bool
         Ignored.
     **extraneous
@@ -373,6 +406,9 @@ class IDA(CVODE):
         O(n) preconditioned Krylov solves of an open tree (see
         :class:`CVODE`): ``(cj I - J) z = r`` is solved as
         ``(I - J / cj) z = r / cj``.
+    events : (callable, int, array_like), optional
+        Root finding on the functions ``g(t, y)``, by IDA's root finding (see
+        :class:`CVODE`).
     vectorized : bool
         Ignored.
     **extraneous
@@ -421,6 +457,14 @@ class IDA(CVODE):
         mem.init_step(float(self.t), y0, np.array(f(self.t, y0), dtype=float))
         return mem
 
+    def _events(self, g, m, direction) -> dict:
+        def eventsfn(t, y, yp, events):
+            events[:] = g(t, y)
+
+        eventsfn.terminal = [False] * m
+        eventsfn.direction = [int(d) for d in direction]
+        return dict(eventsfn=eventsfn, num_events=int(m))
+
     def _jacfn(self, jac):
         def jacfn(t, y, yp, res, cj, JJ):
             self.njev += 1
@@ -432,14 +476,16 @@ class IDA(CVODE):
     def _krylov(self, pre) -> dict:
         import sksundae
 
-        n = pre.system.n_coords
+        layout = pre.system.layout  # y = (q, u, works) with qd = u: the preconditioner's block form
 
         def setup(t, y, yp, res, cj):
             self.njev += 1
-            pre.setup(t, y[:n], y[n : 2 * n])
+            pre.setup(t, *layout.split(y))
 
         def solve(t, y, yp, res, rvec, zvec, cj, delta):
-            zvec[:n], zvec[n : 2 * n] = pre.solve(rvec[:n] / cj, rvec[n : 2 * n] / cj, 1.0 / cj)
-            zvec[2 * n :] = rvec[2 * n :] / cj  # states nothing depends on (work terms)
+            zq, zu = layout.split(zvec)
+            rq, ru = layout.split(rvec)
+            zq[:], zu[:] = pre.solve(rq / cj, ru / cj, 1.0 / cj)
+            layout.extra(zvec)[:] = layout.extra(rvec) / cj  # states nothing depends on (work terms)
 
         return dict(linsolver="gmres", krylov_dim=KRYLOV_DIM, precond=sksundae.ida.IDAPrecond(setup, solve))

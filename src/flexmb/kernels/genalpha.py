@@ -305,7 +305,9 @@ def newton_update(f, lu, piv, h, n, k, d_old, par, atol, base, g0, a1, y1, abar1
     abar1 : ndarray, shape (n,)
         Out, if converged: the algorithmic accelerations at the step end.
     scale : ndarray, shape (2, n)
-        The error scales of ``x1`` and ``xd1``, set at the first iteration.
+        The scales of ``x1`` and ``xd1`` in Newton's norm, ``sx = atol +
+        rtol |x1|`` and ``sv = sx / |h| + rtol |xd1|``, set at the first
+        iteration (see Notes).
 
     Returns
     -------
@@ -321,7 +323,27 @@ def newton_update(f, lu, piv, h, n, k, d_old, par, atol, base, g0, a1, y1, abar1
 
     Notes
     -----
-    Newton's method on ``r(a1) = a1 - a(t1, x1, xd1)``: ``da = -S^-1 r``.
+    Newton's method on ``r(a1) = a1 - a(t1, x1, xd1)``: ``da = -S^-1 r``,
+    which moves the end state by ``dx1 = beta' h^2 da`` and ``dxd1 =
+    gamma' h da``. The iteration has converged when what is left of these
+    moves is small against what the step's error control allows, and the
+    error control bounds positions only, by ``sx = atol + rtol |x|``.
+
+    The scale of the speeds follows from that. A speed off by ``e`` at a
+    step end moves the positions by about ``h e`` over the next step (and
+    enters the position of the step end itself only through ``x1 = ... +
+    h^2 beta abar1``, already counted in ``dx1``), so the speed error that
+    matters at the position tolerance is ``sx / h``: hence ``sv = sx / |h|
+    + rtol |xd1|``, the second term keeping a relative bound on large
+    speeds. With this scale both parts of the norm measure ``da`` on the
+    same footing, ``beta' h^2 |da| / sx`` and ``gamma' h^2 |da| / sx`` in
+    the limit of small speeds: Newton stops once the acceleration is known
+    to ``sx / h^2``, the accuracy the step's position error can use.
+    Scaling ``dxd1`` by the position's ``atol`` itself (a speed bound in
+    units of length) asks for ``1 / h`` times more, which on short steps
+    costs iterations and Jacobians without changing the positions beyond
+    the tolerance.
+
     Converged when ``rate / (1 - rate) d`` is below Newton's tolerance (or
     ``d = 0``); failed when ``rate >= 1`` or ``rate^(m - k) / (1 - rate) d``
     exceeds it, ``m`` the iterations allowed. At convergence ``w1 = w0 + h
@@ -335,7 +357,7 @@ def newton_update(f, lu, piv, h, n, k, d_old, par, atol, base, g0, a1, y1, abar1
     if k == 0:
         for i in range(n):
             scale[0, i] = atol[i] + rtol * abs(y1[i])
-            scale[1, i] = atol[i] + rtol * abs(y1[n + i])
+            scale[1, i] = scale[0, i] / abs(h) + rtol * abs(y1[n + i])
     d = _update_norm(da, scale, bp * h * h, gp * h) if n else 0.0
     tol = par[P_NEWTON_TOL]
     rate = -1.0

@@ -103,6 +103,52 @@ class ResultPost:
 
         return angular_velocity(self, body, frame, point, system)
 
+    def body_rotation(self, body, view: str = "matrix") -> np.ndarray:
+        """Rotation history of a body (body frame -> inertial), as a matrix, Bryant angles or axis-angle.
+
+        Whatever a joint's coordinates (Bryant angles or Euler parameters),
+        :attr:`rotations` holds each body's rotation matrix; this offers
+        other views of it (:mod:`flexmb.quaternions`).
+
+        Parameters
+        ----------
+        body : Body or str
+            The body, or its name (a flexible body: its root segment).
+        view : {'matrix', 'bryant', 'axis-angle', 'quaternion'}
+            The matrix; the Bryant angles ``(rx, ry, rz)`` of ``Rx Ry Rz``
+            (rad, singular at ry = +-90 deg); the rotation vector (axis
+            times angle, rad); the unit quaternion ``(qx, qy, qz, qw)``,
+            ``qw >= 0``.
+
+        Returns
+        -------
+        ndarray, shape (nt, 3, 3), (nt, 3) or (nt, 4)
+            The rotation at each output time.
+
+        Raises
+        ------
+        ModelError
+            If no body has that name, or the view is unknown.
+        """
+        from .. import quaternions
+        from .._names import name_of
+        from ..bodies import Body
+
+        name = name_of(body, Body, "Result.body_rotation")
+        if name in self.flexible:
+            row = self.flexible[name][0][0]
+        elif name in self.body_names:
+            row = self.body_names.index(name)
+        else:
+            raise ModelError(f"Result.body_rotation: no body {name!r}; known: {self.body_names}")
+        R = self.rotations[:, row]
+        views = {"matrix": lambda: R.copy(), "bryant": lambda: quaternions.bryant_angles(R),
+                 "axis-angle": lambda: quaternions.rotation_vector(R),
+                 "quaternion": lambda: quaternions.from_rotation_matrix(R)}
+        if view not in views:
+            raise ModelError(f"Result.body_rotation: view must be one of {list(views)}, got {view!r}")
+        return views[view]()
+
     def contact_history(self, element, system=None):
         """Penetration, forces and slip of a contact element; see :func:`flexmb.post.contact.contact_history`.
 

@@ -480,18 +480,20 @@ class _Loader:
         return InitialState(out["positions"], out["speeds"], tuple(fixed))
 
     def check_coordinates(self, system, initial: InitialState) -> None:
-        names = system.coordinate_names
-        joints = {n.rsplit(".", 1)[0] for n in names}
         for what, values in (("positions", initial.positions), ("speeds", initial.speeds),
                              ("fixed", dict.fromkeys(initial.fixed))):
+            # positions per coordinate; speeds (and what is held) per speed: the names differ for Euler parameters
+            names, kind = ((system.coordinate_names, "coordinate") if what == "positions" or system.layout.identity
+                           else (system.speed_names, "speed"))
+            joints = {n.rsplit(".", 1)[0] for n in names}
             for k, v in values.items():
                 path = f"initial.{what}" + (f".{k}" if what != "fixed" else "")
                 if k not in names and k not in joints:
-                    self.fail(path, f"no coordinate or joint named {k!r}; coordinates: {', '.join(names)}")
+                    self.fail(path, f"no {kind} or joint named {k!r}; {kind}s: {', '.join(names)}")
                 if isinstance(v, list):
                     count = sum(1 for n in names if n == k or n.rsplit(".", 1)[0] == k)
                     if len(v) != count:
-                        self.fail(path, f"must have {count} values (one per coordinate of {k!r}), got {len(v)}")
+                        self.fail(path, f"must have {count} values (one per {kind} of {k!r}), got {len(v)}")
 
     def load_output(self, name: str) -> OutputSettings:
         t = self.table("output", self.data.get("output", {}))

@@ -19,7 +19,16 @@ rigid link bar of 0.25 m plus a 0.25 m blade, rigid or flexible (finite
 segments bending in the glass plane and out of it), resting 5 degrees above
 the line between the wiper pivots at t = 0 and sweeping up from there; a
 velocity-weakening friction force acts at each blade tip, in the glass
-plane.
+plane, with a prescribed normal load.
+
+With ``WiperOptions(contact=True)`` the blade is pressed on the glass
+instead: it hangs from the arm on a lift hinge (a revolute joint about the
+blade's width) whose preloaded torsion spring pushes it down, and it
+touches the glass through spheres at its nodes (``SpherePlaneContact``,
+a linear law for the rubber lip), each with the same velocity-weakening
+friction law taken from its own contact: the normal load comes from the
+spring and the contacts, the sliding direction from the contact points'
+own velocities, and the blade may lift off.
 """
 
 from __future__ import annotations
@@ -30,6 +39,8 @@ from attrs import field, frozen
 from ..bodies import RigidBody
 from ..drivers import Driver
 from ..flexible import FlexibleBody
+from ..forces.contact import LinearContactLaw, SpherePlaneContact, VelocityWeakeningLaw
+from ..forces.springs import JointSpringDamper
 from ..joints import Fixed, Revolute, Spherical, Universal
 from ..model import Model
 from ..rotations import frame_from_axis
@@ -92,6 +103,21 @@ class WiperOptions:
     masses : dict of str to float
         Masses of the rigid links ``crank``, ``drive_link``, ``arm`` and
         ``connecting_link``, kg.
+    contact : bool
+        Press each blade on the glass through contacts (see the module
+        docstring) instead of the prescribed tip load; ``friction`` then
+        gives the contacts their friction law.
+    contact_spheres : int
+        Spheres along each blade, evenly spaced from its tip towards the
+        hinge (at the nodes of a flexible blade with as many segments).
+    sphere_radius : float
+        Their radius, m.
+    contact_stiffness, contact_damping : float
+        The rubber lip's linear law per sphere, N/m and N s/m.
+    hinge_stiffness, hinge_damping : float
+        The lift hinge's torsion spring, N m/rad and N m s/rad; its preload
+        is set so that a rigid blade lying on the glass would be pressed
+        with ``normal_load`` in all.
     """
 
     flexible: bool = True
@@ -109,6 +135,13 @@ class WiperOptions:
     friction: bool = True
     masses: dict = field(factory=lambda: {"crank": 0.10, "drive_link": 0.25, "arm": 0.20,
                                           "connecting_link": 0.40})
+    contact: bool = False
+    contact_spheres: int = 6
+    sphere_radius: float = 0.004
+    contact_stiffness: float = 2.0e4
+    contact_damping: float = 20.0
+    hinge_stiffness: float = 2.0
+    hinge_damping: float = 0.005
 
 
 def _blade(o: WiperOptions, name: str):
@@ -117,8 +150,10 @@ def _blade(o: WiperOptions, name: str):
     # Section.rectangular(b, h): b along the blade's y (in the glass plane), h along z (its normal)
     section = Section.rectangular(o.blade_width, o.blade_thickness)
     if o.flexible:
+        # on a lift hinge the root is pinned: its first segment turns with the hinge
         return FlexibleBody.uniform_beam(name, o.blade_length, section, steel, o.n_segments,
-                                         keep=("bend_y", "bend_z"), damping_ratio=o.damping_ratio)
+                                         keep=("bend_y", "bend_z"), damping_ratio=o.damping_ratio,
+                                         clamped=not o.contact)
     mass = steel.density * section.area * o.blade_length
     return RigidBody.box(name, mass, (o.blade_length, o.blade_width, o.blade_thickness),
                          com=(o.blade_length / 2, 0.0, 0.0))
@@ -142,7 +177,9 @@ def wiper(options: WiperOptions | None = None, friction_cls=None):
     model : Model
         The mechanism.
     initial : dict
-        Rough initial coordinates (crank at 0, the rest to be assembled).
+        Rough initial coordinates (crank at 0, the rest to be assembled;
+        with contacts, the lift hinges at 0: the blades lying on the
+        glass, their spheres just touching it).
     """
     o = options or WiperOptions()
     P = _points_m()
@@ -183,13 +220,16 @@ def wiper(options: WiperOptions | None = None, friction_cls=None):
     model.add(Driver.constant_speed("motor", joints[0], speed=2 * np.pi * o.rpm / 60.0))
     blade_frame = np.column_stack([up, np.cross(n, up), n])
     tips = []
-    for side, arm in (("right", right), ("left", left)):
+    for side, arm, pivot in (("right", right, P["RJ4"]), ("left", left, P["RJ7"])):
         name = f"{side}_blade"
         blade = _blade(o, name)
-        model.add(Fixed(f"{side}_clamp", arm, blade, parent_point=arm_vec, parent_frame=blade_frame,
-                        child_frame=np.eye(3)))
+        if o.contact:
+            _press(model, o, side, arm, blade, arm_vec, blade_frame, pivot + arm_vec, n)
+        else:
+            model.add(Fixed(f"{side}_clamp", arm, blade, parent_point=arm_vec, parent_frame=blade_frame,
+                            child_frame=np.eye(3)))
         tips.append((name, blade))
-    if o.friction:
+    if o.friction and not o.contact:
         if friction_cls is None:
             from ..registry import get
 
@@ -198,4 +238,34 @@ def wiper(options: WiperOptions | None = None, friction_cls=None):
             model.add(friction_cls(f"{name}_friction", blade, point=(o.blade_length, 0.0, 0.0), normal=n,
                                    normal_load=o.normal_load, mu_static=o.mu_static, slope=o.slope,
                                    smoothing_speed=o.smoothing_speed))
-    return model, {"RJ1": 0.0}
+    return model, {"RJ1": 0.0, **({"right_lift": 0.0, "left_lift": 0.0} if o.contact else {})}
+
+
+def _press(model, o: WiperOptions, side, arm, blade, arm_vec, blade_frame, hinge, n):
+    """A blade on a lift hinge at the arm's end, pressed by a torsion spring, touching the glass through spheres.
+
+    The hinge turns about the blade's width (its y); a positive angle
+    pushes the tip into the glass. The glass under this blade is the plane
+    normal to n a sphere's radius and half the blade's thickness below the
+    hinge (the arm turns about n, so the hinge keeps its height). The
+    spring's rest angle makes ``k (rest - 0) = F sum(x^2) / sum(x)``: the
+    moment that a rigid blade lying on the glass on linear springs at the
+    spheres' places x balances with the total normal force F.
+    """
+    by = blade_frame[:, 1]
+    joint_frame = np.column_stack([n, blade_frame[:, 0], by])  # z along the width; x the normal, y the blade
+    child_frame = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]])  # the same, in the blade's frame
+    lift = Revolute(f"{side}_lift", arm, blade, parent_point=arm_vec, parent_frame=joint_frame,
+                    child_frame=child_frame, axis=by)
+    x = o.blade_length * np.arange(1, o.contact_spheres + 1) / o.contact_spheres
+    preload = o.normal_load * np.sum(x ** 2) / np.sum(x)
+    spring = JointSpringDamper(f"{side}_press", lift, stiffness=o.hinge_stiffness, damping=o.hinge_damping,
+                               rest=preload / o.hinge_stiffness)
+    law = LinearContactLaw(o.contact_stiffness, o.contact_damping)
+    friction = (VelocityWeakeningLaw(o.mu_static, o.slope, smoothing_speed=o.smoothing_speed) if o.friction
+                else None)
+    below = hinge - n * (o.blade_thickness / 2 + o.sphere_radius)
+    contacts = [SpherePlaneContact(f"{side}_lip_{k + 1}", blade, o.sphere_radius, law, friction=friction,
+                                   centre=(xk, 0.0, -o.blade_thickness / 2), plane_point=below, plane_normal=n)
+                for k, xk in enumerate(x)]
+    model.add(lift, spring, *contacts)

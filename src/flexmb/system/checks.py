@@ -17,8 +17,9 @@ class StateChecks:
     def _state(self, where, t, **vectors):
         """``t`` and the named vectors checked for the compiled kernels (:func:`~flexmb._validate.state_vector`).
 
-        ``x``, ``xd``, ``xdd`` have the model's n coordinates, ``y`` is
-        ``(x, xd)`` (2 n; ``y_long``: at least 2 n, the rest not read).
+        ``x`` has the model's nq coordinates, ``xd`` and ``xdd`` its n
+        speeds, ``y`` is ``(x, xd)`` (nq + n; ``y_long``: at least nq + n,
+        the rest not read; :mod:`flexmb.state_layout`).
         Returns ``t`` and the vectors in the order given.
 
         Raises
@@ -26,11 +27,11 @@ class StateChecks:
         ModelError
             Naming ``where``, the argument and what is wrong with it.
         """
-        n = self.n_coords
+        sizes = {"y": self.layout.size, "x": self.n_coords}
         out = [state_time(where, t)]
         for what, value in vectors.items():
             if what == "y_long":
-                out.append(state_vector(where, "y", value, 2 * n, at_least=True))
+                out.append(state_vector(where, "y", value, self.layout.size, at_least=True))
             else:
-                out.append(state_vector(where, what, value, 2 * n if what == "y" else n))
+                out.append(state_vector(where, what, value, sizes.get(what, self.n_speeds)))
         return out

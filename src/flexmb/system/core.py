@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import copy
-from typing import NamedTuple
 
 import numpy as np
 
@@ -16,11 +15,13 @@ from ..bodies import Body
 from ..errors import AssemblyError, ModelError
 from ..joints import Joint
 from ..kinematics import Kinematics
+from ..state_layout import StateLayout
 from ..topology import Topology
 from ..forces.tables import class_tables, merge
 from ..kernels.equations import EQUATIONS, ROWS, tree_equations
 from ..kernels.packing import pack
 from .checks import StateChecks
+from .equations import Equations
 from .projection import Projection
 from .quantities import StateQuantities
 from .rates import Rates
@@ -31,38 +32,6 @@ from ..kernels.articulated import open_tree_accelerations, open_tree_rhs
 
 
 __all__ = ["System"]
-
-
-class Equations(NamedTuple):
-    """The pieces of the equations of motion at one state (:meth:`System.equations`).
-
-    Each parameter is kept as the attribute of the same name.
-
-    Parameters
-    ----------
-    kin : Kinematics
-        Kinematics at the state (eqs. 6-18).
-    A : ndarray, shape (n, n)
-        Generalized mass matrix (eq. 2).
-    f : ndarray, shape (n,)
-        Force array (eq. 3).
-    phi : ndarray, shape (m,)
-        Constraint residual (eq. 28).
-    psi : ndarray, shape (m, n)
-        Constraint Jacobian (eq. 29).
-    b : ndarray, shape (m,)
-        Right-hand side of ``psi xd = b``.
-    gamma : ndarray, shape (m,)
-        Right-hand side of ``psi xdd = gamma``.
-    """
-
-    kin: Kinematics
-    A: np.ndarray
-    f: np.ndarray
-    phi: np.ndarray
-    psi: np.ndarray
-    b: np.ndarray
-    gamma: np.ndarray
 
 
 class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projection, StateChecks):
@@ -89,11 +58,21 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
     Attributes
     ----------
     n_coords : int
-        Number of generalized coordinates n.
+        Number of generalized coordinates q.
+    n_speeds : int
+        Number of generalized speeds u (Kane's equations, A, f, psi and the
+        accelerations are per speed; equal to ``n_coords`` while every
+        joint's speeds are its coordinates' rates).
+    layout : StateLayout
+        Where q and u sit in a state ``y`` and how q follows u
+        (``qd = W(q) u``, :mod:`flexmb.state_layout`).
     n_constraints : int
         Number of constraint rows m.
     coordinate_names : list of str
         ``"joint.coordinate"`` per coordinate.
+    speed_names : list of str
+        ``"joint.speed"`` per speed (the coordinates' names where the
+        speeds are their rates).
     n_complements : int
         Count of complement computations so far.
     articulated : bool
@@ -127,8 +106,11 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         self._refuse_articulated(strategy)
         self.strategy = strategy
         self.n_coords = self.topology.n_coords
+        self.n_speeds = self.topology.n_speeds
+        self.layout = StateLayout(self.n_coords, self.n_speeds, self.topology.quaternions)
         self.n_constraints = self.constraints.n_rows
         self.coordinate_names = self.topology.coordinate_names
+        self.speed_names = self.topology.speed_names
         self.body_names = [b.name for b in self.topology.bodies]
         self.n_complements = 0
         self._shared: dict = {}  # what is built lazily once per model, shared by the calibrated copies
@@ -137,7 +119,7 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         if sparse is None:
             sparse = self.n_constraints == 0
         self.articulated = bool(sparse)
-        self._no_armature = np.zeros(self.n_coords)
+        self._no_armature = np.zeros(self.n_speeds)
         self._rank_limit: int | None = None
         self._sigma_ref: float | None = None
         self._trial()
@@ -155,7 +137,7 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
             if self.articulated and not self._python_groups:
                 self._packed_open = self._packed
         nb1 = self.topology.n_bodies + 1
-        self._no_loads = (np.zeros((nb1, 3)), np.zeros((nb1, 3)), np.zeros(self.n_coords))
+        self._no_loads = (np.zeros((nb1, 3)), np.zeros((nb1, 3)), np.zeros(self.n_speeds))
         self._no_powers = np.zeros(0)
 
     def _refuse_articulated(self, strategy):
@@ -169,8 +151,7 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
 
     def _trial(self):
         """Evaluate every force and constraint element once so bad input fails at build time."""
-        x = np.zeros(self.n_coords)
-        kin = self._kinematics(0.0, x, x)
+        kin = self._kinematics(0.0, self.layout.reference(), np.zeros(self.n_speeds))
         for e in self.constraints.elements:
             try:
                 e.checked_rows(kin)
@@ -310,7 +291,11 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
             raise ModelError(f"body {getattr(body, 'name', body)!r} is not in the model") from None
 
     def coordinate_slice(self, joint) -> slice:
-        """Slice of x holding a joint's coordinates.
+        """Slice of xd holding a joint's speeds, and of x its first ``n_speeds`` coordinates.
+
+        For every joint whose speeds are its coordinates' rates, the slice
+        of all its coordinates in x; a joint in Euler parameters has one
+        coordinate more per quaternion (:meth:`coordinate_indices`).
 
         Parameters
         ----------
@@ -320,9 +305,26 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         Returns
         -------
         slice
-            Its coordinates' positions in x.
+            Its speeds' (and coordinates') positions.
         """
         return self.topology.coordinate_slice(self.model.element(joint, Joint))
+
+    def coordinate_indices(self, joint) -> np.ndarray:
+        """Indices in x of a joint's coordinates, in the joint's order (:mod:`flexmb.state_layout`).
+
+        Parameters
+        ----------
+        joint : Joint or str
+            A tree (not cut) joint of the model, or its name.
+
+        Returns
+        -------
+        ndarray of int, shape (joint.n_coords,)
+            The first ``n_speeds`` at their speeds' indices, the rest (``qw``) after all of those.
+        """
+        joint = self.model.element(joint, Joint)
+        self.coordinate_slice(joint)  # refuses a cut joint or one not in the model, naming it
+        return self.topology.joint_coordinates(self.topology.joint_map.get(joint, joint))
 
     def complement(self, psi):
         """Orthogonal complement of psi by the system's strategy (eqs. 30-37).
@@ -387,8 +389,8 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         ----------
         t : float
             Time, s.
-        y : ndarray, shape (>= 2 n,)
-            Coordinates and speeds first.
+        y : ndarray, shape (>= nq + n,)
+            Coordinates q and speeds u first.
         powers : ndarray, shape (n_groups,), optional
             If given, filled with each force-element class's power.
 
@@ -408,9 +410,8 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
 
     def _reduced_parts(self, t, y, powers=None):
         """:meth:`reduced_parts` at a checked state."""
-        n = self.n_coords
         if self._packed is None:
-            eq = self._equations(t, y[:n], y[n : 2 * n], powers)
+            eq = self._equations(t, *self.layout.split(y), powers)
             A, f, psi, gamma = eq.A, eq.f, eq.psi, eq.gamma
             return A, f, psi, gamma
         y = _plain(y)
@@ -419,14 +420,14 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         else:
             powers[:] = 0.0
         loads = self._python_loads(t, y, powers)
-        A, f, _, psi, gamma = tree_equations(self._packed, y, n, EQUATIONS, powers, *loads)
+        A, f, _, psi, gamma = tree_equations(self._packed, y, self.n_coords, EQUATIONS, powers, *loads)
         if self.constraints.elements:
-            rows = self.constraints.element_rows(self._kinematics(t, y[:n], y[n : 2 * n]))
+            rows = self.constraints.element_rows(self._kinematics(t, *self.layout.split(y)))
             psi, gamma = np.vstack((psi, rows.psi)), np.concatenate((gamma, rows.gamma))
         if self.constraints.drivers:
-            psi_d, gamma_d = self.constraints.driver_rows(t, n)
+            psi_d, gamma_d = self.constraints.driver_rows(t, self.n_speeds)
             m = psi.shape[0]
-            full = np.empty((m + psi_d.shape[0], n))
+            full = np.empty((m + psi_d.shape[0], self.n_speeds))
             full[:m], full[m:] = psi, psi_d
             psi, gamma = full, np.concatenate((gamma, gamma_d))
         return A, f, psi, gamma
@@ -438,8 +439,7 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         """
         if not self._python_groups:
             return self._no_loads
-        n = self.n_coords
-        kin = self._kinematics(t, y[:n], y[n : 2 * n])
+        kin = self._kinematics(t, *self.layout.split(y))
         acc = Loads(kin)
         for g, cls, elements in self._python_groups:
             apply_group(cls, elements, kin, acc)
@@ -451,7 +451,7 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         """phi, psi and b at a state (all rows: cut joints, elements, then drivers), compiled where it can be."""
         if self._packed is None:
             return self.constraints.evaluate(self._kinematics(t, x, xd), level=1)
-        _, _, phi, psi, _ = tree_equations(self._packed, np.concatenate([x, xd]), self.n_coords, ROWS,
+        _, _, phi, psi, _ = tree_equations(self._packed, self.layout.join(x, xd), self.n_coords, ROWS,
                                            self._no_powers, *self._no_loads)
         b = np.zeros(phi.shape[0])
         if self.constraints.elements:
@@ -462,8 +462,8 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
             return ConstraintRows(phi, psi, b)
         cols = self.constraints.driver_cols
         m = phi.shape[0]
-        full = np.empty((m + len(drivers), self.n_coords))
-        full[:m], full[m:] = psi, self.constraints.driver_rows(t, self.n_coords)[0]
+        full = np.empty((m + len(drivers), self.n_speeds))
+        full[:m], full[m:] = psi, self.constraints.driver_rows(t, self.n_speeds)[0]
         phi_d = np.array([x[c] - d.position(t) for d, c in zip(drivers, cols)])
         b = np.concatenate((b, [d.velocity(t) for d in drivers]))
         return ConstraintRows(np.concatenate((phi, phi_d)), full, b)
@@ -510,9 +510,9 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         if self.articulated:  # open tree: A is never formed
             return self._articulated(t, x, xd)
         if self._loop_kernel:  # loops closed through the recursion: A, psi and T never formed
-            return self._loop_solve(t, np.concatenate([x, xd]))
+            return self._loop_solve(t, self.layout.join(x, xd))
         if self.n_constraints or self._packed is not None:
-            A, f, psi, gamma = self._reduced_parts(t, np.concatenate([x, xd]))
+            A, f, psi, gamma = self._reduced_parts(t, self.layout.join(x, xd))
         else:  # an open tree: no constraints to evaluate
             kin = self._kinematics(t, x, xd)
             A, f = mass_matrix(kin), self.forces.force_array(kin)
@@ -524,7 +524,7 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
     def _articulated(self, t, x, xd):
         """Accelerations of an open tree by the articulated-body recursion (O(n))."""
         if self._packed_open is not None:
-            return self._state_rate(t, np.concatenate([x, xd]))[self.n_coords :]
+            return self.layout.speeds(self._state_rate(t, self.layout.join(x, xd)))
         kin = self._kinematics(t, x, xd)
         loads = self.forces.loads(kin)
         topo = self.topology
@@ -549,7 +549,11 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         return xdd
 
     def state_rate(self, t, y) -> np.ndarray:
-        """The first-order form's derivative ``(xd, xdd)`` at a state ``y = (x, xd)``.
+        """The first-order form's derivative ``(qd, ud)`` at a state ``y = (q, u)``.
+
+        ``qd = W(q) u`` by the kinematic equations (``System.layout``;
+        ``qd = u`` for joints whose speeds are their coordinates' rates),
+        ``ud`` from the reduced equations.
 
         An open tree whose joints and force elements are all compiled is
         evaluated by one kernel call
@@ -560,13 +564,13 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         ----------
         t : float
             Time, s.
-        y : ndarray, shape (2 n,)
-            Coordinates and speeds.
+        y : ndarray, shape (nq + n,)
+            Coordinates q and speeds u.
 
         Returns
         -------
-        ndarray, shape (2 n,)
-            ``(xd, xdd)``, finite.
+        ndarray, shape (nq + n,)
+            ``(qd, ud)``, finite.
 
         Raises
         ------
@@ -578,18 +582,17 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
 
     def _state_rate(self, t, y) -> np.ndarray:
         """:meth:`state_rate` at a checked state (the integrators' right-hand side: no checks)."""
-        n = self.n_coords
         if self._packed_open is not None:
             ydot, status = open_tree_rhs(self._packed_open, _plain(y), self._no_armature)
             if status == -1:
                 return ydot
-            x, xd = y[:n], y[n : 2 * n]
-            self._articulated_failure(t, x, xd, self._kinematics(t, x, xd), ydot[n:], status)
-        x, xd = y[:n], y[n : 2 * n]
+            x, xd = self.layout.split(y)
+            self._articulated_failure(t, x, xd, self._kinematics(t, x, xd), self.layout.speeds(ydot), status)
+        x, xd = self.layout.split(y)
         xdd = self._accelerations(t, x, xd)
         if not np.all(np.isfinite(xdd)):
-            bad = [self.coordinate_names[i] for i in np.flatnonzero(~np.isfinite(xdd))[:5]]
+            bad = [self.speed_names[i] for i in np.flatnonzero(~np.isfinite(xdd))[:5]]
             err = AssemblyError(f"at t = {t:.9g} s: accelerations became non-finite ({', '.join(bad)})")
             err.t = t
             raise err
-        return np.concatenate([xd, xdd])
+        return self.layout.join(self.layout.coordinate_rates(x, xd), xdd)

@@ -74,7 +74,7 @@ class LoopSolve:
                                              -1 if self._rank_limit is None else self._rank_limit)
         self.n_complements += 1
         if status:
-            x, xd = y[:n], y[n : 2 * n]
+            x, xd = self.layout.split(y)
             if status in (1, 3):
                 raise AssemblyError(self._massless_message(kept, f"at t = {t:.6g} s"))
             A, f, _, _ = self._reduced_parts(t, y)
@@ -86,7 +86,7 @@ class LoopSolve:
         if not multipliers:
             return xdd
         if kept < lam.shape[0]:  # redundant rows: the minimum-norm reactions, as the SVD gives them
-            rows = self._rows(t, y[:n], y[n : 2 * n])
+            rows = self._rows(t, *self.layout.split(y))
             lam = self.complement(rows.psi).multipliers(rows.psi.T @ lam)
         return xdd, lam
 
@@ -127,7 +127,7 @@ class LoopSolve:
             The smallest ``sqrt(d_j)`` of the kept rows (None if none).
         """
         n = self.n_coords
-        y = np.concatenate([x, xd])
+        y = self.layout.join(x, xd)
         powers = self._no_powers
         force, torque, generalized = self._python_loads(t, y, powers)
         gamma_d = np.zeros(len(self.constraints.drivers))

@@ -39,14 +39,17 @@ class Projection:
         ----------
         t : float
             Time, s.
-        x, xd : ndarray, shape (n,)
-            State to correct.
+        x : ndarray, shape (nq,)
+            Coordinates q to correct (moved along the speeds,
+            :meth:`~flexmb.state_layout.StateLayout.displace`).
+        xd : ndarray, shape (n,)
+            Speeds u to correct.
         tol : float
             Target for max ``|phi|`` (m or rad).
         max_iter : int
             Newton iterations allowed.
         fixed : ndarray of bool, shape (n,), optional
-            Coordinates to leave unchanged.
+            Speeds (and the coordinates they move) to leave unchanged.
         max_step : float
             Largest change of any coordinate in one Newton step (rad or m),
             so that rough guesses do not jump to a far branch.
@@ -74,12 +77,12 @@ class Projection:
         x, xd = x.copy(), xd.copy()
         if fixed is not None:
             fixed = np.asarray(fixed)
-            if fixed.shape != (self.n_coords,) or fixed.dtype != bool:
-                raise ModelError(f"System.project: fixed must be a boolean array of shape ({self.n_coords},), "
+            if fixed.shape != (self.n_speeds,) or fixed.dtype != bool:
+                raise ModelError(f"System.project: fixed must be a boolean array of shape ({self.n_speeds},), "
                                  f"got {fixed.dtype} of shape {fixed.shape}")
         if self.n_constraints == 0:
             return x, xd
-        free = np.ones(self.n_coords, bool) if fixed is None else ~fixed
+        free = np.ones(self.n_speeds, bool) if fixed is None else ~fixed
         if self._loop_kernel:  # psi never dense: O(n m) steps (kernels/loop_projection.py)
             return self._project_loops(t, x, xd, tol, max_iter, free, max_step, speeds, fixed is None)
         position_rows = self.constraints.position_rows  # velocity rows have no position form: left out here
@@ -90,7 +93,9 @@ class Projection:
             held = position_rows(rows)
             step = self._min_norm(held.psi[:, free], held.phi)
             big = np.max(np.abs(step))
-            x[free] -= step * min(1.0, max_step / big) if big > 0 else step
+            du = np.zeros(self.n_speeds)
+            du[free] = -step * min(1.0, max_step / big) if big > 0 else -step
+            x = self.layout.displace(x, du)
         else:
             self._not_closed(t, x, xd, max_iter)
         psi, b = rows.psi, rows.b  # those of the converged positions: the loop's last evaluation
@@ -116,14 +121,14 @@ class Projection:
         limit = -1 if self.rank_limit is None else self.rank_limit
         drivers, cols = self.constraints.drivers, self.constraints.driver_cols
         free = np.ascontiguousarray(free)
-        zeros = np.zeros(self.n_coords)
+        zeros = np.zeros(self.n_speeds)
         for _ in range(max_iter):
             phi = np.concatenate([loop_phi(packed, layout, x), [x[c] - d.position(t) for d, c in zip(drivers, cols)]])
             if np.max(np.abs(phi)) <= tol:
                 break
             step, _ = loop_min_norm(packed, layout, x, zeros, -phi, free, self._loop_tol, limit)
             big = np.max(np.abs(step))
-            x -= step * min(1.0, max_step / big) if big > 0 else step
+            x = self.layout.displace(x, -step * min(1.0, max_step / big) if big > 0 else -step)
         else:
             self._not_closed(t, x, xd, max_iter)
         b = np.zeros(self.n_constraints)
@@ -144,7 +149,7 @@ class Projection:
                 return v
         if c is None and self._svd_kernel:  # the compiled reduced solve with f = A xd, gamma = b
             A = mass_matrix(kin)
-            v, _, status = svd_reduced_solve(A, A @ xd, _plain(psi).reshape(psi.shape[0], self.n_coords),
+            v, _, status = svd_reduced_solve(A, A @ xd, _plain(psi).reshape(psi.shape[0], self.n_speeds),
                                              _plain(b), self.strategy.tol, PSI_ZERO,
                                              -1 if self._rank_limit is None else self._rank_limit,
                                              self.singular_window())

@@ -101,7 +101,7 @@ class StateQuantities:
         ----------
         t : float
             Time, s.
-        x : ndarray, shape (n,), optional
+        x : ndarray, shape (nq,), optional
             Coordinates (default: the reference configuration, zeros).
 
         Returns
@@ -109,13 +109,13 @@ class StateQuantities:
         int
             Number of independent speeds p.
         """
-        t, x = self._state("System.dof", t, x=np.zeros(self.n_coords) if x is None else x)
+        t, x = self._state("System.dof", t, x=self.layout.reference() if x is None else x)
         if not self.n_constraints:
-            return self.n_coords
+            return self.n_speeds
         if self._loop_kernel:  # the rank as the loop kernel sees it, psi not formed
-            return self.n_coords - self._loop_calibration(t, _plain(np.asarray(x, dtype=float)),
-                                                          np.zeros(self.n_coords))[0]
-        psi = self.constraints.evaluate(self._kinematics(t, x, np.zeros_like(x)), level=1).psi
+            return self.n_speeds - self._loop_calibration(t, _plain(np.asarray(x, dtype=float)),
+                                                          np.zeros(self.n_speeds))[0]
+        psi = self.constraints.evaluate(self._kinematics(t, x, np.zeros(self.n_speeds)), level=1).psi
         return self.strategy.complement(psi).p
 
     def constraint_residuals(self, t, x, xd) -> tuple[float, float]:
@@ -143,7 +143,7 @@ class StateQuantities:
             if not rows.phi.size:
                 return 0.0, 0.0
             return float(np.max(np.abs(rows.phi))), float(np.max(np.abs(rows.psi @ xd - rows.b)))
-        position, velocity = tree_equations(self._packed, np.concatenate([x, xd]), self.n_coords, RESIDUALS,
+        position, velocity = tree_equations(self._packed, self.layout.join(x, xd), self.n_coords, RESIDUALS,
                                             self._no_powers, *self._no_loads)[2]
         if self.constraints.elements:
             rows = self.constraints.element_rows(self._kinematics(t, x, xd))

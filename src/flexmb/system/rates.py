@@ -86,7 +86,7 @@ class Rates:
             Rate, 1/s (inf if the Jacobian is not finite).
         """
         t, x, xd = self._state("System.stability_rate", t, x=x, xd=xd)
-        if self.n_coords > DENSE_RATES_MAX:
+        if self.n_speeds > DENSE_RATES_MAX:
             return self.fastest_rate(t, x, xd)
         J = self._jacobian(t, x, xd, geometric=True, always=True)
         return float(np.max(np.abs(np.linalg.eigvals(J)), initial=0.0))
@@ -103,19 +103,19 @@ class Rates:
         return rates
 
     def _rates_at(self, t, x, xd) -> tuple[float, float]:
-        if (self.articulated or self._loop_kernel) and self.n_coords > DENSE_RATES_MAX:
+        if (self.articulated or self._loop_kernel) and self.n_speeds > DENSE_RATES_MAX:
             rates = self._rates_iterative(t, x, xd)
             if rates is not None:
                 return rates
-        J = self.state_jacobian(t, x, xd, geometric=False)
-        if J is None:
+        Y = self._acceleration_tangent(t, x, xd, geometric=False)  # per displacement and per speed
+        if Y is None:
             return 0.0, 0.0
-        n = self.n_coords
+        n = self.n_speeds
         if n > DENSE_RATES_MAX:  # the largest eigenvalues alone, by Arnoldi iteration: O(n^2) products, not O(n^3)
-            rates = (float(np.sqrt(_largest(-J[n:, :n]))), _largest(-J[n:, n:]))
+            rates = (float(np.sqrt(_largest(-Y[:, :n]))), _largest(-Y[:, n:]))
         else:
-            stiff = np.linalg.eigvals(-J[n:, :n])
-            damp = np.linalg.eigvals(-J[n:, n:])
+            stiff = np.linalg.eigvals(-Y[:, :n])
+            damp = np.linalg.eigvals(-Y[:, n:])
             rates = (float(np.sqrt(max(np.max(stiff.real), 0.0))), float(np.max(np.abs(damp))))
         return tuple(r if np.isfinite(r) else np.inf for r in rates)
 
@@ -136,7 +136,7 @@ class Rates:
 
         pre = NewtonPreconditioner(self)
         pre.setup(t, x, xd)
-        topo, n = self.topology, self.n_coords
+        topo, n = self.topology, self.n_speeds
         spatial, Sw, Sv, r = pre._state
         zeros = np.zeros((topo.n_bodies + 1, 3))
         x_plain, limit = _plain(np.array(x, dtype=float)), -1 if self.rank_limit is None else self.rank_limit

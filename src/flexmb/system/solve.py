@@ -37,13 +37,13 @@ class ReducedSolve:
         overflow, and what fails next (a mass matrix that looks singular)
         is a consequence, not the cause.
         """
-        y = np.abs(np.concatenate([x, xd]))
+        y = np.abs(self.layout.join(x, xd))
         i = int(np.argmax(np.where(np.isnan(y), np.inf, y)))
         if not y[i] > LARGEST:
             return None
-        n = self.n_coords
-        what = f"coordinate {self.coordinate_names[i]!r} = {x[i]:.3g}" if i < n else \
-            f"the speed of {self.coordinate_names[i - n]!r} = {xd[i - n]:.3g}"
+        nq = self.layout.nq
+        what = f"coordinate {self.coordinate_names[i]!r} = {x[i]:.3g}" if i < nq else \
+            f"the speed of {self.speed_names[i - nq]!r} = {xd[i - nq]:.3g}"
         msg = (f"at t = {t:.9g} s: the state overflowed: {what} (beyond {LARGEST:.3g}, where products in the "
                "equations overflow)")
         loudest = self._loudest_force(t, x, xd)
@@ -97,7 +97,7 @@ class ReducedSolve:
             # the default strategy: decomposition, particular solution and reduced solve in one call
             self.n_complements += psi.shape[0] > 0
             xdd, lam, status = svd_reduced_solve(
-                A, f, _plain(psi).reshape(psi.shape[0], self.n_coords), _plain(gamma), self.strategy.tol, PSI_ZERO,
+                A, f, _plain(psi).reshape(psi.shape[0], self.n_speeds), _plain(gamma), self.strategy.tol, PSI_ZERO,
                 -1 if self._rank_limit is None else self._rank_limit, self.singular_window())
             if status == 2:
                 raise AssemblyError("constraint Jacobian psi is not finite")
@@ -140,7 +140,7 @@ class ReducedSolve:
         if srtol and c.rank:
             c = c.truncated(int(np.sum(c.scale > srtol * np.max(c.scale))))
         if not c.rank:
-            return np.zeros(self.n_coords)
+            return np.zeros(self.n_speeds)
         return c.particular(rhs, window=self.singular_window())
 
     def singular_window(self) -> float:

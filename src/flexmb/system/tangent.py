@@ -29,7 +29,7 @@ def _turning_loads(system, kin) -> np.ndarray:
     axes adds ``-W^T [tau]x W``. Loads given as functions of time are left
     out (what they are at a state is known only by calling them).
     """
-    n = system.n_coords
+    n = system.n_speeds
     G = np.zeros((n, n))
     for _, elements in system.forces.groups:
         for e in elements:
@@ -58,7 +58,10 @@ class Tangent:
     def state_jacobian(self, t, x, xd, geometric: bool = True) -> np.ndarray | None:
         """Jacobian of the state derivative for implicit integrators.
 
-        ``J = [[0, I], [P (G - K), -P C]]`` with ``P = T (T^T A T)^-1 T^T`` at
+        ``J = [[0, I], [P (G - K), -P C]]`` in ``y = (q, u)`` (with
+        ``qd = W(q) u`` the top row is ``[dW u/dq, W]`` and the displacement
+        columns turn into coordinate columns, :mod:`flexmb.state_layout`),
+        ``P = T (T^T A T)^-1 T^T`` at
         the current state, K the diagonal spring constants on coordinates
         (segment joints, joint springs), C their dampers plus
         ``-sum V_P^T (dF/dv) V_P`` of velocity-dependent point forces
@@ -73,14 +76,16 @@ class Tangent:
         ----------
         t : float
             Time, s.
-        x, xd : ndarray, shape (n,)
-            Coordinates and speeds.
+        x : ndarray, shape (nq,)
+            Coordinates q.
+        xd : ndarray, shape (n,)
+            Speeds u.
         geometric : bool
             Include G (default); without it, ``J[n:, :n] = -P K``.
 
         Returns
         -------
-        ndarray, shape (2n, 2n) or None
+        ndarray, shape (nq + n, nq + n) or None
             None if no element contributes a coordinate stiffness.
         """
         t, x, xd = self._state("System.state_jacobian", t, x=x, xd=xd)
@@ -88,9 +93,32 @@ class Tangent:
 
     def _jacobian(self, t, x, xd, geometric, always=False):
         """:meth:`state_jacobian` at a checked state; with ``always``, also without coordinate springs (K = C = 0)."""
+        Y = self._acceleration_tangent(t, x, xd, geometric, always)
+        if Y is None:
+            return None
+        # the state (q, u): qd = W(q) u; ud by the accelerations' tangent per displacement and per speed
+        layout, n = self.layout, self.n_speeds
+        nq = layout.nq
+        J = np.zeros((layout.size, layout.size))
+        J[:nq, :nq] = layout.rate_jacobian(x, xd)
+        J[:nq, nq:] = layout.kinematic_matrix(x)
+        J[nq:, :nq] = layout.per_coordinate(x, Y[:, :n])
+        J[nq:, nq:] = Y[:, n:]
+        return J
+
+    def _acceleration_tangent(self, t, x, xd, geometric, always=False):
+        """``[P (G - K), -P C]`` (n x 2n): the accelerations per displacement along the speeds and per speed.
+
+        None without coordinate springs unless ``always``.
+
+        Raises
+        ------
+        AssemblyError
+            If it is not finite (naming the speed's row).
+        """
         kin = self._kinematics(t, x, xd)
         terms = self.coordinate_terms(kin)
-        n = self.n_coords
+        n = self.n_speeds
         if terms is None:
             if not always:
                 return None
@@ -117,15 +145,13 @@ class Tangent:
             f = self.forces.force_array(kin, loads=loads)
             xdd = solve(f) if self.n_constraints == 0 else self._solve(t, A, f, psi, gamma)
             X[:, :n] += self.load_stiffness(kin, xdd, loads)
-        J = np.zeros((2 * n, 2 * n))
-        J[:n, n:] = np.eye(n)
-        J[n:] = solve(X)
-        if not np.all(np.isfinite(J)):
-            i = int(np.flatnonzero(~np.all(np.isfinite(J[n:]), axis=1))[0])
+        Y = solve(X)
+        if not np.all(np.isfinite(Y)):
+            i = int(np.flatnonzero(~np.all(np.isfinite(Y), axis=1))[0])
             raise AssemblyError(f"the state Jacobian is not finite at t = {t:.6g} s (in the row of coordinate "
-                                f"{self.coordinate_names[i]!r}): stiffness, damping or loads beyond the range of "
+                                f"{self.speed_names[i]!r}): stiffness, damping or loads beyond the range of "
                                 "floats")
-        return J
+        return Y
 
     def _mass_factor(self, t, M, reduced):
         """The Cholesky factor of the (reduced) mass matrix, or an AssemblyError saying why there is none."""
@@ -141,7 +167,7 @@ class Tangent:
         if not reduced:  # name the freedom where the factorization broke down
             c, info = sla.lapack.dpotrf(M, lower=False, clean=False)
             if info > 0:
-                where = f" at coordinate {self.coordinate_names[info - 1]!r}"
+                where = f" at coordinate {self.speed_names[info - 1]!r}"
         span = (f"; its diagonal spans {d.min():.3g} to {d.max():.3g}, beyond what double precision resolves"
                 if d.min() > 0 and d.max() > d.min() / np.finfo(float).eps else "")
         raise AssemblyError(
@@ -176,7 +202,7 @@ class Tangent:
         pairs = [p for p in pairs if p is not None]
         if not parts and not vparts and not pairs:
             return None
-        n = self.n_coords
+        n = self.n_speeds
         K = np.zeros((n, n))
         C = np.zeros((n, n))
         for cols, k, c in parts:
@@ -284,8 +310,8 @@ class NewtonPreconditioner:
         stiffness, damping : ndarray, shape (n,)
             K and C on each coordinate.
         """
-        n = system.n_coords
-        kin = system.kinematics(0.0, np.zeros(n), np.zeros(n))
+        n = system.n_speeds
+        kin = system.kinematics(0.0, system.layout.reference(), np.zeros(n))
         stiffness = np.zeros(n)
         damping = np.zeros(n)
         for cls, elements in system.forces.groups:

@@ -420,9 +420,31 @@ def test_bad_parameters_are_refused_naming_the_element():
         model.build()
 
 
-def test_registered_as_force_plugins():
-    names = {p.name for p in fm.plugins("forces")}
-    assert {"sphere_plane_contact", "sphere_sphere_contact"} <= names
+def test_registered_as_contact_plugins_and_named_in_force_tables():
+    """The geometries and laws are the group flexmb.contacts; a scene's [forces] table names a geometry."""
+    names = {p.name for p in fm.plugins("contacts")}
+    assert {"sphere_plane_contact", "sphere_sphere_contact", "journal_bearing_contact", "linear", "flores",
+            "stribeck"} <= names
+    assert not names & {p.name for p in fm.plugins("forces")}
+    scene = fm.loads_scene("""
+[bodies.ball]
+mass = 1.0
+inertia = [1e-3, 1e-3, 1e-3]
+[joints.free]
+type = "free"
+parent = "ground"
+child = "ball"
+[forces.floor]
+type = "sphere_plane_contact"
+body = "ball"
+radius = 0.1
+normal_law = {type = "linear", stiffness = 1e4}
+[solver]
+t_end = 0.1
+""")
+    assert isinstance(scene.model.element("floor"), fm.SpherePlaneContact)
+    with pytest.raises(fm.SceneError, match=r"forces\.floor\.type.*or a contact geometry: capsule_capsule_contact"):
+        fm.loads_scene("[forces.floor]\ntype = 'sphere_plane'\n[solver]\nt_end = 1.0\n")
 
 
 def test_same_accelerations_by_every_route():

@@ -69,7 +69,8 @@ def test_laws_as_tables():
                                                                   "mu_kinetic": 0.3, "stribeck_speed": 0.01})
     assert c.normal_law == fm.FloresLaw(1e9, 0.5)
     assert c.friction == fm.StribeckLaw(0.5, 0.3, 0.01)
-    with pytest.raises(ModelError, match=r"'floor'.*normal_law: a law's table needs type = one of 'linear'"):
+    with pytest.raises(ModelError, match=r"'floor'.*normal_law: a law's table needs type = one of 'flores', "
+                                         r"'hunt_crossley', 'lankarani_nikravesh', 'linear', got 'hertz'"):
         fm.SpherePlaneContact("floor", "ball", 0.1, {"type": "hertz"})
     with pytest.raises(ModelError, match=r"'gap'.*friction: 'coulomb' law: .*unexpected keyword argument 'mu_s'"):
         fm.JournalBearingContact("gap", "a", 0.01, "b", 0.02, {"type": "linear", "stiffness": 1e6},

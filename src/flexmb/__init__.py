@@ -19,6 +19,9 @@ from .constraint_elements import (ConstraintElement, CurveConstraint, Distance, 
 from .errors import (AssemblyError, ExportError, FlexmbError, ModelError, PluginError, SceneError, SimulationError,
                      StiffnessWarning)
 from .forces import BodyTorque, ForceElement, Gravity, JointSpringDamper, Loads, PointForce, SpringDamper
+from .forces import (CapsuleCapsuleContact, CapsulePlaneContact, CapsuleSphereContact, Capsules, ContactGroup, Plane,
+                     Spheres)
+from .forces import FrictionLaw, NormalLaw
 from .forces import (CoulombLaw, FloresLaw, HuntCrossleyLaw, JournalBearingContact, LankaraniNikraveshLaw,
                      LinearContactLaw, SpherePlaneContact, SphereSphereContact, StribeckLaw, VelocityWeakeningLaw,
                      ViscousLaw, hertz_stiffness)
@@ -76,7 +79,9 @@ __all__ = [
     "PointOnLine", "RollingDisc", "velocity_rows",
     "AssemblyError", "ExportError", "FlexmbError", "ModelError", "PluginError", "SimulationError",
     "BodyTorque", "ForceElement", "Gravity", "JointSpringDamper", "Loads", "PointForce", "SpringDamper",
-    "SpherePlaneContact", "SphereSphereContact", "JournalBearingContact", "LinearContactLaw", "HuntCrossleyLaw",
+    "SpherePlaneContact", "SphereSphereContact", "JournalBearingContact", "CapsulePlaneContact", "CapsuleSphereContact",
+    "CapsuleCapsuleContact", "ContactGroup", "Capsules", "Spheres", "Plane", "NormalLaw", "FrictionLaw",
+    "LinearContactLaw", "HuntCrossleyLaw",
     "LankaraniNikraveshLaw",
     "FloresLaw", "CoulombLaw", "ViscousLaw", "VelocityWeakeningLaw", "StribeckLaw", "hertz_stiffness",
     "Cylindrical", "Fixed", "Free", "Joint", "PlanarRevolute", "Prismatic", "Revolute", "Spherical", "Universal",

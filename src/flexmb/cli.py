@@ -230,6 +230,15 @@ def _deprecated_aliases(parser, args) -> None:
     args.method = alias
 
 
+def _plugins_parser(sub) -> None:
+    """The ``plugins`` sub-command's parser, added to ``sub``."""
+    plug = sub.add_parser("plugins", help="list bodies, joints, forces, constraints, contacts, complements and "
+                                          "integrators by name")
+    plug.add_argument("--kind", default=None, help="bodies, joints, forces, constraints, contacts, complements or "
+                                                   "integrators")
+    plug.set_defaults(func=_plugins)
+
+
 def main(argv=None) -> int:
     """Entry point of the ``flexmb`` command.
 
@@ -277,9 +286,7 @@ def main(argv=None) -> int:
     info.add_argument("scene", help=scene_help)
     info.set_defaults(func=_info)
     _view_parser(sub)
-    plug = sub.add_parser("plugins", help="list bodies, joints, forces, complements and integrators by name")
-    plug.add_argument("--kind", default=None, help="bodies, joints, forces, complements or integrators")
-    plug.set_defaults(func=_plugins)
+    _plugins_parser(sub)
     st = sub.add_parser("study", help="run a parameter study of a scene file on a process pool or a Dask cluster",
                         epilog=_EXIT_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
     st.add_argument("scene", help="a scene file SCENE.toml")

@@ -1,8 +1,9 @@
-"""Name tables of bodies, joints, forces, constraints, complements and integrators, filled from entry points.
+"""Name tables of bodies, joints, forces, constraints, contacts, complements and integrators, from entry points.
 
 Every named class flexmb can look up -- the built-ins included -- comes from
 an entry-point group ``flexmb.<kind>``: ``flexmb.bodies``, ``flexmb.joints``, ``flexmb.constraints``,
-``flexmb.forces``, ``flexmb.complements`` and ``flexmb.integrators``. A third
+``flexmb.forces``, ``flexmb.contacts`` (contact geometries and their normal and friction laws),
+``flexmb.complements`` and ``flexmb.integrators``. A third
 party adds a plugin by declaring an entry point in its own ``pyproject.toml``;
 a script adds one for the current session with :func:`register`.
 
@@ -37,18 +38,21 @@ from .errors import PluginError
 
 __all__ = ["KINDS", "BuiltinTable", "PluginInfo", "builtin_table", "get", "names", "plugins", "refresh", "register"]
 
-#: Plugin kinds and the base class (``module:qualname``) a plugin must subclass.
-#: The entry-point group of a kind is ``flexmb.<kind>``.
+#: Plugin kinds and the base class (``module:qualname``) a plugin must subclass, or the base classes it
+#: may subclass one of. The entry-point group of a kind is ``flexmb.<kind>``.
 KINDS = {
     "bodies": "flexmb.bodies:Body",
     "joints": "flexmb.joints:Joint",
     "forces": "flexmb.forces:ForceElement",
     "constraints": "flexmb.constraint_elements:ConstraintElement",
+    # contact geometries (force elements of the contact kind) and their normal and friction laws
+    "contacts": ("flexmb.forces.contact_base:Contact", "flexmb.forces.contact_laws:NormalLaw",
+                 "flexmb.forces.friction_laws:FrictionLaw"),
     "complements": "flexmb.complements.base:ComplementStrategy",
     "integrators": "scipy.integrate:OdeSolver",
 }
 
-_ALIASES = {"body": "bodies", "joint": "joints", "force": "forces", "constraint": "constraints",
+_ALIASES = {"body": "bodies", "joint": "joints", "force": "forces", "constraint": "constraints", "contact": "contacts",
             "complement": "complements",
             "integrator": "integrators"}
 
@@ -64,7 +68,7 @@ class PluginInfo:
 
     Parameters
     ----------
-    kind : {'bodies', 'joints', 'forces', 'constraints', 'complements', 'integrators'}
+    kind : {'bodies', 'joints', 'forces', 'constraints', 'contacts', 'complements', 'integrators'}
         The plugin kind (entry-point group ``flexmb.<kind>``).
     name : str
         The name it is looked up by.
@@ -135,8 +139,9 @@ def _import(path: str):
     return obj
 
 
-def _base(kind: str) -> type:
-    return _import(KINDS[kind])
+def _base(kind: str) -> type | tuple[type, ...]:
+    bases = KINDS[kind]
+    return _import(bases) if isinstance(bases, str) else tuple(_import(b) for b in bases)
 
 
 def _path_of(obj) -> str:
@@ -149,7 +154,8 @@ def _not_subclass(kind: str, obj) -> str | None:
     if isinstance(obj, type) and issubclass(obj, base):
         return None
     what = f"class {_path_of(obj)}" if isinstance(obj, type) else f"a {type(obj).__name__} instance, not a class"
-    return f"{what}; it must be a subclass of {KINDS[kind]}"
+    bases = KINDS[kind]
+    return f"{what}; it must be a subclass of {bases if isinstance(bases, str) else ' or '.join(bases)}"
 
 
 _dists: dict[int, tuple] = {}  # id(distribution) -> (distribution, name, version), for the session
@@ -240,7 +246,7 @@ def get(kind: str, name: str) -> type:
 
     Parameters
     ----------
-    kind : {'bodies', 'joints', 'forces', 'constraints', 'complements', 'integrators'}
+    kind : {'bodies', 'joints', 'forces', 'constraints', 'contacts', 'complements', 'integrators'}
         Plugin kind (the singular, e.g. ``'joint'``, is accepted too).
     name : str
         Plugin name, e.g. ``'revolute'`` or ``'RK45'``.
@@ -287,7 +293,7 @@ def names(kind: str) -> list[str]:
 
     Parameters
     ----------
-    kind : {'bodies', 'joints', 'forces', 'constraints', 'complements', 'integrators'}
+    kind : {'bodies', 'joints', 'forces', 'constraints', 'contacts', 'complements', 'integrators'}
         Plugin kind.
 
     Returns
@@ -309,7 +315,7 @@ def plugins(kind: str | None = None) -> list[PluginInfo]:
 
     Parameters
     ----------
-    kind : {'bodies', 'joints', 'forces', 'constraints', 'complements', 'integrators'}, optional
+    kind : {'bodies', 'joints', 'forces', 'constraints', 'contacts', 'complements', 'integrators'}, optional
         Only this kind (default: all).
 
     Returns
@@ -348,7 +354,7 @@ def register(kind: str, name: str, obj: type, *, replace: bool = False) -> None:
 
     Parameters
     ----------
-    kind : {'bodies', 'joints', 'forces', 'constraints', 'complements', 'integrators'}
+    kind : {'bodies', 'joints', 'forces', 'constraints', 'contacts', 'complements', 'integrators'}
         Plugin kind (the singular is accepted too).
     name : str
         Name to look it up by.
@@ -424,7 +430,7 @@ class BuiltinTable(Mapping):
 
     Parameters
     ----------
-    kind : {'bodies', 'joints', 'forces', 'constraints', 'complements', 'integrators'}
+    kind : {'bodies', 'joints', 'forces', 'constraints', 'contacts', 'complements', 'integrators'}
         Plugin kind.
 
     See Also
@@ -460,7 +466,7 @@ def builtin_table(kind: str) -> BuiltinTable:
 
     Parameters
     ----------
-    kind : {'bodies', 'joints', 'forces', 'constraints', 'complements', 'integrators'}
+    kind : {'bodies', 'joints', 'forces', 'constraints', 'contacts', 'complements', 'integrators'}
         Plugin kind (the singular is accepted too).
 
     Returns

@@ -8,6 +8,8 @@ gravity, springs, dampers, contact and friction all enter only through F
 """
 
 from .base import ForceElement, Loads
+from .capsules import CapsuleCapsuleContact, CapsulePlaneContact, CapsuleSphereContact
+from .contact_groups import Capsules, ContactGroup, Plane, Spheres
 from .contact import (CoulombLaw, FloresLaw, FrictionLaw, HuntCrossleyLaw, LankaraniNikraveshLaw, LinearContactLaw,
                       JournalBearingContact, NormalLaw, SpherePlaneContact, SphereSphereContact, StribeckLaw,
                       VelocityWeakeningLaw, ViscousLaw, hertz_stiffness)
@@ -17,7 +19,8 @@ from .loads import BodyTorque, PointForce
 from .springs import JointSpringDamper, SpringDamper
 
 __all__ = ["ForceElement", "Loads", "Gravity", "SpringDamper", "JointSpringDamper", "PointForce", "BodyTorque",
-           "BeamElasticity", "SpherePlaneContact", "SphereSphereContact", "JournalBearingContact", "NormalLaw",
+           "BeamElasticity", "SpherePlaneContact", "SphereSphereContact", "JournalBearingContact", "CapsulePlaneContact",
+           "CapsuleSphereContact", "CapsuleCapsuleContact", "ContactGroup", "Capsules", "Spheres", "Plane", "NormalLaw",
            "LinearContactLaw",
            "HuntCrossleyLaw", "LankaraniNikraveshLaw", "FloresLaw", "FrictionLaw", "CoulombLaw", "ViscousLaw",
            "VelocityWeakeningLaw", "StribeckLaw", "hertz_stiffness"]

@@ -56,227 +56,18 @@ from ..bodies import Body
 from ..errors import ModelError
 from ..fields import as_array, as_float, as_unit_vector, label, unit_vector, vector3
 from ..kernels import contact as _k
-from ..kernels.loads import contact_states
-from .base import ForceElement
+from .contact_base import ZERO, Contact, compiled_tables, radius_check
 from .contact_laws import (FloresLaw, HuntCrossleyLaw, LankaraniNikraveshLaw, LinearContactLaw, NormalLaw,
                            hertz_stiffness, restitution_of_hysteresis)
 from .friction_laws import CoulombLaw, FrictionLaw, StribeckLaw, VelocityWeakeningLaw, ViscousLaw
-from .law_tables import FRICTION_LAWS, NORMAL_LAWS, _friction_law, _law_of, _normal_law
-from .tables import LoadTables, class_tables
+from .law_tables import friction_field, normal_law_field
 
 __all__ = ["NormalLaw", "LinearContactLaw", "HuntCrossleyLaw", "LankaraniNikraveshLaw", "FloresLaw", "FrictionLaw",
            "CoulombLaw", "ViscousLaw", "VelocityWeakeningLaw", "StribeckLaw", "Contact", "SpherePlaneContact",
-           "SphereSphereContact", "JournalBearingContact", "hertz_stiffness", "restitution_of_hysteresis",
-           "NORMAL_LAWS", "FRICTION_LAWS"]
+           "SphereSphereContact", "JournalBearingContact", "hertz_stiffness", "restitution_of_hysteresis"]
 
 
 # ----------------------------------------------------------------------------- the elements
-
-def _radius(instance, attribute, value):
-    if not isinstance(value, float) or not np.isfinite(value) or value < 0:
-        raise ModelError(f"{label(instance)}: {attribute.name} must be a finite number >= 0, got {value!r}")
-
-
-@frozen(eq=False)
-class Contact(ForceElement):
-    """Base class of the compiled contact elements (:class:`SpherePlaneContact`, :class:`SphereSphereContact`,
-    :class:`JournalBearingContact`).
-
-    A subclass gives its geometry's code (``geometry``) and its row of the
-    load tables (:meth:`_layout`); the laws, the loads, the powers and the
-    elastic energy are shared, and so are the histories of a result
-    (:func:`flexmb.post.contact_history`).
-
-    Parameters
-    ----------
-    name : str
-        Unique name.
-    """
-
-    geometry: ClassVar[int] = -1
-
-    def _layout(self, topology):
-        """Rows, local points (3, 3) and radii (2,) of this contact in the tables."""
-        raise NotImplementedError
-
-    @staticmethod
-    def _locate(topology, body, point):
-        """:meth:`Topology.locate`, a body given by name too (the element held by the caller keeps names)."""
-        if isinstance(body, str):
-            body = next((b for b in topology.index if b.name == body), body)
-        return topology.locate(body, point)
-
-    def _sides(self):
-        """The two bodies in contact, the sphere's first."""
-        raise NotImplementedError
-
-    def check(self, model) -> list[str]:
-        """Refuse a contact of a body with itself or of the ground with the ground.
-
-        Parameters
-        ----------
-        model : Model
-            The model the element belongs to.
-
-        Returns
-        -------
-        list of str
-            One message per problem, naming the element.
-        """
-        a, b = self._sides()
-        if a is b or (isinstance(a, str) and a == getattr(b, "name", b)):
-            return [f"{label(self)}: both sides are on the body {getattr(a, 'name', a)!r}"]
-        return []
-
-    @classmethod
-    def _tables(cls, elements, topology) -> LoadTables:
-        """The contacts' bodies, geometry, law codes and parameters (each concrete class's ``load_tables``)."""
-        rows, local, geom, laws, par = [], [], [], [], []
-        for e in elements:
-            (i, j), pts, radii = e._layout(topology)
-            # bodies have mass > 0 (their constructors say so); the ground's is infinite
-            m_eff = 1.0 / sum(1.0 / float(topology.mass[k]) for k in (i, j) if k >= 0)
-            rows.append((i, j))
-            local.append(pts)
-            geom.append(radii)
-            laws.append((cls.geometry, e.normal_law.code, 0 if e.friction is None else e.friction.code))
-            friction = [0.0] * _k.N_FRICTION if e.friction is None else e.friction.row()
-            par.append(e.normal_law.row(m_eff) + friction)
-        return LoadTables.of(contact_rows=np.reshape(rows, (-1, 2)), contact_local=np.reshape(local, (-1, 3, 3)),
-                             contact_geom=np.reshape(geom, (-1, 2)), contact_laws=np.reshape(laws, (-1, 3)),
-                             contact_par=np.reshape(par, (-1, _k.N_NORMAL + _k.N_FRICTION)))
-
-    @classmethod
-    def states_all(cls, elements, state):
-        """What each element does at a kinematic state (:func:`flexmb.kernels.loads.contact_states`).
-
-        Parameters
-        ----------
-        elements : sequence of Contact
-            Elements of this class in the model.
-        state : Kinematics
-            The kinematic state.
-
-        Returns
-        -------
-        tuple of ndarray
-            delta, rate, normal force, elastic energy (shape (c,)), point,
-            normal, force, slip (shape (c, 3)), as
-            :func:`~flexmb.kernels.loads.contact_states` returns them.
-        """
-        t = class_tables(cls, elements, state.topology)
-        return contact_states(t.contact_rows, t.contact_local, t.contact_geom, t.contact_laws, t.contact_par,
-                              state.R, state.origin, state.r, state.omega, state.v)
-
-    @classmethod
-    def pair_tangent_all(cls, elements, state):
-        """Stiffness and damping of the touching contacts, on the relative motion of their two bodies' points.
-
-        With F the force on the first body (the sphere's, the pin's) as a
-        function of the penetration (``d delta = -n . d(p1 - p2)``) and of
-        the relative velocity u at the contact point: ``K = F_delta n n^T -
-        k_N F_delta t n^T`` and ``D = F_rate n n^T + k P + 2 k' t t^T -
-        k_N F_rate t n^T``, with ``F_delta``, ``F_rate`` the normal law's
-        derivatives, ``k`` the friction factor (force ``-k t``), ``k'`` its
-        derivative in the squared slip ``|t|^2``, ``k_N`` in the normal
-        force, ``t`` the slip and ``P = I - n n^T``; the laws' derivatives
-        by central differences of their compiled functions. The turning of
-        the normal is left out. Without these the implicit integrators'
-        Newton iterations would not see a stiff contact or a regularised
-        friction at rest (a block sticking on a belt took 600 times the
-        steps).
-
-        Parameters
-        ----------
-        elements : sequence of Contact
-            Elements of this class in the model.
-        state : Kinematics
-            The current kinematic state.
-
-        Returns
-        -------
-        tuple of (rows, points, K, D)
-            The second body's row first (the force is on the second end of
-            each pair), both ends at the contact point; zeros for contacts
-            that do not touch.
-        """
-        t = class_tables(cls, elements, state.topology)
-        delta, rate, fn, _, point, normal, _, slip = cls.states_all(elements, state)
-        m = len(elements)
-        rows = np.ascontiguousarray(t.contact_rows[:, ::-1])
-        points = np.repeat(point[:, None, :], 2, axis=1)
-        K, D = np.zeros((m, 3, 3)), np.zeros((m, 3, 3))
-        for a in range(m):
-            if fn[a] <= 0.0:
-                continue
-            law, friction = t.contact_laws[a, 1], t.contact_laws[a, 2]
-            par = t.contact_par[a]
-            n, u_t = normal[a], slip[a]
-            hd, hr = 1e-6 * delta[a], 1e-6 * max(abs(rate[a]), 1e-6)
-            f_delta = (_k.normal_force(law, par[:5], delta[a] + hd, rate[a])
-                       - _k.normal_force(law, par[:5], delta[a] - hd, rate[a])) / (2 * hd)
-            f_rate = (_k.normal_force(law, par[:5], delta[a], rate[a] + hr)
-                      - _k.normal_force(law, par[:5], delta[a], rate[a] - hr)) / (2 * hr)
-            nn = np.outer(n, n)
-            K[a], D[a] = f_delta * nn, f_rate * nn
-            if friction == _k.NO_FRICTION:
-                continue
-            s2 = float(u_t @ u_t)
-            k = _k.friction_factor(friction, par[5:], fn[a], s2)
-            k_n = _k.friction_factor(friction, par[5:], fn[a] + 1.0, s2) - k  # the factors are affine in the load
-            h2 = 1e-6 * s2
-            k_s2 = 0.0 if h2 == 0.0 else (_k.friction_factor(friction, par[5:], fn[a], s2 + h2)
-                                          - _k.friction_factor(friction, par[5:], fn[a], s2 - h2)) / (2 * h2)
-            tn = np.outer(u_t, n)
-            K[a] -= k_n * f_delta * tn
-            D[a] += k * (np.eye(3) - nn) + 2.0 * k_s2 * np.outer(u_t, u_t) - k_n * f_rate * tn
-        return rows, points, K, D
-
-    def apply(self, state, loads) -> None:
-        """Add this contact's forces (compiled, with the rest of its class).
-
-        Parameters
-        ----------
-        state : Kinematics
-            The current kinematic state.
-        loads : Loads
-            Accumulator to add to.
-        """
-        type(self).apply_all([self], state, loads)
-
-    @classmethod
-    def potential_all(cls, elements, state) -> float:
-        """Elastic energy stored in the penetrations, ``K delta^(n+1) / (n + 1)`` summed, J.
-
-        Parameters
-        ----------
-        elements : sequence of Contact
-            The model's elements of this class.
-        state : Kinematics
-            The current kinematic state.
-
-        Returns
-        -------
-        float
-            J.
-        """
-        return float(np.sum(cls.states_all(elements, state)[3]))
-
-    def potential(self, state) -> float:
-        """Elastic energy of this contact's penetration, J.
-
-        Parameters
-        ----------
-        state : Kinematics
-            The current kinematic state.
-
-        Returns
-        -------
-        float
-            J (0 while separated).
-        """
-        return type(self).potential_all([self], state)
-
 
 @frozen(eq=False)
 class SpherePlaneContact(Contact):
@@ -298,7 +89,7 @@ class SpherePlaneContact(Contact):
         The tangential force (:class:`CoulombLaw`, :class:`ViscousLaw`,
         :class:`VelocityWeakeningLaw`, :class:`StribeckLaw`); None: none. Either law
         may be a table: ``{"type": "flores", "stiffness": ..., "restitution": ...}``
-        (the types: ``NORMAL_LAWS``, ``FRICTION_LAWS``), as scene files give it.
+        (the types: the laws of the plugin group ``flexmb.contacts``), as scene files give it.
     centre : array_like, shape (3,)
         Sphere centre in the frame of ``body``, m (default its origin).
     plane_body : Body or str
@@ -336,9 +127,9 @@ class SpherePlaneContact(Contact):
     geometry: ClassVar[int] = _k.SPHERE_PLANE
 
     body: Body = reference(Body)
-    radius: float = field(converter=as_float, validator=_radius)
-    normal_law: NormalLaw = field(converter=_law_of(NORMAL_LAWS), validator=_normal_law)
-    friction: FrictionLaw | None = field(default=None, converter=_law_of(FRICTION_LAWS), validator=_friction_law)
+    radius: float = field(converter=as_float, validator=radius_check)
+    normal_law: NormalLaw = normal_law_field()
+    friction: FrictionLaw | None = friction_field()
     centre: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
     plane_body: Body = reference(Body, default="ground")
     plane_point: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
@@ -347,29 +138,25 @@ class SpherePlaneContact(Contact):
     def _sides(self):
         return self.body, self.plane_body
 
-    @classmethod
-    def load_tables(cls, elements, topology) -> LoadTables:
-        """The contacts' bodies, geometry, law codes and parameters (compiled, :mod:`flexmb.forces.tables`).
+    load_tables = compiled_tables
+
+    def layout(self, topology) -> list:
+        """One row: the sphere's centre, the plane's point and its normal.
 
         Parameters
         ----------
-        elements : sequence of SpherePlaneContact
-            The model's elements of this class.
         topology : Topology
             The model's tree.
 
         Returns
         -------
-        LoadTables
-            Their ``contact_*`` rows.
+        list of tuple
+            The rows, as :meth:`~flexmb.forces.contact_base.Contact.layout` describes them.
         """
-        return cls._tables(elements, topology)
-
-    def _layout(self, topology):
-        i, c = self._locate(topology, self.body, self.centre)
-        j, p = self._locate(topology, self.plane_body, self.plane_point)
+        i, c = self.locate(topology, self.body, self.centre)
+        j, p = self.locate(topology, self.plane_body, self.plane_point)
         # a flexible body's segment frames are parallel to the body frame at the reference state
-        return (i, j), np.array([c, p, self.plane_normal]), (self.radius, 0.0)
+        return [((i, j), np.array([c, p, self.plane_normal, ZERO]), (self.radius, 0.0), self.geometry)]
 
 
 @frozen(eq=False)
@@ -423,39 +210,35 @@ class SphereSphereContact(Contact):
     geometry: ClassVar[int] = _k.SPHERE_SPHERE
 
     body1: Body = reference(Body)
-    radius1: float = field(converter=as_float, validator=_radius)
+    radius1: float = field(converter=as_float, validator=radius_check)
     body2: Body = reference(Body)
-    radius2: float = field(converter=as_float, validator=_radius)
-    normal_law: NormalLaw = field(converter=_law_of(NORMAL_LAWS), validator=_normal_law)
-    friction: FrictionLaw | None = field(default=None, converter=_law_of(FRICTION_LAWS), validator=_friction_law)
+    radius2: float = field(converter=as_float, validator=radius_check)
+    normal_law: NormalLaw = normal_law_field()
+    friction: FrictionLaw | None = friction_field()
     centre1: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
     centre2: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
 
     def _sides(self):
         return self.body1, self.body2
 
-    @classmethod
-    def load_tables(cls, elements, topology) -> LoadTables:
-        """The contacts' bodies, geometry, law codes and parameters (compiled, :mod:`flexmb.forces.tables`).
+    load_tables = compiled_tables
+
+    def layout(self, topology) -> list:
+        """One row: the two centres.
 
         Parameters
         ----------
-        elements : sequence of SphereSphereContact
-            The model's elements of this class.
         topology : Topology
             The model's tree.
 
         Returns
         -------
-        LoadTables
-            Their ``contact_*`` rows.
+        list of tuple
+            The rows, as :meth:`~flexmb.forces.contact_base.Contact.layout` describes them.
         """
-        return cls._tables(elements, topology)
-
-    def _layout(self, topology):
-        i, c1 = self._locate(topology, self.body1, self.centre1)
-        j, c2 = self._locate(topology, self.body2, self.centre2)
-        return (i, j), np.array([c1, c2, np.zeros(3)]), (self.radius1, self.radius2)
+        i, c1 = self.locate(topology, self.body1, self.centre1)
+        j, c2 = self.locate(topology, self.body2, self.centre2)
+        return [((i, j), np.array([c1, c2, ZERO, ZERO]), (self.radius1, self.radius2), self.geometry)]
 
 
 @frozen(eq=False)
@@ -522,11 +305,11 @@ class JournalBearingContact(Contact):
     geometry: ClassVar[int] = _k.JOURNAL
 
     pin_body: Body = reference(Body)
-    pin_radius: float = field(converter=as_float, validator=_radius)
+    pin_radius: float = field(converter=as_float, validator=radius_check)
     bearing_body: Body = reference(Body)
-    bearing_radius: float = field(converter=as_float, validator=_radius)
-    normal_law: NormalLaw = field(converter=_law_of(NORMAL_LAWS), validator=_normal_law)
-    friction: FrictionLaw | None = field(default=None, converter=_law_of(FRICTION_LAWS), validator=_friction_law)
+    bearing_radius: float = field(converter=as_float, validator=radius_check)
+    normal_law: NormalLaw = normal_law_field()
+    friction: FrictionLaw | None = friction_field()
     pin_centre: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
     bearing_centre: np.ndarray = field(default=(0.0, 0.0, 0.0), converter=as_array, validator=vector3)
     bearing_axis: np.ndarray = field(default=(0.0, 0.0, 1.0), converter=as_unit_vector, validator=unit_vector)
@@ -544,25 +327,22 @@ class JournalBearingContact(Contact):
     def _sides(self):
         return self.pin_body, self.bearing_body
 
-    @classmethod
-    def load_tables(cls, elements, topology) -> LoadTables:
-        """The contacts' bodies, geometry, law codes and parameters (compiled, :mod:`flexmb.forces.tables`).
+    load_tables = compiled_tables
+
+    def layout(self, topology) -> list:
+        """One row: the pin's centre, the bearing's centre and its axis.
 
         Parameters
         ----------
-        elements : sequence of JournalBearingContact
-            The model's elements of this class.
         topology : Topology
             The model's tree.
 
         Returns
         -------
-        LoadTables
-            Their ``contact_*`` rows.
+        list of tuple
+            The rows, as :meth:`~flexmb.forces.contact_base.Contact.layout` describes them.
         """
-        return cls._tables(elements, topology)
-
-    def _layout(self, topology):
-        i, c = self._locate(topology, self.pin_body, self.pin_centre)
-        j, p = self._locate(topology, self.bearing_body, self.bearing_centre)
-        return (i, j), np.array([c, p, self.bearing_axis]), (self.pin_radius, self.bearing_radius)
+        i, c = self.locate(topology, self.pin_body, self.pin_centre)
+        j, p = self.locate(topology, self.bearing_body, self.bearing_centre)
+        return [((i, j), np.array([c, p, self.bearing_axis, ZERO]), (self.pin_radius, self.bearing_radius),
+                 self.geometry)]

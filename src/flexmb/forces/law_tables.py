@@ -1,25 +1,24 @@
 """Contact laws given as tables (scene files): ``{"type": "flores", "stiffness": ..., "restitution": ...}``.
 
 The contact elements (:mod:`flexmb.forces.contact`) convert a mapping given
-for their ``normal_law`` or ``friction`` into the law its ``type`` names,
-and their validators refuse, naming the element and the field, what is
-neither a law nor a table that makes one.
+for their ``normal_law`` or ``friction`` into the law its ``type`` names in
+the plugin group ``flexmb.contacts`` (:mod:`flexmb.registry`: the built-in
+laws ``linear``, ``hunt_crossley``, ``lankarani_nikravesh``, ``flores``,
+``coulomb``, ``viscous``, ``velocity_weakening``, ``stribeck``, and any
+installed plugin's), and their validators refuse, naming the element and
+the field, what is neither a law nor a table that makes one.
 """
 
 from __future__ import annotations
 
-from ..errors import ModelError
+from attrs import field
+
+from ..errors import ModelError, PluginError
 from ..fields import label
-from .contact_laws import FloresLaw, HuntCrossleyLaw, LankaraniNikraveshLaw, LinearContactLaw, NormalLaw
-from .friction_laws import CoulombLaw, FrictionLaw, StribeckLaw, VelocityWeakeningLaw, ViscousLaw
+from .contact_laws import NormalLaw
+from .friction_laws import FrictionLaw
 
-__all__ = ["NORMAL_LAWS", "FRICTION_LAWS"]
-
-#: the laws by the names a table gives as its ``type`` (scene files: ``normal_law = {type = "flores", ...}``)
-NORMAL_LAWS = {"linear": LinearContactLaw, "hunt_crossley": HuntCrossleyLaw,
-               "lankarani_nikravesh": LankaraniNikraveshLaw, "flores": FloresLaw}
-FRICTION_LAWS = {"coulomb": CoulombLaw, "viscous": ViscousLaw, "velocity_weakening": VelocityWeakeningLaw,
-                 "stribeck": StribeckLaw}
+__all__ = ["normal_law_field", "friction_field", "contact_names"]
 
 
 class _LawTable(dict):
@@ -28,20 +27,54 @@ class _LawTable(dict):
     problem = ""
 
 
-def _law_of(laws):
-    """A converter: a mapping with ``type`` (a key of ``laws``) and the law's parameters makes that law."""
+def contact_names(base: type) -> list[str]:
+    """The names of the laws of a kind in the group ``flexmb.contacts`` (the ``type`` of a law's table).
+
+    Parameters
+    ----------
+    base : type
+        :class:`~flexmb.forces.contact_laws.NormalLaw` or
+        :class:`~flexmb.forces.friction_laws.FrictionLaw`.
+
+    Returns
+    -------
+    list of str
+        Sorted names of the loadable laws subclassing ``base``.
+    """
+    from .. import registry
+
+    out = []
+    for name in registry.names("contacts"):
+        try:
+            obj = registry.get("contacts", name)
+        except PluginError:
+            continue
+        if isinstance(obj, type) and issubclass(obj, base):
+            out.append(name)
+    return out
+
+
+def _law_of(base):
+    """A converter: a mapping with ``type`` (a law of ``flexmb.contacts`` subclassing ``base``) makes that law."""
 
     def convert(value):
+        from .. import registry
+
         if not isinstance(value, dict) or isinstance(value, _LawTable):
             return value
         params = dict(value)
         kind = params.pop("type", None)
         out = _LawTable(value)
-        if kind not in laws:
-            out.problem = f"a law's table needs type = one of {', '.join(map(repr, laws))}, got {kind!r}"
+        try:  # a name of the group that does not load says why; an unknown name gets the laws' names
+            cls = registry.get("contacts", kind) if kind in registry.names("contacts") else None
+        except PluginError as exc:
+            cls, out.problem = None, str(exc)
+        if cls is None or not issubclass(cls, base):
+            out.problem = out.problem or (f"a law's table needs type = one of "
+                                          f"{', '.join(map(repr, contact_names(base)))}, got {kind!r}")
             return out
         try:
-            return laws[kind](**params)
+            return cls(**params)
         except TypeError as exc:
             out.problem = f"{kind!r} law: {exc}"
         except ModelError as exc:
@@ -56,7 +89,8 @@ def _normal_law(instance, attribute, value):
         raise ModelError(f"{label(instance)}: {attribute.name}: {value.problem}")
     if not isinstance(value, NormalLaw) or type(value).code < 0:
         raise ModelError(f"{label(instance)}: {attribute.name} must be a normal law (LinearContactLaw, "
-                         f"HuntCrossleyLaw, LankaraniNikraveshLaw or FloresLaw), got {value!r}")
+                         f"HuntCrossleyLaw, LankaraniNikraveshLaw, FloresLaw or a subclass with a compiled code), "
+                         f"got {value!r}")
 
 
 def _friction_law(instance, attribute, value):
@@ -64,4 +98,27 @@ def _friction_law(instance, attribute, value):
         raise ModelError(f"{label(instance)}: {attribute.name}: {value.problem}")
     if value is not None and (not isinstance(value, FrictionLaw) or type(value).code <= 0):
         raise ModelError(f"{label(instance)}: {attribute.name} must be None or a friction law (CoulombLaw, "
-                         f"ViscousLaw, VelocityWeakeningLaw or StribeckLaw), got {value!r}")
+                         f"ViscousLaw, VelocityWeakeningLaw, StribeckLaw or a subclass with a compiled code), got "
+                         f"{value!r}")
+
+
+def normal_law_field():
+    """The ``normal_law`` field of a contact element: a normal law, or its table.
+
+    Returns
+    -------
+    attrs field
+        Converted by the law's ``type`` in ``flexmb.contacts``, validated.
+    """
+    return field(converter=_law_of(NormalLaw), validator=_normal_law)
+
+
+def friction_field():
+    """The ``friction`` field of a contact element: None, a friction law, or its table.
+
+    Returns
+    -------
+    attrs field
+        Default None; converted by the law's ``type`` in ``flexmb.contacts``, validated.
+    """
+    return field(default=None, converter=_law_of(FrictionLaw), validator=_friction_law)

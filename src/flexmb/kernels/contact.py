@@ -11,7 +11,9 @@ it into forces. Codes of the laws, as laid out in the load tables
   plane on another), ``SPHERE_SPHERE``, ``JOURNAL`` (a pin of one body in
   a bearing's hole of another, a revolute joint with clearance: the
   penetration is the pin's eccentricity across the bearing's axis less
-  the radial clearance);
+  the radial clearance), ``CAPSULE_SPHERE``, ``CAPSULE_CAPSULE`` (a
+  segment with a radius against a sphere or another: spheres at the
+  closest points; :mod:`flexmb.kernels.contact_geometry` has the layout);
 * normal law (``contact_par`` columns 0-3: K, exponent n, damping d,
   effective mass m):
 
@@ -35,11 +37,11 @@ import numpy as np
 from .cache import njit
 from .friction import coulomb_factor, stribeck_factor, velocity_weakening_factor
 
-__all__ = ["SPHERE_PLANE", "SPHERE_SPHERE", "JOURNAL", "LINEAR", "HUNT_CROSSLEY", "RESTITUTION", "NO_FRICTION", "COULOMB",
+__all__ = ["SPHERE_PLANE", "SPHERE_SPHERE", "JOURNAL", "CAPSULE_SPHERE", "CAPSULE_CAPSULE", "LINEAR", "HUNT_CROSSLEY", "RESTITUTION", "NO_FRICTION", "COULOMB",
            "VISCOUS", "VELOCITY_WEAKENING", "STRIBECK", "N_NORMAL", "N_FRICTION", "normal_force", "friction_factor",
            "impact_speed", "hysteresis_invariant", "elastic_energy"]
 
-SPHERE_PLANE, SPHERE_SPHERE, JOURNAL = 0, 1, 2
+SPHERE_PLANE, SPHERE_SPHERE, JOURNAL, CAPSULE_SPHERE, CAPSULE_CAPSULE = 0, 1, 2, 3, 4
 LINEAR, HUNT_CROSSLEY, RESTITUTION = 0, 1, 2
 NO_FRICTION, COULOMB, VISCOUS, VELOCITY_WEAKENING, STRIBECK = 0, 1, 2, 3, 4
 #: numbers of parameter columns of the normal and of the friction law (``contact_par`` has both)

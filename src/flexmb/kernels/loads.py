@@ -6,7 +6,8 @@ from typing import NamedTuple
 
 import numpy as np
 from .cache import njit
-from .contact import JOURNAL, SPHERE_PLANE, elastic_energy, friction_factor, normal_force
+from .contact import elastic_energy, friction_factor, normal_force
+from .contact_geometry import contact_geometry
 
 __all__ = ["LoadTables", "add_point_forces", "add_torques", "body_points", "apply_load_tables", "contact_states"]
 
@@ -49,12 +50,12 @@ class LoadTables(NamedTuple):
         The force-element class (the model's group) each row belongs to,
         for the power of each group (``gravity_group`` has one entry).
     contact_rows : ndarray of int, shape (c, 2)
-        Body rows of the two sides of each contact: the sphere's (or the
-        pin's), then the plane's, the second sphere's or the bearing's.
-    contact_local : ndarray, shape (c, 3, 3)
-        In those rows' body frames: the sphere's (pin's) centre, the
-        plane's point (the second sphere's, the bearing's centre) and the
-        plane's unit normal (the bearing's axis; zeros for two spheres).
+        Body rows of the two sides of each contact: the sphere's (the
+        capsule's, the pin's), then the plane's, the second sphere's (or
+        capsule's) or the bearing's.
+    contact_local : ndarray, shape (c, 4, 3)
+        Four points or directions in those rows' body frames, by geometry
+        (:mod:`flexmb.kernels.contact_geometry`).
     contact_geom : ndarray, shape (c, 2)
         The radii, m (the second 0 for a plane; the bearing's hole's for
         a journal).
@@ -110,7 +111,7 @@ class LoadTables(NamedTuple):
         """
         shapes = {"gravity": (3,), "pair_rows": (0, 2), "pair_local": (0, 2, 3), "pair_par": (0, 3),
                   "force_local": (0, 3), "force_vec": (0, 3), "torque_vec": (0, 3), "gravity_group": (1,),
-                  "contact_rows": (0, 2), "contact_local": (0, 3, 3), "contact_geom": (0, 2), "contact_laws": (0, 3),
+                  "contact_rows": (0, 2), "contact_local": (0, 4, 3), "contact_geom": (0, 2), "contact_laws": (0, 3),
                   "contact_par": (0, 11)}
         out = {}
         for name in cls._fields:
@@ -322,55 +323,21 @@ def _body_torque_loads(rows, vec, in_body, group, R, omega, torque, powers, trac
 
 
 @njit(cache=True, inline="always")
-def _contact_eval(rows, local, geom, laws, par, R, origin, r, omega, v, centre, cvel, q, u, nrm, f):
+def _contact_eval(rows, local, geom, laws, par, R, origin, r, omega, v, centre, ends, q, u, nrm, f):
     """One contact: its penetration and normal force, and in place its point, relative velocity, normal and force.
 
     ``q`` is the middle of the overlap along the normal ``nrm`` (pointing
-    to the sphere, or the pin, of the first row), ``u`` the velocity of the
-    first row's material point at ``q`` less the second's, ``f`` the force
-    on the first row at ``q`` (the second takes ``-f``). Returns
-    ``(delta, f_n)``; the rate of the penetration is ``-u . nrm`` exactly
-    (the spheres' spins move their surfaces along the tangent plane only;
-    for a journal, while the bearing's axis turns about itself only).
+    to the sphere, the capsule or the pin of the first row;
+    :func:`~flexmb.kernels.contact_geometry.contact_geometry`), ``u`` the
+    velocity of the first row's material point at ``q`` less the second's,
+    ``f`` the force on the first row at ``q`` (the second takes ``-f``).
+    Returns ``(delta, f_n)``; the rate of the penetration is ``-u . nrm``
+    exactly (the spheres' spins move their surfaces along the tangent plane
+    only, and the closest points of capsules slide along the surfaces; for
+    a journal, while the bearing's axis turns about itself only).
     """
     a, b = rows[0], rows[1]
-    _point_motion(R, origin, r, omega, v, a, local[0], centre[0], cvel[0])
-    _point_motion(R, origin, r, omega, v, b, local[1], centre[1], cvel[1])
-    if laws[0] == SPHERE_PLANE:
-        dist = 0.0
-        for x in range(3):
-            nrm[x] = R[b, x, 0] * local[2, 0] + R[b, x, 1] * local[2, 1] + R[b, x, 2] * local[2, 2]
-            dist += (centre[0, x] - centre[1, x]) * nrm[x]
-        delta = geom[0] - dist
-    elif laws[0] == JOURNAL:
-        dk = 0.0
-        for x in range(3):
-            nrm[x] = R[b, x, 0] * local[2, 0] + R[b, x, 1] * local[2, 1] + R[b, x, 2] * local[2, 2]
-            dk += (centre[0, x] - centre[1, x]) * nrm[x]
-        # the pin's eccentricity across the bearing's axis; the normal points back to the bearing's centre
-        d0 = centre[0, 0] - centre[1, 0] - dk * nrm[0]
-        d1 = centre[0, 1] - centre[1, 1] - dk * nrm[1]
-        d2 = centre[0, 2] - centre[1, 2] - dk * nrm[2]
-        dist = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-        if dist > 0.0:
-            nrm[0], nrm[1], nrm[2] = -d0 / dist, -d1 / dist, -d2 / dist
-        else:  # centred: no contact unless the clearance is 0; any direction across the axis
-            a0, a1, a2 = nrm[0], nrm[1], nrm[2]
-            if abs(a0) < 0.9:
-                nrm[0], nrm[1], nrm[2] = 0.0, a2, -a1
-            else:
-                nrm[0], nrm[1], nrm[2] = -a2, 0.0, a0
-            s = np.sqrt(nrm[0] * nrm[0] + nrm[1] * nrm[1] + nrm[2] * nrm[2])
-            nrm[0], nrm[1], nrm[2] = nrm[0] / s, nrm[1] / s, nrm[2] / s
-        delta = dist - (geom[1] - geom[0])
-    else:
-        d0, d1, d2 = centre[0, 0] - centre[1, 0], centre[0, 1] - centre[1, 1], centre[0, 2] - centre[1, 2]
-        dist = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-        if dist > 0.0:
-            nrm[0], nrm[1], nrm[2] = d0 / dist, d1 / dist, d2 / dist
-        else:  # concentric: any direction
-            nrm[0], nrm[1], nrm[2] = 0.0, 0.0, 1.0
-        delta = geom[0] + geom[1] - dist
+    delta = contact_geometry(laws[0], rows, local, geom, R, origin, centre, ends, nrm)
     lever = geom[0] - 0.5 * delta
     for x in range(3):
         q[x] = centre[0, x] - lever * nrm[x]
@@ -398,14 +365,14 @@ def _contact_loads(rows, local, geom, laws, par, group, R, origin, r, omega, v, 
     """Contacts: equal and opposite forces at their points (into F, eq. 5); power ``f . u``."""
     if rows.shape[0]:
         centre = np.empty((2, 3))
-        cvel = np.empty((2, 3))
+        ends = np.empty((2, 3))
         q = np.empty(3)
         u = np.empty(3)
         nrm = np.empty(3)
         f = np.empty(3)
         for i in range(rows.shape[0]):
             delta, _ = _contact_eval(rows[i], local[i], geom[i], laws[i], par[i], R, origin, r, omega, v, centre,
-                                     cvel, q, u, nrm, f)
+                                     ends, q, u, nrm, f)
             if delta <= 0.0:
                 continue
             if track:
@@ -465,11 +432,11 @@ def contact_states(rows, local, geom, laws, par, R, origin, r, omega, v):
     force = np.zeros((c, 3))
     slip = np.zeros((c, 3))
     centre = np.empty((2, 3))
-    cvel = np.empty((2, 3))
+    ends = np.empty((2, 3))
     u = np.empty(3)
     for i in range(c):
         delta[i], fn[i] = _contact_eval(rows[i], local[i], geom[i], laws[i], par[i], R, origin, r, omega, v, centre,
-                                        cvel, point[i], u, normal[i], force[i])
+                                        ends, point[i], u, normal[i], force[i])
         un = u[0] * normal[i, 0] + u[1] * normal[i, 1] + u[2] * normal[i, 2]
         rate[i] = -un
         for x in range(3):

@@ -199,14 +199,19 @@ class _Loader:
         self.fail(path, rest)
 
     def plugin(self, path: str, kind: str, table: dict, default: str | None = None):
+        # a [forces] table may name a contact geometry of the group flexmb.contacts too
+        geometries = _contact_geometries() if kind == "forces" else []
         if "type" not in table and default is None:
             self.fail(path, f"missing key 'type' (a {kind} plugin name; pick one of "
-                            f"{', '.join(registry.names(kind))})")
+                            f"{', '.join(registry.names(kind) + geometries)})")
         type_name = self.string(f"{path}.type", table.get("type", default))
+        if type_name in geometries and type_name not in registry.names(kind):
+            return type_name, registry.get("contacts", type_name)
         try:
             return type_name, registry.get(kind, type_name)
         except PluginError as exc:
-            self.fail(f"{path}.type", str(exc))
+            also = f" (or a contact geometry: {', '.join(geometries)})" if geometries else ""
+            self.fail(f"{path}.type", f"{exc}{also}")
 
     # -- sections of the file
     def load(self) -> Scene:
@@ -559,3 +564,11 @@ def _constructors(cls) -> dict:
         if first == "name":
             out[k] = method
     return out
+
+
+def _contact_geometries() -> list[str]:
+    """The contact geometries of the plugin group ``flexmb.contacts`` (force elements a [forces] table may name)."""
+    from ..forces.contact_base import Contact
+    from ..forces.law_tables import contact_names
+
+    return contact_names(Contact)

@@ -56,6 +56,21 @@ def test_a_capsule_resting_on_a_plane_carries_its_weight_split_by_the_lever_rule
     np.testing.assert_allclose(centre[0, :2], com[:2], atol=1e-9)
 
 
+def test_the_stiffness_notice_of_a_radau_run_does_not_recommend_radau():
+    """A rod ringing on its contact springs under Radau: the notice named Radau as the remedy to a Radau run."""
+    m, L, r, k = 2.0, 1.0, 0.01, 1e5
+    rod = _rod(mass=m, length=L, com=(0.8, 0.0, 0.0))  # off the middle: the rod tilts and rings on its ends
+    floor = fm.CapsulePlaneContact("floor", rod, r, [[0, 0, 0], [L, 0, 0]], fm.LinearContactLaw(k, 2 * np.sqrt(k * m / 2)))
+    model = fm.Model()
+    model.add(fm.Free("free", model.ground, rod), floor, fm.Gravity((0, 0, -G)))
+    with pytest.warns(fm.StiffnessWarning) as caught:
+        fm.simulate(model, 1.0, x0=np.array([0, 0, r + 1e-3, 0, 0, 0.0]), xd0=np.zeros(6), method="Radau",
+                    rtol=1e-10, atol=1e-12, progress=False, n_out=3)
+    message = str(next(w.message for w in caught if isinstance(w.message, fm.StiffnessWarning)))
+    assert "use method='Radau'" not in message
+    assert "add damping" in message and "generalized_alpha" in message
+
+
 def _closest_on_segment(p, q, c):
     d = q - p
     s = np.clip((c - p) @ d / (d @ d), 0.0, 1.0)

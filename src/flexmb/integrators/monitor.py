@@ -459,13 +459,16 @@ class ResolutionMonitor:
         self.warned = True
         remaining = (self.t1 - solver.t) / h
         f_low = float(modes.frequency[resolved].min())
+        floor = 1.0 / (2 * np.pi * f_low)
+        dissipate = f"method=fm.generalized_alpha(rho_inf={AUTO_RHO_INF:g}, min_step={floor:.3g})"
         if np.any(resolved & (modes.excitation > EXCITED)):
-            floor = 1.0 / (2 * np.pi * f_low)
-            dissipate = f"method=fm.generalized_alpha(rho_inf={AUTO_RHO_INF:g}, min_step={floor:.3g})"
             remedy = ("If these vibrations are not what you need, use "
                       + (f"{dissipate}, which dissipates them" if self.auto
                          else f"method='auto' (it dissipates them) or {dissipate}")
                       + "; or add material damping to the flexible bodies")
+        elif self.name == "Radau":  # L-stable already: its error test, not its stability, holds the steps down
+            remedy = (f"Radau, L-stable, still resolves them to meet the tolerance: add damping (material damping, a "
+                      f"damped contact law), or take steps over them with {dissipate}")
         else:
             remedy = ("They are hardly excited: an L-stable method steps over them, use method='Radau'"
                       + ("" if self.auto else " (or method='auto')"))

@@ -19,7 +19,7 @@ import numba
 import pytest
 
 from flexmb import progress
-from flexmb.kernels import compiling
+from flexmb.kernels import compiling, prebuilt
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -39,8 +39,10 @@ def _kernel(module: str, scale: float):
 
 @pytest.fixture
 def fresh(monkeypatch):
-    """No family told yet in this process (the real kernels may have compiled earlier in the session)."""
+    """No family told yet in this process (the real kernels may have compiled earlier in the session), and no reason
+    to tell why shipped machine code was not used (tests/test_prebuilt.py tests those)."""
     monkeypatch.setattr(compiling, "_told", set())
+    monkeypatch.setattr(prebuilt, "unusable_reason", lambda stamp: None)
 
 
 def test_a_family_compiling_is_said_once_on_stderr(fresh, capsys):
@@ -95,7 +97,8 @@ def _readme_pendulum() -> str:
 def test_the_readme_pendulum_on_a_cold_cache_says_it_compiles_and_shows_no_bar_meanwhile(tmp_path):
     script = tmp_path / "pendulum.py"
     script.write_text(_readme_pendulum())
-    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"), OPENBLAS_NUM_THREADS="1")
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "cache"), OPENBLAS_NUM_THREADS="1",
+               FLEXMB_PREBUILT="0")  # the kernels compile, as without shipped machine code
     env.pop("CI", None)  # progress shown, as for a user: lines every half minute into this pipe
     runs = [subprocess.run([sys.executable, str(script)], capture_output=True, text=True, env=env, timeout=1800)
             for _ in range(2)]

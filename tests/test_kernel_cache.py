@@ -31,8 +31,9 @@ PROBE = ("import numpy as np; from flexmb.kernels.genalpha import _matvec; "
 
 
 def _warm():
-    """The probe kernel's entry in the cache beside the sources; its index path."""
-    _matvec(np.eye(2), np.ones(2))
+    """The probe kernel's entry in this process's cache folder (saved by a process of its own); its index path."""
+    out = _run(PROBE, env={"NUMBA_CACHE_DIR": os.environ.get("NUMBA_CACHE_DIR", "")})
+    assert out.returncode == 0, out.stderr[-2000:]
     index = _matvec._cache._cache_file._index_path
     assert os.path.exists(index), index
     return index
@@ -69,7 +70,9 @@ tempfile.TemporaryFile, os.makedirs, builtins.open = TemporaryFile, makedirs, op
 
 
 def _run(code, *, env=None, read_only=(), timeout=300):
-    full = dict(os.environ, **(env or {}))
+    """``code`` in a new process, after :data:`PRELUDE`; the shipped machine code not used (this file tests the cache
+    folders; tests/test_prebuilt.py the shipped code)."""
+    full = dict(os.environ, FLEXMB_PREBUILT="0", **(env or {}))
     full.pop("NUMBA_CACHE_DIR", None) if not (env or {}).get("NUMBA_CACHE_DIR") else None
     return subprocess.run([sys.executable, "-c", PRELUDE % (list(read_only),) + code], env=full, capture_output=True,
                           text=True, timeout=timeout, cwd="/")

@@ -3,6 +3,10 @@
 Every kernel is declared with :func:`njit`, numba's decorator with a cache
 that never stops flexmb from running:
 
+* **Shipped.** Machine code shipped with the sources, precompiled for a
+  portable CPU (:mod:`flexmb.kernels.prebuilt`), is read first where it
+  is fresh and this CPU can run it; it is never written. What it does not
+  serve goes through the cache below.
 * **Where.** The first of: ``NUMBA_CACHE_DIR`` if it is writable; the
   ``__pycache__`` beside these sources if it is writable (an editable or
   per-user install); a warm ``__pycache__`` or ``NUMBA_CACHE_DIR`` that can
@@ -41,10 +45,15 @@ from numba.core.caching import (
     _SourceFileBackedLocatorMixin,
 )
 
+from . import prebuilt
+
 __all__ = ["njit", "cache_locations", "sources_stamp"]
 
 #: the kernels' folder: the sources whose hash stamps every entry
 KERNELS = os.path.dirname(os.path.abspath(__file__))
+
+#: the files of the kernels' folder that hold no kernel (not stamped)
+NOT_KERNELS = ("cache.py", "compiling.py", "prebuilt.py", "prebuild.py")
 
 #: notices already given in this process (each at most once)
 _told: set[str] = set()
@@ -61,7 +70,7 @@ def sources_stamp(folder: str = KERNELS) -> str:
     """A hash of every kernel source file in ``folder`` (names and contents), computed once per process."""
     h = hashlib.sha256()
     for path in sorted(glob.glob(os.path.join(glob.escape(folder), "*.py"))):
-        if os.path.basename(path) in ("cache.py", "compiling.py"):  # these files hold no kernel
+        if os.path.basename(path) in NOT_KERNELS:
             continue
         h.update(os.path.basename(path).encode())
         with open(path, "rb") as f:
@@ -158,9 +167,12 @@ class _PerUserTemp(_WholeSourceStamp, _SourceFileBackedLocatorMixin, _CacheLocat
             self.ensure_cache_path()
         except OSError:
             return None
+        return self
+
+    def tell(self):
+        """Say, once, where kernels compiled in this process are cached (at the first save: a load says nothing)."""
         _notice("temp", f"no writable cache folder for the compiled kernels (NUMBA_CACHE_DIR, beside the sources, "
                         f"~/.cache): caching them in {os.path.dirname(self._cache_path)}")
-        return self
 
 
 class _InMemory(_WholeSourceStamp, _SourceFileBackedLocatorMixin, _CacheLocator):
@@ -178,9 +190,12 @@ class _InMemory(_WholeSourceStamp, _SourceFileBackedLocatorMixin, _CacheLocator)
 
     @classmethod
     def from_function(cls, py_func, py_file):
+        return cls(py_func, py_file)
+
+    def tell(self):
+        """Say, once, that compiled kernels are not kept (at the first compilation: shipped code says nothing)."""
         _notice("memory", "no folder can hold the compiled kernels' cache: compiling them in memory, in every run "
                           "(set NUMBA_CACHE_DIR to a writable folder to keep them)")
-        return cls(py_func, py_file)
 
 
 class _KernelCacheImpl(CompileResultCacheImpl):
@@ -209,8 +224,22 @@ def _ready_to_load(target_context) -> None:
     rtsys.initialize(target_context)
 
 
+class _Baseline:
+    """Stands for a code generator in numba's index key: the shipped entries' ``magic_tuple``."""
+
+    def __init__(self, magic):
+        self._magic = magic
+
+    def magic_tuple(self):
+        return self._magic
+
+
 class KernelCache(FunctionCache):
     """numba's per-function cache, with the locators above and damage taken as a miss.
+
+    A load tries the shipped entries first (:mod:`flexmb.kernels.prebuilt`,
+    keyed by the baseline CPU's codegen key instead of this process's), then
+    the locator's folder; a save goes to the locator's folder only.
 
     Parameters
     ----------
@@ -229,6 +258,9 @@ class KernelCache(FunctionCache):
         self._full_refresh = full_refresh
 
     def load_overload(self, sig, target_context):
+        shipped = self._load_shipped(sig, target_context)
+        if shipped is not None:
+            return shipped
         if isinstance(self._impl.locator, _InMemory):
             return None
         try:
@@ -241,7 +273,28 @@ class KernelCache(FunctionCache):
             self._discard()
             return None
 
+    def _load_shipped(self, sig, target_context):
+        """This signature's machine code from the shipped entries (:mod:`flexmb.kernels.prebuilt`), or None."""
+        if not self._enabled:
+            return None
+        try:
+            codegen = target_context.codegen()
+            magic = prebuilt.magic_tuple(codegen.magic_tuple()[0], sources_stamp())
+            entry = magic and prebuilt.entry_file(self._impl.filename_base, sources_stamp())
+            if not entry:
+                return None
+            if self._full_refresh:
+                target_context.refresh()
+            else:
+                _ready_to_load(target_context)
+            data = entry.load(self._index_key(sig, _Baseline(magic)))
+            return None if data is None else self._impl.rebuild(target_context, data)
+        except Exception:  # noqa: BLE001 - a shipped entry that cannot be read is a miss, never an error
+            return None
+
     def save_overload(self, sig, data):
+        if isinstance(self._impl.locator, (_InMemory, _PerUserTemp)):
+            self._impl.locator.tell()
         if isinstance(self._impl.locator, (_InMemory, _ReadOnly)):
             return
         try:

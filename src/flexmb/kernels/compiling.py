@@ -101,10 +101,14 @@ class _Listener(event.Listener):
             new = family not in _told
             _told.add(family)
         if new:
+            from .cache import sources_stamp
+            from .prebuilt import unusable_reason
+
             estimate = ESTIMATE_S.get(family)
             about = f": ~{estimate} s" if estimate else ""
-            print(f"flexmb: compiling flexmb's kernels for {family}, once{about} (later runs load them from the "
-                  "cache)", file=sys.stderr, flush=True)
+            why = unusable_reason(sources_stamp())
+            print(f"flexmb: compiling flexmb's kernels for {family}, once{about} ({why + '; ' if why else ''}later "
+                  "runs load them from the cache)", file=sys.stderr, flush=True)
 
     def on_end(self, ev):
         if family_of(ev.data.get("dispatcher")) is None or not getattr(_state, "depth", 0):

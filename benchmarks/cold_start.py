@@ -20,8 +20,14 @@ Commands:
   the README of the venv's checkout, run as a script.
 * ``tutorial:NAME``: ``tutorials/NAME.py`` of that checkout, run as a
   script with a non-interactive matplotlib backend.
+* ``tests``: the README's test command, ``python -m pytest`` on that
+  checkout's tests (``-q``, no pytest cache).
 * ``compile``: ``python -m flexmb compile`` (where the venv's flexmb has
   that command).
+
+Where the branch ships its kernels' machine code (:mod:`flexmb.kernels.prebuilt`),
+a cold run loads it: ``NUMBA_CACHE_DIR`` empty is a new installation's
+state. ``--warm-runs 0`` runs the cold runs only.
 
 One JSON line per run goes to ``--out`` (default
 ``benchmarks/results/cold_start.jsonl``, appended): venv label, commit,
@@ -91,6 +97,8 @@ def _argv(python: str, checkout: str, command: str, work: str) -> list[str]:
         return [python, script]
     if command.startswith("tutorial:"):
         return [python, os.path.join(checkout, "tutorials", command.split(":", 1)[1] + ".py")]
+    if command == "tests":
+        return [python, "-m", "pytest", "-q", "-p", "no:cacheprovider", os.path.join(checkout, "tests")]
     if command == "compile":
         return [python, "-m", "flexmb", "compile"]
     raise SystemExit(f"unknown command {command!r}")

@@ -91,18 +91,21 @@ def _with_manifest(shipped, tmp_path, **changes):
 
 
 def test_the_shipped_machine_code_is_fresh():
-    """Fails after a kernel edit (or a numba upgrade) until ``python -m flexmb.kernels.prebuild`` is run again."""
+    """Fails after a kernel edit until ``python -m flexmb.kernels.prebuild`` is run again; skips, saying so, where
+    numba or llvmlite is another version than the build's (pyproject.toml does not pin them)."""
     manifest = prebuilt.read_manifest()
     if manifest is None:
         pytest.skip(f"no machine code is shipped for this interpreter and machine ({prebuilt.folder()})")
     rebuild = "rebuild it: OPENBLAS_NUM_THREADS=1 python -m flexmb.kernels.prebuild"
     assert manifest["stamp"] == cache.sources_stamp(), f"the kernels changed since the shipped build: {rebuild}"
-    assert (manifest["numba"], manifest["llvmlite"]) == (numba.__version__, llvmlite.__version__), (
-        f"the shipped build is for numba {manifest['numba']}, llvmlite {manifest['llvmlite']}: {rebuild}")
     files = set(os.listdir(prebuilt.folder())) - {"manifest.json"}
     assert files == set(manifest["kernels"]), "the shipped folder holds other files than its manifest lists"
     stamp = cache.sources_stamp()
     assert prebuilt.usable(stamp) or prebuilt.unusable_reason(stamp), "the shipped build is neither used nor said why"
+    if (manifest["numba"], manifest["llvmlite"]) != (numba.__version__, llvmlite.__version__):
+        # another numba in this environment is no fault of the sources: said, not failed
+        pytest.skip(f"the shipped build is for numba {manifest['numba']}, llvmlite {manifest['llvmlite']}, this is "
+                    f"{numba.__version__}, {llvmlite.__version__}: installations with these compile; {rebuild}")
 
 
 def test_a_read_only_install_loads_the_shipped_code_for_another_cpu_and_says_nothing(shipped):

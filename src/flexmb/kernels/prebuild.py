@@ -164,10 +164,12 @@ def build(workloads, cpu: str = "x86-64-v3", target: str | None = None) -> dict:
                 t0, r0 = time.perf_counter(), resource.getrusage(resource.RUSAGE_CHILDREN)
                 proc = subprocess.run(argv, env=env, cwd=work, capture_output=True, text=True)
                 r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
-                cpu = r1.ru_utime - r0.ru_utime + r1.ru_stime - r0.ru_stime
-                tail = (proc.stdout.strip().splitlines() or [""])[-1]
+                seconds = r1.ru_utime - r0.ru_utime + r1.ru_stime - r0.ru_stime
+                lines = proc.stdout.strip().splitlines() or [""]
+                failed = [ln for ln in lines if ln.startswith(("FAILED ", "ERROR "))]
                 print(f"{workload}: {' '.join(os.path.basename(a) for a in argv[1:3])}: exit {proc.returncode}, "
-                      f"{cpu:.1f} s CPU, {time.perf_counter() - t0:.0f} s wall; {tail}", file=sys.stderr, flush=True)
+                      f"{seconds:.1f} s CPU, {time.perf_counter() - t0:.0f} s wall; {lines[-1]}",
+                      *failed, sep="\n", file=sys.stderr, flush=True)
                 if proc.returncode and workload in ("wiper", "pendulum"):
                     raise SystemExit(f"{argv} failed:\n{proc.stderr[-3000:]}")
         sources_stamp.cache_clear()

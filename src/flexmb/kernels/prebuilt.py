@@ -55,7 +55,13 @@ ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "_prebuilt")
 
 
 def folder() -> str:
-    """This interpreter's and machine's folder of shipped entries (``cpython-311-x86_64-linux``)."""
+    """This interpreter's and machine's folder of shipped entries.
+
+    Returns
+    -------
+    str
+        ``<ROOT>/cpython-311-x86_64-linux`` for CPython 3.11 on Linux x86-64.
+    """
     return os.path.join(ROOT, f"{sys.implementation.cache_tag}-{platform.machine().lower()}-{sys.platform}")
 
 
@@ -139,7 +145,7 @@ def usable(stamp: str) -> bool:
 
 
 def magic_tuple(triple: str, stamp: str) -> tuple | None:
-    """numba's codegen key of the shipped entries, where they are usable on ``triple`` (the host's).
+    """The codegen key (numba's) of the shipped entries, where they are usable on ``triple`` (the host's).
 
     Parameters
     ----------
@@ -160,7 +166,7 @@ def magic_tuple(triple: str, stamp: str) -> tuple | None:
 
 
 def entry_file(filename_base: str, source_stamp: str) -> IndexDataCacheFile | None:
-    """numba's index-and-data file of one kernel in the shipped folder, None where it ships none.
+    """The index-and-data file (numba's) of one kernel in the shipped folder, None where it ships none.
 
     Parameters
     ----------

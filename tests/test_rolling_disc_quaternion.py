@@ -123,3 +123,14 @@ def test_perturbed_run_is_the_same_on_euler_parameters_bryant_angles_and_the_joi
     system = free_disc_model().build()
     assert max(system.constraint_residual(t, x, u) for t, x, u in zip(q.t, q.x, q.xd)) < 1e-9
     assert np.max(np.abs(np.linalg.norm(q.x[:, 3:], axis=1) - 1.0)) < 1e-12  # unit Euler parameters
+
+
+def test_a_contradiction_names_the_speeds_of_euler_parameters():
+    # the speed held is free.wx (the 4th speed; the 4th coordinate is free.qx): the message names the speed
+    s = free_disc_model().build()
+    kw = start(0.2, 3.0, 0.0, steady_spin(0.2, 3.0))
+    with pytest.raises(fm.ModelError, match=r"given \(free\.wx, the angular velocity of 'disc'\) contradict"):
+        fm.initial_state(s, positions=kw["positions"], speeds=[{"free.wx": 5.0}, *kw["speeds"]])
+    # the constraints win when asked: the closest speeds to both that roll
+    x, u = fm.initial_state(s, positions=kw["positions"], speeds=[{"free.wx": 5.0}, *kw["speeds"]], hold_speeds=False)
+    assert s.constraint_residuals(0.0, x, u)[1] < 1e-12

@@ -278,7 +278,7 @@ def _check(system, t, x, xd, psi, b, held, motions, C, c):
     worst = max(float(np.max(np.abs(res_psi), initial=0.0)), float(np.max(np.abs(res_c), initial=0.0)))
     if worst <= SPEED_TOL * scale:
         return
-    given = [system.coordinate_names[i] for i in np.flatnonzero(held)] + [m.label() for m in motions]
+    given = [system.speed_names[i] for i in np.flatnonzero(held)] + [m.label() for m in motions]
     labels = list(system.constraints.labels)
     order = np.argsort(-np.abs(res_psi))[:3]
     violated = ", ".join(f"{labels[i]} (by {abs(res_psi[i]):.3g})" for i in order if abs(res_psi[i]) > SPEED_TOL * scale)

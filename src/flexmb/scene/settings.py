@@ -187,5 +187,6 @@ class InitialState:
         Returns
         -------
         bool
+            True if ``[initial]`` gives a speed of any kind.
         """
         return bool(self.speeds or self.point_velocities or self.angular_velocities)

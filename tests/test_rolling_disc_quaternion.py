@@ -134,3 +134,52 @@ def test_a_contradiction_names_the_speeds_of_euler_parameters():
     # the constraints win when asked: the closest speeds to both that roll
     x, u = fm.initial_state(s, positions=kw["positions"], speeds=[{"free.wx": 5.0}, *kw["speeds"]], hold_speeds=False)
     assert s.constraint_residuals(0.0, x, u)[1] < 1e-12
+
+
+def test_a_scene_starts_the_quaternion_disc_from_its_angular_velocity_in_body_axes():
+    theta, omega = 0.2, 3.0
+    spin = steady_spin(theta, omega)
+    kw = start(theta, omega, 0.0, spin)
+    R0 = quat.rotation_matrix(np.array(kw["positions"]["free"][3:]))
+    w_body = R0.T @ kw["speeds"][0].omega
+    scene = fm.loads_scene(f"""
+[bodies.disc]
+mass = {M_DISC}
+inertia = [{M_DISC * R_DISC**2 / 4}, {M_DISC * R_DISC**2 / 2}, {M_DISC * R_DISC**2 / 4}]
+
+[joints.free]
+type = "free"
+parent = "ground"
+child = "disc"
+rotation = "quaternion"
+
+[forces.gravity]
+type = "gravity"
+g = [0.0, 0.0, {-G}]
+
+[constraints.roll]
+type = "rolling_disc"
+body = "disc"
+radius = {R_DISC}
+axis = [0.0, 1.0, 0.0]
+
+[initial]
+positions = {{ free = {list(map(float, kw["positions"]["free"]))} }}
+
+[initial.angular_velocities.rolling]
+body = "disc"
+omega = {list(map(float, w_body))}
+frame = "body"
+
+[solver]
+t_end = 1.0
+rtol = {RTOL}
+atol = {ATOL}
+n_out = 11
+""")
+    res = scene.simulate()
+    api = fm.simulate(free_disc_model(), 1.0, **kw, rtol=RTOL, atol=ATOL, n_out=11)
+    np.testing.assert_allclose(res.x, api.x, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(res.xd, api.xd, rtol=0, atol=1e-12)
+    lean, heading, axial = lean_heading_axial(res)
+    assert np.max(np.abs(lean - theta)) < 1e-8 and np.max(np.abs(heading - omega * res.t)) < 1e-8

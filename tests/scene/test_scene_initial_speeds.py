@@ -205,3 +205,32 @@ def test_cli_run_takes_a_point_velocity(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "initial: the initial speeds given" in err and "initial.point_velocities.crank_tip" in err
     assert "driver motor" in err and not (tmp_path / "out2").exists()
+
+
+def test_a_key_path_indexes_an_array():
+    import tomllib
+
+    from flexmb.scene.keys import set_key
+
+    doc = tomllib.loads(A02)
+    set_key(doc, "initial.point_velocities.crank_tip.velocity[0]", 2.0, "a02.toml")
+    set_key(doc, "forces.gravity.g[1]", -1.62, "a02.toml")
+    assert doc["initial"]["point_velocities"]["crank_tip"]["velocity"] == [2.0, 0.0, 0.0]
+    assert doc["forces"]["gravity"]["g"] == [0.0, -1.62, 0.0]
+    scene = fm.scene_from_dict(doc, "a02.toml")
+    np.testing.assert_allclose(_rates(scene.system().coordinate_names, scene.initial_state()[1]), [-2.0, -2.0, 2.0],
+                               atol=1e-12)
+    for path, message in [
+        ("initial.point_velocities.crank_tip.velocity[3]", "initial.point_velocities.crank_tip.velocity[3]: index out "
+                                                           "of range in the scene (varied key '{}'); the array has 3"),
+        ("initial.point_velocities.crank_tip.body[0]", "initial.point_velocities.crank_tip.body: not an array"),
+        ("initial.point_velocities.crank_tip.velocity[0].x", "initial.point_velocities.crank_tip.velocity[0]: not a "
+                                                             "table in the scene"),
+        ("initial.point_velocities.tip.velocity[0]", "initial.point_velocities.tip: no such table in the scene "
+                                                     "(varied key '{}'); tables here: crank_tip"),
+        ("forces.gravity.g[x]", "forces.gravity.g[x]: not a key path (varied key): write table.key or "
+                                "table.key[index], got the part 'g[x]'"),
+    ]:
+        with pytest.raises(fm.SceneError) as info:
+            set_key(doc, path, 1.0, "a02.toml")
+        assert str(info.value).startswith("a02.toml: " + message.format(path)), str(info.value)

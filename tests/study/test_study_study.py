@@ -146,6 +146,17 @@ def test_initial_point_and_angular_velocities_are_varied_by_key_path(tmp_path, c
     res = Study.from_file(path, {"initial.angular_velocities.push.omega": [[0.0, 0.0, -w] for w in v]},
                           outputs=["peak_speed_exact:tip"]).run(tmp_path / "w", executor="serial", progress=False)
     assert res.column("peak_speed_exact:tip") == pytest.approx(np.sqrt(3 * G + v**2), rel=2e-6)
+    # one component by its index: a range of tip speeds, the table's column in m/s
+    path.write_text(text.replace("[initial.angular_velocities.push]", "[initial.point_velocities.push]").replace(
+        "omega = [0.0, 0.0, -1.0]\nframe = \"body\"", "point = [1.0, 0.0, 0.0]\nvelocity = [0.0, -1.0, 0.0]"))
+    assert main(["study", str(path), "--vary", f"{key}[1]=lin:-0.5:-2.0:2", "--output", "peak_speed_exact:tip",
+                 "--serial", "--quiet", "--out", str(tmp_path / "component")]) == 0
+    res = Study.from_file(path, {f"{key}[1]": [-0.5, -2.0]}, outputs=["peak_speed_exact:tip"]).run(
+        tmp_path / "component", executor="serial", progress=False)
+    assert res.ran == [] and res.column(f"{key}[1]").tolist() == [-0.5, -2.0]  # the command line's cases
+    assert res.column("peak_speed_exact:tip") == pytest.approx(np.sqrt(3 * G + v**2), rel=2e-6)
+    assert res.unit(f"{key}[1]") == "m/s"
+    path.write_text(text)
     # a case whose velocity the pin does not allow fails with the key's name; the others finish
     res = Study.from_file(path, {"initial.angular_velocities.push.omega": [[0.0, 0.0, -1.0], [1.0, 0.0, 0.0]]},
                           outputs=["peak_speed_exact:tip"]).run(tmp_path / "bad", executor="serial", progress=False)

@@ -11,6 +11,8 @@ false`` lets the constraints win).
 
 from __future__ import annotations
 
+import math
+
 from ..errors import AssemblyError, FlexmbError
 from ..initial_speeds import AngularVelocity, PointVelocity
 from .settings import InitialState, _is_number, _toml_type
@@ -89,7 +91,7 @@ def _vector(loader, path: str, value, unit: str) -> tuple:
         got = f"{len(value)} values" if isinstance(value, list) else f"{_toml_type(value)} {value!r}"
         loader.fail(path, f"must be 3 numbers ({unit}), got {got}")
     out = tuple(float(x) for x in value)
-    if not all(abs(x) < float("inf") for x in out):
+    if not all(math.isfinite(x) for x in out):
         loader.fail(path, f"must be finite, got {value!r}")
     return out
 

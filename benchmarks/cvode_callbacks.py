@@ -76,13 +76,26 @@ class _Cache(_kc.KernelCache):
     _impl_class = _Impl
 
 
+class _LazyCFunc:
+    """A numba C callback compiled (or loaded from the cache) when its address is first asked for."""
+
+    def __init__(self, func, sig):
+        self._func, self._sig, self._cf = func, sig, None
+        self.__doc__ = func.__doc__
+
+    @property
+    def address(self) -> int:
+        """The callback's address (loading its machine code on first use)."""
+        if self._cf is None:
+            cf = CFunc(self._func, sigutils.normalize_signature(self._sig), locals={}, options={"nopython": True})
+            cf._cache = _Cache(self._func)
+            cf.compile()
+            self._cf = cf
+        return self._cf.address
+
+
 def _cfunc(sig):
-    def decorate(func):
-        cf = CFunc(func, sigutils.normalize_signature(sig), locals={}, options={"nopython": True})
-        cf._cache = _Cache(func)
-        cf.compile()
-        return cf
-    return decorate
+    return lambda func: _LazyCFunc(func, sig)
 
 
 def _cached_njit(func):

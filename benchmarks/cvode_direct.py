@@ -29,9 +29,12 @@ The error is the distance of the tip at t = 1 s to the reference of
 
 **One process per run** (``--processes``): B1 N = 8 as a script doing it
 this way (imports flexmb and the prototype, builds, runs, prints the tip),
-against flexmb's script of ``startup.py`` and Exudyn's; CPU time of the whole
-process, warm caches, least of ``--repeat`` alternating rounds. The direct
-script reports which of scipy's and scikit-sundae's modules it imported.
+without and with flexmb's resolution monitor (whose import brings
+``flexmb.integrators``: scipy.integrate and scikit-sundae), against
+flexmb's script of ``startup.py``, Exudyn's, and a script that only imports
+flexmb and builds the model; CPU time of the whole process, warm caches,
+least of ``--repeat`` alternating rounds. The direct scripts report their
+phases and which of scipy's and scikit-sundae's modules they imported.
 
 One JSON line per run goes to ``--out`` (default
 ``benchmarks/results/cvode_direct.jsonl``, appended).
@@ -42,6 +45,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import subprocess
 import sys
 import time
@@ -53,14 +57,21 @@ sys.path.insert(0, HERE)
 
 import flexmb as fm  # noqa: E402
 import work_precision as wp  # noqa: E402
-from startup import EXUDYN_RUN, FLEXMB_RUN, PEERS, _env, run_process  # noqa: E402
+from peers.picks import robust_setting  # noqa: E402
+from startup import EXUDYN_RUN, FLEXMB_RUN, PEERS, _env  # noqa: E402
 from sundials_direct import KRYLOV_DIM, DirectCVODE  # noqa: E402
 
 #: Exudyn's tuned setting per case (docs/benchmarks.md, "Side by side, honestly"): Newton rtol, steps
 EXUDYN_TUNED = {("B1", 8): (1e-5, 4000), ("B1", 16): (1e-5, 5600), ("B1", 64): (1e-5, 5600), ("B2", 16): (1e-4, 4000)}
 DEFAULT_CASES = ["B1:8:2e-5", "B1:16:5e-6", "B1:64:5e-6", "B2:16:1e-5"]
+#: the rtol grid of the side-by-side run, the atol perturbations a robust rtol must pass under, the target (m)
+RTOLS = (1e-4, 5e-5, 2e-5, 1e-5, 5e-6, 2e-6, 1e-6)
+PERTURBATIONS = (0.0, 1e-12, -1e-12)
+TARGET = 1e-6
 
-#: the prototype's run as a user's script: B1 N = 8 at rtol 2e-5, what startup.py's FLEXMB_RUN does
+#: the prototype's run as a user's script: B1 N = 8 at rtol 2e-5, what startup.py's FLEXMB_RUN does; {monitor}
+#: chooses whether flexmb's resolution monitor is given the steps (importing it imports flexmb.integrators, whose
+#: package imports scipy.integrate and scikit-sundae's integrator classes)
 DIRECT_RUN = """
 import sys, time, json
 sys.path.insert(0, {bench!r})
@@ -72,18 +83,30 @@ from sundials_direct import DirectCVODE
 t["imports"] = time.process_time()
 system = b1(8).build()
 t["build"] = time.process_time()
-from flexmb.integrators.monitor import ResolutionMonitor
 n = system.n_speeds
-mon = ResolutionMonitor(system, 0.0, 1.0, 2e-5, 2e-7, "CVODE_BDF")
+mon = None
+if {monitor}:
+    from flexmb.integrators.monitor import ResolutionMonitor
+    mon = ResolutionMonitor(system, 0.0, 1.0, 2e-5, 2e-7, "CVODE_BDF")
+t["monitor"] = time.process_time()
 with DirectCVODE(system, np.zeros(2 * n), 0.0, 1.0, rtol=2e-5, atol=2e-7, monitor=mon) as cv:
-    t["setup"] = time.process_time()
     y = cv.advance(1.0)
 t["run"] = time.process_time()
 res = fm.Result.from_states(system, y[:n], y[n:], t=1.0)
-tip = [float(v) for v in res.shape("beam")[-1]]
+tip = [float(v) for v in res.shape("beam")[-1, -1]]
 mods = sorted(m for m in sys.modules if m.split(".")[0] in ("scipy", "sksundae"))
 print(json.dumps({{"phases": t, "modules": mods}}), file=sys.stderr)
 print(tip)
+"""
+
+#: what every flexmb script of B1 N = 8 pays before it integrates: the imports and the build
+BUILD_RUN = """
+import sys
+sys.path.insert(0, {bench!r})
+import flexmb as fm
+from scenes import b1
+system = b1(8).build()
+print([])
 """
 
 
@@ -100,7 +123,7 @@ def run_simulate(system, rtol):
     return res, time.process_time() - c0, time.perf_counter() - t0
 
 
-def run_direct(system, y0, rtol, python_jacobian=False):
+def run_direct(system, y0, rtol, python_jacobian=False, atol=None):
     """The prototype, as simulate() would run it (monitor, Krylov from 48 coordinates): (y1, stats, cpu, wall)."""
     from flexmb.integrators.monitor import ResolutionMonitor
     from flexmb.stepping import KRYLOV_MIN_COORDS
@@ -108,8 +131,9 @@ def run_direct(system, y0, rtol, python_jacobian=False):
     c0, t0 = time.process_time(), time.perf_counter()
     layout = system.layout
     jac = (lambda t, y: system.state_jacobian(t, *layout.split(y))) if python_jacobian else None  # noqa: E731
-    mon = ResolutionMonitor(system, 0.0, 1.0, rtol, rtol / 100, "CVODE_BDF")
-    with DirectCVODE(system, y0, 0.0, 1.0, rtol=rtol, atol=rtol / 100, monitor=mon, jacobian=jac,
+    atol = rtol / 100 if atol is None else atol
+    mon = ResolutionMonitor(system, 0.0, 1.0, rtol, atol, "CVODE_BDF")
+    with DirectCVODE(system, y0, 0.0, 1.0, rtol=rtol, atol=atol, monitor=mon, jacobian=jac,
                      krylov=system.n_speeds >= KRYLOV_MIN_COORDS) as cv:
         y1 = cv.advance(1.0)
         stats = cv.stats()
@@ -134,6 +158,30 @@ def _tip(system, scene, y):
     return np.asarray(wp.scenes()[scene].output(res), float)
 
 
+def robust_rtol(system, scene, n, y0, ref, kind, out) -> float | None:
+    """The loosest rtol of :data:`RTOLS` from which every tighter one passes at every perturbed atol.
+
+    ``kind`` is ``"simulate"`` or ``"direct"`` (compiled callbacks); the
+    runs are written to ``out`` (``kind`` suffixed ``_scan``).
+    """
+    rows = []
+    for rtol in RTOLS:
+        for p in PERTURBATIONS:
+            atol = rtol / 100 * (1.0 + p)
+            if kind == "simulate":
+                res = fm.simulate(system, 1.0, method="CVODE_BDF", rtol=rtol, atol=atol, n_out=2, progress=False)
+                y1, status = np.concatenate([res.x[-1], res.xd[-1]]), res.status
+            else:
+                y1, _, _, _ = run_direct(system, y0, rtol, atol=atol)
+                status = "finished"
+            row = {"kind": f"{kind}_scan", "scene": scene, "n_segments": n,
+                   "rtol": rtol, "atol": atol, "atol_perturbation": p, "status": status,
+                   "error": float(np.linalg.norm(_tip(system, scene, y1) - ref))}
+            _write(out, row)
+            rows.append(row)
+    return robust_setting({r: [x for x in rows if x["rtol"] == r] for r in RTOLS}, TARGET)
+
+
 def in_process(args, out) -> list[dict]:
     """The alternating in-process rounds of every case; the rows written."""
     rows = []
@@ -146,13 +194,21 @@ def in_process(args, out) -> list[dict]:
         y0 = np.concatenate([res.x[0], res.xd[0]])
         y_sim = np.concatenate([res.x[-1], res.xd[-1]])
         dense = system.n_speeds < 48
-        kinds = ["simulate", "direct"] + (["direct_pyjac"] if dense else []) + (["exudyn"] if args.peers_python else [])
+        robust = {k: robust_rtol(system, scene, n, y0, ref, k, out) for k in ("simulate", "direct")}
+        print(f"{case}: robust rtol (target {TARGET:g} m, atol x (1 +- 1e-12)): {robust}")
+        kinds = ["simulate", "direct"] + (["direct_pyjac"] if dense else [])
+        if robust["direct"] not in (None, rtol):
+            kinds.append("direct_robust")
+        if robust["simulate"] not in (None, rtol):
+            kinds.append("simulate_robust")
+        kinds += ["exudyn"] if args.peers_python else []
         for kind in kinds[1:3]:
             run_direct(system, y0, rtol, python_jacobian=kind == "direct_pyjac")
         best: dict = {}
         for r in range(args.repeat):
             for kind in kinds:
-                row = _one(kind, system, scene, n, rtol, y0, y_sim, ref, args)
+                r_tol = robust[kind.split("_")[0]] if kind.endswith("_robust") else rtol
+                row = _one(kind, system, scene, n, r_tol, y0, y_sim, ref, args)
                 row.update(round=r, case=case, date=time.strftime("%Y-%m-%d %H:%M", time.gmtime()),
                            loadavg_1min=round(os.getloadavg()[0], 2))
                 _write(out, row)
@@ -170,7 +226,7 @@ def _one(kind, system, scene, n, rtol, y0, y_sim, ref, args) -> dict:
                 "error_m": float(np.linalg.norm(np.asarray(r["output"] if "output" in r else r.get("tip"), float)
                                                 - ref)) if ("output" in r or "tip" in r) else None,
                 "setting": f"Newton {EXUDYN_TUNED[(scene, n)][0]:g}, {EXUDYN_TUNED[(scene, n)][1]} steps"}
-    if kind == "simulate":
+    if kind.startswith("simulate"):
         res, cpu, wall = run_simulate(system, rtol)
         y1 = np.concatenate([res.x[-1], res.xd[-1]])
         counts = {"steps": res.n_steps, "rhs": res.n_rhs, "jac": res.n_jac}
@@ -193,41 +249,59 @@ def _print_case(case, best) -> None:
         err = row.get("error_m")
         print(f"  {kind:13s} cpu {row['cpu_s']:.4f} s  /simulate {ratio:.3f}  {counts}  error "
               f"{err if err is None else f'{err:.2e}'} m  vs simulate {row.get('state_vs_simulate')}")
+    d_rob = best.get("direct_robust", best["direct"])
+    s_rob = best.get("simulate_robust", sim)
+    print(f"  robust against robust (this run's scan): direct / simulate {d_rob['cpu_s'] / s_rob['cpu_s']:.3f}")
     if "exudyn" in best:
-        print(f"  direct / exudyn tuned (CPU): {best['direct']['cpu_s'] / best['exudyn']['cpu_s']:.3f}; "
-              f"simulate / exudyn: {sim['cpu_s'] / best['exudyn']['cpu_s']:.3f}")
+        ex = best["exudyn"]["cpu_s"]
+        print(f"  / exudyn tuned (CPU): direct {best['direct']['cpu_s'] / ex:.3f}, direct at its robust rtol "
+              f"{d_rob['cpu_s'] / ex:.3f}, simulate {sim['cpu_s'] / ex:.3f}")
+
+
+def run_process(python: str, code: str) -> dict:
+    """One new process running ``code``: its CPU (user + system), wall, status, last lines of stdout and stderr."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    proc = subprocess.run([python, "-c", code], capture_output=True, text=True, env=_env(), cwd=HERE)
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    out, err = proc.stdout.strip().splitlines(), proc.stderr.strip().splitlines()
+    return {"cpu_s": round(cpu, 4), "wall_s": round(wall, 4), "status": proc.returncode,
+            "output": out[-1] if out else "", "stderr_last": err[-1] if err else ""}
 
 
 def processes(args, out) -> None:
     """One process per run, alternating: the prototype's script, flexmb's, Exudyn's."""
-    codes = {"direct": (sys.executable, DIRECT_RUN.format(bench=HERE)),
-             "flexmb": (sys.executable, FLEXMB_RUN.format(bench=HERE))}
+    codes = {"direct": (sys.executable, DIRECT_RUN.format(bench=HERE, monitor=False)),
+             "direct_monitor": (sys.executable, DIRECT_RUN.format(bench=HERE, monitor=True)),
+             "flexmb": (sys.executable, FLEXMB_RUN.format(bench=HERE)),
+             "build_only": (sys.executable, BUILD_RUN.format(bench=HERE))}
     if args.peers_python:
         codes["exudyn"] = (args.peers_python, EXUDYN_RUN.format(peers=PEERS))
     for python, code in codes.values():  # warm the caches
-        run_process(python, code, HERE)
+        run_process(python, code)
     best: dict = {}
     for r in range(args.repeat):
         for label, (python, code) in codes.items():
-            res = run_process(python, code, HERE)
+            res = run_process(python, code)
+            if res["status"] != 0:
+                raise RuntimeError(f"{label}: exit {res['status']}: {res['stderr_last']}")
             row = {"kind": f"process_{label}", "round": r, **res,
                    "date": time.strftime("%Y-%m-%d %H:%M", time.gmtime()), "loadavg_1min": round(os.getloadavg()[0], 2)}
-            if label == "direct":
-                proc = subprocess.run([python, "-c", code], capture_output=True, text=True, env=_env(), cwd=HERE)
-                info = json.loads(proc.stderr.strip().splitlines()[-1])
+            if label.startswith("direct"):
+                info = json.loads(row.pop("stderr_last"))
                 p = info["phases"]
                 row.update(modules=info["modules"], phases={k: round(p[k] - p["start"], 4) for k in p})
             _write(out, row)
-            if res["status"] != 0:
-                raise RuntimeError(f"{label}: exit {res['status']}: {res['stderr_tail']}")
             if label not in best or row["cpu_s"] < best[label]["cpu_s"]:
                 best[label] = row
     for label, row in best.items():
         extra = f"  phases {row.get('phases')}  scipy/sksundae modules: {len(row.get('modules', []))}" \
-            if label == "direct" else ""
-        print(f"{label:8s} least CPU {row['cpu_s']:.3f} s  tip {row['output']}{extra}")
+            if label.startswith("direct") else ""
+        print(f"{label:14s} least CPU {row['cpu_s']:.3f} s  tip {row['output']}{extra}")
     if "exudyn" in best:
-        for label in ("direct", "flexmb"):
+        for label in ("direct", "direct_monitor", "flexmb", "build_only"):
             print(f"{label} / exudyn: {best[label]['cpu_s'] / best['exudyn']['cpu_s']:.2f}")
 
 

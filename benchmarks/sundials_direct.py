@@ -299,6 +299,8 @@ class DirectCVODE:
         CVODEError
             If CVODE fails (its flag, the time, the callback's cause).
         """
+        if self._mem is None:
+            raise CVODEError("this DirectCVODE is closed")
         t_stop = min(float(t_stop), self.t_bound)
         mon = self.monitor
         while True:

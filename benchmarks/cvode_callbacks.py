@@ -188,7 +188,7 @@ def _fail(ud, status, t, flag):
 
 @_cfunc(types.int32(types.float64, types.voidptr, types.voidptr, types.voidptr))
 def rhs(t, y, ydot, user_data):
-    """CVRhsFn: ``ydot = (xd, xdd)`` by open_tree_rhs; 1 (recoverable) if not finite, -1 if singular."""
+    """CVRhsFn: ``ydot = (xd, xdd)`` by open_tree_rhs; NONFINITE_FLAG if not finite, -1 if singular."""
     ud = _ud(user_data)
     n, m = ud[N], ud[M]
     yv = _vector(ud, y, m)
@@ -201,9 +201,9 @@ def rhs(t, y, ydot, user_data):
         out[i] = 0.0
     if status == -1:
         return 0
-    if status == -2:
-        return _fail(ud, status, t, ud[NONFINITE_FLAG])
-    return _fail(ud, status, t, -1)
+    if status >= 0 and np.all(np.isfinite(yv)):  # a joint whose articulated inertia is singular
+        return _fail(ud, status, t, -1)
+    return _fail(ud, -2, t, ud[NONFINITE_FLAG])  # not finite (a non-finite state breaks the solve too)
 
 
 @_cached_njit

@@ -21,6 +21,10 @@ two outputs), in alternating rounds (``--repeat``, least CPU time of each):
   ``state_jacobian`` called from Python as the Jacobian, which must take
   exactly flexmb's steps (counts equal, final states equal): the check that
   the loop is CVODE driven as flexmb drives it;
+* ``direct_pyrhs`` (dense cases only): the right-hand side from Python too
+  (``System._state_rate`` as a ctypes callback), the step loop still
+  compiled: what the binding would cost a model whose loads are not all
+  compiled;
 * ``exudyn``: Exudyn's tuned setting of that run (its own timing of
   ``SolveSystem``, a process of the peers' venv per round, ``--peers-python``).
 
@@ -123,7 +127,7 @@ def run_simulate(system, rtol):
     return res, time.process_time() - c0, time.perf_counter() - t0
 
 
-def run_direct(system, y0, rtol, python_jacobian=False, atol=None):
+def run_direct(system, y0, rtol, python_jacobian=False, atol=None, python_rhs=False):
     """The prototype, as simulate() would run it (monitor, Krylov from 48 coordinates): (y1, stats, cpu, wall)."""
     from flexmb.integrators.monitor import ResolutionMonitor
     from flexmb.stepping import KRYLOV_MIN_COORDS
@@ -133,7 +137,8 @@ def run_direct(system, y0, rtol, python_jacobian=False, atol=None):
     jac = (lambda t, y: system.state_jacobian(t, *layout.split(y))) if python_jacobian else None  # noqa: E731
     atol = rtol / 100 if atol is None else atol
     mon = ResolutionMonitor(system, 0.0, 1.0, rtol, atol, "CVODE_BDF")
-    with DirectCVODE(system, y0, 0.0, 1.0, rtol=rtol, atol=atol, monitor=mon, jacobian=jac,
+    rhs = system._state_rate if python_rhs else None
+    with DirectCVODE(system, y0, 0.0, 1.0, rtol=rtol, atol=atol, monitor=mon, jacobian=jac, rhs=rhs,
                      krylov=system.n_speeds >= KRYLOV_MIN_COORDS) as cv:
         y1 = cv.advance(1.0)
         stats = cv.stats()
@@ -196,14 +201,15 @@ def in_process(args, out) -> list[dict]:
         dense = system.n_speeds < 48
         robust = {k: robust_rtol(system, scene, n, y0, ref, k, out) for k in ("simulate", "direct")}
         print(f"{case}: robust rtol (target {TARGET:g} m, atol x (1 +- 1e-12)): {robust}")
-        kinds = ["simulate", "direct"] + (["direct_pyjac"] if dense else [])
+        kinds = ["simulate", "direct"] + (["direct_pyjac", "direct_pyrhs"] if dense else [])
         if robust["direct"] not in (None, rtol):
             kinds.append("direct_robust")
         if robust["simulate"] not in (None, rtol):
             kinds.append("simulate_robust")
         kinds += ["exudyn"] if args.peers_python else []
-        for kind in kinds[1:3]:
-            run_direct(system, y0, rtol, python_jacobian=kind == "direct_pyjac")
+        for kind in [k for k in kinds if k in ("direct", "direct_pyjac", "direct_pyrhs")]:  # warm-up
+            run_direct(system, y0, rtol, python_jacobian=kind in ("direct_pyjac", "direct_pyrhs"),
+                       python_rhs=kind == "direct_pyrhs")
         best: dict = {}
         for r in range(args.repeat):
             for kind in kinds:
@@ -231,7 +237,8 @@ def _one(kind, system, scene, n, rtol, y0, y_sim, ref, args) -> dict:
         y1 = np.concatenate([res.x[-1], res.xd[-1]])
         counts = {"steps": res.n_steps, "rhs": res.n_rhs, "jac": res.n_jac}
     else:
-        y1, stats, cpu, wall = run_direct(system, y0, rtol, python_jacobian=kind == "direct_pyjac")
+        y1, stats, cpu, wall = run_direct(system, y0, rtol, python_jacobian=kind in ("direct_pyjac", "direct_pyrhs"),
+                                          python_rhs=kind == "direct_pyrhs")
         counts = {k: stats[k] for k in ("steps", "rhs", "jac", "rhs_ls", "err_test_fails", "newton_iters",
                                          "lin_iters")}
     return {"kind": kind, "scene": scene, "n_segments": n, "rtol": rtol, "atol": rtol / 100, "cpu_s": round(cpu, 5),

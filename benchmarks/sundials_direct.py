@@ -176,10 +176,15 @@ class DirectCVODE:
         ``jacobian(t, y) -> (m, m)`` called from Python (a ctypes callback)
         instead of the compiled Jacobian: flexmb's own ``state_jacobian``,
         to check that this loop takes the very steps of flexmb's.
+    rhs : callable, optional
+        ``rhs(t, y) -> ydot`` called from Python (a ctypes callback) instead
+        of the compiled right-hand side: what a model with Python force
+        elements or plugin joints would need. An exception it raises stops
+        CVODE (an unrecoverable flag) and is raised again by :meth:`advance`.
     """
 
     def __init__(self, system, y0, t0, t_bound, *, rtol, atol, krylov=False, max_step=np.inf, first_step=None,
-                 monitor=None, nonfinite_flag=1, jacobian=None):
+                 monitor=None, nonfinite_flag=1, jacobian=None, rhs=None):
         import cvode_callbacks as cb
 
         if system._packed_open is None:
@@ -192,6 +197,8 @@ class DirectCVODE:
         self._mem = self._ls = self._A = self._y = self._out = None
         self._ctx = c_void_p()
         self._py_jac = None if jacobian is None else self._python_jacobian(jacobian)
+        self._py_rhs = None if rhs is None else self._python_rhs(rhs)
+        self._raised = None  # an exception of a Python callback, raised again after CVODE returns
         n, m, nb = system.n_speeds, len(y0), system.topology.n_bodies
         self.n, self.m = n, m
         self._ud = self._user_data(system, n, m, nb, nonfinite_flag)
@@ -237,7 +244,8 @@ class DirectCVODE:
         """CVODE's options in scikit-sundae's order, as flexmb's CVODE_BDF gives them."""
         S, cb, mem, ck = self._S, self._cb, self._mem, self._check
         ck(S.CVodeSetUserData(mem, self._ud.ctypes.data), "CVodeSetUserData")
-        ck(S.CVodeInit(mem, cb.rhs.address, self.t, self._y), "CVodeInit")
+        f = cb.rhs.address if self._py_rhs is None else _addr(self._py_rhs)
+        ck(S.CVodeInit(mem, f, self.t, self._y), "CVodeInit")
         ck(S.CVodeSStolerances(mem, float(rtol), float(atol)), "CVodeSStolerances")
         if krylov:
             self._ls = S.SUNLinSol_SPGMR(self._y, SUN_PREC_LEFT, KRYLOV_DIM, self._ctx)
@@ -260,6 +268,21 @@ class DirectCVODE:
         ck(S.CVodeSetMaxOrd(mem, 5), "CVodeSetMaxOrd")
         ck(S.CVodeSetMaxNumSteps(mem, MAX_STEPS), "CVodeSetMaxNumSteps")
         ck(S.CVodeSetStopTime(mem, self.t_bound), "CVodeSetStopTime")
+
+    def _python_rhs(self, rhs):
+        """A ctypes callback (CVRhsFn) filling ``ydot`` with ``rhs(t, y)``; -1 (and the exception kept) if it raises."""
+        proto = ctypes.CFUNCTYPE(c_int, c_double, c_void_p, c_void_p, c_void_p)
+
+        def f(t, y, ydot, user_data):
+            try:
+                self._ud[self._cb.RHS] += 1
+                self._data(ydot)[:] = rhs(t, self._data(y))
+                return 0
+            except BaseException as exc:  # noqa: BLE001 - nothing may cross into C; advance raises it again
+                self._raised = exc
+                return -1
+
+        return proto(f)
 
     def _python_jacobian(self, jacobian):
         """A ctypes callback (CVLsJacFn) filling the dense matrix with ``jacobian(t, y)``; -1 if it raises."""
@@ -313,6 +336,8 @@ class DirectCVODE:
             if live and k:
                 self._feed(mon, np.concatenate(([t_entry], times[: min(k, len(times))])))
             if code < 0:
+                if self._raised is not None:
+                    raise self._raised
                 raise self._error(code)
             if code == self._cb.REACHED:
                 return self._data(self._out).copy()

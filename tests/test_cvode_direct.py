@@ -68,6 +68,23 @@ def test_same_steps_as_simulate_with_flexmb_jacobian(direct):
     assert mon.n_steps == res.n_steps  # every step reached the resolution monitor
 
 
+def test_python_callbacks_take_the_same_steps_and_raise_through(direct):
+    system = scenes.b1(8).build()
+    res, y0, y_end = _simulate(system, 1e-6)
+    jac = lambda t, y: system.state_jacobian(t, *system.layout.split(y))  # noqa: E731
+    y1, stats, _ = _run(direct, system, y0, 1e-6, rhs=system._state_rate, jacobian=jac)
+    assert (stats["steps"], stats["rhs"], stats["jac"]) == (res.n_steps, res.n_rhs, res.n_jac)
+    assert np.max(np.abs(y1 - y_end)) <= 1e-10
+
+    def failing(t, y):
+        if t > 0.5:
+            raise ZeroDivisionError("a plugin's load failed")
+        return system._state_rate(t, y)
+
+    with pytest.raises(ZeroDivisionError, match="plugin"):
+        _run(direct, system, y0, 1e-6, rhs=failing, jacobian=jac)
+
+
 def test_same_steps_as_simulate_with_newton_preconditioner(direct):
     system = scenes.b1(48).build()  # 48 coordinates: flexmb's GMRES with the O(n) preconditioner
     res, y0, y_end = _simulate(system, 1e-5)

@@ -20,7 +20,8 @@ file, loaded without numba's compiler registries as flexmb's kernels are).
 is passed, then ``CVodeGetDky`` there (what flexmb's ``CVODE.advance`` does
 one Python call per step). It returns to Python only at the output time, at
 a checkpoint of flexmb's resolution monitor (the steps' times recorded in
-between), or on a CVODE failure.
+between), after a budget of steps (so that Ctrl-C and other signals are
+handled while a long interval runs), or on a CVODE failure.
 
 This is a benchmark's prototype, not part of flexmb.
 """
@@ -51,7 +52,7 @@ from flexmb.kernels.tree import tree_state
  SETUPS, JACS, RHS, STATUS, A_FAIL_T, NONFINITE_FLAG) = range(25)
 UD_SIZE = 25
 #: the loop's return codes (CVODE's negative flags pass through)
-REACHED, CHECKPOINT = 0, 1
+REACHED, CHECKPOINT, PAUSED = 0, 1, 2
 
 
 # ----------------------------------------------------------------------------- the cache
@@ -327,7 +328,7 @@ def psolve(t, y, fy, rv, zv, gamma, delta, lr, user_data):
 # ----------------------------------------------------------------------------- the step loop
 
 @_cached_njit
-def advance(lp, t_stop, t_bound, steps):
+def advance(lp, t_stop, t_bound, steps, budget):
     """Step CVODE (``CV_ONE_STEP``) until ``t_stop``; the state there in the output vector.
 
     Parameters
@@ -340,11 +341,14 @@ def advance(lp, t_stop, t_bound, steps):
     steps : ndarray of float
         The times reached by the steps, recorded for the monitor; the loop returns CHECKPOINT when it is
         full (length 0: none recorded).
+    budget : int
+        Steps after which the loop returns PAUSED, so that Python handles signals (Ctrl-C) meanwhile.
 
     Returns
     -------
     code : int
-        REACHED (the state at ``t_stop`` is in the output vector), CHECKPOINT, or CVODE's flag (< 0).
+        REACHED (the state at ``t_stop`` is in the output vector), CHECKPOINT, PAUSED, or CVODE's flag
+        (< 0).
     n_steps : int
         Steps taken in this call.
     """
@@ -366,6 +370,8 @@ def advance(lp, t_stop, t_bound, steps):
         tn = t_new
         if k == cap and tn < t_stop:
             return CHECKPOINT, k
+        if k == budget and tn < t_stop:
+            return PAUSED, k
     if tn > t_stop:
         flag = _call_dky(lp[1], lp[2], t_stop, 0, lp[5])
         if flag < 0:

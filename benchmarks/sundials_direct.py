@@ -31,6 +31,8 @@ NEEDED = ("core", "nvecserial", "sunmatrixdense", "sunlinsoldense", "sunlinsolsp
 
 CV_BDF, CV_NORMAL, CV_ONE_STEP, SUN_PREC_LEFT = 2, 1, 2, 1
 KRYLOV_DIM, MAX_STEPS = 10, 10**9
+#: steps of one compiled call before it returns to Python (which then handles signals: Ctrl-C, SIGTERM)
+STEPS_PER_CALL = 1000
 
 #: CVODE's return flags (cvode.h, cvode_ls.h) and what they mean
 FLAGS = {
@@ -194,6 +196,7 @@ class DirectCVODE:
         self._cb, self.system, self.monitor = cb, system, monitor
         self._S = S = _Sundials.get()
         self.t, self.t_bound, self.n_steps = float(t0), float(t_bound), 0
+        self.steps_per_call = STEPS_PER_CALL
         self._mem = self._ls = self._A = self._y = self._out = None
         self._ctx = c_void_p()
         self._py_jac = None if jacobian is None else self._python_jacobian(jacobian)
@@ -330,7 +333,7 @@ class DirectCVODE:
             live = mon is not None and not mon.warned
             times = np.empty(max(mon.next_check - mon.n_steps, 1) if live else 0)
             t_entry = self._tret[0]
-            code, k = self._cb.advance(self._lp, t_stop, self.t_bound, times)
+            code, k = self._cb.advance(self._lp, t_stop, self.t_bound, times, self.steps_per_call)
             self.n_steps += k
             self.t = float(self._tret[0])
             if live and k:

@@ -85,6 +85,41 @@ def test_python_callbacks_take_the_same_steps_and_raise_through(direct):
         _run(direct, system, y0, 1e-6, rhs=failing, jacobian=jac)
 
 
+def test_paused_calls_take_the_same_steps(direct, monkeypatch):
+    system = scenes.b1(8).build()
+    res, y0, y_end = _simulate(system, 1e-6)
+    monkeypatch.setattr(direct, "STEPS_PER_CALL", 7)  # back in Python every 7 steps (signals handled there)
+    jac = lambda t, y: system.state_jacobian(t, *system.layout.split(y))  # noqa: E731
+    y1, stats, mon = _run(direct, system, y0, 1e-6, jacobian=jac)
+    assert (stats["steps"], stats["rhs"], stats["jac"]) == (res.n_steps, res.n_rhs, res.n_jac)
+    assert mon.n_steps == res.n_steps
+    assert np.max(np.abs(y1 - y_end)) <= 1e-10
+
+
+def test_a_signal_stops_a_long_interval(direct):
+    import signal
+    import time
+
+    system = scenes.b1(8).build()
+
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt
+
+    old = signal.signal(signal.SIGALRM, interrupt)
+    cv = direct.DirectCVODE(system, np.zeros(2 * system.n_speeds), 0.0, 1e5, rtol=1e-8, atol=1e-10)
+    try:
+        signal.setitimer(signal.ITIMER_REAL, 0.2)
+        t0 = time.perf_counter()
+        with pytest.raises(KeyboardInterrupt):
+            cv.advance(1e5)  # millions of steps: minutes, were it not for the paused calls
+        assert time.perf_counter() - t0 < 10.0
+        assert 0.0 < cv.t < 1e5
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0.0)
+        signal.signal(signal.SIGALRM, old)
+        cv.close()
+
+
 def test_same_steps_as_simulate_with_newton_preconditioner(direct):
     system = scenes.b1(48).build()  # 48 coordinates: flexmb's GMRES with the O(n) preconditioner
     res, y0, y_end = _simulate(system, 1e-5)

@@ -28,6 +28,7 @@ This is a benchmark's prototype, not part of flexmb.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import os
 
@@ -57,6 +58,7 @@ REACHED, CHECKPOINT, PAUSED = 0, 1, 2
 
 # ----------------------------------------------------------------------------- the cache
 
+@functools.lru_cache(maxsize=None)
 def _own_stamp() -> str:
     with open(os.path.abspath(__file__), "rb") as f:
         return hashlib.sha256(f.read()).hexdigest()

@@ -143,6 +143,23 @@ class _Sundials:
         return cls._loaded
 
 
+def _diagonal_terms_only(system) -> bool:
+    """Whether ``System.state_jacobian`` of ``system`` is what the compiled Jacobian forms.
+
+    That is: its coordinate terms are the diagonal K and C, and no
+    constant point force or body torque adds turning terms.
+    """
+    from flexmb.forces import BodyTorque, PointForce
+
+    kin = system.kinematics(0.0, system.layout.reference(), np.zeros(system.n_speeds))
+    for cls, elements in system.forces.groups:
+        if any(type(e) in (PointForce, BodyTorque) for e in elements):
+            return False
+        if cls.pair_tangent_all(elements, kin) is not None or cls.velocity_tangent_all(elements, kin) is not None:
+            return False
+    return True
+
+
 def _addr(f) -> int:
     return ctypes.cast(f, c_void_p).value
 
@@ -204,6 +221,10 @@ class DirectCVODE:
         self._raised = None  # an exception of a Python callback, raised again after CVODE returns
         n, m, nb = system.n_speeds, len(y0), system.topology.n_bodies
         self.n, self.m = n, m
+        if not (krylov or jacobian is not None or _diagonal_terms_only(system)):
+            raise ValueError("the compiled Jacobian holds diagonal coordinate springs and dampers and the compiled "
+                             "loads only; this model has point forces, body torques or pair or velocity tangents: "
+                             "pass krylov=True or jacobian=")
         self._ud = self._user_data(system, n, m, nb, nonfinite_flag)
         self._check(S.SUNContext_Create(0, byref(self._ctx)), "SUNContext_Create")
         S.SUNContext_ClearErrHandlers(self._ctx)  # failures become CVODEError, not lines on stderr

@@ -168,6 +168,11 @@ def test_refuses_what_it_cannot_run(direct):
     system = model.build()
     with pytest.raises(ValueError, match="angle coordinates"):
         direct.DirectCVODE(system, np.zeros(2), 0.0, 1.0, rtol=1e-6, atol=1e-8)
+    model = scenes.b1(4)
+    model.add(fm.PointForce("push", "beam", (0.0, 0.0, -1.0), point=(1.0, 0.0, 0.0)))
+    system = model.build()
+    with pytest.raises(ValueError, match="point forces"):
+        direct.DirectCVODE(system, np.zeros(2 * system.n_speeds), 0.0, 1.0, rtol=1e-6, atol=1e-8)
 
 
 def test_closed_once_and_refused_after(direct):

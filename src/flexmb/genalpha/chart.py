@@ -36,7 +36,7 @@ What follows for the solver:
   most 1, and half the rotation error);
 - the dense output is the vector method's in the chart of the step's start
   (the Hermite cubic's slope at the end the chart rate
-  ``x' = J_r(x)^-1 omega``, :func:`inverse_right_jacobian`), composed back
+  ``x' = J_r(x)^-1 omega``, :func:`flexmb.quaternions.inverse_right_jacobian`), composed back
   to a unit quaternion;
 - the Euler parameters stay of unit length to rounding: every state is
   ``R0 exp(x)`` by :meth:`flexmb.state_layout.StateLayout.displace`.
@@ -62,37 +62,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..quaternions import inverse_right_jacobian
 from .dense import GeneralizedAlphaDenseOutput
 
-__all__ = ["RotationChart", "ChartDenseOutput", "inverse_right_jacobian"]
-
-
-def inverse_right_jacobian(theta: np.ndarray, omega: np.ndarray) -> np.ndarray:
-    """``J_r(theta)^-1 omega``: the rate of the rotation vector of ``R0 exp([theta]x)`` turning at ``omega``.
-
-    With ``R = R0 exp([theta]x)`` and ``R' = R [omega]x``, ``theta' =
-    omega + theta x omega / 2 + (1 / a^2 - (1 + cos a) / (2 a sin a)) theta
-    x (theta x omega)``, ``a = |theta|`` (the coefficient ``1/12 + a^2/720``
-    for small a).
-
-    Parameters
-    ----------
-    theta : ndarray, shape (m, 3)
-        Rotation vectors, rad (``|theta| < 2 pi``).
-    omega : ndarray, shape (m, 3)
-        Angular velocities in the rotated axes, rad/s.
-
-    Returns
-    -------
-    ndarray, shape (m, 3)
-        ``theta'``, rad/s.
-    """
-    a = np.linalg.norm(theta, axis=-1, keepdims=True)
-    big = a > 1e-4
-    safe = np.where(big, a, 1.0)
-    coef = np.where(big, 1.0 / safe**2 - (1.0 + np.cos(safe)) / (2.0 * safe * np.sin(safe)), 1.0 / 12.0 + a * a / 720.0)
-    tw = np.cross(theta, omega)
-    return omega + 0.5 * tw + coef * np.cross(theta, tw)
+__all__ = ["RotationChart", "ChartDenseOutput"]
 
 
 class RotationChart:

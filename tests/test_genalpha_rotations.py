@@ -180,3 +180,4 @@ def test_winding_angle_beside_a_quaternion_joint_is_rebased():
     assert res.n_rebases > 5
     np.testing.assert_allclose(res.x, ref.x, atol=1e-4)
     assert np.max(np.abs(res.rotations - ref.rotations)) < 1e-4
+

@@ -136,5 +136,5 @@ def test_mixed_with_springs_on_coordinates():
 
 
 def test_sizes_are_per_speed():
-    with pytest.raises(fm.ModelError, match="3 entries .one per speed"):
+    with pytest.raises(fm.ModelError, match=r"stiffness must be a scalar or have 3 entries, got shape \(4,\)"):
         _model(stiffness=[1.0, 1.0, 1.0, 1.0]).build()

@@ -286,8 +286,7 @@ class JointSpringDamper(ForceElement):
         for name in ("stiffness", "damping", "rest"):
             v = getattr(self, name)
             if v.ndim > 1 or (v.ndim == 1 and v.shape[0] != n):
-                out.append(f"{label(self)}: {name} must be a scalar or have {n} entries (one per speed), got shape "
-                           f"{v.shape}")
+                out.append(f"{label(self)}: {name} must be a scalar or have {n} entries, got shape {v.shape}")
         if n == 0:
             out.append(f"{label(self)}: joint {self.joint.name!r} has no coordinates")
         return out

@@ -286,7 +286,9 @@ class ChartDenseOutput(GeneralizedAlphaDenseOutput):
         The chart's centre over the step (the rotations at its start).
     *args
         As :class:`~flexmb.genalpha.dense.GeneralizedAlphaDenseOutput`, in
-        chart states; ``slope_new`` from :meth:`RotationChart.end_slope`.
+        chart states.
+    **kwargs
+        Its ``slope_new``, from :meth:`RotationChart.end_slope`.
     """
 
     def __init__(self, chart, centre, *args, **kwargs):

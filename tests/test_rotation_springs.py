@@ -138,3 +138,35 @@ def test_mixed_with_springs_on_coordinates():
 def test_sizes_are_per_speed():
     with pytest.raises(fm.ModelError, match=r"stiffness must be a scalar or have 3 entries, got shape \(4,\)"):
         _model(stiffness=[1.0, 1.0, 1.0, 1.0]).build()
+
+
+def test_scene_file_takes_a_rotation_spring():
+    scene = fm.loads_scene("""
+[model]
+name = "torsion pendulum"
+[bodies.body]
+type = "rigid_body"
+mass = 1.0
+inertia = [1.0, 1.5, 2.0]
+[joints.ball]
+type = "spherical"
+parent = "ground"
+child = "body"
+rotation = "quaternion"
+[forces.spring]
+type = "joint_spring_damper"
+joint = "ball"
+stiffness = [4.0, 4.0, 4.0]
+rest = [0.0, 0.0, 0.5]
+[initial]
+positions = { ball = [0.0, 0.0, 0.0, 1.0] }
+[solver]
+t_end = 2.0
+method = "GeneralizedAlpha"
+rtol = 1e-8
+""")
+    res = scene.simulate(progress=False)
+    # about z from 0 to the rest at 0.5 rad: theta = 0.5 (1 - cos(sqrt(k / I3) t)), to the method's error (3.2e-6)
+    theta = 0.5 * (1.0 - np.cos(np.sqrt(4.0 / 2.0) * res.t))
+    np.testing.assert_allclose(_rotation_vectors(res)[:, 2], theta, atol=1e-5)
+    np.testing.assert_allclose(_rotation_vectors(res)[:, :2], 0.0, atol=1e-12)

@@ -2,12 +2,14 @@
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/rotations.py --scene top --t-end 5 --rtol 1e-8
     OPENBLAS_NUM_THREADS=1 python benchmarks/rotations.py --scene tumbling --periods 1000 --rtol 1e-8
+    OPENBLAS_NUM_THREADS=1 python benchmarks/rotations.py --scene tumbling --periods 1000 --rtol 1e-6 --method GeneralizedAlpha
 
 Two scenes, each run by flexmb (``Spherical``/``Free`` with
 ``rotation='quaternion'``, ``simulate(method='DOP853')``) and by the hand
 model written here (the rigid body's Euler equations in body axes and
 ``qd = 1/2 q * (w, 0)``, by scipy's ``solve_ivp`` with the same method and
-tolerances; :func:`hand_model`):
+tolerances; :func:`hand_model`; ``--method`` runs flexmb with another
+integrator, e.g. ``GeneralizedAlpha``, against the same DOP853 hand run):
 
 * ``top``: a heavy top on a fixed point (1 kg, mass centre 0.1 m up its
   axis, central inertia diag(0.02, 0.02, 0.01) kg m^2, gravity 9.81 m/s^2)
@@ -130,7 +132,7 @@ def _drifts(scene, R, w, J):
 
 
 def run(scene: str, t_end: float, rtol: float, tilt_deg: float = 100.0, n_out: int = 201,
-        rotations=("quaternion", "bryant"), spin: float = TOP_SPIN) -> list[dict]:
+        rotations=("quaternion", "bryant"), spin: float = TOP_SPIN, method: str = "DOP853") -> list[dict]:
     """The rows of one scene: the hand model, then flexmb with each rotation description."""
     from scipy.integrate import solve_ivp
 
@@ -156,15 +158,15 @@ def run(scene: str, t_end: float, rtol: float, tilt_deg: float = 100.0, n_out: i
         positions, speeds = _flexmb_initial(scene, rotation, q0, w0)
         start = time.perf_counter()
         try:
-            res = fm.simulate(model, t_end, positions=positions, speeds=speeds, method="DOP853", rtol=rtol,
+            res = fm.simulate(model, t_end, positions=positions, speeds=speeds, method=method, rtol=rtol,
                               atol=atol, t_eval=times, progress=False)
         except fm.FlexmbError as exc:
-            rows.append(dict(base, tool=f"flexmb ({rotation})", error=str(exc)))
+            rows.append(dict(base, tool=f"flexmb ({rotation})", method=method, error=str(exc)))
             continue
         wall = time.perf_counter() - start
         R = res.rotations[:, 0]
         w = res.angular_velocity("body", frame="body")
-        rows.append(dict(base, tool=f"flexmb ({rotation})", steps=int(res.n_steps), rhs=int(res.n_rhs),
+        rows.append(dict(base, tool=f"flexmb ({rotation})", method=method, steps=int(res.n_steps), rhs=int(res.n_rhs),
                          wall_s=wall, steps_ratio=res.n_steps / rows[0]["steps"],
                          rotation_error=float(np.max(np.abs(R - R_hand))),
                          **dict(zip(("energy_drift", "momentum_drift"), _drifts(scene, R, w, J)))))
@@ -180,12 +182,13 @@ def main(argv=None):
     p.add_argument("--spin", type=float, default=TOP_SPIN, help="top: initial spin about its axis, rad/s")
     p.add_argument("--rtol", type=float, nargs="+", default=[1e-8])
     p.add_argument("--bryant", action="store_true", help="also run the Bryant-angle joint")
+    p.add_argument("--method", default="DOP853", help="flexmb's integrator (the hand model keeps DOP853)")
     p.add_argument("--out", default=None, help="append the rows (JSON lines) to this file")
     a = p.parse_args(argv)
     t_end = a.t_end if a.scene == "top" else a.periods * 2 * np.pi / np.linalg.norm(BODY_W0)
     rotations = ("quaternion", "bryant") if a.bryant else ("quaternion",)
     for rtol in a.rtol:
-        for row in run(a.scene, t_end, rtol, a.tilt, rotations=rotations, spin=a.spin):
+        for row in run(a.scene, t_end, rtol, a.tilt, rotations=rotations, spin=a.spin, method=a.method):
             line = json.dumps(row)
             print(line, flush=True)
             if a.out:

@@ -72,6 +72,8 @@ class Linearization:
 
 def _exact_element(e) -> bool:
     """Whether the analytic tangent holds all of a force element's dependence on the state."""
+    if type(e) is JointSpringDamper and e.joint.quaternions:  # a rotation spring's diagonal: exact at rest only
+        return False
     if type(e) in _EXACT_CLASSES:
         return True
     if type(e) is PointForce:

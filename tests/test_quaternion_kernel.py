@@ -54,3 +54,102 @@ def test_quaternion_joints_take_the_compiled_route():
         assert not system.topology.external_groups and system._packed is not None
     assert ref.heavy_top()[0].build()._packed_open is not None  # an open tree: one kernel call per rhs
     assert ref.loop()[0].build().with_complement("auto")._loop_kernel  # loops through the recursion
+
+
+def _mixed_chain():
+    """Ball and free joints in Euler parameters beside a revolute on a spring; gravity and loads turning with bodies."""
+    model = fm.Model("mixed")
+    a = fm.RigidBody("a", 1.0, (0.02, 0.03, 0.01), com=(0.1, 0.0, -0.3))
+    b = fm.RigidBody("b", 2.0, (0.05, 0.02, 0.04), com=(0.0, 0.2, -0.2))
+    c = fm.RigidBody("c", 0.5, (0.01, 0.02, 0.03), com=(0.05, 0.05, 0.05))
+    d = fm.RigidBody.slender_bar("d", 0.7, 0.4)
+    turn = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    model.add(fm.Spherical("j1", model.ground, a, rotation="quaternion"),
+              fm.Spherical("j2", a, b, parent_point=(0.1, 0.0, -0.5), parent_frame=turn, rotation="quaternion"),
+              fm.Free("j3", b, c, parent_point=(0.0, 0.3, -0.3), child_point=(0.02, 0.0, 0.0), rotation="quaternion"),
+              fm.Revolute("j4", c, d, parent_point=(0.1, 0.0, 0.0), axis=(0.0, 1.0, 0.0)),
+              fm.JointSpringDamper("spring", "j4", stiffness=30.0, damping=0.4),
+              fm.Gravity((0.0, 0.0, -9.81)), fm.PointForce("push", c, (1.0, 2.0, -3.0), point=(0.1, 0.0, 0.0)),
+              fm.BodyTorque("twist", b, (0.1, -0.2, 0.05), frame="body"))
+    return model.build()
+
+
+def _differences(system, t, y, h=1e-6):
+    """Central differences of the state rate with respect to every entry of y = (q, u)."""
+    J = np.zeros((y.size, y.size))
+    for i in range(y.size):
+        e = np.zeros(y.size)
+        e[i] = h
+        J[:, i] = (system.state_rate(t, y + e) - system.state_rate(t, y - e)) / (2 * h)
+    return J
+
+
+@pytest.mark.parametrize("length", [1.0, 0.9, 1.15])
+def test_state_jacobian_of_euler_parameters_against_differences(length):
+    """``[[d(W u)/dq, W], [dud/dq, dud/du]]``: the kinematic rows exact at any state; the accelerations' rows exact
+    at rest (as for Bryant angles, tests/test_jacobian.py), for quaternions of any length (their direction counts)."""
+    system = _mixed_chain()
+    layout, nq = system.layout, system.layout.nq
+    rng = np.random.default_rng(int(100 * length))
+    q = layout.normalized(layout.reference() + 0.4 * rng.normal(size=nq))
+    q[system.topology.quaternions[0]] *= length
+    for u in (np.zeros(layout.n), rng.normal(size=layout.n)):
+        y = layout.join(q, u)
+        J, fd = system.state_jacobian(0.0, q, u), _differences(system, 0.0, y)
+        assert np.abs(J[:nq] - fd[:nq]).max() < 1e-8 * np.abs(fd[:nq]).max() + 1e-12
+        if not u.any():
+            assert np.abs(J[nq:] - fd[nq:]).max() < 1e-7 * np.abs(fd[nq:]).max()
+            assert np.abs(fd[nq:, :nq]).max() > 1.0  # the accelerations do turn with the quaternions
+    # the columns along a quaternion itself are zero: only its direction moves the bodies
+    ball = system.coordinate_indices("j1")
+    np.testing.assert_allclose(J[nq:, ball] @ q[ball], 0.0, atol=1e-9 * np.abs(J[nq:]).max())
+
+
+def test_newton_preconditioner_solves_the_kinematic_rows_of_euler_parameters():
+    """The O(n) preconditioner against the dense ``I - gamma [[R, W], [-A^-1 K P, -A^-1 C]]`` it stands for."""
+    from flexmb.assembly import mass_matrix
+
+    system = _mixed_chain()
+    layout, nq, n = system.layout, system.layout.nq, system.layout.n
+    rng = np.random.default_rng(4)
+    q = layout.normalized(layout.reference() + 0.4 * rng.normal(size=nq))
+    q[system.topology.quaternions[0]] *= 1.1
+    u = rng.normal(size=n)
+    pre = system.newton_preconditioner()
+    pre.setup(0.0, q, u)
+    K, C = np.diag(pre.stiffness), np.diag(pre.damping)
+    assert K.any() and C.any()
+    A = mass_matrix(system.kinematics(0.0, q, u))
+    P = layout.per_coordinate(q, np.eye(n))
+    J = np.block([[layout.rate_jacobian(q, u), layout.kinematic_matrix(q)],
+                  [-np.linalg.solve(A, K @ P), -np.linalg.solve(A, C)]])
+    gamma = 0.03
+    r = rng.normal(size=nq + n)
+    z = np.linalg.solve(np.eye(nq + n) - gamma * J, r)
+    z1, z2 = pre.solve(r[:nq], r[nq:], gamma)
+    np.testing.assert_allclose(np.concatenate([z1, z2]), z, rtol=1e-10, atol=1e-12 * np.abs(z).max())
+
+
+@pytest.mark.parametrize("method", ["CVODE_BDF", "IDA"])
+def test_a_long_chain_in_euler_parameters_takes_the_newton_preconditioner(method):
+    """16 ball joints in Euler parameters (48 speeds, KRYLOV_MIN_COORDS): GMRES with the O(n) preconditioner, the
+    same motion as DOP853 at a tight tolerance."""
+    from flexmb.stepping import KRYLOV_MIN_COORDS
+
+    model = fm.Model("rope")
+    parent = model.ground
+    for i in range(KRYLOV_MIN_COORDS // 3):
+        link = fm.RigidBody(f"l{i}", 0.1, (1e-4, 1e-4, 2e-5), com=(0.0, 0.0, -0.05))
+        model.add(fm.Spherical(f"b{i}", parent, link, parent_point=(0.0, 0.0, -0.1 if i else 0.0),
+                               rotation="quaternion"))
+        parent = link
+    model.add(fm.Gravity((0.0, 0.0, -9.81)))
+    positions = {"b0": [0.3, 0.1, 0.0, 1.0]}
+    speeds = {"b3.wy": 2.0, "b9.wx": -1.0}
+    ref_run = fm.simulate(model, 0.1, method="DOP853", rtol=1e-12, atol=1e-14, positions=positions, speeds=speeds,
+                          n_out=3, progress=False)
+    res = fm.simulate(model, 0.1, method=method, rtol=1e-8, atol=1e-10, positions=positions, speeds=speeds, n_out=3,
+                      progress=False)
+    assert res.status == "finished" and res.n_jac > 0  # preconditioner set-ups (no dense Jacobian: no springs)
+    R, R_ref = res.rotations[-1], ref_run.rotations[-1]
+    assert np.abs(R - R_ref).max() < 1e-6

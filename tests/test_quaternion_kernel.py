@@ -153,3 +153,36 @@ def test_a_long_chain_in_euler_parameters_takes_the_newton_preconditioner(method
     assert res.status == "finished" and res.n_jac > 0  # preconditioner set-ups (no dense Jacobian: no springs)
     R, R_ref = res.rotations[-1], ref_run.rotations[-1]
     assert np.abs(R - R_ref).max() < 1e-6
+
+
+def test_loops_through_euler_parameters_by_the_loop_kernel():
+    """The crank-rod-slider loop with its rod on a ball joint in Euler parameters, closed by the articulated-body
+    recursion (complement='articulated', A and psi never formed): main's rates (its dense route) to 1e-10, and a
+    run whose projections move the quaternion by the loop kernels and keep it of unit length."""
+    model, ic = ref.loop()
+    system = model.build(complement="articulated")
+    assert system._loop_kernel
+    name = "loop_rates"
+    states, rates = REFERENCE[f"{name}/y"], REFERENCE[f"{name}/rate"]
+    for y, rate in zip(states, rates):
+        np.testing.assert_allclose(system.state_rate(0.3, y), rate, rtol=1e-10, atol=1e-10 * np.abs(rate).max())
+    res = fm.simulate(model, 0.3, method="DOP853", rtol=1e-9, complement="articulated", n_out=21, progress=False,
+                      **ic)
+    dense = REFERENCE["loop_dop853/x"]
+    ball = system.coordinate_indices("ball")
+    assert np.max(res.residual) < 1e-9 and np.max(np.abs(np.linalg.norm(res.x[:, ball], axis=1) - 1.0)) < 1e-12
+    assert np.abs(res.x - dense).max() < 1e-7  # the same motion within the integration's error
+
+
+def test_a_joint_class_with_euler_parameters_the_generic_motion_cannot_take_is_refused():
+    from attrs import frozen
+
+    @frozen(eq=False)
+    class TwoTurns(fm.Joint):
+        coordinate_names = ("ax", "ay", "az", "aw", "bx", "by", "bz", "bw")
+        quaternions = (((0, 1, 2, 3), (0, 1, 2)), ((4, 5, 6, 7), (3, 4, 5)))
+
+    model = fm.Model()
+    body = fm.RigidBody("b", 1.0, (1.0, 1.0, 1.0))
+    with pytest.raises(fm.ModelError, match="TwoTurns: the generic motion takes one set of Euler parameters"):
+        model.add(TwoTurns("double", model.ground, body)).build()

@@ -22,7 +22,7 @@ from .cache import njit
 from .dynamics import axis_projections, bias_wrenches, spatial_inertias
 from .loads import apply_load_tables
 from .packing import unpack
-from .tree import coordinate_rates, tree_state
+from .tree import euler_parameter_rates, tree_state
 
 __all__ = ["solve_spd", "articulated_factor", "articulated_solve", "articulated_accelerations", "open_tree_accelerations", "open_tree_rhs", "mass_times"]
 
@@ -395,7 +395,7 @@ def open_tree_rhs(packed, y, nq, armature):
     -------
     ydot : ndarray, shape (nq + n,)
         ``(qd, ud)``, ``qd = W(q) u``
-        (:func:`~flexmb.kernels.tree.coordinate_rates`).
+        (:func:`~flexmb.kernels.tree.euler_parameter_rates`).
     status : int
         -1 if ``ydot`` is finite, -2 if not, or the body whose joint has a
         singular articulated inertia.
@@ -413,12 +413,14 @@ def open_tree_rhs(packed, y, nq, armature):
     xdd, bad = open_tree_accelerations(tree.parent, tree.coord_start, R, r, omega, alpha, acc, tree.mass,
                                        tree.inertia, Sw, Sv, force, torque, generalized, armature)
     ydot = np.empty(nq + n)
-    coordinate_rates(tree.coord_start, tree.coord_kind, tree.coord_axis, x, xd, ydot[:nq])
     status = bad
     for i in range(n):
+        ydot[i] = xd[i]
         ydot[nq + i] = xdd[i]
         if status == -1 and not (np.isfinite(xdd[i]) and np.isfinite(xd[i])):
             status = -2
+    if nq > n:
+        euler_parameter_rates(tree.coord_start, tree.coord_kind, tree.coord_axis, x, xd, ydot)
     return ydot, status
 
 

@@ -21,7 +21,7 @@ from typing import NamedTuple
 import numpy as np
 from .cache import njit
 
-__all__ = ["TreeArrays", "joint_motions", "coordinate_rates", "tree_kinematics", "tree_state", "upstream_rows"]
+__all__ = ["TreeArrays", "joint_motions", "euler_parameter_rates", "tree_kinematics", "tree_state", "upstream_rows"]
 
 
 class TreeArrays(NamedTuple):
@@ -105,7 +105,7 @@ def _mmt_to(out, A, B):
 
 
 @njit(cache=True, inline="always")
-def _euler_parameter_turn(x, xd, c, qw, R, w, awk, hw, hv, T):
+def _euler_parameter_turn(x, xd, c, qw, R, w, awk, hw, hv):
     """The set of Euler parameters at speeds ``c, c + 1, c + 2`` (:mod:`flexmb.quaternions`): ``R <- R R(q)``.
 
     ``q = (x[c], x[c + 1], x[c + 2], x[qw])``, normalised; the speeds are
@@ -120,14 +120,15 @@ def _euler_parameter_turn(x, xd, c, qw, R, w, awk, hw, hv, T):
     qx, qy, qz, qs = qx / size, qy / size, qz / size, qs / size
     # R(q) = (qs^2 - qv.qv) I + 2 qv qv^T + 2 qs [qv]x
     diag = qs * qs - (qx * qx + qy * qy + qz * qz)
-    T[0, 0], T[1, 1], T[2, 2] = diag + 2.0 * qx * qx, diag + 2.0 * qy * qy, diag + 2.0 * qz * qz
-    T[0, 1], T[1, 0] = 2.0 * qx * qy - 2.0 * qs * qz, 2.0 * qx * qy + 2.0 * qs * qz
-    T[0, 2], T[2, 0] = 2.0 * qx * qz + 2.0 * qs * qy, 2.0 * qx * qz - 2.0 * qs * qy
-    T[1, 2], T[2, 1] = 2.0 * qy * qz - 2.0 * qs * qx, 2.0 * qy * qz + 2.0 * qs * qx
+    t00, t11, t22 = diag + 2.0 * qx * qx, diag + 2.0 * qy * qy, diag + 2.0 * qz * qz
+    t01, t10 = 2.0 * qx * qy - 2.0 * qs * qz, 2.0 * qx * qy + 2.0 * qs * qz
+    t02, t20 = 2.0 * qx * qz + 2.0 * qs * qy, 2.0 * qx * qz - 2.0 * qs * qy
+    t12, t21 = 2.0 * qy * qz - 2.0 * qs * qx, 2.0 * qy * qz + 2.0 * qs * qx
     for i in range(3):
         r0, r1, r2 = R[i, 0], R[i, 1], R[i, 2]
-        for j in range(3):
-            R[i, j] = r0 * T[0, j] + r1 * T[1, j] + r2 * T[2, j]
+        R[i, 0] = r0 * t00 + r1 * t10 + r2 * t20
+        R[i, 1] = r0 * t01 + r1 * t11 + r2 * t21
+        R[i, 2] = r0 * t02 + r1 * t12 + r2 * t22
     s0 = s1 = s2 = 0.0
     for a in range(3):
         u = xd[c + a]
@@ -182,7 +183,6 @@ def joint_motions(x, xd, coord_start, coord_kind, coord_axis, external, Rj, d, h
     nb = coord_start.shape[0] - 1
     w = np.empty(3)
     ci = np.empty(3)
-    T = np.empty((3, 3))
     for k in range(nb):
         if external[k]:
             continue
@@ -198,7 +198,7 @@ def joint_motions(x, xd, coord_start, coord_kind, coord_axis, external, Rj, d, h
             ax = coord_axis[c]
             if coord_kind[c] == _QUATERNION:  # the set, at its first speed (its last freedoms)
                 if c == c0 or coord_kind[c - 1] != _QUATERNION:
-                    _euler_parameter_turn(x, xd, c, ax, R, w, aw[k], hw, hv, T)
+                    _euler_parameter_turn(x, xd, c, ax, R, w, aw[k], hw, hv)
                 continue
             hw[c, :] = 0.0
             hv[c, :] = 0.0
@@ -225,9 +225,12 @@ def joint_motions(x, xd, coord_start, coord_kind, coord_axis, external, Rj, d, h
                 R[i, j1] = cq * R[i, j1] - sq * ci[i]
 
 
-@njit(cache=True)
-def coordinate_rates(coord_start, coord_kind, coord_axis, x, xd, qd):
-    """``qd = W(q) u`` (:mod:`flexmb.state_layout`): the speeds, and ``1/2 q * (w, 0)`` for Euler parameters.
+@njit(cache=True, inline="always")
+def euler_parameter_rates(coord_start, coord_kind, coord_axis, x, xd, qd):
+    """The Euler parameters' entries of ``qd = W(q) u``: ``1/2 q * (w, 0)`` (:mod:`flexmb.state_layout`).
+
+    The other entries of qd (``qd[i] = u[i]``, ``W = I``) are left to the
+    caller.
 
     Parameters
     ----------
@@ -239,14 +242,9 @@ def coordinate_rates(coord_start, coord_kind, coord_axis, x, xd, qd):
         Coordinates q.
     xd : ndarray, shape (n,)
         Speeds u.
-    qd : ndarray, shape (nq,)
-        Output: the coordinates' rates.
+    qd : ndarray, shape (>= nq,)
+        Output: the coordinates' rates, written at the Euler parameters.
     """
-    n = xd.shape[0]
-    for i in range(n):
-        qd[i] = xd[i]
-    if x.shape[0] == n:  # no Euler parameters: W = I
-        return
     for k in range(coord_start.shape[0] - 1):
         c0 = coord_start[k]
         for c in range(c0, coord_start[k + 1]):

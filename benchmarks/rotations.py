@@ -24,7 +24,8 @@ tolerances; :func:`hand_model`):
 
 Each row (JSON, one per line, to stdout and ``--out``): the steps and
 right-hand sides, the wall and CPU times (``process_time``; flexmb's also
-as a ratio to the hand model's), the largest drift of the energy
+as a ratio to the hand model's; after one short run of each flexmb model,
+which loads the compiled kernels), the largest drift of the energy
 (relative) and of the angular momentum (relative; the top: its vertical
 component and the spin component along the axis, both conserved), and
 the largest distance of flexmb's rotation matrices from the hand model's
@@ -174,6 +175,17 @@ def run(scene: str, t_end: float, rtol: float, tilt_deg: float = 100.0, n_out: i
     return rows
 
 
+def _warm_up(scene, rotations):
+    """One short run of each flexmb model first: the compiled kernels load (start-up: benchmarks/startup.py)."""
+    import flexmb as fm
+
+    q0, w0 = initial_state(scene, 30.0)
+    for rotation in rotations:
+        positions, speeds = _flexmb_initial(scene, rotation, q0, w0)
+        fm.simulate(flexmb_model(scene, rotation), 1e-3, positions=positions, speeds=speeds, method="DOP853",
+                    n_out=2, progress=False)
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--scene", choices=("top", "tumbling"), default="top")
@@ -187,6 +199,7 @@ def main(argv=None):
     a = p.parse_args(argv)
     t_end = a.t_end if a.scene == "top" else a.periods * 2 * np.pi / np.linalg.norm(BODY_W0)
     rotations = ("quaternion", "bryant") if a.bryant else ("quaternion",)
+    _warm_up(a.scene, rotations)
     for rtol in a.rtol:
         for row in run(a.scene, t_end, rtol, a.tilt, rotations=rotations, spin=a.spin):
             line = json.dumps(row)

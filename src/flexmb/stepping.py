@@ -273,10 +273,9 @@ class Run:
             events = self.events
             self.options["events"] = (
                 lambda t, z: events.root_functions(t, z if self.offset is None else z + self.offset), events.count)
-        if (caps.uses_preconditioner and (system.articulated or system._loop_kernel) and n >= KRYLOV_MIN_COORDS
-                and system.layout.identity):  # the preconditioner's block form [[0, I], [Jx, Jv]] needs qd = u
+        if caps.uses_preconditioner and (system.articulated or system._loop_kernel) and n >= KRYLOV_MIN_COORDS:
             # an open tree, or loops closed through the recursion: O(n) Newton solves, no matrix
-            # (System.newton_preconditioner)
+            # (System.newton_preconditioner; with Euler parameters too, qd = W(q) u)
             self.preconditioner = system.newton_preconditioner()
             self.options["preconditioner"] = _OffsetPreconditioner(self.preconditioner, self)
         elif caps.uses_jacobian and system.state_jacobian(self.t0, x, xd) is not None:

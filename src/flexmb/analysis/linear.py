@@ -134,6 +134,8 @@ def tangent_gap(system, x0, xd0, t: float = 0.0) -> str:
         return "closed loops: the constraint forces change with the state"
     if system.topology.external_groups:
         return "a joint class evaluated in Python: its motion's second derivatives are not known"
+    if not system.layout.identity:  # kept on the differences they had while their motion was evaluated in Python
+        return "joints in Euler parameters: linearised by differences along the speeds"
     others = sorted({type(e).__name__ for _, els in system.forces.groups for e in els if not _exact_element(e)})
     if others:
         return f"force elements whose state dependence the tangent lacks: {', '.join(others)}"

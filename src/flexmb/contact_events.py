@@ -25,7 +25,8 @@ these crossings events of the run (:class:`flexmb.stepping.Run`):
   integrator's bound), so that the state there comes from a smooth
   interval and not from an interpolant across the kink, keeps the outputs
   up to it, records the event with the rate of penetration there (the
-  impact speed at an onset; ``Result.contact_events``) and restarts the
+  impact speed at an onset; ``Result.contact_events``; the contact holds
+  it until its separation, :mod:`flexmb.impact_speeds`) and restarts the
   integrator there: the step is restarted at the event, not stepped
   through. A contact changes state :data:`ROOT_OFFSET` past the touch
   (or, just after an event whose state lies on the old side by more, twice
@@ -55,6 +56,7 @@ import warnings
 import numpy as np
 
 from .errors import StiffnessWarning
+from .impact_speeds import HeldSpeeds
 
 __all__ = ["ContactEvents", "contact_gaps", "EVENT_TOL", "ROOT_OFFSET", "CONTACT_STEP_LIMIT",
            "TINY_STEP_RATIO", "REFUSED_STEP_SHRINK", "MIN_REFUSED_STEP"]
@@ -191,6 +193,7 @@ class ContactEvents:
         self.steps_on = self.steps_off = 0
         self.time_on = self.time_off = 0.0
         self.warned = False
+        self.held = HeldSpeeds.of(system)
 
     @classmethod
     def of(cls, system, t0, t_end, explicit, name):
@@ -270,6 +273,13 @@ class ContactEvents:
     def start(self, t, y) -> None:
         """Take the contacts' states at the start of the run (no event).
 
+        A contact touches at the start if its penetration is above
+        ``-ROOT_OFFSET``: one started exactly at the touch (a body set down
+        on a surface) is a resting contact, not an impact at the speed
+        with which it crosses the offset (a restitution law would hold that
+        speed, nearly 0, and damp the contact without bound:
+        :mod:`flexmb.impact_speeds`).
+
         Parameters
         ----------
         t : float
@@ -278,8 +288,13 @@ class ContactEvents:
             The true state.
         """
         self.delta, self.rate, self.normal = contact_gaps(self.system, t, *self.layout.split(y))
-        self.touching = self.delta > 0
+        self.touching = self.delta > -ROOT_OFFSET
         self.band = np.full(len(self.names), ROOT_OFFSET)
+        self.held.release()  # a contact touching at the start holds no impact speed
+
+    def finish(self) -> None:
+        """End the run: the contacts hold no impact speeds any more (:mod:`flexmb.impact_speeds`)."""
+        self.held.release()
 
     def after_step(self, t_start, t_end, y_end, dense, root=None):
         """The first event within the step ``[t_start, t_end]``, or None; refuses a step through a surface.
@@ -375,12 +390,20 @@ class ContactEvents:
         self.delta, self.rate, self.normal = delta, rate, normal
 
     def _record(self, t, changed, rate):
-        """Flip the states of the contacts ``changed`` at ``t`` and record their events with the rates there."""
+        """Flip the states of the contacts ``changed`` at ``t``, record their events with the rates there.
+
+        A contact holds the rate at its onset as its impact speed until
+        its separation (:mod:`flexmb.impact_speeds`).
+        """
         self.steps_on, self.time_on = 0, 0.0  # a new stretch of the contacts' states begins
         for i in changed:
             self.touching[i] = not self.touching[i]
             self.events.append((float(t), self.names[i], "onset" if self.touching[i] else "separation",
                                 float(rate[i])))
+            if self.touching[i]:
+                self.held.hold(self.names[i], float(rate[i]))
+            else:
+                self.held.release(self.names[i])
 
     def _count(self, h, on):
         """Count a step of ``h`` s in contact (``on``) or off it; give the notice on tiny steps once.

@@ -178,7 +178,7 @@ class Contact(ForceElement):
         return topology.cache[key]
 
     @classmethod
-    def row_states(cls, elements, state):
+    def row_states(cls, elements, state, held=None):
         """What each row of the elements' tables does at a kinematic state (one row per touching pair).
 
         Parameters
@@ -187,6 +187,10 @@ class Contact(ForceElement):
             Elements of this class in the model.
         state : Kinematics
             The kinematic state.
+        held : ndarray, shape (c,), optional
+            The impact speeds the rows of a restitution law hold, m/s (0:
+            none; :mod:`flexmb.impact_speeds`); default: what they hold now
+            (in a run, since their onsets; none outside one).
 
         Returns
         -------
@@ -198,11 +202,16 @@ class Contact(ForceElement):
             :class:`~flexmb.forces.contact_groups.ContactGroup` one per pair).
         """
         t = class_tables(cls, elements, state.topology)
-        return contact_states(t.contact_rows, t.contact_local, t.contact_geom, t.contact_laws, t.contact_par,
+        par = t.contact_par
+        if held is not None:
+            par = par.copy()
+            restitution = t.contact_laws[:, 1] == _k.RESTITUTION
+            par[restitution, 4] = np.broadcast_to(np.asarray(held, dtype=float), len(par))[restitution]
+        return contact_states(t.contact_rows, t.contact_local, t.contact_geom, t.contact_laws, par,
                               state.R, state.origin, state.r, state.omega, state.v)
 
     @classmethod
-    def states_all(cls, elements, state):
+    def states_all(cls, elements, state, held=None):
         """What each element does at a kinematic state, its rows merged (:meth:`row_states`).
 
         An element of several rows reports: its deepest row's penetration,
@@ -216,6 +225,8 @@ class Contact(ForceElement):
             Elements of this class in the model.
         state : Kinematics
             The kinematic state.
+        held : ndarray, shape (c,), optional
+            The impact speeds the rows hold (:meth:`row_states`).
 
         Returns
         -------
@@ -223,7 +234,7 @@ class Contact(ForceElement):
             delta, rate, normal force, elastic energy (shape (e,)), point,
             normal, force, slip (shape (e, 3)), e the number of elements.
         """
-        rows = cls.row_states(elements, state)
+        rows = cls.row_states(elements, state, held)
         owner = cls._owners(elements, state.topology)
         if len(owner) == len(elements):
             return rows

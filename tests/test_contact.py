@@ -28,6 +28,7 @@ import numpy as np
 import pytest
 
 import flexmb as fm
+from flexmb.export import vtk
 from flexmb.forces.contact import restitution_of_hysteresis
 from flexmb.kernels.contact import hysteresis_invariant, impact_speed
 
@@ -300,6 +301,9 @@ def test_dropped_ball_holds_its_impact_speed(law):
             force = DROP_K * d ** 1.5 * (1 + law.chi * rate / v_in)
             assert np.allclose(h.normal_force[inside], force, rtol=1e-12, atol=0)
             assert np.allclose(res.xdd[inside, 0], force / DROP_M - G_ACC, rtol=1e-9, atol=0)
+            i = np.flatnonzero(inside)[len(force) // 2]
+            mesh = vtk.to_meshio(res, i, system=res.system)
+            assert mesh.point_data["contact_force"][-1, 2] == pytest.approx(h.normal_force[i], rel=1e-12)
     assert -rate_off / v_in == pytest.approx(restitution_of_hysteresis(law.chi), rel=2e-7)  # g t_c / v_in: 7e-8
 
 

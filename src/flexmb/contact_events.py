@@ -33,7 +33,8 @@ these crossings events of the run (:class:`flexmb.stepping.Run`):
   that distance), so that no restart begins on a root;
 * a step from free flight into a surface is thus never kept: it is taken
   again up to the touch. A step that carries a touching body through the
-  other (its contact normal reversed between the step's ends: a sphere's
+  other (the normal of a touching pair of surfaces reversed between the
+  step's ends, compared pair by pair, the rows of a contact: a sphere's
   centre past the other's, a pin past the bearing's centre; the force
   would then push it on through) is refused: the integrator is restarted
   from the step's start with an eighth of the step, and the run fails,
@@ -124,13 +125,28 @@ def contact_gaps(system, t, x, xd):
     >>> delta.round(6), rate, normal
     (array([-0.01]), array([1.]), array([[0., 0., 1.]]))
     """
+    return _states(system, t, x, xd)[:3]
+
+
+def _states(system, t, x, xd):
+    """:func:`contact_gaps`, and the rows': penetration, normal and element (an index into the contacts)."""
+    from .forces.contact_base import merge_rows
+
     groups = _contact_groups(system)
     if not groups:
-        return np.zeros(0), np.zeros(0), np.zeros((0, 3))
+        return np.zeros(0), np.zeros(0), np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3)), np.zeros(0, dtype=int)
     kin = system._kinematics(t, x, xd)
-    parts = [cls.states_all(elements, kin) for cls, elements in groups]
-    return (np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts]),
-            np.concatenate([p[5] for p in parts]))
+    merged, rows, owners, first = [], [], [], 0
+    for cls, elements in groups:
+        row = cls.row_states(elements, kin)
+        owner = cls._owners(elements, kin.topology)
+        merged.append(row if len(owner) == len(elements) else merge_rows(owner, len(elements), *row))
+        rows.append(row)
+        owners.append(owner + first)
+        first += len(elements)
+    return (np.concatenate([p[0] for p in merged]), np.concatenate([p[1] for p in merged]),
+            np.concatenate([p[5] for p in merged]), np.concatenate([p[0] for p in rows]),
+            np.concatenate([p[5] for p in rows]), np.concatenate(owners))
 
 
 class Refused(Exception):
@@ -287,7 +303,7 @@ class ContactEvents:
         y : ndarray
             The true state.
         """
-        self.delta, self.rate, self.normal = contact_gaps(self.system, t, *self.layout.split(y))
+        self.delta, self.rate, self.normal, *self.rows = _states(self.system, t, *self.layout.split(y))
         self.touching = self.delta > -ROOT_OFFSET
         self.band = np.full(len(self.names), ROOT_OFFSET)
         self.held.release()  # a contact touching at the start holds no impact speed
@@ -327,11 +343,11 @@ class ContactEvents:
         Refused
             If a touching contact's normal reversed within the step.
         """
-        delta, rate, normal = contact_gaps(self.system, t_end, *self.layout.split(y_end))
+        delta, rate, normal, *rows = _states(self.system, t_end, *self.layout.split(y_end))
         h = t_end - t_start
         if root is not None and np.any(root != 0):
             return t_end, np.flatnonzero(root != 0)
-        through = np.flatnonzero(self.touching & (np.einsum("ij,ij->i", self.normal, normal) < 0))
+        through = self._through(rows[1])
         if len(through):
             self.n_refused += 1
             i = through[0]
@@ -360,8 +376,20 @@ class ContactEvents:
             t_e = min(roots.values())
             return t_e, np.array(sorted(i for i, r in roots.items() if r <= t_e + tol))
         self._count(h, bool(np.any(self.touching)))
-        self.delta, self.rate, self.normal = delta, rate, normal
+        self.delta, self.rate, self.normal, self.rows = delta, rate, normal, rows
         return None
+
+    def _through(self, normal):
+        """The touching contacts one of whose touching rows has its normal reversed at the step's end (``normal``).
+
+        Row by row: a contact of several rows (a capsule's ends, a group's
+        pairs) has rows whose normals differ (a ball between a beam and a
+        plane), and its deepest row can change within a step.
+        """
+        delta, before, owner = self.rows
+        touching = self.touching[owner] & (delta > -self.band[owner])
+        reversed_ = touching & (np.einsum("ij,ij->i", before, normal) < 0)
+        return np.unique(owner[reversed_])
 
     def confirm(self, t_start, t, y, changed) -> None:
         """Record the events of the contacts ``changed`` at ``t``, with the true state ``y`` there.
@@ -382,12 +410,12 @@ class ContactEvents:
         changed : ndarray of int
             The contacts whose state changes.
         """
-        delta, rate, normal = contact_gaps(self.system, t, *self.layout.split(y))
+        delta, rate, normal, *rows = _states(self.system, t, *self.layout.split(y))
         self._count(t - t_start, bool(np.any(self.touching)))
         self._record(t, changed, rate)
         short = np.where(self.touching, -delta, delta)[changed]  # > 0: on the side it left
         self.band[changed] = np.maximum(ROOT_OFFSET, 2 * short)
-        self.delta, self.rate, self.normal = delta, rate, normal
+        self.delta, self.rate, self.normal, self.rows = delta, rate, normal, rows
 
     def _record(self, t, changed, rate):
         """Flip the states of the contacts ``changed`` at ``t``, record their events with the rates there.

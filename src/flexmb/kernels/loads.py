@@ -388,56 +388,56 @@ def _contact_eval(rows, local, geom, laws, par, R, origin, r, omega, v, centre, 
 
 
 @njit(cache=True, inline="always")
-def _contact_row(i, rows, local, geom, laws, par, group, R, origin, r, omega, v, force, torque, powers, track, centre,
-                 ends, q, u, nrm, f):
-    """Contact row i: equal and opposite forces at its point (into F, eq. 5); power ``f . u``."""
-    delta, _ = _contact_eval(rows[i], local[i], geom[i], laws[i], par[i], R, origin, r, omega, v, centre, ends, q, u,
-                             nrm, f)
-    if delta <= 0.0:
-        return
-    if track:
-        powers[group[i]] += f[0] * u[0] + f[1] * u[1] + f[2] * u[2]
-    for s in range(2):
-        k = rows[i, s]
-        sign = 1.0 if s == 0 else -1.0
-        lx, ly, lz = q[0] - r[k, 0], q[1] - r[k, 1], q[2] - r[k, 2]
-        fx, fy, fz = sign * f[0], sign * f[1], sign * f[2]
-        force[k, 0] += fx
-        force[k, 1] += fy
-        force[k, 2] += fz
-        torque[k, 0] += ly * fz - lz * fy
-        torque[k, 1] += lz * fx - lx * fz
-        torque[k, 2] += lx * fy - ly * fx
-
-
-@njit(cache=True, inline="always")
 def _contact_loads(t, R, origin, r, omega, v, force, torque, powers, track):
-    """Contacts: the rows evaluated always and those the broad phase finds (:mod:`flexmb.kernels.broadphase`).
+    """Contacts: equal and opposite forces at their points (into F, eq. 5); power ``f . u``.
 
-    In increasing row order, so that the loads are summed as if every row
-    were evaluated (a row whose shapes' boxes are apart exerts nothing).
+    Every row, or, with blocks of a group against a group, the rows
+    evaluated always and those the broad phase finds
+    (:mod:`flexmb.kernels.broadphase`), in increasing row order, so that the
+    loads are summed as if every row were evaluated (a row whose shapes'
+    boxes are apart exerts nothing).
     """
-    if t.contact_rows.shape[0]:
-        centre = np.empty((2, 3))
-        ends = np.empty((2, 3))
-        q = np.empty(3)
-        u = np.empty(3)
-        nrm = np.empty(3)
-        f = np.empty(3)
-        always = t.contact_always
-        found = (block_candidates(t.contact_blocks, t.sweep_rows, t.sweep_local, t.sweep_radius, t.contact_block_map,
-                                  R, origin) if t.contact_blocks.shape[0] else np.zeros(0, dtype=np.int64))
-        a, b = 0, 0
-        while a < always.shape[0] or b < found.shape[0]:
-            if b >= found.shape[0] or (a < always.shape[0] and always[a] < found[b]):
-                i = always[a]
-                a += 1
-            else:
-                i = found[b]
-                b += 1
-            _contact_row(i, t.contact_rows, t.contact_local, t.contact_geom, t.contact_laws, t.contact_par,
-                         t.contact_group, R, origin, r, omega, v, force, torque, powers, track, centre, ends, q, u,
-                         nrm, f)
+    rows, local, geom, laws, par, group = (t.contact_rows, t.contact_local, t.contact_geom, t.contact_laws,
+                                           t.contact_par, t.contact_group)
+    if not rows.shape[0]:
+        return
+    centre = np.empty((2, 3))
+    ends = np.empty((2, 3))
+    q = np.empty(3)
+    u = np.empty(3)
+    nrm = np.empty(3)
+    f = np.empty(3)
+    blocked = t.contact_blocks.shape[0] > 0
+    always = t.contact_always
+    found = (block_candidates(t.contact_blocks, t.sweep_rows, t.sweep_local, t.sweep_radius, t.contact_block_map, R,
+                              origin) if blocked else always[:0])
+    a, b = 0, 0
+    for step in range(always.shape[0] + found.shape[0] if blocked else rows.shape[0]):
+        if not blocked:
+            i = step
+        elif b >= found.shape[0] or (a < always.shape[0] and always[a] < found[b]):
+            i = always[a]
+            a += 1
+        else:
+            i = found[b]
+            b += 1
+        delta, _ = _contact_eval(rows[i], local[i], geom[i], laws[i], par[i], R, origin, r, omega, v, centre, ends, q,
+                                 u, nrm, f)
+        if delta <= 0.0:
+            continue
+        if track:
+            powers[group[i]] += f[0] * u[0] + f[1] * u[1] + f[2] * u[2]
+        for s in range(2):
+            k = rows[i, s]
+            sign = 1.0 if s == 0 else -1.0
+            lx, ly, lz = q[0] - r[k, 0], q[1] - r[k, 1], q[2] - r[k, 2]
+            fx, fy, fz = sign * f[0], sign * f[1], sign * f[2]
+            force[k, 0] += fx
+            force[k, 1] += fy
+            force[k, 2] += fz
+            torque[k, 0] += ly * fz - lz * fy
+            torque[k, 1] += lz * fx - lx * fz
+            torque[k, 2] += lx * fy - ly * fx
 
 
 @njit(cache=True)

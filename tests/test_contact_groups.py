@@ -197,13 +197,13 @@ def _boxes(local, radius):
 
 
 @pytest.mark.parametrize("spread, size", [(1.0, 0.05), (1.0, 0.5), (1e-3, 0.05), (1e6, 1e-3), (0.0, 0.01)])
-def test_the_broad_phase_finds_exactly_the_pairs_whose_boxes_overlap(spread, size):
-    """Random capsules and spheres in two lists: the grid's pairs are those of the boxes compared one by one.
+def test_the_broad_phase_finds_the_pairs_whose_boxes_overlap(spread, size):
+    """Random capsules and spheres in two lists: the grid's pairs against the boxes compared one by one.
 
     Shapes scattered widely or packed in one cell, of sizes alike or
-    spread, one list on a rotated and moved body: every pair whose boxes
-    overlap (grown by the margin) is found, none other, each once, in row
-    order, and no pair without a row (-1) is.
+    spread, one list on a rotated and moved body: every pair whose true
+    boxes overlap is found, each once, in row order; none whose boxes
+    grown by twice the margin are apart, nor any pair without a row (-1).
     """
     from flexmb.kernels.broadphase import MARGIN, block_candidates
 

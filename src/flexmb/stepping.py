@@ -339,6 +339,8 @@ class Run:
                 self.message = f"at t = {self.t_now:.9g} s: {type(exc).__name__}: {exc}"
         finally:
             bar.close()  # the bar's line ends before any message
+            if self.events is not None:
+                self.events.finish()
         self.wall = _time.perf_counter() - t_wall
 
     def _advance(self, solver, bar) -> None:

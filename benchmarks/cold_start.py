@@ -114,8 +114,10 @@ def run_once(python: str, checkout: str, command: str, cache: str, work: str) ->
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     lines = [ln for ln in proc.stderr.splitlines() if ln.strip()]
+    out = [ln for ln in proc.stdout.splitlines() if ln.strip()]
     return {"cpu_s": round(cpu, 3), "wall_s": round(wall, 3), "status": proc.returncode,
-            "stderr_first": lines[0] if lines else "", "stderr_tail": lines[-1] if proc.returncode else ""}
+            "stderr_first": lines[0] if lines else "", "stderr_tail": lines[-1] if proc.returncode and lines else "",
+            "stdout_tail": out[-1] if out else ""}
 
 
 def measure(venvs: dict[str, str], commands: list[str], repeat: int, out: str, warm_runs: int = 1) -> None:

@@ -35,6 +35,7 @@ from ._signals import escaped, interruption, who
 from .contact_events import ContactEvents, StepFailure
 from .event_restart import cut_at_event
 from .errors import AssemblyError
+from .offset_preconditioner import OffsetPreconditioner
 from .output_projection import project_output
 from .progress import Progress
 from .result import Result
@@ -75,35 +76,6 @@ WINDING_BOUND = 3.0 * np.pi
 
 class _Wound(Exception):
     """An angle left the winding bound during :meth:`Run._advance` (the run moves the offsets and goes on)."""
-
-
-class _OffsetPreconditioner:
-    """A Newton preconditioner set up at ``y = z + c`` while the integrator holds ``z`` (see the module docstring).
-
-    Parameters
-    ----------
-    pre : NewtonPreconditioner
-        The system's preconditioner.
-    run : Run
-        The run whose offset (:attr:`Run.offset`) is added.
-    """
-
-    def __init__(self, pre, run):
-        self.pre, self.run, self.system = pre, run, pre.system
-
-    @property
-    def n_setups(self) -> int:
-        """Set-ups so far."""
-        return self.pre.n_setups
-
-    def setup(self, t, x, xd) -> None:
-        """Set up at the true coordinates ``x + c``."""
-        offset = self.run.offset
-        self.pre.setup(t, x if offset is None else x + offset[: len(x)], xd)
-
-    def solve(self, r1, r2, gamma):
-        """As :meth:`NewtonPreconditioner.solve` (increments do not depend on the offset)."""
-        return self.pre.solve(r1, r2, gamma)
 
 
 class NonFinite(Exception):
@@ -300,7 +272,7 @@ class Run:
             # an open tree, or loops closed through the recursion: O(n) Newton solves, no matrix
             # (System.newton_preconditioner; with Euler parameters too, qd = W(q) u)
             self.preconditioner = system.newton_preconditioner()
-            self.options["preconditioner"] = _OffsetPreconditioner(self.preconditioner, self)
+            self.options["preconditioner"] = OffsetPreconditioner(self.preconditioner, self)
         elif caps.uses_jacobian and system.state_jacobian(self.t0, x, xd) is not None:
             self.counters["jac"] = 0
             self.options["jac"] = self._jac

@@ -14,7 +14,7 @@ import numpy as np
 from .errors import ModelError
 from .fields import COUNT_MAX, as_bool, as_count
 
-__all__ = ["LARGEST", "in_range", "name_check", "positive_value", "number", "flag", "whole", "simulate_arguments",
+__all__ = ["DEFAULT_RTOL", "LARGEST", "in_range", "name_check", "positive_value", "number", "flag", "whole", "simulate_arguments",
            "state_time", "state_vector"]
 
 
@@ -259,6 +259,10 @@ def _short(value) -> str:
 
 #: the smallest relative tolerance an integration can meet in double precision (scipy's bound too)
 RTOL_MIN = 100 * np.finfo(float).eps
+
+#: the relative tolerance of a simulation given none, unless its integrator declares another
+#: (``default_rtol``, :mod:`flexmb.integrators.base`)
+DEFAULT_RTOL = 1e-8
 
 
 def simulate_arguments(t0, t_end, n_out, t_eval, rtol, atol, max_step, projection_tol):

@@ -21,7 +21,7 @@ import pytest
 from scipy.integrate import DOP853, solve_ivp
 
 import flexmb as fm
-from flexmb.integrators import capabilities
+from flexmb.integrators import default_rtol
 
 BENCH = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "benchmarks")
 G = 9.81
@@ -66,10 +66,13 @@ def test_default_atol_follows_the_default_rtol():
     assert default.n_steps == given.n_steps
 
 
-def test_capabilities_declare_the_default():
-    assert capabilities(DOP853).default_rtol == 5e-10
-    assert capabilities(Loose).default_rtol == 1e-5
-    assert capabilities(fm.GeneralizedAlpha).default_rtol == 1e-8
+def test_the_default_is_declared_or_looked_up_along_the_bases():
+    class MyDOP853(DOP853):
+        pass
+
+    assert default_rtol(DOP853) == default_rtol(MyDOP853) == 5e-10
+    assert default_rtol(Loose) == 1e-5
+    assert default_rtol(fm.GeneralizedAlpha) == default_rtol(fm.integrators.CVODEBDF) == 1e-8
 
 
 def test_pendulum_over_the_top_at_defaults():

@@ -377,7 +377,7 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         ``rtol |y_i| + atol`` in every state component (angles counted from
         their nearest whole turns, :mod:`flexmb.stepping`). ``atol``
         defaults to ``rtol / 100``; ``rtol`` to the integrator's
-        ``default_rtol`` (:mod:`flexmb.integrators.base`): 1e-8, and 5e-10
+        ``default_rtol`` (:mod:`flexmb.integrators.tolerances`): 1e-8, and 5e-10
         for DOP853, whose global error over long runs of large motions
         grows with the square of the run's length (docs/guide.md
         "Tolerances over long runs"). ``Result.rtol`` is the one used.
@@ -453,10 +453,10 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     >>> res.status
     'finished'
     """
-    from .integrators import adapt, capabilities
-    default_rtol = rtol is None
+    from .integrators import adapt, capabilities, default_rtol
+    rtol_given = rtol is not None
     t0, t_end, n_out, t_eval, rtol, atol, max_step, projection_tol = simulate_arguments(
-        t0, t_end, n_out, t_eval, DEFAULT_RTOL if default_rtol else rtol, atol, max_step, projection_tol)
+        t0, t_end, n_out, t_eval, rtol if rtol_given else DEFAULT_RTOL, atol, max_step, projection_tol)
     max_steps = number("simulate", "max_steps", max_steps, minimum=0.0)
     # a run never changes the caller's system: another strategy gives a new one
     system = as_system(model, complement=complement)
@@ -474,8 +474,8 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         name = getattr(method, "__name__", method)
     else:
         _warn_if_stiff(system, solver_cls, t0, t_end, x, xd)
-    if default_rtol:
-        rtol = capabilities(adapt(solver_cls)).default_rtol
+    if not rtol_given:
+        rtol = default_rtol(adapt(solver_cls))
     atol = rtol / 100 if atol is None else atol
     _check_work(system, solver_cls, name, t0, t_end, x, xd, max_step, max_steps)
     system = _calibrated(system, t0, x, xd)

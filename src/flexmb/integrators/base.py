@@ -49,13 +49,6 @@ from these class attributes,
     the offsets of winding angles so (:mod:`flexmb.stepping`); an
     integrator without it is restarted from the moved state instead
     (:class:`~flexmb.GeneralizedAlpha` rebases, keeping its memory).
-``default_rtol``
-    The relative tolerance :func:`flexmb.simulate` gives the integrator when
-    the caller gives none (:data:`DEFAULT_RTOL`, 1e-8, unless the class
-    declares another). DOP853 declares :data:`DOP853_DEFAULT_RTOL`: its
-    global error over a long run grows as the energy it loses drifts the
-    phase, and its eighth order makes a tighter tolerance cheap
-    (docs/guide.md "Tolerances over long runs").
 ``finds_roots``
     The constructor takes ``events = (g, m, direction)``, a function
     ``g(t, y)`` returning m values and the direction of the crossings to
@@ -80,16 +73,9 @@ import attrs
 from attrs import frozen
 from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, Radau
 
-from .._validate import DEFAULT_RTOL
 from .second_order import SecondOrderBDF, SecondOrderRadau
 
-__all__ = ["Capabilities", "SCIPY_CAPABILITIES", "SCIPY_ADAPTERS", "capabilities", "adapt", "DEFAULT_RTOL",
-           "DOP853_DEFAULT_RTOL"]
-
-#: DOP853's default relative tolerance: B7 at N = 40 over 20 s (ten turns) within 1e-6 m of its own
-#: equation, with a margin over the spread of the error between neighbouring tolerances
-#: (benchmarks/default_tolerances.py, docs/benchmarks.md "Default tolerances")
-DOP853_DEFAULT_RTOL = 5e-10
+__all__ = ["Capabilities", "SCIPY_CAPABILITIES", "SCIPY_ADAPTERS", "capabilities", "adapt"]
 
 
 @frozen
@@ -121,8 +107,6 @@ class Capabilities:
         Has ``rebase(shift)``: moves the origin of its state in place.
     finds_roots : bool
         Takes ``events=(g, m, direction)`` and ends a step at the first root of ``g``.
-    default_rtol : float
-        The relative tolerance of a run given none.
 
     Examples
     --------
@@ -141,7 +125,6 @@ class Capabilities:
     advances: bool = False
     rebases: bool = False
     finds_roots: bool = False
-    default_rtol: float = DEFAULT_RTOL
 
 
 #: scipy's solvers, which declare nothing themselves. LSODA could take a
@@ -149,7 +132,7 @@ class Capabilities:
 SCIPY_CAPABILITIES = {
     RK45: Capabilities(explicit=True),
     RK23: Capabilities(explicit=True),
-    DOP853: Capabilities(explicit=True, default_rtol=DOP853_DEFAULT_RTOL),
+    DOP853: Capabilities(explicit=True),
     Radau: Capabilities(uses_jacobian=True),
     BDF: Capabilities(uses_jacobian=True),
     LSODA: Capabilities(),
@@ -183,8 +166,8 @@ def capabilities(solver_cls: type) -> Capabilities:
     """
     found = next((SCIPY_CAPABILITIES[k] for k in getattr(solver_cls, "__mro__", ()) if k in SCIPY_CAPABILITIES),
                  Capabilities())
-    declared = {a.name: (float if a.name == "default_rtol" else bool)(getattr(solver_cls, a.name))
-                for a in attrs.fields(Capabilities) if hasattr(solver_cls, a.name)}
+    declared = {a.name: bool(getattr(solver_cls, a.name)) for a in attrs.fields(Capabilities)
+                if hasattr(solver_cls, a.name)}
     return attrs.evolve(found, **declared)
 
 

@@ -94,3 +94,28 @@ def test_b7_n40_over_20s_at_defaults():
     assert res.status == "finished" and res.method == "DOP853"
     exact = scenes.b7_closed_form(res.t, 40)
     assert np.max(np.linalg.norm(scenes.b7_tip(res)[:, :2] - exact, axis=1)) < 1e-6
+
+
+SCENE = """
+[bodies.bar]
+shape = "slender_bar"
+mass = 1.0
+length = 1.0
+[joints.pin]
+type = "revolute"
+parent = "ground"
+child = "bar"
+[solver]
+t_end = 0.2
+n_out = 3
+"""
+
+
+def test_a_scene_without_rtol_runs_at_simulates_default():
+    scene = fm.loads_scene(SCENE)
+    assert scene.solver.rtol is None
+    assert scene.simulate(progress=False).rtol == 5e-10  # 'auto' takes DOP853: no springs
+    assert scene.simulate(progress=False, method="Radau").rtol == 1e-8
+    assert scene.simulate(progress=False, rtol=1e-6).rtol == 1e-6
+    assert "rtol the integrator's default" in scene.info()
+    assert "rtol 1e-06" in fm.loads_scene(SCENE + "rtol = 1e-6\n").info()

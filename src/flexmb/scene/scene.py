@@ -248,6 +248,7 @@ class Scene:
             lines.append(f"  ({reason})")
         else:
             lines.append("stiffness: no springs on coordinates; 'auto' picks DOP853 (explicit)")
-        lines.append(f"solver: t_end {s.t_end:g} s, method {s.method}, rtol {'default' if s.rtol is None else f'{s.rtol:g}'}, n_out {s.n_out}, "
+        rtol = "the integrator's default" if s.rtol is None else f"{s.rtol:g}"
+        lines.append(f"solver: t_end {s.t_end:g} s, method {s.method}, rtol {rtol}, n_out {s.n_out}, "
                      f"complement {s.complement}")
         return "\n".join(lines)

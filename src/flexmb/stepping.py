@@ -34,7 +34,7 @@ import numpy as np
 from ._signals import escaped, interruption, who
 from .contact_events import ContactEvents, StepFailure
 from .event_restart import cut_at_event
-from .errors import AssemblyError, ModelError
+from .errors import AssemblyError
 from .output_projection import project_output
 from .progress import Progress
 from .result import Result
@@ -265,20 +265,17 @@ class Run:
     def _set_options(self, x, xd) -> None:
         """What the integrator is given besides the rhs: a Jacobian or a preconditioner, the second-order size."""
         caps, system, n = self.caps, self.system, self.n
-        if caps.needs_n_second:  # written for y = (x, xd, ...) itself, qd = u (GeneralizedAlpha)
-            if not system.layout.identity:
-                raise ModelError(f"integrator {self.name!r} integrates coordinates whose rates are the speeds; "
-                                 "this model's Euler parameters (rotation='quaternion') are not: use another "
-                                 "integrator, or rotation='bryant'")
+        if caps.needs_n_second:  # written for y = (x, xd, ...): given the layout when qd = W(q) u (GeneralizedAlpha)
             self.options["n_second"] = n
+            if not system.layout.identity:
+                self.options["layout"] = system.layout
         if self.events is not None and caps.finds_roots:  # the integrator's root finding, on the true state
             events = self.events
             self.options["events"] = (
                 lambda t, z: events.root_functions(t, z if self.offset is None else z + self.offset), events.count)
-        if (caps.uses_preconditioner and (system.articulated or system._loop_kernel) and n >= KRYLOV_MIN_COORDS
-                and system.layout.identity):  # the preconditioner's block form [[0, I], [Jx, Jv]] needs qd = u
+        if caps.uses_preconditioner and (system.articulated or system._loop_kernel) and n >= KRYLOV_MIN_COORDS:
             # an open tree, or loops closed through the recursion: O(n) Newton solves, no matrix
-            # (System.newton_preconditioner)
+            # (System.newton_preconditioner; with Euler parameters too, qd = W(q) u)
             self.preconditioner = system.newton_preconditioner()
             self.options["preconditioner"] = _OffsetPreconditioner(self.preconditioner, self)
         elif caps.uses_jacobian and system.state_jacobian(self.t0, x, xd) is not None:

@@ -29,10 +29,32 @@ class OffsetPreconditioner:
         return self.pre.n_setups
 
     def setup(self, t, x, xd) -> None:
-        """Set up at the true coordinates ``x + c``."""
+        """Set up at the true coordinates ``x + c``.
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        x, xd : ndarray
+            The integrator's coordinates (less the offsets) and the speeds.
+        """
         offset = self.run.offset
         self.pre.setup(t, x if offset is None else x + offset[: len(x)], xd)
 
     def solve(self, r1, r2, gamma):
-        """As :meth:`NewtonPreconditioner.solve` (increments do not depend on the offset)."""
+        """As the system preconditioner's ``solve`` (increments do not depend on the offset).
+
+        Parameters
+        ----------
+        r1, r2 : ndarray, shape (nq,) and (n,)
+            The right-hand side's coordinate and speed halves.
+        gamma : float
+            The integrator's coefficient (step size times its method's
+            constant).
+
+        Returns
+        -------
+        z1, z2 : ndarray, shape (nq,) and (n,)
+            ``z`` with ``(I - gamma J) z ~ r``, in two halves.
+        """
         return self.pre.solve(r1, r2, gamma)

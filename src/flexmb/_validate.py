@@ -14,8 +14,8 @@ import numpy as np
 from .errors import ModelError
 from .fields import COUNT_MAX, as_bool, as_count
 
-__all__ = ["LARGEST", "in_range", "name_check", "positive_value", "number", "flag", "whole", "simulate_arguments",
-           "state_time", "state_vector"]
+__all__ = ["DEFAULT_RTOL", "LARGEST", "in_range", "name_check", "positive_value", "number", "flag", "whole",
+           "simulate_arguments", "state_time", "state_vector"]
 
 
 #: the largest magnitude whose square is still a float (1.34e154): model data or states beyond it make
@@ -259,6 +259,10 @@ def _short(value) -> str:
 
 #: the smallest relative tolerance an integration can meet in double precision (scipy's bound too)
 RTOL_MIN = 100 * np.finfo(float).eps
+
+#: the relative tolerance of a simulation given none, unless its integrator declares another
+#: (``default_rtol``, :mod:`flexmb.integrators.tolerances`)
+DEFAULT_RTOL = 1e-8
 
 
 def simulate_arguments(t0, t_end, n_out, t_eval, rtol, atol, max_step, projection_tol):

@@ -24,7 +24,7 @@ _ARRAYS = ("t", "x", "xd", "xdd", "positions", "origins", "rotations", "kinetic"
 _LISTS = ("coordinate_names", "body_names", "constraint_labels", "driver_names")
 _SCALARS = ("n_dof", "n_rhs", "n_jac", "n_steps", "n_complements", "n_projections", "n_rebases", "n_refused",
             "wall_time",
-            "status", "message", "method", "complement", "method_reason")
+            "status", "message", "method", "complement", "method_reason", "rtol")
 
 
 @define
@@ -96,6 +96,8 @@ class Result(ResultPost):
         it dissipates (empty otherwise).
     complement : str
         Name of the complement strategy used.
+    rtol : float
+        The relative tolerance the integrator was given (0 where none was).
     contact_events : list of (float, str, str, float)
         The contacts' onsets and separations located during the run,
         ``(time, contact name, 'onset' or 'separation', rate)`` in time
@@ -142,6 +144,7 @@ class Result(ResultPost):
     method: str = ""
     method_reason: str = ""
     complement: str = ""
+    rtol: float = 0.0
     contact_events: list = field(factory=list)
     n_refused: int = 0
     system: object = field(default=None, repr=False, eq=False)

@@ -9,7 +9,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from . import memory, registry
-from ._validate import number, simulate_arguments, state_vector
+from ._validate import DEFAULT_RTOL, number, simulate_arguments, state_vector
 from .errors import FlexmbError, ModelError, SimulationError, StiffnessWarning
 from .initial_speeds import held_speeds, split_speeds
 from .joints import Joint
@@ -169,7 +169,7 @@ EXPLICIT_STEP_LIMIT = 3000
 AUTO_IMPLICIT_STEPS = 300
 
 
-def _choose_method(system, t0, t1, x, xd, rtol=1e-8, atol=1e-10, log=True):
+def _choose_method(system, t0, t1, x, xd, rtol=DEFAULT_RTOL, atol=DEFAULT_RTOL / 100, log=True):
     """The integrator for ``method='auto'`` over [t0, t1], and why.
 
     DOP853's stability bound is about ``h omega_max < 3``; if that needs no
@@ -322,7 +322,7 @@ def _turn_bound(system, t0, x, xd, span, max_steps):
 
 @limited_blas
 def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=None, x0=None, xd0=None,
-             fixed=None, n_out: int = 201, t_eval=None, method: str = "auto", rtol: float = 1e-8,
+             fixed=None, n_out: int = 201, t_eval=None, method: str = "auto", rtol: float | None = None,
              atol: float | None = None, complement=None, projection_tol: float = 1e-10,
              max_step: float = np.inf, progress: bool | None = None, track_work: bool = False,
              hold_speeds: bool = True, max_steps: float = MAX_STEPS, contact_events: bool = True) -> Result:
@@ -372,8 +372,15 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         resolve, the generalized-alpha method with a step floor that
         dissipates them (``Result.method_reason`` states the floor and the
         damping it adds; the ``flexmb`` logger too).
-    rtol, atol : float
-        Integration tolerances (``atol`` defaults to ``rtol / 100``).
+    rtol, atol : float, optional
+        Integration tolerances: each step's local error is held within
+        ``rtol |y_i| + atol`` in every state component (angles counted from
+        their nearest whole turns, :mod:`flexmb.stepping`). ``atol``
+        defaults to ``rtol / 100``; ``rtol`` to the integrator's
+        ``default_rtol`` (:mod:`flexmb.integrators.tolerances`): 1e-8, and 5e-10
+        for DOP853, whose global error over long runs of large motions
+        grows with the square of the run's length (docs/guide.md
+        "Tolerances over long runs"). ``Result.rtol`` is the one used.
     complement : {'svd', 'eigen', 'qr', 'auto'} or ComplementStrategy, optional
         Orthogonal complement strategy, or a registered plugin's name
         (default: the system's, ``'svd'``).
@@ -446,27 +453,30 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     >>> res.status
     'finished'
     """
-    from .integrators import adapt, capabilities
+    from .integrators import adapt, capabilities, default_rtol
+    rtol_given = rtol is not None
     t0, t_end, n_out, t_eval, rtol, atol, max_step, projection_tol = simulate_arguments(
-        t0, t_end, n_out, t_eval, rtol, atol, max_step, projection_tol)
+        t0, t_end, n_out, t_eval, rtol if rtol_given else DEFAULT_RTOL, atol, max_step, projection_tol)
     max_steps = number("simulate", "max_steps", max_steps, minimum=0.0)
     # a run never changes the caller's system: another strategy gives a new one
     system = as_system(model, complement=complement)
     auto = isinstance(method, str) and method == "auto"
     solver_cls = None if auto else _solver_class(method)
     name = method if isinstance(method, str) else getattr(method, "__name__", str(method))
-    atol = rtol / 100 if atol is None else atol
     memory.check(system, n_out if t_eval is None else len(t_eval), what="simulate", model=False)
     progress = shown(progress)
 
     x, xd = initial_state(system, t0, positions, speeds, x0, xd0, fixed, hold_speeds)
     reason = ""
     if auto:
-        method, reason = _choose_method(system, t0, t_end, x, xd, rtol, atol)
+        method, reason = _choose_method(system, t0, t_end, x, xd, rtol, rtol / 100 if atol is None else atol)
         solver_cls = _solver_class(method)
         name = getattr(method, "__name__", method)
     else:
         _warn_if_stiff(system, solver_cls, t0, t_end, x, xd)
+    if not rtol_given:
+        rtol = default_rtol(adapt(solver_cls))
+    atol = rtol / 100 if atol is None else atol
     _check_work(system, solver_cls, name, t0, t_end, x, xd, max_step, max_steps)
     system = _calibrated(system, t0, x, xd)
     times = np.linspace(t0, t_end, n_out) if t_eval is None else np.asarray(t_eval, dtype=float)
@@ -479,7 +489,7 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
               contact_events=bool(contact_events))
     run.execute(x, xd)
     result = run.result(x)
-    result.method_reason = reason
+    result.method_reason, result.rtol = reason, rtol
     status, message, t_now = run.status, run.message, run.t_now
     if status == "failed":
         raise SimulationError(f"simulation failed {message}", t=t_now, result=result) from run.error

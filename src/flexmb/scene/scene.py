@@ -229,6 +229,7 @@ class Scene:
             A text report (what ``flexmb info`` prints).
         """
         from .._describe import describe
+        from .._validate import DEFAULT_RTOL
         from ..simulate import _choose_method
 
         system = self.system()
@@ -238,8 +239,9 @@ class Scene:
         s = self.solver
         if w > 0:
             steps = s.t_end * w / 3.0
-            atol = s.rtol / 100 if s.atol is None else s.atol
-            method, reason = _choose_method(system, 0.0, s.t_end, x0, xd0, s.rtol, atol, log=False)
+            rtol = DEFAULT_RTOL if s.rtol is None else s.rtol
+            atol = rtol / 100 if s.atol is None else s.atol
+            method, reason = _choose_method(system, 0.0, s.t_end, x0, xd0, rtol, atol, log=False)
             lines.append(f"stiffness: highest spring frequency {system.highest_frequency(0.0, x0, xd0):.4g} rad/s, "
                          f"fastest rate with the dampers {w:.4g} rad/s; an explicit integrator needs about "
                          f"{steps:.3g} steps over {s.t_end:g} s to stay stable, so 'auto' picks "
@@ -247,6 +249,7 @@ class Scene:
             lines.append(f"  ({reason})")
         else:
             lines.append("stiffness: no springs on coordinates; 'auto' picks DOP853 (explicit)")
-        lines.append(f"solver: t_end {s.t_end:g} s, method {s.method}, rtol {s.rtol:g}, n_out {s.n_out}, "
+        rtol = "the integrator's default" if s.rtol is None else f"{s.rtol:g}"
+        lines.append(f"solver: t_end {s.t_end:g} s, method {s.method}, rtol {rtol}, n_out {s.n_out}, "
                      f"complement {s.complement}")
         return "\n".join(lines)

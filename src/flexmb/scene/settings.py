@@ -53,8 +53,9 @@ class SolverSettings:
         End time, s.
     method : str
         Integrator name (``'auto'``, ``'DOP853'``, ``'Radau'``, ... or a plugin).
-    rtol : float
-        Relative tolerance.
+    rtol : float or None
+        Relative tolerance (default: :func:`flexmb.simulate`'s, which
+        depends on the integrator).
     atol : float or None
         Absolute tolerance (default ``rtol / 100``).
     n_out : int
@@ -71,7 +72,7 @@ class SolverSettings:
 
     t_end: float
     method: str = "auto"
-    rtol: float = 1e-8
+    rtol: float | None = None
     atol: float | None = None
     n_out: int = 201
     complement: str = "svd"

@@ -59,9 +59,11 @@ the next step size. Python keeps the bookkeeping (Jacobians, LU factors,
 restarts, counts). The right-hand side (:meth:`flexmb.System.state_rate`,
 compiled kernels with Python glue) is not called from compiled code.
 
-The solver is in :mod:`flexmb.genalpha.solver`, the method's parameters
-and amplification in :mod:`flexmb.genalpha.parameters`; their public names
-are importable from here.
+The solver is in :mod:`flexmb.genalpha.solver` (its interpolant in
+:mod:`flexmb.genalpha.dense`, configured classes in
+:mod:`flexmb.genalpha.configured`), the method's parameters and
+amplification in :mod:`flexmb.genalpha.parameters`; their public names are
+importable from here.
 
 References
 ----------
@@ -70,7 +72,8 @@ References
 """
 
 from .parameters import DEFAULT_RHO_INF, alpha_parameters, amplification_matrix, numerical_damping
-from .solver import GeneralizedAlpha, GeneralizedAlphaDenseOutput, generalized_alpha
+from .configured import generalized_alpha
+from .solver import GeneralizedAlpha, GeneralizedAlphaDenseOutput
 
 __all__ = ["GeneralizedAlpha", "generalized_alpha", "alpha_parameters", "amplification_matrix",
            "numerical_damping", "DEFAULT_RHO_INF"]

@@ -19,15 +19,15 @@ import math
 import weakref
 
 import numpy as np
-from scipy.integrate import DenseOutput, OdeSolver
+from scipy.integrate import OdeSolver
 from scipy.linalg import eig, lu_factor
 
 from ..kernels import genalpha as kernels
 from ..kernels.genalpha import NEWTON_MAXITER
-from .._validate import number
+from .dense import GeneralizedAlphaDenseOutput
 from .parameters import DEFAULT_RHO_INF, alpha_parameters
 
-__all__ = ["GeneralizedAlpha", "GeneralizedAlphaDenseOutput", "generalized_alpha"]
+__all__ = ["GeneralizedAlpha", "GeneralizedAlphaDenseOutput"]
 
 _EPS = np.finfo(float).eps
 #: after a Newton failure, the factor per accepted step by which the step may grow back (see ``_accept``)
@@ -55,52 +55,6 @@ def _settings(rho_inf, rtol, atol, n, n_state, max_step, min_step):
     par = np.array([alpha_m, alpha_f, beta, gamma, beta_p, gamma_p, error_constant, rtol, newton_tol,
                     min_step or 0.0, max_step])
     return alpha_m, alpha_f, beta, gamma, beta_p, gamma_p, error_constant, newton_tol, atol, par
-
-
-class GeneralizedAlphaDenseOutput(DenseOutput):
-    """Interpolant over one generalized-alpha step.
-
-    Positions: the cubic Hermite polynomial through ``x`` and ``xd`` at both
-    ends. Speeds: ``xd0 + s (xd1 - xd0) + h (s^2 - s) (abar1 - abar0) / 2``
-    (second order, and bounded by the algorithmic accelerations where a
-    mode is not resolved). Further states: the quadratic whose end slopes
-    are the rates at both ends (the trapezoidal rule at ``s = 1``).
-
-    Parameters
-    ----------
-    t_old, t : float
-        Step start and end, s.
-    y_old, y : ndarray, shape (2 n + n_w,)
-        States at both ends.
-    abar_old, abar : ndarray, shape (n,)
-        Algorithmic accelerations at both ends.
-    g_old, g : ndarray, shape (n_w,)
-        Rates of the further states at both ends.
-    n : int
-        Number of positions.
-    """
-
-    def __init__(self, t_old, t, y_old, y, abar_old, abar, g_old, g, n):
-        super().__init__(t_old, t)
-        self.h = t - t_old
-        self.y_old, self.y_new = y_old, y
-        self.abar_old, self.abar_new = abar_old, abar
-        self.g_old, self.g_new = g_old, g
-        self.n_pos = n
-
-    def _call_impl(self, t):
-        n, h = self.n_pos, self.h
-        s = (np.atleast_1d(t) - self.t_old) / h
-        x0, v0, w0 = self.y_old[:n, None], self.y_old[n : 2 * n, None], self.y_old[2 * n :, None]
-        x1, v1 = self.y_new[:n, None], self.y_new[n : 2 * n, None]
-        h00, h10, h01, h11 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s, -2 * s**3 + 3 * s**2, s**3 - s**2
-        x = h00 * x0 + h10 * h * v0 + h01 * x1 + h11 * h * v1
-        dab = (self.abar_new - self.abar_old)[:, None]
-        v = v0 + s * (v1 - v0) + 0.5 * h * (s * s - s) * dab
-        g0, g1 = self.g_old[:, None], self.g_new[:, None]
-        w = w0 + h * (s * g0 + 0.5 * s * s * (g1 - g0))
-        y = np.vstack([x, v, w])
-        return y[:, 0] if np.ndim(t) == 0 else y
 
 
 #: memory of the last instance per right-hand side, for restarts at the time it stopped (see GeneralizedAlpha)
@@ -194,9 +148,11 @@ class GeneralizedAlpha(OdeSolver):
     adds a local error of order ``h^2 |h' - h|``, no more than a step's
     truncation error.
 
-    A new instance created with the same ``fun`` object at the time where
-    the previous one stopped (``simulate`` restarts after projecting the
-    state onto the constraints) continues from the previous one's memory:
+    ``simulate`` projects the state onto the constraints in place
+    (:meth:`move_to`, the accelerations made consistent with the moved
+    state). A new instance created with the same ``fun`` object at the
+    time where the previous one stopped (a restart at a contact event)
+    continues from the previous one's memory:
     its Jacobian, iteration matrix, step-size history and next step (in
     place of ``first_step``) and ``abar - a``; the accelerations at the
     moved state are the previous ones corrected to first order with the
@@ -237,6 +193,7 @@ class GeneralizedAlpha(OdeSolver):
     has_dense_output = True
     needs_n_second = True
     rebases = True
+    moves = True
 
     def __init__(self, fun, t0, y0, t_bound, *, n_second=None, jac=None, rtol=1e-6, atol=1e-8,
                  max_step=np.inf, first_step=None, rho_inf=None, fixed_step=None, f_max=None, min_step=None,
@@ -300,7 +257,7 @@ class GeneralizedAlpha(OdeSolver):
             raise ValueError("max_step must be > 0")
         self.rtol = max(float(rtol), 100 * _EPS)
         self.max_step = float(max_step)
-        # cached for a scalar atol: simulate makes a new solver after every projection
+        # cached for a scalar atol: simulate may make many solvers (contact events)
         settings = (_settings(self.rho_inf, self.rtol, float(atol), n, self.n, self.max_step, self.min_step)
                     if np.ndim(atol) == 0 else
                     _settings.__wrapped__(self.rho_inf, self.rtol, atol, n, self.n, self.max_step, self.min_step))
@@ -333,7 +290,7 @@ class GeneralizedAlpha(OdeSolver):
         """Size of the last step taken, s (None before the first step)."""
         return None if self.t_old is None else abs(self.t - self.t_old)
 
-    # -- memory across restarts (simulate makes a new solver after each projection)
+    # -- memory across restarts (simulate makes a new solver at a contact event)
     @staticmethod
     def _recall(fun, t0):
         try:
@@ -535,66 +492,52 @@ class GeneralizedAlpha(OdeSolver):
         if self.t_old is not None:
             self._remember()
 
+    def move_to(self, y) -> None:
+        """Continue from ``y``, a state moved off the last step's end (a projection onto the constraints).
+
+        A one-step method's history is its last accelerations: they are made
+        consistent with the moved state, and everything else (the Jacobian,
+        its factors, the error and step-size history) stays, so no new
+        solver is made and no step is lost.
+
+        Parameters
+        ----------
+        y : ndarray, shape (len(y),)
+            The moved state, at the same time.
+
+        Notes
+        -----
+        The step equations need ``a0 = a(t, x0, xd0)`` (the equations of
+        motion hold at every step end) and the algorithmic accelerations
+        ``abar0``, a filter of the past ``a`` that lags them: for a smooth
+        motion ``abar - a = (alpha_m - alpha_f) h da/dt + O(h^2)``. A move
+        ``(dx, dxd)`` changes ``a`` by ``Jx dx + Jv dxd`` to first order and
+        the lag only by ``O(h |dx|)``. So ``a`` is corrected with the
+        Jacobian in use (a right-hand side at the moved state when a
+        Jacobian is due anyway), and ``abar`` keeps its lag: ``abar = a +
+        (abar_old - a_old)``. Setting ``abar = a`` instead (as at the first
+        step) would drop a term of order ``h``, a first-order error on every
+        move, where keeping the lag costs ``O(h |dx| + |dx|^2)``. The
+        further states ``w`` and their rates are kept. The dense output of
+        the last step is unchanged (the caller stored its outputs before
+        the move). A step below ``min_step`` (after a Newton failure) is
+        raised to it, as at a start.
+        """
+        n = self.n_pos
+        y = np.array(y, dtype=float)
+        lag = self.abar - self.a
+        if self.J is not None:
+            Jx, Jv = self.J
+            self.a, self.abar = kernels.restart_accelerations(y, self.y, self.a, Jx, Jv, lag, n)
+        else:
+            self.a = self.fun(self.t, y)[n : 2 * n].copy()
+            self.abar = self.a + lag
+        self.y = y
+        if self.min_step is not None:  # as at a start (and as a new solver did after each projection)
+            self.h_abs = min(max(self.h_abs, self.min_step), self.max_step)
+        self._remember()
+
     def _dense_output_impl(self):
         y_old, abar_old, g_old = self._dense
         return GeneralizedAlphaDenseOutput(self.t_old, self.t, y_old, self.y, abar_old, self.abar, g_old,
                                            self.g, self.n_pos)
-
-
-def generalized_alpha(rho_inf: float = DEFAULT_RHO_INF, fixed_step: float | None = None,
-                      f_max: float | None = None, min_step: float | None = None) -> type:
-    """A :class:`GeneralizedAlpha` class with a spectral radius, and optionally a fixed step, a cutoff or a step floor.
-
-    Parameters
-    ----------
-    rho_inf : float
-        Spectral radius at infinity in [0, 1]: 1 keeps every frequency (no
-        dissipation), smaller values remove more of the modes far above
-        ``1 / h`` per step.
-    fixed_step : float, optional
-        Fixed step size, s (no error control); default: error-controlled
-        steps.
-    f_max : float, optional
-        Highest frequency resolved by the error control, Hz (see
-        :class:`GeneralizedAlpha`); default: all.
-    min_step : float, optional
-        Smallest error-controlled step, s (see :class:`GeneralizedAlpha`):
-        the modes above ``1 / (2 pi min_step)`` Hz are dissipated, never
-        resolved; default: no floor.
-
-    Returns
-    -------
-    type
-        A subclass of :class:`GeneralizedAlpha`, to pass as ``method`` to
-        :func:`flexmb.simulate` or :func:`scipy.integrate.solve_ivp`.
-
-    Raises
-    ------
-    ModelError
-        If ``rho_inf`` is not a number in [0, 1], or ``fixed_step``,
-        ``f_max`` or ``min_step`` is not a finite number > 0 (a ValueError
-        too).
-
-    Examples
-    --------
-    >>> import flexmb as fm
-    >>> model = fm.Model()
-    >>> bar = fm.RigidBody.slender_bar("bar", mass=1.0, length=1.0)
-    >>> _ = model.add(fm.Revolute("pin", model.ground, bar), fm.Gravity((0, -9.81, 0)))
-    >>> res = fm.simulate(model, 0.5, positions={"pin": 0.5}, method=fm.generalized_alpha(rho_inf=0.6), rtol=1e-6)
-    >>> res.method
-    'GeneralizedAlpha(rho_inf=0.6)'
-    """
-    alpha_parameters(rho_inf)  # validates: a number in [0, 1]
-    rho_inf = float(rho_inf)
-    fixed_step, f_max, min_step = (None if v is None else number("generalized_alpha", what, v, minimum=0.0)
-                                   for what, v in (("fixed_step", fixed_step), ("f_max", f_max),
-                                                   ("min_step", min_step)))
-    label = (f"rho_inf={float(rho_inf):g}" + (f", fixed_step={float(fixed_step):g}" if fixed_step else "")
-             + (f", f_max={float(f_max):g}" if f_max else "")
-             + (f", min_step={float(min_step):g}" if min_step else ""))
-    return type(f"GeneralizedAlpha({label})", (GeneralizedAlpha,),
-                {"rho_inf": float(rho_inf), "fixed_step": None if fixed_step is None else float(fixed_step),
-                 "f_max": None if f_max is None else float(f_max),
-                 "min_step": None if min_step is None else float(min_step),
-                 "__module__": __name__, "__doc__": f"GeneralizedAlpha with {label}."})

@@ -421,7 +421,7 @@ class GeneralizedAlpha(OdeSolver):
                 self._new_jacobian(t, self.y)
             if self.lu is None or self.lu_h != h:
                 self._factor(h)
-            end, n_iter, rate = self._newton(t1, h)
+            end = self._newton(t1, h)[0]
             if end is None:
                 if not self.jac_current:
                     self._new_jacobian(t, self.y)
@@ -444,10 +444,10 @@ class GeneralizedAlpha(OdeSolver):
                 break
             self.n_rejected += 1
             h_abs = h_next
-        self._accept(t1, h_abs, end, n_iter, rate, None if fixed else err, None if fixed else h_next)
+        self._accept(t1, h_abs, end, None if fixed else err, None if fixed else h_next)
         return True, None
 
-    def _accept(self, t1, h_abs, end, n_iter, rate, err, h_next):
+    def _accept(self, t1, h_abs, end, err, h_next):
         """Take the step to t1: the new state, the error history, the Jacobian's fate, the next step size.
 
         The next step is the error control's, but at most the halved step of
@@ -460,11 +460,9 @@ class GeneralizedAlpha(OdeSolver):
         self.t = t1
         self.h_abs_old = h_abs
         self.err_old = None if err is None else max(err, 1e-10)
-        # a Jacobian that let Newton converge slowly is refreshed before the next step
-        if self.jac_current:
-            self.jac_current = False
-        elif n_iter > 2 and rate > 1e-3:
-            self.J = None
+        # the Jacobian is kept until Newton fails with it (_step_impl): a Newton iteration that converges
+        # slowly converges all the same (taking a new one then cost more than the iterations it saved)
+        self.jac_current = False
         if h_next is not None:
             self.h_newton *= NEWTON_REGROWTH
             self.h_abs = min(h_next, self.h_newton)

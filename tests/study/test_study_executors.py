@@ -218,6 +218,40 @@ def test_case_processes_end_when_the_study_is_killed(scene_file, tmp_path):
     assert not left, f"processes left after the study was killed: {left}"
 
 
+_HOLDING_CASE = """
+import ctypes, sys
+from flexmb.study.cases import _watch_study
+_watch_study(int(sys.argv[1]))
+print("ready", flush=True)
+ctypes.PyDLL(None).sleep(600)  # C code that keeps the GIL, as a compiled kernel stuck in a loop does
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_a_case_stuck_in_compiled_code_ends_with_the_study(tmp_path):
+    """Seen: two case processes spinning in a kernel ran on for 1.75 h after their study was killed.
+
+    The watchdog was a thread of the case, which needs the GIL to run: a
+    kernel that holds it (numba without ``nogil``, any C call made with the
+    GIL held) kept the case alive forever once its study was gone.
+    """
+    study = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(600)"])
+    case = subprocess.Popen([sys.executable, "-c", _HOLDING_CASE, str(study.pid)], stdout=subprocess.PIPE, text=True)
+    try:
+        assert case.stdout.readline().strip() == "ready"
+        time.sleep(0.3)  # inside the C call
+        assert case.poll() is None
+        os.kill(study.pid, signal.SIGKILL)
+        study.wait()
+        case.wait(timeout=10)  # TimeoutExpired: the case outlived its study
+        assert case.returncode != 0
+    finally:
+        for p in (study, case):
+            if p.poll() is None:
+                p.kill()
+                p.wait()
+
+
 # ----------------------------------------------------------------------------- a study in a plain script (issue #32)
 
 

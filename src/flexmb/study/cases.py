@@ -114,36 +114,53 @@ def _run_case_limited(task: dict) -> dict:
 def _watch_study(pid: int) -> None:
     """End this process (a case's) as soon as the study process ``pid`` ends, even by SIGKILL.
 
-    A daemon thread waits on a pidfd of the study process (Linux >= 5.3;
-    elsewhere it polls ``os.kill(pid, 0)`` twice a second), then calls
-    ``os._exit``. ``PR_SET_PDEATHSIG`` would not do: under the ``forkserver``
-    start method the parent of a case's process is the fork server, not
-    the study, and the fork server lives on while any case process holds its
+    On Linux a watcher *process* forked here waits on pidfds of the study
+    and of this case and sends this case SIGKILL when the study ends first;
+    it ends with the case. A thread would not do: it needs the GIL, which a
+    case stuck in compiled code keeps (numba without ``nogil``, any C call
+    made with the GIL held), and such a case would outlive its study.
+    ``PR_SET_PDEATHSIG`` would not do either: under the ``forkserver`` start
+    method the parent of a case's process is the fork server, not the
+    study, and the fork server lives on while any case process holds its
     liveness pipe. Once the cases end, the fork server and the resource
-    tracker see their pipes close and end too.
+    tracker see their pipes close and end too. Elsewhere (no pidfd) a daemon
+    thread polls ``os.kill(pid, 0)`` twice a second and calls ``os._exit``.
     """
     try:
-        fd = os.pidfd_open(pid)
+        study = os.pidfd_open(pid)
+        case = os.pidfd_open(os.getpid())
     except ProcessLookupError:
         os._exit(70)
     except (AttributeError, OSError):
-        fd = None
+        threading.Thread(target=_poll_study, args=(pid,), name="flexmb-study-watchdog", daemon=True).start()
+        return
+    if os.fork() == 0:  # the watcher: holds no pipe of the case's, needs nothing of its interpreter
+        try:
+            low = 3
+            for keep in sorted((study, case)):
+                os.closerange(low, keep)
+                low = keep + 1
+            os.closerange(low, os.sysconf("SC_OPEN_MAX"))
+            ready, _, _ = select.select([study, case], [], [])
+            if study in ready and case not in ready:
+                signal.pidfd_send_signal(case, signal.SIGKILL)  # that process, even if its pid were reused
+        finally:
+            os._exit(0)
+    os.close(study)
+    os.close(case)
 
-    def watch():
-        if fd is not None:
-            select.select([fd], [], [])  # readable once the process has ended
-        else:
-            while True:
-                try:
-                    os.kill(pid, 0)
-                except ProcessLookupError:
-                    break
-                except PermissionError:
-                    pass
-                time.sleep(0.5)
-        os._exit(70)
 
-    threading.Thread(target=watch, name="flexmb-study-watchdog", daemon=True).start()
+def _poll_study(pid: int) -> None:
+    """Wait for process ``pid`` to end, polling twice a second, then end this process."""
+    while True:
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            break
+        except PermissionError:
+            pass
+        time.sleep(0.5)
+    os._exit(70)
 
 
 def _case_process(task: dict, conn, study_pid: int) -> None:

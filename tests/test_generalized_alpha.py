@@ -372,12 +372,13 @@ def test_generalized_alpha_projects_its_state_past_its_tolerance_only():
     system = model.build(complement="articulated")
     kw = dict(positions=positions, n_out=51, progress=False)
     tight = fm.simulate(system, 0.1, method="CVODE_BDF", rtol=1e-11, atol=1e-13, **kw)
-    runs = {cls: fm.simulate(system, 0.1, method=cls, rtol=1e-4, atol=1e-6, **kw) for cls in (GeneralizedAlpha, EveryStep)}
-    new, old = runs[GeneralizedAlpha], runs[EveryStep]
+    new, old = (fm.simulate(system, 0.1, method=cls, rtol=1e-4, atol=1e-6, **kw)
+                for cls in (GeneralizedAlpha, EveryStep))
     assert old.n_projections > 0.9 * old.n_steps  # the drift exceeds projection_tol after nearly every step
     assert new.n_projections < 0.2 * new.n_steps
     for res in (new, old):
         assert res.status == "finished" and np.max(res.residual) <= 1e-10  # outputs projected all the same
-    slider = [np.max(np.abs(np.asarray(r.coordinate("rail")) - np.asarray(tight.coordinate("rail")))) for r in (new, old)]
+    rail = np.asarray(tight.coordinate("rail"))
+    slider = [np.max(np.abs(np.asarray(r.coordinate("rail")) - rail)) for r in (new, old)]
     assert slider[0] <= slider[1] + 1e-6, slider  # no less accurate, to the position tolerance atol
     assert slider[0] < 2e-6

@@ -59,6 +59,9 @@ class PointVelocity:
         Hold only the velocity's components along these inertial directions
         (e.g. ``(1, 0, 0)``: the x speed only; the others are left to the
         assembly). Default: all three.
+    name : str, optional
+        What messages call it besides its description (keyword only; a
+        scene file names its table, ``initial.point_velocities.tip``).
 
     Examples
     --------
@@ -72,6 +75,7 @@ class PointVelocity:
     point: np.ndarray = field(converter=as_array, validator=vector3)
     velocity: np.ndarray = field(converter=as_array, validator=vector3)
     directions: np.ndarray | None = field(default=None, converter=_directions)
+    name: str | None = field(default=None, kw_only=True)
 
     def __attrs_post_init__(self):
         d = self.directions
@@ -86,9 +90,10 @@ class PointVelocity:
         Returns
         -------
         str
-            E.g. "the velocity of point (0.1, 0.0, 0.0) of 'crank'".
+            E.g. "the velocity of point (0.1, 0.0, 0.0) of 'crank'", followed
+            by the ``name`` in parentheses if there is one.
         """
-        return f"the velocity of point {tuple(float(c) for c in self.point)} of {_name(self.body)!r}"
+        return _named(f"the velocity of point {tuple(float(c) for c in self.point)} of {_name(self.body)!r}", self.name)
 
 
 @define(frozen=True, eq=False)
@@ -107,12 +112,15 @@ class AngularVelocity:
         The axes of ``omega``.
     directions : array_like, shape (3,) or (k, 3), optional
         Hold only the components along these directions (in ``frame``).
+    name : str, optional
+        What messages call it besides its description (keyword only).
     """
 
     body: object
     omega: np.ndarray = field(converter=as_array, validator=vector3)
     frame: str = "inertial"
     directions: np.ndarray | None = field(default=None, converter=_directions)
+    name: str | None = field(default=None, kw_only=True)
 
     def __attrs_post_init__(self):
         if self.frame not in ("inertial", "body"):
@@ -126,13 +134,18 @@ class AngularVelocity:
         Returns
         -------
         str
-            E.g. "the angular velocity of 'coupler'".
+            E.g. "the angular velocity of 'coupler'", followed by the
+            ``name`` in parentheses if there is one.
         """
-        return f"the angular velocity of {_name(self.body)!r}"
+        return _named(f"the angular velocity of {_name(self.body)!r}", self.name)
 
 
 def _name(body) -> str:
     return body if isinstance(body, str) else getattr(body, "name", repr(body))
+
+
+def _named(description: str, name: str | None) -> str:
+    return description if name is None else f"{description} ({name})"
 
 
 def split_speeds(speeds):
@@ -265,12 +278,12 @@ def _check(system, t, x, xd, psi, b, held, motions, C, c):
     worst = max(float(np.max(np.abs(res_psi), initial=0.0)), float(np.max(np.abs(res_c), initial=0.0)))
     if worst <= SPEED_TOL * scale:
         return
-    given = [system.coordinate_names[i] for i in np.flatnonzero(held)] + [m.label() for m in motions]
+    given = [system.speed_names[i] for i in np.flatnonzero(held)] + [m.label() for m in motions]
     labels = list(system.constraints.labels)
     order = np.argsort(-np.abs(res_psi))[:3]
     violated = ", ".join(f"{labels[i]} (by {abs(res_psi[i]):.3g})" for i in order if abs(res_psi[i]) > SPEED_TOL * scale)
-    if not violated:
-        violated = "one another"
+    if not violated:  # no constraint row is left unmet: the joints themselves cannot move so
+        violated = "the joints' motion" if len(given) == 1 else "one another or the joints' motion"
     raise ModelError(
         f"the initial speeds given ({', '.join(given)}) contradict {violated}: they cannot all hold at t = {t:g} s. "
         "Give fewer speeds (the assembly finds the others), or pass hold_speeds=False to let the constraints win "

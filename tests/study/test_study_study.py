@@ -17,7 +17,7 @@ from flexmb.cli import main
 from flexmb.errors import FlexmbError, SceneError
 from flexmb.study import Study, case_id
 
-from pendulum_study import G, scene_file  # noqa: F401  (fixtures: scene_file)
+from pendulum_study import PENDULUM, G, scene_file  # noqa: F401  (fixtures: scene_file)
 
 
 # ----------------------------------------------------------------------------- failures and resuming
@@ -121,6 +121,47 @@ def test_linked_keys_set_one_value(scene_file, tmp_path):
     res = Study.from_file(scene_file, {"bodies.bar.length": [2.0]}, fixed={"output.points.tip.point": [2.0, 0, 0]},
                           outputs=["peak_speed:tip"]).run(tmp_path / "b", executor="serial", progress=False)
     assert res.column("peak_speed:tip")[0] == pytest.approx(2.0 * np.sqrt(3 * G / 2.0), rel=2e-4)
+
+
+def test_initial_point_and_angular_velocities_are_varied_by_key_path(tmp_path, capsys):
+    # the bar released level with its tip pushed down at v: at the bottom omega^2 = 3 g / L + (v / L)^2; the peak is
+    # sampled every 1 ms, so it may fall short by (v''/v)(dt/2)^2/2 = (3 g / 2 L)(dt/2)^2/2 = 1.8e-6 (relative)
+    text = PENDULUM.replace("speeds = { pin = 0.0 }\n", "") + (
+        "\n[initial.point_velocities.push]\nbody = \"bar\"\npoint = [1.0, 0.0, 0.0]\nvelocity = [0.0, -1.0, 0.0]\n")
+    path = tmp_path / "pushed.toml"
+    path.write_text(text)
+    v = np.array([0.5, 2.0])
+    key = "initial.point_velocities.push.velocity"
+    res = Study.from_file(path, {key: [[0.0, -w, 0.0] for w in v]}, outputs=["peak_speed_exact:tip"]).run(
+        tmp_path / "py", executor="serial", progress=False)
+    assert res.column("peak_speed_exact:tip") == pytest.approx(np.sqrt(3 * G + v**2), rel=2e-6)
+    # the same from the command line, and an angular velocity in the bar's own axes
+    assert main(["study", str(path), "--vary", f"{key}=[0.0,-0.5,0.0],[0.0,-2.0,0.0]", "--output",
+                 "peak_speed_exact:tip", "--serial", "--quiet", "--out", str(tmp_path / "cli")]) == 0
+    table = (tmp_path / "cli" / "table.csv").read_text()
+    assert '"[0.0, -2.0, 0.0]"' in table
+    text = text.replace("[initial.point_velocities.push]", "[initial.angular_velocities.push]").replace(
+        "point = [1.0, 0.0, 0.0]\nvelocity = [0.0, -1.0, 0.0]", "omega = [0.0, 0.0, -1.0]\nframe = \"body\"")
+    path.write_text(text)
+    res = Study.from_file(path, {"initial.angular_velocities.push.omega": [[0.0, 0.0, -w] for w in v]},
+                          outputs=["peak_speed_exact:tip"]).run(tmp_path / "w", executor="serial", progress=False)
+    assert res.column("peak_speed_exact:tip") == pytest.approx(np.sqrt(3 * G + v**2), rel=2e-6)
+    # one component by its index: a range of tip speeds, the table's column in m/s
+    path.write_text(text.replace("[initial.angular_velocities.push]", "[initial.point_velocities.push]").replace(
+        "omega = [0.0, 0.0, -1.0]\nframe = \"body\"", "point = [1.0, 0.0, 0.0]\nvelocity = [0.0, -1.0, 0.0]"))
+    assert main(["study", str(path), "--vary", f"{key}[1]=lin:-0.5:-2.0:2", "--output", "peak_speed_exact:tip",
+                 "--serial", "--quiet", "--out", str(tmp_path / "component")]) == 0
+    res = Study.from_file(path, {f"{key}[1]": [-0.5, -2.0]}, outputs=["peak_speed_exact:tip"]).run(
+        tmp_path / "component", executor="serial", progress=False)
+    assert res.ran == [] and res.column(f"{key}[1]").tolist() == [-0.5, -2.0]  # the command line's cases
+    assert res.column("peak_speed_exact:tip") == pytest.approx(np.sqrt(3 * G + v**2), rel=2e-6)
+    assert res.unit(f"{key}[1]") == "m/s"
+    path.write_text(text)
+    # a case whose velocity the pin does not allow fails with the key's name; the others finish
+    res = Study.from_file(path, {"initial.angular_velocities.push.omega": [[0.0, 0.0, -1.0], [1.0, 0.0, 0.0]]},
+                          outputs=["peak_speed_exact:tip"]).run(tmp_path / "bad", executor="serial", progress=False)
+    assert [r["status"] for r in res.rows] == ["finished", "failed"]
+    assert "initial.angular_velocities.push" in res.rows[1]["error"] and "contradict" in res.rows[1]["error"]
 
 
 # ----------------------------------------------------------------------------- command line

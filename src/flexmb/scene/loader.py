@@ -14,9 +14,10 @@ from .. import memory, registry
 from ..errors import FlexmbError, ModelError, PluginError, SceneError
 from .figures import FIGURES, RUNS_OF_FIGURES
 from .keys import key_paths, set_key
+from .initial import check_initial, load_initial
 from .scene import Scene
-from .settings import (SECTIONS, STUDY_KEYS, InitialState, OutputSettings, SolverSettings, _is_number,
-                       _prefix_problem, _toml_type)
+from .settings import (SECTIONS, STUDY_KEYS, OutputSettings, SolverSettings, _is_number, _prefix_problem,
+                       _toml_type)
 
 __all__: list[str] = []
 
@@ -235,7 +236,7 @@ class _Loader:
         self.load_drivers(model)
         solver = self.load_solver(complement)
         self.load_study()
-        initial = self.load_initial()
+        initial = load_initial(self)
         output = self.load_output(name)
         scene = Scene(name, model, initial, solver, output, self.source, self.types)
         self.check_memory(model)
@@ -243,7 +244,7 @@ class _Loader:
             system = scene.system()
         except FlexmbError as exc:
             self.fail("", str(exc).replace(":\n  - ", ": ").replace("\n  - ", "; "))
-        self.check_coordinates(system, initial)
+        check_initial(self, scene, system)
         try:
             memory.check(system, solver.n_out, what=f"{solver.n_out} output times", model=False)
         except ModelError as exc:
@@ -459,43 +460,6 @@ class _Loader:
                                        f"{', '.join(registry.names('integrators'))}")
         return SolverSettings(**kw)
 
-    def load_initial(self) -> InitialState:
-        t = self.table("initial", self.data.get("initial", {}))
-        self.keys("initial", t, optional=("positions", "speeds", "fixed", "hold_speeds"))
-        out = {}
-        for what in ("positions", "speeds"):
-            values = _flatten(self.table(f"initial.{what}", t.get(what, {})))
-            for k, v in values.items():
-                if isinstance(v, list):
-                    for x in v:
-                        self.number(f"initial.{what}.{k}", x)
-                else:
-                    self.number(f"initial.{what}.{k}", v)
-            out[what] = dict(values)
-        fixed = t.get("fixed", [])
-        if not isinstance(fixed, list):
-            self.fail("initial.fixed", f"must be an array of coordinate or joint names, got {_toml_type(fixed)}")
-        for i, f in enumerate(fixed):
-            self.string(f"initial.fixed[{i}]", f)
-        hold = self.boolean("initial.hold_speeds", t.get("hold_speeds", True))
-        return InitialState(out["positions"], out["speeds"], tuple(fixed), hold)
-
-    def check_coordinates(self, system, initial: InitialState) -> None:
-        for what, values in (("positions", initial.positions), ("speeds", initial.speeds),
-                             ("fixed", dict.fromkeys(initial.fixed))):
-            # positions per coordinate; speeds (and what is held) per speed: the names differ for Euler parameters
-            names, kind = ((system.coordinate_names, "coordinate") if what == "positions" or system.layout.identity
-                           else (system.speed_names, "speed"))
-            joints = {n.rsplit(".", 1)[0] for n in names}
-            for k, v in values.items():
-                path = f"initial.{what}" + (f".{k}" if what != "fixed" else "")
-                if k not in names and k not in joints:
-                    self.fail(path, f"no {kind} or joint named {k!r}; {kind}s: {', '.join(names)}")
-                if isinstance(v, list):
-                    count = sum(1 for n in names if n == k or n.rsplit(".", 1)[0] == k)
-                    if len(v) != count:
-                        self.fail(path, f"must have {count} values (one per {kind} of {k!r}), got {len(v)}")
-
     def load_output(self, name: str) -> OutputSettings:
         t = self.table("output", self.data.get("output", {}))
         self.keys("output", t, optional=("npz", "summary", "plots", "vtk", "prefix", "points", "figure", "metrics"))
@@ -525,17 +489,6 @@ class _Loader:
         for key, spec in metrics.items():
             self.string(f"output.metrics.{key}", spec)
         return OutputSettings(prefix=prefix, points=points, metrics=dict(metrics), **kw)
-
-
-def _flatten(table: dict, prefix: str = "") -> dict:
-    """``{B = {angle = 1}}`` (what TOML makes of the dotted key ``B.angle = 1``) -> ``{"B.angle": 1}``."""
-    out = {}
-    for k, v in table.items():
-        if isinstance(v, dict):
-            out.update(_flatten(v, f"{prefix}{k}."))
-        else:
-            out[f"{prefix}{k}"] = v
-    return out
 
 
 def _failing_field(exc: BaseException) -> str | None:

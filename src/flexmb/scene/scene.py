@@ -113,7 +113,7 @@ class Scene:
         from ..simulate import initial_state
 
         system = system or self.system()
-        return initial_state(system, 0.0, self.initial.positions, self.initial.speeds,
+        return initial_state(system, 0.0, self.initial.positions, self.initial.speeds_given(),
                              fixed=list(self.initial.fixed) or None, hold_speeds=self.initial.hold_speeds)
 
     def simulate(self, progress: bool | None = False, **overrides):
@@ -141,7 +141,8 @@ class Scene:
         from ..simulate import simulate
 
         s = self.settings(**overrides)
-        return simulate(self.system(s.complement), s.t_end, positions=self.initial.positions, speeds=self.initial.speeds,
+        return simulate(self.system(s.complement), s.t_end, positions=self.initial.positions,
+                        speeds=self.initial.speeds_given(),
                         fixed=list(self.initial.fixed) or None, hold_speeds=self.initial.hold_speeds, n_out=s.n_out,
                         method=s.method, rtol=s.rtol, atol=s.atol, complement=s.complement,
                         projection_tol=s.projection_tol, max_step=s.max_step, progress=progress,

@@ -21,7 +21,7 @@ SECTIONS = {
     "forces": "force elements by plugin name",
     "constraints": "constraint elements by plugin name (rolling, knife edges, gears, a user's rows)",
     "drivers": "prescribed joint motions",
-    "initial": "initial positions, speeds and held coordinates",
+    "initial": "initial positions, speeds (of coordinates, points and bodies) and held coordinates",
     "solver": "end time, integrator, tolerances, outputs times, complement",
     "output": "files to write and points to track",
     "study": "settings of parameter studies of the scene (time_limit per case)",
@@ -154,9 +154,39 @@ class InitialState:
         contradict a driver or a constraint are refused naming both; False:
         the constraints and drivers win, the speeds given are the closest
         they allow (see :func:`flexmb.initial_state`).
+    point_velocities : dict of str to PointVelocity
+        ``[initial.point_velocities.<label>]``: velocities of points held as
+        the coordinate speeds are, by label.
+    angular_velocities : dict of str to AngularVelocity
+        ``[initial.angular_velocities.<label>]``: angular velocities of
+        bodies, by label.
     """
 
     positions: dict = field(factory=dict)
     speeds: dict = field(factory=dict)
     fixed: tuple = ()
     hold_speeds: bool = True
+    point_velocities: dict = field(factory=dict)
+    angular_velocities: dict = field(factory=dict)
+
+    def speeds_given(self):
+        """The ``speeds`` argument of :func:`flexmb.initial_state` and :func:`flexmb.simulate`.
+
+        Returns
+        -------
+        dict or list
+            The coordinate speeds alone, or a list of them followed by the
+            point and angular velocities.
+        """
+        motions = [*self.point_velocities.values(), *self.angular_velocities.values()]
+        return [self.speeds, *motions] if motions else self.speeds
+
+    def gives_speeds(self) -> bool:
+        """Whether any speed is given (coordinate speeds, point or angular velocities).
+
+        Returns
+        -------
+        bool
+            True if ``[initial]`` gives a speed of any kind.
+        """
+        return bool(self.speeds or self.point_velocities or self.angular_velocities)

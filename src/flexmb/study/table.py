@@ -339,7 +339,7 @@ _KEY_UNITS = {
     "t_end": "s", "max_step": "s", "rtol": "-", "n_out": "-", "time_limit": "s",
 }
 #: keys whose unit depends on their table: (first part, last part) -> unit
-_TABLE_KEY_UNITS = {("bodies", "damping"): "s"}
+_TABLE_KEY_UNITS = {("bodies", "damping"): "s", ("initial", "velocity"): "m/s", ("initial", "omega"): "rad/s"}
 #: outputs by kind: a fixed unit, or "coordinate" (the unit of the coordinate named)
 _OUTPUT_UNITS = {"peak_speed": "m/s", "peak_speed_exact": "m/s", "max_displacement": "m", "driver_work": "J",
                  "energy_balance": "-", "position": "m", "velocity": "m/s", "acceleration": "m/s^2",

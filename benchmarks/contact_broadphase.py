@@ -11,9 +11,12 @@ is the contact's own cost):
   (``ContactGroup([Capsules(beam)], [Plane()])``: 2 N rows, about half of
   them touching): the issue's "1,000-segment body against a plane";
 * ``beam_on_beam`` (``--pairs``): the same beam's N capsules against a
-  second beam's N capsules, crossed above its middle: N^2 pairs, all but
-  a few rejected by the bounding test (no sorting of the shapes: the cost
-  is quadratic).
+  second beam's N capsules, crossed above its middle: N^2 pairs, a few
+  touching. The group is a block of the tables: the broad phase
+  (``flexmb.kernels.broadphase``, a uniform grid) finds the pairs whose
+  boxes overlap, about linear in N; ``brute`` times the same group with
+  every pair tested (``ContactGroup``'s ``BROAD_PHASE_PAIRS`` raised past
+  N^2), quadratic.
 
 CPU time (process_time) per call of ``System.state_rate`` over many calls
 after a warm-up, the least of ``--repeats``; the summary fits
@@ -31,7 +34,11 @@ import time
 import numpy as np
 
 import flexmb as fm
+import flexmb.forces.contact_groups as groups
+from flexmb.forces.tables import class_tables
+from flexmb.kernels.broadphase import block_candidates
 
+BROAD = groups.BROAD_PHASE_PAIRS
 HERE = os.path.dirname(os.path.abspath(__file__))
 OUT = os.path.join(HERE, "results", "contact_broadphase.jsonl")
 R = 0.0025
@@ -42,8 +49,12 @@ def _beam(name, n):
                            keep=("bend_y",))
 
 
-def build(case, n, with_contact):
-    """The system of a case at N, and a state with half of the beam's segments pressed into the plane."""
+def build(case, n, with_contact, broad=True):
+    """The system of a case at N, and a state with half of the beam's segments pressed into the plane.
+
+    ``broad=False``: a group against a group has every pair tested (no block for the broad phase).
+    """
+    groups.BROAD_PHASE_PAIRS = BROAD if broad else 10 ** 18
     model = fm.Model()
     beam = _beam("beam", n)
     law = fm.LinearContactLaw(1e5, 20.0)
@@ -83,7 +94,7 @@ def cost(fn, calls):
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--n", type=int, nargs="+", default=[16, 64, 256, 1024])
-    p.add_argument("--pairs", type=int, nargs="*", default=[16, 32, 64, 128],
+    p.add_argument("--pairs", type=int, nargs="*", default=[16, 32, 64, 128, 256, 500],
                    help="N of the beam_on_beam case (none: skip it)")
     p.add_argument("--calls", type=int, default=200)
     p.add_argument("--repeats", type=int, default=3)
@@ -91,6 +102,7 @@ def main(argv=None):
     a = p.parse_args(argv)
     cases = [("plane", n) for n in a.n] + [("beam_on_beam", n) for n in a.pairs]
     systems = {(c, n, w): build(c, n, w) for c, n in cases for w in (True, False)}
+    systems.update({("beam_on_beam", n, "brute"): build("beam_on_beam", n, True, broad=False) for n in a.pairs})
     best = {}
     for _ in range(a.repeats):
         for key, (system, y) in systems.items():
@@ -105,13 +117,22 @@ def main(argv=None):
                      "rhs_cpu_us": 1e6 * best[c, n, True], "rhs_without_contact_cpu_us": 1e6 * best[c, n, False],
                      "contact_cpu_us": 1e6 * (best[c, n, True] - best[c, n, False]),
                      "calls": a.calls, "repeats": a.repeats, "load_avg_1min": os.getloadavg()[0]})
+        t = class_tables(fm.ContactGroup, [group], system.topology)
+        if len(t.contact_blocks):  # the broad phase's pairs, and the same group with every pair tested
+            found = block_candidates(t.contact_blocks, t.sweep_rows, t.sweep_local, t.sweep_radius,
+                                     t.contact_block_map, kin.R, kin.origin)
+            brute, z = systems[c, n, "brute"]
+            same = bool(np.array_equal(system.state_rate(0.0, y), brute.state_rate(0.0, z)))
+            rows[-1].update({"n_pairs_found": int(found.size), "identical_to_every_pair": same,
+                             "brute_rhs_cpu_us": 1e6 * best[c, n, "brute"],
+                             "brute_contact_cpu_us": 1e6 * (best[c, n, "brute"] - best[c, n, False])})
         print(json.dumps(rows[-1]), flush=True)
     for c in ("plane", "beam_on_beam"):
         mine = [r for r in rows if r.get("case") == c]
         if len(mine) > 1:
             logn = np.log([r["n_segments"] for r in mine])
             fit = {k: float(np.polyfit(logn, np.log([max(r[k], 1e-3) for r in mine]), 1)[0])
-                   for k in ("rhs_cpu_us", "contact_cpu_us")}
+                   for k in ("rhs_cpu_us", "contact_cpu_us", "brute_contact_cpu_us") if k in mine[0]}
             rows.append({"summary": c, "fitted_exponent": fit, "n": [r["n_segments"] for r in mine]})
             print(json.dumps(rows[-1]), flush=True)
     os.makedirs(os.path.dirname(a.out), exist_ok=True)

@@ -16,20 +16,20 @@ reference's peak force):
   against the largest N: the discretisation error;
 * ``--sweep rtol``: N = 64 at rtol 1e-3 ... 1e-8, against rtol 1e-10: the
   integration error and the cost (work-precision);
-* every run reports the largest penetration and whether the tip ever went
-  below the stop's far side (tunnelling: the penetration exceeding the
-  sphere's radius).
+* every run reports its contact events (onsets, separations, the first
+  touch's time and speed), the steps refused for carrying the tip through
+  the pad, the largest penetration, and whether it tunnelled: the
+  penetration exceeding the sphere's radius at an output, or the tip below
+  the stop's far side, or fewer onsets than separations (a touch missed).
 
 The runs locate the contact's onsets and separations as events (the
 default of ``simulate``, ``flexmb.contact_events``: the integrator restarts
-at each touch, and a step through the pad is refused); the results in
-``docs/benchmarks.md`` were measured before the events. Every run also
-uses ``max_step`` = ``--max-step`` (default 1e-4 s: about a third of the
-contact time ``3 delta_max / v_in``, 3.3e-4 s here with delta_max = 57 um
-at v_in = 0.53 m/s, and a free flight at v_in covers 53 um in one step,
-a hundredth of the sphere's radius, so no step can carry the tip through
-the pad). ``--no-max-step`` reruns the tolerance sweep without the bound:
-what it costs and what it buys.
+at each touch, and a step through the pad is refused). With ``max_step`` =
+``--max-step`` (default 1e-4 s: about a third of the contact time ``3
+delta_max / v_in``, 3.3e-4 s here with delta_max = 57 um at v_in = 0.53
+m/s) the steps resolve each impact's force history; ``--no-max-step``
+runs the tolerance sweep without the bound, where the events alone keep
+the steps from crossing a touch: what the bound costs and what it buys.
 
 Run::
 
@@ -82,12 +82,15 @@ def run(n: int, rtol: float, max_step: float | None):
 
 
 def row(n, rtol, max_step, res, tip, h, wall, cpu, ref=None, kind=""):
-    out = {"scene": "cantilever on a stop", "n_segments": n, "integrator": "CVODE_BDF", "rtol": rtol,
+    onsets = [e for e in res.contact_events if e[2] == "onset"]
+    out = {"scene": "cantilever on a stop", "date": time.strftime("%Y-%m-%d"), "contact_events": True, "n_segments": n, "integrator": "CVODE_BDF", "rtol": rtol,
            "max_step": max_step, "status": res.status, "wall_s": wall, "cpu_s": cpu, "steps": res.n_steps,
-           "rhs_evals": res.n_rhs, "peak_force_n": float(h.normal_force.max()),
-           "max_penetration_m": float(h.penetration.max()),
-           "tunnelled": bool(h.penetration.max() > RADIUS or tip.min() < -B1_H / 2 - GAP - RADIUS),
-           "first_touch_s": float(T_OUT[np.argmax(h.penetration > 0)]) if (h.penetration > 0).any() else None,
+           "rhs_evals": res.n_rhs, "jacobians": res.n_jac, "peak_force_n": float(h.normal_force.max()),
+           "max_penetration_m": float(h.penetration.max()), "onsets": len(onsets),
+           "separations": res.n_contact_separations, "refused_steps": res.n_refused,
+           "tunnelled": bool(h.penetration.max() > RADIUS or tip.min() < -B1_H / 2 - GAP - RADIUS
+                             or res.n_contact_separations > len(onsets)),
+           "first_touch_s": onsets[0][0] if onsets else None, "impact_speed_m_s": onsets[0][3] if onsets else None,
            "tip_min_m": float(tip.min())}
     if ref is not None:
         tip_r, f_r = ref
@@ -121,7 +124,7 @@ def main():
             r = rows[-1]
             print(f"  N {n:4d}: tip error {r['tip_error_m']:.3e} m, force error {r['force_error_rel']:.3e}, "
                   f"peak {r['peak_force_n']:.4g} N, max pen {r['max_penetration_m']:.3e} m, "
-                  f"wall {r['wall_s']:.2f} s")
+                  f"onsets {r['onsets']}, steps {r['steps']}, cpu {r['cpu_s']:.2f} s")
     if "rtol" in a.sweep:
         res, tip, h, wall, cpu = run(64, a.rtol_ref, a.max_step)
         ref = (tip, h.normal_force)
@@ -132,8 +135,8 @@ def main():
                             kind=f"integration (rtol {a.rtol_ref:g})"))
             r = rows[-1]
             print(f"  rtol {rtol:.0e}: tip error {r['tip_error_m']:.3e} m, force error {r['force_error_rel']:.3e}, "
-                  f"max pen {r['max_penetration_m']:.3e} m, tunnelled {r['tunnelled']}, steps {r['steps']}, "
-                  f"wall {r['wall_s']:.2f} s")
+                  f"max pen {r['max_penetration_m']:.3e} m, tunnelled {r['tunnelled']}, onsets {r['onsets']}, "
+                  f"refused {r['refused_steps']}, steps {r['steps']}, cpu {r['cpu_s']:.2f} s")
     with open(a.out, "a") as f:
         for r in rows:
             f.write(json.dumps(r) + "\n")

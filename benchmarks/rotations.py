@@ -2,12 +2,14 @@
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/rotations.py --scene top --t-end 5 --rtol 1e-8
     OPENBLAS_NUM_THREADS=1 python benchmarks/rotations.py --scene tumbling --periods 1000 --rtol 1e-8
+    OPENBLAS_NUM_THREADS=1 python benchmarks/rotations.py --scene tumbling --periods 1000 --rtol 1e-6 --method GeneralizedAlpha
 
 Two scenes, each run by flexmb (``Spherical``/``Free`` with
 ``rotation='quaternion'``, ``simulate(method='DOP853')``) and by the hand
 model written here (the rigid body's Euler equations in body axes and
 ``qd = 1/2 q * (w, 0)``, by scipy's ``solve_ivp`` with the same method and
-tolerances; :func:`hand_model`):
+tolerances; :func:`hand_model`; ``--method`` runs flexmb with another
+integrator, e.g. ``GeneralizedAlpha``, against the same DOP853 hand run):
 
 * ``top``: a heavy top on a fixed point (1 kg, mass centre 0.1 m up its
   axis, central inertia diag(0.02, 0.02, 0.01) kg m^2, gravity 9.81 m/s^2)
@@ -23,7 +25,9 @@ tolerances; :func:`hand_model`):
   per rotation period), run over ``--periods`` periods ``2 pi / |w0|``.
 
 Each row (JSON, one per line, to stdout and ``--out``): the steps and
-right-hand sides, the wall time, the largest drift of the energy
+right-hand sides, the wall and CPU times (``process_time``; flexmb's also
+as a ratio to the hand model's; after one short run of each flexmb model,
+which loads the compiled kernels), the largest drift of the energy
 (relative) and of the angular momentum (relative; the top: its vertical
 component and the spin component along the axis, both conserved), and
 the largest distance of flexmb's rotation matrices from the hand model's
@@ -130,7 +134,7 @@ def _drifts(scene, R, w, J):
 
 
 def run(scene: str, t_end: float, rtol: float, tilt_deg: float = 100.0, n_out: int = 201,
-        rotations=("quaternion", "bryant"), spin: float = TOP_SPIN) -> list[dict]:
+        rotations=("quaternion", "bryant"), spin: float = TOP_SPIN, method: str = "DOP853") -> list[dict]:
     """The rows of one scene: the hand model, then flexmb with each rotation description."""
     from scipy.integrate import solve_ivp
 
@@ -140,35 +144,48 @@ def run(scene: str, t_end: float, rtol: float, tilt_deg: float = 100.0, n_out: i
     times = np.linspace(0.0, t_end, n_out)
     q0, w0 = initial_state(scene, tilt_deg, spin)
     rhs, J = hand_model(scene)
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), time.process_time()
     sol = solve_ivp(rhs, (0.0, t_end), np.concatenate([q0, w0]), method="DOP853", rtol=rtol, atol=atol,
                     dense_output=True)
-    wall = time.perf_counter() - start
+    wall, cpu = time.perf_counter() - start, time.process_time() - cpu
     Y = sol.sol(times).T
     R_hand = np.array([_matrix(q) for q in Y[:, :4]])
     base = {"scene": scene, "t_end": t_end, "rtol": rtol, "atol": atol, "method": "DOP853"}
     if scene == "top":
         base["tilt_deg"], base["spin"] = tilt_deg, spin
     rows = [dict(base, tool="hand quaternion model (solve_ivp)", steps=len(sol.t) - 1, rhs=int(sol.nfev),
-                 wall_s=wall, **dict(zip(("energy_drift", "momentum_drift"), _drifts(scene, R_hand, Y[:, 4:], J))))]
+                 wall_s=wall, cpu_s=cpu,
+                 **dict(zip(("energy_drift", "momentum_drift"), _drifts(scene, R_hand, Y[:, 4:], J))))]
     for rotation in rotations:
         model = flexmb_model(scene, rotation)
         positions, speeds = _flexmb_initial(scene, rotation, q0, w0)
-        start = time.perf_counter()
+        start, cpu = time.perf_counter(), time.process_time()
         try:
-            res = fm.simulate(model, t_end, positions=positions, speeds=speeds, method="DOP853", rtol=rtol,
+            res = fm.simulate(model, t_end, positions=positions, speeds=speeds, method=method, rtol=rtol,
                               atol=atol, t_eval=times, progress=False)
         except fm.FlexmbError as exc:
-            rows.append(dict(base, tool=f"flexmb ({rotation})", error=str(exc)))
+            rows.append(dict(base, tool=f"flexmb ({rotation})", method=method, error=str(exc)))
             continue
-        wall = time.perf_counter() - start
+        wall, cpu = time.perf_counter() - start, time.process_time() - cpu
         R = res.rotations[:, 0]
         w = res.angular_velocity("body", frame="body")
-        rows.append(dict(base, tool=f"flexmb ({rotation})", steps=int(res.n_steps), rhs=int(res.n_rhs),
-                         wall_s=wall, steps_ratio=res.n_steps / rows[0]["steps"],
+        rows.append(dict(base, tool=f"flexmb ({rotation})", method=method, steps=int(res.n_steps), rhs=int(res.n_rhs),
+                         wall_s=wall, cpu_s=cpu, cpu_ratio=cpu / rows[0]["cpu_s"],
+                         steps_ratio=res.n_steps / rows[0]["steps"],
                          rotation_error=float(np.max(np.abs(R - R_hand))),
                          **dict(zip(("energy_drift", "momentum_drift"), _drifts(scene, R, w, J)))))
     return rows
+
+
+def _warm_up(scene, rotations):
+    """One short run of each flexmb model first: the compiled kernels load (start-up: benchmarks/startup.py)."""
+    import flexmb as fm
+
+    q0, w0 = initial_state(scene, 30.0)
+    for rotation in rotations:
+        positions, speeds = _flexmb_initial(scene, rotation, q0, w0)
+        fm.simulate(flexmb_model(scene, rotation), 1e-3, positions=positions, speeds=speeds, method="DOP853",
+                    n_out=2, progress=False)
 
 
 def main(argv=None):
@@ -180,12 +197,14 @@ def main(argv=None):
     p.add_argument("--spin", type=float, default=TOP_SPIN, help="top: initial spin about its axis, rad/s")
     p.add_argument("--rtol", type=float, nargs="+", default=[1e-8])
     p.add_argument("--bryant", action="store_true", help="also run the Bryant-angle joint")
+    p.add_argument("--method", default="DOP853", help="flexmb's integrator (the hand model keeps DOP853)")
     p.add_argument("--out", default=None, help="append the rows (JSON lines) to this file")
     a = p.parse_args(argv)
     t_end = a.t_end if a.scene == "top" else a.periods * 2 * np.pi / np.linalg.norm(BODY_W0)
     rotations = ("quaternion", "bryant") if a.bryant else ("quaternion",)
+    _warm_up(a.scene, rotations)
     for rtol in a.rtol:
-        for row in run(a.scene, t_end, rtol, a.tilt, rotations=rotations, spin=a.spin):
+        for row in run(a.scene, t_end, rtol, a.tilt, rotations=rotations, spin=a.spin, method=a.method):
             line = json.dumps(row)
             print(line, flush=True)
             if a.out:

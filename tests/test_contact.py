@@ -28,6 +28,7 @@ import numpy as np
 import pytest
 
 import flexmb as fm
+from flexmb.export import vtk
 from flexmb.forces.contact import restitution_of_hysteresis
 from flexmb.kernels.contact import hysteresis_invariant, impact_speed
 
@@ -204,8 +205,9 @@ def test_ball_drop_rebound_ratio_restitution_laws(law_cls, e):
     """(a) The rebound ratio of the restitution laws over six decades of impact speed.
 
     It is the law's own ``restitution_of_hysteresis(chi(e))`` at every
-    speed, to 1e-7 (the integration), and the energy ledger closes to 1e-6
-    of the impact energy. That ratio differs from the e asked for by the
+    speed, to 2e-9 (the integration; the contact holds the impact speed
+    recorded at its onset, :mod:`flexmb.impact_speeds`), and the energy
+    ledger closes to 1e-9 of the impact energy (the issue asks 1e-6). That ratio differs from the e asked for by the
     law's relation chi(e): Lankarani-Nikravesh by about ``1.5 (1 - e)^2``
     (relative; +0.37 % at e = 0.95, +5.9 % at 0.8, +45 % at 0.5: it claims
     e near 1), Flores by about ``-(1 - e) / 15`` near 1 (-0.68 % at 0.9,
@@ -216,16 +218,93 @@ def test_ball_drop_rebound_ratio_restitution_laws(law_cls, e):
     ref = restitution_of_hysteresis(law.chi)
     measured = []
     for v in SPEEDS:
-        got, ledger, _, _ = _impact(law, v, 1.5)
+        got, ledger, res, _ = _impact(law, v, 1.5)
         measured.append(got)
-        assert got == pytest.approx(ref, rel=1e-7), v
-        assert abs(ledger) < 1e-6, v
+        assert got == pytest.approx(ref, rel=2e-9), v
+        assert abs(ledger) < 1e-9, v
+        assert res.contact_events[0][3] == pytest.approx(v, rel=1e-12)  # the speed held
     if law_cls is fm.LankaraniNikraveshLaw:
         assert 1.4 * (1 - e) ** 2 < ref / e - 1 < 1.6 * (1 - e) ** 2
     else:
         assert (1 - e) / 16 < 1 - ref / e < 0.3 * (1 - e)
     _report(f"{law_cls.__name__} e = {e}", rebound=ref, relative_to_e=ref / e - 1,
             spread=max(measured) - min(measured))
+
+
+#: the drops under gravity: a steel ball of 5 mm on a rigid floor, at five decades of impact speed, m/s
+DROP_R = 0.005
+DROP_M = 7800.0 * 4.0 / 3.0 * np.pi * DROP_R ** 3
+DROP_K = fm.hertz_stiffness(DROP_R, 2.0e11, 0.3)
+DROP_SPEEDS = (1e-2, 1e-1, 1.0, 1e1, 1e2, 1e3)
+
+
+def _drop(law, v, **kw):
+    """The ball launched down at v from just above the floor, under gravity; returns (result, contact time)."""
+    model = fm.Model()
+    ball = _ball(mass=DROP_M, radius=DROP_R)
+    floor = fm.SpherePlaneContact("floor", ball, DROP_R, law)
+    model.add(fm.Prismatic("drop", model.ground, ball, axis=(0, 0, 1)), floor, fm.Gravity((0, 0, -G_ACC)))
+    d_max = (5 * DROP_M * v ** 2 / (4 * DROP_K)) ** 0.4
+    t_c = 3.3 * d_max / v
+    gap = 0.5 * v * t_c
+    res = fm.simulate(model, gap / v + 1.5 * t_c, x0=[DROP_R + gap], xd0=[-v], method="DOP853", rtol=1e-10,
+                      atol=1e-10 * d_max, progress=False, n_out=41, track_work=True, **kw)
+    assert res.status == "finished"
+    return res, t_c
+
+
+def _one_dof_rebound(law, v_in):
+    """Separation speed of ``m d'' = m g - K d^1.5 (1 + chi d' / v_in)`` from ``d = 0, d' = v_in`` (scipy)."""
+    from scipy.integrate import solve_ivp
+
+    def rhs(t, y):
+        return [y[1], G_ACC - DROP_K * max(y[0], 0.0) ** 1.5 * (1 + law.chi * y[1] / v_in) / DROP_M]
+
+    def separated(t, y):
+        return y[0]
+
+    separated.terminal, separated.direction = True, -1
+    sol = solve_ivp(rhs, (0, 1), [0.0, v_in], method="DOP853", rtol=1e-13, atol=1e-20, events=separated,
+                    first_step=1e-9)
+    return -sol.y_events[0][0][1]
+
+
+@pytest.mark.parametrize("law", [fm.LankaraniNikraveshLaw(DROP_K, 0.9), fm.FloresLaw(DROP_K, 0.5)])
+def test_dropped_ball_holds_its_impact_speed(law):
+    """(a) Under gravity the law divides by the impact speed held from the onset, not one from the state.
+
+    Over five decades of impact speed, the rebound (the rates at the
+    separation and the onset) is that of the one-degree-of-freedom
+    equation with v_in fixed at the onset's rate, to 2e-9, the ledger
+    closes to 1e-9 of the impact energy, and the ratio tends to the law's
+    ``restitution_of_hysteresis(chi)`` as gravity's share ``g t_c / v_in``
+    vanishes. The state's speed (the fallback: no events) departs from the
+    held one where gravity acts during the impact: by 1e-3 at 1 cm/s.
+    The stored outputs (forces of the history, accelerations) are those of
+    the speed the run held.
+    """
+    for v in DROP_SPEEDS:
+        res, t_c = _drop(law, v)
+        (t_on, _, _, v_in), (_, _, _, rate_off) = res.contact_events
+        ref = _one_dof_rebound(law, v_in)
+        assert -rate_off == pytest.approx(ref, rel=2e-9), v
+        work = sum(w[-1] for w in res.work.values())
+        assert abs(res.kinetic[-1] - res.kinetic[0] - work) < 1e-9 * 0.5 * DROP_M * v_in ** 2, v
+        if v == DROP_SPEEDS[0]:
+            assert -rate_off / v_in < restitution_of_hysteresis(law.chi) * (1 - 1e-3)  # gravity's share
+            fallback, _ = _drop(law, v, contact_events=False, max_step=t_c / 50)
+            assert abs(fallback.xd[-1, 0] / res.xd[-1, 0] - 1) > 5e-4
+            h = res.contact_history("floor")
+            inside = (h.penetration > 0) & (res.t > t_on)
+            assert inside.sum() > 10
+            d, rate = h.penetration[inside], h.penetration_rate[inside]
+            force = DROP_K * d ** 1.5 * (1 + law.chi * rate / v_in)
+            assert np.allclose(h.normal_force[inside], force, rtol=1e-12, atol=0)
+            assert np.allclose(res.xdd[inside, 0], force / DROP_M - G_ACC, rtol=1e-9, atol=0)
+            i = np.flatnonzero(inside)[len(force) // 2]
+            mesh = vtk.to_meshio(res, i, system=res.system)
+            assert mesh.point_data["contact_force"][-1, 2] == pytest.approx(h.normal_force[i], rel=1e-12)
+    assert -rate_off / v_in == pytest.approx(restitution_of_hysteresis(law.chi), rel=2e-7)  # g t_c / v_in: 7e-8
 
 
 def test_each_relation_where_it_claims_accuracy():

@@ -186,3 +186,39 @@ def test_events_saved_and_loaded(tmp_path):
     res.save(tmp_path / "drop.npz")
     back = fm.Result.load(tmp_path / "drop.npz")
     assert back.contact_events == res.contact_events and back.n_contact_onsets == 1
+
+
+def test_impact_speeds_held_by_one_row_contacts_during_the_run_only():
+    """A contact of one row holds the onset's rate (the kernels read it); a capsule on a plane (two rows) none.
+
+    After the run nothing is held: an evaluation of the system outside a
+    run takes the impact speed from the state (the laws' fallback).
+    """
+    from flexmb.impact_speeds import HeldSpeeds
+    from flexmb.kernels.loads import LoadTables
+    from flexmb.kernels.packing import N_TREE
+
+    law = fm.FloresLaw(K_STEEL, 0.8)
+    model = _drop_model(law)
+    ball = model.element("ball")
+    model.add(fm.CapsulePlaneContact("rod", ball, 0.01, [[0, 0, 0.5], [0, 0, 0.6]], law))  # far above the floor
+    system = model.build()
+    held = HeldSpeeds.of(system)
+    assert list(held.rows) == ["floor"] and held.values.shape == (3,)
+    seen = []
+    original = held.hold
+
+    def column():  # column 4 of contact_par in the packed tables the compiled right-hand side reads
+        floats, _, _, index = system._packed
+        k = N_TREE + LoadTables._fields.index("contact_par")
+        return floats[index[k, 0]: index[k, 0] + index[k, 1] * index[k, 2]].reshape(index[k, 1], index[k, 2])[:, 4]
+
+    def spy(name, speed):
+        original(name, speed)
+        seen.append((name, speed, column()[held.rows[name]]))
+
+    held.hold = spy
+    res = fm.simulate(system, 0.25, x0=[R + H], xd0=[0.0], method="DOP853", rtol=1e-10, progress=False, n_out=3)
+    (t_on, _, _, v_in), = [e for e in res.contact_events if e[2] == "onset"]
+    assert seen == [("floor", v_in, v_in)]
+    assert not held.values.any() and not column().any()

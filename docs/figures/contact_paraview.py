@@ -37,7 +37,7 @@ view.CameraViewUp = [0.0, 0.0, 1.0]
 view.ResetCamera(True)
 view.CameraParallelProjection = 1
 bar = pv.GetScalarBar(pv.GetColorTransferFunction("von_mises"), view)
-bar.WindowLocation = "Lower Center"
+bar.WindowLocation = "Upper Center"  # clear of the beam, which the side view puts mid-height
 bar.Orientation = "Horizontal"
 stop = pv.Line(registrationName="stop", Point1=[0.9, 0.0, -0.0225], Point2=[1.1, 0.0, -0.0225])
 shown = pv.Show(stop, view)

@@ -173,8 +173,8 @@ def geometric_stiffness(kin, xdd, force, torque) -> np.ndarray:
     """
     topo = kin.topology
     return _tangent.geometric_stiffness(
-        topo.parent, topo.coord_start, topo.coord_body, kin.Sw, kin.Sv, np.asarray(xdd, dtype=float), kin.r,
-        kin.omega, kin.v, kin.alpha_bias, kin.a_bias, kin.inertia_world(), kin.mass, composite_inertias(kin),
+        topo.parent, topo.coord_start, topo.coord_body, topo.coord_kind, kin.Sw, kin.Sv, np.asarray(xdd, dtype=float),
+        kin.r, kin.omega, kin.v, kin.alpha_bias, kin.a_bias, kin.inertia_world(), kin.mass, composite_inertias(kin),
         np.ascontiguousarray(force), np.ascontiguousarray(torque))
 
 

@@ -25,14 +25,16 @@ these crossings events of the run (:class:`flexmb.stepping.Run`):
   integrator's bound), so that the state there comes from a smooth
   interval and not from an interpolant across the kink, keeps the outputs
   up to it, records the event with the rate of penetration there (the
-  impact speed at an onset; ``Result.contact_events``) and restarts the
+  impact speed at an onset; ``Result.contact_events``; the contact holds
+  it until its separation, :mod:`flexmb.impact_speeds`) and restarts the
   integrator there: the step is restarted at the event, not stepped
   through. A contact changes state :data:`ROOT_OFFSET` past the touch
   (or, just after an event whose state lies on the old side by more, twice
   that distance), so that no restart begins on a root;
 * a step from free flight into a surface is thus never kept: it is taken
   again up to the touch. A step that carries a touching body through the
-  other (its contact normal reversed between the step's ends: a sphere's
+  other (the normal of a touching pair of surfaces reversed between the
+  step's ends, compared pair by pair, the rows of a contact: a sphere's
   centre past the other's, a pin past the bearing's centre; the force
   would then push it on through) is refused: the integrator is restarted
   from the step's start with an eighth of the step, and the run fails,
@@ -55,6 +57,7 @@ import warnings
 import numpy as np
 
 from .errors import StiffnessWarning
+from .impact_speeds import HeldSpeeds
 
 __all__ = ["ContactEvents", "contact_gaps", "EVENT_TOL", "ROOT_OFFSET", "CONTACT_STEP_LIMIT",
            "TINY_STEP_RATIO", "REFUSED_STEP_SHRINK", "MIN_REFUSED_STEP"]
@@ -122,13 +125,28 @@ def contact_gaps(system, t, x, xd):
     >>> delta.round(6), rate, normal
     (array([-0.01]), array([1.]), array([[0., 0., 1.]]))
     """
+    return _states(system, t, x, xd)[:3]
+
+
+def _states(system, t, x, xd):
+    """:func:`contact_gaps`, and the rows': penetration, normal and element (an index into the contacts)."""
+    from .forces.contact_base import merge_rows
+
     groups = _contact_groups(system)
     if not groups:
-        return np.zeros(0), np.zeros(0), np.zeros((0, 3))
+        return np.zeros(0), np.zeros(0), np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3)), np.zeros(0, dtype=int)
     kin = system._kinematics(t, x, xd)
-    parts = [cls.states_all(elements, kin) for cls, elements in groups]
-    return (np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts]),
-            np.concatenate([p[5] for p in parts]))
+    merged, rows, owners, first = [], [], [], 0
+    for cls, elements in groups:
+        row = cls.row_states(elements, kin)
+        owner = cls._owners(elements, kin.topology)
+        merged.append(row if len(owner) == len(elements) else merge_rows(owner, len(elements), *row))
+        rows.append(row)
+        owners.append(owner + first)
+        first += len(elements)
+    return (np.concatenate([p[0] for p in merged]), np.concatenate([p[1] for p in merged]),
+            np.concatenate([p[5] for p in merged]), np.concatenate([p[0] for p in rows]),
+            np.concatenate([p[5] for p in rows]), np.concatenate(owners))
 
 
 class Refused(Exception):
@@ -191,6 +209,7 @@ class ContactEvents:
         self.steps_on = self.steps_off = 0
         self.time_on = self.time_off = 0.0
         self.warned = False
+        self.held = HeldSpeeds.of(system)
 
     @classmethod
     def of(cls, system, t0, t_end, explicit, name):
@@ -270,6 +289,13 @@ class ContactEvents:
     def start(self, t, y) -> None:
         """Take the contacts' states at the start of the run (no event).
 
+        A contact touches at the start if its penetration is above
+        ``-ROOT_OFFSET``: one started exactly at the touch (a body set down
+        on a surface) is a resting contact, not an impact at the speed
+        with which it crosses the offset (a restitution law would hold that
+        speed, nearly 0, and damp the contact without bound:
+        :mod:`flexmb.impact_speeds`).
+
         Parameters
         ----------
         t : float
@@ -277,9 +303,14 @@ class ContactEvents:
         y : ndarray
             The true state.
         """
-        self.delta, self.rate, self.normal = contact_gaps(self.system, t, *self.layout.split(y))
-        self.touching = self.delta > 0
+        self.delta, self.rate, self.normal, *self.rows = _states(self.system, t, *self.layout.split(y))
+        self.touching = self.delta > -ROOT_OFFSET
         self.band = np.full(len(self.names), ROOT_OFFSET)
+        self.held.release()  # a contact touching at the start holds no impact speed
+
+    def finish(self) -> None:
+        """End the run: the contacts hold no impact speeds any more (:mod:`flexmb.impact_speeds`)."""
+        self.held.release()
 
     def after_step(self, t_start, t_end, y_end, dense, root=None):
         """The first event within the step ``[t_start, t_end]``, or None; refuses a step through a surface.
@@ -312,11 +343,11 @@ class ContactEvents:
         Refused
             If a touching contact's normal reversed within the step.
         """
-        delta, rate, normal = contact_gaps(self.system, t_end, *self.layout.split(y_end))
+        delta, rate, normal, *rows = _states(self.system, t_end, *self.layout.split(y_end))
         h = t_end - t_start
         if root is not None and np.any(root != 0):
             return t_end, np.flatnonzero(root != 0)
-        through = np.flatnonzero(self.touching & (np.einsum("ij,ij->i", self.normal, normal) < 0))
+        through = self._through(rows[1])
         if len(through):
             self.n_refused += 1
             i = through[0]
@@ -345,8 +376,20 @@ class ContactEvents:
             t_e = min(roots.values())
             return t_e, np.array(sorted(i for i, r in roots.items() if r <= t_e + tol))
         self._count(h, bool(np.any(self.touching)))
-        self.delta, self.rate, self.normal = delta, rate, normal
+        self.delta, self.rate, self.normal, self.rows = delta, rate, normal, rows
         return None
+
+    def _through(self, normal):
+        """The touching contacts one of whose touching rows has its normal reversed at the step's end (``normal``).
+
+        Row by row: a contact of several rows (a capsule's ends, a group's
+        pairs) has rows whose normals differ (a ball between a beam and a
+        plane), and its deepest row can change within a step.
+        """
+        delta, before, owner = self.rows
+        touching = self.touching[owner] & (delta > -self.band[owner])
+        reversed_ = touching & (np.einsum("ij,ij->i", before, normal) < 0)
+        return np.unique(owner[reversed_])
 
     def confirm(self, t_start, t, y, changed) -> None:
         """Record the events of the contacts ``changed`` at ``t``, with the true state ``y`` there.
@@ -367,20 +410,28 @@ class ContactEvents:
         changed : ndarray of int
             The contacts whose state changes.
         """
-        delta, rate, normal = contact_gaps(self.system, t, *self.layout.split(y))
+        delta, rate, normal, *rows = _states(self.system, t, *self.layout.split(y))
         self._count(t - t_start, bool(np.any(self.touching)))
         self._record(t, changed, rate)
         short = np.where(self.touching, -delta, delta)[changed]  # > 0: on the side it left
         self.band[changed] = np.maximum(ROOT_OFFSET, 2 * short)
-        self.delta, self.rate, self.normal = delta, rate, normal
+        self.delta, self.rate, self.normal, self.rows = delta, rate, normal, rows
 
     def _record(self, t, changed, rate):
-        """Flip the states of the contacts ``changed`` at ``t`` and record their events with the rates there."""
+        """Flip the states of the contacts ``changed`` at ``t``, record their events with the rates there.
+
+        A contact holds the rate at its onset as its impact speed until
+        its separation (:mod:`flexmb.impact_speeds`).
+        """
         self.steps_on, self.time_on = 0, 0.0  # a new stretch of the contacts' states begins
         for i in changed:
             self.touching[i] = not self.touching[i]
             self.events.append((float(t), self.names[i], "onset" if self.touching[i] else "separation",
                                 float(rate[i])))
+            if self.touching[i]:
+                self.held.hold(self.names[i], float(rate[i]))
+            else:
+                self.held.release(self.names[i])
 
     def _count(self, h, on):
         """Count a step of ``h`` s in contact (``on``) or off it; give the notice on tiny steps once.

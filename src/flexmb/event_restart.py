@@ -70,6 +70,8 @@ def cut_at_event(run, solver, t_start, z_start):
             msg = sub.step()
             run.n_steps += 1
             if sub.status == "failed" or not np.all(np.isfinite(sub.y)):
+                if run.stage_failure is not None:  # the cause (Run._stage_rate)
+                    raise run.stage_failure
                 raise StepFailure(sub.t, f"the integrator failed: {msg or 'the state became non-finite'}")
             run.t_now = sub.t
             run._store(sub)

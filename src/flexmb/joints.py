@@ -29,9 +29,8 @@ from ._validate import name_check
 from .bodies import Body
 from .errors import ModelError
 from .fields import as_array, as_bool, boolean, label, rotation_matrix, vector3
-from .kernels import ROTATION, TRANSLATION
+from .kernels import QUATERNION, ROTATION, TRANSLATION
 from .kernels.tree import joint_motions
-from . import quaternions
 from .rotations import frame_from_axis
 
 __all__ = [
@@ -75,7 +74,10 @@ class Joint:
        its speeds (:class:`SphericalQuaternion`; ``n_coords``,
        ``n_speeds`` and ``speed_names`` follow); the joint's first
        ``n_speeds`` coordinates share their speeds' places in the state
-       (:mod:`flexmb.state_layout`), and its ``motion()`` takes them apart;
+       (:mod:`flexmb.state_layout`). The generic (compiled) motion takes
+       one set, as the joint's last freedoms (``qx, qy, qz`` after the
+       translations and rotations, ``qw`` the last coordinate); a class
+       with other sets overrides ``motion()``, which takes them apart;
     4. optionally override ``_default_frame()`` (the parent marker
        orientation when ``parent_frame`` is not given) or ``motion()`` for a
        motion that is not a translation/rotation sequence.
@@ -209,22 +211,58 @@ class Joint:
             (``Hdot @ qd``), in the parent marker frame.
         """
         # the compiled generic motion (flexmb.kernels.tree.joint_motions), for m joints laid out
-        # one after the other
+        # one after the other: their speeds' coordinates, then their qw
         q = np.asarray(q, dtype=float)
         m = q.shape[0]
-        axes = tuple(cls.translation_axes) + tuple(cls.rotation_axes)
-        nq = len(axes)
-        kind = np.array([TRANSLATION] * len(cls.translation_axes) + [ROTATION] * len(cls.rotation_axes),
-                        dtype=np.int64)
+        kind, axes = cls.generic_motion()
+        ns = len(kind)
+        axes = np.tile(np.array(axes, dtype=np.int64), m)
+        extra = q.shape[1] - ns
+        if extra:  # a set of Euler parameters: coord_axis holds the index of each joint's qw
+            axes[np.tile(np.array(kind) == QUATERNION, m)] = np.repeat(m * ns + np.arange(m), 3)
+        x = np.concatenate([q[:, :ns].ravel(), q[:, ns:].ravel()])
         R, d, aw, av = np.empty((m, 3, 3)), np.empty((m, 3)), np.empty((m, 3)), np.empty((m, 3))
-        hw, hv = np.empty((m * nq, 3)), np.empty((m * nq, 3))
-        joint_motions(np.ascontiguousarray(q.reshape(m * nq)), np.ascontiguousarray(np.reshape(qd, m * nq),
-                      dtype=float), np.arange(0, m * nq + 1, max(nq, 1), dtype=np.int64)[: m + 1]
-                      if nq else np.zeros(m + 1, dtype=np.int64), np.tile(kind, m),
-                      np.tile(np.array(axes, dtype=np.int64), m), np.zeros(m, dtype=np.bool_), R, d, hw, hv, aw, av)
-        Hw = hw.reshape(m, nq, 3).transpose(0, 2, 1)
-        Hv = hv.reshape(m, nq, 3).transpose(0, 2, 1)
+        hw, hv = np.empty((m * ns, 3)), np.empty((m * ns, 3))
+        joint_motions(x, np.ascontiguousarray(np.reshape(qd, m * ns), dtype=float),
+                      np.arange(0, m * ns + 1, max(ns, 1), dtype=np.int64)[: m + 1]
+                      if ns else np.zeros(m + 1, dtype=np.int64), np.tile(np.array(kind, dtype=np.int64), m),
+                      axes, np.zeros(m, dtype=np.bool_), R, d, hw, hv, aw, av)
+        Hw = hw.reshape(m, ns, 3).transpose(0, 2, 1)
+        Hv = hv.reshape(m, ns, 3).transpose(0, 2, 1)
         return R, d, Hw, Hv, aw, av
+
+    @classmethod
+    def generic_motion(cls) -> tuple[list[int], list[int]]:
+        """The kind and axis of each speed of the generic motion (:func:`flexmb.kernels.tree.joint_motions`).
+
+        Translations, rotations, then at most one set of Euler parameters
+        (kind :data:`flexmb.kernels.QUATERNION`, its axis the position of
+        ``qw`` among the joint's coordinates).
+
+        Returns
+        -------
+        kind, axis : list of int
+            One entry per speed.
+
+        Raises
+        ------
+        ModelError
+            If the class lists Euler parameters the generic motion cannot
+            take (more than one set, or not its last freedoms) and does not
+            override ``motion()``.
+        """
+        nt, nr = len(cls.translation_axes), len(cls.rotation_axes)
+        kind = [TRANSLATION] * nt + [ROTATION] * nr
+        axis = list(cls.translation_axes) + list(cls.rotation_axes)
+        if not cls.quaternions:
+            return kind, axis
+        p = nt + nr
+        if tuple(map(tuple, cls.quaternions)) != (((p, p + 1, p + 2, p + 3), (p, p + 1, p + 2)),):
+            raise ModelError(
+                f"joint class {cls.__name__}: the generic motion takes one set of Euler parameters as the joint's last "
+                f"freedoms (quaternions = ((({p}, {p + 1}, {p + 2}, {p + 3}), ({p}, {p + 1}, {p + 2})),)), got "
+                f"{cls.quaternions!r}; override motion() for another layout")
+        return kind + [QUATERNION] * 3, axis + [p + 3] * 3
 
 
 @frozen(eq=False)
@@ -491,28 +529,6 @@ class SphericalQuaternion(Spherical):
 
     rotation: str = field(default="quaternion", kw_only=True, validator=validators.in_(("quaternion",)))
 
-    @classmethod
-    def motion(cls, q, u):
-        """The rotation of the Euler parameters; the angular velocity along the child marker's axes.
-
-        Parameters
-        ----------
-        q : ndarray, shape (m, 4)
-            ``qx, qy, qz, qw`` (normalised here).
-        u : ndarray, shape (m, 3)
-            Angular velocities in the child marker's axes, rad/s.
-
-        Returns
-        -------
-        R, d, Hw, Hv, aw, av
-            As :meth:`Joint.motion`: ``Hw = R`` (the child marker's axes),
-            the rest zero (``d/dt(R) u = R (u x u) = 0``).
-        """
-        m = q.shape[0]
-        R = quaternions.rotation_matrix(q)
-        return R, np.zeros((m, 3)), R.copy(), np.zeros((m, 3, 3)), np.zeros((m, 3)), np.zeros((m, 3))
-
-
 @frozen(eq=False)
 class Free(_RotationChoice, Joint):
     """Six freedoms: translations x, y, z (m), then the rotation as in :class:`Spherical`.
@@ -561,28 +577,3 @@ class FreeQuaternion(Free):
     quaternions = (((3, 4, 5, 6), (3, 4, 5)),)
 
     rotation: str = field(default="quaternion", kw_only=True, validator=validators.in_(("quaternion",)))
-
-    @classmethod
-    def motion(cls, q, u):
-        """Translation along the parent marker's axes, then the rotation of the Euler parameters.
-
-        Parameters
-        ----------
-        q : ndarray, shape (m, 7)
-            ``x, y, z`` (m) and ``qx, qy, qz, qw`` (normalised here).
-        u : ndarray, shape (m, 6)
-            Translation rates (m/s) and the angular velocity in the child
-            marker's axes (rad/s).
-
-        Returns
-        -------
-        R, d, Hw, Hv, aw, av
-            As :meth:`Joint.motion`.
-        """
-        m = q.shape[0]
-        R = quaternions.rotation_matrix(q[:, 3:7])
-        Hw = np.zeros((m, 3, 6))
-        Hv = np.zeros((m, 3, 6))
-        Hw[:, :, 3:] = R
-        Hv[:, :, :3] = np.eye(3)
-        return R, np.array(q[:, :3], dtype=float), Hw, Hv, np.zeros((m, 3)), np.zeros((m, 3))

@@ -61,7 +61,7 @@ class Kinematics:
     alpha_bias, a_bias : ndarray, shape (n_bodies + 1, 3)
         Angular and mass-centre accelerations at zero ``xdd``
         (``Wdot xd`` and ``Vdot xd`` of eq. 3).
-    W, V : ndarray, shape (n_bodies + 1, 3, n_coords)
+    W, V : ndarray, shape (n_bodies + 1, 3, n_speeds)
         Partial angular velocities and partial velocities of the mass
         centres (eqs. 7, 17); formed on first access only (the assembler
         works from the per-coordinate ``Sw``, ``Sv``).
@@ -109,17 +109,17 @@ class Kinematics:
 
     @cached_property
     def W(self) -> np.ndarray:
-        """Partial angular velocities of all bodies (eq. 7), shape (n_bodies + 1, 3, n_coords)."""
+        """Partial angular velocities of all bodies (eq. 7), shape (n_bodies + 1, 3, n_speeds)."""
         nb = self.topology.n_bodies
-        W = np.zeros((nb + 1, 3, self.x.shape[0]))
+        W = np.zeros((nb + 1, 3, self.xd.shape[0]))
         W[:nb] = self.angular_partials(np.arange(nb))
         return W
 
     @cached_property
     def V(self) -> np.ndarray:
-        """Partial velocities of all mass centres (eq. 17), shape (n_bodies + 1, 3, n_coords)."""
+        """Partial velocities of all mass centres (eq. 17), shape (n_bodies + 1, 3, n_speeds)."""
         nb = self.topology.n_bodies
-        V = np.zeros((nb + 1, 3, self.x.shape[0]))
+        V = np.zeros((nb + 1, 3, self.xd.shape[0]))
         V[:nb] = self.point_partials(np.arange(nb), self.r[:nb])
         return V
 

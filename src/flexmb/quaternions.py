@@ -20,7 +20,8 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["rotation_matrix", "rates", "kinematic_matrix", "displacement_matrix", "rate_matrix", "compose",
-           "turn_between", "normalized", "from_rotation_matrix", "bryant_angles", "rotation_vector"]
+           "turn_between", "normalized", "from_rotation_matrix", "bryant_angles", "rotation_vector",
+           "inverse_right_jacobian"]
 
 
 def _skew(v: np.ndarray) -> np.ndarray:
@@ -257,3 +258,32 @@ def rotation_vector(R: np.ndarray) -> np.ndarray:
 
     R = np.asarray(R, dtype=float)
     return Rotation.from_matrix(R.reshape(-1, 3, 3)).as_rotvec().reshape(R.shape[:-2] + (3,))
+
+
+def inverse_right_jacobian(theta: np.ndarray, omega: np.ndarray) -> np.ndarray:
+    """``J_r(theta)^-1 omega``: the rate of the rotation vector of ``R0 exp([theta]x)`` turning at ``omega``.
+
+    With ``R = R0 exp([theta]x)`` and ``R' = R [omega]x``, ``theta' =
+    omega + theta x omega / 2 + c(a) theta x (theta x omega)``, ``a =
+    |theta|``, ``c(a) = 1 / a^2 - cot(a / 2) / (2 a)`` (``1/12 + a^2/720``
+    for small a). ``J_r(theta)^-T v`` is ``J_r(-theta)^-1 v``.
+
+    Parameters
+    ----------
+    theta : ndarray, shape (m, 3)
+        Rotation vectors, rad (``|theta| < 2 pi``).
+    omega : ndarray, shape (m, 3)
+        Angular velocities in the rotated axes, rad/s.
+
+    Returns
+    -------
+    ndarray, shape (m, 3)
+        ``theta'``, rad/s.
+    """
+    a = np.linalg.norm(theta, axis=-1, keepdims=True)
+    big = a > 1e-4
+    safe = np.where(big, a, 1.0)
+    half = 0.5 * safe
+    coef = np.where(big, 1.0 / safe**2 - np.cos(half) / (2.0 * safe * np.sin(half)), 1.0 / 12.0 + a * a / 720.0)
+    tw = np.cross(theta, omega)
+    return omega + 0.5 * tw + coef * np.cross(theta, tw)

@@ -246,7 +246,10 @@ class StateLayout:
 
         A Jacobian ``Y = dF/d(du)`` taken along :meth:`displace` becomes
         ``dF/dq = Y P(q)``, ``P`` the displacement per coordinate change
-        (``W^+`` on q's manifold); with ``W = I``, ``Y`` itself.
+        (``W^+`` on q's manifold); with ``W = I``, ``Y`` itself. F depends
+        on a quaternion through its direction only (its rotation is that of
+        q normalised), so for q off unit length ``P = P(q / |q|) / |q|``:
+        no change along q, the change across it scaled by ``1 / |q|``.
 
         Parameters
         ----------
@@ -265,10 +268,68 @@ class StateLayout:
         out = np.zeros((Y.shape[0], self.nq))
         out[:, : self.n] = Y
         out[:, self._q.ravel()] = 0.0
-        P = quat.displacement_matrix(quat.normalized(q[self._q]))
+        P = self._displacement_matrices(q)
         for qi, ui, Pk in zip(self._q, self._u, P):
             out[:, qi] += Y[:, ui] @ Pk
         return out
+
+    def displacement(self, q: np.ndarray, dq: np.ndarray) -> np.ndarray:
+        """``P(q) dq``: a small change of the coordinates as a displacement along the speeds (O(n)).
+
+        The product of :meth:`per_coordinate`'s P with a vector: ``dq``'s
+        first n entries where ``W = I``, ``P(q / |q|) dq / |q|`` for each
+        quaternion (its change along q itself dropped).
+
+        Parameters
+        ----------
+        q : ndarray, shape (nq,)
+            Coordinates.
+        dq : ndarray, shape (nq,)
+            A change of them.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            The displacement.
+        """
+        du = np.array(dq[: self.n], dtype=float)
+        if not self.identity:
+            du[self._u] = np.einsum("kij,kj->ki", self._displacement_matrices(q), dq[self._q])
+        return du
+
+    def implicit_rates(self, q: np.ndarray, u: np.ndarray, r: np.ndarray, gamma: float) -> np.ndarray:
+        """``z`` with ``(I - gamma d(W u)/dq) z = r``: the kinematic equations' rows of a Newton matrix.
+
+        ``z = r`` where ``W = I`` (those rows of :meth:`rate_jacobian` are
+        zero); a 4 x 4 solve per quaternion (``I - gamma R(u)``, R
+        skew-symmetric: always regular).
+
+        Parameters
+        ----------
+        q : ndarray, shape (nq,)
+            Coordinates.
+        u : ndarray, shape (n,)
+            Speeds.
+        r : ndarray, shape (nq,)
+            Right-hand side.
+        gamma : float
+            The Newton matrix's coefficient.
+
+        Returns
+        -------
+        ndarray, shape (nq,)
+            z.
+        """
+        z = np.array(r, dtype=float)
+        if not self.identity:
+            M = np.eye(4) - gamma * quat.rate_matrix(u[self._u])
+            z[self._q] = np.linalg.solve(M, r[self._q][..., None])[..., 0]
+        return z
+
+    def _displacement_matrices(self, q):
+        """``P(q / |q|) / |q|`` of each quaternion, shape (k, 3, 4)."""
+        q4 = q[self._q]
+        return quat.displacement_matrix(quat.normalized(q4)) / np.linalg.norm(q4, axis=-1)[:, None, None]
 
     def displace(self, q: np.ndarray, du: np.ndarray) -> np.ndarray:
         """The coordinates moved by ``du`` along the speeds: ``q + W(q) du``, normalised (a new array).

@@ -34,7 +34,8 @@ import numpy as np
 from ._signals import escaped, interruption, who
 from .contact_events import ContactEvents, StepFailure
 from .event_restart import cut_at_event
-from .errors import AssemblyError, ModelError
+from .errors import AssemblyError
+from .offset_preconditioner import OffsetPreconditioner
 from .output_projection import project_output
 from .progress import Progress
 from .result import Result
@@ -75,35 +76,6 @@ WINDING_BOUND = 3.0 * np.pi
 
 class _Wound(Exception):
     """An angle left the winding bound during :meth:`Run._advance` (the run moves the offsets and goes on)."""
-
-
-class _OffsetPreconditioner:
-    """A Newton preconditioner set up at ``y = z + c`` while the integrator holds ``z`` (see the module docstring).
-
-    Parameters
-    ----------
-    pre : NewtonPreconditioner
-        The system's preconditioner.
-    run : Run
-        The run whose offset (:attr:`Run.offset`) is added.
-    """
-
-    def __init__(self, pre, run):
-        self.pre, self.run, self.system = pre, run, pre.system
-
-    @property
-    def n_setups(self) -> int:
-        """Set-ups so far."""
-        return self.pre.n_setups
-
-    def setup(self, t, x, xd) -> None:
-        """Set up at the true coordinates ``x + c``."""
-        offset = self.run.offset
-        self.pre.setup(t, x if offset is None else x + offset[: len(x)], xd)
-
-    def solve(self, r1, r2, gamma):
-        """As :meth:`NewtonPreconditioner.solve` (increments do not depend on the offset)."""
-        return self.pre.solve(r1, r2, gamma)
 
 
 class NonFinite(Exception):
@@ -198,7 +170,8 @@ class Run:
         self.preconditioner = None
         # one function object for every solver of the run: an integrator may remember its state across
         # restarts by its right-hand side (GeneralizedAlpha)
-        self._fun = self.rhs
+        self._fun = self._stage_rate if self.caps.explicit else self.rhs
+        self.stage_failure: Exception | None = None  # why a stage of the step being taken could not be evaluated
         self.options: dict = {}
         self.out_y: list = []
         self.k_out = 0
@@ -255,6 +228,28 @@ class Run:
             rates[self.n_drv + n_g:] = system.constraints.element_powers(lam, system._kinematics(t, xs, vs))
         return self.layout.join(self.layout.coordinate_rates(xs, vs), xdd, rates)
 
+    def _stage_rate(self, t, y) -> np.ndarray:
+        """:meth:`rhs` for an explicit method's stages: a stage that cannot be evaluated rejects the step.
+
+        An explicit step's stages are trial states: a step too long for a
+        stiff contact throws them far beyond the motion (a ball 1e10 m under
+        its floor), where the equations can fail (the articulated inertias
+        about the origin lose every digit) although the step would only have
+        been rejected. Such a stage returns NaN, which the error estimate
+        rejects, and the step is taken again shorter; the first failure since
+        the last accepted step is kept in :attr:`stage_failure` and reported
+        if the integrator gives up, so a model whose equations fail still
+        stops with their cause, not with the step size it was left with.
+        """
+        try:
+            return self.rhs(t, y)
+        except (NonFinite, AssemblyError) as exc:
+            if getattr(exc, "t", None) is None:
+                exc.t = t
+            if self.stage_failure is None:  # the first since the last accepted step: the cause
+                self.stage_failure = exc
+            return np.full(len(y), np.nan)
+
     def _jac(self, t, y):
         self.counters["jac"] += 1
         if self.offset is not None:
@@ -265,22 +260,19 @@ class Run:
     def _set_options(self, x, xd) -> None:
         """What the integrator is given besides the rhs: a Jacobian or a preconditioner, the second-order size."""
         caps, system, n = self.caps, self.system, self.n
-        if caps.needs_n_second:  # written for y = (x, xd, ...) itself, qd = u (GeneralizedAlpha)
-            if not system.layout.identity:
-                raise ModelError(f"integrator {self.name!r} integrates coordinates whose rates are the speeds; "
-                                 "this model's Euler parameters (rotation='quaternion') are not: use another "
-                                 "integrator, or rotation='bryant'")
+        if caps.needs_n_second:  # written for y = (x, xd, ...): given the layout when qd = W(q) u (GeneralizedAlpha)
             self.options["n_second"] = n
+            if not system.layout.identity:
+                self.options["layout"] = system.layout
         if self.events is not None and caps.finds_roots:  # the integrator's root finding, on the true state
             events = self.events
             self.options["events"] = (
                 lambda t, z: events.root_functions(t, z if self.offset is None else z + self.offset), events.count)
-        if (caps.uses_preconditioner and (system.articulated or system._loop_kernel) and n >= KRYLOV_MIN_COORDS
-                and system.layout.identity):  # the preconditioner's block form [[0, I], [Jx, Jv]] needs qd = u
+        if caps.uses_preconditioner and (system.articulated or system._loop_kernel) and n >= KRYLOV_MIN_COORDS:
             # an open tree, or loops closed through the recursion: O(n) Newton solves, no matrix
-            # (System.newton_preconditioner)
+            # (System.newton_preconditioner; with Euler parameters too, qd = W(q) u)
             self.preconditioner = system.newton_preconditioner()
-            self.options["preconditioner"] = _OffsetPreconditioner(self.preconditioner, self)
+            self.options["preconditioner"] = OffsetPreconditioner(self.preconditioner, self)
         elif caps.uses_jacobian and system.state_jacobian(self.t0, x, xd) is not None:
             self.counters["jac"] = 0
             self.options["jac"] = self._jac
@@ -342,6 +334,8 @@ class Run:
                 self.message = f"at t = {self.t_now:.9g} s: {type(exc).__name__}: {exc}"
         finally:
             bar.close()  # the bar's line ends before any message
+            if self.events is not None:
+                self.events.finish()
         self.wall = _time.perf_counter() - t_wall
 
     def _advance(self, solver, bar) -> None:
@@ -413,10 +407,12 @@ class Run:
             except (ValueError, np.linalg.LinAlgError) as exc:  # scipy's checks on a non-finite Jacobian
                 raise NonFinite(solver.t, f"the integrator failed: {exc}") from exc
             self.n_steps += 1
-            if solver.status == "failed":
-                raise NonFinite(solver.t, f"the integrator failed: {msg}")
-            if not np.all(np.isfinite(solver.y)):
-                raise NonFinite(solver.t, "the state became non-finite")
+            if solver.status == "failed" or not np.all(np.isfinite(solver.y)):
+                if self.stage_failure is not None:  # the cause, not the step size it left (_stage_rate)
+                    raise self.stage_failure
+                raise NonFinite(solver.t, f"the integrator failed: {msg}" if solver.status == "failed"
+                                else "the state became non-finite")
+            self.stage_failure = None
             if self.monitor is not None:  # warns once if the steps resolve ringing modes (StiffnessWarning)
                 self.monitor.step(solver)
             if events is not None:
@@ -458,6 +454,8 @@ class Run:
                 y_out = dense(t_out)
                 if self.offset is not None:
                     y_out = y_out + self.offset
+            if not np.all(np.isfinite(y_out)):  # an interpolant's extra stage that failed (_stage_rate)
+                raise self.stage_failure or NonFinite(t_out, "the state became non-finite")
             q, u = layout.split(y_out)
             q[:] = layout.normalized(q)  # coordinates on their own manifold (W = I: unchanged)
             if system.n_constraints:

@@ -59,8 +59,9 @@ class Topology:
         The Euler parameters' indices in x, shape (k, 4), and their angular
         speeds' in xd, shape (k, 3) (:class:`~flexmb.state_layout.StateLayout`).
     coord_kind, coord_axis : ndarray of int, shape (n_speeds,)
-        Translation or rotation (:mod:`flexmb.kernels`) and the joint-frame
-        axis of each coordinate of a generic joint motion.
+        Translation, rotation or Euler parameters (:mod:`flexmb.kernels`)
+        and the joint-frame axis of each coordinate of a generic joint
+        motion (for Euler parameters, the index in x of their ``qw``).
     coord_angle : ndarray of bool, shape (n_coords,)
         Whether each coordinate is an angle, a rotation about one of its
         joint's ``rotation_axes`` (joints with their own ``motion()``
@@ -280,9 +281,10 @@ class Topology:
     def _joint_motions(self) -> None:
         """Joint motions: the generic one is compiled; a class overriding motion() is called back.
 
-        The generic motion is translations along fixed axes, then rotations
-        about moving axes; a class with its own ``motion()`` is called back,
-        one batched call per class.
+        The generic motion is translations along fixed axes, rotations
+        about moving axes, then a set of Euler parameters
+        (:meth:`flexmb.Joint.generic_motion`); a class with its own
+        ``motion()`` is called back, one batched call per class.
         """
         nb = self.n_bodies
         kind, axis = [], []
@@ -295,8 +297,10 @@ class Topology:
                 kind += [kernels.EXTERNAL] * j.n_speeds
                 axis += [0] * j.n_speeds
                 continue
-            kind += [kernels.TRANSLATION] * len(j.translation_axes) + [kernels.ROTATION] * len(j.rotation_axes)
-            axis += list(j.translation_axes) + list(j.rotation_axes)
+            kinds, axes = type(j).generic_motion()
+            coords = self.joint_coordinates(j)
+            kind += kinds
+            axis += [int(coords[a]) if c == kernels.QUATERNION else a for c, a in zip(kinds, axes)]
         self.coord_kind = np.array(kind, dtype=np.int64)
         self.coord_axis = np.array(axis, dtype=np.int64)
         self.parent = self.parent.astype(np.int64)

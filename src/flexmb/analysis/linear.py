@@ -72,6 +72,8 @@ class Linearization:
 
 def _exact_element(e) -> bool:
     """Whether the analytic tangent holds all of a force element's dependence on the state."""
+    if type(e) is JointSpringDamper and e.joint.quaternions:  # a rotation spring's diagonal: exact at rest only
+        return False
     if type(e) in _EXACT_CLASSES:
         return True
     if type(e) is PointForce:
@@ -132,6 +134,8 @@ def tangent_gap(system, x0, xd0, t: float = 0.0) -> str:
         return "closed loops: the constraint forces change with the state"
     if system.topology.external_groups:
         return "a joint class evaluated in Python: its motion's second derivatives are not known"
+    if not system.layout.identity:  # kept on the differences they had while their motion was evaluated in Python
+        return "joints in Euler parameters: linearised by differences along the speeds"
     others = sorted({type(e).__name__ for _, els in system.forces.groups for e in els if not _exact_element(e)})
     if others:
         return f"force elements whose state dependence the tangent lacks: {', '.join(others)}"

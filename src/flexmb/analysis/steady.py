@@ -15,6 +15,18 @@ model is first order, in the perturbations of
   from the linearised rows ``psi dxd = -d(psi xd0 - b)/dx dx``.
 
 docs/constraints.md, "Linearisation with velocity rows", derives it.
+
+The coordinates are perturbed along the speeds
+(:meth:`flexmb.state_layout.StateLayout.displace`): a joint in Euler
+parameters (``rotation='quaternion'``) is perturbed by a small rotation
+vector ``c`` in the child's axes, ``R = R0 exp([c]x)``, three parameters
+for its four coordinates, named by its speeds (``'pivot.wx'``: the small
+rotation about the child's x axis). Along the steady motion ``R0`` turns at
+the angular velocity ``omega0`` (in the child's axes), and the rotation
+vector from it follows, linearised, ``c' = du - omega0 x c`` (from ``R' =
+R [omega]x``: ``[c']x = [du]x + [c]x [omega0]x - [omega0]x [c]x``): the
+linear model is written in axes that turn with the body, where a spinning
+top's or a tumbling body's steady state stands still.
 """
 
 from __future__ import annotations
@@ -25,7 +37,7 @@ from attrs import define
 
 from .._validate import state_time, state_vector
 from ..errors import ModelError
-from ..simulate import _coordinate_mask
+from ..simulate import _coordinate_mask as _mask
 from ..threads import limited_blas
 
 __all__ = ["SteadyLinearization", "linearize_steady"]
@@ -46,23 +58,33 @@ class SteadyLinearization:
     A : ndarray, shape (k + p, k + p)
         State matrix.
     coordinates : list of str
-        The k independent coordinates (the first k states).
+        The k independent coordinates (the first k states): speed names,
+        the coordinate's own where the speed is its rate, a quaternion's
+        angular speed for the small rotation about that axis (module
+        docstring).
     speeds : list of str
-        The p coordinates whose rates are the independent speeds (the last
-        p states).
+        The p independent speeds (the last p states): the coordinates whose
+        rates they are, or a quaternion joint's angular speeds.
     ignorable : list of str
         The coordinates left out (the equations do not depend on them).
     X, Xd : ndarray, shape (n, k + p)
-        The perturbation of all coordinates and speeds, ``dx = X s``,
-        ``dxd = Xd s`` (0 on the ignorable coordinates).
-    x0, xd0 : ndarray, shape (n,)
-        The state of the steady motion linearised about.
+        The perturbation of the coordinates (along the speeds,
+        :meth:`~flexmb.state_layout.StateLayout.displace`) and of the
+        speeds, ``dx = X s``, ``dxd = Xd s`` (0 on the ignorable
+        coordinates); n speeds.
+    x0 : ndarray, shape (nq,)
+        The coordinates of the steady motion linearised about.
+    xd0 : ndarray, shape (n,)
+        Its speeds.
     t : float
         Time, s.
     residual : float
         How far the state is from steady: the largest acceleration of an
         independent speed or of a non-ignorable coordinate, or speed of a
         non-ignorable coordinate.
+    rotations : frozenset of str
+        The speeds (by name) that are a quaternion joint's angular velocity
+        (empty without Euler parameters).
     """
 
     A: np.ndarray
@@ -76,10 +98,18 @@ class SteadyLinearization:
     t: float
     residual: float = 0.0
 
+    rotations: frozenset = frozenset()
+
     @property
     def states(self) -> list[str]:
-        """The state names: the coordinates, then the speeds (``'name rate'``)."""
-        return list(self.coordinates) + [f"{s} rate" for s in self.speeds]
+        """The state names: the coordinates, then the speeds.
+
+        A coordinate's rate is ``'name rate'``; a quaternion joint's small
+        rotation about an axis is ``'pivot.wx angle'``, its angular speed
+        ``'pivot.wx'``.
+        """
+        return ([f"{c} angle" if c in self.rotations else c for c in self.coordinates]
+                + [s if s in self.rotations else f"{s} rate" for s in self.speeds])
 
     def eigenvalues(self) -> np.ndarray:
         """The eigenvalues of ``A``, sorted by real part, then imaginary part.
@@ -116,10 +146,21 @@ def _rank(a, tol):
 
 
 def _names_mask(system, names, what):
+    """The mask of speeds (a coordinate's, where it is the coordinate's rate) named, or of the joints named."""
     if isinstance(names, str):
         raise ModelError(f"linearize_steady: {what} must be a list of coordinate or joint names, got the string "
                          f"{names!r}")
-    return _coordinate_mask(system, list(names))
+    return _mask(system, list(names), speeds=True)
+
+
+def _kinematic_term(system, xd0):
+    """``K`` with ``c' = du + K c`` for the perturbations along the speeds: ``-[omega0]x`` on each quaternion."""
+    n = system.n_speeds
+    K = np.zeros((n, n))
+    for axes in system.topology.quaternions[1]:
+        w = xd0[axes]
+        K[np.ix_(axes, axes)] = -np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
+    return K
 
 
 @limited_blas
@@ -131,9 +172,9 @@ def linearize_steady(system, x0, xd0, ignorable=None, coordinates=None, speeds=N
     ----------
     system : System
         Compiled model.
-    x0, xd0 : ndarray, shape (n,)
-        A state of the steady motion; it must satisfy the constraints
-        (:func:`flexmb.initial_state` makes it so).
+    x0, xd0 : ndarray, shape (nq,) and (n,)
+        A state of the steady motion, coordinates and speeds; it must
+        satisfy the constraints (:func:`flexmb.initial_state` makes it so).
     ignorable : list of str, optional
         Coordinates (or joint names) the equations do not depend on: a
         vehicle's position and heading on a level plane, its wheels' angles.
@@ -148,6 +189,11 @@ def linearize_steady(system, x0, xd0, ignorable=None, coordinates=None, speeds=N
         The coordinates whose rates are the independent speeds (default:
         the independent coordinates' rates, then rates chosen by a pivoted
         QR of the rows).
+
+        A joint in Euler parameters is named by its speeds in all three
+        (``'pivot.wz'``: its rotation about the child's z axis, a
+        coordinate perturbed by a small rotation vector; module docstring),
+        or by the joint's name.
     t : float
         Time, s.
     h : float
@@ -179,7 +225,11 @@ def linearize_steady(system, x0, xd0, ignorable=None, coordinates=None, speeds=N
     coordinates), the independent speeds with ``dx`` fix ``dxd``; the rates
     of the independent coordinates are rows of ``Xd``, and the derivatives
     of the independent speeds come from :meth:`flexmb.System.accelerations`
-    by five-point central differences along each admissible direction.
+    by five-point central differences along each admissible direction. A
+    perturbation ``dx`` is a displacement along the speeds, ``x0 + W dx``
+    while the speeds are the coordinates' rates, a small rotation of an
+    Euler-parameter joint (whose rate adds ``-omega0 x dx``, module
+    docstring).
     Along those directions the differences see the constrained motion only:
     the perturbed states leave the constraints by O(h^2), symmetrically, and
     the stencil cancels that.
@@ -198,13 +248,10 @@ def linearize_steady(system, x0, xd0, ignorable=None, coordinates=None, speeds=N
     >>> lin.states, np.round(lin.A, 9).tolist()
     (['pin.angle', 'pin.angle rate'], [[0.0, 1.0], [-9.81, 0.0]])
     """
-    if not system.layout.identity:
-        raise ModelError("linearize_steady chooses independent coordinates and their rates as speeds; Euler "
-                         "parameters (rotation='quaternion') have no such rates: use rotation='bryant'")
-    n = system.n_coords
-    names = system.coordinate_names
+    n = system.n_speeds
+    names = system.speed_names
     t = state_time("linearize_steady", t)
-    x0 = state_vector("linearize_steady", "x0", x0, n)
+    x0 = state_vector("linearize_steady", "x0", x0, system.n_coords)
     xd0 = state_vector("linearize_steady", "xd0", xd0, n)
     if not (h > 0 and np.isfinite(h)):
         raise ModelError(f"linearize_steady: h must be a positive step, got {h!r}")
@@ -223,14 +270,15 @@ def linearize_steady(system, x0, xd0, ignorable=None, coordinates=None, speeds=N
     residual = _steady_residual(system, t, x0, xd0, ind_s, np.flatnonzero(~ig), tol)
     A = np.column_stack([ref.column(X[:, j], Xd[:, j]) for j in range(k + p)]) if k + p else np.zeros((0, 0))
     _check_ignorable(ref, ig, psi_h, small, A)
+    rotations = frozenset(names[i] for i in system.topology.quaternions[1].ravel())
     return SteadyLinearization(A=A, coordinates=[names[i] for i in ind_c], speeds=[names[i] for i in ind_s],
                                ignorable=[names[i] for i in np.flatnonzero(ig)], X=X, Xd=Xd, x0=x0, xd0=xd0, t=t,
-                               residual=residual)
+                               residual=residual, rotations=rotations)
 
 
 def _ignorable(system, xd0, ignorable, psi_h, small):
     """The mask of ignorable coordinates (default: those that move), checked against the state and the rows."""
-    names = system.coordinate_names
+    names = system.speed_names
     moving = np.abs(xd0) > 1e-12 * max(1.0, float(np.max(np.abs(xd0))))
     ig = moving.copy() if ignorable is None else _names_mask(system, ignorable, "ignorable")
     if np.any(moving & ~ig):
@@ -249,7 +297,7 @@ def _ignorable(system, xd0, ignorable, psi_h, small):
 
 def _independent_coordinates(system, psi_h, ig, coordinates):
     """The independent coordinates among the non-ignorable ones, and ``Xc`` (``dx = Xc dq``, 0 where ignorable)."""
-    names, n = system.coordinate_names, system.n_coords
+    names, n = system.speed_names, system.n_speeds
     N = np.flatnonzero(~ig)
     Pn = psi_h[:, N]
     rank_h = _rank(Pn, 1e-10)
@@ -277,7 +325,7 @@ def _independent_coordinates(system, psi_h, ig, coordinates):
 
 def _independent_speeds(system, psi, ind_c, speeds):
     """The coordinates whose rates are the independent speeds, and the others (their rates from the rows)."""
-    names, n = system.coordinate_names, system.n_coords
+    names, n = system.speed_names, system.n_speeds
     rank_v = _rank(psi, 1e-10) if psi.size else 0
     p = n - rank_v
     if speeds is None:  # the independent coordinates' rates first, if the rows leave them free
@@ -300,7 +348,7 @@ def _independent_speeds(system, psi, ind_c, speeds):
 def _steady_residual(system, t, x0, xd0, ind_s, N, tol):
     """How far from steady: the largest acceleration of an independent speed or a kept coordinate ``N``, or
     speed of a kept coordinate; above ``tol`` it is refused."""
-    names, n = system.coordinate_names, system.n_coords
+    names, n = system.speed_names, system.n_speeds
     a0 = system.accelerations(t, x0, xd0)
     held = np.union1d(ind_s, N).astype(int)
     residual = float(max(np.max(np.abs(a0[held]), initial=0.0), np.max(np.abs(xd0[N]), initial=0.0)))
@@ -318,11 +366,13 @@ class _Reference:
     def __init__(self, system, t, x0, xd0, psi, ind_c, ind_s, dep_s, h):
         self.system, self.t, self.x0, self.xd0, self.psi, self.h = system, t, x0, xd0, psi, h
         self.ind_c, self.ind_s, self.dep_s = ind_c, ind_s, dep_s
-        self.n = system.n_coords
+        self.n = system.n_speeds
+        self.move = system.layout.displace  # x0 + W dx, a quaternion turned by the rotation vector dx
+        self.K = _kinematic_term(system, xd0)
 
     def rows_residual(self, dx):
-        """``psi(x0 + dx) xd0 - b(x0 + dx)``."""
-        e = self.system.equations(self.t, self.x0 + dx, self.xd0)
+        """``psi(x0 + dx) xd0 - b(x0 + dx)`` (``x0 + dx``: displaced along the speeds)."""
+        e = self.system.equations(self.t, self.move(self.x0, dx), self.xd0)
         return e.psi @ self.xd0 - e.b
 
     def dependent_speeds(self, G, given):
@@ -341,13 +391,14 @@ class _Reference:
 
     def column(self, dx, dxd):
         """The derivative of ``(rates of the independent coordinates, independent speeds' accelerations)``."""
-        acc = _derivative(lambda s: self.system.accelerations(self.t, self.x0 + s * dx, self.xd0 + s * dxd), self.h)
-        return np.concatenate([dxd[self.ind_c], acc[self.ind_s]])
+        acc = _derivative(lambda s: self.system.accelerations(self.t, self.move(self.x0, s * dx), self.xd0 + s * dxd),
+                          self.h)
+        return np.concatenate([(dxd + self.K @ dx)[self.ind_c], acc[self.ind_s]])
 
 
 def _check_ignorable(ref, ig, psi_h, small, A):
     """Refuse, by name, an ignorable coordinate that the linear model depends on."""
-    names, n = ref.system.coordinate_names, ref.n
+    names, n = ref.system.speed_names, ref.n
     scale = max(1.0, float(np.max(np.abs(A)))) if A.size else 1.0
     I = np.flatnonzero(ig)
     if not len(I):

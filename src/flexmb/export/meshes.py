@@ -80,6 +80,7 @@ def _contact_values(system, result, frames):
     first body (the sphere's, the pin's), 0 while separated.
     """
     from ..forces.contact import Contact
+    from ..impact_speeds import HeldSpeeds
 
     elements = [e for e in system.model.forces if isinstance(e, Contact)]
     if not elements:
@@ -87,10 +88,12 @@ def _contact_values(system, result, frames):
     nf, c = len(frames), len(elements)
     points, forces, depth = np.zeros((nf, c, 3)), np.zeros((nf, c, 3)), np.zeros((nf, c))
     t, x, xd = (np.asarray(getattr(result, k), dtype=float) for k in ("t", "x", "xd"))
+    held = HeldSpeeds.of(system)
     for n, i in enumerate(frames):
         kin = system.kinematics(t[i], x[i], xd[i])
         for k, e in enumerate(elements):
-            delta, _, _, _, point, _, force, _ = type(e).states_all([e], kin)
+            speeds = [held.at(result.contact_events, e.name, t[i])]  # the impact speed the run held
+            delta, _, _, _, point, _, force, _ = type(e).states_all([e], kin, speeds)
             points[n, k], forces[n, k], depth[n, k] = point[0], force[0], delta[0]
     return np.array([e.name for e in elements], dtype=str), points, forces, depth
 

@@ -150,12 +150,33 @@ class Contact(ForceElement):
             return [f"{label(self)}: both sides are on the body {getattr(a, 'name', a)!r}"]
         return []
 
+    def blocks(self, topology) -> list:
+        """Blocks of this contact's rows that the broad phase evaluates (:mod:`flexmb.kernels.broadphase`).
+
+        Parameters
+        ----------
+        topology : Topology
+            The model's tree.
+
+        Returns
+        -------
+        list of tuple
+            One ``(shapes1, shapes2, pairs)`` per block: two lists of
+            shapes ``(body row, ends in its frame (2, 3), radius)`` and the
+            row (among this contact's, :meth:`layout`) of each pair, shape
+            (n1, n2), -1 for none; empty (the default): every row is
+            evaluated at every evaluation.
+        """
+        return []
+
     @classmethod
     def _tables(cls, elements, topology) -> LoadTables:
-        """The contacts' rows: bodies, points, radii, law codes and parameters (``load_tables``)."""
+        """The contacts' rows: bodies, points, radii, law codes and parameters (``load_tables``); their blocks."""
         rows, local, geom, laws, par = [], [], [], [], []
+        blocks = _Blocks()
         for e in elements:
             friction = [0.0] * _k.N_FRICTION if e.friction is None else e.friction.row()
+            blocks.add(e.blocks(topology), len(rows))
             for (i, j), pts, radii, kind in e._rows(topology):
                 # bodies have mass > 0 (their constructors say so); the ground's is infinite
                 m_eff = 1.0 / sum(1.0 / float(topology.mass[k]) for k in (i, j) if k >= 0)
@@ -166,7 +187,8 @@ class Contact(ForceElement):
                 par.append(e.normal_law.row(m_eff) + friction)
         return LoadTables.of(contact_rows=np.reshape(rows, (-1, 2)), contact_local=np.reshape(local, (-1, 4, 3)),
                              contact_geom=np.reshape(geom, (-1, 2)), contact_laws=np.reshape(laws, (-1, 3)),
-                             contact_par=np.reshape(par, (-1, _k.N_NORMAL + _k.N_FRICTION)))
+                             contact_par=np.reshape(par, (-1, _k.N_NORMAL + _k.N_FRICTION)),
+                             **blocks.fields(len(rows)))
 
     @classmethod
     def _owners(cls, elements, topology) -> np.ndarray:
@@ -178,7 +200,7 @@ class Contact(ForceElement):
         return topology.cache[key]
 
     @classmethod
-    def row_states(cls, elements, state):
+    def row_states(cls, elements, state, held=None):
         """What each row of the elements' tables does at a kinematic state (one row per touching pair).
 
         Parameters
@@ -187,6 +209,10 @@ class Contact(ForceElement):
             Elements of this class in the model.
         state : Kinematics
             The kinematic state.
+        held : ndarray, shape (c,), optional
+            The impact speeds the rows of a restitution law hold, m/s (0:
+            none; :mod:`flexmb.impact_speeds`); default: what they hold now
+            (in a run, since their onsets; none outside one).
 
         Returns
         -------
@@ -198,11 +224,16 @@ class Contact(ForceElement):
             :class:`~flexmb.forces.contact_groups.ContactGroup` one per pair).
         """
         t = class_tables(cls, elements, state.topology)
-        return contact_states(t.contact_rows, t.contact_local, t.contact_geom, t.contact_laws, t.contact_par,
+        par = t.contact_par
+        if held is not None:
+            par = par.copy()
+            restitution = t.contact_laws[:, 1] == _k.RESTITUTION
+            par[restitution, 4] = np.broadcast_to(np.asarray(held, dtype=float), len(par))[restitution]
+        return contact_states(t.contact_rows, t.contact_local, t.contact_geom, t.contact_laws, par,
                               state.R, state.origin, state.r, state.omega, state.v)
 
     @classmethod
-    def states_all(cls, elements, state):
+    def states_all(cls, elements, state, held=None):
         """What each element does at a kinematic state, its rows merged (:meth:`row_states`).
 
         An element of several rows reports: its deepest row's penetration,
@@ -216,6 +247,8 @@ class Contact(ForceElement):
             Elements of this class in the model.
         state : Kinematics
             The kinematic state.
+        held : ndarray, shape (c,), optional
+            The impact speeds the rows hold (:meth:`row_states`).
 
         Returns
         -------
@@ -223,7 +256,7 @@ class Contact(ForceElement):
             delta, rate, normal force, elastic energy (shape (e,)), point,
             normal, force, slip (shape (e, 3)), e the number of elements.
         """
-        rows = cls.row_states(elements, state)
+        rows = cls.row_states(elements, state, held)
         owner = cls._owners(elements, state.topology)
         if len(owner) == len(elements):
             return rows
@@ -337,6 +370,34 @@ class Contact(ForceElement):
             J (0 while separated).
         """
         return type(self).potential_all([self], state)
+
+
+class _Blocks:
+    """The blocks of a class's contacts, laid out as the fields of the load tables (``contact_blocks``, ...)."""
+
+    def __init__(self):
+        self.blocks, self.rows, self.local, self.radius, self.map = [], [], [], [], []
+
+    def add(self, blocks, first_row):
+        """Add an element's blocks (:meth:`Contact.blocks`), its rows starting at ``first_row``."""
+        for shapes1, shapes2, pairs in blocks:
+            pairs = np.asarray(pairs, dtype=np.int64)
+            self.blocks.append((len(self.rows), len(shapes1), len(shapes2), sum(len(m) for m in self.map)))
+            for row, ends, radius in [*shapes1, *shapes2]:
+                self.rows.append(row)
+                self.local.append(np.asarray(ends, dtype=float))
+                self.radius.append(radius)
+            self.map.append(np.where(pairs >= 0, pairs + first_row, -1).ravel())
+
+    def fields(self, n_rows) -> dict:
+        """The fields: the blocks, their shapes and pairs' rows, and the rows outside every block."""
+        pairs = np.concatenate(self.map) if self.map else np.zeros(0, dtype=np.int64)
+        inside = np.zeros(n_rows, dtype=bool)
+        inside[pairs[pairs >= 0]] = True
+        return {"contact_always": np.flatnonzero(~inside), "contact_blocks": np.reshape(self.blocks, (-1, 4)),
+                "sweep_rows": np.asarray(self.rows, dtype=np.int64),
+                "sweep_local": np.reshape(self.local, (-1, 2, 3)), "sweep_radius": np.asarray(self.radius, dtype=float),
+                "contact_block_map": pairs}
 
 
 def _compiled_tables(cls, elements, topology) -> LoadTables:

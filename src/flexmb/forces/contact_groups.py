@@ -8,12 +8,15 @@ another body. The pairs are laid out once, as the rows of the capsule,
 sphere and plane contacts (:mod:`flexmb.forces.capsules`,
 :mod:`flexmb.forces.contact`), and evaluated with them in the compiled
 load tables; a pair of capsules, or of a capsule and a sphere, first
-compares the shapes' bounding spheres (the broad phase:
-:mod:`flexmb.kernels.contact_geometry`), so that the closest points are
+compares the shapes' bounding spheres, so that the closest points are
 sought only for shapes whose spheres overlap. A body of n segments
-against a plane costs 2 n rows, O(n) per evaluation; a group of n shapes
-against one of m costs n m bounding tests per evaluation (there is no
-sorting of the shapes: keep such groups to the shapes that can meet).
+against a plane costs 2 n rows, O(n) per evaluation. A group of n
+capsules and spheres against one of m (:data:`BROAD_PHASE_PAIRS` pairs or
+more) is a *block* of the tables: the broad phase
+(:mod:`flexmb.kernels.broadphase`) finds the pairs whose boxes overlap on a
+uniform grid, ``O((n + m) log m)`` plus the pairs found per evaluation,
+and only those are evaluated (the loads are those of every pair, to the
+bit); the events and the histories still look at every pair.
 Shapes on one body never touch each other (no self-contact of a
 flexible body).
 
@@ -35,14 +38,18 @@ from .._names import reference
 from ..bodies import Body
 from ..errors import ModelError
 from ..fields import as_array, as_float, as_unit_vector, finite_array, label, unit_vector, vector3
-from .capsules import CapsuleCapsuleContact, CapsulePlaneContact, CapsuleSphereContact
+from .capsules import CapsuleCapsuleContact, CapsulePlaneContact, CapsuleSphereContact, capsule_ends
 from .contact import SpherePlaneContact, SphereSphereContact
 from .contact_base import Contact, compiled_tables, radius_check
 from .contact_laws import NormalLaw
 from .friction_laws import FrictionLaw
 from .law_tables import friction_field, normal_law_field
 
-__all__ = ["Capsules", "Spheres", "Plane", "ContactGroup", "SHAPES"]
+__all__ = ["Capsules", "Spheres", "Plane", "ContactGroup", "SHAPES", "BROAD_PHASE_PAIRS"]
+
+#: a group against a group of at least this many pairs of capsules and spheres has its pairs found by the broad
+#: phase (:mod:`flexmb.kernels.broadphase`); fewer are tested one by one
+BROAD_PHASE_PAIRS = 64
 
 
 def _segments(instance, attribute, value):
@@ -301,11 +308,55 @@ class ContactGroup(Contact):
         list of tuple
             The rows, as :meth:`~flexmb.forces.contact_base.Contact.layout` describes them.
         """
+        return self._laid_out(topology)[0]
+
+    def blocks(self, topology) -> list:
+        """The pairs of capsules and spheres of the two groups, for the broad phase (:mod:`flexmb.kernels.broadphase`).
+
+        One block when they make :data:`BROAD_PHASE_PAIRS` pairs or more
+        (fewer are cheaper tested one by one); the pairs with a plane are
+        evaluated always (a plane meets every shape's box).
+
+        Parameters
+        ----------
+        topology : Topology
+            The model's tree.
+
+        Returns
+        -------
+        list of tuple
+            As :meth:`~flexmb.forces.contact_base.Contact.blocks` describes them.
+        """
+        return self._laid_out(topology)[1]
+
+    def _laid_out(self, topology):
+        """The rows and the block, once per model (kept in the topology's cache)."""
+        key = ("contact group", id(self))
+        if key in topology.cache:
+            return topology.cache[key]
         first = [p for shape in self.group1 for p in shape._primitives(topology)]
         second = [q for shape in self.group2 for q in shape._primitives(topology)]
+        solid1 = [k for k, p in enumerate(first) if p[0] != "plane"]
+        solid2 = [k for k, q in enumerate(second) if q[0] != "plane"]
+        pairs = -np.ones((len(first), len(second)), dtype=np.int64)
         rows = []
-        for p in first:
-            for q in second:
+        for a, p in enumerate(first):
+            for b, q in enumerate(second):
                 if not _same_body(p[1], q[1]):
+                    pairs[a, b] = len(rows)
                     rows.extend(self._pair(len(rows), p, q).layout(topology))
-        return rows
+        blocks = []
+        if len(solid1) * len(solid2) >= BROAD_PHASE_PAIRS:
+            blocks.append(([self._shape(topology, first[k]) for k in solid1],
+                           [self._shape(topology, second[k]) for k in solid2], pairs[np.ix_(solid1, solid2)]))
+        topology.cache[key] = rows, blocks
+        return rows, blocks
+
+    def _shape(self, topology, primitive):
+        """A capsule's or a sphere's body row, its two ends in that row's frame (a sphere's centre twice), radius."""
+        kind, body, where, radius = primitive
+        if kind == "capsule":
+            row, ends = capsule_ends(self, topology, body, where)
+            return row, ends, radius
+        row, centre = self.locate(topology, body, where)
+        return row, np.array([centre, centre]), radius

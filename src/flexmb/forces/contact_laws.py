@@ -172,7 +172,8 @@ class NormalLaw:
         Returns
         -------
         list of float
-            K, n, d, m and a spare 0 (5 numbers).
+            K, n, d, m and 0: the impact speed held, none until an onset
+            (:mod:`flexmb.impact_speeds`; read by the restitution laws only).
         """
         raise NotImplementedError
 
@@ -330,16 +331,17 @@ class LankaraniNikraveshLaw(_RestitutionLaw):
 
     Notes
     -----
-    The law needs the impact speed v_in of the current impact. Until
-    contact events record it at the first touch, the element takes it from
-    the contact's state: the v_in that brings the mass m, under this law
+    The law needs the impact speed v_in of the current impact: the rate
+    of penetration at the contact's onset, held until its separation, in a
+    run with contact events (:mod:`flexmb.impact_speeds`). Where none is
+    held (no events, a contact touching at the run's start, the rows of a
+    capsule on a plane or of a group) the element takes it from the
+    contact's state: the v_in that brings the mass m, under this law
     alone, to the current penetration and rate (its first integral,
-    :func:`flexmb.kernels.contact.impact_speed`). That is exact for a free
-    body striking the ground, or two free bodies, through their mass
-    centres; where other forces or the bodies' articulation act during the
-    impact, the rebound ratio departs from the law's by their share.
+    :func:`flexmb.kernels.contact.impact_speed`), exact for a free body
+    striking the ground, or two free bodies, through their mass centres.
     The rebound ratio is ``restitution_of_hysteresis(chi)`` at every impact
-    speed.
+    speed, less the share of the other forces acting during the impact.
 
     Examples
     --------
@@ -376,16 +378,17 @@ class FloresLaw(_RestitutionLaw):
 
     Notes
     -----
-    The law needs the impact speed v_in of the current impact. Until
-    contact events record it at the first touch, the element takes it from
-    the contact's state: the v_in that brings the mass m, under this law
+    The law needs the impact speed v_in of the current impact: the rate
+    of penetration at the contact's onset, held until its separation, in a
+    run with contact events (:mod:`flexmb.impact_speeds`). Where none is
+    held (no events, a contact touching at the run's start, the rows of a
+    capsule on a plane or of a group) the element takes it from the
+    contact's state: the v_in that brings the mass m, under this law
     alone, to the current penetration and rate (its first integral,
-    :func:`flexmb.kernels.contact.impact_speed`). That is exact for a free
-    body striking the ground, or two free bodies, through their mass
-    centres; where other forces or the bodies' articulation act during the
-    impact, the rebound ratio departs from the law's by their share.
+    :func:`flexmb.kernels.contact.impact_speed`), exact for a free body
+    striking the ground, or two free bodies, through their mass centres.
     The rebound ratio is ``restitution_of_hysteresis(chi)`` at every impact
-    speed.
+    speed, less the share of the other forces acting during the impact.
 
     Examples
     --------

@@ -5,13 +5,14 @@ from __future__ import annotations
 import numpy as np
 from attrs import field, frozen
 
+from .. import quaternions
 from .._names import reference
 from .._validate import name_check
 from ..bodies import Body
 from ..fields import as_array, as_float, finite_array, label, vector3
 from ..joints import Joint
 from .base import ForceElement
-from .tables import LoadTables, class_tables
+from .tables import LoadTables, apply_tables, class_tables
 
 __all__ = ["SpringDamper", "JointSpringDamper"]
 
@@ -183,7 +184,7 @@ class SpringDamper(ForceElement):
 
 @frozen(eq=False)
 class JointSpringDamper(ForceElement):
-    """Linear springs and dampers acting on a joint's coordinates.
+    """Linear springs and dampers acting on a joint's coordinates, or on the rotation of a joint in Euler parameters.
 
     Parameters
     ----------
@@ -191,17 +192,46 @@ class JointSpringDamper(ForceElement):
         Unique name.
     joint : Joint or str
         A tree joint with coordinates, or its name.
-    stiffness : float or array_like, shape (n_coords,)
+    stiffness : float or array_like, shape (n_speeds,)
         N m/rad on angles, N/m on slides.
-    damping : float or array_like, shape (n_coords,)
+    damping : float or array_like, shape (n_speeds,)
         N m s/rad or N s/m.
-    rest : float or array_like, shape (n_coords,)
-        Coordinate values where the spring is relaxed.
+    rest : float or array_like, shape (n_speeds,)
+        Coordinate values where the spring is relaxed; for a rotation in
+        Euler parameters, the relaxed rotation as a rotation vector (axis
+        times angle, rad).
 
     Notes
     -----
     Generalized force ``-k (q - q0) - c qdot`` on the joint's coordinates
-    (eq. 5: ``F^s - F^d``); potential ``k (q - q0)^2 / 2``.
+    (eq. 5: ``F^s - F^d``); potential ``k (q - q0)^2 / 2``. One value per
+    speed, which is one per coordinate for every joint whose speeds are its
+    coordinates' rates.
+
+    A joint in Euler parameters (``rotation='quaternion'``: the child's
+    rotation R relative to the parent, the speeds omega in the child's
+    axes) has a **rotation spring** on its three angular speeds: with
+    ``theta`` the rotation vector of ``R0^T R`` (``R = R0 exp([theta]x)``,
+    ``R0`` the rest rotation, the shorter way: ``|theta| <= pi``; its
+    components are the same in the child's axes and in R0's), the
+    potential is ``theta^T K theta / 2`` (K = diag of the stiffness), and
+    the generalized force on omega is
+
+        Q = -J_r(theta)^-T K theta - C omega,
+
+    ``J_r`` the right Jacobian of SO(3) (``theta' = J_r^-1 omega``,
+    :func:`flexmb.quaternions.inverse_right_jacobian`), so that ``Q .
+    omega = -d/dt (theta^T K theta / 2) - omega^T C omega``: the spring is
+    conservative at any angle. ``J_r^-T theta = theta``, so with equal
+    stiffnesses ``Q = -k theta - C omega``: a torque ``-k theta`` in the
+    child's axes, about the axis of the turn from rest and proportional to
+    its angle (a rotation about one fixed axis obeys ``I theta'' = -k theta``
+    exactly, at any amplitude). For small angles it is the Bryant-angle
+    spring (the angles and the rotation vector agree to first order). The
+    force jumps where the turn from rest passes pi (the shorter way flips);
+    the potential does not. The slides of a ``Free`` joint keep ``-k (x -
+    x0) - c xd``. Springs on such joints are evaluated in Python (the
+    others of the model stay compiled).
 
     Examples
     --------
@@ -221,6 +251,16 @@ class JointSpringDamper(ForceElement):
     array([-1.1])
     >>> spring.potential(kin)
     0.25
+
+    On a ball joint in Euler parameters turned 0.5 rad about z, the same
+    spring gives the torque -1 N m about z:
+
+    >>> model = fm.Model()
+    >>> ball = fm.Spherical("ball", model.ground, fm.RigidBody("b", 1.0, (1, 1, 1)), rotation="quaternion")
+    >>> system = model.add(ball, fm.JointSpringDamper("torsion", ball, stiffness=2.0)).build()
+    >>> q = [0.0, 0.0, np.sin(0.25), np.cos(0.25)]
+    >>> system.forces.active_force(system.kinematics(0.0, np.array(q), np.zeros(3))).round(12)
+    array([ 0.,  0., -1.])
     """
 
     joint: Joint = reference(Joint)
@@ -241,7 +281,7 @@ class JointSpringDamper(ForceElement):
         list of str
             One message per problem (empty if none).
         """
-        n = self.joint.n_coords
+        n = self.joint.n_speeds
         out = []
         for name in ("stiffness", "damping", "rest"):
             v = getattr(self, name)
@@ -249,13 +289,10 @@ class JointSpringDamper(ForceElement):
                 out.append(f"{label(self)}: {name} must be a scalar or have {n} entries, got shape {v.shape}")
         if n == 0:
             out.append(f"{label(self)}: joint {self.joint.name!r} has no coordinates")
-        if self.joint.quaternions:
-            out.append(f"{label(self)}: joint {self.joint.name!r} describes its rotation by Euler parameters, not "
-                       "angles; a joint spring needs rotation='bryant'")
         return out
 
     def apply(self, state, loads) -> None:
-        """Add ``-k (q - q0) - c qdot``.
+        """Add ``-k (q - q0) - c qdot`` (a rotation in Euler parameters: see Notes).
 
         Parameters
         ----------
@@ -267,8 +304,53 @@ class JointSpringDamper(ForceElement):
         type(self).apply_all([self], state, loads)
 
     @classmethod
-    def load_tables(cls, elements, topology) -> LoadTables:
-        """The joints' coordinates with their constants and rest values (compiled).
+    def apply_all(cls, elements, state, loads) -> None:
+        """The springs on coordinates by the compiled kernel, those on rotations in Euler parameters here.
+
+        Parameters
+        ----------
+        elements : sequence of JointSpringDamper
+            The model's elements of this class.
+        state : Kinematics
+            The current kinematic state.
+        loads : Loads
+            Accumulator to add to.
+        """
+        plain = [e for e in elements if not e.joint.quaternions]
+        if plain:
+            apply_tables(class_tables(cls, plain, state.topology), state, loads)
+        for e in elements:
+            if e.joint.quaternions:
+                force, _ = e._rotation_law(state)
+                loads.generalized[state.coordinate_slice(e.joint)] += force
+
+    def _rotation_law(self, state):
+        """The generalized force on a joint in Euler parameters' speeds, and its potential (class Notes)."""
+        joint = self.joint
+        topology = state.topology
+        held = topology.joint_map.get(joint, joint)
+        coords, speeds = topology.joint_coordinates(held), state.coordinate_slice(joint)
+        x, u = state.x[coords], state.xd[speeds]
+        n = joint.n_speeds
+        k, c, rest = (np.broadcast_to(v, (n,)) for v in (self.stiffness, self.damping, self.rest))
+        force = -c * u
+        plain = np.ones(n, bool)
+        potential = 0.0
+        for qpos, upos in joint.quaternions:
+            upos = list(upos)
+            plain[upos] = False
+            q0 = quaternions.compose(np.array([[0.0, 0.0, 0.0, 1.0]]), rest[upos][None])
+            theta = quaternions.turn_between(q0, x[list(qpos)][None])
+            k_theta = k[upos] * theta[0]
+            force[upos] -= quaternions.inverse_right_jacobian(-theta, k_theta[None])[0]  # J_r(theta)^-T K theta
+            potential += 0.5 * float(theta[0] @ k_theta)
+        force[plain] -= k[plain] * (x[:n][plain] - rest[plain])
+        potential += 0.5 * float(np.sum(k[plain] * (x[:n][plain] - rest[plain]) ** 2))
+        return force, potential
+
+    @classmethod
+    def load_tables(cls, elements, topology) -> LoadTables | None:
+        """The joints' coordinates with their constants and rest values (compiled; None with a rotation spring).
 
         Parameters
         ----------
@@ -279,8 +361,21 @@ class JointSpringDamper(ForceElement):
 
         Returns
         -------
-        LoadTables
+        LoadTables or None
+            None if a spring acts on a joint in Euler parameters (the class
+            is then applied by :meth:`apply_all`).
         """
+        if any(e.joint.quaternions for e in elements):
+            return None
+        cols, k, c, rest = cls._columns(elements, topology)
+        return LoadTables.of(coord_cols=cols, coord_k=k, coord_c=c, coord_rest=rest)
+
+    @staticmethod
+    def _columns(elements, topology):
+        """The speeds' indices, stiffnesses, damping constants and rest values of the elements (kept per model)."""
+        key = ("joint spring columns", tuple(id(e) for e in elements))
+        if key in topology.cache:
+            return topology.cache[key]
         cols, k, c, rest = [], [], [], []
         for e in elements:
             s = topology.coordinate_slice(e.joint)
@@ -289,12 +384,12 @@ class JointSpringDamper(ForceElement):
             k.append(np.broadcast_to(e.stiffness, (m,)))
             c.append(np.broadcast_to(e.damping, (m,)))
             rest.append(np.broadcast_to(e.rest, (m,)))
-        return LoadTables.of(coord_cols=np.concatenate(cols), coord_k=np.concatenate(k), coord_c=np.concatenate(c),
-                             coord_rest=np.concatenate(rest))
+        out = topology.cache[key] = (np.concatenate(cols), np.concatenate(k), np.concatenate(c), np.concatenate(rest))
+        return out
 
     @classmethod
     def tangent_all(cls, elements, state):
-        """Diagonal k and c on the joints' coordinates.
+        """Diagonal k and c on the joints' speeds (a rotation spring's: exact at its rest).
 
         Parameters
         ----------
@@ -306,13 +401,14 @@ class JointSpringDamper(ForceElement):
         Returns
         -------
         cols, k, c : ndarray, shape (m,)
-            Coordinate indices, stiffnesses and damping constants.
+            Speed (and coordinate) indices, stiffnesses and damping
+            constants.
         """
-        t = class_tables(cls, elements, state.topology)
-        return t.coord_cols, t.coord_k, t.coord_c
+        cols, k, c, _ = cls._columns(elements, state.topology)
+        return cols, k, c
 
     def potential(self, state) -> float:
-        """Spring energy ``sum k (q - q0)^2 / 2``.
+        """Spring energy ``sum k (q - q0)^2 / 2`` (a rotation in Euler parameters: ``theta^T K theta / 2``).
 
         Parameters
         ----------
@@ -324,5 +420,7 @@ class JointSpringDamper(ForceElement):
         float
             Potential energy, J.
         """
+        if self.joint.quaternions:
+            return self._rotation_law(state)[1]
         s = state.coordinate_slice(self.joint)
         return float(0.5 * np.sum(self.stiffness * (state.x[s] - self.rest) ** 2))

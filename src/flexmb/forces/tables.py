@@ -46,14 +46,27 @@ def merge(tables, groups=None) -> LoadTables:
               "gravity_group": [next((g for t, g in zip(tables, groups) if np.any(t.gravity)), 0)]}
     rows_of = {"coord_group": "coord_cols", "pair_group": "pair_rows", "force_group": "force_rows",
                "torque_group": "torque_rows", "contact_group": "contact_rows"}
+    fields.update(_merged_blocks(tables))
     for name in LoadTables._fields[1:]:
-        if name == "gravity_group":
+        if name in fields:
             continue
         if name in rows_of:
             fields[name] = np.concatenate([np.full(len(getattr(t, rows_of[name])), g) for t, g in zip(tables, groups)])
         else:
             fields[name] = np.concatenate([getattr(t, name) for t in tables])
     return LoadTables.of(**fields)
+
+
+def _merged_blocks(tables) -> dict:
+    """The contact rows, blocks and shapes of several tables, with their indices moved to the merged rows."""
+    rows = np.cumsum([0] + [len(t.contact_rows) for t in tables])
+    shapes = np.cumsum([0] + [len(t.sweep_rows) for t in tables])
+    entries = np.cumsum([0] + [len(t.contact_block_map) for t in tables])
+    return {"contact_always": np.concatenate([t.contact_always + rows[k] for k, t in enumerate(tables)]),
+            "contact_blocks": np.concatenate([t.contact_blocks + np.array([shapes[k], 0, 0, entries[k]])
+                                              for k, t in enumerate(tables)]),
+            "contact_block_map": np.concatenate([np.where(t.contact_block_map >= 0, t.contact_block_map + rows[k], -1)
+                                                 for k, t in enumerate(tables)])}
 
 
 def class_tables(element_class, elements, topology) -> LoadTables | None:

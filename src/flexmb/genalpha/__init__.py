@@ -66,6 +66,13 @@ the next step size. Python keeps the bookkeeping (Jacobians, LU factors,
 restarts, counts). The right-hand side (:meth:`flexmb.System.state_rate`,
 compiled kernels with Python glue) is not called from compiled code.
 
+A model with joints in Euler parameters (``rotation='quaternion'``, whose
+speeds are angular velocities, not coordinate rates) is stepped on the
+rotation group (Bruls & Cardona 2010): the same compiled step in the chart
+``R = R0 exp([x]x)`` centred at each step's start, the chart moved to the
+step's end after it (:mod:`flexmb.genalpha.chart`); every other model is
+stepped in its own coordinates, as before, to the same bits.
+
 The solver is in :mod:`flexmb.genalpha.solver` (its interpolant in
 :mod:`flexmb.genalpha.dense`, configured classes in
 :mod:`flexmb.genalpha.configured`), the method's parameters and

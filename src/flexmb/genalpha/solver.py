@@ -24,6 +24,7 @@ from scipy.linalg import eig, lu_factor
 
 from ..kernels import genalpha as kernels
 from ..kernels.genalpha import NEWTON_MAXITER
+from .chart import ChartDenseOutput, RotationChart
 from .dense import GeneralizedAlphaDenseOutput
 from .parameters import DEFAULT_RHO_INF, alpha_parameters
 
@@ -117,6 +118,13 @@ class GeneralizedAlpha(OdeSolver):
         Newton failures may still halve the step below it, and the steps
         after one grow back by at most ``NEWTON_REGROWTH`` a step (default:
         the class's, None: no floor).
+    layout : StateLayout, optional
+        For a state ``(q, u, w)`` whose coordinates are not the speeds'
+        integrals (Euler parameters, ``qd = W(q) u``,
+        :mod:`flexmb.state_layout`): the layout, ``len(q) = layout.nq``
+        and ``n_second = layout.n``. The rotations are then stepped on
+        their group (:mod:`flexmb.genalpha.chart`). Default: ``y = (x, xd,
+        w)`` with ``xd`` the rates of ``x``.
     vectorized : bool
         Ignored (accepted for ``solve_ivp``).
     **extraneous
@@ -197,7 +205,7 @@ class GeneralizedAlpha(OdeSolver):
 
     def __init__(self, fun, t0, y0, t_bound, *, n_second=None, jac=None, rtol=1e-6, atol=1e-8,
                  max_step=np.inf, first_step=None, rho_inf=None, fixed_step=None, f_max=None, min_step=None,
-                 vectorized=False, **extraneous):
+                 layout=None, vectorized=False, **extraneous):
         if extraneous:
             import warnings
 
@@ -205,6 +213,13 @@ class GeneralizedAlpha(OdeSolver):
                           f"{', '.join(sorted(extraneous))}", stacklevel=2)
         super().__init__(fun, t0, y0, t_bound, vectorized=False)
         self._configure(n_second, rtol, atol, max_step, rho_inf, fixed_step, f_max, min_step)
+        # z: the state the step works on; y itself unless rotations are stepped in a chart (chart.py)
+        self._chart = None if layout is None or layout.identity else RotationChart(layout)
+        if self._chart is None:
+            self.z, self._zfun = self.y, self.fun
+        else:
+            self.z, self._zfun = self._chart.enter(self.y), self._chart.rate(self.fun)
+            self.atol = self._chart.tolerance(self.atol, self.rtol)
         self._jac_fun = jac
         self.n_newton = 0
         self.n_rejected = 0
@@ -273,13 +288,14 @@ class GeneralizedAlpha(OdeSolver):
         memory = self._recall(fun, t0)
         if memory is not None and memory[0] is not None:
             (self.J, self.low_pass, self.lu, self.lu_h, self.err_old, self.h_abs_old, offset, h_next,
-             y_end, a_end, g_end, self.h_newton) = memory
+             z_end, a_end, g_end, self.h_newton, centre) = memory
             # the state was moved by a projection (about the tolerance): a to first order in the move
             Jx, Jv = self.J
-            self.a, self.abar = kernels.restart_accelerations(self.y, y_end, a_end, Jx, Jv, offset, n)
+            z = self.z if self._chart is None else self._chart.relative(self.y, centre)
+            self.a, self.abar = kernels.restart_accelerations(z, z_end, a_end, Jx, Jv, offset, n)
             self.g = g_end.copy()
             return h_next
-        f0 = self.fun(self.t, self.y)
+        f0 = self._zfun(self.t, self.z)
         self.a = f0[n : 2 * n].copy()
         self.g = f0[2 * n :].copy()
         self.abar = self.a.copy()
@@ -304,8 +320,9 @@ class GeneralizedAlpha(OdeSolver):
     def _remember(self):
         try:
             _MEMORY[self._fun_key] = (self.t, (self.J, self.low_pass, self.lu, self.lu_h, self.err_old,
-                                               self.h_abs_old, self.abar - self.a, self.h_abs, self.y, self.a,
-                                               self.g, self.h_newton))
+                                               self.h_abs_old, self.abar - self.a, self.h_abs, self.z, self.a,
+                                               self.g, self.h_newton,
+                                               None if self._chart is None else self._chart.centre))
         except TypeError:
             pass
 
@@ -313,7 +330,7 @@ class GeneralizedAlpha(OdeSolver):
     def _initial_step(self) -> float:
         """From the accelerations: the position error constant times h^3 a-dot at about the tolerance."""
         n = self.n_pos
-        x, v = self.y[:n], self.y[n : 2 * n]
+        x, v = self.z[:n], self.z[n : 2 * n]
         sc = self.atol + self.rtol * np.abs(x)
         d1 = np.sqrt(np.mean((v / sc) ** 2)) if n else 0.0
         d2 = np.sqrt(np.mean((self.a / sc) ** 2)) if n else 0.0
@@ -326,19 +343,21 @@ class GeneralizedAlpha(OdeSolver):
         return max(min(cands), 1e-12 * max(1.0, abs(self.t)))
 
     def _jacobian(self, t, y):
-        """Jx, Jv at (t, y): from ``jac`` or by forward differences."""
+        """Jx, Jv at (t, y) (a state of the step, ``z``): from ``jac`` or by forward differences."""
         n = self.n_pos
         self.njev += 1
         if self._jac_fun is not None:
+            if self._chart is not None:  # along the chart: (da/dq) W(q)
+                return self._chart.jacobian(np.asarray(self._jac_fun(t, self._chart.state(y)), dtype=float), y)
             J = np.asarray(self._jac_fun(t, y), dtype=float)
             return J[n : 2 * n, :n].copy(), J[n : 2 * n, n : 2 * n].copy()
-        f0 = self.fun(t, y)[n : 2 * n]
+        f0 = self._zfun(t, y)[n : 2 * n]
         Jx, Jv = np.empty((n, n)), np.empty((n, n))
         for k in range(2 * n):
             d = np.sqrt(_EPS) * max(1.0, abs(y[k]))
             yp = y.copy()
             yp[k] += d
-            col = (self.fun(t, yp)[n : 2 * n] - f0) / d
+            col = (self._zfun(t, yp)[n : 2 * n] - f0) / d
             if k < n:
                 Jx[:, k] = col
             else:
@@ -386,13 +405,13 @@ class GeneralizedAlpha(OdeSolver):
         is one compiled :func:`~flexmb.kernels.genalpha.newton_update`.
         """
         n = self.n_pos
-        base, a1, y1 = np.empty((3, n)), np.empty(n), np.empty(self.n)
+        base, a1, y1 = np.empty((3, n)), np.empty(n), np.empty(len(self.z))
         abar1, scale = np.empty(n), np.empty((2, n))
-        kernels.predict(self.y, self.a, self.abar, h, n, self._par, base, a1, y1)
+        kernels.predict(self.z, self.a, self.abar, h, n, self._par, base, a1, y1)
         lu, piv = self.lu
         d, rate = -1.0, -1.0
         for k in range(NEWTON_MAXITER):
-            f = self.fun(t1, y1)
+            f = self._zfun(t1, y1)
             self.n_newton += 1
             outcome, d, rate = kernels.newton_update(f, lu, piv, h, n, k, d, self._par, self.atol, base, self.g,
                                                      a1, y1, abar1, scale)
@@ -418,13 +437,13 @@ class GeneralizedAlpha(OdeSolver):
                 h = t1 - t
                 h_abs = abs(h)
             if self.J is None:
-                self._new_jacobian(t, self.y)
+                self._new_jacobian(t, self.z)
             if self.lu is None or self.lu_h != h:
                 self._factor(h)
             end = self._newton(t1, h)[0]
             if end is None:
                 if not self.jac_current:
-                    self._new_jacobian(t, self.y)
+                    self._new_jacobian(t, self.z)
                     continue
                 if fixed:
                     return False, f"Newton's method failed at t = {t1:.9g} with the fixed step {h_abs:.3g}"
@@ -438,7 +457,7 @@ class GeneralizedAlpha(OdeSolver):
             # filtered by the iteration matrix (as Radau filters its estimate): modes far above 1 / h,
             # which the method dissipates instead of resolving, do not set the step
             accepted, err, h_next = kernels.error_control(
-                *self.lu, _NO_LOW_PASS if self.low_pass is None else self.low_pass, self.abar, end[2], self.y,
+                *self.lu, _NO_LOW_PASS if self.low_pass is None else self.low_pass, self.abar, end[2], self.z,
                 end[0], self.n_pos, h, h_abs, self.err_old or 0.0, self._par, self.atol)
             if accepted:
                 break
@@ -455,8 +474,15 @@ class GeneralizedAlpha(OdeSolver):
         error control knows nothing of Newton, and without the bound went
         straight back to the failing step (a Jacobian and an LU each time).
         """
-        self._dense = (self.y, self.abar, self.g)
-        self.y, self.a, self.abar, self.g = end
+        z1, self.a, abar_old, self.abar, g_old, self.g = end[0], end[1], self.abar, end[2], self.g, end[3]
+        chart = self._chart
+        if chart is None:
+            self._dense = (self.z, abar_old, g_old, z1, None, None)
+            self.y = self.z = z1
+        else:  # the interpolant in the step's chart; then the chart moves to the step's end
+            self._dense = (self.z, abar_old, g_old, z1, chart.centre, chart.end_slope(z1))
+            self.y = chart.state(z1)
+            self.z = chart.recentre(z1)
         self.t = t1
         self.h_abs_old = h_abs
         self.err_old = None if err is None else max(err, 1e-10)
@@ -483,10 +509,12 @@ class GeneralizedAlpha(OdeSolver):
             What to subtract from the state.
         """
         shift = np.asarray(shift, dtype=float)
+        moved = shift if self._chart is None else self._chart.shift(shift)  # never a rotation
         self.y = self.y - shift
+        self.z = self.y if self._chart is None else self.z - moved
         if self._dense is not None:
-            y_old, abar_old, g_old = self._dense
-            self._dense = (y_old - shift, abar_old, g_old)
+            z_old, abar_old, g_old, z_new, centre, slope = self._dense
+            self._dense = (z_old - moved, abar_old, g_old, z_new - moved, centre, slope)
         if self.t_old is not None:
             self._remember()
 
@@ -520,22 +548,36 @@ class GeneralizedAlpha(OdeSolver):
         the last step is unchanged (the caller stored its outputs before
         the move). A step below ``min_step`` (after a Newton failure) is
         raised to it, as at a start.
+
+        With Euler parameters (:mod:`flexmb.genalpha.chart`) the move is
+        taken in the present chart (the rotation vectors from its centre to
+        the moved rotations, along which ``Jx`` is formed), and the chart is
+        then centred at the moved state. The speeds and accelerations of a
+        rotation are body-axes vectors, the same in every chart, so only the
+        correction above changes them.
         """
-        n = self.n_pos
+        n, chart = self.n_pos, self._chart
         y = np.array(y, dtype=float)
+        z = y if chart is None else chart.relative(y, chart.centre)  # the move in the present chart
         lag = self.abar - self.a
         if self.J is not None:
             Jx, Jv = self.J
-            self.a, self.abar = kernels.restart_accelerations(y, self.y, self.a, Jx, Jv, lag, n)
+            self.a, self.abar = kernels.restart_accelerations(z, self.z, self.a, Jx, Jv, lag, n)
         else:
-            self.a = self.fun(self.t, y)[n : 2 * n].copy()
+            self.a = self._zfun(self.t, z)[n : 2 * n].copy()
             self.abar = self.a + lag
-        self.y = y
+        if chart is None:
+            self.y = self.z = y
+        else:  # the chart centred at the moved state (unit Euler parameters, as after every step)
+            self.z = chart.enter(y)
+            self.y = chart.state(self.z)
         if self.min_step is not None:  # as at a start (and as a new solver did after each projection)
             self.h_abs = min(max(self.h_abs, self.min_step), self.max_step)
         self._remember()
 
     def _dense_output_impl(self):
-        y_old, abar_old, g_old = self._dense
-        return GeneralizedAlphaDenseOutput(self.t_old, self.t, y_old, self.y, abar_old, self.abar, g_old,
-                                           self.g, self.n_pos)
+        z_old, abar_old, g_old, z_new, centre, slope = self._dense
+        args = (self.t_old, self.t, z_old, z_new, abar_old, self.abar, g_old, self.g, self.n_pos)
+        if self._chart is None:
+            return GeneralizedAlphaDenseOutput(*args)
+        return ChartDenseOutput(self._chart, centre, *args, slope_new=slope)

@@ -20,7 +20,10 @@ from these class attributes,
 ``needs_n_second``
     The method itself is written for ``y = (x, xd, ...)``: the constructor
     always takes ``n_second``, with or without a Jacobian
-    (:class:`~flexmb.GeneralizedAlpha`).
+    (:class:`~flexmb.GeneralizedAlpha`); for a model whose coordinates are
+    not the speeds' integrals (Euler parameters, ``qd = W(q) u``) also
+    ``layout``, the :class:`~flexmb.state_layout.StateLayout` of ``y = (q,
+    u, ...)``.
 ``cheap_restart``
     A restart from a projected state costs no more than a step (one-step
     methods). False for multistep methods that fall back to order one

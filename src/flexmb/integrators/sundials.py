@@ -175,7 +175,7 @@ class CVODE(OdeSolver):
         """CVODE options for GMRES preconditioned by the O(n) Newton solve of an open tree."""
         import sksundae
 
-        layout = pre.system.layout  # y = (q, u, works) with qd = u: the preconditioner's block form
+        layout = pre.system.layout  # y = (q, u, works): the preconditioner takes the q and u halves
 
         def setup(t, y, yp, jok, jnew, gamma):
             if jok and pre.n_setups:
@@ -476,7 +476,7 @@ class IDA(CVODE):
     def _krylov(self, pre) -> dict:
         import sksundae
 
-        layout = pre.system.layout  # y = (q, u, works) with qd = u: the preconditioner's block form
+        layout = pre.system.layout  # y = (q, u, works): the preconditioner takes the q and u halves
 
         def setup(t, y, yp, res, cj):
             self.njev += 1

@@ -17,12 +17,14 @@ give the measured time), later runs load the machine code. A compilation says so
 family of kernels, on stderr (:mod:`flexmb.kernels.compiling`).
 """
 
-#: coordinate kinds in ``Topology.coord_kind``: a translation or a rotation
-#: of the generic joint motion, or a coordinate of a joint whose class
-#: computes its own motion (called back from Python)
-TRANSLATION, ROTATION, EXTERNAL = 0, 1, 2
+#: coordinate kinds in ``Topology.coord_kind`` (one per speed): a translation or a rotation
+#: of the generic joint motion, a coordinate of a joint whose class computes its own motion
+#: (called back from Python), or one of the three angular speeds of a set of Euler parameters
+#: (:mod:`flexmb.quaternions`: its ``qx, qy, qz`` share their indices, ``coord_axis`` holds
+#: the index of its ``qw``)
+TRANSLATION, ROTATION, EXTERNAL, QUATERNION = 0, 1, 2, 3
 
-__all__ = ["TRANSLATION", "ROTATION", "EXTERNAL"]
+__all__ = ["TRANSLATION", "ROTATION", "EXTERNAL", "QUATERNION"]
 
 from . import compiling as _compiling
 

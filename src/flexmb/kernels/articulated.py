@@ -22,7 +22,7 @@ from .cache import njit
 from .dynamics import axis_projections, bias_wrenches, spatial_inertias
 from .loads import apply_load_tables
 from .packing import unpack
-from .tree import tree_state
+from .tree import euler_parameter_rates, tree_state
 
 __all__ = ["solve_spd", "articulated_factor", "articulated_solve", "articulated_accelerations", "open_tree_accelerations", "open_tree_rhs", "mass_times"]
 
@@ -370,7 +370,7 @@ def open_tree_accelerations(parent, coord_start, R, r, omega, alpha_bias, a_bias
 
 
 @njit(cache=True)
-def open_tree_rhs(packed, y, armature):
+def open_tree_rhs(packed, y, nq, armature):
     """The state derivative of an open tree whose loads are all compiled, in one call.
 
     :func:`~flexmb.kernels.tree.tree_kinematics`, the built-in loads
@@ -384,23 +384,26 @@ def open_tree_rhs(packed, y, armature):
         The model's constant arrays (:func:`~flexmb.kernels.packing.pack`:
         four buffers, where numba's dispatch of the separate arrays would
         cost more than this kernel at a few bodies).
-    y : ndarray, shape (2 n + k,)
-        The state ``(x, xd, ...)``; entries past ``2 n`` are not read.
+    y : ndarray, shape (nq + n + k,)
+        The state ``(q, u, ...)``; entries past ``nq + n`` are not read.
+    nq : int
+        Number of coordinates q (n, the speeds', is that of ``armature``).
     armature : ndarray, shape (n,)
         Diagonal added to A (zeros for the equations of motion).
 
     Returns
     -------
-    ydot : ndarray, shape (2 n,)
-        ``(xd, xdd)``.
+    ydot : ndarray, shape (nq + n,)
+        ``(qd, ud)``, ``qd = W(q) u``
+        (:func:`~flexmb.kernels.tree.euler_parameter_rates`).
     status : int
         -1 if ``ydot`` is finite, -2 if not, or the body whose joint has a
         singular articulated inertia.
     """
     tree, tables, _ = unpack(packed)
     n = armature.shape[0]
-    x = y[:n]
-    xd = y[n : 2 * n]
+    x = y[:nq]
+    xd = y[nq : nq + n]
     R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = tree_state(tree, x, xd)
     nb1 = R.shape[0]
     force = np.zeros((nb1, 3))
@@ -409,13 +412,15 @@ def open_tree_rhs(packed, y, armature):
     apply_load_tables(tables, tree.mass, R, origin, r, omega, v, x, xd, force, torque, generalized, np.zeros(0))
     xdd, bad = open_tree_accelerations(tree.parent, tree.coord_start, R, r, omega, alpha, acc, tree.mass,
                                        tree.inertia, Sw, Sv, force, torque, generalized, armature)
-    ydot = np.empty(2 * n)
+    ydot = np.empty(nq + n)
     status = bad
     for i in range(n):
         ydot[i] = xd[i]
-        ydot[n + i] = xdd[i]
+        ydot[nq + i] = xdd[i]
         if status == -1 and not (np.isfinite(xdd[i]) and np.isfinite(xd[i])):
             status = -2
+    if nq > n:
+        euler_parameter_rates(tree.coord_start, tree.coord_kind, tree.coord_axis, x, xd, ydot)
     return ydot, status
 
 

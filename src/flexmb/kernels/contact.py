@@ -14,14 +14,16 @@ it into forces. Codes of the laws, as laid out in the load tables
   the radial clearance), ``CAPSULE_SPHERE``, ``CAPSULE_CAPSULE`` (a
   segment with a radius against a sphere or another: spheres at the
   closest points; :mod:`flexmb.kernels.contact_geometry` has the layout);
-* normal law (``contact_par`` columns 0-3: K, exponent n, damping d,
-  effective mass m):
+* normal law (``contact_par`` columns 0-4: K, exponent n, damping d,
+  effective mass m, and the impact speed v_in held since the contact's
+  onset, m/s, 0 where none is held: :mod:`flexmb.impact_speeds`):
 
   - ``LINEAR``: ``F = K delta + d delta_dot`` (n = 1, d in N s/m);
   - ``HUNT_CROSSLEY``: ``F = K delta^n (1 + d delta_dot)`` (d = alpha, s/m);
   - ``RESTITUTION``: ``F = K delta^n (1 + chi delta_dot / v_in)`` (d = chi,
     from the coefficient of restitution by the Lankarani-Nikravesh or the
-    Flores relation; ``v_in`` the impact speed, :func:`impact_speed`);
+    Flores relation; ``v_in`` the impact speed held in column 4, or, where
+    none is held, the one the contact's state gives, :func:`impact_speed`);
 
   every law clamped at ``F >= 0`` (a contact pushes, never pulls);
 * friction law (``contact_par`` columns 5-10), with the normal force as
@@ -162,8 +164,8 @@ def normal_force(law, par, delta, rate):
     ----------
     law : int
         ``LINEAR``, ``HUNT_CROSSLEY`` or ``RESTITUTION``.
-    par : ndarray, shape (>= 4,)
-        K, n, d, m (module docstring).
+    par : ndarray, shape (5,)
+        K, n, d, m and the held impact speed v_in (0: none; module docstring).
     delta : float
         Penetration, m (> 0).
     rate : float
@@ -180,7 +182,8 @@ def normal_force(law, par, delta, rate):
     elif law == HUNT_CROSSLEY:
         f = K * delta ** n * (1.0 + d * rate)
     else:
-        f = K * delta ** n * (1.0 + d * rate / impact_speed(delta, rate, K, n, d, par[3]))
+        v_in = par[4] if par[4] > 0.0 else impact_speed(delta, rate, K, n, d, par[3])
+        f = K * delta ** n * (1.0 + d * rate / v_in)
     return max(f, 0.0)
 
 

@@ -26,16 +26,17 @@ __all__ = ["loaded_state", "tree_equations", "RESIDUALS", "ROWS", "EQUATIONS"]
 
 
 @njit(cache=True)
-def loaded_state(packed, y, n, powers, force0, torque0, generalized0):
+def loaded_state(packed, y, nq, powers, force0, torque0, generalized0):
     """The tree's kinematics, spatial inertias and loads at ``y = (x, xd, ...)``: what eq. 3 is made of.
 
     Parameters
     ----------
     packed : tuple
         The model's constant arrays (:func:`~flexmb.kernels.packing.pack`).
-    y : ndarray, shape (>= 2 n,)
-        Coordinates and speeds first.
-    n : int
+    y : ndarray, shape (>= nq + n,)
+        Coordinates and speeds first (:mod:`flexmb.state_layout`; n, the
+        number of speeds, is the tree's).
+    nq : int
         Number of coordinates.
     powers : ndarray, shape (n_groups,) or (0,)
         If not empty, the power of each compiled force-element class is
@@ -43,7 +44,7 @@ def loaded_state(packed, y, n, powers, force0, torque0, generalized0):
     force0, torque0 : ndarray, shape (n_bodies + 1, 3)
         Loads of the force elements evaluated in Python (not modified).
     generalized0 : ndarray, shape (n,)
-        Their generalized forces on the coordinates.
+        Their generalized forces on the speeds.
 
     Returns
     -------
@@ -62,8 +63,8 @@ def loaded_state(packed, y, n, powers, force0, torque0, generalized0):
         Generalized forces applied on the coordinates.
     """
     tree, tables, cuts = unpack(packed)
-    x = y[:n]
-    xd = y[n : 2 * n]
+    x = y[:nq]
+    xd = y[nq : nq + tree.coord_start[-1]]
     kin = tree_state(tree, x, xd)
     R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = kin
     force = force0.copy()
@@ -80,7 +81,7 @@ RESIDUALS, ROWS, EQUATIONS = 0, 1, 2
 
 
 @njit(cache=True)
-def tree_equations(packed, y, n, what, powers, force0, torque0, generalized0):
+def tree_equations(packed, y, nq, what, powers, force0, torque0, generalized0):
     """A, f and the cut joints' rows at the state ``y = (x, xd, ...)``; or only the rows; or only their residuals.
 
     One entry point for the three, so that the kernels they share (the
@@ -94,9 +95,10 @@ def tree_equations(packed, y, n, what, powers, force0, torque0, generalized0):
         the tree, the compiled force elements' tables and the cut joints'
         rows (the arguments of :func:`~flexmb.kernels.constraints.cut_rows`
         after ``coord_start``).
-    y : ndarray, shape (>= 2 n,)
-        Coordinates and speeds first.
-    n : int
+    y : ndarray, shape (>= nq + n,)
+        Coordinates and speeds first (:mod:`flexmb.state_layout`; n, the
+        number of speeds, is the tree's).
+    nq : int
         Number of coordinates.
     what : int
         :data:`EQUATIONS`: everything below; :data:`ROWS`: ``phi`` and
@@ -112,7 +114,7 @@ def tree_equations(packed, y, n, what, powers, force0, torque0, generalized0):
         Loads of the force elements evaluated in Python (plugins), added to
         those of the compiled ones (not modified).
     generalized0 : ndarray, shape (n,)
-        Their generalized forces on the coordinates.
+        Their generalized forces on the speeds.
 
     Returns
     -------
@@ -127,8 +129,9 @@ def tree_equations(packed, y, n, what, powers, force0, torque0, generalized0):
         ROWS`` their b is zero).
     """
     if what == EQUATIONS:
-        tree, cuts, kin, spatial, fw, tw, generalized = loaded_state(packed, y, n, powers, force0, torque0,
+        tree, cuts, kin, spatial, fw, tw, generalized = loaded_state(packed, y, nq, powers, force0, torque0,
                                                                      generalized0)
+        n = tree.coord_start[-1]
         R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = kin
         A = mass_matrix(tree.parent, tree.coord_start, tree.coord_body, composite_inertias(tree.parent, spatial),
                         Sw, Sv)
@@ -137,8 +140,9 @@ def tree_equations(packed, y, n, what, powers, force0, torque0, generalized0):
                                    *cuts)
         return A, f, phi, psi, gamma
     tree, _, cuts = unpack(packed)
-    x = y[:n]
-    xd = y[n : 2 * n]
+    n = tree.coord_start[-1]
+    x = y[:nq]
+    xd = y[nq : nq + n]
     R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = tree_state(tree, x, xd)
     if what == ROWS:
         phi, psi, _ = cut_rows(1, n, R, origin, r, omega, v, alpha, acc, Sw, Sv, tree.parent, tree.coord_start,

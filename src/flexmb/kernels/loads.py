@@ -6,6 +6,7 @@ from typing import NamedTuple
 
 import numpy as np
 from .cache import njit
+from .broadphase import block_candidates
 from .contact import elastic_energy, friction_factor, normal_force
 from .contact_geometry import contact_geometry
 
@@ -67,6 +68,24 @@ class LoadTables(NamedTuple):
         (columns 5-10).
     contact_group : ndarray of int, shape (c,)
         The group of each contact, as the other group columns.
+    contact_always : ndarray of int, shape (a,)
+        The contact rows evaluated at every evaluation, in increasing
+        order: all but those of the blocks (default: all).
+    contact_blocks : ndarray of int, shape (k, 4)
+        The blocks of a contact group against a group, whose rows are
+        evaluated only where the broad phase finds their shapes' boxes
+        overlapping (:mod:`flexmb.kernels.broadphase`): first shape, the
+        numbers of shapes n1 and n2 of the two lists, first entry of
+        ``contact_block_map``.
+    sweep_rows : ndarray of int, shape (s,)
+        Body row of each shape of the blocks.
+    sweep_local : ndarray, shape (s, 2, 3)
+        Its two ends in that row's frame (a sphere: its centre twice), m.
+    sweep_radius : ndarray, shape (s,)
+        Its radius, m.
+    contact_block_map : ndarray of int
+        The contact row of each pair (i, j) of a block, at the block's first
+        entry plus ``i n2 + j`` (-1: two shapes on one body, no row).
     """
 
     gravity: np.ndarray
@@ -95,6 +114,12 @@ class LoadTables(NamedTuple):
     contact_laws: np.ndarray
     contact_par: np.ndarray
     contact_group: np.ndarray
+    contact_always: np.ndarray
+    contact_blocks: np.ndarray
+    sweep_rows: np.ndarray
+    sweep_local: np.ndarray
+    sweep_radius: np.ndarray
+    contact_block_map: np.ndarray
 
     @classmethod
     def of(cls, **fields) -> "LoadTables":
@@ -112,11 +137,13 @@ class LoadTables(NamedTuple):
         shapes = {"gravity": (3,), "pair_rows": (0, 2), "pair_local": (0, 2, 3), "pair_par": (0, 3),
                   "force_local": (0, 3), "force_vec": (0, 3), "torque_vec": (0, 3), "gravity_group": (1,),
                   "contact_rows": (0, 2), "contact_local": (0, 4, 3), "contact_geom": (0, 2), "contact_laws": (0, 3),
-                  "contact_par": (0, 11)}
+                  "contact_par": (0, 11), "contact_blocks": (0, 4), "sweep_local": (0, 2, 3)}
+        if fields.get("contact_always") is None:
+            fields = dict(fields, contact_always=np.arange(len(fields.get("contact_rows", ()))))
         out = {}
         for name in cls._fields:
-            dtype = (np.int64 if name.endswith(("_rows", "_group", "_laws")) or name == "coord_cols"
-                     else np.bool_ if name.endswith("_in_body") else float)
+            dtype = (np.int64 if name.endswith(("_rows", "_group", "_laws", "_always", "_blocks", "_map"))
+                     or name == "coord_cols" else np.bool_ if name.endswith("_in_body") else float)
             value = fields.get(name)
             out[name] = (np.zeros(shapes.get(name, (0,)), dtype=dtype) if value is None
                          else np.ascontiguousarray(value, dtype=dtype))
@@ -361,33 +388,56 @@ def _contact_eval(rows, local, geom, laws, par, R, origin, r, omega, v, centre, 
 
 
 @njit(cache=True, inline="always")
-def _contact_loads(rows, local, geom, laws, par, group, R, origin, r, omega, v, force, torque, powers, track):
-    """Contacts: equal and opposite forces at their points (into F, eq. 5); power ``f . u``."""
-    if rows.shape[0]:
-        centre = np.empty((2, 3))
-        ends = np.empty((2, 3))
-        q = np.empty(3)
-        u = np.empty(3)
-        nrm = np.empty(3)
-        f = np.empty(3)
-        for i in range(rows.shape[0]):
-            delta, _ = _contact_eval(rows[i], local[i], geom[i], laws[i], par[i], R, origin, r, omega, v, centre,
-                                     ends, q, u, nrm, f)
-            if delta <= 0.0:
-                continue
-            if track:
-                powers[group[i]] += f[0] * u[0] + f[1] * u[1] + f[2] * u[2]
-            for s in range(2):
-                k = rows[i, s]
-                sign = 1.0 if s == 0 else -1.0
-                lx, ly, lz = q[0] - r[k, 0], q[1] - r[k, 1], q[2] - r[k, 2]
-                fx, fy, fz = sign * f[0], sign * f[1], sign * f[2]
-                force[k, 0] += fx
-                force[k, 1] += fy
-                force[k, 2] += fz
-                torque[k, 0] += ly * fz - lz * fy
-                torque[k, 1] += lz * fx - lx * fz
-                torque[k, 2] += lx * fy - ly * fx
+def _contact_loads(t, R, origin, r, omega, v, force, torque, powers, track):
+    """Contacts: equal and opposite forces at their points (into F, eq. 5); power ``f . u``.
+
+    Every row, or, with blocks of a group against a group, the rows
+    evaluated always and those the broad phase finds
+    (:mod:`flexmb.kernels.broadphase`), in increasing row order, so that the
+    loads are summed as if every row were evaluated (a row whose shapes'
+    boxes are apart exerts nothing).
+    """
+    rows, local, geom, laws, par, group = (t.contact_rows, t.contact_local, t.contact_geom, t.contact_laws,
+                                           t.contact_par, t.contact_group)
+    if not rows.shape[0]:
+        return
+    centre = np.empty((2, 3))
+    ends = np.empty((2, 3))
+    q = np.empty(3)
+    u = np.empty(3)
+    nrm = np.empty(3)
+    f = np.empty(3)
+    blocked = t.contact_blocks.shape[0] > 0
+    always = t.contact_always
+    found = (block_candidates(t.contact_blocks, t.sweep_rows, t.sweep_local, t.sweep_radius, t.contact_block_map, R,
+                              origin) if blocked else always[:0])
+    a, b = 0, 0
+    for step in range(always.shape[0] + found.shape[0] if blocked else rows.shape[0]):
+        if not blocked:
+            i = step
+        elif b >= found.shape[0] or (a < always.shape[0] and always[a] < found[b]):
+            i = always[a]
+            a += 1
+        else:
+            i = found[b]
+            b += 1
+        delta, _ = _contact_eval(rows[i], local[i], geom[i], laws[i], par[i], R, origin, r, omega, v, centre, ends, q,
+                                 u, nrm, f)
+        if delta <= 0.0:
+            continue
+        if track:
+            powers[group[i]] += f[0] * u[0] + f[1] * u[1] + f[2] * u[2]
+        for s in range(2):
+            k = rows[i, s]
+            sign = 1.0 if s == 0 else -1.0
+            lx, ly, lz = q[0] - r[k, 0], q[1] - r[k, 1], q[2] - r[k, 2]
+            fx, fy, fz = sign * f[0], sign * f[1], sign * f[2]
+            force[k, 0] += fx
+            force[k, 1] += fy
+            force[k, 2] += fz
+            torque[k, 0] += ly * fz - lz * fy
+            torque[k, 1] += lz * fx - lx * fz
+            torque[k, 2] += lx * fy - ly * fx
 
 
 @njit(cache=True)
@@ -486,5 +536,4 @@ def apply_load_tables(tables, mass, R, origin, r, omega, v, x, xd, force, torque
                        tables.force_group, R, origin, r, omega, v, force, torque, powers, track)
     _body_torque_loads(tables.torque_rows, tables.torque_vec, tables.torque_in_body, tables.torque_group, R, omega,
                        torque, powers, track)
-    _contact_loads(tables.contact_rows, tables.contact_local, tables.contact_geom, tables.contact_laws,
-                   tables.contact_par, tables.contact_group, R, origin, r, omega, v, force, torque, powers, track)
+    _contact_loads(tables, R, origin, r, omega, v, force, torque, powers, track)

@@ -110,8 +110,8 @@ def loop_phi(packed, layout, x):
         The model's constant arrays.
     layout : LoopLayout
         The rows' layout.
-    x : ndarray, shape (n,)
-        Coordinates.
+    x : ndarray, shape (nq,)
+        Coordinates (:mod:`flexmb.state_layout`).
 
     Returns
     -------
@@ -119,8 +119,7 @@ def loop_phi(packed, layout, x):
         phi of the cut-joint rows.
     """
     tree, tables, cuts = unpack(packed)
-    n = x.shape[0]
-    zeros = np.zeros(n)
+    zeros = np.zeros(tree.coord_start[-1])
     R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = tree_state(tree, x, zeros)
     return cut_row_wrenches(0, R, origin, r, omega, v, alpha, acc, *cuts)[0]
 
@@ -139,8 +138,8 @@ def loop_min_norm(packed, layout, x, v, rhs, free, tol, rank_limit):
         The model's constant arrays.
     layout : LoopLayout
         The rows' layout (cut rows, then the drivers' unit rows).
-    x : ndarray, shape (n,)
-        Coordinates.
+    x : ndarray, shape (nq,)
+        Coordinates (:mod:`flexmb.state_layout`).
     v : ndarray, shape (n,)
         The vector psi is applied to.
     rhs : ndarray, shape (m,)
@@ -159,7 +158,7 @@ def loop_min_norm(packed, layout, x, v, rhs, free, tol, rank_limit):
     residual : ndarray, shape (m,)
         ``psi v - rhs``.
     """
-    n = x.shape[0]
+    n = v.shape[0]
     m = layout.row_coord.shape[0]
     tree, Sw, Sv, _, W, body = rows_at_positions(packed, layout, x)
     ptr, idx, val = sparse_rows(W, body, layout.row_coord, tree.parent, tree.coord_start, Sw, Sv, np.ones(n, np.bool_))

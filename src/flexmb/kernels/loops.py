@@ -323,7 +323,7 @@ def _rows(level, tree, cuts, R, origin, r, omega, v, alpha, acc, coord, gamma_d)
 
 
 @njit(cache=True)
-def loop_rhs(packed, layout, y, n, powers, force0, torque0, generalized0, gamma_d, tol, window, rank_limit):
+def loop_rhs(packed, layout, y, nq, powers, force0, torque0, generalized0, gamma_d, tol, window, rank_limit):
     """Accelerations and constraint reactions of a tree with loops at ``y = (x, xd, ...)``, in O(n m).
 
     Parameters
@@ -332,9 +332,9 @@ def loop_rhs(packed, layout, y, n, powers, force0, torque0, generalized0, gamma_
         The model's constant arrays (:func:`~flexmb.kernels.packing.pack`).
     layout : LoopLayout
         The rows' layout (:func:`~flexmb.kernels.loop_layout.loop_layout`).
-    y : ndarray, shape (>= 2 n,)
-        Coordinates and speeds first.
-    n : int
+    y : ndarray, shape (>= nq + n,)
+        Coordinates and speeds first (:mod:`flexmb.state_layout`).
+    nq : int
         Number of coordinates.
     powers : ndarray, shape (n_groups,) or (0,)
         If not empty, each compiled force-element class's power is added.
@@ -367,13 +367,13 @@ def loop_rhs(packed, layout, y, n, powers, force0, torque0, generalized0, gamma_
         2 if not finite; 3 if the refinement of a massless freedom did not
         settle.
     """
-    tree, cuts, kin, spatial, fw, tw, generalized = loaded_state(packed, y, n, powers, force0, torque0, generalized0)
+    tree, cuts, kin, spatial, fw, tw, generalized = loaded_state(packed, y, nq, powers, force0, torque0, generalized0)
     R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = kin
     nb = tree.parent.shape[0]
     W, body, gamma = _rows(2, tree, cuts, R, origin, r, omega, v, alpha, acc, layout.row_coord, gamma_d)
     return _constrained_solve(tree.parent, tree.coord_start, Sw, Sv, spatial, _minus_bias_wrenches(nb, r, fw, tw),
                               generalized, W, body, layout.row_coord, gamma, _arrays(layout), layout.band, tol, window,
-                              rank_limit, np.zeros(n))
+                              rank_limit, np.zeros(Sw.shape[0]))
 
 
 @njit(cache=True)
@@ -390,8 +390,10 @@ def loop_speeds(packed, layout, x, xd, b, tol, window, rank_limit):
         The model's constant arrays.
     layout : LoopLayout
         The rows' layout.
-    x, xd : ndarray, shape (n,)
-        Coordinates and speeds.
+    x : ndarray, shape (nq,)
+        Coordinates (:mod:`flexmb.state_layout`).
+    xd : ndarray, shape (n,)
+        Speeds.
     b : ndarray, shape (m,)
         Right-hand side of ``psi xd = b``.
     tol, window : float
@@ -409,7 +411,7 @@ def loop_speeds(packed, layout, x, xd, b, tol, window, rank_limit):
         0; 1 if A is singular; 2 if not finite.
     """
     tree, Sw, Sv, spatial, W, body = rows_at_positions(packed, layout, x)
-    n = x.shape[0]
+    n = xd.shape[0]
     zeros = np.zeros(n)
     # minimise (v - xd)^T A (v - xd) on psi v = b: A v = A xd + psi^T lambda, A xd as generalized forces
     nb = tree.parent.shape[0]
@@ -438,8 +440,8 @@ def loop_newton(packed, layout, x, armature, load, tol, rank_limit):
         The model's constant arrays.
     layout : LoopLayout
         The rows' layout.
-    x : ndarray, shape (n,)
-        Coordinates.
+    x : ndarray, shape (nq,)
+        Coordinates (:mod:`flexmb.state_layout`).
     armature : ndarray, shape (n,)
         Diagonal E added to A.
     load : ndarray, shape (n,)
@@ -476,8 +478,8 @@ def rows_at_positions(packed, layout, x):
         The model's constant arrays.
     layout : LoopLayout
         The rows' layout (cut rows, then the drivers' unit rows).
-    x : ndarray, shape (n,)
-        Coordinates.
+    x : ndarray, shape (nq,)
+        Coordinates (:mod:`flexmb.state_layout`).
 
     Returns
     -------
@@ -493,7 +495,7 @@ def rows_at_positions(packed, layout, x):
         Their bodies (-1: none).
     """
     tree, tables, cuts = unpack(packed)
-    R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = tree_state(tree, x, np.zeros(x.shape[0]))
+    R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = tree_state(tree, x, np.zeros(tree.coord_start[-1]))
     Iw, spatial = spatial_inertias(R, r, tree.mass, tree.inertia)
     m = layout.row_coord.shape[0]
     W, body, _ = _rows(1, tree, cuts, R, origin, r, omega, v, alpha, acc, layout.row_coord, np.zeros(m - _n_cut(cuts)))

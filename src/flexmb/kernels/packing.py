@@ -33,11 +33,11 @@ LAYOUT = (
     "i1", "i1", "i1", "i1", "b1", "f3", "f3", "f2", "f2", "f2", "f1", "f3", "i1",
     # LoadTables: gravity, coord_cols, coord_k, coord_c, coord_rest, pair_rows, pair_local, pair_par,
     # force_rows, force_local, force_vec, force_in_body, torque_rows, torque_vec, torque_in_body, the
-    # five group columns, then contact_rows, contact_local, contact_geom, contact_laws, contact_par and
-    # contact_group
+    # five group columns, then contact_rows, contact_local, contact_geom, contact_laws, contact_par,
+    # contact_group, contact_always, contact_blocks, sweep_rows, sweep_local, sweep_radius and contact_block_map
     "f1", "i1", "f1", "f1", "f1", "i2", "f3", "f2", "i1", "f2", "f2", "b1", "i1", "f2", "b1",
     "i1", "i1", "i1", "i1", "i1",
-    "i2", "f3", "f2", "i2", "f2", "i1",
+    "i2", "f3", "f2", "i2", "f2", "i1", "i1", "i2", "i1", "f3", "f1", "i1",
     # cut rows: points (i, pi, j, pj), directions (i, pi, ai, j, pj), perpendiculars (i, ai, j, bj)
     "i1", "f2", "i1", "f2", "i1", "f2", "f2", "i1", "f2", "i1", "f2", "i1", "f2",
 )
@@ -146,8 +146,9 @@ def unpack(packed):
                         _view1(it, ix, 25), _view2(fl, ix, 26), _view1(fg, ix, 27), _view1(it, ix, 28),
                         _view1(it, ix, 29), _view1(it, ix, 30), _view1(it, ix, 31), _view1(it, ix, 32),
                         _view2(it, ix, 33), _view3(fl, ix, 34), _view2(fl, ix, 35), _view2(it, ix, 36),
-                        _view2(fl, ix, 37), _view1(it, ix, 38))
-    cuts = (_view1(it, ix, 39), _view2(fl, ix, 40), _view1(it, ix, 41), _view2(fl, ix, 42),
-            _view1(it, ix, 43), _view2(fl, ix, 44), _view2(fl, ix, 45), _view1(it, ix, 46), _view2(fl, ix, 47),
-            _view1(it, ix, 48), _view2(fl, ix, 49), _view1(it, ix, 50), _view2(fl, ix, 51))
+                        _view2(fl, ix, 37), _view1(it, ix, 38), _view1(it, ix, 39), _view2(it, ix, 40),
+                        _view1(it, ix, 41), _view3(fl, ix, 42), _view1(fl, ix, 43), _view1(it, ix, 44))
+    cuts = (_view1(it, ix, 45), _view2(fl, ix, 46), _view1(it, ix, 47), _view2(fl, ix, 48),
+            _view1(it, ix, 49), _view2(fl, ix, 50), _view2(fl, ix, 51), _view1(it, ix, 52), _view2(fl, ix, 53),
+            _view1(it, ix, 54), _view2(fl, ix, 55), _view1(it, ix, 56), _view2(fl, ix, 57))
     return tree, tables, cuts

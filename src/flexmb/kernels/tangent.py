@@ -9,6 +9,11 @@ loads turn back by omega:
 * c after d: ``G[c, d] = S_c . (H_c u_d - Q_c S_wd)``;
 * d after c: ``G[c, d] = S_c . (S_d x* W_d + H_d u_d - Q_d S_wd)``.
 
+The three speeds of a set of Euler parameters are the angular velocity in
+the turned axes: a turn along any of them turns the axes of all three
+(``dS_c = S_d x S_c``), so within the set each counts as after the others,
+and ``a_d`` leaves out the set's own accelerations.
+
 Each coordinate d meets only the coordinates on its path from the ground,
 so the kernel costs O(n depth) and forms nothing but G.
 """
@@ -19,6 +24,8 @@ import numpy as np
 from .cache import njit
 
 from .tree import _cross, _mv
+
+_QUATERNION = 3  # flexmb.kernels.QUATERNION
 
 __all__ = ["geometric_stiffness"]
 
@@ -85,8 +92,12 @@ def _subtree_sums(parent, W, Fe, Te, Ge):
 
 
 @njit(cache=True)
-def _coordinate_terms(parent, coord_start, Sw, Sv, Sx, IC, acc, W, Fe, Te, Ge):
-    """Per coordinate: ``u = S x a_pre``, ``hs = H S``, ``qs = Q^T S`` and ``y = S x* W + H u - Q S_w``."""
+def _coordinate_terms(parent, coord_start, coord_kind, Sw, Sv, Sx, IC, acc, W, Fe, Te, Ge):
+    """Per coordinate: ``u = S x a_pre``, ``hs = H S``, ``qs = Q^T S`` and ``y = S x* W + H u - Q S_w``.
+
+    ``a_pre``: the acceleration that does not turn with the coordinate (for a
+    set of Euler parameters, the one before the set).
+    """
     nb = parent.shape[0]
     n = Sw.shape[0]
     u = np.empty((n, 6))
@@ -95,6 +106,7 @@ def _coordinate_terms(parent, coord_start, Sw, Sv, Sx, IC, acc, W, Fe, Te, Ge):
     y = np.empty((n, 6))
     S = np.empty(6)
     a_pre = np.empty(6)
+    a_set = np.empty(6)
     for k in range(nb):
         p = parent[k]
         if p < 0:
@@ -104,12 +116,20 @@ def _coordinate_terms(parent, coord_start, Sw, Sv, Sx, IC, acc, W, Fe, Te, Ge):
         Q[3:] = -_skew(Fe[k])
         a_pre[:] = acc[p]
         H = IC[k]
-        for c in range(coord_start[k], coord_start[k + 1]):
-            a_pre += Sx[c]
+        c0 = coord_start[k]
+        for c in range(c0, coord_start[k + 1]):
+            a = a_pre
+            if coord_kind[c] != _QUATERNION:
+                a_pre += Sx[c]
+            else:
+                if c == c0 or coord_kind[c - 1] != _QUATERNION:  # the set's first speed
+                    a_set[:] = a_pre
+                    a_pre += Sx[c] + Sx[c + 1] + Sx[c + 2]
+                a = a_set
             S[:3] = Sw[c]
             S[3:] = Sv[c]
-            u[c, :3] = _cross(Sw[c], a_pre[:3])
-            u[c, 3:] = _cross(Sw[c], a_pre[3:]) + _cross(Sv[c], a_pre[:3])
+            u[c, :3] = _cross(Sw[c], a[:3])
+            u[c, 3:] = _cross(Sw[c], a[3:]) + _cross(Sv[c], a[:3])
             hs[c] = H @ S
             qs[c] = Q.T @ S
             Hu = H @ u[c]
@@ -120,7 +140,7 @@ def _coordinate_terms(parent, coord_start, Sw, Sv, Sx, IC, acc, W, Fe, Te, Ge):
 
 
 @njit(cache=True)
-def _assemble(parent, coord_start, coord_body, Sw, Sv, u, hs, qs, y):
+def _assemble(parent, coord_start, coord_body, coord_kind, Sw, Sv, u, hs, qs, y):
     """G from the coordinate terms, each coordinate d against those on its path from the ground."""
     n = Sw.shape[0]
     G = np.zeros((n, n))
@@ -129,8 +149,8 @@ def _assemble(parent, coord_start, coord_body, Sw, Sv, u, hs, qs, y):
         j = k
         while j >= 0:
             for c in range(coord_start[j], coord_start[j + 1]):
-                if j == k and c >= d:
-                    # c after d (within the joint, later or the same coordinate)
+                if j == k and (c >= d or coord_kind[c] == coord_kind[d] == _QUATERNION):
+                    # c after d (within the joint: later, the same, or in its set of Euler parameters)
                     G[c, d] = (hs[c, 0] * u[d, 0] + hs[c, 1] * u[d, 1] + hs[c, 2] * u[d, 2]
                                + hs[c, 3] * u[d, 3] + hs[c, 4] * u[d, 4] + hs[c, 5] * u[d, 5]
                                - qs[c, 0] * Sw[d, 0] - qs[c, 1] * Sw[d, 1] - qs[c, 2] * Sw[d, 2])
@@ -148,8 +168,8 @@ def _assemble(parent, coord_start, coord_body, Sw, Sv, u, hs, qs, y):
 
 
 @njit(cache=True)
-def geometric_stiffness(parent, coord_start, coord_body, Sw, Sv, xdd, r, omega, v, alpha_bias, a_bias,
-                        inertia_world, mass, IC, force, torque):
+def geometric_stiffness(parent, coord_start, coord_body, coord_kind, Sw, Sv, xdd, r, omega, v, alpha_bias,
+                        a_bias, inertia_world, mass, IC, force, torque):
     """``G[c, d] = d g_c / d x_d`` at fixed speeds and accelerations.
 
     Parameters
@@ -160,6 +180,9 @@ def geometric_stiffness(parent, coord_start, coord_body, Sw, Sv, xdd, r, omega, 
         Coordinate ranges of the tree joints.
     coord_body : ndarray of int, shape (n,)
         Body whose tree joint owns each coordinate.
+    coord_kind : ndarray of int, shape (n,)
+        The coordinates' kinds (:mod:`flexmb.kernels`: the speeds of a set
+        of Euler parameters turn each other's axes).
     Sw, Sv : ndarray, shape (n, 3)
         Plucker axes.
     xdd : ndarray, shape (n,)
@@ -188,5 +211,5 @@ def geometric_stiffness(parent, coord_start, coord_body, Sw, Sv, xdd, r, omega, 
     acc, W, Fe, Te, Ge = _net_wrenches(parent, coord_start, Sx, r, omega, v, alpha_bias, a_bias, inertia_world, mass,
                                        force, torque)
     _subtree_sums(parent, W, Fe, Te, Ge)
-    u, hs, qs, y = _coordinate_terms(parent, coord_start, Sw, Sv, Sx, IC, acc, W, Fe, Te, Ge)
-    return _assemble(parent, coord_start, coord_body, Sw, Sv, u, hs, qs, y)
+    u, hs, qs, y = _coordinate_terms(parent, coord_start, coord_kind, Sw, Sv, Sx, IC, acc, W, Fe, Te, Ge)
+    return _assemble(parent, coord_start, coord_body, coord_kind, Sw, Sv, u, hs, qs, y)

@@ -21,7 +21,7 @@ from typing import NamedTuple
 import numpy as np
 from .cache import njit
 
-__all__ = ["TreeArrays", "joint_motions", "tree_kinematics", "tree_state", "upstream_rows"]
+__all__ = ["TreeArrays", "joint_motions", "euler_parameter_rates", "tree_kinematics", "tree_state", "upstream_rows"]
 
 
 class TreeArrays(NamedTuple):
@@ -59,7 +59,7 @@ class TreeArrays(NamedTuple):
     inertia: np.ndarray
     coord_body: np.ndarray
 
-_TRANSLATION = 0
+_TRANSLATION, _QUATERNION = 0, 3
 
 
 @njit(cache=True, inline="always")
@@ -104,24 +104,73 @@ def _mmt_to(out, A, B):
             out[i, j] = A[i, 0] * B[j, 0] + A[i, 1] * B[j, 1] + A[i, 2] * B[j, 2]
 
 
+@njit(cache=True, inline="always")
+def _euler_parameter_turn(x, xd, c, qw, R, w, awk, hw, hv):
+    """The set of Euler parameters at speeds ``c, c + 1, c + 2`` (:mod:`flexmb.quaternions`): ``R <- R R(q)``.
+
+    ``q = (x[c], x[c + 1], x[c + 2], x[qw])``, normalised; the speeds are
+    the angular velocity in the turned axes, so their partial angular
+    velocities are the columns of the turned ``R`` and ``d/dt(R(q)) u =
+    R(q) (u x u) = 0``: the set adds only ``w x (sum hw u)`` to the
+    velocity-dependent angular acceleration ``awk`` (w: the rotations
+    before it), then its angular velocity to ``w``.
+    """
+    qx, qy, qz, qs = x[c], x[c + 1], x[c + 2], x[qw]
+    size = np.sqrt(qx * qx + qy * qy + qz * qz + qs * qs)
+    qx, qy, qz, qs = qx / size, qy / size, qz / size, qs / size
+    # R(q) = (qs^2 - qv.qv) I + 2 qv qv^T + 2 qs [qv]x
+    diag = qs * qs - (qx * qx + qy * qy + qz * qz)
+    t00, t11, t22 = diag + 2.0 * qx * qx, diag + 2.0 * qy * qy, diag + 2.0 * qz * qz
+    t01, t10 = 2.0 * qx * qy - 2.0 * qs * qz, 2.0 * qx * qy + 2.0 * qs * qz
+    t02, t20 = 2.0 * qx * qz + 2.0 * qs * qy, 2.0 * qx * qz - 2.0 * qs * qy
+    t12, t21 = 2.0 * qy * qz - 2.0 * qs * qx, 2.0 * qy * qz + 2.0 * qs * qx
+    for i in range(3):
+        r0, r1, r2 = R[i, 0], R[i, 1], R[i, 2]
+        R[i, 0] = r0 * t00 + r1 * t10 + r2 * t20
+        R[i, 1] = r0 * t01 + r1 * t11 + r2 * t21
+        R[i, 2] = r0 * t02 + r1 * t12 + r2 * t22
+    s0 = s1 = s2 = 0.0
+    for a in range(3):
+        u = xd[c + a]
+        for i in range(3):
+            hw[c + a, i] = R[i, a]
+            hv[c + a, i] = 0.0
+        s0 += R[0, a] * u
+        s1 += R[1, a] * u
+        s2 += R[2, a] * u
+    awk[0] += w[1] * s2 - w[2] * s1
+    awk[1] += w[2] * s0 - w[0] * s2
+    awk[2] += w[0] * s1 - w[1] * s0
+    w[0] += s0
+    w[1] += s1
+    w[2] += s2
+
+
 @njit(cache=True)
 def joint_motions(x, xd, coord_start, coord_kind, coord_axis, external, Rj, d, hw, hv, aw, av):
-    """Relative motions of the generic joints (translations, then rotations about moving axes).
+    """Relative motions of the generic joints (translations, rotations about moving axes, Euler parameters).
 
     A generic joint's coordinates are translations along fixed axes of
-    the parent marker frame and rotations about successive moving axes
-    (``R = R_a1(q1) R_a2(q2) ...``, the Bryant sequence for axes x, y, z).
+    the parent marker frame, rotations about successive moving axes
+    (``R = R_a1(q1) R_a2(q2) ...``, the Bryant sequence for axes x, y, z)
+    and at most one set of Euler parameters, last (its speeds the angular
+    velocity in the turned axes, :func:`_euler_parameter_turn`).
     Bodies flagged ``external`` (joint classes with their own
     ``motion()``) are skipped: their rows are filled in Python.
 
     Parameters
     ----------
-    x, xd : ndarray, shape (n,)
-        Coordinates and speeds.
+    x : ndarray, shape (nq,)
+        Coordinates: one per speed at the speed's index, then the Euler
+        parameters' ``qw`` (:mod:`flexmb.state_layout`).
+    xd : ndarray, shape (n,)
+        Speeds.
     coord_start : ndarray of int, shape (n_bodies + 1,)
-        Body k's tree joint owns ``x[coord_start[k]:coord_start[k + 1]]``.
+        Body k's tree joint owns ``xd[coord_start[k]:coord_start[k + 1]]``.
     coord_kind, coord_axis : ndarray of int, shape (n,)
-        Translation (0) or rotation (1), and the marker axis (0, 1, 2).
+        Translation (0), rotation (1) or Euler parameters (3), and the
+        marker axis (0, 1, 2); for Euler parameters the index in x of
+        their ``qw``.
     external : ndarray of bool, shape (n_bodies,)
         Joints whose motion is computed elsewhere.
     Rj, d, hw, hv, aw, av : ndarray
@@ -144,8 +193,13 @@ def joint_motions(x, xd, coord_start, coord_kind, coord_axis, external, Rj, d, h
         aw[k] = 0.0
         av[k] = 0.0
         d[k] = 0.0
-        for c in range(coord_start[k], coord_start[k + 1]):
+        c0 = coord_start[k]
+        for c in range(c0, coord_start[k + 1]):
             ax = coord_axis[c]
+            if coord_kind[c] == _QUATERNION:  # the set, at its first speed (its last freedoms)
+                if c == c0 or coord_kind[c - 1] != _QUATERNION:
+                    _euler_parameter_turn(x, xd, c, ax, R, w, aw[k], hw, hv)
+                continue
             hw[c, :] = 0.0
             hv[c, :] = 0.0
             if coord_kind[c] == _TRANSLATION:
@@ -169,6 +223,38 @@ def joint_motions(x, xd, coord_start, coord_kind, coord_axis, external, Rj, d, h
             for i in range(3):
                 R[i, i1] = cq * ci[i] + sq * R[i, j1]
                 R[i, j1] = cq * R[i, j1] - sq * ci[i]
+
+
+@njit(cache=True, inline="always")
+def euler_parameter_rates(coord_start, coord_kind, coord_axis, x, xd, qd):
+    """The Euler parameters' entries of ``qd = W(q) u``: ``1/2 q * (w, 0)`` (:mod:`flexmb.state_layout`).
+
+    The other entries of qd (``qd[i] = u[i]``, ``W = I``) are left to the
+    caller.
+
+    Parameters
+    ----------
+    coord_start : ndarray of int, shape (n_bodies + 1,)
+        Speed ranges of the tree joints.
+    coord_kind, coord_axis : ndarray of int, shape (n,)
+        The joints' coordinate kinds and axes (:func:`joint_motions`).
+    x : ndarray, shape (nq,)
+        Coordinates q.
+    xd : ndarray, shape (n,)
+        Speeds u.
+    qd : ndarray, shape (>= nq,)
+        Output: the coordinates' rates, written at the Euler parameters.
+    """
+    for k in range(coord_start.shape[0] - 1):
+        c0 = coord_start[k]
+        for c in range(c0, coord_start[k + 1]):
+            if coord_kind[c] == _QUATERNION and (c == c0 or coord_kind[c - 1] != _QUATERNION):
+                vx, vy, vz, s = x[c], x[c + 1], x[c + 2], x[coord_axis[c]]
+                wx, wy, wz = xd[c], xd[c + 1], xd[c + 2]
+                qd[c] = 0.5 * (s * wx + (vy * wz - vz * wy))
+                qd[c + 1] = 0.5 * (s * wy + (vz * wx - vx * wz))
+                qd[c + 2] = 0.5 * (s * wz + (vx * wy - vy * wx))
+                qd[coord_axis[c]] = -0.5 * (vx * wx + vy * wy + vz * wz)
 
 
 @njit(cache=True, inline="always")
@@ -297,8 +383,10 @@ def tree_kinematics(parent, coord_start, coord_kind, coord_axis, external, paren
         point to this joint's, in the parent body frame.
     child_point, com : ndarray, shape (n_bodies, 3)
         Joint point and mass centre in the body frame.
-    x, xd : ndarray, shape (n,)
-        Coordinates and speeds.
+    x : ndarray, shape (nq,)
+        Coordinates (:func:`joint_motions`).
+    xd : ndarray, shape (n,)
+        Speeds.
     ext_Rj, ext_d, ext_hw, ext_hv, ext_aw, ext_av : ndarray
         The motions of the external joints, in the layout of
         :func:`joint_motions` (read on the external rows only; empty arrays
@@ -399,8 +487,10 @@ def tree_state(tree, x, xd):
     ----------
     tree : TreeArrays
         The tree's layout and body data.
-    x, xd : ndarray, shape (n,)
-        Coordinates and speeds.
+    x : ndarray, shape (nq,)
+        Coordinates (:func:`joint_motions`).
+    xd : ndarray, shape (n,)
+        Speeds.
 
     Returns
     -------

@@ -118,12 +118,16 @@ def contact_history(result, element, system=None) -> ContactHistory:
         raise ModelError(f"Result.contact_history: {exc}") from None
     if not isinstance(element, Contact):
         raise ModelError(f"Result.contact_history: {type(element).__name__} {element.name!r} is not a contact element")
+    from ..impact_speeds import HeldSpeeds
+
+    held = HeldSpeeds.of(system)
     nt = result.t.shape[0]
     out = {k: np.zeros(nt) for k in ("penetration", "penetration_rate", "normal_force", "elastic_energy")}
     out.update({k: np.zeros((nt, 3)) for k in ("force", "friction_force", "point", "normal", "slip")})
     for i in range(nt):
         kin = system.kinematics(result.t[i], result.x[i], result.xd[i])
-        delta, rate, fn, energy, point, normal, force, slip = type(element).states_all([element], kin)
+        speeds = [held.at(result.contact_events, element.name, result.t[i])]  # held by a one-row contact only
+        delta, rate, fn, energy, point, normal, force, slip = type(element).states_all([element], kin, speeds)
         out["penetration"][i], out["penetration_rate"][i] = delta[0], rate[0]
         out["normal_force"][i], out["elastic_energy"][i] = fn[0], energy[0]
         out["force"][i], out["point"][i], out["normal"][i], out["slip"][i] = force[0], point[0], normal[0], slip[0]

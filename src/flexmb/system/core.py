@@ -583,7 +583,7 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
     def _state_rate(self, t, y) -> np.ndarray:
         """:meth:`state_rate` at a checked state (the integrators' right-hand side: no checks)."""
         if self._packed_open is not None:
-            ydot, status = open_tree_rhs(self._packed_open, _plain(y), self._no_armature)
+            ydot, status = open_tree_rhs(self._packed_open, _plain(y), self.n_coords, self._no_armature)
             if status == -1:
                 return ydot
             x, xd = self.layout.split(y)

@@ -272,11 +272,14 @@ class Tangent:
 class NewtonPreconditioner:
     """Solves ``(I - gamma J) z = r`` approximately in O(n), for the implicit integration of an open tree.
 
-    With ``y = (x, xd)`` and ``J ~ [[0, I], [-A^-1 K, -A^-1 C]]`` (K and C
+    With ``y = (q, u)`` and ``J ~ [[R, W], [-A^-1 K P, -A^-1 C]]`` (K and C
     the diagonal coordinate springs and dampers: segment joints, joint
-    springs), the second block row of the system becomes
-    ``(A + gamma C + gamma^2 K) z2 = A r2 - gamma K r1`` and
-    ``z1 = r1 + gamma z2``: one product with A
+    springs; ``qd = W(q) u``, ``R = d(W u)/dq`` and P the displacement per
+    coordinate change, :mod:`flexmb.state_layout`: ``W = I``, ``R = 0``
+    and ``P = I`` but for Euler parameters), the second block row of the
+    system becomes ``(A + gamma C + gamma^2 K) z2 = A r2 - gamma K P r1``
+    (``P W = I``) and the first ``(I - gamma R) z1 = r1 + gamma W z2``
+    (a 4 x 4 solve per set of Euler parameters): one product with A
     (:func:`~flexmb.kernels.articulated.mass_times`) and one articulated-body
     solve with the diagonal ``gamma C + gamma^2 K`` as armature, both O(n),
     A never formed. The geometric stiffness and the velocity-dependent
@@ -293,8 +296,22 @@ class NewtonPreconditioner:
         self.system = system
         self.stiffness, self.damping = self.diagonal_terms(system)
         self._state = None
+        self._at = None  # (q, u) of the set-up, for the kinematic equations' rows
         self._zeros = np.zeros((system.topology.n_bodies + 1, 3))
         self.n_setups = 0
+
+    def _kinematic_rows(self, r1, z2, gamma):
+        """``z1`` of ``(I - gamma R) z1 = r1 + gamma W z2`` at the set-up's state (``r1 + gamma z2`` with ``W = I``)."""
+        layout = self.system.layout
+        if layout.identity:
+            return r1 + gamma * z2
+        q, u = self._at
+        return layout.implicit_rates(q, u, r1 + gamma * layout.coordinate_rates(q, z2), gamma)
+
+    def _displaced(self, r1):
+        """``P r1``: the coordinates' part of a right-hand side as a displacement along the speeds."""
+        layout = self.system.layout
+        return r1 if layout.identity else layout.displacement(self._at[0], r1)
 
     @staticmethod
     def diagonal_terms(system) -> tuple[np.ndarray, np.ndarray]:
@@ -329,11 +346,14 @@ class NewtonPreconditioner:
         ----------
         t : float
             Time, s.
-        x, xd : ndarray, shape (n,)
-            Coordinates and speeds.
+        x : ndarray, shape (nq,)
+            Coordinates.
+        xd : ndarray, shape (n,)
+            Speeds.
         """
         kin = self.system.kinematics(t, x, xd)
         self._state = (kin.spatial_inertia(), kin.Sw, kin.Sv, kin.r)
+        self._at = (np.array(x, dtype=float), np.array(xd, dtype=float))
         self.n_setups += 1
 
     def solve(self, r1, r2, gamma):
@@ -341,27 +361,31 @@ class NewtonPreconditioner:
 
         Parameters
         ----------
-        r1, r2 : ndarray, shape (n,)
-            The right-hand side's position and speed halves.
+        r1 : ndarray, shape (nq,)
+            The right-hand side's coordinate half.
+        r2 : ndarray, shape (n,)
+            Its speed half.
         gamma : float
             The integrator's coefficient (step size times its method's
             constant).
 
         Returns
         -------
-        z1, z2 : ndarray, shape (n,)
-            The solution's halves.
+        z1 : ndarray, shape (nq,)
+            The solution's coordinate half.
+        z2 : ndarray, shape (n,)
+            Its speed half.
         """
         topo = self.system.topology
         spatial, Sw, Sv, r = self._state
         rhs = mass_times(topo.parent, topo.coord_start, topo.coord_body, spatial, Sw, Sv, _plain(r2))
-        rhs -= gamma * self.stiffness * r1
+        rhs -= gamma * self.stiffness * self._displaced(r1)
         armature = gamma * self.damping + gamma * gamma * self.stiffness
         z2, bad = articulated_accelerations(topo.parent, topo.coord_start, spatial, Sw, Sv, r, self._zeros,
                                             self._zeros, rhs, armature)
         if bad >= 0:
             raise AssemblyError(f"the Newton preconditioner is singular at joint {topo.tree_joints[bad].name!r}")
-        return r1 + gamma * z2, z2
+        return self._kinematic_rows(r1, z2, gamma), z2
 
 
 class LoopNewtonPreconditioner(NewtonPreconditioner):
@@ -372,7 +396,9 @@ class LoopNewtonPreconditioner(NewtonPreconditioner):
     With ``J ~ [[0, I], [-P K, -P C]]``, ``P = T (T^T A T)^-1 T^T`` (K and C
     the diagonal coordinate springs and dampers), the second block row gives
     ``z2 = r2 - gamma P_E (K r1 + E r2)`` with ``E = gamma K + C`` and
-    ``P_E = T (T^T (A + gamma E) T)^-1 T^T``, and ``z1 = r1 + gamma z2``.
+    ``P_E = T (T^T (A + gamma E) T)^-1 T^T``, and ``z1 = r1 + gamma z2``
+    (with Euler parameters, r1 as a displacement and z1 by the kinematic
+    equations' rows, as for open trees).
     ``P_E b`` is the constrained solve ``(A + gamma E) v = b + psi^T lambda``,
     ``psi v = 0`` (:func:`~flexmb.kernels.loops.loop_newton`): the
     articulated-body recursion with ``gamma E`` as armature, T never formed.
@@ -390,16 +416,17 @@ class LoopNewtonPreconditioner(NewtonPreconditioner):
 
     def setup(self, t, x, xd) -> None:  # the positions only: the kernel evaluates the rest at each solve
         self._state = _plain(np.array(x, dtype=float))
+        self._at = (self._state, np.array(xd, dtype=float))
         self.n_setups += 1
 
     def solve(self, r1, r2, gamma):
         system = self.system
         E = gamma * self.stiffness + self.damping
-        load = _plain(self.stiffness * r1 + E * r2)
+        load = _plain(self.stiffness * self._displaced(r1) + E * r2)
         v, status = loop_newton(system._packed, system._loop_layout, self._state, gamma * E, load, system._loop_tol,
                                 -1 if system.rank_limit is None else system.rank_limit)
         if status:
             raise AssemblyError("the Newton preconditioner of the loops is singular (a freedom without mass, "
                                 "stiffness or damping that no loop fixes)")
         z2 = r2 - gamma * v
-        return r1 + gamma * z2, z2
+        return self._kinematic_rows(r1, z2, gamma), z2

@@ -29,10 +29,38 @@ class OffsetPreconditioner:
         return self.pre.n_setups
 
     def setup(self, t, x, xd) -> None:
-        """Set up at the true coordinates ``x + c``."""
+        """Set up at the true coordinates ``x + c``.
+
+        Parameters
+        ----------
+        t : float
+            Time, s.
+        x : ndarray, shape (nq,)
+            The integrator's coordinates (less the offsets).
+        xd : ndarray, shape (n,)
+            Speeds.
+        """
         offset = self.run.offset
         self.pre.setup(t, x if offset is None else x + offset[: len(x)], xd)
 
     def solve(self, r1, r2, gamma):
-        """As :meth:`NewtonPreconditioner.solve` (increments do not depend on the offset)."""
+        """As :meth:`NewtonPreconditioner.solve` (increments do not depend on the offset).
+
+        Parameters
+        ----------
+        r1 : ndarray, shape (nq,)
+            The right-hand side's coordinate half.
+        r2 : ndarray, shape (n,)
+            Its speed half.
+        gamma : float
+            The integrator's coefficient (step size times its method's
+            constant).
+
+        Returns
+        -------
+        z1 : ndarray, shape (nq,)
+            The solution's coordinate half.
+        z2 : ndarray, shape (n,)
+            Its speed half.
+        """
         return self.pre.solve(r1, r2, gamma)

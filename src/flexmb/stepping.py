@@ -244,6 +244,8 @@ class Run:
         try:
             return self.rhs(t, y)
         except (NonFinite, AssemblyError) as exc:
+            if not np.isfinite(t):  # not a trial state: the step size itself is lost (a NaN error norm)
+                raise
             if getattr(exc, "t", None) is None:
                 exc.t = t
             if self.stage_failure is None:  # the first since the last accepted step: the cause

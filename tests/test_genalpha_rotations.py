@@ -143,8 +143,8 @@ def test_auto_picks_generalized_alpha_for_ringing_modes_beside_a_quaternion_join
 
 
 def test_quaternion_joint_in_a_loop_under_generalized_alpha():
-    # the crank-rod-slider loop with a quaternion ball joint: projections restart the method from its memory,
-    # the chart of the restarted state measured from the last step's end
+    # the crank-rod-slider loop with a quaternion ball joint: projections move the method in place (move_to),
+    # the moved state taken in the last step's chart, the chart then centred at it
     model = fm.Model("rssp")
     crank = fm.RigidBody.slender_bar("crank", 1.0, 0.2)
     rod = fm.RigidBody("rod", 1.0, (1e-3, 0.03, 0.03), com=(0.3, 0.0, 0.0))
@@ -181,3 +181,47 @@ def test_winding_angle_beside_a_quaternion_joint_is_rebased():
     np.testing.assert_allclose(res.x, ref.x, atol=1e-4)
     assert np.max(np.abs(res.rotations - ref.rotations)) < 1e-4
 
+
+
+def _top_solver(steps=20):
+    """GeneralizedAlpha on the hand-written heavy top (``y = (qx, qy, qz, qw, w)``) after ``steps`` steps."""
+    from flexmb.genalpha import GeneralizedAlpha
+    from flexmb.state_layout import StateLayout
+
+    rhs, _ = bench.hand_model("top")
+    q0, w0 = _scene("top")
+    solver = GeneralizedAlpha(rhs, 0.0, np.concatenate([q0, w0]), 1.0, n_second=3, rtol=1e-6, atol=1e-8,
+                              layout=StateLayout(4, 3, ([[0, 1, 2, 3]], [[0, 1, 2]])))
+    for _ in range(steps):
+        solver.step()
+    return solver, rhs
+
+
+@pytest.mark.parametrize("with_jacobian", [True, False])
+def test_move_to_on_the_rotation_group_recentres_the_chart_and_corrects_the_accelerations(with_jacobian):
+    """A projection's move of a quaternion state: taken in the chart, which is then centred at the moved state."""
+    errors = []
+    for size in (1e-3, 1e-4):
+        solver, rhs = _top_solver()
+        t, lag = solver.t, solver.abar - solver.a
+        assert np.max(np.abs(lag)) > 1e-6  # abar lags a: something to keep
+        if with_jacobian:  # one at the step's end, so that the correction is exact to first order
+            solver._new_jacobian(t, solver.z)
+        else:
+            solver.J = None  # a Jacobian is due: the accelerations are evaluated at the moved state
+        q = quat.compose(solver.y[:4], size * np.array([0.6, -0.8, 0.3]))  # turned in body axes
+        moved = np.concatenate([q, solver.y[4:] + size * np.array([1.0, -2.0, 0.5])])
+        solver.move_to(moved)
+        assert solver.t == t
+        np.testing.assert_allclose(solver.y, moved, rtol=0, atol=1e-15)  # the true state, unit Euler parameters
+        assert np.array_equal(solver.z[:3], np.zeros(3))  # the chart centred at the moved rotation
+        np.testing.assert_allclose(solver._chart.centre, q, rtol=0, atol=1e-15)
+        np.testing.assert_allclose(solver.abar - solver.a, lag, rtol=0, atol=1e-15)  # the lag is kept
+        errors.append(np.max(np.abs(solver.a - rhs(t, moved)[4:])))
+        solver.step()  # and the integration goes on from there
+        assert solver.status == "running" and solver.t > t
+        assert abs(np.linalg.norm(solver.y[:4]) - 1.0) < 1e-14
+    if with_jacobian:  # a + Jx dx + Jv dxd, dx the rotation vector in the chart: second order in the move
+        assert errors[1] < 0.02 * errors[0] and errors[0] < 1e-4, errors
+    else:
+        assert max(errors) < 1e-12, errors

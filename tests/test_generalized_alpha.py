@@ -312,3 +312,73 @@ def test_b6_scene_modes_and_a_short_dissipative_run():
     assert 0.0 < terms["numerical_dissipation_J"] < 0.01 * terms["initial_kinetic_J"]
     assert res.n_steps < 200
     assert abs(b6.scenes.b6_midspan_deflection(res)[-1]) < 1e-2
+
+
+def _pendulum_with_drag(t, y):
+    """A nonlinear pendulum with drag, ``xdd = -sin x - 0.3 xd |xd|`` (a Jacobian that changes along the motion)."""
+    return np.array([y[1], -np.sin(y[0]) - 0.3 * y[1] * abs(y[1])])
+
+
+def _pendulum_jacobian(t, y):
+    return np.array([[0.0, 1.0], [-np.cos(y[0]), -0.6 * abs(y[1])]])
+
+
+@pytest.mark.parametrize("with_jacobian", [True, False])
+def test_move_to_makes_the_accelerations_consistent_and_keeps_their_lag(with_jacobian):
+    solver = GeneralizedAlpha(_pendulum_with_drag, 0.0, np.array([1.0, 0.5]), 10.0, n_second=1, rtol=1e-6, atol=1e-8,
+                              jac=_pendulum_jacobian)
+    for _ in range(20):
+        solver.step()
+    lag = solver.abar - solver.a
+    assert abs(lag[0]) > 1e-6  # abar lags a: something to keep
+    if with_jacobian:  # one taken at the step's end, so that the correction is exact to first order
+        J = _pendulum_jacobian(solver.t, solver.y)
+        solver.J = (J[1:, :1].copy(), J[1:, 1:].copy())
+    else:
+        solver.J = None  # a Jacobian is due: the accelerations are evaluated at the moved state
+    y_end, t = solver.y.copy(), solver.t
+    errors = []
+    for size in (1e-3, 1e-4):
+        probe = GeneralizedAlpha(_pendulum_with_drag, 0.0, np.array([1.0, 0.5]), 10.0, n_second=1, rtol=1e-6,
+                                 atol=1e-8, jac=_pendulum_jacobian)
+        probe.__dict__.update({k: v.copy() if isinstance(v, np.ndarray) else v for k, v in solver.__dict__.items()})
+        moved = y_end + size * np.array([1.0, -2.0])
+        probe.move_to(moved)
+        assert probe.t == t and np.array_equal(probe.y, moved)
+        np.testing.assert_allclose(probe.abar - probe.a, lag, rtol=0, atol=1e-15)  # the lag is kept
+        errors.append(abs(probe.a[0] - _pendulum_with_drag(t, moved)[1]))
+    if with_jacobian:  # a + Jx dx + Jv dxd: second order in the move
+        assert errors[1] < 0.02 * errors[0] and errors[0] < 1e-5
+    else:
+        assert errors == [0.0, 0.0]
+    probe.step()  # and the integration goes on from there
+    assert probe.status == "running" and probe.t > t
+
+
+def test_generalized_alpha_projects_its_state_past_its_tolerance_only():
+    """Projections rationed to the drift past atol (in place) leave the outputs as accurate as one per step."""
+    import os
+    import sys
+
+    sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "benchmarks"))
+    import scenes
+
+    class EveryStep(GeneralizedAlpha):
+        """The integrator as simulate ran it before: projected past projection_tol, a new solver each time."""
+
+        moves = False
+
+    model, positions = scenes.b6(damped=True, n_segments=4)
+    system = model.build(complement="articulated")
+    kw = dict(positions=positions, n_out=51, progress=False)
+    tight = fm.simulate(system, 0.1, method="CVODE_BDF", rtol=1e-11, atol=1e-13, **kw)
+    new, old = (fm.simulate(system, 0.1, method=cls, rtol=1e-4, atol=1e-6, **kw)
+                for cls in (GeneralizedAlpha, EveryStep))
+    assert old.n_projections > 0.9 * old.n_steps  # the drift exceeds projection_tol after nearly every step
+    assert new.n_projections < 0.2 * new.n_steps
+    for res in (new, old):
+        assert res.status == "finished" and np.max(res.residual) <= 1e-10  # outputs projected all the same
+    rail = np.asarray(tight.coordinate("rail"))
+    slider = [np.max(np.abs(np.asarray(r.coordinate("rail")) - rail)) for r in (new, old)]
+    assert slider[0] <= slider[1] + 1e-6, slider  # no less accurate, to the position tolerance atol
+    assert slider[0] < 2e-6

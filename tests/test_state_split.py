@@ -6,6 +6,12 @@ statics and the bicycle's eigenvalues computed on main before the state
 was split into coordinates and speeds
 (``tests/data/make_state_split_reference.py``); every model whose joints
 have ``W = I`` must reproduce them to 1e-10.
+
+``fourbar_ga`` is the exception: generalized-alpha's state is now
+projected only past its own tolerance, in place, and its Jacobian kept
+until Newton fails with it (issue 28), which moves the run within its
+tolerance. It is held to the stored run's accuracy against a tight
+DOP853 solution instead (:func:`test_moved_run_no_less_accurate`).
 """
 
 from __future__ import annotations
@@ -38,10 +44,36 @@ def _same(name, new):
                                    err_msg=f"{name}: {key}")
 
 
-@pytest.mark.parametrize("name", sorted(RUNS))
+#: runs that a later change of their integrator moves within its tolerance (see the module docstring)
+MOVED = ("fourbar_ga",)
+
+
+@pytest.mark.parametrize("name", sorted(set(RUNS) - set(MOVED)))
 def test_runs_match_main(name):
     model, kwargs = RUNS[name]
     _same(name, ref.run(model, kwargs))
+
+
+@pytest.mark.parametrize("name", MOVED)
+def test_moved_run_no_less_accurate(name):
+    """The largest position and speed errors against DOP853 at rtol 1e-12 are the stored run's or less.
+
+    To within the run's tolerance ``atol + rtol max|x|`` (rtol 1e-6, atol
+    its default rtol / 100): the step control resolves nothing finer, so a
+    change of it moves results by that much either way (measured: 6.160e-5
+    -> 6.162e-5 rad in the positions, 1.8997e-3 -> 1.9009e-3 rad/s in the
+    speeds; the tolerances are 3.4e-6 and 2.8e-5).
+    """
+    model, kwargs = RUNS[name]
+    new = ref.run(model, kwargs)
+    tight = ref.run(model, dict(kwargs, method="DOP853", rtol=1e-12, atol=1e-14))
+    np.testing.assert_allclose(new["t"], REFERENCE[f"{name}/t"], rtol=0, atol=1e-15)
+    rtol = kwargs["rtol"]
+    for what in ("x", "xd"):
+        err_old = float(np.max(np.abs(REFERENCE[f"{name}/{what}"] - tight[what])))
+        err_new = float(np.max(np.abs(new[what] - tight[what])))
+        resolution = rtol / 100 + rtol * float(np.max(np.abs(tight[what])))
+        assert err_new <= err_old + resolution, (what, err_old, err_new, resolution)
 
 
 def test_analyses_match_main():

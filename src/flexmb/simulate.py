@@ -331,10 +331,13 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     The state (x, xd) is integrated by an OdeSolver (scipy's, or SUNDIALS'
     CVODE); the accelerations come from the reduced equations (eqs. 36-39)
     at every evaluation. After
-    each step the position and speed residuals are checked, and when either
-    exceeds ``projection_tol`` the state is projected back onto the
-    constraints and the solver restarted. The stored output states, which
-    are interpolated between steps, are projected onto the constraints too.
+    each step the position and speed residuals are checked, and past a
+    bound the state is projected back onto the constraints and the solver
+    continues from it (:meth:`flexmb.stepping.Run._restart_if_drifted`):
+    ``projection_tol``, or one tied to the tolerance for integrators whose
+    restart is costly (CVODE) or that move in place (generalized-alpha).
+    The stored output states, which are interpolated between steps, are
+    projected onto the constraints to ``projection_tol``.
 
     Parameters
     ----------
@@ -385,7 +388,8 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
         Orthogonal complement strategy, or a registered plugin's name
         (default: the system's, ``'svd'``).
     projection_tol : float
-        Largest residual ``|phi|`` or ``|psi xd - b|`` tolerated before projecting.
+        Largest residual ``|phi|`` or ``|psi xd - b|`` of the outputs, and
+        the least the integrator's state is allowed before it is projected.
     max_step : float
         Largest step, s.
     progress : bool, optional

@@ -156,10 +156,10 @@ class Run:
         self.caps = capabilities(self.solver_cls)
         self.monitor = ResolutionMonitor.for_run(system, self.solver_cls, self.caps, t0, t_end, rtol, atol, name,
                                                  auto)
-        # an integrator whose restart discards a multistep history (CVODE: back to order 1) projects its
-        # own state only past a looser bound tied to its tolerance; the stored outputs are projected to
-        # projection_tol all the same
-        self.state_tol = (projection_tol if self.caps.cheap_restart
+        # the integrator's own state is projected past a bound (_restart_if_drifted); the outputs are
+        # projected to projection_tol all the same
+        self.state_tol = (max(projection_tol, float(np.min(atol))) if self.caps.moves
+                          else projection_tol if self.caps.cheap_restart
                           else max(projection_tol, min(RESTART_ATOL_FACTOR * atol, RESTART_TOL_MAX)))
         self.events = (ContactEvents.of(system, t0, t_end, self.caps.explicit, name) if contact_events else None)
         # an event needs the step that crossed it: the run steps the integrator itself then
@@ -244,6 +244,8 @@ class Run:
         try:
             return self.rhs(t, y)
         except (NonFinite, AssemblyError) as exc:
+            if not np.isfinite(t):  # not a trial state: the step size itself is lost (a NaN error norm)
+                raise
             if getattr(exc, "t", None) is None:
                 exc.t = t
             if self.stage_failure is None:  # the first since the last accepted step: the cause
@@ -466,11 +468,25 @@ class Run:
             self.k_out += 1
 
     def _restart_if_drifted(self, solver):
-        """The solver, restarted from the projected state if the constraints drifted past the bound."""
+        """The solver, continued from the projected state if the constraints drifted past the bound.
+
+        The bound is :attr:`state_tol` on ``|phi|`` and ``|psi xd - b|``,
+        but for an integrator that moves in place (``moves``, a one-step
+        method: :class:`~flexmb.GeneralizedAlpha`) ``state_tol = max(
+        projection_tol, atol)`` on ``|phi|`` and ``state_tol / h`` on ``|psi
+        xd - b|``, ``h`` its last step: its error control resolves no
+        position finer than ``atol``, and a speed error moves the positions
+        by ``h`` times itself over a step (the scale of speeds in its Newton
+        norm, :func:`flexmb.kernels.genalpha.newton_update`). Drift below
+        that is left to the outputs' projection; above it the state is
+        projected and the integrator continues from it in place
+        (``move_to``), or is restarted (:meth:`_restart`).
+        """
         t_now, offset = self.t_now, self.offset
         y = solver.y if offset is None else solver.y + offset
         xs, vs = self.layout.split(y)
-        residual = self.system.constraint_residual(t_now, xs, vs)
+        position, velocity = self.system._constraint_residuals(t_now, xs, vs)
+        residual = max(position, velocity * (solver.step_size or 0.0)) if self.caps.moves else max(position, velocity)
         if residual <= self.state_tol:
             return solver
         if (not self.caps.cheap_restart and self.n_steps - self.last_restart < RESTART_MIN_STEPS
@@ -482,7 +498,11 @@ class Run:
         self.n_proj += 1
         self.last_restart = self.n_steps
         y = self.layout.join(xs, vs, self.layout.extra(y))
-        return self._restart(solver, y if offset is None else y - offset)
+        z = y if offset is None else y - offset
+        if self.caps.moves:
+            solver.move_to(z)
+            return solver
+        return self._restart(solver, z)
 
     def _restart(self, solver, z):
         """A new solver from ``z`` at the time ``solver`` reached (after a projection, or a move of the offsets).

@@ -17,8 +17,15 @@ nonlinear problems, the second order of Chung & Hulbert [1]_::
 ``r(a1) = a1 - a(t1, x1, xd1)`` uses the iteration matrix
 ``I - gamma' h Jv - beta' h^2 Jx`` with ``beta' = beta (1 - alpha_f) / (1 -
 alpha_m)``, ``gamma' = gamma (1 - alpha_f) / (1 - alpha_m)`` and the blocks
-of the state Jacobian ``[[0, I], [Jx, Jv]]``, reused over steps while
-Newton converges fast. Newton stops when its update is small against the
+of the state Jacobian ``[[0, I], [Jx, Jv]]``, reused over steps until
+Newton fails with it (modified Newton: a failure with a Jacobian taken at
+an earlier step takes a new one and tries the step again; a Newton
+iteration that converges slowly converges all the same, to the same
+``a1``, and a Jacobian costs on looped models about ten right-hand
+sides). The iteration matrix is factorised again whenever the step
+changes (reusing the factors of a step up to 10-20 % different made
+Newton fail more often, costing more Jacobians than the factorisations it
+saved: docs/benchmarks.md). Newton stops when its update is small against the
 position tolerance ``atol + rtol |x|`` in ``x1`` and against that
 tolerance divided by the step in ``xd1`` (the speed error that moves the
 positions by the tolerance over a step; derived in
@@ -66,10 +73,11 @@ rotation group (Bruls & Cardona 2010): the same compiled step in the chart
 step's end after it (:mod:`flexmb.genalpha.chart`); every other model is
 stepped in its own coordinates, as before, to the same bits.
 
-The solver is in :mod:`flexmb.genalpha.solver`, its dense output in
-:mod:`flexmb.genalpha.dense`, the method's parameters and amplification in
-:mod:`flexmb.genalpha.parameters`; their public names are importable from
-here.
+The solver is in :mod:`flexmb.genalpha.solver` (its interpolant in
+:mod:`flexmb.genalpha.dense`, configured classes in
+:mod:`flexmb.genalpha.configured`), the method's parameters and
+amplification in :mod:`flexmb.genalpha.parameters`; their public names are
+importable from here.
 
 References
 ----------
@@ -78,7 +86,8 @@ References
 """
 
 from .parameters import DEFAULT_RHO_INF, alpha_parameters, amplification_matrix, numerical_damping
-from .solver import GeneralizedAlpha, GeneralizedAlphaDenseOutput, generalized_alpha
+from .configured import generalized_alpha
+from .solver import GeneralizedAlpha, GeneralizedAlphaDenseOutput
 
 __all__ = ["GeneralizedAlpha", "generalized_alpha", "alpha_parameters", "amplification_matrix",
            "numerical_damping", "DEFAULT_RHO_INF"]

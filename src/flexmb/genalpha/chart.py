@@ -39,7 +39,12 @@ What follows for the solver:
   ``x' = J_r(x)^-1 omega``, :func:`flexmb.quaternions.inverse_right_jacobian`), composed back
   to a unit quaternion;
 - the Euler parameters stay of unit length to rounding: every state is
-  ``R0 exp(x)`` by :meth:`flexmb.state_layout.StateLayout.displace`.
+  ``R0 exp(x)`` by :meth:`flexmb.state_layout.StateLayout.displace`;
+- a projection's move of the state (:meth:`GeneralizedAlpha.move_to
+  <flexmb.genalpha.solver.GeneralizedAlpha.move_to>`) is taken in the
+  present chart (:meth:`RotationChart.relative`), where the accelerations
+  are corrected along ``Jx``; the chart is then centred at the moved state
+  (:meth:`RotationChart.enter`).
 
 Arnold, Bruls & Cardona (2015) [2]_ prove this scheme convergent of second
 order in ``R`` and ``v``, as the vector method is; the tests measure the

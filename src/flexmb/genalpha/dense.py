@@ -1,4 +1,9 @@
-"""The dense output of a generalized-alpha step: :class:`GeneralizedAlphaDenseOutput`."""
+"""The interpolant over one generalized-alpha step (:class:`GeneralizedAlphaDenseOutput`).
+
+The step itself is in :mod:`flexmb.genalpha.solver`, the method in
+:mod:`flexmb.genalpha`; its form in a rotation chart in
+:mod:`flexmb.genalpha.chart`.
+"""
 
 from __future__ import annotations
 

@@ -24,12 +24,11 @@ from scipy.linalg import eig, lu_factor
 
 from ..kernels import genalpha as kernels
 from ..kernels.genalpha import NEWTON_MAXITER
-from .._validate import number
 from .chart import ChartDenseOutput, RotationChart
 from .dense import GeneralizedAlphaDenseOutput
 from .parameters import DEFAULT_RHO_INF, alpha_parameters
 
-__all__ = ["GeneralizedAlpha", "GeneralizedAlphaDenseOutput", "generalized_alpha"]
+__all__ = ["GeneralizedAlpha", "GeneralizedAlphaDenseOutput"]
 
 _EPS = np.finfo(float).eps
 #: after a Newton failure, the factor per accepted step by which the step may grow back (see ``_accept``)
@@ -157,9 +156,11 @@ class GeneralizedAlpha(OdeSolver):
     adds a local error of order ``h^2 |h' - h|``, no more than a step's
     truncation error.
 
-    A new instance created with the same ``fun`` object at the time where
-    the previous one stopped (``simulate`` restarts after projecting the
-    state onto the constraints) continues from the previous one's memory:
+    ``simulate`` projects the state onto the constraints in place
+    (:meth:`move_to`, the accelerations made consistent with the moved
+    state). A new instance created with the same ``fun`` object at the
+    time where the previous one stopped (a restart at a contact event)
+    continues from the previous one's memory:
     its Jacobian, iteration matrix, step-size history and next step (in
     place of ``first_step``) and ``abar - a``; the accelerations at the
     moved state are the previous ones corrected to first order with the
@@ -200,6 +201,7 @@ class GeneralizedAlpha(OdeSolver):
     has_dense_output = True
     needs_n_second = True
     rebases = True
+    moves = True
 
     def __init__(self, fun, t0, y0, t_bound, *, n_second=None, jac=None, rtol=1e-6, atol=1e-8,
                  max_step=np.inf, first_step=None, rho_inf=None, fixed_step=None, f_max=None, min_step=None,
@@ -270,7 +272,7 @@ class GeneralizedAlpha(OdeSolver):
             raise ValueError("max_step must be > 0")
         self.rtol = max(float(rtol), 100 * _EPS)
         self.max_step = float(max_step)
-        # cached for a scalar atol: simulate makes a new solver after every projection
+        # cached for a scalar atol: simulate may make many solvers (contact events)
         settings = (_settings(self.rho_inf, self.rtol, float(atol), n, self.n, self.max_step, self.min_step)
                     if np.ndim(atol) == 0 else
                     _settings.__wrapped__(self.rho_inf, self.rtol, atol, n, self.n, self.max_step, self.min_step))
@@ -304,7 +306,7 @@ class GeneralizedAlpha(OdeSolver):
         """Size of the last step taken, s (None before the first step)."""
         return None if self.t_old is None else abs(self.t - self.t_old)
 
-    # -- memory across restarts (simulate makes a new solver after each projection)
+    # -- memory across restarts (simulate makes a new solver at a contact event)
     @staticmethod
     def _recall(fun, t0):
         try:
@@ -438,7 +440,7 @@ class GeneralizedAlpha(OdeSolver):
                 self._new_jacobian(t, self.z)
             if self.lu is None or self.lu_h != h:
                 self._factor(h)
-            end, n_iter, rate = self._newton(t1, h)
+            end = self._newton(t1, h)[0]
             if end is None:
                 if not self.jac_current:
                     self._new_jacobian(t, self.z)
@@ -461,10 +463,10 @@ class GeneralizedAlpha(OdeSolver):
                 break
             self.n_rejected += 1
             h_abs = h_next
-        self._accept(t1, h_abs, end, n_iter, rate, None if fixed else err, None if fixed else h_next)
+        self._accept(t1, h_abs, end, None if fixed else err, None if fixed else h_next)
         return True, None
 
-    def _accept(self, t1, h_abs, end, n_iter, rate, err, h_next):
+    def _accept(self, t1, h_abs, end, err, h_next):
         """Take the step to t1: the new state, the error history, the Jacobian's fate, the next step size.
 
         The next step is the error control's, but at most the halved step of
@@ -484,11 +486,9 @@ class GeneralizedAlpha(OdeSolver):
         self.t = t1
         self.h_abs_old = h_abs
         self.err_old = None if err is None else max(err, 1e-10)
-        # a Jacobian that let Newton converge slowly is refreshed before the next step
-        if self.jac_current:
-            self.jac_current = False
-        elif n_iter > 2 and rate > 1e-3:
-            self.J = None
+        # the Jacobian is kept until Newton fails with it (_step_impl): a Newton iteration that converges
+        # slowly converges all the same (taking a new one then cost more than the iterations it saved)
+        self.jac_current = False
         if h_next is not None:
             self.h_newton *= NEWTON_REGROWTH
             self.h_abs = min(h_next, self.h_newton)
@@ -518,68 +518,66 @@ class GeneralizedAlpha(OdeSolver):
         if self.t_old is not None:
             self._remember()
 
+    def move_to(self, y) -> None:
+        """Continue from ``y``, a state moved off the last step's end (a projection onto the constraints).
+
+        A one-step method's history is its last accelerations: they are made
+        consistent with the moved state, and everything else (the Jacobian,
+        its factors, the error and step-size history) stays, so no new
+        solver is made and no step is lost.
+
+        Parameters
+        ----------
+        y : ndarray, shape (len(y),)
+            The moved state, at the same time.
+
+        Notes
+        -----
+        The step equations need ``a0 = a(t, x0, xd0)`` (the equations of
+        motion hold at every step end) and the algorithmic accelerations
+        ``abar0``, a filter of the past ``a`` that lags them: for a smooth
+        motion ``abar - a = (alpha_m - alpha_f) h da/dt + O(h^2)``. A move
+        ``(dx, dxd)`` changes ``a`` by ``Jx dx + Jv dxd`` to first order and
+        the lag only by ``O(h |dx|)``. So ``a`` is corrected with the
+        Jacobian in use (a right-hand side at the moved state when a
+        Jacobian is due anyway), and ``abar`` keeps its lag: ``abar = a +
+        (abar_old - a_old)``. Setting ``abar = a`` instead (as at the first
+        step) would drop a term of order ``h``, a first-order error on every
+        move, where keeping the lag costs ``O(h |dx| + |dx|^2)``. The
+        further states ``w`` and their rates are kept. The dense output of
+        the last step is unchanged (the caller stored its outputs before
+        the move). A step below ``min_step`` (after a Newton failure) is
+        raised to it, as at a start.
+
+        With Euler parameters (:mod:`flexmb.genalpha.chart`) the move is
+        taken in the present chart (the rotation vectors from its centre to
+        the moved rotations, along which ``Jx`` is formed), and the chart is
+        then centred at the moved state. The speeds and accelerations of a
+        rotation are body-axes vectors, the same in every chart, so only the
+        correction above changes them.
+        """
+        n, chart = self.n_pos, self._chart
+        y = np.array(y, dtype=float)
+        z = y if chart is None else chart.relative(y, chart.centre)  # the move in the present chart
+        lag = self.abar - self.a
+        if self.J is not None:
+            Jx, Jv = self.J
+            self.a, self.abar = kernels.restart_accelerations(z, self.z, self.a, Jx, Jv, lag, n)
+        else:
+            self.a = self._zfun(self.t, z)[n : 2 * n].copy()
+            self.abar = self.a + lag
+        if chart is None:
+            self.y = self.z = y
+        else:  # the chart centred at the moved state (unit Euler parameters, as after every step)
+            self.z = chart.enter(y)
+            self.y = chart.state(self.z)
+        if self.min_step is not None:  # as at a start (and as a new solver did after each projection)
+            self.h_abs = min(max(self.h_abs, self.min_step), self.max_step)
+        self._remember()
+
     def _dense_output_impl(self):
         z_old, abar_old, g_old, z_new, centre, slope = self._dense
         args = (self.t_old, self.t, z_old, z_new, abar_old, self.abar, g_old, self.g, self.n_pos)
         if self._chart is None:
             return GeneralizedAlphaDenseOutput(*args)
         return ChartDenseOutput(self._chart, centre, *args, slope_new=slope)
-
-
-def generalized_alpha(rho_inf: float = DEFAULT_RHO_INF, fixed_step: float | None = None,
-                      f_max: float | None = None, min_step: float | None = None) -> type:
-    """A :class:`GeneralizedAlpha` class with a spectral radius, and optionally a fixed step, a cutoff or a step floor.
-
-    Parameters
-    ----------
-    rho_inf : float
-        Spectral radius at infinity in [0, 1]: 1 keeps every frequency (no
-        dissipation), smaller values remove more of the modes far above
-        ``1 / h`` per step.
-    fixed_step : float, optional
-        Fixed step size, s (no error control); default: error-controlled
-        steps.
-    f_max : float, optional
-        Highest frequency resolved by the error control, Hz (see
-        :class:`GeneralizedAlpha`); default: all.
-    min_step : float, optional
-        Smallest error-controlled step, s (see :class:`GeneralizedAlpha`):
-        the modes above ``1 / (2 pi min_step)`` Hz are dissipated, never
-        resolved; default: no floor.
-
-    Returns
-    -------
-    type
-        A subclass of :class:`GeneralizedAlpha`, to pass as ``method`` to
-        :func:`flexmb.simulate` or :func:`scipy.integrate.solve_ivp`.
-
-    Raises
-    ------
-    ModelError
-        If ``rho_inf`` is not a number in [0, 1], or ``fixed_step``,
-        ``f_max`` or ``min_step`` is not a finite number > 0 (a ValueError
-        too).
-
-    Examples
-    --------
-    >>> import flexmb as fm
-    >>> model = fm.Model()
-    >>> bar = fm.RigidBody.slender_bar("bar", mass=1.0, length=1.0)
-    >>> _ = model.add(fm.Revolute("pin", model.ground, bar), fm.Gravity((0, -9.81, 0)))
-    >>> res = fm.simulate(model, 0.5, positions={"pin": 0.5}, method=fm.generalized_alpha(rho_inf=0.6), rtol=1e-6)
-    >>> res.method
-    'GeneralizedAlpha(rho_inf=0.6)'
-    """
-    alpha_parameters(rho_inf)  # validates: a number in [0, 1]
-    rho_inf = float(rho_inf)
-    fixed_step, f_max, min_step = (None if v is None else number("generalized_alpha", what, v, minimum=0.0)
-                                   for what, v in (("fixed_step", fixed_step), ("f_max", f_max),
-                                                   ("min_step", min_step)))
-    label = (f"rho_inf={float(rho_inf):g}" + (f", fixed_step={float(fixed_step):g}" if fixed_step else "")
-             + (f", f_max={float(f_max):g}" if f_max else "")
-             + (f", min_step={float(min_step):g}" if min_step else ""))
-    return type(f"GeneralizedAlpha({label})", (GeneralizedAlpha,),
-                {"rho_inf": float(rho_inf), "fixed_step": None if fixed_step is None else float(fixed_step),
-                 "f_max": None if f_max is None else float(f_max),
-                 "min_step": None if min_step is None else float(min_step),
-                 "__module__": __name__, "__doc__": f"GeneralizedAlpha with {label}."})

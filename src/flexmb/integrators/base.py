@@ -52,6 +52,14 @@ from these class attributes,
     the offsets of winding angles so (:mod:`flexmb.stepping`); an
     integrator without it is restarted from the moved state instead
     (:class:`~flexmb.GeneralizedAlpha` rebases, keeping its memory).
+``moves``
+    The solver has ``move_to(y)``: it continues from a state moved off
+    the end of its last step (a projection onto the constraints), keeping
+    its history, with no new solver. simulate then projects its state only
+    past its own tolerance (``atol`` on ``|phi|``, ``atol / h`` on ``|psi
+    xd - b|``, :meth:`flexmb.stepping.Run._restart_if_drifted`); any other
+    integrator is restarted from the projected state
+    (:class:`~flexmb.GeneralizedAlpha` moves).
 ``finds_roots``
     The constructor takes ``events = (g, m, direction)``, a function
     ``g(t, y)`` returning m values and the direction of the crossings to
@@ -108,6 +116,8 @@ class Capabilities:
         Has ``advance(t)``: steps to ``t`` without simulate's per-step checks.
     rebases : bool
         Has ``rebase(shift)``: moves the origin of its state in place.
+    moves : bool
+        Has ``move_to(y)``: continues in place from a projected state.
     finds_roots : bool
         Takes ``events=(g, m, direction)`` and ends a step at the first root of ``g``.
 
@@ -127,6 +137,7 @@ class Capabilities:
     cheap_restart: bool = True
     advances: bool = False
     rebases: bool = False
+    moves: bool = False
     finds_roots: bool = False
 
 

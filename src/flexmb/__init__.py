@@ -16,8 +16,8 @@ from .complements import COMPLEMENTS, ComplementStrategy, EigenComplement, SVDCo
 from .drivers import Driver
 from .constraint_elements import (ConstraintElement, CurveConstraint, Distance, GearPair, KnifeEdge, PointOnCircle,
                                   PointOnCurve, PointOnLine, RollingDisc, velocity_rows)
-from .errors import (AssemblyError, ExportError, FlexmbError, ModelError, PluginError, SceneError, SimulationError,
-                     StiffnessWarning)
+from .errors import (AssemblyError, ExportError, FlexmbError, GimbalLockWarning, ModelError, PluginError, SceneError,
+                     SimulationError, StiffnessWarning)
 from .forces import BodyTorque, ForceElement, Gravity, JointSpringDamper, Loads, PointForce, SpringDamper
 from .forces import (CapsuleCapsuleContact, CapsulePlaneContact, CapsuleSphereContact, Capsules, ContactGroup, Plane,
                      Spheres)
@@ -94,7 +94,7 @@ __all__ = [
     "Model", "PluginInfo", "plugins", "register", "Result", "INTEGRATORS", "initial_state", "simulate", "System",
     "PointVelocity", "AngularVelocity",
     "Scene", "SceneError", "load_scene", "loads_scene",
-    "StiffnessWarning", "GeneralizedAlpha", "generalized_alpha",
+    "StiffnessWarning", "GimbalLockWarning", "GeneralizedAlpha", "generalized_alpha",
     "ArticulatedComplement", "AutoComplement", "QRComplement",
     "reference",
 ]

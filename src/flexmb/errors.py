@@ -7,7 +7,7 @@ caller can catch them all at once; the subclasses tell where it happened.
 from __future__ import annotations
 
 __all__ = ["FlexmbError", "ModelError", "AssemblyError", "SimulationError", "ExportError", "PluginError", "SceneError",
-           "StiffnessWarning"]
+           "StiffnessWarning", "GimbalLockWarning"]
 
 
 class FlexmbError(Exception):
@@ -89,6 +89,15 @@ class SceneError(ModelError):
     def __init__(self, message: str, key_path: str = ""):
         super().__init__(message)
         self.key_path = key_path
+
+
+class GimbalLockWarning(UserWarning):
+    """A joint in Bryant angles came close to gimbal lock during a run (:mod:`flexmb.gimbal`).
+
+    Its middle angle ry within ``GIMBAL_MARGIN_DEG`` of +-90 deg: the
+    angles' rates grow without bound there and the steps shrink. The
+    remedy named: ``rotation='quaternion'`` (Euler parameters).
+    """
 
 
 class StiffnessWarning(UserWarning):

@@ -34,6 +34,7 @@ import numpy as np
 from ._signals import escaped, interruption, who
 from .contact_events import ContactEvents, StepFailure
 from .event_restart import cut_at_event
+from .gimbal import GimbalWatch
 from .errors import AssemblyError
 from .offset_preconditioner import OffsetPreconditioner
 from .output_projection import project_output
@@ -42,11 +43,10 @@ from .result import Result
 
 __all__ = ["Run"]
 
-#: integrators without a cheap restart (``cheap_restart = False``: CVODE, back to order one) project
-#: their own state when the constraint residual exceeds RESTART_ATOL_FACTOR * atol, at most
-#: RESTART_TOL_MAX (or projection_tol, if larger); their stored outputs are projected to projection_tol.
-#: Measured on the four-bar at rtol 1e-9: projecting at 100 atol restarts CVODE every few steps and
-#: the run collapses; at 1e3 atol it restarts 62 times and loses accuracy; at 1e4 atol once.
+#: integrators without a cheap restart (``cheap_restart = False``: CVODE, back to order one) project their own
+#: state when the constraint residual exceeds RESTART_ATOL_FACTOR * atol, at most RESTART_TOL_MAX (or
+#: projection_tol, if larger); their stored outputs are projected to projection_tol. On the four-bar at rtol
+#: 1e-9 projecting at 100 atol restarts CVODE every few steps (the run collapses), at 1e3 atol 62 times, at 1e4 once.
 RESTART_ATOL_FACTOR = 1e4
 RESTART_TOL_MAX = 1e-6
 
@@ -138,12 +138,9 @@ class Run:
         self.system = system
         self.n = system.n_speeds
         self.layout = system.layout  # y = (q, u, works), qd = W(q) u
-        self.name = name
-        self.times = times
-        self.t0, self.t_end = t0, t_end
+        self.name, self.times, self.t0, self.t_end = name, times, t0, t_end
         self.rtol, self.atol, self.max_step = rtol, atol, max_step
-        self.projection_tol = projection_tol
-        self.progress = progress
+        self.projection_tol, self.progress = projection_tol, progress
         self.n_drv = len(system.constraints.drivers)
         elements = system.constraints.elements  # their work: that of their rows with b != 0
         self.work_names = ([f"driver {d.name}" for d in system.constraints.drivers] + system.forces.group_names()
@@ -154,8 +151,8 @@ class Run:
         # what the integrator can use is declared by its class (flexmb.integrators.base)
         self.solver_cls = adapt(solver_cls)
         self.caps = capabilities(self.solver_cls)
-        self.monitor = ResolutionMonitor.for_run(system, self.solver_cls, self.caps, t0, t_end, rtol, atol, name,
-                                                 auto)
+        self.gimbal = GimbalWatch.of(system)
+        self.monitor = ResolutionMonitor.for_run(system, self.solver_cls, self.caps, t0, t_end, rtol, atol, name, auto)
         # the integrator's own state is projected past a bound (_restart_if_drifted); the outputs are
         # projected to projection_tol all the same
         self.state_tol = (max(projection_tol, float(np.min(atol))) if self.caps.moves
@@ -350,16 +347,18 @@ class Run:
         stops = times[self.k_out:]
         if self.progress:
             stops = np.union1d(stops, np.linspace(t0, self.t_end, 101)[1:])
-        monitor, angles, t_end = self.monitor, self.angles, self.t_end
+        monitor, angles, t_end, gimbal = self.monitor, self.angles, self.t_end, self.gimbal
 
         def wound(solver):
             if monitor is not None:
                 monitor.step(solver)
+            if gimbal is not None:
+                gimbal.check(solver.t, solver.y)
             if solver.t < t_end and np.max(np.abs(solver.y[angles])) > WINDING_BOUND:
                 raise _Wound
 
         # a callback after each step only where there is something to do (a Python call per step costs)
-        step = wound if len(angles) else (None if monitor is None else monitor.step)
+        step = wound if len(angles) or gimbal is not None else (None if monitor is None else monitor.step)
 
         done = 0  # steps of the solvers restarted before this one
         for t_stop in stops:
@@ -417,6 +416,8 @@ class Run:
             self.stage_failure = None
             if self.monitor is not None:  # warns once if the steps resolve ringing modes (StiffnessWarning)
                 self.monitor.step(solver)
+            if self.gimbal is not None:  # warns once if a joint in Bryant angles nears gimbal lock
+                self.gimbal.check(solver.t, solver.y)
             if events is not None:
                 cut = cut_at_event(self, solver, t_start, z_start)
                 if cut is not None:

@@ -9,6 +9,7 @@ without a word a user would only see a run that does not end.
 
 from __future__ import annotations
 
+import math
 import warnings
 
 import numpy as np
@@ -34,6 +35,7 @@ class GimbalWatch:
 
     def __init__(self, names, index):
         self.names, self.index = names, np.asarray(index, dtype=np.intp)
+        self.small = [int(i) for i in self.index]
         self.limit = np.sin(np.radians(GIMBAL_MARGIN_DEG))
         self.warned = False
 
@@ -70,6 +72,9 @@ class GimbalWatch:
         """
         if self.warned:
             return
+        if len(self.index) <= 8:  # a few joints (the common case): cheaper than numpy's calls, after every step
+            if all(abs(math.cos(y[i])) >= self.limit for i in self.small):
+                return
         c = np.abs(np.cos(y[self.index]))
         k = int(np.argmin(c))
         if c[k] < self.limit:

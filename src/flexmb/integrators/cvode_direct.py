@@ -214,7 +214,7 @@ class DirectCVODE:
         self._arrays = arrays = dict(fl=fl, it=it, fg=fg, ix=ix, K=np.ascontiguousarray(K, float),
                                      C=np.ascontiguousarray(C, float), spatial=np.zeros(nb * 36),
                                      Sw=np.zeros(n * 3), Sv=np.zeros(n * 3), r=np.zeros((nb + 1) * 3),
-                                     fail_t=np.zeros(1), offset=self._offset)
+                                     fail_t=np.zeros(1), fail_y=np.zeros(self.m), offset=self._offset)
         ud = np.zeros(cb.UD_SIZE, dtype=np.int64)
         ud[cb.A_GETPTR], ud[cb.A_MATDATA], ud[cb.N], ud[cb.M], ud[cb.NB] = (
             _addr(S.N_VGetArrayPointer), _addr(S.SUNDenseMatrix_Data), n, self.m, nb)
@@ -222,7 +222,7 @@ class DirectCVODE:
             ud[slot], ud[size] = arrays[key].ctypes.data, arrays[key].size
         ud[cb.A_IX], ud[cb.N_IX] = ix.ctypes.data, ix.shape[0]
         for slot, key in ((cb.A_K, "K"), (cb.A_C, "C"), (cb.A_SPATIAL, "spatial"), (cb.A_SW, "Sw"), (cb.A_SV, "Sv"),
-                          (cb.A_R, "r"), (cb.A_FAIL_T, "fail_t")):
+                          (cb.A_R, "r"), (cb.A_FAIL_T, "fail_t"), (cb.A_FAIL_Y, "fail_y")):
             ud[slot] = arrays[key].ctypes.data
         if self._offset is not None:
             ud[cb.A_OFFSET], ud[cb.HAS_OFFSET] = self._offset.ctypes.data, 1
@@ -358,6 +358,7 @@ class DirectCVODE:
                 if self._raised is not None:
                     raised, self._raised = self._raised, None
                     raise raised
+                self._diagnose()
                 raise self._error(code)
             if code == cb.WATCH and on_step is not None:
                 on_step(self)
@@ -382,6 +383,22 @@ class DirectCVODE:
         mon.n_steps += len(h) - 1
         mon.step(_Step(times[-1], times[-2], self.y))
 
+    def _diagnose(self) -> None:
+        """Raise flexmb's own diagnosis (AssemblyError) of the state at which a callback failed, if it gives one.
+
+        The right-hand side at that state, evaluated in Python, names what
+        became non-finite or the joint that moves no mass, as a run
+        stepping in Python reports it.
+        """
+        cb, ud = self._cb, self._ud
+        if int(ud[cb.STATUS]) in (-1, cb.NOT_DEFINITE):
+            return
+        t, y = float(self._arrays["fail_t"][0]), self._arrays["fail_y"].copy()
+        rate = self.system._state_rate(t, y)  # raises AssemblyError naming the cause where it finds one
+        if not np.all(np.isfinite(rate)):
+            bad = [self.system.speed_names[i % self.n] for i in np.flatnonzero(~np.isfinite(rate))[:5]]
+            raise _nonfinite(t, bad)
+
     def _error(self, code) -> CVODEError:
         cb, ud = self._cb, self._ud
         what = f"CVODE failed at t = {self.t:.9g} s: {FLAGS.get(code, code)}"
@@ -396,7 +413,9 @@ class DirectCVODE:
             else:
                 cause = "the mass matrix is not positive definite"
             what += f"; at t = {t_fail:.9g} s {cause}"
-        return CVODEError(what)
+        error = CVODEError(what)
+        error.t = float(self._arrays["fail_t"][0]) if status != -1 else self.t
+        return error
 
     def dense_output(self):
         """CVODE's interpolant over its last step (``CVodeGetDky``), valid until it steps again.
@@ -479,6 +498,14 @@ class DirectCVODEAdams(DirectCVODE):
     """:class:`DirectCVODE` with CVODE's Adams-Moulton (orders 1-12, Newton): ``'CVODE_Adams'`` on open trees."""
 
     family, max_order = "Adams", 12
+
+
+def _nonfinite(t, names):
+    from ..errors import AssemblyError
+
+    err = AssemblyError(f"at t = {t:.9g} s: the state rates became non-finite ({', '.join(names)})")
+    err.t = t
+    return err
 
 
 class _Step:

@@ -49,8 +49,8 @@ __all__ = ["rhs", "jac", "psetup", "psolve", "advance", "open_tree_jacobian", "U
 
 #: slots of the user_data array (int64): addresses (A_*), sizes, counters, the failure's status
 (A_GETPTR, A_MATDATA, N, M, A_FL, N_FL, A_IT, N_IT, A_FG, N_FG, A_IX, N_IX, A_K, A_C, A_SPATIAL, A_SW, A_SV, A_R, NB,
- SETUPS, JACS, RHS, STATUS, A_FAIL_T, NONFINITE_FLAG, A_OFFSET, HAS_OFFSET) = range(27)
-UD_SIZE = 27
+ SETUPS, JACS, RHS, STATUS, A_FAIL_T, NONFINITE_FLAG, A_OFFSET, HAS_OFFSET, A_FAIL_Y) = range(28)
+UD_SIZE = 28
 #: the loop's return codes (CVODE's negative flags pass through)
 REACHED, CHECKPOINT, PAUSED, WATCH = 0, 1, 2, 3
 #: the status of a failed callback when it is not a joint's index
@@ -160,10 +160,11 @@ def _packed(ud):
 
 
 @njit(cache=True)
-def _fail(ud, status, t, flag):
-    """Record why a callback failed (its status, the time) and return CVODE's flag for it."""
+def _fail(ud, status, t, y, flag):
+    """Record why a callback failed (its status, the time, the true state) and return CVODE's flag for it."""
     ud[STATUS] = status
     _floats(ud[A_FAIL_T], 1)[0] = t
+    _floats(ud[A_FAIL_Y], ud[M])[:] = y
     return flag
 
 
@@ -185,8 +186,8 @@ def rhs(t, y, ydot, user_data):
     if status == -1:
         return 0
     if status >= 0 and np.all(np.isfinite(yv)):  # a joint whose articulated inertia is singular
-        return _fail(ud, status, t, -1)
-    return _fail(ud, NONFINITE, t, ud[NONFINITE_FLAG])  # not finite (a non-finite state breaks the solve too)
+        return _fail(ud, status, t, yv, -1)
+    return _fail(ud, NONFINITE, t, yv, ud[NONFINITE_FLAG])  # not finite (a non-finite state breaks the solve too)
 
 
 @njit(cache=True)
@@ -258,7 +259,7 @@ def jac(t, y, fy, Jmat, user_data, tmp1, tmp2, tmp3):
     ud[JACS] += 1
     J, ok = open_tree_jacobian(_packed(ud), yv, _floats(ud[A_K], n), _floats(ud[A_C], n))
     if not ok:
-        return _fail(ud, NOT_DEFINITE, t, -1)
+        return _fail(ud, NOT_DEFINITE, t, yv, -1)
     data = carray(_call_p_p(ud[A_MATDATA], Jmat), (m * m,), np.float64)
     finite = True
     for j in range(m):
@@ -266,7 +267,7 @@ def jac(t, y, fy, Jmat, user_data, tmp1, tmp2, tmp3):
             value = J[i, j] if i < 2 * n and j < 2 * n else 0.0
             data[i + j * m] = value
             finite = finite and np.isfinite(value)
-    return 0 if finite else _fail(ud, NONFINITE, t, 1)
+    return 0 if finite else _fail(ud, NONFINITE, t, yv, 1)
 
 
 @_cfunc(types.int32(types.float64, types.voidptr, types.voidptr, types.int32, types.voidptr, types.float64,
@@ -314,7 +315,7 @@ def psolve(t, y, fy, rv, zv, gamma, delta, lr, user_data):
     z2, bad = articulated_accelerations(tree.parent, tree.coord_start, spatial, Sw, Sv, centres, zeros, zeros, rhs_,
                                         armature)
     if bad >= 0:
-        return _fail(ud, bad, t, -1)
+        return _fail(ud, bad, t, _state(ud, y, m), -1)
     for i in range(n):
         z[i] = r1[i] + gamma * z2[i]
         z[n + i] = z2[i]

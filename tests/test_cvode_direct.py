@@ -4,11 +4,10 @@
 whose force elements are all compiled now steps CVODE in compiled code.
 The old results are the test: scikit-sundae's path (selected here by
 patching :func:`~flexmb.integrators.cvode_direct.compiled_loop` to return
-None, as for the models it does not cover) with the same Jacobian must
-give the same counts and states; the compiled Jacobian equals
-``System.state_jacobian``; what ``simulate()`` does around the steps (the
-monitor, signals, non-finite states, the winding offsets, max_steps) still
-happens.
+None, as for the models it does not cover) must give the same counts and
+states to 1e-10; what ``simulate()`` does around the steps (the monitor,
+signals, non-finite states, the winding offsets, max_step, t_eval,
+max_steps) still happens.
 """
 
 from __future__ import annotations
@@ -68,19 +67,28 @@ def test_simulate_steps_in_compiled_code_on_open_trees():
     assert cvode_direct.compiled_loop(system, fm.registry.get("integrators", "IDA"), False, None) is None
 
 
-def test_same_steps_as_sksundae_with_flexmb_jacobian(monkeypatch):
-    """With flexmb's Jacobian from Python the compiled loop takes scikit-sundae's very steps (rounding: 1e-10)."""
+@pytest.mark.parametrize("method", ["CVODE_BDF", "CVODE_Adams"])
+def test_dense_runs_are_sksundae_runs(monkeypatch, method):
+    """Below KRYLOV_MIN_COORDS (dense LU, flexmb's Jacobian from Python) the compiled loop takes scikit-sundae's very
+    steps, right-hand sides and Jacobians, and ends in its states (B1 N = 8 at the robust rtol, and tight)."""
     system = scenes.b1(8).build()
-    with monkeypatch.context() as m:
-        _sksundae(m)
-        res = fm.simulate(system, 1.0, method="CVODE_BDF", rtol=2e-5, atol=2e-7, n_out=2, progress=False)
-    y0 = np.concatenate([res.x[0], res.xd[0]])
+    for rtol in (2e-5, 1e-10):
+        kw = dict(method=method, rtol=rtol, atol=rtol / 100, n_out=11, progress=False)
+        with monkeypatch.context() as m:
+            _sksundae(m)
+            old = fm.simulate(system, 0.5, **kw)
+        new = fm.simulate(system, 0.5, **kw)
+        assert (new.n_steps, new.n_rhs, new.n_jac) == (old.n_steps, old.n_rhs, old.n_jac) and new.n_jac > 0
+        assert np.max(np.abs(new.x - old.x)) <= 1e-10 and np.max(np.abs(new.xd - old.xd)) <= 1e-10
+
+
+def test_monitor_gets_every_step():
+    system = scenes.b1(8).build()
+    y0 = np.zeros(2 * system.n_speeds)
     y1, stats, mon = _direct(system, y0, 2e-5,
                              jacobian=lambda t, y: system.state_jacobian(t, *system.layout.split(y)))
-    assert (stats["steps"], stats["rhs"], stats["jac"]) == (res.n_steps, res.n_rhs, res.n_jac)
-    assert stats["rhs"] == stats["rhs_cvode"] + stats["rhs_ls"]
-    assert np.max(np.abs(y1 - _final(res))) <= 1e-10
-    assert mon.n_steps == res.n_steps  # every step reached the resolution monitor
+    assert mon.n_steps == stats["steps"] > 500  # CHECK_STEPS = 100: checkpoints at 100, 200, 400
+    assert stats["rhs"] == stats["rhs_cvode"] + stats["rhs_ls"] and stats["jac"] > 0
 
 
 def test_paused_calls_take_the_same_steps(monkeypatch):
@@ -105,37 +113,6 @@ def test_krylov_runs_are_sksundae_runs(monkeypatch, n_segments):
     assert np.max(np.abs(new.x - old.x)) <= 1e-10 and np.max(np.abs(new.xd - old.xd)) <= 1e-10
 
 
-@pytest.mark.parametrize("build", [lambda: scenes.b1(8), lambda: scenes.b2(4)])
-def test_compiled_jacobian_is_the_state_jacobian(build):
-    from flexmb.kernels.cvode_callbacks import open_tree_jacobian
-    from flexmb.system.tangent import NewtonPreconditioner
-
-    system = build().build()
-    n = system.n_speeds
-    K, C = NewtonPreconditioner.diagonal_terms(system)
-    rng = np.random.default_rng(3)
-    for _ in range(4):
-        y = np.concatenate([rng.normal(0.0, 0.05, n), rng.normal(0.0, 0.5, n)])
-        J, ok = open_tree_jacobian(system._packed_open, y, K, C)
-        J_ref = system.state_jacobian(0.0, y[:n], y[n:])
-        assert ok
-        assert np.max(np.abs(J - J_ref)) <= 1e-12 * np.max(np.abs(J_ref))
-
-
-@pytest.mark.parametrize("method", ["CVODE_BDF", "CVODE_Adams"])
-def test_compiled_jacobian_runs_agree_with_sksundae(monkeypatch, method):
-    """The compiled Jacobian differs from flexmb's in the last bits only: the runs agree to the tolerance."""
-    system = scenes.b1(8).build()
-    kw = dict(rtol=1e-10, atol=1e-12, n_out=11, progress=False)
-    with monkeypatch.context() as m:
-        _sksundae(m)
-        old = fm.simulate(system, 0.5, method=method, **kw)
-    new = fm.simulate(system, 0.5, method=method, **kw)
-    assert new.status == old.status == "finished"
-    assert abs(new.n_steps - old.n_steps) <= 0.05 * old.n_steps
-    assert np.max(np.abs(new.x - old.x)) <= 1e-8 and np.max(np.abs(new.xd - old.xd)) <= 1e-7
-
-
 def _spinning_pendulum():
     model = fm.Model("pendulum")
     bar = fm.RigidBody("bar", 1.0, (0.01, 0.1, 0.1), (0.5, 0.0, 0.0))
@@ -144,16 +121,16 @@ def _spinning_pendulum():
 
 
 def test_winding_angles_move_their_offsets_as_before(monkeypatch):
-    """A pendulum spinning over its top (angle coordinates, compiled gravity): its offsets move as often as on
-    scikit-sundae's path, and the motion agrees (at rtol 1e-12 both are within 2e-9 rad of DOP853 at 1e-13)."""
+    """A pendulum spinning over its top (angle coordinates, compiled gravity): its offsets move after the same steps
+    as on scikit-sundae's path, and the runs agree."""
     system = _spinning_pendulum()
-    kw = dict(speeds={"pin": 12.0}, rtol=1e-12, atol=1e-14, n_out=21, progress=False)
+    kw = dict(speeds={"pin": 12.0}, rtol=1e-10, atol=1e-12, n_out=21, progress=False)
     with monkeypatch.context() as m:
         _sksundae(m)
         old = fm.simulate(system, 5.0, method="CVODE_BDF", **kw)
     new = fm.simulate(system, 5.0, method="CVODE_BDF", **kw)
-    assert new.n_rebases == old.n_rebases >= 3
-    assert np.max(np.abs(new.x - old.x)) <= 1e-8 and abs(new.x[-1, 0]) > 6 * np.pi
+    assert new.n_rebases == old.n_rebases >= 3 and (new.n_steps, new.n_rhs) == (old.n_steps, old.n_rhs)
+    assert np.max(np.abs(new.x - old.x)) <= 1e-10 and abs(new.x[-1, 0]) > 6 * np.pi
 
 
 @pytest.mark.filterwarnings("ignore::RuntimeWarning")
@@ -196,22 +173,24 @@ def test_a_signal_stops_a_long_interval():
         signal.signal(signal.SIGALRM, old)
 
 
+def test_max_step_and_outputs_as_on_sksundae(monkeypatch):
+    """max_step bounds the steps, and t_eval's output times are CVODE's interpolant there, as on scikit-sundae."""
+    system = scenes.b1(8).build()
+    t_eval = np.linspace(0.0, 0.2, 7)
+    kw = dict(method="CVODE_BDF", rtol=1e-10, atol=1e-12, max_step=1e-3, t_eval=t_eval, progress=False)
+    with monkeypatch.context() as m:
+        _sksundae(m)
+        old = fm.simulate(system, 0.2, **kw)
+    new = fm.simulate(system, 0.2, **kw)
+    assert new.n_steps == old.n_steps >= 200
+    assert np.array_equal(new.t, t_eval) and np.array_equal(old.t, t_eval)
+    assert np.max(np.abs(new.x - old.x)) <= 1e-10 and np.max(np.abs(new.xd - old.xd)) <= 1e-10
+
+
 def test_max_steps_refuses_the_run_before_it_starts():
     with pytest.raises(fm.ModelError, match="max_steps"):
         fm.simulate(_spinning_pendulum(), 1e3, speeds={"pin": 1e3}, method="CVODE_BDF", max_steps=1e4,
                     progress=False)
-
-
-def test_jacobian_refused_where_the_compiled_one_does_not_hold():
-    model = scenes.b1(4)
-    model.add(fm.PointForce("push", "beam", (0.0, 0.0, -1.0), point=(1.0, 0.0, 0.0)))
-    system = model.build()
-    assert not cvode_direct.diagonal_terms_only(system)
-    with pytest.raises(ValueError, match="point forces"):
-        cvode_direct.DirectCVODEBDF(None, 0.0, np.zeros(2 * system.n_speeds), 1.0, rtol=1e-6, atol=1e-8,
-                                    system=system)
-    res = fm.simulate(system, 0.05, method="CVODE_BDF", progress=False)  # flexmb's Jacobian from Python then
-    assert res.status == "finished" and res.n_jac > 0
 
 
 def test_closed_once_and_refused_after():
@@ -223,3 +202,14 @@ def test_closed_once_and_refused_after():
     cv.close()
     with pytest.raises(cvode_direct.CVODEError, match="closed"):
         cv.advance(0.2)
+
+
+def test_callbacks_go_through_flexmbs_kernel_cache():
+    """The C callbacks' machine code is cached, and served, as the kernels' (flexmb.kernels.cache, prebuilt)."""
+    from flexmb.kernels import cvode_callbacks as cb
+    from flexmb.kernels.cache import KernelCache, sources_stamp
+
+    for callback in (cb.rhs, cb.psetup, cb.psolve):
+        assert callback.address
+        assert isinstance(callback._cf._cache, KernelCache)
+        assert callback._cf._cache._impl.locator.get_source_stamp() == sources_stamp()

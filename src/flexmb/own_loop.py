@@ -25,7 +25,15 @@ __all__ = ["advance_between_stops", "compiled_options", "NonFinite"]
 
 
 class NonFinite(Exception):
-    """The state or the integrator failed at time ``t`` (the run stops with status 'failed')."""
+    """The state or the integrator failed at time ``t`` (the run stops with status 'failed').
+
+    Parameters
+    ----------
+    t : float
+        When, s.
+    what : str
+        What failed.
+    """
 
     def __init__(self, t, what):
         super().__init__(what)
@@ -53,23 +61,18 @@ def compiled_options(run, x, xd, krylov_min: int, bound: float) -> dict:
     Returns
     -------
     dict
-        The model, the Krylov choice (BDF from ``KRYLOV_MIN_COORDS`` on, as
-        for scikit-sundae's CVODE), the Jacobian where the compiled one
-        does not hold the model, the monitor, the watches, the counters.
+        The model, the Krylov choice (BDF from ``krylov_min`` coordinates
+        on, as for scikit-sundae's CVODE), else flexmb's Jacobian, the
+        monitor, the watches, the counters.
     """
-    from .integrators.cvode_direct import diagonal_terms_only
-
     system = run.system
     krylov = run.solver_cls.family == "BDF" and run.n >= krylov_min
     run.counters["jac"] = 0
     options = dict(system=system, krylov=krylov, monitor=run.monitor, angles=run.angles,
                    bound=bound, gimbal=run.gimbal, counters=run.counters)
-    if not krylov and not diagonal_terms_only(system):  # flexmb's Jacobian from Python (called rarely)
-        if system.state_jacobian(run.t0, x, xd) is None:
-            options["internal_jacobian"] = True
-        else:
-            layout = run.layout
-            options["jacobian"] = lambda t, y: system.state_jacobian(t, *layout.split(y))
+    if not krylov and system.state_jacobian(run.t0, x, xd) is not None:  # flexmb's, from Python (a few calls)
+        layout = run.layout
+        options["jacobian"] = lambda t, y: system.state_jacobian(t, *layout.split(y))
     return options
 
 

@@ -5,13 +5,16 @@ For an open tree whose joints and force elements are all compiled
 (``qd = u``), and whose run tracks no work and locates no contact events,
 :func:`compiled_loop` replaces scikit-sundae's :class:`~flexmb.integrators.CVODE`
 by :class:`DirectCVODE`: CVODE called directly through ctypes
-(:mod:`~flexmb.integrators.cvode_library`), the right-hand side, the dense
-Jacobian and the O(n) Newton preconditioner as compiled C callbacks
+(:mod:`~flexmb.integrators.cvode_library`), the right-hand side and the
+O(n) Newton preconditioner as compiled C callbacks
 (:mod:`flexmb.kernels.cvode_callbacks`), and CVODE's step loop between two
 output times compiled (:func:`~flexmb.kernels.cvode_callbacks.advance`):
 one Python call per output time instead of one per step and per
-evaluation. CVODE is given the options scikit-sundae gives it for flexmb
-(the same steps: the tests compare the counts).
+evaluation. A dense Jacobian (below ``KRYLOV_MIN_COORDS`` coordinates) is
+flexmb's own ``System.state_jacobian``, called from Python through a ctypes
+callback (CVODE evaluates it a few times per run). CVODE is given the
+options scikit-sundae gives it for flexmb: the runs take scikit-sundae's
+very steps and end in its states (tests/test_cvode_direct.py).
 
 What flexmb's step loop does after every step is done where the compiled
 loop returns: the resolution monitor receives the steps' sizes at its
@@ -35,33 +38,6 @@ __all__ = ["DirectCVODE", "DirectCVODEBDF", "DirectCVODEAdams", "compiled_loop",
 CV_ADAMS, CV_BDF, SUN_PREC_LEFT = 1, 2, 1
 #: steps of one compiled call before it returns to Python (which then handles signals: Ctrl-C, SIGTERM)
 STEPS_PER_CALL = 1000
-
-
-def diagonal_terms_only(system) -> bool:
-    """Whether ``System.state_jacobian`` of ``system`` is what the compiled Jacobian forms.
-
-    That is: its coordinate terms are the diagonal K and C, and no
-    constant point force or body torque adds turning terms.
-
-    Parameters
-    ----------
-    system : System
-        An open tree with compiled force elements.
-
-    Returns
-    -------
-    bool
-        Whether the compiled Jacobian is exact for it.
-    """
-    from ..forces import BodyTorque, PointForce
-
-    kin = system.kinematics(0.0, system.layout.reference(), np.zeros(system.n_speeds))
-    for cls, elements in system.forces.groups:
-        if any(type(e) in (PointForce, BodyTorque) for e in elements):
-            return False
-        if cls.pair_tangent_all(elements, kin) is not None or cls.velocity_tangent_all(elements, kin) is not None:
-            return False
-    return True
 
 
 def compiled_loop(system, solver_cls, track_work: bool, events) -> type | None:
@@ -127,12 +103,8 @@ class DirectCVODE:
         Jacobian and LU (flexmb's choice from ``KRYLOV_MIN_COORDS`` on).
     jacobian : callable, optional
         ``jacobian(t, y) -> (m, m)`` of the true state, called from Python
-        (a ctypes callback) instead of the compiled Jacobian: for models the
-        compiled one does not hold (:func:`diagonal_terms_only`), and to
-        check that this loop takes the very steps of scikit-sundae's.
-    internal_jacobian : bool
-        Neither: CVODE's own difference quotients (a model without a state
-        Jacobian).
+        (a ctypes callback) for the dense linear solver; without it (and
+        without ``krylov``) CVODE's own difference quotients.
     python_rhs : bool
         Call ``fun`` from Python (a ctypes callback) instead of the compiled
         right-hand side (a check of the loop; what a model with Python force
@@ -155,6 +127,8 @@ class DirectCVODE:
         What the right-hand side returns when its result is not finite: -1
         (unrecoverable: the run stops there, as flexmb's Python right-hand
         side does) or 1 (recoverable: CVODE retries with a smaller step).
+    **extraneous
+        Other options of the integrators a run makes, ignored.
     """
 
     family, max_order = "BDF", 5
@@ -163,17 +137,13 @@ class DirectCVODE:
     advances = steps_in_compiled_code = True
 
     def __init__(self, fun, t0, y0, t_bound, *, rtol, atol, max_step=np.inf, first_step=None, system,
-                 krylov=False, jacobian=None, internal_jacobian=False, python_rhs=False, offset=None, monitor=None,
+                 krylov=False, jacobian=None, python_rhs=False, offset=None, monitor=None,
                  angles=(), bound=np.inf, gimbal=None, counters=None, nonfinite_flag=-1, **extraneous):
         from ..kernels import cvode_callbacks as cb
 
         if system._packed_open is None or not system.layout.identity:
             raise ValueError("DirectCVODE needs an open tree whose joints and force elements are all compiled, "
                              "with qd = u")
-        if not (krylov or jacobian is not None or internal_jacobian or diagonal_terms_only(system)):
-            raise ValueError("the compiled Jacobian holds diagonal coordinate springs and dampers and the compiled "
-                             "loads only; this model has point forces, body torques or pair or velocity tangents: "
-                             "give krylov=True, jacobian= or internal_jacobian=True")
         self._cb, self.system, self.monitor, self.gimbal = cb, system, monitor, gimbal
         self._S = S = sundials()
         self.t, self.t_old, self.t_bound, self.n_steps, self.status = float(t0), None, float(t_bound), 0, "running"
@@ -200,7 +170,7 @@ class DirectCVODE:
         self._mem = S.CVodeCreate(CV_BDF if self.family == "BDF" else CV_ADAMS, self._ctx)
         if not self._mem:
             raise MemoryError("CVodeCreate returned NULL")
-        self._setup(rtol, atol, krylov, internal_jacobian, max_step, first_step)
+        self._setup(rtol, atol, krylov, max_step, first_step)
         self._tret = np.array([self.t])
         self._lp = np.array([_addr(S.CVode), _addr(S.CVodeGetDky), self._mem, self._y, self.y.ctypes.data, self._out,
                              self._tret.ctypes.data, self.m, _addr(S.N_VGetArrayPointer)], dtype=np.int64)
@@ -216,8 +186,7 @@ class DirectCVODE:
                                      Sw=np.zeros(n * 3), Sv=np.zeros(n * 3), r=np.zeros((nb + 1) * 3),
                                      fail_t=np.zeros(1), fail_y=np.zeros(self.m), offset=self._offset)
         ud = np.zeros(cb.UD_SIZE, dtype=np.int64)
-        ud[cb.A_GETPTR], ud[cb.A_MATDATA], ud[cb.N], ud[cb.M], ud[cb.NB] = (
-            _addr(S.N_VGetArrayPointer), _addr(S.SUNDenseMatrix_Data), n, self.m, nb)
+        ud[cb.A_GETPTR], ud[cb.N], ud[cb.M], ud[cb.NB] = _addr(S.N_VGetArrayPointer), n, self.m, nb
         for slot, size, key in ((cb.A_FL, cb.N_FL, "fl"), (cb.A_IT, cb.N_IT, "it"), (cb.A_FG, cb.N_FG, "fg")):
             ud[slot], ud[size] = arrays[key].ctypes.data, arrays[key].size
         ud[cb.A_IX], ud[cb.N_IX] = ix.ctypes.data, ix.shape[0]
@@ -229,7 +198,7 @@ class DirectCVODE:
         ud[cb.STATUS], ud[cb.NONFINITE_FLAG] = -1, nonfinite_flag
         return ud
 
-    def _setup(self, rtol, atol, krylov, internal_jacobian, max_step, first_step):
+    def _setup(self, rtol, atol, krylov, max_step, first_step):
         """CVODE's options in scikit-sundae's order, as flexmb's CVODE_BDF gives them."""
         S, cb, mem, ck = self._S, self._cb, self._mem, self._check
         ck(S.CVodeSetUserData(mem, self._ud.ctypes.data), "CVodeSetUserData")
@@ -253,9 +222,8 @@ class DirectCVODE:
         ck(S.CVodeSetLinearSolver(mem, self._ls, self._A), "CVodeSetLinearSolver")
         if krylov:
             ck(S.CVodeSetPreconditioner(mem, cb.psetup.address, cb.psolve.address), "CVodeSetPreconditioner")
-        elif not internal_jacobian:
-            jac = cb.jac.address if self._py_jac is None else _addr(self._py_jac)
-            ck(S.CVodeSetJacFn(mem, jac), "CVodeSetJacFn")
+        elif self._py_jac is not None:
+            ck(S.CVodeSetJacFn(mem, _addr(self._py_jac)), "CVodeSetJacFn")
         ck(S.CVodeSetMaxNonlinIters(mem, 3), "CVodeSetMaxNonlinIters")
         ck(S.CVodeSetMaxConvFails(mem, 10), "CVodeSetMaxConvFails")
         ck(S.CVodeSetInitStep(mem, 0.0 if first_step is None else float(first_step)), "CVodeSetInitStep")
@@ -391,7 +359,7 @@ class DirectCVODE:
         stepping in Python reports it.
         """
         cb, ud = self._cb, self._ud
-        if int(ud[cb.STATUS]) in (-1, cb.NOT_DEFINITE):
+        if int(ud[cb.STATUS]) == -1:
             return
         t, y = float(self._arrays["fail_t"][0]), self._arrays["fail_y"].copy()
         rate = self.system._state_rate(t, y)  # raises AssemblyError naming the cause where it finds one
@@ -408,10 +376,8 @@ class DirectCVODE:
             if status >= 0:
                 cause = (f"joint {self.system.topology.tree_joints[status].name!r} moves no mass or inertia along "
                          "one of its freedoms")
-            elif status == cb.NONFINITE:
-                cause = "the state derivative or the Jacobian became non-finite"
             else:
-                cause = "the mass matrix is not positive definite"
+                cause = "the state derivative became non-finite"
             what += f"; at t = {t_fail:.9g} s {cause}"
         error = CVODEError(what)
         error.t = float(self._arrays["fail_t"][0]) if status != -1 else self.t
@@ -489,15 +455,18 @@ class DirectCVODE:
 
 
 class DirectCVODEBDF(DirectCVODE):
-    """:class:`DirectCVODE` with CVODE's variable-order BDF (orders 1-5): ``'CVODE_BDF'`` on open trees."""
-
     family, max_order = "BDF", 5
 
 
 class DirectCVODEAdams(DirectCVODE):
-    """:class:`DirectCVODE` with CVODE's Adams-Moulton (orders 1-12, Newton): ``'CVODE_Adams'`` on open trees."""
-
     family, max_order = "Adams", 12
+
+
+_PARAMETERS = DirectCVODE.__doc__[DirectCVODE.__doc__.index("    Parameters\n"):]
+DirectCVODEBDF.__doc__ = (":class:`DirectCVODE` with CVODE's variable-order BDF (orders 1-5): ``'CVODE_BDF'`` on "
+                          "open trees.\n\n" + _PARAMETERS)
+DirectCVODEAdams.__doc__ = (":class:`DirectCVODE` with CVODE's Adams-Moulton (orders 1-12, Newton): "
+                            "``'CVODE_Adams'`` on open trees.\n\n" + _PARAMETERS)
 
 
 def _nonfinite(t, names):

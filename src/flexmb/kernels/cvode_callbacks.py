@@ -1,17 +1,17 @@
 """CVODE's callbacks for an open tree as C functions, and CVODE's step loop between two output times, compiled.
 
-The right-hand side, the dense Jacobian and the Newton preconditioner of an
-open tree whose joints and force elements are all compiled (a model whose
+The right-hand side and the O(n) Newton preconditioner of an open tree whose joints and force elements are all compiled (a model whose
 ``System._packed_open`` is set) are C functions that CVODE calls directly
 (``numba.cfunc``): they call the kernels of the other modules
 (:func:`~flexmb.kernels.articulated.open_tree_rhs`, the articulated-body
-solves, the geometric stiffness) on the model's packed arrays. The model
+solves) on the model's packed arrays. (A dense Jacobian is flexmb's own
+``System.state_jacobian``, called from Python a few times per run: one
+implementation of it.) The model
 reaches them only through CVODE's ``user_data``: a pointer to an int64
 array (the slots ``A_GETPTR`` ... below) holding the addresses and sizes of
 the packed buffers, of the diagonal springs and dampers, of the winding
 offsets, of the preconditioner's work arrays, and of SUNDIALS'
-``N_VGetArrayPointer`` and ``SUNDenseMatrix_Data`` (called through their
-addresses). Their signatures therefore do not depend on the model: they
+``N_VGetArrayPointer`` (called through its address). Their signatures therefore do not depend on the model: they
 compile once per installation, and their machine code goes through
 flexmb's kernel cache (:class:`~flexmb.kernels.cache.KernelCache`: the
 shipped entries first, the whole-source stamp).
@@ -36,25 +36,22 @@ from numba.core import cgutils, sigutils
 from numba.core.ccallback import CFunc
 from numba.extending import intrinsic
 
-from .articulated import articulated_accelerations, mass_times, open_tree_accelerations, open_tree_rhs, solve_spd
+from .articulated import articulated_accelerations, mass_times, open_tree_rhs
 from .cache import KernelCache, njit
-from .dynamics import composite_inertias, mass_matrix, spatial_inertias
-from .loads import apply_load_tables
+from .dynamics import spatial_inertias
 from .packing import unpack
-from .tangent import geometric_stiffness
 from .tree import tree_state
 
-__all__ = ["rhs", "jac", "psetup", "psolve", "advance", "open_tree_jacobian", "UD_SIZE", "REACHED", "CHECKPOINT",
-           "PAUSED", "WATCH"]
+__all__ = ["rhs", "psetup", "psolve", "advance", "UD_SIZE", "REACHED", "CHECKPOINT", "PAUSED", "WATCH"]
 
 #: slots of the user_data array (int64): addresses (A_*), sizes, counters, the failure's status
-(A_GETPTR, A_MATDATA, N, M, A_FL, N_FL, A_IT, N_IT, A_FG, N_FG, A_IX, N_IX, A_K, A_C, A_SPATIAL, A_SW, A_SV, A_R, NB,
- SETUPS, JACS, RHS, STATUS, A_FAIL_T, NONFINITE_FLAG, A_OFFSET, HAS_OFFSET, A_FAIL_Y) = range(28)
-UD_SIZE = 28
+(A_GETPTR, N, M, A_FL, N_FL, A_IT, N_IT, A_FG, N_FG, A_IX, N_IX, A_K, A_C, A_SPATIAL, A_SW, A_SV, A_R, NB,
+ SETUPS, JACS, RHS, STATUS, A_FAIL_T, NONFINITE_FLAG, A_OFFSET, HAS_OFFSET, A_FAIL_Y) = range(27)
+UD_SIZE = 27
 #: the loop's return codes (CVODE's negative flags pass through)
 REACHED, CHECKPOINT, PAUSED, WATCH = 0, 1, 2, 3
 #: the status of a failed callback when it is not a joint's index
-NONFINITE, NOT_DEFINITE = -2, -3
+NONFINITE = -2
 
 
 class _LazyCFunc:
@@ -92,7 +89,7 @@ def _voidp(typingctx, addr):
 
 @intrinsic
 def _call_p_p(typingctx, fn, arg):
-    """``((void* (*)(void*)) fn)(arg)``: N_VGetArrayPointer, SUNDenseMatrix_Data."""
+    """``((void* (*)(void*)) fn)(arg)``: N_VGetArrayPointer."""
     def codegen(context, builder, sig, args):
         fnty = ir.FunctionType(cgutils.voidptr_t, [cgutils.voidptr_t])
         return builder.call(builder.inttoptr(args[0], fnty.as_pointer()), [args[1]])
@@ -188,86 +185,6 @@ def rhs(t, y, ydot, user_data):
     if status >= 0 and np.all(np.isfinite(yv)):  # a joint whose articulated inertia is singular
         return _fail(ud, status, t, yv, -1)
     return _fail(ud, NONFINITE, t, yv, ud[NONFINITE_FLAG])  # not finite (a non-finite state breaks the solve too)
-
-
-@njit(cache=True)
-def open_tree_jacobian(packed, y, K, C):
-    """The state Jacobian ``[[0, I], [A^-1 (G - K), -A^-1 C]]`` of an open tree with diagonal springs and dampers.
-
-    ``System.state_jacobian`` of a model whose coordinate terms are the
-    diagonal K and C (no point forces, no pair or velocity tangents) and
-    whose coordinates are their speeds' integrals (``qd = u``): A by
-    composite inertias, G by the geometric stiffness of the compiled loads
-    and of the inertia forces of the accelerations, ``A^-1`` by Cholesky.
-
-    Parameters
-    ----------
-    packed : tuple
-        The model's packed arrays (``System._packed_open``).
-    y : ndarray, shape (2 n,)
-        The state ``(x, xd)``.
-    K, C : ndarray, shape (n,)
-        The diagonal coordinate springs and dampers.
-
-    Returns
-    -------
-    J : ndarray, shape (2 n, 2 n)
-        The Jacobian.
-    ok : bool
-        False if A is not positive definite.
-    """
-    tree, tables, _ = unpack(packed)
-    n = K.shape[0]
-    x = y[:n]
-    xd = y[n : 2 * n]
-    R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = tree_state(tree, x, xd)
-    nb1 = R.shape[0]
-    force = np.zeros((nb1, 3))
-    torque = np.zeros((nb1, 3))
-    generalized = np.zeros(n)
-    apply_load_tables(tables, tree.mass, R, origin, r, omega, v, x, xd, force, torque, generalized, np.zeros(0))
-    xdd, bad = open_tree_accelerations(tree.parent, tree.coord_start, R, r, omega, alpha, acc, tree.mass,
-                                       tree.inertia, Sw, Sv, force, torque, generalized, np.zeros(n))
-    Iw, spatial = spatial_inertias(R, r, tree.mass, tree.inertia)
-    IC = composite_inertias(tree.parent, spatial)
-    A = mass_matrix(tree.parent, tree.coord_start, tree.coord_body, IC, Sw, Sv)
-    G = geometric_stiffness(tree.parent, tree.coord_start, tree.coord_body, tree.coord_kind, Sw, Sv, xdd, r, omega,
-                            v, alpha, acc, Iw, tree.mass, IC, force, torque)
-    X = np.zeros((n, 2 * n))
-    for i in range(n):
-        for j in range(n):
-            X[i, j] = G[i, j]
-        X[i, i] -= K[i]
-        X[i, n + i] = -C[i]
-    Y = np.empty((n, 2 * n))
-    J = np.zeros((2 * n, 2 * n))
-    ok = solve_spd(A, X, Y)
-    for i in range(n):
-        J[i, n + i] = 1.0
-        for j in range(2 * n):
-            J[n + i, j] = Y[i, j]
-    return J, ok
-
-
-@_cfunc(types.int32(types.float64, types.voidptr, types.voidptr, types.voidptr, types.voidptr, types.voidptr,
-                    types.voidptr, types.voidptr))
-def jac(t, y, fy, Jmat, user_data, tmp1, tmp2, tmp3):
-    """CVLsJacFn: the dense state Jacobian (column-major, SUNDenseMatrix_Data); 1 if not finite, -1 if singular."""
-    ud = _ud(user_data)
-    n, m = ud[N], ud[M]
-    yv = _state(ud, y, m)
-    ud[JACS] += 1
-    J, ok = open_tree_jacobian(_packed(ud), yv, _floats(ud[A_K], n), _floats(ud[A_C], n))
-    if not ok:
-        return _fail(ud, NOT_DEFINITE, t, yv, -1)
-    data = carray(_call_p_p(ud[A_MATDATA], Jmat), (m * m,), np.float64)
-    finite = True
-    for j in range(m):
-        for i in range(m):
-            value = J[i, j] if i < 2 * n and j < 2 * n else 0.0
-            data[i + j * m] = value
-            finite = finite and np.isfinite(value)
-    return 0 if finite else _fail(ud, NONFINITE, t, yv, 1)
 
 
 @_cfunc(types.int32(types.float64, types.voidptr, types.voidptr, types.int32, types.voidptr, types.float64,

@@ -101,7 +101,7 @@ class LoopSolve:
         """
         y = _plain(self.layout.join(x, xd))
         if xdd is None:
-            return self._loop_solve(t, y, multipliers=True)[1]
+            xdd = self._loop_solve(t, y)
         force, torque, generalized = self._python_loads(t, y, self._no_powers)
         lam, kept, status = loop_reactions(self._packed, self._loop_layout, y, self.layout.nq, _plain(xdd), force,
                                            torque, generalized, self._loop_tol,

@@ -77,6 +77,14 @@ def static_equilibrium(system, x0=None, t: float = 0.0, tol: float = 1e-10, max_
     continuation is cheap. Where it converges, the result is the one
     Newton's method alone gives.
 
+    For loops closed by the articulated strategy (``complement='articulated'``
+    or ``'auto'``) Newton's method forms no n x n array: each step is a
+    GMRES solve in the null space of psi, preconditioned by the loops'
+    constrained articulated solve with the springs as armature, O(n m) per
+    product (:class:`~flexmb.analysis.loop_statics.LoopEquations`; the same
+    equilibria as the dense route); its residual is ``g + psi^T mu``, its
+    step ``max |dx|``. The continuation forms T.
+
     Newton's homotopy at an unstressed ``x0`` (straight beams, springs at
     their free lengths) starts from the loads alone, so the continuation is
     load stepping of all the loads at once, with no need to tell loads from

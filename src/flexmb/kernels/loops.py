@@ -239,7 +239,7 @@ def _constrained_factor(parent, coord_start, Sw, Sv, spatial, W, body, coord, la
 
 @njit(cache=True)
 def _constrained_apply(parent, coord_start, Sw, Sv, W, body, coord, order, band, factors, pA0, g0, rhs):
-    """x and lambda with ``(A + E) x = f + psi^T lambda``, ``psi x = rhs``, by the factors of :func:`_constrained_factor`.
+    """x and lambda with ``(A + E) x = f + psi^T lambda``, ``psi x = rhs``, by :func:`_constrained_factor`'s factors.
 
     f is given as loads ``(pA0, g0)``. Where the factorization lifted
     massless freedoms (E), the solution of ``A + E`` is refined by solves

@@ -97,6 +97,27 @@ def test_a_simulation_imports_no_analysis_scene_study_export_or_plot():
     assert loaded["flexmb.integrators"]  # the check reads sys.modules of the run
 
 
+def test_an_open_trees_build_rates_and_result_import_no_scipy_linalg():
+    """The open tree's kernels call no BLAS and nothing of numba.np.arraymath (numba imports scipy.linalg for
+    either): only the integrators and the Python Jacobian's factorization import it."""
+    out = subprocess.run([sys.executable, "-c", textwrap.dedent(f"""
+        import sys
+        sys.path.insert(0, {BENCH!r})
+        import numpy as np
+        import flexmb as fm
+        from scenes import b1
+        system = b1(2).build()
+        y = np.zeros(2 * system.n_speeds)
+        y[system.n_speeds:] = 0.5
+        rate = system.state_rate(0.0, y)
+        res = fm.Result.from_states(system, y[:system.n_speeds], y[system.n_speeds:], t=0.0)
+        assert np.all(np.isfinite(rate)) and res.shape("beam").shape[-1] == 3
+        print(sorted(m for m in ("scipy.linalg", "numba.np.arraymath") if m in sys.modules))
+    """)], capture_output=True, text=True, timeout=300, env=dict(os.environ, OPENBLAS_NUM_THREADS="1"))
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip().splitlines()[-1] == "[]"
+
+
 def test_every_public_name_resolves_and_is_listed():
     assert set(flexmb.__all__) <= set(dir(flexmb))
     for name in flexmb.__all__:

@@ -30,39 +30,6 @@ _QUATERNION = 3  # flexmb.kernels.QUATERNION
 __all__ = ["geometric_stiffness"]
 
 
-# The small products below are loops, not numba's ``@``: that calls BLAS, whose functions numba takes from
-# scipy.linalg.cython_blas, so that a run's first Jacobian would import all of scipy.linalg.
-
-@njit(cache=True, inline="always")
-def _matvec(A, x):
-    """``A x`` for a small dense ``A`` (m, k)."""
-    out = np.zeros(A.shape[0])
-    for i in range(A.shape[0]):
-        for j in range(A.shape[1]):
-            out[i] += A[i, j] * x[j]
-    return out
-
-
-@njit(cache=True, inline="always")
-def _matTvec(A, x):
-    """``A^T x`` for a small dense ``A`` (m, k)."""
-    out = np.zeros(A.shape[1])
-    for i in range(A.shape[0]):
-        for j in range(A.shape[1]):
-            out[j] += A[i, j] * x[i]
-    return out
-
-
-@njit(cache=True, inline="always")
-def _matmat3(A, B):
-    """``A B`` for 3 x 3 ``A`` and ``B``."""
-    out = np.zeros((3, 3))
-    for i in range(3):
-        for j in range(3):
-            out[i, j] = A[i, 0] * B[0, j] + A[i, 1] * B[1, j] + A[i, 2] * B[2, j]
-    return out
-
-
 @njit(cache=True, inline="always")
 def _skew(a):
     out = np.zeros((3, 3))
@@ -108,7 +75,7 @@ def _net_wrenches(parent, coord_start, Sx, r, omega, v, alpha_bias, a_bias, iner
         W[k, 3:] = net_f
         Fe[k] = force[k]
         Te[k] = torque[k]
-        Ge[k] = _matmat3(_skew(r[k]), _skew(force[k]))
+        Ge[k] = _skew(r[k]) @ _skew(force[k])
     return acc, W, Fe, Te, Ge
 
 
@@ -163,10 +130,10 @@ def _coordinate_terms(parent, coord_start, coord_kind, Sw, Sv, Sx, IC, acc, W, F
             S[3:] = Sv[c]
             u[c, :3] = _cross(Sw[c], a[:3])
             u[c, 3:] = _cross(Sw[c], a[3:]) + _cross(Sv[c], a[:3])
-            hs[c] = _matvec(H, S)
-            qs[c] = _matTvec(Q, S)
-            Hu = _matvec(H, u[c])
-            QS = _matvec(Q, Sw[c])
+            hs[c] = H @ S
+            qs[c] = Q.T @ S
+            Hu = H @ u[c]
+            QS = Q @ Sw[c]
             y[c, :3] = _cross(Sw[c], W[k, :3]) + _cross(Sv[c], W[k, 3:]) + Hu[:3] - QS[:3]
             y[c, 3:] = _cross(Sw[c], W[k, 3:]) + Hu[3:] - QS[3:]
     return u, hs, qs, y

@@ -5,7 +5,7 @@ study's case): the analyses import scipy.optimize, the integrators
 scipy.integrate (which imports scipy.optimize and scipy.special), the VTK
 export meshio, the plots matplotlib, a closed loop's factorizations
 scipy.linalg (through :class:`flexmb._lazy.LazyModule`; numba imports it
-itself once a kernel's machine code is loaded). ``import flexmb`` imports none of them;
+itself for kernels that call BLAS or numpy's array functions). ``import flexmb`` imports none of them;
 the public names that need them are imported on first use (the package's
 ``__getattr__``), and a model's build and simulation import the integrators
 but not the analyses, scenes, studies, exports or plots. Each check runs in
@@ -98,8 +98,8 @@ def test_a_simulation_imports_no_analysis_scene_study_export_or_plot():
 
 
 def test_an_open_trees_build_rates_and_result_import_no_scipy_linalg():
-    """The open tree's kernels call no BLAS and nothing of numba.np.arraymath (numba imports scipy.linalg for
-    either): only the integrators and the Python Jacobian's factorization import it."""
+    """The kernels of an open tree's build and right-hand side call no BLAS and nothing of numba.np.arraymath
+    (numba imports scipy.linalg for either): the integrators and the Jacobian import it."""
     out = subprocess.run([sys.executable, "-c", textwrap.dedent(f"""
         import sys
         sys.path.insert(0, {BENCH!r})

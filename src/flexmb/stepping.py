@@ -267,9 +267,10 @@ class Run:
             events = self.events
             self.options["events"] = (
                 lambda t, z: events.root_functions(t, z if self.offset is None else z + self.offset), events.count)
-        if caps.uses_preconditioner and (system.articulated or system._loop_kernel) and n >= KRYLOV_MIN_COORDS:
-            # an open tree, or loops closed through the recursion: O(n) Newton solves, no matrix
-            # (System.newton_preconditioner; with Euler parameters too, qd = W(q) u)
+        cls = self.solver_cls  # a class's own threshold (GeneralizedAlpha's); its f_max needs the dense Jacobian
+        if (caps.uses_preconditioner and (system.articulated or system._loop_kernel) and getattr(cls, "f_max", None)
+                is None and n >= getattr(cls, "krylov_min_coords", KRYLOV_MIN_COORDS)):
+            # an open tree, or loops closed through the recursion: O(n) Newton solves, no matrix (also qd = W(q) u)
             self.preconditioner = system.newton_preconditioner()
             self.options["preconditioner"] = OffsetPreconditioner(self.preconditioner, self)
         elif caps.uses_jacobian and system.state_jacobian(self.t0, x, xd) is not None:

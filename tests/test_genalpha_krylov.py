@@ -170,10 +170,39 @@ def test_f_max_with_a_preconditioner_is_refused():
                          preconditioner=system.newton_preconditioner())
 
 
+class _Gmres(GeneralizedAlpha):
+    """The matrix-free path with GMRES from the first step (not only once the preconditioner alone failed)."""
+
+    krylov_min_coords = 0
+    made: list = []
+
+    def _matrix_free(self, preconditioner, layout):
+        krylov = super()._matrix_free(preconditioner, layout)
+        krylov.exact = True
+        _Gmres.made.append(self)
+        return krylov
+
+
 def test_simulate_gives_the_preconditioner_from_the_class_threshold():
-    # from krylov_min_coords speeds on: no Jacobian matrix, the set-ups counted as Jacobians; rhs counts exact
+    # from krylov_min_coords speeds on: no LU, the set-ups counted as Jacobians
     system = scenes.b1(8).build()
     dense = fm.simulate(system, 0.01, method=GeneralizedAlpha, rtol=1e-6, progress=False, n_out=2)
     free = fm.simulate(system, 0.01, method=_Krylov, rtol=1e-6, progress=False, n_out=2)
     assert dense.n_jac >= 1 and free.n_jac >= 1
-    assert free.n_rhs > dense.n_rhs  # the products with S are right-hand sides
+    assert free.n_rhs == dense.n_rhs == 199 and free.n_steps == dense.n_steps == 99  # the preconditioner alone
+
+
+@pytest.mark.parametrize("case", ["B1 N=8", "B6 N=8", "top"])
+def test_gmres_corrections_give_the_motion_of_the_dense_path(case):
+    # Newton-Krylov from the first step: products with S by differences, GMRES to 0.05 Newton's tolerance
+    make, t_end, rtol = CASES[case]
+    system, kw = make()
+    _Gmres.made.clear()
+    dense, free = (fm.simulate(system, t_end, method=cls, rtol=rtol, n_out=11, progress=False, **kw)
+                   for cls in (_Tight, _Gmres))
+    tight = fm.simulate(system, t_end, method="CVODE_BDF", rtol=1e-11, atol=1e-13, n_out=11, progress=False, **kw)
+    assert free.status == "finished" and sum(s.n_krylov for s in _Gmres.made) > 0
+    assert free.n_rhs > free.n_steps * 2  # the products are right-hand sides
+    bound = rtol / 100 + rtol * np.max(np.abs(tight.x), axis=0)
+    err_dense, err_free = np.abs(dense.x - tight.x).max(axis=0), np.abs(free.x - tight.x).max(axis=0)
+    assert np.all(err_free <= 1.1 * err_dense + bound)

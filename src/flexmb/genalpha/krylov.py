@@ -3,14 +3,21 @@
 For a large model, :class:`~flexmb.genalpha.GeneralizedAlpha` given a
 ``preconditioner`` (:meth:`flexmb.System.newton_preconditioner`) solves
 its Newton systems ``S da = -r``, ``S = I - gamma' h Jv - beta' h^2 Jx``,
-without forming S: :class:`KrylovNewton` applies S to a vector by a
-directional difference of the right-hand side (one evaluation) and solves
-by GMRES (:func:`gmres`), left-preconditioned by the preconditioner's
-``solve_accelerations`` (``(A + c1 C + c2 K)^-1 A`` for open trees, ``I -
-P_D D`` for loops closed by the articulated strategy; docs/theory.md), in
-the norm of the Newton iteration's convergence test. Nothing of size
-n x n is formed: O(n) per product for an open tree, O(n m) with m loop
-rows.
+without forming S. The preconditioner's ``solve_accelerations``, ``M^-1
+~ S^-1`` (``(A + c1 C + c2 K)^-1 A`` for open trees, ``I - P_D D`` for
+loops closed by the articulated strategy; docs/theory.md), holds the stiff
+springs and dampers exactly and leaves out the geometric stiffness, the
+velocity-product terms and the change of the constraint forces, which are
+of order ``(h omega)^2`` and ``h omega`` on the modes the step resolves.
+So :class:`KrylovNewton` first iterates with ``da = -M^-1 r`` alone (a
+modified Newton iteration, M in the place of the dense path's kept
+Jacobian: one right-hand side and one O(n) solve per iteration). Where
+that fails (the terms left out matter: Newton's rate test fails with it),
+the solver switches, for good, to Newton-Krylov: S applied to a vector by
+a directional difference of the right-hand side at the iterate (one
+evaluation), GMRES (:func:`gmres`) left-preconditioned by ``M^-1``, in the
+norm of the Newton iteration's convergence test. Nothing of size n x n is
+formed: O(n) per product for an open tree, O(n m) with m loop rows.
 
 References
 ----------
@@ -117,9 +124,11 @@ class KrylovNewton:
 
     The set-up (:meth:`setup`) takes the place of the dense path's
     Jacobian: it is made at a step's start, kept until Newton fails with
-    it, and counted as a Jacobian (``njev``); the products with S are
-    taken at the Newton iterate itself (a Newton-Krylov iteration: the
-    set-up's state matters only for the preconditioner).
+    it, and counted as a Jacobian (``njev``). The corrections are the
+    preconditioner's solves alone until Newton fails with them
+    (``exact`` False); then GMRES, whose products with S are taken at the
+    Newton iterate itself (a Newton-Krylov iteration: the set-up's state
+    matters only for the preconditioner).
 
     Parameters
     ----------
@@ -140,6 +149,9 @@ class KrylovNewton:
         Preconditioner solves so far.
     ready : bool
         The preconditioner holds a set-up.
+    exact : bool
+        The corrections are solved by GMRES (set by the solver once the
+        preconditioner alone failed Newton).
     """
 
     def __init__(self, preconditioner, fun, n, nq):
@@ -147,6 +159,7 @@ class KrylovNewton:
         self.n_krylov = 0
         self.n_precond = 0
         self.ready = False
+        self.exact = False
 
     def setup(self, t, y) -> None:
         """Set the preconditioner up at the state ``y = (q, u, w)`` (coordinates, not the chart's).
@@ -183,7 +196,7 @@ class KrylovNewton:
     def correction(self, t1, z1, f1, r, c1, c2, weights, tol):
         """Newton's correction ``da = -S^-1 r`` at the iterate ``(t1, z1)`` where the right-hand side is ``f1``.
 
-        ``S v = v - (f(t1, z1 + e (c2 v, c1 v, 0)) - f1)[n:2n] / e``, a
+        ``-M^-1 r`` unless :attr:`exact`; else by GMRES, with ``S v = v - (f(t1, z1 + e (c2 v, c1 v, 0)) - f1)[n:2n] / e``, a
         forward difference along the direction, with ``e = sqrt(eps) (1 +
         |z1|) / |(c2 v, c1 v)|`` (2-norms over positions and speeds).
 
@@ -225,7 +238,10 @@ class KrylovNewton:
             jv = (fun(t1, probe)[n : 2 * n] - a1) / e
             return self.precondition(v - jv, c1, c2)
 
-        da, k = gmres(apply, self.precondition(-r, c1, c2), weights, tol)
+        b = self.precondition(-r, c1, c2)
+        if not self.exact:
+            return b
+        da, k = gmres(apply, b, weights, tol)
         self.n_krylov += k
         return da
 

@@ -456,6 +456,9 @@ class GeneralizedAlpha(OdeSolver):
                 self._factor(h)
             end = self._newton(t1, h)[0]
             if end is None:
+                if self._krylov is not None and not self._krylov.exact:  # the preconditioner alone failed: GMRES
+                    self._krylov.exact = True
+                    continue
                 if not self.jac_current:
                     self._new_jacobian(t, self.z)
                     continue

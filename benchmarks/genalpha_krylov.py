@@ -6,7 +6,8 @@
 
 Each configuration (a flexmb source tree, a scene, its size and span, and
 a Newton path: ``default`` as ``simulate`` picks it, ``dense`` or
-``krylov`` forced through ``GeneralizedAlpha.krylov_min_coords``) runs in
+``krylov`` forced through ``GeneralizedAlpha.krylov_min_coords`` and
+``krylov_min_loop_coords``) runs in
 its own process, in ``--repeat`` alternating rounds; a configuration's CPU
 time (``time.process_time`` around ``fm.simulate``; building the model and
 a first short run, which loads the kernels, are not counted) is its least
@@ -41,7 +42,7 @@ import scenes, flexmb as fm
 from flexmb.genalpha import GeneralizedAlpha
 scene, n_seg, t_end, rtol, mode = {scene!r}, {n}, {t_end}, {rtol}, {mode!r}
 if mode != "default":
-    GeneralizedAlpha.krylov_min_coords = 0 if mode == "krylov" else 10**9
+    GeneralizedAlpha.krylov_min_coords = GeneralizedAlpha.krylov_min_loop_coords = 0 if mode == "krylov" else 10**9
 solvers = []
 init = GeneralizedAlpha.__init__
 def __init__(self, *a, **k):

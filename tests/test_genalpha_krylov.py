@@ -37,11 +37,11 @@ class _Tight(GeneralizedAlpha):
 
 
 class _TightKrylov(_Tight):
-    krylov_min_coords = 0
+    krylov_min_coords = krylov_min_loop_coords = 0
 
 
 class _Krylov(GeneralizedAlpha):
-    krylov_min_coords = 0
+    krylov_min_coords = krylov_min_loop_coords = 0
 
 
 def test_gmres_solves_a_nonsymmetric_system_in_the_weighted_norm():
@@ -173,7 +173,7 @@ def test_f_max_with_a_preconditioner_is_refused():
 class _Gmres(GeneralizedAlpha):
     """The matrix-free path with GMRES from the first step (not only once the preconditioner alone failed)."""
 
-    krylov_min_coords = 0
+    krylov_min_coords = krylov_min_loop_coords = 0
     made: list = []
 
     def _matrix_free(self, preconditioner, layout):

@@ -258,7 +258,7 @@ class Run:
 
     def _set_options(self, x, xd) -> None:
         """What the integrator is given besides the rhs: a Jacobian or a preconditioner, the second-order size."""
-        caps, system, n = self.caps, self.system, self.n
+        caps, system, n, f_max = self.caps, self.system, self.n, getattr(self.solver_cls, "f_max", None)
         if caps.needs_n_second:  # written for y = (x, xd, ...): given the layout when qd = W(q) u (GeneralizedAlpha)
             self.options["n_second"] = n
             if not system.layout.identity:
@@ -267,9 +267,9 @@ class Run:
             events = self.events
             self.options["events"] = (
                 lambda t, z: events.root_functions(t, z if self.offset is None else z + self.offset), events.count)
-        cls = self.solver_cls  # a class's own threshold (GeneralizedAlpha's); its f_max needs the dense Jacobian
-        if (caps.uses_preconditioner and (system.articulated or system._loop_kernel) and getattr(cls, "f_max", None)
-                is None and n >= getattr(cls, "krylov_min_coords", KRYLOV_MIN_COORDS)):
+        cls = self.solver_cls  # a class's own thresholds (GeneralizedAlpha's); its f_max needs the dense Jacobian
+        floor = getattr(cls, f"krylov_min_{'loop_' if system._loop_kernel else ''}coords", KRYLOV_MIN_COORDS)
+        if caps.uses_preconditioner and (system.articulated or system._loop_kernel) and n >= floor and not f_max:
             # an open tree, or loops closed through the recursion: O(n) Newton solves, no matrix (also qd = W(q) u)
             self.preconditioner = system.newton_preconditioner()
             self.options["preconditioner"] = OffsetPreconditioner(self.preconditioner, self)

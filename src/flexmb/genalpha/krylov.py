@@ -36,7 +36,7 @@ from scipy.linalg import solve_triangular
 from ..kernels import genalpha as kernels
 from ..kernels.genalpha import NEWTON_MAXITER
 
-__all__ = ["KRYLOV_DIM", "KRYLOV_MIN_COORDS", "LINEAR_TOL", "gmres", "KrylovNewton"]
+__all__ = ["KRYLOV_DIM", "KRYLOV_MIN_COORDS", "KRYLOV_MIN_LOOP_COORDS", "LINEAR_TOL", "gmres", "KrylovNewton"]
 
 _SQRT_EPS = np.sqrt(np.finfo(float).eps)
 
@@ -44,8 +44,12 @@ _SQRT_EPS = np.sqrt(np.finfo(float).eps)
 #: preconditioner holds the stiff springs and dampers exactly, so few iterations remain
 KRYLOV_DIM = 10
 #: simulate gives generalized-alpha the Newton preconditioner (these matrix-free solves) from this many
-#: speeds on (``GeneralizedAlpha.krylov_min_coords``); below, the dense LU is cheaper (docs/benchmarks.md)
-KRYLOV_MIN_COORDS = 48
+#: speeds on (``GeneralizedAlpha.krylov_min_coords``) for open trees, and from KRYLOV_MIN_LOOP_COORDS on
+#: for loops closed by the articulated strategy: below, the dense LU of S is as fast or faster (measured
+#: with benchmarks/genalpha_krylov.py: B1 equal at 48 and 64 speeds, 1.5x faster matrix-free at 128; B6
+#: damped 2.4x and 1.3x slower matrix-free at 66 and 130, 2.2x faster at 258: docs/benchmarks.md)
+KRYLOV_MIN_COORDS = 64
+KRYLOV_MIN_LOOP_COORDS = 160
 #: a Newton correction is solved to LINEAR_TOL times Newton's tolerance in Newton's own norm
 #: (CVODE's default, 0.05, for its linear solves)
 LINEAR_TOL = 0.05
@@ -196,9 +200,10 @@ class KrylovNewton:
     def correction(self, t1, z1, f1, r, c1, c2, weights, tol):
         """Newton's correction ``da = -S^-1 r`` at the iterate ``(t1, z1)`` where the right-hand side is ``f1``.
 
-        ``-M^-1 r`` unless :attr:`exact`; else by GMRES, with ``S v = v - (f(t1, z1 + e (c2 v, c1 v, 0)) - f1)[n:2n] / e``, a
-        forward difference along the direction, with ``e = sqrt(eps) (1 +
-        |z1|) / |(c2 v, c1 v)|`` (2-norms over positions and speeds).
+        ``-M^-1 r`` unless :attr:`exact`; else by GMRES, with ``S v = v -
+        (f(t1, z1 + e (c2 v, c1 v, 0)) - f1)[n:2n] / e``, a forward
+        difference along the direction, with ``e = sqrt(eps) (1 + |z1|) /
+        |(c2 v, c1 v)|`` (2-norms over positions and speeds).
 
         Parameters
         ----------

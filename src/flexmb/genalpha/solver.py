@@ -26,7 +26,7 @@ from ..kernels.genalpha import NEWTON_MAXITER
 from .chart import ChartDenseOutput, RotationChart
 from .dense import GeneralizedAlphaDenseOutput
 from .jacobian import forward_differences, low_pass, warn_f_max_cost
-from .krylov import KRYLOV_MIN_COORDS, KrylovNewton
+from .krylov import KRYLOV_MIN_COORDS, KRYLOV_MIN_LOOP_COORDS, KrylovNewton
 from .parameters import DEFAULT_RHO_INF, settings
 
 __all__ = ["GeneralizedAlpha", "GeneralizedAlphaDenseOutput"]
@@ -106,7 +106,8 @@ class GeneralizedAlpha(OdeSolver):
         are then solved without a matrix (:mod:`flexmb.genalpha.krylov`:
         GMRES with products by differences of ``fun``, preconditioned by
         its ``solve_accelerations``), and ``jac`` is not used. ``simulate``
-        passes it from ``krylov_min_coords`` speeds on.
+        passes it from ``krylov_min_coords`` speeds on (open trees) or
+        ``krylov_min_loop_coords`` (loops).
     layout : StateLayout, optional
         For a state ``(q, u, w)`` whose coordinates are not the speeds'
         integrals (Euler parameters, ``qd = W(q) u``,
@@ -191,7 +192,7 @@ class GeneralizedAlpha(OdeSolver):
     uses_jacobian = True
     uses_preconditioner = True
     #: simulate passes the O(n) Newton preconditioner (the matrix-free Newton solves) from this many speeds on
-    krylov_min_coords = KRYLOV_MIN_COORDS
+    krylov_min_coords, krylov_min_loop_coords = KRYLOV_MIN_COORDS, KRYLOV_MIN_LOOP_COORDS
     second_order = True
     has_dense_output = True
     needs_n_second = True

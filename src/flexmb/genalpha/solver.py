@@ -104,8 +104,9 @@ class GeneralizedAlpha(OdeSolver):
         The model's O(n) Newton preconditioner
         (:meth:`flexmb.System.newton_preconditioner`): the Newton systems
         are then solved without a matrix (:mod:`flexmb.genalpha.krylov`:
-        GMRES with products by differences of ``fun``, preconditioned by
-        its ``solve_accelerations``), and ``jac`` is not used. ``simulate``
+        its ``solve_accelerations`` as the iteration matrix until Newton
+        fails with it, then GMRES with products by differences of ``fun``,
+        preconditioned by it), and ``jac`` is not used. ``simulate``
         passes it from ``krylov_min_coords`` speeds on (open trees) or
         ``krylov_min_loop_coords`` (loops).
     layout : StateLayout, optional
@@ -271,8 +272,8 @@ class GeneralizedAlpha(OdeSolver):
         self.max_step = float(max_step)
         # cached for a scalar atol: simulate may make many solvers (contact events)
         chosen = (settings(self.rho_inf, self.rtol, float(atol), n, self.n, self.max_step, self.min_step)
-                    if np.ndim(atol) == 0 else
-                    settings.__wrapped__(self.rho_inf, self.rtol, atol, n, self.n, self.max_step, self.min_step))
+                  if np.ndim(atol) == 0 else
+                  settings.__wrapped__(self.rho_inf, self.rtol, atol, n, self.n, self.max_step, self.min_step))
         (self.alpha_m, self.alpha_f, self.beta, self.gamma, self.beta_p, self.gamma_p, self.error_constant,
          self.newton_tol, self.atol, self._par) = chosen
 

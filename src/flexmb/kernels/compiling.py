@@ -35,9 +35,10 @@ __all__ = ["FAMILIES", "ESTIMATE_S", "compile_seconds", "family_of", "install"]
 FAMILIES = {
     **dict.fromkeys(("tree", "dynamics", "articulated", "packing", "loads", "contact", "friction", "tangent"),
                     "open trees"),
-    **dict.fromkeys(("equations", "constraints", "loops", "loop_layout", "loop_projection", "reduced",
+    **dict.fromkeys(("equations", "constraints", "loops", "loop_layout", "loop_projection", "loop_statics", "reduced",
                      "constraint_matrix"), "loops"),
     "genalpha": "generalized-alpha",
+    "cvode_callbacks": "CVODE's compiled loop",
 }
 
 #: about how many seconds of CPU each family takes to compile (``benchmarks/cold_start.py`` on a 2-core machine,

@@ -489,8 +489,8 @@ class LoopNewtonPreconditioner(NewtonPreconditioner):
         """
         system = self.system
         D = c1 * self.damping + c2 * self.stiffness
-        v, status = loop_newton(system._packed, system._loop_layout, self._state, D, _plain(D * r), system._loop_tol,
-                                -1 if system.rank_limit is None else system.rank_limit)
+        v, _, _, status = loop_newton(system._packed, system._loop_layout, self._state, D, _plain(D * r),
+                                      system._loop_tol, -1 if system.rank_limit is None else system.rank_limit)
         if status:
             raise AssemblyError("the Newton preconditioner of the loops is singular (a freedom without mass, "
                                 "stiffness or damping that no loop fixes)")

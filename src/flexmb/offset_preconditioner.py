@@ -58,3 +58,20 @@ class OffsetPreconditioner:
             ``z`` with ``(I - gamma J) z ~ r``, in two halves.
         """
         return self.pre.solve(r1, r2, gamma)
+
+    def solve_accelerations(self, r, c1, c2):
+        """As the system preconditioner's ``solve_accelerations`` (generalized-alpha's Newton matrix).
+
+        Parameters
+        ----------
+        r : ndarray, shape (n,)
+            Right-hand side (accelerations).
+        c1, c2 : float
+            The coefficients of ``Jv`` and ``Jx``.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            ``z`` with ``(I - c1 Jv - c2 Jx) z ~ r``.
+        """
+        return self.pre.solve_accelerations(r, c1, c2)

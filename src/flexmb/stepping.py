@@ -251,7 +251,7 @@ class Run:
 
     def _set_options(self, x, xd) -> None:
         """What the integrator is given besides the rhs: a Jacobian or a preconditioner, the second-order size."""
-        caps, system, n = self.caps, self.system, self.n
+        caps, system, n, f_max = self.caps, self.system, self.n, getattr(self.solver_cls, "f_max", None)
         if getattr(self.solver_cls, "steps_in_compiled_code", False):
             self.options = compiled_options(self, x, xd, KRYLOV_MIN_COORDS, WINDING_BOUND)
             return
@@ -263,9 +263,10 @@ class Run:
             events = self.events
             self.options["events"] = (
                 lambda t, z: events.root_functions(t, z if self.offset is None else z + self.offset), events.count)
-        if caps.uses_preconditioner and (system.articulated or system._loop_kernel) and n >= KRYLOV_MIN_COORDS:
-            # an open tree, or loops closed through the recursion: O(n) Newton solves, no matrix
-            # (System.newton_preconditioner; with Euler parameters too, qd = W(q) u)
+        cls = self.solver_cls  # a class's own thresholds (GeneralizedAlpha's); its f_max needs the dense Jacobian
+        floor = getattr(cls, f"krylov_min_{'loop_' if system._loop_kernel else ''}coords", KRYLOV_MIN_COORDS)
+        if caps.uses_preconditioner and (system.articulated or system._loop_kernel) and n >= floor and not f_max:
+            # an open tree, or loops closed through the recursion: O(n) Newton solves, no matrix (also qd = W(q) u)
             self.preconditioner = system.newton_preconditioner()
             self.options["preconditioner"] = OffsetPreconditioner(self.preconditioner, self)
         elif caps.uses_jacobian and system.state_jacobian(self.t0, x, xd) is not None:

@@ -25,7 +25,15 @@ iteration that converges slowly converges all the same, to the same
 sides). The iteration matrix is factorised again whenever the step
 changes (reusing the factors of a step up to 10-20 % different made
 Newton fail more often, costing more Jacobians than the factorisations it
-saved: docs/benchmarks.md). Newton stops when its update is small against the
+saved: docs/benchmarks.md). For a large model with an O(n) Newton
+preconditioner (:meth:`flexmb.System.newton_preconditioner`, given by
+``simulate`` from ``GeneralizedAlpha.krylov_min_coords`` speeds on) no
+matrix is formed: the preconditioner's O(n) solve of ``A^-1 (A + gamma'
+h C + beta' h^2 K)``, set up at a step's start and kept as the Jacobian
+is, takes the iteration matrix's place, and once Newton fails with it the
+corrections are solved by GMRES with products by differences of the
+right-hand side at the iterate, preconditioned by it
+(:mod:`flexmb.genalpha.krylov`). Newton stops when its update is small against the
 position tolerance ``atol + rtol |x|`` in ``x1`` and against that
 tolerance divided by the step in ``xd1`` (the speed error that moves the
 positions by the tolerance over a step; derived in

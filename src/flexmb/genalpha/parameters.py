@@ -13,11 +13,15 @@ References
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from .._validate import number
 
-__all__ = ["DEFAULT_RHO_INF", "alpha_parameters", "amplification_matrix", "numerical_damping"]
+__all__ = ["DEFAULT_RHO_INF", "alpha_parameters", "amplification_matrix", "numerical_damping", "settings"]
+
+_EPS = np.finfo(float).eps
 
 #: spectral radius at infinity used by default
 DEFAULT_RHO_INF = 0.8
@@ -144,3 +148,40 @@ def numerical_damping(rho_inf: float, h_omega) -> np.ndarray:
         r = float(np.max(np.abs(np.linalg.eigvals(amplification_matrix(rho_inf, v)))))
         out[i] = np.inf if r <= 0.0 else max(0.0, -np.log(min(r, 1.0))) / v
     return out.reshape(np.shape(h_omega))
+
+
+@functools.lru_cache(maxsize=64)
+def settings(rho_inf, rtol, atol, n, n_state, max_step, min_step):
+    """The method's parameters, the positions' atol and the kernels' parameter array (``P_*``).
+
+    Parameters
+    ----------
+    rho_inf, rtol : float
+        Spectral radius at infinity; relative tolerance.
+    atol : float or array_like
+        Absolute tolerance (scalar, or per state entry).
+    n, n_state : int
+        Number of positions; length of the state.
+    max_step : float
+        Largest step, s.
+    min_step : float or None
+        Step floor, s.
+
+    Returns
+    -------
+    tuple
+        ``(alpha_m, alpha_f, beta, gamma, beta', gamma', error constant,
+        Newton's tolerance, atol, par)``; the arrays are shared by the
+        solvers of one configuration and never written.
+    """
+    alpha_m, alpha_f, beta, gamma = alpha_parameters(rho_inf)
+    ratio = (1.0 - alpha_f) / (1.0 - alpha_m)
+    beta_p, gamma_p = beta * ratio, gamma * ratio
+    error_constant = 1.0 / 6.0 - beta - 0.5 * (alpha_m - alpha_f)
+    atol = np.broadcast_to(np.asarray(atol, dtype=float), (n_state,))[:n].copy()
+    if np.any(atol < 0):
+        raise ValueError("atol must be >= 0")
+    newton_tol = max(10 * _EPS / rtol, min(0.03, rtol**0.5))
+    par = np.array([alpha_m, alpha_f, beta, gamma, beta_p, gamma_p, error_constant, rtol, newton_tol,
+                    min_step or 0.0, max_step])
+    return alpha_m, alpha_f, beta, gamma, beta_p, gamma_p, error_constant, newton_tol, atol, par

@@ -14,19 +14,20 @@ References
 
 from __future__ import annotations
 
-import functools
 import math
 import weakref
 
 import numpy as np
 from scipy.integrate import OdeSolver
-from scipy.linalg import eig, lu_factor
+from scipy.linalg import lu_factor
 
 from ..kernels import genalpha as kernels
 from ..kernels.genalpha import NEWTON_MAXITER
 from .chart import ChartDenseOutput, RotationChart
 from .dense import GeneralizedAlphaDenseOutput
-from .parameters import DEFAULT_RHO_INF, alpha_parameters
+from .jacobian import forward_differences, low_pass, warn_f_max_cost
+from .krylov import KRYLOV_MIN_COORDS, KRYLOV_MIN_LOOP_COORDS, KrylovNewton
+from .parameters import DEFAULT_RHO_INF, settings
 
 __all__ = ["GeneralizedAlpha", "GeneralizedAlphaDenseOutput"]
 
@@ -35,27 +36,6 @@ _EPS = np.finfo(float).eps
 NEWTON_REGROWTH = 1.05
 #: the error estimate's projector when there is none (``f_max`` not set, or no mode above it)
 _NO_LOW_PASS = np.empty((0, 0))
-
-
-@functools.lru_cache(maxsize=64)
-def _settings(rho_inf, rtol, atol, n, n_state, max_step, min_step):
-    """The method's parameters, the positions' atol and the kernels' parameter array (``P_*``).
-
-    Returns ``(alpha_m, alpha_f, beta, gamma, beta', gamma', error constant,
-    Newton's tolerance, atol, par)``; the arrays are shared by the solvers
-    of one configuration and never written.
-    """
-    alpha_m, alpha_f, beta, gamma = alpha_parameters(rho_inf)
-    ratio = (1.0 - alpha_f) / (1.0 - alpha_m)
-    beta_p, gamma_p = beta * ratio, gamma * ratio
-    error_constant = 1.0 / 6.0 - beta - 0.5 * (alpha_m - alpha_f)
-    atol = np.broadcast_to(np.asarray(atol, dtype=float), (n_state,))[:n].copy()
-    if np.any(atol < 0):
-        raise ValueError("atol must be >= 0")
-    newton_tol = max(10 * _EPS / rtol, min(0.03, rtol**0.5))
-    par = np.array([alpha_m, alpha_f, beta, gamma, beta_p, gamma_p, error_constant, rtol, newton_tol,
-                    min_step or 0.0, max_step])
-    return alpha_m, alpha_f, beta, gamma, beta_p, gamma_p, error_constant, newton_tol, atol, par
 
 
 #: memory of the last instance per right-hand side, for restarts at the time it stopped (see GeneralizedAlpha)
@@ -109,7 +89,9 @@ class GeneralizedAlpha(OdeSolver):
         error estimate is projected onto the modes of ``Jx`` below it, so
         the modes above are integrated stably and dissipated where
         ``h omega > 1``, never resolved (default: the class's, None: every
-        mode counts).
+        mode counts). It needs the dense Jacobian's eigenvectors: O(n^3)
+        time and n x n complex memory at each new Jacobian (a warning from
+        ``F_MAX_WARN_SIZE`` positions on), and no ``preconditioner``.
     min_step : float, optional
         Smallest step the error control may take, s: a step of this size is
         accepted even when its error estimate exceeds the tolerance, so every
@@ -118,6 +100,15 @@ class GeneralizedAlpha(OdeSolver):
         Newton failures may still halve the step below it, and the steps
         after one grow back by at most ``NEWTON_REGROWTH`` a step (default:
         the class's, None: no floor).
+    preconditioner : NewtonPreconditioner, optional
+        The model's O(n) Newton preconditioner
+        (:meth:`flexmb.System.newton_preconditioner`): the Newton systems
+        are then solved without a matrix (:mod:`flexmb.genalpha.krylov`:
+        its ``solve_accelerations`` as the iteration matrix until Newton
+        fails with it, then GMRES with products by differences of ``fun``,
+        preconditioned by it), and ``jac`` is not used. ``simulate``
+        passes it from ``krylov_min_coords`` speeds on (open trees) or
+        ``krylov_min_loop_coords`` (loops).
     layout : StateLayout, optional
         For a state ``(q, u, w)`` whose coordinates are not the speeds'
         integrals (Euler parameters, ``qd = W(q) u``,
@@ -140,6 +131,9 @@ class GeneralizedAlpha(OdeSolver):
         Rejected steps so far (error test or Newton failure).
     f_max : float or None
         Frequency cutoff of the error estimate in use, Hz.
+    n_krylov : int
+        GMRES iterations so far (products with the Newton matrix; 0 on
+        the dense path).
     min_step : float or None
         Floor of the error-controlled steps in use, s.
 
@@ -197,6 +191,9 @@ class GeneralizedAlpha(OdeSolver):
     min_step: float | None = None
     explicit = False
     uses_jacobian = True
+    uses_preconditioner = True
+    #: simulate passes the O(n) Newton preconditioner (the matrix-free Newton solves) from this many speeds on
+    krylov_min_coords, krylov_min_loop_coords = KRYLOV_MIN_COORDS, KRYLOV_MIN_LOOP_COORDS
     second_order = True
     has_dense_output = True
     needs_n_second = True
@@ -205,7 +202,7 @@ class GeneralizedAlpha(OdeSolver):
 
     def __init__(self, fun, t0, y0, t_bound, *, n_second=None, jac=None, rtol=1e-6, atol=1e-8,
                  max_step=np.inf, first_step=None, rho_inf=None, fixed_step=None, f_max=None, min_step=None,
-                 layout=None, vectorized=False, **extraneous):
+                 preconditioner=None, layout=None, vectorized=False, **extraneous):
         if extraneous:
             import warnings
 
@@ -221,6 +218,7 @@ class GeneralizedAlpha(OdeSolver):
             self.z, self._zfun = self._chart.enter(self.y), self._chart.rate(self.fun)
             self.atol = self._chart.tolerance(self.atol, self.rtol)
         self._jac_fun = jac
+        self._krylov = self._matrix_free(preconditioner, layout)
         self.n_newton = 0
         self.n_rejected = 0
         self.J = None  # (Jx, Jv)
@@ -273,11 +271,22 @@ class GeneralizedAlpha(OdeSolver):
         self.rtol = max(float(rtol), 100 * _EPS)
         self.max_step = float(max_step)
         # cached for a scalar atol: simulate may make many solvers (contact events)
-        settings = (_settings(self.rho_inf, self.rtol, float(atol), n, self.n, self.max_step, self.min_step)
-                    if np.ndim(atol) == 0 else
-                    _settings.__wrapped__(self.rho_inf, self.rtol, atol, n, self.n, self.max_step, self.min_step))
+        chosen = (settings(self.rho_inf, self.rtol, float(atol), n, self.n, self.max_step, self.min_step)
+                  if np.ndim(atol) == 0 else
+                  settings.__wrapped__(self.rho_inf, self.rtol, atol, n, self.n, self.max_step, self.min_step))
         (self.alpha_m, self.alpha_f, self.beta, self.gamma, self.beta_p, self.gamma_p, self.error_constant,
-         self.newton_tol, self.atol, self._par) = settings
+         self.newton_tol, self.atol, self._par) = chosen
+
+    def _matrix_free(self, preconditioner, layout):
+        """The matrix-free Newton solves with ``preconditioner`` (None without one); checks ``f_max``'s cost."""
+        if preconditioner is None:
+            if self.f_max is not None:
+                warn_f_max_cost(self.n_pos)
+            return None
+        if self.f_max is not None:
+            raise ValueError("GeneralizedAlpha: f_max needs the dense Jacobian's eigenvectors, which the matrix-free "
+                             "Newton solves (preconditioner) never form: give one or the other")
+        return KrylovNewton(preconditioner, self._zfun, self.n_pos, self.n_pos if layout is None else layout.nq)
 
     def _start(self, fun, t0):
         """Accelerations at the start: from the previous instance's memory, or a right-hand side.
@@ -286,13 +295,17 @@ class GeneralizedAlpha(OdeSolver):
         """
         n = self.n_pos
         memory = self._recall(fun, t0)
-        if memory is not None and memory[0] is not None:
+        if memory is not None and (memory[0] is not None or (self._krylov is not None and memory[-1])):
             (self.J, self.low_pass, self.lu, self.lu_h, self.err_old, self.h_abs_old, offset, h_next,
-             z_end, a_end, g_end, self.h_newton, centre) = memory
-            # the state was moved by a projection (about the tolerance): a to first order in the move
-            Jx, Jv = self.J
-            z = self.z if self._chart is None else self._chart.relative(self.y, centre)
-            self.a, self.abar = kernels.restart_accelerations(z, z_end, a_end, Jx, Jv, offset, n)
+             z_end, a_end, g_end, self.h_newton, centre, ready) = memory
+            if self.J is None:  # matrix-free: the accelerations at the moved state (as costly as a product)
+                self._krylov.ready = ready
+                self.a = self._zfun(self.t, self.z)[n : 2 * n].copy()
+                self.abar = self.a + offset
+            else:  # the state was moved by a projection (about the tolerance): a to first order in the move
+                Jx, Jv = self.J
+                z = self.z if self._chart is None else self._chart.relative(self.y, centre)
+                self.a, self.abar = kernels.restart_accelerations(z, z_end, a_end, Jx, Jv, offset, n)
             self.g = g_end.copy()
             return h_next
         f0 = self._zfun(self.t, self.z)
@@ -300,6 +313,11 @@ class GeneralizedAlpha(OdeSolver):
         self.g = f0[2 * n :].copy()
         self.abar = self.a.copy()
         return None
+
+    @property
+    def n_krylov(self):
+        """GMRES iterations so far (0 on the dense path)."""
+        return 0 if self._krylov is None else self._krylov.n_krylov
 
     @property
     def step_size(self):
@@ -322,7 +340,8 @@ class GeneralizedAlpha(OdeSolver):
             _MEMORY[self._fun_key] = (self.t, (self.J, self.low_pass, self.lu, self.lu_h, self.err_old,
                                                self.h_abs_old, self.abar - self.a, self.h_abs, self.z, self.a,
                                                self.g, self.h_newton,
-                                               None if self._chart is None else self._chart.centre))
+                                               None if self._chart is None else self._chart.centre,
+                                               self._krylov is not None and self._krylov.ready))
         except TypeError:
             pass
 
@@ -351,43 +370,23 @@ class GeneralizedAlpha(OdeSolver):
                 return self._chart.jacobian(np.asarray(self._jac_fun(t, self._chart.state(y)), dtype=float), y)
             J = np.asarray(self._jac_fun(t, y), dtype=float)
             return J[n : 2 * n, :n].copy(), J[n : 2 * n, n : 2 * n].copy()
-        f0 = self._zfun(t, y)[n : 2 * n]
-        Jx, Jv = np.empty((n, n)), np.empty((n, n))
-        for k in range(2 * n):
-            d = np.sqrt(_EPS) * max(1.0, abs(y[k]))
-            yp = y.copy()
-            yp[k] += d
-            col = (self._zfun(t, yp)[n : 2 * n] - f0) / d
-            if k < n:
-                Jx[:, k] = col
-            else:
-                Jv[:, k - n] = col
-        return Jx, Jv
+        return forward_differences(self._zfun, t, y, n)
 
     def _new_jacobian(self, t, y):
-        """A Jacobian at the step start, the low-pass projector from it; the LU factors to redo."""
+        """A Jacobian at the step start, the low-pass projector from it; the LU factors to redo.
+
+        On the matrix-free path the preconditioner's set-up at the step
+        start (``self.y``) takes the Jacobian's place (counted in ``njev``).
+        """
+        if self._krylov is not None:
+            self.njev += 1
+            self._krylov.setup(t, self.y)
+            self.jac_current = True
+            return
         self.J = self._jacobian(t, y)
-        self.low_pass = self._low_pass()
+        self.low_pass = None if self.f_max is None else low_pass(self.J[0], self.f_max)
         self.jac_current = True
         self.lu = None
-
-    def _low_pass(self):
-        """``I - sum v_k w_k^H / (w_k^H v_k)`` over the eigenpairs of Jx above f_max (None if none).
-
-        Built from the high modes (distinct, well separated) with left and
-        right eigenvectors, so the cluster of zero eigenvalues (constraint
-        directions, rigid motions) needs no inverse.
-        """
-        if self.f_max is None:
-            return None
-        Jx = self.J[0]
-        lam, W, V = eig(Jx, left=True, right=True, check_finite=False)
-        high = np.abs(lam) > (2 * np.pi * self.f_max) ** 2
-        if not np.any(high):
-            return None
-        V, W = V[:, high], W[:, high]
-        d = np.einsum("ik,ik->k", W.conj(), V)
-        return np.eye(len(Jx)) - ((V / d) @ W.conj().T).real
 
     def _factor(self, h):
         Jx, Jv = self.J
@@ -408,6 +407,8 @@ class GeneralizedAlpha(OdeSolver):
         base, a1, y1 = np.empty((3, n)), np.empty(n), np.empty(len(self.z))
         abar1, scale = np.empty(n), np.empty((2, n))
         kernels.predict(self.z, self.a, self.abar, h, n, self._par, base, a1, y1)
+        if self._krylov is not None:
+            return self._krylov.newton(self, t1, h, base, a1, y1, abar1, scale)
         lu, piv = self.lu
         d, rate = -1.0, -1.0
         for k in range(NEWTON_MAXITER):
@@ -420,6 +421,21 @@ class GeneralizedAlpha(OdeSolver):
             if outcome == kernels.FAILED:
                 return None, k + 1, rate
         return None, NEWTON_MAXITER, rate
+
+    def _error_control(self, end, h, h_abs):
+        """The error test of a converged step (see :func:`~flexmb.kernels.genalpha.error_control`).
+
+        The estimate is filtered by the iteration matrix: its LU factors on
+        the dense path, the preconditioner's solve on the matrix-free one
+        (the stiff springs and dampers exactly, as S holds them).
+        """
+        if self._krylov is None:
+            return kernels.error_control(
+                *self.lu, _NO_LOW_PASS if self.low_pass is None else self.low_pass, self.abar, end[2], self.z,
+                end[0], self.n_pos, h, h_abs, self.err_old or 0.0, self._par, self.atol)
+        sol = self._krylov.precondition(end[2] - self.abar, self.gamma_p * h, self.beta_p * h * h)
+        return kernels.error_test(np.array(sol, dtype=float), _NO_LOW_PASS, self.z, end[0], self.n_pos, h, h_abs,
+                                  self.err_old or 0.0, self._par, self.atol)
 
     def _step_impl(self):
         t, direction = self.t, float(self.direction)
@@ -436,12 +452,15 @@ class GeneralizedAlpha(OdeSolver):
                 t1 = self.t_bound
                 h = t1 - t
                 h_abs = abs(h)
-            if self.J is None:
+            if self.J is None and (self._krylov is None or not self._krylov.ready):
                 self._new_jacobian(t, self.z)
-            if self.lu is None or self.lu_h != h:
+            if self._krylov is None and (self.lu is None or self.lu_h != h):
                 self._factor(h)
             end = self._newton(t1, h)[0]
             if end is None:
+                if self._krylov is not None and not self._krylov.exact:  # the preconditioner alone failed: GMRES
+                    self._krylov.exact = True
+                    continue
                 if not self.jac_current:
                     self._new_jacobian(t, self.z)
                     continue
@@ -456,9 +475,7 @@ class GeneralizedAlpha(OdeSolver):
                 break
             # filtered by the iteration matrix (as Radau filters its estimate): modes far above 1 / h,
             # which the method dissipates instead of resolving, do not set the step
-            accepted, err, h_next = kernels.error_control(
-                *self.lu, _NO_LOW_PASS if self.low_pass is None else self.low_pass, self.abar, end[2], self.z,
-                end[0], self.n_pos, h, h_abs, self.err_old or 0.0, self._par, self.atol)
+            accepted, err, h_next = self._error_control(end, h, h_abs)
             if accepted:
                 break
             self.n_rejected += 1

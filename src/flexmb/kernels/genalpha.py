@@ -37,7 +37,8 @@ from .cache import njit
 __all__ = ["NEWTON_MAXITER", "MIN_FACTOR", "MAX_FACTOR", "KEEP_BAND", "SAFETY", "CONTINUE", "CONVERGED", "FAILED",
            "P_ALPHA_M", "P_ALPHA_F", "P_BETA", "P_GAMMA", "P_BETA_P", "P_GAMMA_P", "P_ERROR_CONSTANT", "P_RTOL",
            "P_NEWTON_TOL", "P_MIN_STEP", "P_MAX_STEP", "N_PAR",
-           "lu_solve", "mean", "predict", "newton_update", "error_control", "restart_accelerations"]
+           "lu_solve", "mean", "predict", "newton_update", "newton_apply", "error_control", "error_test",
+           "restart_accelerations"]
 
 #: Newton iterations before a step is retried
 NEWTON_MAXITER = 6
@@ -353,6 +354,37 @@ def newton_update(f, lu, piv, h, n, k, d_old, par, atol, base, g0, a1, y1, abar1
         if not np.isfinite(f[i]):
             return FAILED, 0.0, -1.0
     da = _correct(f, lu, piv, n, a1)
+    return _newton_test(f, da, h, n, k, d_old, par, atol, base, g0, a1, y1, abar1, scale)
+
+
+@njit(cache=True)
+def newton_apply(f, da, h, n, k, d_old, par, atol, base, g0, a1, y1, abar1, scale):
+    """:func:`newton_update` with Newton's correction ``da`` given (solved elsewhere: a Krylov method).
+
+    Parameters
+    ----------
+    f : ndarray, shape (2 n + n_w,)
+        The right-hand side at ``(t1, y1)`` (finite).
+    da : ndarray, shape (n,)
+        The correction ``-S^-1 (a1 - f[n:2n])``, added to ``a1``.
+    h, n, k, d_old, par, atol, base, g0, a1, y1, abar1, scale
+        As for :func:`newton_update`.
+
+    Returns
+    -------
+    outcome : int
+        As for :func:`newton_update`.
+    d, rate : float
+        As for :func:`newton_update`.
+    """
+    for i in range(n):
+        a1[i] = a1[i] + da[i]
+    return _newton_test(f, da, h, n, k, d_old, par, atol, base, g0, a1, y1, abar1, scale)
+
+
+@njit(cache=True)
+def _newton_test(f, da, h, n, k, d_old, par, atol, base, g0, a1, y1, abar1, scale):
+    """The convergence test of :func:`newton_update` after the correction ``da``, and the next iterate."""
     rtol, bp, gp = par[P_RTOL], par[P_BETA_P], par[P_GAMMA_P]
     if k == 0:
         for i in range(n):
@@ -441,6 +473,28 @@ def error_control(lu, piv, low_pass, abar0, abar1, y0, y1, n, h, h_abs, err_old,
     for i in range(n):
         diff[i] = abar1[i] - abar0[i]
     lu_solve(lu, piv, diff, sol)
+    return error_test(sol, low_pass, y0, y1, n, h, h_abs, err_old, par, atol)
+
+
+@njit(cache=True)
+def error_test(sol, low_pass, y0, y1, n, h, h_abs, err_old, par, atol):
+    """:func:`error_control` with the filtered difference ``S^-1 (abar1 - abar0)`` given (overwritten).
+
+    Parameters
+    ----------
+    sol : ndarray, shape (n,)
+        ``S^-1 (abar1 - abar0)``, S the iteration matrix or an approximation
+        of it (the Newton preconditioner); used as scratch.
+    low_pass, y0, y1, n, h, h_abs, err_old, par, atol
+        As for :func:`error_control`.
+
+    Returns
+    -------
+    accepted : bool
+        As for :func:`error_control`.
+    err, h_next : float
+        As for :func:`error_control`.
+    """
     ch2 = par[P_ERROR_CONSTANT] * h * h
     for i in range(n):
         sol[i] = ch2 * sol[i]

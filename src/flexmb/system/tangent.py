@@ -390,6 +390,40 @@ class NewtonPreconditioner:
             raise AssemblyError(f"the Newton preconditioner is singular at joint {topo.tree_joints[bad].name!r}")
         return self._kinematic_rows(r1, z2, gamma), z2
 
+    def solve_accelerations(self, r, c1, c2):
+        """``z`` with ``(I - c1 Jv - c2 Jx) z ~ r``: the Newton matrix of a method in accelerations.
+
+        Generalized-alpha's iteration matrix (:class:`~flexmb.genalpha.
+        GeneralizedAlpha`, ``c1 = gamma' h``, ``c2 = beta' h^2``). With
+        ``Jx ~ -A^-1 K`` and ``Jv ~ -A^-1 C`` it is ``A^-1 (A + c1 C + c2
+        K)``, so ``z = (A + c1 C + c2 K)^-1 A r``: one product with A and
+        one articulated-body solve with the diagonal ``c1 C + c2 K`` as
+        armature, O(n). It is :meth:`solve`'s speed half with ``r1 = 0``
+        and the armature's two coefficients free (``c1 = gamma``, ``c2 =
+        gamma^2`` there); K acts on displacements along the speeds, the
+        coordinates of generalized-alpha's chart (:mod:`flexmb.genalpha.chart`).
+
+        Parameters
+        ----------
+        r : ndarray, shape (n,)
+            Right-hand side (accelerations).
+        c1, c2 : float
+            The coefficients of ``Jv`` and ``Jx``.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            The approximate solution.
+        """
+        topo = self.system.topology
+        spatial, Sw, Sv, r_body = self._state
+        rhs = mass_times(topo.parent, topo.coord_start, topo.coord_body, spatial, Sw, Sv, _plain(r))
+        z, bad = articulated_accelerations(topo.parent, topo.coord_start, spatial, Sw, Sv, r_body, self._zeros,
+                                           self._zeros, rhs, c1 * self.damping + c2 * self.stiffness)
+        if bad >= 0:
+            raise AssemblyError(f"the Newton preconditioner is singular at joint {topo.tree_joints[bad].name!r}")
+        return z
+
 
 class LoopNewtonPreconditioner(NewtonPreconditioner):
     """Solves ``(I - gamma J) z = r`` approximately in O(n m), for the implicit integration of a model with loops.
@@ -423,7 +457,7 @@ class LoopNewtonPreconditioner(NewtonPreconditioner):
         (:meth:`System.newton_preconditioner`).
     """
 
-    _factored = None  # (gamma, the factors at the set-up's positions)
+    _factored = None  # (gamma or (c1, c2), the factors at the set-up's positions)
 
     def setup(self, t, x, xd) -> None:  # the positions only; the factors are made by the first solve
         self._state = _plain(np.array(x, dtype=float))
@@ -445,3 +479,38 @@ class LoopNewtonPreconditioner(NewtonPreconditioner):
                                 "stiffness or damping that no loop fixes)")
         z2 = r2 - gamma * v
         return self._kinematic_rows(r1, z2, gamma), z2
+
+    def solve_accelerations(self, r, c1, c2):
+        """``z`` with ``(I - c1 Jv - c2 Jx) z ~ r`` (see :meth:`NewtonPreconditioner.solve_accelerations`).
+
+        With ``Jx ~ -P K``, ``Jv ~ -P C`` the matrix is ``I + P D``, ``D = c1
+        C + c2 K``, and ``(I + P D)^-1 = I - P_D D`` with ``P_D = T (T^T (A
+        + D) T)^-1 T^T`` (multiply out: ``P_D + P D P_D = T M^-1 (M + T^T D
+        T) M_D^-1 T^T = P``, ``M = T^T A T``, ``M_D = M + T^T D T``). So
+        ``z = r - P_D (D r)``: one constrained solve with ``D`` as armature
+        (:func:`~flexmb.kernels.loops.loop_newton_factor` once per set-up and
+        coefficients, then :func:`~flexmb.kernels.loops.loop_newton_solve`), O(n m).
+
+        Parameters
+        ----------
+        r : ndarray, shape (n,)
+            Right-hand side (accelerations).
+        c1, c2 : float
+            The coefficients of ``Jv`` and ``Jx``.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            The approximate solution.
+        """
+        system = self.system
+        D = c1 * self.damping + c2 * self.stiffness
+        if self._factored is None or self._factored[0] != (c1, c2):  # made once per set-up and coefficients
+            self._factored = ((c1, c2), loop_newton_factor(system._packed, system._loop_layout, self._state, D,
+                                                           system._loop_tol,
+                                                           -1 if system.rank_limit is None else system.rank_limit))
+        v, _, _, status = loop_newton_solve(self._factored[1], system._packed, system._loop_layout, _plain(D * r))
+        if status:
+            raise AssemblyError("the Newton preconditioner of the loops is singular (a freedom without mass, "
+                                "stiffness or damping that no loop fixes)")
+        return r - v

@@ -20,6 +20,11 @@ What is checked
   SPARSE_MODES_MIN coordinates with a number of modes asked for, and
   its result equals the dense one there; with all modes, or a
   Linearization, the dense path.
+* An eigenvalue below the shift (an unstable equilibrium) is refused.
+* A loaded equilibrium (B6's rod under an axial load), whose constraint
+  forces' stiffness the preconditioner lacks, is refused with a message
+  naming the dense path (a limitation: there the differences' noise keeps
+  the shift-invert solves from converging).
 * A state that is not an equilibrium (a bent rod: constraint forces whose
   stiffness the preconditioner lacks, a stiffness that is not symmetric)
   is refused by the Lanczos path with a message naming the dense path.
@@ -151,3 +156,25 @@ def test_a_state_off_equilibrium_is_refused_by_the_lanczos_path():
     ops = lm.LoopModes(system, x, np.zeros(system.n_speeds), 0.0, 1e-6)
     with pytest.raises(fm.ModelError, match="modes: .* the dense path"):
         ops.lowest(4, lm.SHIFT)
+
+
+def test_an_eigenvalue_below_the_shift_is_refused(monkeypatch):
+    system, x = _assembled("b6_64")
+    xd = np.zeros(system.n_speeds)
+    w2, v = lm.loop_modes(system, 4, x, xd, 0.0, 1e-6)
+    assert w2[0] > lm.SHIFT
+    monkeypatch.setattr(lm.LoopModes, "lowest", lambda self, k, sigma: (np.r_[2 * sigma, w2[1:]], v))
+    with pytest.raises(fm.ModelError, match="below the shift .* unstable equilibrium"):
+        lm.loop_modes(system, 4, x, xd, 0.0, 1e-6)
+
+
+def test_a_loaded_equilibrium_is_refused_by_the_lanczos_path():
+    """B6 with its rod under an axial load (gravity 2e4 m/s^2 along it): the preconditioner lacks its stiffness."""
+    model, positions = scenes.b6(False, 64)
+    model.add(fm.Gravity((-2e4, 0.0, 0.0)))
+    system = model.build(complement="articulated")
+    x, xd = fm.initial_state(system, 0.0, positions=positions)
+    system = _calibrated(system, 0.0, x, xd)
+    assert np.max(np.abs(system.accelerations(0.0, x, np.zeros(system.n_speeds)))) == 0.0  # an equilibrium
+    with pytest.raises(fm.ModelError, match="shift-invert solve .* the dense path"):
+        lm.loop_modes(system, 4, x, np.zeros(system.n_speeds), 0.0, 1e-6)

@@ -26,7 +26,19 @@ diagonal coordinate springs K_d (segment joints, joint springs): the
 constrained articulated-body recursion with ``-K_d / sigma`` as armature
 (:class:`~flexmb.system.tangent.LoopNewtonPreconditioner`'s solve), which
 leaves out only the geometric stiffness of the loads and of the constraint
-forces, so GMRES converges in a few iterations.
+forces, so GMRES converges in a few iterations where those are small (a
+structure near its unloaded state). Where they are not (a loaded
+equilibrium), the differences' noise, which grows with the constraint
+forces, keeps GMRES from :data:`INNER_RTOL`, and the path stops with a
+ModelError that names the dense one. The shift sits just below zero, so
+that the k found are the lowest; an eigenvalue found below it (an unstable
+equilibrium) stops the path too. Lanczos takes K symmetric, as it is at an
+equilibrium: the stiffness among the modes found is checked for it.
+
+For few independent coordinates p (at most :data:`SUBSPACE_MAX`, or
+fewer than ARPACK's 2k + 1 vectors), a basis of the whole tangent space
+from p constrained solves takes its place (:meth:`LoopModes.subspace`):
+the dense linearisation in another basis, O(p n m).
 """
 
 from __future__ import annotations
@@ -51,7 +63,7 @@ SPARSE_MODES_MIN = 200
 SUBSPACE_MAX = 40
 
 #: the shift of the Lanczos iteration, 1/s^2: just below zero, so that the modes come out from the lowest up
-#: (a mechanism's zero-frequency modes included); lower when an eigenvalue is found below it
+#: (a mechanism's zero-frequency modes included)
 SHIFT = -1.0
 
 #: GMRES's relative residual per shift-invert solve: near the differences' own noise, so that the
@@ -276,11 +288,9 @@ def loop_modes(system, k, x0, xd0, t, h):
     if p <= max(SUBSPACE_MAX, 2 * k + 1):  # ARPACK's basis (2k + 1 vectors) would not fit in the space
         w2, v = ops.subspace(p)
         return w2[:k], v[:, :k]
-    sigma = SHIFT
-    for _ in range(3):
-        w2, v = ops.lowest(k, sigma)
-        if w2[0] > sigma:
-            return w2, v
-        sigma = 2.0 * w2[0] - 1.0
-    raise ModelError(f"modes: eigenvalues keep appearing below the shift ({w2[0]:.6g} 1/s^2); the dense path "
-                     "takes them all: modes(linearize(system))")
+    w2, v = ops.lowest(k, SHIFT)
+    if w2[0] <= SHIFT:  # an unstable equilibrium: others may lie further below, where Lanczos does not look
+        raise ModelError(f"modes: an eigenvalue ({w2[0]:.6g} 1/s^2) lies below the shift {SHIFT:g} 1/s^2 (an unstable "
+                         "equilibrium), and more may lie further below; the dense path finds them all: "
+                         "modes(linearize(system), k)")
+    return w2, v

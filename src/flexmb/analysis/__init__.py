@@ -24,8 +24,8 @@ campbell_diagram
 steady
     First-order linearisation about a steady motion (velocity rows allowed).
 loop_modes
-    The lowest modes of a large looped model by shift-invert Lanczos, O(n m)
-    per step.
+    The lowest modes of a large looped model by preconditioned Davidson
+    iteration, O(n m) per step.
 """
 
 from .linear import Linearization, linear_statics, linearize, modes, tangent_gap

@@ -282,13 +282,14 @@ def modes(system_or_lin, n_modes: int | None = None, **kw):
     time and O(n^2) memory with loops. A model whose loops the articulated
     strategy closes, with at least
     ``flexmb.analysis.loop_modes.SPARSE_MODES_MIN`` coordinates and
-    ``n_modes`` given, takes :mod:`flexmb.analysis.loop_modes` instead:
-    shift-invert Lanczos whose solves are the constrained articulated-body
-    recursion, O(n m) per step, no n x n array (for few independent
-    coordinates, their whole basis: O(p n m)). Both difference the
-    accelerations, so they agree to the differences' noise (about 1e-7 of
-    the largest stiffness), not to round-off. The Lanczos path takes the
-    stiffness as symmetric (an equilibrium) and says so where it is not.
+    ``n_modes`` given, takes ``flexmb.analysis.loop_modes`` instead:
+    Davidson iteration preconditioned by the constrained articulated-body
+    recursion, a fixed number of O(n m) solves, no n x n array (for few
+    independent coordinates, their whole basis: O(p n m)). Both difference
+    the accelerations, so they agree to the differences' noise (about 1e-8
+    of the largest eigenvalue found), not to round-off. Away from an
+    equilibrium, where the stiffness is not symmetric, the sparse path
+    stops with a ModelError that names the dense one.
 
     Examples
     --------

@@ -1,44 +1,44 @@
-"""The lowest modes of a large looped model by shift-invert Lanczos, in O(n m) per step.
+"""The lowest modes of a large looped model by preconditioned Davidson iteration, in O(n m) per step.
 
 The modes of :func:`flexmb.modes` are the eigenpairs of the linearised
 reduced equations, ``K z = w^2 M z`` with ``M = T^T A T`` and
 ``K = -T^T A (dxdd/dx) T`` (eqs. 36-39 linearised; T the orthogonal
-complement of psi). Written in the coordinates ``v = T z`` (the
-displacements that keep the loops closed, ``psi v = 0``) they are
-
-    ``P (K_x v) = w^2 v``,    ``K_x v = -A (dxdd/dx) v``,
-
-``P = T (T^T A T)^-1 T^T`` the mass-orthogonal solve onto the loops'
-tangent space: ``P b`` is the v of ``A v = b + psi^T lambda``,
-``psi v = 0`` (:func:`~flexmb.kernels.loops.loop_newton` with no
-armature). For a model whose loops the articulated strategy closes
-(:mod:`flexmb.kernels.loops`), every piece costs O(n m): ``K_x v`` is a
+complement of psi). In a basis V of displacements that keep the loops
+closed (``psi V = 0``) they are the Rayleigh-Ritz problem
+``(V^T K_x V) y = w^2 (V^T A V) y`` with ``K_x v = -A (dxdd/dx) v``,
+exact when V spans the whole tangent space (T's columns are one such
+basis). For a model whose loops the articulated strategy closes
+(:mod:`flexmb.kernels.loops`) every piece costs O(n m): ``K_x v`` is a
 central difference of two right-hand sides along v (as
-:func:`flexmb.linearize` differences along the columns of T), A v one
-pass of :func:`~flexmb.kernels.articulated.mass_times` and P one
-constrained solve. A, K, T and M are never formed.
+:func:`flexmb.linearize` differences along the columns of T), ``A v``
+one pass of :func:`~flexmb.kernels.articulated.mass_times`, and the
+constrained solve of ``(A + E) v = b + psi^T lambda``, ``psi v = 0``
+(:func:`~flexmb.kernels.loops.loop_newton`) maps loads onto the tangent
+space. A, K, T and M are never formed.
 
-The k lowest eigenvalues come from ARPACK's shift-invert mode in the
-kinetic-energy inner product (``scipy.sparse.linalg.eigsh``, mode 3, A as
-its metric): each step solves ``(K_x - sigma A) v = A r`` on ``psi v = 0``
-by GMRES, preconditioned by the same solve with K_x replaced by the
-diagonal coordinate springs K_d (segment joints, joint springs): the
-constrained articulated-body recursion with ``-K_d / sigma`` as armature
-(:class:`~flexmb.system.tangent.LoopNewtonPreconditioner`'s solve), which
-leaves out only the geometric stiffness of the loads and of the constraint
-forces, so GMRES converges in a few iterations where those are small (a
-structure near its unloaded state). Where they are not (a loaded
-equilibrium), the differences' noise, which grows with the constraint
-forces, keeps GMRES from :data:`INNER_RTOL`, and the path stops with a
-ModelError that names the dense one. The shift sits just below zero, so
-that the k found are the lowest; an eigenvalue found below it (an unstable
-equilibrium) stops the path too. Lanczos takes K symmetric, as it is at an
-equilibrium: the stiffness among the modes found is checked for it.
+For a few modes of many independent coordinates p, V grows by the
+generalized Davidson method (Davidson, J. Comput. Phys. 17 (1975) 87;
+Morgan & Scott, SIAM J. Sci. Stat. Comput. 7 (1986) 817): the residuals
+``r = K_x x - w^2 A x`` of the Ritz pairs not yet converged, each solved
+with the preconditioner ``(K_d - sigma A) t = r`` on ``psi t = 0`` (K_d
+the diagonal coordinate springs: segment joints, joint springs; the
+constrained articulated-body recursion with ``-K_d / sigma`` as armature,
+:class:`~flexmb.system.tangent.LoopNewtonPreconditioner`'s solve), are
+added to V until every residual is below :data:`RESIDUAL_RTOL` of its
+``w^2 |A x|``. Rayleigh-Ritz picks the lowest pairs of the basis,
+negative ones (an unstable equilibrium) included, and takes K's
+symmetric part as the dense path does; the differences' noise enters the
+eigenvalues once, through ``V^T K_x V``, and no solve has to converge on
+it. The preconditioner leaves out the geometric stiffness of the loads
+and of the constraint forces: a loaded equilibrium takes a few more
+iterations. Away from an equilibrium, where K is not symmetric, the
+residuals do not vanish and the path stops with a ModelError that names
+the dense path.
 
-For few independent coordinates p (at most :data:`SUBSPACE_MAX`, or
-fewer than ARPACK's 2k + 1 vectors), a basis of the whole tangent space
-from p constrained solves takes its place (:meth:`LoopModes.subspace`):
-the dense linearisation in another basis, O(p n m).
+For few independent coordinates (at most :data:`SUBSPACE_MAX`, or fewer
+than the basis would hold), V is a basis of the whole tangent space from
+p constrained solves (:meth:`LoopModes.subspace`): the dense
+linearisation in another basis, O(p n m).
 """
 
 from __future__ import annotations
@@ -52,30 +52,26 @@ from ..kernels.loops import loop_newton
 from ..system.solve import _plain
 from ..system.tangent import NewtonPreconditioner
 
-__all__ = ["LoopModes", "loop_modes", "takes_loop_modes", "SPARSE_MODES_MIN"]
+__all__ = ["LoopModes", "loop_modes", "takes_loop_modes", "SPARSE_MODES_MIN", "SUBSPACE_MAX", "SHIFT", "RESIDUAL_RTOL",
+           "MAX_ITERATIONS"]
 
 #: the fewest coordinates n at which :func:`flexmb.modes` takes this path for a few modes of a looped model:
 #: below it the dense linearisation (T by the SVD of psi, O(n^3)) costs little and gives every mode
 SPARSE_MODES_MIN = 200
 
 #: the most independent coordinates p solved in a basis of the whole tangent space (:meth:`LoopModes.subspace`):
-#: ARPACK's Lanczos basis holds more vectors than a small p has
+#: the dense problem in a basis of p vectors costs little there, and gives every mode
 SUBSPACE_MAX = 40
 
-#: the shift of the Lanczos iteration, 1/s^2: just below zero, so that the modes come out from the lowest up
-#: (a mechanism's zero-frequency modes included)
+#: the preconditioner's shift, 1/s^2: below zero, so that ``K_d - SHIFT A`` is positive definite also on
+#: freedoms without springs
 SHIFT = -1.0
 
-#: GMRES's relative residual per shift-invert solve: near the differences' own noise, so that the
-#: eigenvalues agree with those of the dense linearisation
-INNER_RTOL = 1e-8
+#: a Ritz pair has converged when its residual ``|K_x x - w^2 A x|`` is below this fraction of ``|w^2| |A x|``
+RESIDUAL_RTOL = 1e-7
 
-#: the largest asymmetry of the stiffness among the modes found, relative to its largest entry, that the
-#: Lanczos path takes for the differences' noise
-SYMMETRY_TOL = 1e-6
-
-#: ARPACK's relative accuracy of the shift-inverted eigenvalues
-ARPACK_TOL = 1e-12
+#: Davidson iterations allowed
+MAX_ITERATIONS = 60
 
 
 class LoopModes:
@@ -147,67 +143,72 @@ class LoopModes:
         """``P b``: the displacement on ``psi v = 0`` with ``A v = b + psi^T lambda``."""
         return self.constrained(self._zero, b)
 
-    def shifted_solve(self, b, sigma):
-        """v on ``psi v = 0`` with ``P (K_x - sigma A) v = P b``, by right-preconditioned GMRES.
+    def _extend(self, basis, W):
+        """``basis`` (V, A V, K_x V) with W's columns added, A-orthonormal and on ``psi v = 0``."""
+        V, AV, KV = basis
+        for _ in range(2):  # twice is enough (Gram-Schmidt in the A metric, by blocks)
+            W = W - V @ (AV.T @ W)
+        AW = np.column_stack([self.mass_times(c) for c in W.T])
+        G = W.T @ AW
+        ev, U = np.linalg.eigh(0.5 * (G + G.T))
+        keep = ev > 1e-10 * max(float(ev[-1]), 1e-300)
+        W = W @ (U[:, keep] / np.sqrt(ev[keep]))
+        W = np.column_stack([self.project(self.mass_times(c)) for c in W.T])  # round-off off psi v = 0 removed
+        AW = np.column_stack([self.mass_times(c) for c in W.T])
+        KW = np.column_stack([self.stiffness_times(c) for c in W.T])
+        return np.hstack([V, W]), np.hstack([AV, AW]), np.hstack([KV, KW])
 
-        Raises
-        ------
-        ModelError
-            If the residual stays above :data:`INNER_RTOL`.
-        """
-        from scipy.sparse.linalg import LinearOperator, gmres
-
-        n = self.system.n_speeds
-        armature = -self.stiffness / sigma
-
-        def apply(v):
-            return self.project(self.stiffness_times(v)) - sigma * np.ravel(v)
-
-        def precondition(r):  # (K_d - sigma A) y = A r on psi y = 0
-            return self.constrained(armature, self.mass_times(r) / -sigma)
-
-        rhs = self.project(b)
-        op = LinearOperator((n, n), matvec=lambda u: apply(precondition(u)), dtype=float)
-        u, _ = gmres(op, rhs, rtol=INNER_RTOL, atol=0.0, restart=30, maxiter=3)
-        v = precondition(u)
-        miss = float(np.linalg.norm(apply(v) - rhs)) / max(float(np.linalg.norm(rhs)), 1e-300)
-        if not miss <= INNER_RTOL:
-            raise ModelError(f"modes: the shift-invert solve of the loops left a relative residual {miss:.3g} at the "
-                             f"shift {sigma:.6g} 1/s^2; the dense path takes it: modes(linearize(system), k)")
-        return v
-
-    def lowest(self, k, sigma):
-        """The k eigenvalues ``w^2`` nearest the shift and their vectors v (``T phi``), ascending.
+    def lowest(self, k, sigma=None):
+        """The k lowest eigenvalues ``w^2`` and their vectors v (``T phi``), ascending, by Davidson iteration.
 
         Parameters
         ----------
         k : int
-            How many (fewer than the independent coordinates p by ARPACK's
-            rule; see :meth:`subspace` for small p).
-        sigma : float
-            The shift, 1/s^2, below the lowest eigenvalue.
+            How many (the basis grows to ``4 (k + 2)`` vectors, which p
+            must exceed; see :meth:`subspace` for small p).
+        sigma : float, optional
+            The preconditioner's shift, 1/s^2 (default :data:`SHIFT`).
 
         Returns
         -------
         w2 : ndarray, shape (k,)
         v : ndarray, shape (n, k)
-        """
-        from scipy.sparse.linalg import LinearOperator, eigsh
 
+        Raises
+        ------
+        ModelError
+            If the residuals do not fall below :data:`RESIDUAL_RTOL` in
+            :data:`MAX_ITERATIONS` iterations.
+        """
+        sigma = SHIFT if sigma is None else sigma
         n = self.system.n_speeds
-        op = LinearOperator((n, n), matvec=self.stiffness_times, dtype=float)
-        metric = LinearOperator((n, n), matvec=self.mass_times, dtype=float)
-        inverse = LinearOperator((n, n), matvec=lambda b: self.shifted_solve(b, sigma), dtype=float)
-        start = self.project(self.mass_times(np.ones(n)))
-        w2, v = eigsh(op, k=k, M=metric, sigma=sigma, which="LM", OPinv=inverse, v0=start, tol=ARPACK_TOL)
-        order = np.argsort(w2)
-        w2, v = w2[order], v[:, order]
-        S = v.T @ np.column_stack([self.stiffness_times(c) for c in v.T])  # Lanczos takes K symmetric
-        if np.max(np.abs(S - S.T), initial=0.0) > SYMMETRY_TOL * np.max(np.abs(S), initial=0.0):
-            raise ModelError("modes: the stiffness of the loops is not symmetric at this state (not an equilibrium: "
-                             "the constraint forces or the loads do work on the modes); the dense path takes its "
-                             "symmetric part: modes(linearize(system), k)")
-        return w2, v
+        armature = -self.stiffness / sigma
+
+        def precondition(r):  # (K_d - sigma A) t = r on psi t = 0
+            return self.constrained(armature, r / -sigma)
+
+        rng = np.random.default_rng(0)
+        W = np.column_stack([precondition(self.mass_times(rng.normal(size=n))) for _ in range(k + 2)])
+        empty = np.zeros((n, 0))
+        basis = (empty, empty, empty)
+        for iteration in range(MAX_ITERATIONS):
+            basis = self._extend(basis, W)
+            V, AV, KV = basis
+            S = V.T @ KV
+            w2, Y = np.linalg.eigh(0.5 * (S + S.T))  # V is A-orthonormal
+            w2, Y = w2[:k], Y[:, :k]
+            X, AX, KX = V @ Y, AV @ Y, KV @ Y
+            R = KX - AX * w2
+            miss = np.linalg.norm(R, axis=0) / np.maximum(np.abs(w2) * np.linalg.norm(AX, axis=0), 1e-300)
+            if np.all(miss <= RESIDUAL_RTOL):
+                self.n_iterations = iteration + 1
+                return w2, X
+            W = np.column_stack([precondition(R[:, j]) for j in np.flatnonzero(miss > RESIDUAL_RTOL)])
+            if V.shape[1] + W.shape[1] > 4 * (k + 2):  # restart from the Ritz vectors
+                basis = (X, AX, KX)
+        raise ModelError(f"modes: the Davidson iteration of the loops left residuals up to {np.max(miss):.3g} of "
+                         f"w^2 |A x| after {MAX_ITERATIONS} iterations (not an equilibrium, where the stiffness is "
+                         "not symmetric?); the dense path takes its symmetric part: modes(linearize(system), k)")
 
     def subspace(self, p):
         """Every eigenpair in a basis of the loops' tangent space built from p solves (small p).
@@ -285,12 +286,7 @@ def loop_modes(system, k, x0, xd0, t, h):
     p = system.dof(t, x0)
     ops = LoopModes(system, x0, xd0, t, h)
     k = min(k, p)
-    if p <= max(SUBSPACE_MAX, 2 * k + 1):  # ARPACK's basis (2k + 1 vectors) would not fit in the space
+    if p <= max(SUBSPACE_MAX, 4 * (k + 2)):  # Davidson's basis would not fit in the space
         w2, v = ops.subspace(p)
         return w2[:k], v[:, :k]
-    w2, v = ops.lowest(k, SHIFT)
-    if w2[0] <= SHIFT:  # an unstable equilibrium: others may lie further below, where Lanczos does not look
-        raise ModelError(f"modes: an eigenvalue ({w2[0]:.6g} 1/s^2) lies below the shift {SHIFT:g} 1/s^2 (an unstable "
-                         "equilibrium), and more may lie further below; the dense path finds them all: "
-                         "modes(linearize(system), k)")
-    return w2, v
+    return ops.lowest(k)

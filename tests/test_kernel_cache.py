@@ -31,12 +31,19 @@ PROBE = ("import numpy as np; from flexmb.kernels.genalpha import _matvec; "
 
 
 def _warm():
-    """The probe kernel's entry in this process's cache folder (saved by a process of its own); its index path."""
-    out = _run(PROBE, env={"NUMBA_CACHE_DIR": os.environ.get("NUMBA_CACHE_DIR", "")})
+    """The probe kernel's entry saved by a process of its own (in the cache folder :func:`_run`'s processes use:
+    ``__pycache__`` beside the sources, whatever ``NUMBA_CACHE_DIR`` the tests run with); its index path."""
+    out = _run(PROBE)
     assert out.returncode == 0, out.stderr[-2000:]
-    index = _matvec._cache._cache_file._index_path
+    folder = out.stdout.split("LOCATION ", 1)[1].strip()
+    index = os.path.join(folder, os.path.basename(_matvec._cache._cache_file._index_path))
     assert os.path.exists(index), index
     return index
+
+
+#: prints whether the probe kernel's index in :func:`_run`'s cache folder loads (holds entries for today's sources)
+INDEX_LOADS = ("from flexmb.kernels.genalpha import _matvec; "
+               "print('INDEX', bool(_matvec._cache._cache_file._load_index()))")
 
 
 #: run first in a subprocess: the folders in READ_ONLY refuse every write, as a read-only install, a cache
@@ -115,7 +122,8 @@ def test_a_damaged_entry_is_a_miss_and_is_rewritten(damage):
     assert out.returncode == 0, out.stderr[-2000:]
     again = _run(PROBE)  # the entry was rewritten whole: the next run loads it
     assert again.returncode == 0, again.stderr[-2000:]
-    assert _matvec._cache._cache_file._load_index(), "the index was not rewritten"
+    index_loads = _run(INDEX_LOADS)
+    assert "INDEX True" in index_loads.stdout, ("the index was not rewritten", index_loads.stderr[-2000:])
 
 
 def test_no_home_and_a_read_only_install_use_the_warm_cache_read_only():

@@ -33,7 +33,8 @@ ENTRY = textwrap.dedent("""
     script.load()()
 """)
 
-DURING_IMPORT = textwrap.dedent("""
+#: sends the signal SIGNAL to the process when the module AT_MODULE is about to be imported
+IMPORT_HOOK = textwrap.dedent("""
     import os, signal, sys
     class Interrupt:
         def find_spec(self, name, path=None, target=None):
@@ -41,7 +42,9 @@ DURING_IMPORT = textwrap.dedent("""
                 os.kill(os.getpid(), int(os.environ["SIGNAL"]))
             return None
     sys.meta_path.insert(0, Interrupt())
-""") + ENTRY
+""")
+
+DURING_IMPORT = IMPORT_HOOK + ENTRY
 
 DURING_KERNEL_LOAD = textwrap.dedent("""
     import os, signal, time
@@ -70,6 +73,21 @@ def test_a_signal_while_flexmb_imports_ends_it_with_one_line(tmp_path, sig, modu
                    AT_MODULE=module, SIGNAL=str(int(sig)))
     assert proc.returncode == 128 + sig, (proc.returncode, proc.stderr[-3000:])
     assert proc.stderr.strip() == "flexmb: interrupted"  # main: a KeyboardInterrupt traceback, or killed
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("module", ["numba", "flexmb.scene"])
+def test_python_m_flexmb_answers_a_signal_while_it_imports(tmp_path, module):
+    """``python -m flexmb`` imports the package before its ``__main__``: the handler must already be there."""
+    hook = tmp_path / "hook"
+    hook.mkdir()
+    (hook / "sitecustomize.py").write_text(IMPORT_HOOK)
+    path = os.pathsep.join([str(hook), *filter(None, [os.environ.get("PYTHONPATH")])])
+    proc = subprocess.run([sys.executable, "-m", "flexmb", "run", PENDULUM, "--out", "out", "--t-end", "0.1",
+                           "--quiet"], capture_output=True, text=True, cwd=tmp_path, timeout=600,
+                          env=dict(os.environ, PYTHONPATH=path, AT_MODULE=module, SIGNAL=str(int(signal.SIGINT))))
+    assert proc.returncode == 130, (proc.returncode, proc.stderr[-3000:])
+    assert proc.stderr.strip() == "flexmb: interrupted"  # before: a KeyboardInterrupt traceback
     assert not (tmp_path / "out").exists()
 
 

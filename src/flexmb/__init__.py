@@ -8,6 +8,14 @@ the ``logging`` loggers ``flexmb.*``: silent unless the application
 configures logging (the ``flexmb`` command shows them on stderr).
 """
 
+import sys as _sys
+
+if _sys.argv[:1] == ["-m"]:  # the interpreter is still locating the module of `python -m ...`
+    import flexmb_command as _command
+
+    if _command.module_run(_sys.orig_argv) == "flexmb":  # `python -m flexmb`: signals answered from here on
+        _command.install()
+
 import importlib as _importlib
 import logging as _logging
 

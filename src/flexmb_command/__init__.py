@@ -12,12 +12,16 @@ the process exits) such a signal ends the process at once, with one line,
 Ctrl-C): nothing has been written yet, or all of it has. While the command
 runs, its own handlers answer them (:mod:`flexmb._signals`): the run stops
 where it is and writes what it computed.
+
+``python -m flexmb`` imports the package :mod:`flexmb` before it reaches
+``flexmb/__main__.py``: the package calls :func:`install` first thing when
+:func:`module_run` says that it is being imported for ``-m flexmb``.
 """
 
 import os
 import signal
 
-__all__ = ["SIGNALS", "console", "install", "leave_at_once"]
+__all__ = ["SIGNALS", "console", "install", "leave_at_once", "module_run"]
 
 #: the signals answered, where the platform has them
 SIGNALS = tuple(getattr(signal, s) for s in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, s))
@@ -41,6 +45,38 @@ def leave_at_once(signum, frame) -> None:
     except OSError:
         pass
     os._exit(128 + signum)
+
+
+#: the interpreter's options that take a value as the next argument (``-X importtime``, ``-W error``)
+_OPTIONS_WITH_VALUE = ("-X", "-W", "--check-hash-based-pycs")
+
+
+def module_run(orig_argv) -> str | None:
+    """The module that ``python ... -m MODULE ...`` runs, or None if the interpreter was started otherwise.
+
+    Parameters
+    ----------
+    orig_argv : sequence of str
+        The interpreter's own command line (:data:`sys.orig_argv`).
+
+    Returns
+    -------
+    str or None
+        ``"flexmb"`` for ``python -X importtime -m flexmb run wiper``;
+        None for a script, ``-c`` or an interactive interpreter.
+    """
+    args = list(orig_argv[1:])
+    while args:
+        arg = args.pop(0)
+        if arg == "-m":
+            return args[0] if args else None
+        if arg.startswith("-m"):
+            return arg[2:]
+        if arg in _OPTIONS_WITH_VALUE:
+            args = args[1:]
+        elif arg == "-" or not arg.startswith("-") or arg.startswith("-c"):
+            return None  # a script, standard input or -c: no module
+    return None
 
 
 def install() -> None:

@@ -106,11 +106,34 @@ class LoopModes:
         self.n_solves = 0
 
     def mass_times(self, v):
-        """``A v``, O(n)."""
+        """``A v``, O(n), A never formed.
+
+        Parameters
+        ----------
+        v : ndarray, shape (n,)
+            Speeds (or displacements).
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            The generalized forces ``A v``.
+        """
         return mass_times(*self._mass, _plain(np.ravel(v)))
 
     def constrained(self, armature, load):
-        """v with ``(A + diag(armature)) v = load + psi^T lambda``, ``psi v = 0``.
+        """The v with ``(A + diag(armature)) v = load + psi^T lambda`` and ``psi v = 0``.
+
+        Parameters
+        ----------
+        armature : ndarray, shape (n,)
+            Diagonal added to A.
+        load : ndarray, shape (n,)
+            Generalized forces.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            The displacement v on the loops' tangent space.
 
         Raises
         ------
@@ -127,7 +150,18 @@ class LoopModes:
         return v
 
     def stiffness_times(self, v):
-        """``K_x v = -A (dxdd/dx) v`` by central differences along the unit direction of v (as :func:`linearize`)."""
+        """``K_x v = -A (dxdd/dx) v`` by central differences along the unit direction of v (as :func:`linearize`).
+
+        Parameters
+        ----------
+        v : ndarray, shape (n,)
+            A displacement on ``psi v = 0``.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            The generalized forces ``K_x v`` (two right-hand sides).
+        """
         v = np.ravel(v)
         size = float(np.linalg.norm(v))
         if size == 0.0:
@@ -140,7 +174,18 @@ class LoopModes:
         return -self.mass_times(diff) * (size / (2 * self.h))
 
     def project(self, b):
-        """``P b``: the displacement on ``psi v = 0`` with ``A v = b + psi^T lambda``."""
+        """``P b``: the displacement on ``psi v = 0`` with ``A v = b + psi^T lambda``.
+
+        Parameters
+        ----------
+        b : ndarray, shape (n,)
+            Generalized forces.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            The displacement ``P b``.
+        """
         return self.constrained(self._zero, b)
 
     def _extend(self, basis, W):
@@ -172,7 +217,9 @@ class LoopModes:
         Returns
         -------
         w2 : ndarray, shape (k,)
+            Eigenvalues ``w^2``, 1/s^2, ascending.
         v : ndarray, shape (n, k)
+            Their vectors ``T phi``, A-orthonormal.
 
         Raises
         ------
@@ -218,10 +265,17 @@ class LoopModes:
         K and M in that basis (as :func:`flexmb.linearize` forms them in
         the basis T). O(p n m), an n x p array.
 
+        Parameters
+        ----------
+        p : int
+            The number of independent coordinates.
+
         Returns
         -------
         w2 : ndarray, shape (p,)
+            Eigenvalues ``w^2``, 1/s^2, ascending.
         v : ndarray, shape (n, p)
+            Their vectors ``T phi``.
         """
         n = self.system.n_speeds
         rng = np.random.default_rng(0)
@@ -253,6 +307,7 @@ def takes_loop_modes(system, n_modes, method) -> bool:
     Returns
     -------
     bool
+        True where the sparse path applies.
     """
     return (n_modes is not None and method in ("auto", "fd") and getattr(system, "_loop_kernel", False)
             and system.n_speeds >= SPARSE_MODES_MIN)

@@ -24,6 +24,7 @@ from ..errors import AssemblyError, ModelError
 from ..fields import label
 from ..forces import ForceElement
 from ..threads import limited_blas
+from .loop_statics import _NewtonFailed
 from .paths import CriticalPoint, LoadPath, PathOptions, _list_limits
 
 __all__ = ["load_path"]
@@ -119,6 +120,14 @@ class _Equations:
                 2 * self.h)
         return _Point(T, R, R_lam, J)
 
+    def newton_step(self, pt, lam):
+        """The Newton step ``T dz``, ``J dz = -R``, and ``max |dz|`` (:class:`_NewtonFailed` if J is singular)."""
+        try:
+            dz = -np.linalg.solve(pt.J, pt.R)
+        except np.linalg.LinAlgError:
+            raise _NewtonFailed("the tangent stiffness is singular") from None
+        return pt.T @ dz, _norm(dz)
+
     def _balance(self, x, lam, mu):
         g, _, psi = self._forces(x, lam)
         return g if mu is None else g + psi.T @ mu
@@ -148,11 +157,11 @@ def _newton(eq, x, lam, tol, max_iter, counts, monotone=False):
             raise _NotConverged("the residual grew", step, res, k)
         best = min(best, res)
         try:
-            dz = -np.linalg.solve(pt.J, pt.R)
-        except np.linalg.LinAlgError:
-            raise _NotConverged("the tangent stiffness is singular", step, res, k) from None
-        x = eq.project(eq.move(x, pt.T @ dz))
-        step = _norm(dz)
+            dx, size = eq.newton_step(pt, lam)
+            x = eq.project(eq.move(x, dx))
+        except _NewtonFailed as exc:
+            raise _NotConverged(str(exc), step, res, k) from None
+        step = size
         if step < tol:
             return x, eq(x, lam, tangent=False)
     raise _NotConverged(f"no convergence in {max_iter} Newton steps", step, _norm(pt.R), max_iter)

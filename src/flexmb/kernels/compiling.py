@@ -35,7 +35,7 @@ __all__ = ["FAMILIES", "ESTIMATE_S", "compile_seconds", "family_of", "install"]
 FAMILIES = {
     **dict.fromkeys(("tree", "dynamics", "articulated", "packing", "loads", "contact", "friction", "tangent"),
                     "open trees"),
-    **dict.fromkeys(("equations", "constraints", "loops", "loop_layout", "loop_projection", "reduced",
+    **dict.fromkeys(("equations", "constraints", "loops", "loop_layout", "loop_projection", "loop_statics", "reduced",
                      "constraint_matrix"), "loops"),
     "genalpha": "generalized-alpha",
 }

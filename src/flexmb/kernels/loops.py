@@ -455,6 +455,10 @@ def loop_newton(packed, layout, x, armature, load, tol, rank_limit):
     -------
     v : ndarray, shape (n,)
         The solution.
+    lam : ndarray, shape (m,)
+        The multipliers (dropped rows: zero).
+    kept : int
+        Number of rows kept; with status 1 or 3, the body whose joint moves no mass.
     status : int
         0; 1 if ``A + E`` is singular on a freedom no row fixes; 2 if not finite; 3 if not settled.
     """
@@ -465,7 +469,7 @@ def loop_newton(packed, layout, x, armature, load, tol, rank_limit):
                                                           np.zeros((nb + 1, 6)), load, W, body, layout.row_coord,
                                                           np.zeros(m), _arrays(layout), layout.band, tol, 0.0,
                                                           rank_limit, armature)
-    return out, status
+    return out, lam, kept, status
 
 
 @njit(cache=True)

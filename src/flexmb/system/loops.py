@@ -8,6 +8,7 @@ from ..complements.articulated import ArticulatedComplement
 from ..complements.auto import AutoComplement
 from ..errors import AssemblyError
 from ..kernels.loop_layout import loop_layout
+from ..kernels.loop_statics import loop_reactions
 from ..kernels.loops import loop_rhs, loop_speeds
 from .solve import _plain
 
@@ -89,6 +90,32 @@ class LoopSolve:
             rows = self._rows(t, *self.layout.split(y))
             lam = self.complement(rows.psi).multipliers(rows.psi.T @ lam)
         return xdd, lam
+
+    def _loop_reactions(self, t, x, xd, xdd=None):
+        """The reactions at ``(x, xd)`` with the accelerations ``xdd`` (None: solved here) by the loop kernels.
+
+        Raises
+        ------
+        AssemblyError
+            If A is singular on a freedom no loop fixes (naming its joint), or the result is not finite.
+        """
+        y = _plain(self.layout.join(x, xd))
+        if xdd is None:
+            xdd = self._loop_solve(t, y)
+        force, torque, generalized = self._python_loads(t, y, self._no_powers)
+        lam, kept, status = loop_reactions(self._packed, self._loop_layout, y, self.layout.nq, _plain(xdd), force,
+                                           torque, generalized, self._loop_tol,
+                                           -1 if self._rank_limit is None else self._rank_limit)
+        self.n_complements += 1
+        if status in (1, 3):
+            raise AssemblyError(self._massless_message(kept, f"at t = {t:.6g} s"))
+        if status:
+            raise AssemblyError(f"at t = {t:.9g} s: the reactions are not finite (the accelerations or the "
+                                "constraint rows)")
+        if kept < lam.shape[0]:  # redundant rows: the minimum-norm reactions, as the dense route gives them
+            psi = self._rows(t, x, xd).psi
+            lam = np.linalg.lstsq(psi.T, psi.T @ lam, rcond=None)[0]
+        return lam
 
     def _with_reactions(self, t, y):
         """``(xdd, lambda)`` at ``y = (x, xd)`` by the system's route (the loop kernel, or the reduced solve)."""

@@ -17,7 +17,11 @@ class StateQuantities:
         """Constraint reactions (Lagrange multipliers) at a state.
 
         ``A xdd = f + psi^T lambda``; lambda is the minimum-norm solution
-        (unique for independent rows). A driver's row gives the torque or
+        (unique for independent rows). For loops closed by the articulated
+        strategy, in O(n m) with A and psi never formed
+        (:func:`~flexmb.kernels.loop_statics.loop_reactions`; redundant rows
+        then take the dense minimum-norm step, as the right-hand side's
+        reactions do). A driver's row gives the torque or
         force it supplies; a cut joint's point rows give the force it
         transmits to its parent body (inertial axes, N).
 
@@ -40,6 +44,8 @@ class StateQuantities:
             t, x, xd = self._state("System.reactions", t, x=x, xd=xd)
         else:
             t, x, xd, xdd = self._state("System.reactions", t, x=x, xd=xd, xdd=xdd)
+        if self._loop_kernel:  # A, psi never formed: O(n m) (kernels/loop_statics.py)
+            return self._loop_reactions(t, x, xd, xdd)
         eq = self._equations(t, x, xd)
         A, f, psi, gamma = eq.A, eq.f, eq.psi, eq.gamma
         if xdd is None:

@@ -147,7 +147,7 @@ class Rates:
 
             def apply(v):
                 if self._loop_kernel:
-                    z, _ = loop_newton(self._packed, self._loop_layout, x_plain, self._no_armature,
+                    z, *_ = loop_newton(self._packed, self._loop_layout, x_plain, self._no_armature,
                                        _plain(diag * np.ravel(v)), self._loop_tol, limit)
                     return z
                 z, _ = articulated_accelerations(topo.parent, topo.coord_start, spatial, Sw, Sv, r, zeros, zeros,

@@ -423,7 +423,7 @@ class LoopNewtonPreconditioner(NewtonPreconditioner):
         system = self.system
         E = gamma * self.stiffness + self.damping
         load = _plain(self.stiffness * self._displaced(r1) + E * r2)
-        v, status = loop_newton(system._packed, system._loop_layout, self._state, gamma * E, load, system._loop_tol,
+        v, _, _, status = loop_newton(system._packed, system._loop_layout, self._state, gamma * E, load, system._loop_tol,
                                 -1 if system.rank_limit is None else system.rank_limit)
         if status:
             raise AssemblyError("the Newton preconditioner of the loops is singular (a freedom without mass, "

@@ -105,7 +105,8 @@ def modes_rows(ns, k, repeats):
             row = {"bench": "loop_modes", "scene": scene, "N": n, "n": system.n_speeds, "k": k,
                    "p": system.dof(0.0, x), "default_path": "sparse" if n_sparse(system) else "dense",
                    "cpu_dense_s": d[0], "cpu_sparse_s": s[0], "speedup": d[0] / s[0],
-                   "solves_dense": d[1], "solves_sparse": s[1], "peak_dense_MB": d[2] / 1e6, "peak_sparse_MB": s[2] / 1e6,
+                   "solves_dense": d[1], "solves_sparse": s[1],
+                   "peak_dense_MB": d[2] / 1e6, "peak_sparse_MB": s[2] / 1e6,
                    "w2_dense": d[3].tolist(), "w2_sparse": s[3].tolist(),
                    "w2_difference_rel": float(np.max(np.abs(d[3] - s[3]))) / scale, "repeats": repeats}
             rows.append(row)
@@ -159,7 +160,8 @@ def memory_one(n, t_end):
     peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
     hwm = _hwm_kb()[0]
-    return {"bench": "loop_memory", "scene": "B6 damped", "N": n, "t_end_s": t_end, "rss_peak_MB": hwm / 1e3, "n": system.n_speeds, "m": system.n_constraints,
+    return {"bench": "loop_memory", "scene": "B6 damped", "N": n, "t_end_s": t_end, "rss_peak_MB": hwm / 1e3,
+            "n": system.n_speeds, "m": system.n_constraints,
             "cpu_s": cpu, "tracemalloc_peak_MB": peak / 1e6, "rss_peak_over_start_MB": (hwm - rss0) / 1e3,
             "estimate_MB": memory.estimate(system, 5, loops="articulated") / 1e6,
             "eight_n_squared_MB": 8 * system.n_speeds ** 2 / 1e6}

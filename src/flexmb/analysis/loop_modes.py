@@ -141,7 +141,7 @@ class LoopModes:
             If the constrained matrix is singular.
         """
         s = self.system
-        v, status = loop_newton(s._packed, s._loop_layout, self.x0, _plain(armature), _plain(load), s._loop_tol,
+        v, _, _, status = loop_newton(s._packed, s._loop_layout, self.x0, _plain(armature), _plain(load), s._loop_tol,
                                 self._limit)
         self.n_solves += 1
         if status:

@@ -1,185 +1,215 @@
-"""The direct CVODE prototype (benchmarks/sundials_direct.py, cvode_callbacks.py) drives CVODE as flexmb does.
+"""CVODE stepped in compiled code (flexmb.integrators.cvode_direct) runs open trees as scikit-sundae's CVODE did.
 
-Independent of its timing (benchmarks/cvode_direct.py): with flexmb's own
-Jacobian called from Python, or with the Newton preconditioner, the ctypes
-loop must take exactly the steps, right-hand sides and Jacobians of
-``simulate(..., method="CVODE_BDF")`` through scikit-sundae and end in the
-same state; the compiled Jacobian must equal ``System.state_jacobian``; a
-failure must be a clear error; and the memory must be freed once.
-Slow: the C callbacks compile on first use (about 40 s).
+``simulate(..., method="CVODE_BDF")`` (and ``"CVODE_Adams"``) on an open tree
+whose force elements are all compiled now steps CVODE in compiled code.
+The old results are the test: scikit-sundae's path (selected here by
+patching :func:`~flexmb.integrators.cvode_direct.compiled_loop` to return
+None, as for the models it does not cover) must give the same counts and
+states to 1e-10; what ``simulate()`` does around the steps (the monitor,
+signals, non-finite states, the winding offsets, max_step, t_eval,
+max_steps) still happens.
 """
 
 from __future__ import annotations
 
 import os
+import signal
 import sys
+import time
 
 import numpy as np
 import pytest
 
 import flexmb as fm
+from flexmb.integrators import cvode_direct
+from flexmb.integrators.cvode_library import NEEDED, libraries
 
 BENCH = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "benchmarks")
 sys.path.insert(0, BENCH)
 
-pytestmark = pytest.mark.slow
-
 scenes = pytest.importorskip("scenes")
 
 
-@pytest.fixture(scope="module")
-def direct():
-    import sundials_direct
-
-    return sundials_direct
+def _sksundae(monkeypatch):
+    """Make simulate() take scikit-sundae's CVODE (main's path) for every model."""
+    monkeypatch.setattr(cvode_direct, "compiled_loop", lambda *args: None)
 
 
-def _simulate(system, rtol):
-    res = fm.simulate(system, 1.0, method="CVODE_BDF", rtol=rtol, atol=rtol / 100, n_out=2, progress=False)
-    assert res.status == "finished"
-    return res, np.concatenate([res.x[0], res.xd[0]]), np.concatenate([res.x[-1], res.xd[-1]])
+def _final(res):
+    return np.concatenate([res.x[-1], res.xd[-1]])
 
 
-def _run(direct, system, y0, rtol, **kw):
+def _direct(system, y0, rtol, **kw):
     from flexmb.integrators.monitor import ResolutionMonitor
 
     mon = ResolutionMonitor(system, 0.0, 1.0, rtol, rtol / 100, "CVODE_BDF")
-    with direct.DirectCVODE(system, y0, 0.0, 1.0, rtol=rtol, atol=rtol / 100, monitor=mon, **kw) as cv:
+    with cvode_direct.DirectCVODEBDF(None, 0.0, y0, 1.0, rtol=rtol, atol=rtol / 100, system=system, monitor=mon,
+                                     **kw) as cv:
         y1 = cv.advance(1.0)
         stats = cv.stats()
     return y1, stats, mon
 
 
-def test_libraries_found_without_importing_sksundae(direct):
-    info = direct.libraries()
-    assert set(info["paths"]) == set(direct.NEEDED)
+def test_libraries_found_without_importing_sksundae():
+    info = libraries()
+    assert set(info["paths"]) == set(NEEDED)
     assert all(os.path.exists(p) for p in info["paths"].values())
     assert info["version"].startswith("7.")
 
 
-def test_same_steps_as_simulate_with_flexmb_jacobian(direct):
+def test_simulate_steps_in_compiled_code_on_open_trees():
+    system = scenes.b1(4).build()
+    res = fm.simulate(system, 0.1, method="CVODE_BDF", n_out=3, progress=False)
+    assert res.status == "finished" and res.method == "CVODE_BDF"
+    assert cvode_direct.compiled_loop(system, fm.registry.get("integrators", "CVODE_BDF"), False, None) \
+        is cvode_direct.DirectCVODEBDF
+    assert cvode_direct.compiled_loop(system, fm.registry.get("integrators", "CVODE_BDF"), True, None) is None
+    assert cvode_direct.compiled_loop(system, fm.registry.get("integrators", "IDA"), False, None) is None
+
+
+@pytest.mark.parametrize("method", ["CVODE_BDF", "CVODE_Adams"])
+def test_dense_runs_are_sksundae_runs(monkeypatch, method):
+    """Below KRYLOV_MIN_COORDS (dense LU, flexmb's Jacobian from Python) the compiled loop takes scikit-sundae's very
+    steps, right-hand sides and Jacobians, and ends in its states (B1 N = 8 at the robust rtol, and tight)."""
     system = scenes.b1(8).build()
-    res, y0, y_end = _simulate(system, 2e-5)
-    y1, stats, mon = _run(direct, system, y0, 2e-5,
-                          jacobian=lambda t, y: system.state_jacobian(t, *system.layout.split(y)))
-    assert (stats["steps"], stats["rhs"], stats["jac"]) == (res.n_steps, res.n_rhs, res.n_jac)
-    assert stats["rhs"] == stats["rhs_cvode"] + stats["rhs_ls"]
-    assert np.max(np.abs(y1 - y_end)) <= 1e-10
-    assert mon.n_steps == res.n_steps  # every step reached the resolution monitor
+    for rtol in (2e-5, 1e-10):
+        kw = dict(method=method, rtol=rtol, atol=rtol / 100, n_out=11, progress=False)
+        with monkeypatch.context() as m:
+            _sksundae(m)
+            old = fm.simulate(system, 0.5, **kw)
+        new = fm.simulate(system, 0.5, **kw)
+        assert (new.n_steps, new.n_rhs, new.n_jac) == (old.n_steps, old.n_rhs, old.n_jac) and new.n_jac > 0
+        assert np.max(np.abs(new.x - old.x)) <= 1e-10 and np.max(np.abs(new.xd - old.xd)) <= 1e-10
 
 
-def test_python_callbacks_take_the_same_steps_and_raise_through(direct):
+def test_monitor_gets_every_step():
     system = scenes.b1(8).build()
-    res, y0, y_end = _simulate(system, 1e-6)
-    jac = lambda t, y: system.state_jacobian(t, *system.layout.split(y))  # noqa: E731
-    y1, stats, _ = _run(direct, system, y0, 1e-6, rhs=system._state_rate, jacobian=jac)
-    assert (stats["steps"], stats["rhs"], stats["jac"]) == (res.n_steps, res.n_rhs, res.n_jac)
-    assert np.max(np.abs(y1 - y_end)) <= 1e-10
-
-    def failing(t, y):
-        if t > 0.5:
-            raise ZeroDivisionError("a plugin's load failed")
-        return system._state_rate(t, y)
-
-    with pytest.raises(ZeroDivisionError, match="plugin"):
-        _run(direct, system, y0, 1e-6, rhs=failing, jacobian=jac)
+    y0 = np.zeros(2 * system.n_speeds)
+    y1, stats, mon = _direct(system, y0, 2e-5,
+                             jacobian=lambda t, y: system.state_jacobian(t, *system.layout.split(y)))
+    assert mon.n_steps == stats["steps"] > 500  # CHECK_STEPS = 100: checkpoints at 100, 200, 400
+    assert stats["rhs"] == stats["rhs_cvode"] + stats["rhs_ls"] and stats["jac"] > 0
 
 
-def test_paused_calls_take_the_same_steps(direct, monkeypatch):
+def test_paused_calls_take_the_same_steps(monkeypatch):
     system = scenes.b1(8).build()
-    res, y0, y_end = _simulate(system, 1e-6)
-    monkeypatch.setattr(direct, "STEPS_PER_CALL", 7)  # back in Python every 7 steps (signals handled there)
-    jac = lambda t, y: system.state_jacobian(t, *system.layout.split(y))  # noqa: E731
-    y1, stats, mon = _run(direct, system, y0, 1e-6, jacobian=jac)
-    assert (stats["steps"], stats["rhs"], stats["jac"]) == (res.n_steps, res.n_rhs, res.n_jac)
-    assert mon.n_steps == res.n_steps
-    assert np.max(np.abs(y1 - y_end)) <= 1e-10
+    res = fm.simulate(system, 1.0, method="CVODE_BDF", rtol=1e-6, n_out=5, progress=False)
+    monkeypatch.setattr(cvode_direct, "STEPS_PER_CALL", 7)  # back in Python every 7 steps (signals handled there)
+    few = fm.simulate(system, 1.0, method="CVODE_BDF", rtol=1e-6, n_out=5, progress=False)
+    assert (few.n_steps, few.n_rhs, few.n_jac) == (res.n_steps, res.n_rhs, res.n_jac)
+    assert np.max(np.abs(few.x - res.x)) == 0.0 and np.max(np.abs(few.xd - res.xd)) == 0.0
 
 
-def test_a_signal_stops_a_long_interval(direct):
-    import signal
-    import time
+@pytest.mark.parametrize("n_segments", [16, 24])
+def test_krylov_runs_are_sksundae_runs(monkeypatch, n_segments):
+    """From KRYLOV_MIN_COORDS on (B2 N = 16: 48 coordinates) the compiled preconditioner takes scikit-sundae's
+    steps, right-hand sides and set-ups, and ends in its state, at every output."""
+    system = scenes.b2(n_segments).build()
+    with monkeypatch.context() as m:
+        _sksundae(m)
+        old = fm.simulate(system, 0.2, method="CVODE_BDF", rtol=1e-5, atol=1e-7, n_out=5, progress=False)
+    new = fm.simulate(system, 0.2, method="CVODE_BDF", rtol=1e-5, atol=1e-7, n_out=5, progress=False)
+    assert (new.n_steps, new.n_rhs, new.n_jac) == (old.n_steps, old.n_rhs, old.n_jac) and new.n_jac > 0
+    assert np.max(np.abs(new.x - old.x)) <= 1e-10 and np.max(np.abs(new.xd - old.xd)) <= 1e-10
 
+
+def _spinning_pendulum():
+    model = fm.Model("pendulum")
+    bar = fm.RigidBody("bar", 1.0, (0.01, 0.1, 0.1), (0.5, 0.0, 0.0))
+    model.add(fm.Revolute("pin", model.ground, bar, axis=(0, 0, 1)), fm.Gravity((0.0, -9.81, 0.0)))
+    return model.build()
+
+
+def test_winding_angles_move_their_offsets_as_before(monkeypatch):
+    """A pendulum spinning over its top (angle coordinates, compiled gravity): its offsets move after the same steps
+    as on scikit-sundae's path, and the runs agree."""
+    system = _spinning_pendulum()
+    kw = dict(speeds={"pin": 12.0}, rtol=1e-10, atol=1e-12, n_out=21, progress=False)
+    with monkeypatch.context() as m:
+        _sksundae(m)
+        old = fm.simulate(system, 5.0, method="CVODE_BDF", **kw)
+    new = fm.simulate(system, 5.0, method="CVODE_BDF", **kw)
+    assert new.n_rebases == old.n_rebases >= 3 and (new.n_steps, new.n_rhs) == (old.n_steps, old.n_rhs)
+    assert np.max(np.abs(new.x - old.x)) <= 1e-10 and abs(new.x[-1, 0]) > 6 * np.pi
+
+
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")
+def test_non_finite_state_stops_with_time_and_cause(monkeypatch):
+    """A state whose rates overflow stops the run at once, with flexmb's diagnosis of it, as on scikit-sundae's path."""
+    system = scenes.b1(4).build()
+    y0 = np.zeros(2 * system.n_speeds)
+    y0[1] = np.nan
+    with pytest.raises(fm.AssemblyError, match=r"non-finite"):
+        _direct(system, y0, 1e-6)
+    model = scenes.b1(4)
+    model.add(fm.PointForce("push", "beam", (0.0, 0.0, -1e300), point=(1.0, 0.0, 0.0)))  # accelerations overflow
+    system = model.build()
+    kw = dict(method="CVODE_BDF", progress=False)
+    with monkeypatch.context() as m:
+        _sksundae(m)
+        with pytest.raises(fm.SimulationError) as old:
+            fm.simulate(system, 1.0, **kw)
+    with pytest.raises(fm.SimulationError, match=r"at t = 0 s: force element 'push' .* non-finite") as new:
+        fm.simulate(system, 1.0, **kw)
+    assert str(new.value) == str(old.value) and new.value.t == old.value.t
+    assert new.value.result.status == "failed"
+
+
+def test_a_signal_stops_a_long_interval():
     system = scenes.b1(8).build()
 
     def interrupt(signum, frame):
         raise KeyboardInterrupt
 
     old = signal.signal(signal.SIGALRM, interrupt)
-    cv = direct.DirectCVODE(system, np.zeros(2 * system.n_speeds), 0.0, 1e5, rtol=1e-8, atol=1e-10)
     try:
-        signal.setitimer(signal.ITIMER_REAL, 0.2)
+        signal.setitimer(signal.ITIMER_REAL, 0.5)
         t0 = time.perf_counter()
-        with pytest.raises(KeyboardInterrupt):
-            cv.advance(1e5)  # millions of steps: minutes, were it not for the paused calls
-        assert time.perf_counter() - t0 < 10.0
-        assert 0.0 < cv.t < 1e5
+        res = fm.simulate(system, 1e5, method="CVODE_BDF", rtol=1e-8, n_out=2, progress=False)
+        assert time.perf_counter() - t0 < 20.0  # millions of steps in one interval: minutes, were it not paused
+        assert res.status == "interrupted" and res.message.startswith("interrupted by") and res.n_steps > 0
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0.0)
         signal.signal(signal.SIGALRM, old)
-        cv.close()
 
 
-def test_same_steps_as_simulate_with_newton_preconditioner(direct):
-    system = scenes.b1(48).build()  # 48 coordinates: flexmb's GMRES with the O(n) preconditioner
-    res, y0, y_end = _simulate(system, 1e-5)
-    y1, stats, _ = _run(direct, system, y0, 1e-5, krylov=True)
-    assert (stats["steps"], stats["rhs"], stats["jac"]) == (res.n_steps, res.n_rhs, res.n_jac)
-    assert stats["lin_iters"] > 0
-    assert np.max(np.abs(y1 - y_end)) <= 1e-10
-
-
-@pytest.mark.parametrize("build", [lambda: scenes.b1(8), lambda: scenes.b2(4)])
-def test_compiled_jacobian_is_the_state_jacobian(build):
-    import cvode_callbacks as cb
-    from flexmb.system.tangent import NewtonPreconditioner
-
-    system = build().build()
-    n = system.n_speeds
-    K, C = NewtonPreconditioner.diagonal_terms(system)
-    rng = np.random.default_rng(3)
-    for _ in range(4):
-        y = np.concatenate([rng.normal(0.0, 0.05, n), rng.normal(0.0, 0.5, n)])
-        J, ok = cb.open_tree_jacobian(system._packed_open, y, K, C)
-        J_ref = system.state_jacobian(0.0, y[:n], y[n:])
-        assert ok
-        assert np.max(np.abs(J - J_ref)) <= 1e-12 * np.max(np.abs(J_ref))
-
-
-def test_compiled_jacobian_run_agrees_at_tight_tolerance(direct):
+def test_max_step_and_outputs_as_on_sksundae(monkeypatch):
+    """max_step bounds the steps, and t_eval's output times are CVODE's interpolant there, as on scikit-sundae."""
     system = scenes.b1(8).build()
-    _, y0, y_end = _simulate(system, 1e-10)
-    y1, _, _ = _run(direct, system, y0, 1e-10)
-    assert np.max(np.abs(y1 - y_end)) <= 1e-8
+    t_eval = np.linspace(0.0, 0.2, 7)
+    kw = dict(method="CVODE_BDF", rtol=1e-10, atol=1e-12, max_step=1e-3, t_eval=t_eval, progress=False)
+    with monkeypatch.context() as m:
+        _sksundae(m)
+        old = fm.simulate(system, 0.2, **kw)
+    new = fm.simulate(system, 0.2, **kw)
+    assert new.n_steps == old.n_steps >= 200
+    assert np.array_equal(new.t, t_eval) and np.array_equal(old.t, t_eval)
+    assert np.max(np.abs(new.x - old.x)) <= 1e-10 and np.max(np.abs(new.xd - old.xd)) <= 1e-10
 
 
-def test_non_finite_state_is_a_clear_error(direct):
+def test_max_steps_refuses_the_run_before_it_starts():
+    with pytest.raises(fm.ModelError, match="max_steps"):
+        fm.simulate(_spinning_pendulum(), 1e3, speeds={"pin": 1e3}, method="CVODE_BDF", max_steps=1e4,
+                    progress=False)
+
+
+def test_closed_once_and_refused_after():
     system = scenes.b1(4).build()
-    y0 = np.zeros(2 * system.n_speeds)
-    y0[1] = np.nan
-    with pytest.raises(direct.CVODEError, match=r"CV_FIRST_RHSFUNC_ERR.*non-finite"):
-        _run(direct, system, y0, 1e-6)
-
-
-def test_refuses_what_it_cannot_run(direct):
-    model = fm.Model("pendulum")
-    bar = fm.RigidBody("bar", 1.0, (0.1, 0.1, 0.1), (0.5, 0.0, 0.0))
-    model.add(fm.Revolute("pin", model.ground, bar, axis=(0, 0, 1)), fm.Gravity((0.0, -9.81, 0.0)))
-    system = model.build()
-    with pytest.raises(ValueError, match="angle coordinates"):
-        direct.DirectCVODE(system, np.zeros(2), 0.0, 1.0, rtol=1e-6, atol=1e-8)
-    model = scenes.b1(4)
-    model.add(fm.PointForce("push", "beam", (0.0, 0.0, -1.0), point=(1.0, 0.0, 0.0)))
-    system = model.build()
-    with pytest.raises(ValueError, match="point forces"):
-        direct.DirectCVODE(system, np.zeros(2 * system.n_speeds), 0.0, 1.0, rtol=1e-6, atol=1e-8)
-
-
-def test_closed_once_and_refused_after(direct):
-    system = scenes.b1(4).build()
-    cv = direct.DirectCVODE(system, np.zeros(2 * system.n_speeds), 0.0, 1.0, rtol=1e-6, atol=1e-8)
+    cv = cvode_direct.DirectCVODEBDF(None, 0.0, np.zeros(2 * system.n_speeds), 1.0, rtol=1e-6, atol=1e-8,
+                                     system=system)
     cv.advance(0.1)
     cv.close()
     cv.close()
-    with pytest.raises(direct.CVODEError, match="closed"):
+    with pytest.raises(cvode_direct.CVODEError, match="closed"):
         cv.advance(0.2)
+
+
+def test_callbacks_go_through_flexmbs_kernel_cache():
+    """The C callbacks' machine code is cached, and served, as the kernels' (flexmb.kernels.cache, prebuilt)."""
+    from flexmb.kernels import cvode_callbacks as cb
+    from flexmb.kernels.cache import KernelCache, sources_stamp
+
+    for callback in (cb.rhs, cb.psetup, cb.psolve):
+        assert callback.address
+        assert isinstance(callback._cf._cache, KernelCache)
+        assert callback._cf._cache._impl.locator.get_source_stamp() == sources_stamp()

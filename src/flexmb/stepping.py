@@ -38,6 +38,7 @@ from .gimbal import GimbalWatch
 from .errors import AssemblyError
 from .offset_preconditioner import OffsetPreconditioner
 from .output_projection import project_output
+from .own_loop import NonFinite, advance_between_stops, compiled_options
 from .progress import Progress
 from .result import Result
 
@@ -72,18 +73,6 @@ KRYLOV_MIN_COORDS = 48
 #: +-WINDING_BOUND keep a zero offset: those runs are unchanged.
 WINDING_PERIOD = 2.0 * np.pi
 WINDING_BOUND = 3.0 * np.pi
-
-
-class _Wound(Exception):
-    """An angle left the winding bound during :meth:`Run._advance` (the run moves the offsets and goes on)."""
-
-
-class NonFinite(Exception):
-    """The state or the integrator failed at time ``t`` (the run stops with status 'failed')."""
-
-    def __init__(self, t, what):
-        super().__init__(what)
-        self.t = t
 
 
 class Run:
@@ -133,6 +122,7 @@ class Run:
     def __init__(self, system, solver_cls, name, times, *, t0, t_end, rtol, atol, max_step, projection_tol,
                  track_work, progress, auto, contact_events=True):
         from .integrators import adapt, capabilities  # on first use: they import scipy.integrate
+        from .integrators.cvode_direct import compiled_loop
         from .integrators.monitor import ResolutionMonitor
 
         self.system = system
@@ -159,6 +149,9 @@ class Run:
                           else projection_tol if self.caps.cheap_restart
                           else max(projection_tol, min(RESTART_ATOL_FACTOR * atol, RESTART_TOL_MAX)))
         self.events = (ContactEvents.of(system, t0, t_end, self.caps.explicit, name) if contact_events else None)
+        direct = compiled_loop(system, self.solver_cls, track_work, self.events)
+        if direct is not None:  # CVODE stepped in compiled code (open trees with compiled force elements)
+            self.solver_cls, self.caps = direct, capabilities(direct)
         # an event needs the step that crossed it: the run steps the integrator itself then
         self.own_loop = self.caps.advances and not system.n_constraints and self.events is None
         self.angles = np.flatnonzero(system.topology.coord_angle)
@@ -259,6 +252,9 @@ class Run:
     def _set_options(self, x, xd) -> None:
         """What the integrator is given besides the rhs: a Jacobian or a preconditioner, the second-order size."""
         caps, system, n = self.caps, self.system, self.n
+        if getattr(self.solver_cls, "steps_in_compiled_code", False):
+            self.options = compiled_options(self, x, xd, KRYLOV_MIN_COORDS, WINDING_BOUND)
+            return
         if caps.needs_n_second:  # written for y = (x, xd, ...): given the layout when qd = W(q) u (GeneralizedAlpha)
             self.options["n_second"] = n
             if not system.layout.identity:
@@ -284,6 +280,8 @@ class Run:
         if events and "events" in options:  # the root functions rise through 0 where a contact's state changes
             g, m = options["events"]
             options = dict(options, events=(g, m, np.ones(m)))
+        if self.offset is not None and getattr(self.solver_cls, "steps_in_compiled_code", False):
+            options = dict(options, offset=self.offset)  # the winding offsets its callbacks add
         return self.solver_cls(self._fun, tstart, ystart, self.t_end if t_bound is None else t_bound,
                                rtol=self.rtol, atol=self.atol, max_step=self.max_step, first_step=first_step,
                                **options)
@@ -310,7 +308,7 @@ class Run:
             shift = self._winding(y)
             solver = self._make(self.t0, y if shift is None else y - shift)
             if self.own_loop:
-                self._advance(solver, bar)
+                advance_between_stops(self, solver, bar, WINDING_BOUND)
             else:
                 self._step(solver, bar)
             self.status, self.message = "finished", "reached t_end"
@@ -336,59 +334,6 @@ class Run:
             if self.events is not None:
                 self.events.finish()
         self.wall = _time.perf_counter() - t_wall
-
-    def _advance(self, solver, bar) -> None:
-        """Nothing to check or project after a step: the solver steps in its own loop between stops.
-
-        The stops are the output times (and each percent of the span when
-        showing progress).
-        """
-        times, t0 = self.times, self.t0
-        stops = times[self.k_out:]
-        if self.progress:
-            stops = np.union1d(stops, np.linspace(t0, self.t_end, 101)[1:])
-        monitor, angles, t_end, gimbal = self.monitor, self.angles, self.t_end, self.gimbal
-
-        def wound(solver):
-            if monitor is not None:
-                monitor.step(solver)
-            if gimbal is not None:
-                gimbal.check(solver.t, solver.y)
-            if solver.t < t_end and np.max(np.abs(solver.y[angles])) > WINDING_BOUND:
-                raise _Wound
-
-        # a callback after each step only where there is something to do (a Python call per step costs)
-        step = wound if len(angles) or gimbal is not None else (None if monitor is None else monitor.step)
-
-        done = 0  # steps of the solvers restarted before this one
-        for t_stop in stops:
-            y_stop = None
-            while y_stop is None and t_stop > self.t_now:
-                try:
-                    y_stop = solver.advance(t_stop, step)
-                except RuntimeError as exc:
-                    raise NonFinite(solver.t, f"the integrator failed: {exc}") from exc
-                except _Wound:  # at the end of a step: the outputs it passed, then the offsets move
-                    self.t_now = solver.t
-                    self._store(solver)
-                    moved = self._unwound(solver)
-                    if moved is not solver:
-                        done += solver.n_steps
-                        solver = moved
-                finally:
-                    self.n_steps = done + solver.n_steps
-            if y_stop is None:  # passed by the step after which the offsets moved, and stored then
-                bar.update_to(self.t_now - t0)
-                continue
-            if self.offset is not None:
-                y_stop = y_stop + self.offset
-            self.t_now = t_stop
-            if not np.all(np.isfinite(y_stop)):
-                raise NonFinite(self.t_now, "the state became non-finite")
-            if self.k_out < len(times) and times[self.k_out] == t_stop:
-                self.out_y.append(y_stop)
-                self.k_out += 1
-            bar.update_to(self.t_now - t0)
 
     def _step(self, solver, bar) -> None:
         """Step by step: check each step, store the outputs it passed, project a drifted state.

@@ -38,6 +38,7 @@ FAMILIES = {
     **dict.fromkeys(("equations", "constraints", "loops", "loop_layout", "loop_projection", "loop_statics", "reduced",
                      "constraint_matrix"), "loops"),
     "genalpha": "generalized-alpha",
+    "cvode_callbacks": "CVODE's compiled loop",
 }
 
 #: about how many seconds of CPU each family takes to compile (``benchmarks/cold_start.py`` on a 2-core machine,

@@ -1,36 +1,33 @@
-"""CVODE's callbacks for an open tree as numba C callbacks, and CVODE's step loop compiled (issue 31 prototype).
+"""CVODE's callbacks for an open tree as C functions, and CVODE's step loop between two output times, compiled.
 
-The right-hand side, the dense Jacobian and the Newton preconditioner of an
-open tree whose joints and force elements are all compiled (the models whose
-``System._packed_open`` is set: B1, B2) are C functions that CVODE calls
-directly (``numba.cfunc``). They call flexmb's own kernels
+The right-hand side and the O(n) Newton preconditioner of an open tree whose joints and force elements are all compiled (a model whose
+``System._packed_open`` is set) are C functions that CVODE calls directly
+(``numba.cfunc``): they call the kernels of the other modules
 (:func:`~flexmb.kernels.articulated.open_tree_rhs`, the articulated-body
-solves, the geometric stiffness) on the model's packed arrays. The model
+solves) on the model's packed arrays. (A dense Jacobian is flexmb's own
+``System.state_jacobian``, called from Python a few times per run: one
+implementation of it.) The model
 reaches them only through CVODE's ``user_data``: a pointer to an int64
-array (the slots ``A_GETPTR`` ... below) holding the addresses and sizes of the packed buffers,
-of the diagonal springs and dampers, of the preconditioner's work arrays
-and of SUNDIALS' ``N_VGetArrayPointer`` and ``SUNDenseMatrix_Data`` (called
-through their addresses). The callbacks' signatures therefore do not depend
-on the model: they compile once per installation, and their machine code
-is cached (:class:`_Cache`, stamped with flexmb's kernel sources and this
-file, loaded without numba's compiler registries as flexmb's kernels are).
+array (the slots ``A_GETPTR`` ... below) holding the addresses and sizes of
+the packed buffers, of the diagonal springs and dampers, of the winding
+offsets, of the preconditioner's work arrays, and of SUNDIALS'
+``N_VGetArrayPointer`` (called through its address). Their signatures therefore do not depend on the model: they
+compile once per installation, and their machine code goes through
+flexmb's kernel cache (:class:`~flexmb.kernels.cache.KernelCache`: the
+shipped entries first, the whole-source stamp).
 
-:func:`advance` is CVODE's step loop between two output times, compiled:
-``CVode(..., CV_ONE_STEP)`` called through its address until the output time
-is passed, then ``CVodeGetDky`` there (what flexmb's ``CVODE.advance`` does
-one Python call per step). It returns to Python only at the output time, at
-a checkpoint of flexmb's resolution monitor (the steps' times recorded in
-between), after a budget of steps (so that Ctrl-C and other signals are
-handled while a long interval runs), or on a CVODE failure.
-
-This is a benchmark's prototype, not part of flexmb.
+:func:`advance` is CVODE's step loop between two output times:
+``CVode(..., CV_ONE_STEP)`` called through its address until the output
+time is passed, then ``CVodeGetDky`` there. It returns to Python only at
+the output time, at a checkpoint of the resolution monitor (the steps'
+times recorded in between), when a watched angle leaves its winding bound
+or a joint in Bryant angles nears gimbal lock (the checks flexmb's step
+loop makes after every step, made here in compiled code), after a budget of
+steps (so that Ctrl-C and other signals are handled while a long interval
+runs), or on a CVODE failure (its flag).
 """
 
 from __future__ import annotations
-
-import functools
-import hashlib
-import os
 
 import numpy as np
 from llvmlite import ir
@@ -39,59 +36,38 @@ from numba.core import cgutils, sigutils
 from numba.core.ccallback import CFunc
 from numba.extending import intrinsic
 
-from flexmb.kernels import cache as _kc
-from flexmb.kernels.articulated import articulated_accelerations, mass_times, open_tree_accelerations, \
-    open_tree_rhs, solve_spd
-from flexmb.kernels.dynamics import composite_inertias, mass_matrix, spatial_inertias
-from flexmb.kernels.loads import apply_load_tables
-from flexmb.kernels.packing import unpack
-from flexmb.kernels.tangent import geometric_stiffness
-from flexmb.kernels.tree import tree_state
+from .articulated import articulated_accelerations, mass_times, open_tree_rhs
+from .cache import KernelCache, njit
+from .dynamics import spatial_inertias
+from .packing import unpack
+from .tree import tree_state
 
-#: slots of the user_data array (int64): addresses (A_*), sizes and counters
-(A_GETPTR, A_MATDATA, N, M, A_FL, N_FL, A_IT, N_IT, A_FG, N_FG, A_IX, N_IX, A_K, A_C, A_SPATIAL, A_SW, A_SV, A_R, NB,
- SETUPS, JACS, RHS, STATUS, A_FAIL_T, NONFINITE_FLAG) = range(25)
-UD_SIZE = 25
+__all__ = ["rhs", "psetup", "psolve", "advance", "UD_SIZE", "REACHED", "CHECKPOINT", "PAUSED", "WATCH"]
+
+#: slots of the user_data array (int64): addresses (A_*), sizes, counters, the failure's status
+(A_GETPTR, N, M, A_FL, N_FL, A_IT, N_IT, A_FG, N_FG, A_IX, N_IX, A_K, A_C, A_SPATIAL, A_SW, A_SV, A_R, NB,
+ SETUPS, JACS, RHS, STATUS, A_FAIL_T, NONFINITE_FLAG, A_OFFSET, HAS_OFFSET, A_FAIL_Y) = range(27)
+UD_SIZE = 27
 #: the loop's return codes (CVODE's negative flags pass through)
-REACHED, CHECKPOINT, PAUSED = 0, 1, 2
-
-
-# ----------------------------------------------------------------------------- the cache
-
-@functools.lru_cache(maxsize=None)
-def _own_stamp() -> str:
-    with open(os.path.abspath(__file__), "rb") as f:
-        return hashlib.sha256(f.read()).hexdigest()
-
-
-class _Stamp:
-    def get_source_stamp(self):
-        return (_kc.sources_stamp(), _own_stamp())
-
-
-class _Impl(_kc._KernelCacheImpl):
-    _locator_classes = [type(c.__name__, (_Stamp, c), {}) for c in _kc._KernelCacheImpl._locator_classes]
-
-
-class _Cache(_kc.KernelCache):
-    """flexmb's kernel cache, stamped with the kernels' sources and this file's."""
-
-    _impl_class = _Impl
+REACHED, CHECKPOINT, PAUSED, WATCH = 0, 1, 2, 3
+#: the status of a failed callback when it is not a joint's index
+NONFINITE = -2
 
 
 class _LazyCFunc:
-    """A numba C callback compiled (or loaded from the cache) when its address is first asked for."""
+    """A C callback compiled (or loaded from flexmb's kernel cache) when its address is first asked for."""
 
     def __init__(self, func, sig):
         self._func, self._sig, self._cf = func, sig, None
         self.__doc__ = func.__doc__
+        self.__wrapped__ = func
 
     @property
     def address(self) -> int:
-        """The callback's address (loading its machine code on first use)."""
+        """The callback's address (its machine code loaded or compiled on first use)."""
         if self._cf is None:
             cf = CFunc(self._func, sigutils.normalize_signature(self._sig), locals={}, options={"nopython": True})
-            cf._cache = _Cache(self._func)
+            cf._cache = KernelCache(self._func)
             cf.compile()
             self._cf = cf
         return self._cf.address
@@ -99,14 +75,6 @@ class _LazyCFunc:
 
 def _cfunc(sig):
     return lambda func: _LazyCFunc(func, sig)
-
-
-def _cached_njit(func):
-    import numba
-
-    dispatcher = numba.njit(func)
-    dispatcher._cache = _Cache(dispatcher.py_func)
-    return dispatcher
 
 
 # ----------------------------------------------------------------------------- raw pointers
@@ -121,7 +89,7 @@ def _voidp(typingctx, addr):
 
 @intrinsic
 def _call_p_p(typingctx, fn, arg):
-    """``((void* (*)(void*)) fn)(arg)``: N_VGetArrayPointer, SUNDenseMatrix_Data."""
+    """``((void* (*)(void*)) fn)(arg)``: N_VGetArrayPointer."""
     def codegen(context, builder, sig, args):
         fnty = ir.FunctionType(cgutils.voidptr_t, [cgutils.voidptr_t])
         return builder.call(builder.inttoptr(args[0], fnty.as_pointer()), [args[1]])
@@ -154,23 +122,32 @@ def _call_dky(typingctx, fn, mem, t, k, dky):
 
 # ----------------------------------------------------------------------------- the model from user_data
 
-@_cached_njit
+@njit(cache=True)
 def _ud(user_data):
     return carray(user_data, (UD_SIZE,), np.int64)
 
 
-@_cached_njit
+@njit(cache=True)
 def _floats(addr, n):
     return carray(_voidp(addr), (n,), np.float64)
 
 
-@_cached_njit
+@njit(cache=True)
 def _vector(ud, v, m):
     """The data of the N_Vector ``v`` (``N_VGetArrayPointer``), length m."""
     return carray(_call_p_p(ud[A_GETPTR], v), (m,), np.float64)
 
 
-@_cached_njit
+@njit(cache=True)
+def _state(ud, v, m):
+    """The true state ``y = z + c`` of the integrator's ``z`` (the N_Vector ``v``; c: the winding offsets)."""
+    z = _vector(ud, v, m)
+    if not ud[HAS_OFFSET]:
+        return z
+    return z + _floats(ud[A_OFFSET], m)
+
+
+@njit(cache=True)
 def _packed(ud):
     fl = carray(_voidp(ud[A_FL]), (ud[N_FL],), np.float64)
     it = carray(_voidp(ud[A_IT]), (ud[N_IT],), np.int64)
@@ -179,11 +156,12 @@ def _packed(ud):
     return fl, it, fg, ix
 
 
-@_cached_njit
-def _fail(ud, status, t, flag):
-    """Record why a callback failed (its status, the time) and return CVODE's flag for it."""
+@njit(cache=True)
+def _fail(ud, status, t, y, flag):
+    """Record why a callback failed (its status, the time, the true state) and return CVODE's flag for it."""
     ud[STATUS] = status
     _floats(ud[A_FAIL_T], 1)[0] = t
+    _floats(ud[A_FAIL_Y], ud[M])[:] = y
     return flag
 
 
@@ -191,13 +169,13 @@ def _fail(ud, status, t, flag):
 
 @_cfunc(types.int32(types.float64, types.voidptr, types.voidptr, types.voidptr))
 def rhs(t, y, ydot, user_data):
-    """CVRhsFn: ``ydot = (xd, xdd)`` by open_tree_rhs; NONFINITE_FLAG if not finite, -1 if singular."""
+    """CVRhsFn: ``ydot = (xd, xdd)`` by open_tree_rhs; NONFINITE_FLAG if not finite, -1 if a joint is singular."""
     ud = _ud(user_data)
     n, m = ud[N], ud[M]
-    yv = _vector(ud, y, m)
+    yv = _state(ud, y, m)
     out = _vector(ud, ydot, m)
     ud[RHS] += 1
-    rate, status = open_tree_rhs(_packed(ud), yv, np.zeros(n))
+    rate, status = open_tree_rhs(_packed(ud), yv, n, np.zeros(n))
     for i in range(2 * n):
         out[i] = rate[i]
     for i in range(2 * n, m):  # states nothing depends on
@@ -205,72 +183,8 @@ def rhs(t, y, ydot, user_data):
     if status == -1:
         return 0
     if status >= 0 and np.all(np.isfinite(yv)):  # a joint whose articulated inertia is singular
-        return _fail(ud, status, t, -1)
-    return _fail(ud, -2, t, ud[NONFINITE_FLAG])  # not finite (a non-finite state breaks the solve too)
-
-
-@_cached_njit
-def open_tree_jacobian(packed, y, K, C):
-    """The state Jacobian ``[[0, I], [A^-1 (G - K), -A^-1 C]]`` of an open tree with diagonal springs and dampers.
-
-    ``System.state_jacobian`` of a model whose coordinate terms are the
-    diagonal K and C (no point forces, no pair or velocity tangents): A by
-    composite inertias, G by the geometric stiffness of the compiled loads
-    and of the inertia forces of the accelerations, ``A^-1`` by Cholesky.
-    Returns the (2n, 2n) matrix and False if A is not positive definite.
-    """
-    tree, tables, _ = unpack(packed)
-    n = K.shape[0]
-    x = y[:n]
-    xd = y[n : 2 * n]
-    R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = tree_state(tree, x, xd)
-    nb1 = R.shape[0]
-    force = np.zeros((nb1, 3))
-    torque = np.zeros((nb1, 3))
-    generalized = np.zeros(n)
-    apply_load_tables(tables, tree.mass, R, origin, r, omega, v, x, xd, force, torque, generalized, np.zeros(0))
-    xdd, bad = open_tree_accelerations(tree.parent, tree.coord_start, R, r, omega, alpha, acc, tree.mass,
-                                       tree.inertia, Sw, Sv, force, torque, generalized, np.zeros(n))
-    Iw, spatial = spatial_inertias(R, r, tree.mass, tree.inertia)
-    IC = composite_inertias(tree.parent, spatial)
-    A = mass_matrix(tree.parent, tree.coord_start, tree.coord_body, IC, Sw, Sv)
-    G = geometric_stiffness(tree.parent, tree.coord_start, tree.coord_body, Sw, Sv, xdd, r, omega, v, alpha, acc,
-                            Iw, tree.mass, IC, force, torque)
-    X = np.zeros((n, 2 * n))
-    for i in range(n):
-        for j in range(n):
-            X[i, j] = G[i, j]
-        X[i, i] -= K[i]
-        X[i, n + i] = -C[i]
-    Y = np.empty((n, 2 * n))
-    J = np.zeros((2 * n, 2 * n))
-    ok = solve_spd(A, X, Y)
-    for i in range(n):
-        J[i, n + i] = 1.0
-        for j in range(2 * n):
-            J[n + i, j] = Y[i, j]
-    return J, ok
-
-
-@_cfunc(types.int32(types.float64, types.voidptr, types.voidptr, types.voidptr, types.voidptr, types.voidptr,
-                    types.voidptr, types.voidptr))
-def jac(t, y, fy, Jmat, user_data, tmp1, tmp2, tmp3):
-    """CVLsJacFn: the dense state Jacobian (column-major, SUNDenseMatrix_Data); 1 if not finite, -1 if singular."""
-    ud = _ud(user_data)
-    n, m = ud[N], ud[M]
-    yv = _vector(ud, y, m)
-    ud[JACS] += 1
-    J, ok = open_tree_jacobian(_packed(ud), yv, _floats(ud[A_K], n), _floats(ud[A_C], n))
-    if not ok:
-        return _fail(ud, -3, t, -1)
-    data = carray(_call_p_p(ud[A_MATDATA], Jmat), (m * m,), np.float64)
-    finite = True
-    for j in range(m):
-        for i in range(m):
-            value = J[i, j] if i < 2 * n and j < 2 * n else 0.0
-            data[i + j * m] = value
-            finite = finite and np.isfinite(value)
-    return 0 if finite else _fail(ud, -2, t, 1)
+        return _fail(ud, status, t, yv, -1)
+    return _fail(ud, NONFINITE, t, yv, ud[NONFINITE_FLAG])  # not finite (a non-finite state breaks the solve too)
 
 
 @_cfunc(types.int32(types.float64, types.voidptr, types.voidptr, types.int32, types.voidptr, types.float64,
@@ -283,7 +197,7 @@ def psetup(t, y, fy, jok, jcur, gamma, user_data):
         flag[0] = 0
         return 0
     n, m, nb = ud[N], ud[M], ud[NB]
-    yv = _vector(ud, y, m)
+    yv = _state(ud, y, m)
     tree, _, _ = unpack(_packed(ud))
     R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = tree_state(tree, yv[:n], yv[n : 2 * n])
     Iw, spatial = spatial_inertias(R, r, tree.mass, tree.inertia)
@@ -318,7 +232,7 @@ def psolve(t, y, fy, rv, zv, gamma, delta, lr, user_data):
     z2, bad = articulated_accelerations(tree.parent, tree.coord_start, spatial, Sw, Sv, centres, zeros, zeros, rhs_,
                                         armature)
     if bad >= 0:
-        return _fail(ud, bad, t, -1)
+        return _fail(ud, bad, t, _state(ud, y, m), -1)
     for i in range(n):
         z[i] = r1[i] + gamma * z2[i]
         z[n + i] = z2[i]
@@ -329,8 +243,20 @@ def psolve(t, y, fy, rv, zv, gamma, delta, lr, user_data):
 
 # ----------------------------------------------------------------------------- the step loop
 
-@_cached_njit
-def advance(lp, t_stop, t_bound, steps, budget):
+@njit(cache=True)
+def _watched(y, angles, bound, gimbal, limit):
+    """Whether an angle of ``y`` is farther than ``bound`` from zero or a ``gimbal`` angle has ``|cos| < limit``."""
+    for i in angles:
+        if abs(y[i]) > bound:
+            return True
+    for i in gimbal:
+        if abs(np.cos(y[i])) < limit:
+            return True
+    return False
+
+
+@njit(cache=True)
+def advance(lp, t_stop, t_bound, steps, budget, angles, bound, gimbal, limit):
     """Step CVODE (``CV_ONE_STEP``) until ``t_stop``; the state there in the output vector.
 
     Parameters
@@ -345,12 +271,22 @@ def advance(lp, t_stop, t_bound, steps, budget):
         full (length 0: none recorded).
     budget : int
         Steps after which the loop returns PAUSED, so that Python handles signals (Ctrl-C) meanwhile.
+    angles : ndarray of int64
+        The winding angles: the loop returns WATCH after a step ending before ``t_bound`` with one of them
+        farther than ``bound`` from zero (flexmb.stepping's winding offsets move then).
+    bound : float
+        Their bound, rad.
+    gimbal : ndarray of int64
+        The ``ry`` of joints in Bryant angles: the loop returns WATCH after a step ending with
+        ``|cos ry| < limit`` for one of them (flexmb.gimbal).
+    limit : float
+        Their limit.
 
     Returns
     -------
     code : int
-        REACHED (the state at ``t_stop`` is in the output vector), CHECKPOINT, PAUSED, or CVODE's flag
-        (< 0).
+        REACHED (the state at ``t_stop`` is in the output vector), CHECKPOINT, PAUSED, WATCH, or CVODE's
+        flag (< 0).
     n_steps : int
         Steps taken in this call.
     """
@@ -364,12 +300,15 @@ def advance(lp, t_stop, t_bound, steps, budget):
         if flag < 0:
             return flag, k
         t_new = tret[0]
-        if t_new == tn:
+        if t_new == tn:  # after an interpolated output behind its time, one-step mode returns that time again
             continue
         if k < cap:
             steps[k] = t_new
         k += 1
         tn = t_new
+        if (len(angles) and tn < t_bound or len(gimbal)) and _watched(y, angles if tn < t_bound else angles[:0],
+                                                                      bound, gimbal, limit):
+            return WATCH, k
         if k == cap and tn < t_stop:
             return CHECKPOINT, k
         if k == budget and tn < t_stop:

@@ -1,0 +1,484 @@
+"""CVODE stepped in compiled code between output times: the ``CVODE_BDF`` and ``CVODE_Adams`` of open trees.
+
+For an open tree whose joints and force elements are all compiled
+(``System._packed_open``), whose coordinates are their speeds' integrals
+(``qd = u``), and whose run tracks no work and locates no contact events,
+:func:`compiled_loop` replaces scikit-sundae's :class:`~flexmb.integrators.CVODE`
+by :class:`DirectCVODE`: CVODE called directly through ctypes
+(:mod:`~flexmb.integrators.cvode_library`), the right-hand side and the
+O(n) Newton preconditioner as compiled C callbacks
+(:mod:`flexmb.kernels.cvode_callbacks`), and CVODE's step loop between two
+output times compiled (:func:`~flexmb.kernels.cvode_callbacks.advance`):
+one Python call per output time instead of one per step and per
+evaluation. A dense Jacobian (below ``KRYLOV_MIN_COORDS`` coordinates) is
+flexmb's own ``System.state_jacobian``, called from Python through a ctypes
+callback (CVODE evaluates it a few times per run). CVODE is given the
+options scikit-sundae gives it for flexmb: the runs take scikit-sundae's
+very steps and end in its states (tests/test_cvode_direct.py).
+
+What flexmb's step loop does after every step is done where the compiled
+loop returns: the resolution monitor receives the steps' sizes at its
+checkpoints (the loop returns there), and the winding angles and the
+gimbal watch are checked in the loop itself, which returns to Python when
+one needs acting on. The loop also returns every :data:`STEPS_PER_CALL`
+steps, so that Ctrl-C and other signals are handled within a long interval.
+"""
+
+from __future__ import annotations
+
+import ctypes
+from ctypes import byref, c_double, c_int, c_long, c_void_p
+
+import numpy as np
+
+from .cvode_library import FLAGS, CVODEError, sundials
+
+__all__ = ["DirectCVODE", "DirectCVODEBDF", "DirectCVODEAdams", "compiled_loop", "CVODEError", "STEPS_PER_CALL"]
+
+CV_ADAMS, CV_BDF, SUN_PREC_LEFT = 1, 2, 1
+#: steps of one compiled call before it returns to Python (which then handles signals: Ctrl-C, SIGTERM)
+STEPS_PER_CALL = 1000
+
+
+def compiled_loop(system, solver_cls, track_work: bool, events) -> type | None:
+    """The compiled-loop class for a run of ``solver_cls`` on ``system``, or None where it does not apply.
+
+    Parameters
+    ----------
+    system : System
+        The model.
+    solver_cls : type
+        The integrator chosen (scikit-sundae's CVODEBDF or CVODEAdams are replaced).
+    track_work : bool
+        Whether the run integrates the work terms (computed in Python: not replaced).
+    events : ContactEvents or None
+        The run's contact events (located by scikit-sundae's root finding: not replaced).
+
+    Returns
+    -------
+    type or None
+        :class:`DirectCVODEBDF` or :class:`DirectCVODEAdams`.
+    """
+    from .sundials import CVODEAdams, CVODEBDF
+
+    direct = {CVODEBDF: DirectCVODEBDF, CVODEAdams: DirectCVODEAdams}.get(solver_cls)
+    if (direct is None or system._packed_open is None or not system.layout.identity or track_work
+            or events is not None):
+        return None
+    return direct
+
+
+def _addr(f) -> int:
+    return ctypes.cast(f, c_void_p).value
+
+
+class DirectCVODE:
+    """CVODE on an open tree with compiled callbacks: one Python call per output time.
+
+    Built by :class:`flexmb.stepping.Run` with the arguments of the
+    integrators it makes; it offers what the run's loop uses of them
+    (:meth:`advance`, :meth:`dense_output`, ``t``, ``t_old``, ``y``,
+    ``n_steps``, ``status``).
+
+    Parameters
+    ----------
+    fun : callable
+        The run's right-hand side (used only with ``python_rhs``).
+    t0 : float
+        Start.
+    y0 : ndarray, shape (m,)
+        The integrator's initial state ``z`` (the state less ``offset``).
+    t_bound : float
+        End (CVODE's stop time).
+    rtol, atol : float or ndarray
+        Tolerances.
+    max_step : float
+        Largest step (``inf``: unbounded).
+    first_step : float, optional
+        First step (default: CVODE's estimate).
+    system : System
+        The model (``System._packed_open`` set, ``qd = u``).
+    krylov : bool
+        GMRES with the O(n) Newton preconditioner instead of the dense
+        Jacobian and LU (flexmb's choice from ``KRYLOV_MIN_COORDS`` on).
+    jacobian : callable, optional
+        ``jacobian(t, y) -> (m, m)`` of the true state, called from Python
+        (a ctypes callback) for the dense linear solver; without it (and
+        without ``krylov``) CVODE's own difference quotients.
+    python_rhs : bool
+        Call ``fun`` from Python (a ctypes callback) instead of the compiled
+        right-hand side (a check of the loop; what a model with Python force
+        elements would need). An exception it raises stops CVODE and is
+        raised again by :meth:`advance`.
+    offset : ndarray, optional
+        The winding offsets ``c`` (the callbacks see ``y = z + c``).
+    monitor : ResolutionMonitor, optional
+        Given the steps at its checkpoints.
+    angles : ndarray of int, optional
+        The winding angles, watched against ``bound``.
+    bound : float
+        Their bound.
+    gimbal : GimbalWatch, optional
+        Its joints' ``ry`` watched while it has not warned.
+    counters : dict, optional
+        The run's counters: ``"rhs"`` and ``"jac"`` (Jacobians, or
+        preconditioner set-ups) are increased as CVODE calls them.
+    nonfinite_flag : int
+        What the right-hand side returns when its result is not finite: -1
+        (unrecoverable: the run stops there, as flexmb's Python right-hand
+        side does) or 1 (recoverable: CVODE retries with a smaller step).
+    **extraneous
+        Other options of the integrators a run makes, ignored.
+    """
+
+    family, max_order = "BDF", 5
+    explicit = second_order = finds_roots = cheap_restart = rebases = moves = False
+    uses_jacobian = uses_preconditioner = needs_n_second = False
+    advances = steps_in_compiled_code = True
+
+    def __init__(self, fun, t0, y0, t_bound, *, rtol, atol, max_step=np.inf, first_step=None, system,
+                 krylov=False, jacobian=None, python_rhs=False, offset=None, monitor=None,
+                 angles=(), bound=np.inf, gimbal=None, counters=None, nonfinite_flag=-1, **extraneous):
+        from ..kernels import cvode_callbacks as cb
+
+        if system._packed_open is None or not system.layout.identity:
+            raise ValueError("DirectCVODE needs an open tree whose joints and force elements are all compiled, "
+                             "with qd = u")
+        self._cb, self.system, self.monitor, self.gimbal = cb, system, monitor, gimbal
+        self._S = S = sundials()
+        self.t, self.t_old, self.t_bound, self.n_steps, self.status = float(t0), None, float(t_bound), 0, "running"
+        self._mem = self._ls = self._A = self._y = self._out = self._atol = None
+        self._ctx = c_void_p()
+        self._raised = None  # an exception of a Python callback, raised again after CVODE returns
+        self._py_jac = None if jacobian is None else self._python_jacobian(jacobian)
+        self._py_rhs = self._python_rhs(fun) if python_rhs else None
+        self.n, self.m = system.n_speeds, len(y0)
+        self._offset = None if offset is None else np.ascontiguousarray(offset, dtype=float)
+        self._angles = np.asarray(angles, dtype=np.int64)
+        self._bound = float(bound)
+        self._gimbal = np.zeros(0, np.int64) if gimbal is None else np.asarray(gimbal.index, dtype=np.int64)
+        self._limit = 0.0 if gimbal is None else float(gimbal.limit)
+        self._counters, self._counted = counters, (0, 0)
+        self._ud = self._user_data(system, nonfinite_flag)
+        self._check(S.SUNContext_Create(0, byref(self._ctx)), "SUNContext_Create")
+        S.SUNContext_ClearErrHandlers(self._ctx)  # failures become CVODEError, not lines on stderr
+        self._y, self._out = S.N_VNew_Serial(self.m, self._ctx), S.N_VNew_Serial(self.m, self._ctx)
+        if not (self._y and self._out):
+            raise MemoryError("N_VNew_Serial returned NULL")
+        self.y = self._data(self._y)
+        self.y[:] = y0
+        self._mem = S.CVodeCreate(CV_BDF if self.family == "BDF" else CV_ADAMS, self._ctx)
+        if not self._mem:
+            raise MemoryError("CVodeCreate returned NULL")
+        self._setup(rtol, atol, krylov, max_step, first_step)
+        self._tret = np.array([self.t])
+        self._lp = np.array([_addr(S.CVode), _addr(S.CVodeGetDky), self._mem, self._y, self.y.ctypes.data, self._out,
+                             self._tret.ctypes.data, self.m, _addr(S.N_VGetArrayPointer)], dtype=np.int64)
+
+    def _user_data(self, system, nonfinite_flag):
+        from ..system.tangent import NewtonPreconditioner
+
+        cb, S, n, nb = self._cb, self._S, self.n, system.topology.n_bodies
+        fl, it, fg, ix = system._packed_open
+        K, C = NewtonPreconditioner.diagonal_terms(system)
+        self._arrays = arrays = dict(fl=fl, it=it, fg=fg, ix=ix, K=np.ascontiguousarray(K, float),
+                                     C=np.ascontiguousarray(C, float), spatial=np.zeros(nb * 36),
+                                     Sw=np.zeros(n * 3), Sv=np.zeros(n * 3), r=np.zeros((nb + 1) * 3),
+                                     fail_t=np.zeros(1), fail_y=np.zeros(self.m), offset=self._offset)
+        ud = np.zeros(cb.UD_SIZE, dtype=np.int64)
+        ud[cb.A_GETPTR], ud[cb.N], ud[cb.M], ud[cb.NB] = _addr(S.N_VGetArrayPointer), n, self.m, nb
+        for slot, size, key in ((cb.A_FL, cb.N_FL, "fl"), (cb.A_IT, cb.N_IT, "it"), (cb.A_FG, cb.N_FG, "fg")):
+            ud[slot], ud[size] = arrays[key].ctypes.data, arrays[key].size
+        ud[cb.A_IX], ud[cb.N_IX] = ix.ctypes.data, ix.shape[0]
+        for slot, key in ((cb.A_K, "K"), (cb.A_C, "C"), (cb.A_SPATIAL, "spatial"), (cb.A_SW, "Sw"), (cb.A_SV, "Sv"),
+                          (cb.A_R, "r"), (cb.A_FAIL_T, "fail_t"), (cb.A_FAIL_Y, "fail_y")):
+            ud[slot] = arrays[key].ctypes.data
+        if self._offset is not None:
+            ud[cb.A_OFFSET], ud[cb.HAS_OFFSET] = self._offset.ctypes.data, 1
+        ud[cb.STATUS], ud[cb.NONFINITE_FLAG] = -1, nonfinite_flag
+        return ud
+
+    def _setup(self, rtol, atol, krylov, max_step, first_step):
+        """CVODE's options in scikit-sundae's order, as flexmb's CVODE_BDF gives them."""
+        S, cb, mem, ck = self._S, self._cb, self._mem, self._check
+        ck(S.CVodeSetUserData(mem, self._ud.ctypes.data), "CVodeSetUserData")
+        f = cb.rhs.address if self._py_rhs is None else _addr(self._py_rhs)
+        ck(S.CVodeInit(mem, f, self.t, self._y), "CVodeInit")
+        if np.ndim(atol):
+            self._atol = S.N_VNew_Serial(self.m, self._ctx)
+            self._data(self._atol)[:] = atol
+            ck(S.CVodeSVtolerances(mem, float(rtol), self._atol), "CVodeSVtolerances")
+        else:
+            ck(S.CVodeSStolerances(mem, float(rtol), float(atol)), "CVodeSStolerances")
+        if krylov:
+            from .sundials import KRYLOV_DIM
+
+            self._ls = S.SUNLinSol_SPGMR(self._y, SUN_PREC_LEFT, KRYLOV_DIM, self._ctx)
+        else:
+            self._A = S.SUNDenseMatrix(self.m, self.m, self._ctx)
+            self._ls = S.SUNLinSol_Dense(self._y, self._A, self._ctx)
+        if not self._ls or not (krylov or self._A):
+            raise MemoryError("the SUNDIALS matrix or linear solver constructor returned NULL")
+        ck(S.CVodeSetLinearSolver(mem, self._ls, self._A), "CVodeSetLinearSolver")
+        if krylov:
+            ck(S.CVodeSetPreconditioner(mem, cb.psetup.address, cb.psolve.address), "CVodeSetPreconditioner")
+        elif self._py_jac is not None:
+            ck(S.CVodeSetJacFn(mem, _addr(self._py_jac)), "CVodeSetJacFn")
+        ck(S.CVodeSetMaxNonlinIters(mem, 3), "CVodeSetMaxNonlinIters")
+        ck(S.CVodeSetMaxConvFails(mem, 10), "CVodeSetMaxConvFails")
+        ck(S.CVodeSetInitStep(mem, 0.0 if first_step is None else float(first_step)), "CVodeSetInitStep")
+        ck(S.CVodeSetMinStep(mem, 0.0), "CVodeSetMinStep")
+        ck(S.CVodeSetMaxStep(mem, 0.0 if not np.isfinite(max_step) else float(max_step)), "CVodeSetMaxStep")
+        ck(S.CVodeSetMaxOrd(mem, self.max_order), "CVodeSetMaxOrd")
+        from .sundials import MAX_STEPS
+
+        ck(S.CVodeSetMaxNumSteps(mem, MAX_STEPS), "CVodeSetMaxNumSteps")
+        ck(S.CVodeSetStopTime(mem, self.t_bound), "CVodeSetStopTime")
+
+    def _python_rhs(self, fun):
+        """A ctypes callback (CVRhsFn) filling ``ydot`` with ``fun(t, z)``; -1 (and the exception kept) if it raises."""
+        proto = ctypes.CFUNCTYPE(c_int, c_double, c_void_p, c_void_p, c_void_p)
+
+        def f(t, y, ydot, user_data):
+            try:
+                self._ud[self._cb.RHS] += 1
+                self._data(ydot)[:] = fun(t, self._data(y))
+                return 0
+            except BaseException as exc:  # noqa: BLE001 - nothing may cross into C; advance raises it again
+                self._raised = exc
+                return -1
+
+        return proto(f)
+
+    def _python_jacobian(self, jacobian):
+        """A ctypes callback (CVLsJacFn) filling the dense matrix with ``jacobian(t, z + c)``; -1 if it raises."""
+        proto = ctypes.CFUNCTYPE(c_int, c_double, c_void_p, c_void_p, c_void_p, c_void_p, c_void_p, c_void_p,
+                                 c_void_p)
+
+        def jac(t, y, fy, J, user_data, tmp1, tmp2, tmp3):
+            try:
+                self._ud[self._cb.JACS] += 1
+                m = self.m
+                data = np.ctypeslib.as_array((c_double * (m * m)).from_address(self._S.SUNDenseMatrix_Data(J)))
+                z = self._data(y)
+                data.reshape((m, m), order="F")[:] = jacobian(t, z if self._offset is None else z + self._offset)
+                return 0
+            except BaseException as exc:  # noqa: BLE001 - nothing may cross into C; advance raises it again
+                self._raised = exc
+                return -1
+
+        return proto(jac)
+
+    def _data(self, v) -> np.ndarray:
+        return np.ctypeslib.as_array((c_double * self.m).from_address(self._S.N_VGetArrayPointer(v)))
+
+    @staticmethod
+    def _check(flag, what):
+        if flag < 0:
+            raise CVODEError(f"{what} failed: {FLAGS.get(flag, flag)}")
+
+    def advance(self, t_stop: float, on_step=None) -> np.ndarray:
+        """Step until ``t_stop`` (one compiled loop; back in Python at checkpoints, watches and every so many steps).
+
+        Parameters
+        ----------
+        t_stop : float
+            Time to reach (at most ``t_bound``).
+        on_step : callable, optional
+            Called with the solver after a step that a watch flagged (an
+            angle past its bound, a joint near gimbal lock): the run's
+            checks of that step (they may raise to restart it).
+
+        Returns
+        -------
+        ndarray, shape (m,)
+            The state at ``t_stop`` (CVODE's interpolant if the last step passed it).
+
+        Raises
+        ------
+        CVODEError
+            If CVODE fails (its flag, the time, the callback's cause).
+        """
+        if self._mem is None:
+            raise CVODEError("this DirectCVODE is closed")
+        t_stop = min(float(t_stop), self.t_bound)
+        mon, cb = self.monitor, self._cb
+        while True:
+            live = mon is not None and not mon.warned
+            times = np.empty(max(mon.next_check - mon.n_steps, 1) if live else 0)
+            t_entry = self._tret[0]
+            gimbal = self._gimbal if self.gimbal is not None and not self.gimbal.warned else self._gimbal[:0]
+            try:
+                code, k = cb.advance(self._lp, t_stop, self.t_bound, times, STEPS_PER_CALL, self._angles,
+                                     self._bound, gimbal, self._limit)
+            finally:
+                self._count()
+            self.n_steps += k
+            if k:
+                self.t = float(self._tret[0])
+                h = c_double()
+                self._S.CVodeGetLastStep(self._mem, byref(h))
+                self.t_old = self.t - h.value
+            if live and k:
+                self._feed(mon, np.concatenate(([t_entry], times[: min(k, len(times))])))
+            if code < 0:
+                self.status = "failed"
+                if self._raised is not None:
+                    raised, self._raised = self._raised, None
+                    raise raised
+                self._diagnose()
+                raise self._error(code)
+            if code == cb.WATCH and on_step is not None:
+                on_step(self)
+            if code == cb.REACHED:
+                if self.t >= self.t_bound:
+                    self.status = "finished"
+                return self._data(self._out).copy()
+
+    def _count(self):
+        """Add the callbacks' evaluations since the last call to the run's counters."""
+        cb, ud = self._cb, self._ud
+        rhs, jac = int(ud[cb.RHS]), int(ud[cb.SETUPS] + ud[cb.JACS])
+        if self._counters is not None:
+            self._counters["rhs"] = self._counters.get("rhs", 0) + rhs - self._counted[0]
+            self._counters["jac"] = self._counters.get("jac", 0) + jac - self._counted[1]
+        self._counted = (rhs, jac)
+
+    def _feed(self, mon, times):
+        """Give the monitor the steps between ``times`` as its ``step`` takes them one by one."""
+        h = np.diff(times)
+        mon.steps.extend(h[:-1].tolist())
+        mon.n_steps += len(h) - 1
+        mon.step(_Step(times[-1], times[-2], self.y))
+
+    def _diagnose(self) -> None:
+        """Raise flexmb's own diagnosis (AssemblyError) of the state at which a callback failed, if it gives one.
+
+        The right-hand side at that state, evaluated in Python, names what
+        became non-finite or the joint that moves no mass, as a run
+        stepping in Python reports it.
+        """
+        cb, ud = self._cb, self._ud
+        if int(ud[cb.STATUS]) == -1:
+            return
+        t, y = float(self._arrays["fail_t"][0]), self._arrays["fail_y"].copy()
+        rate = self.system._state_rate(t, y)  # raises AssemblyError naming the cause where it finds one
+        if not np.all(np.isfinite(rate)):
+            bad = [self.system.speed_names[i % self.n] for i in np.flatnonzero(~np.isfinite(rate))[:5]]
+            raise _nonfinite(t, bad)
+
+    def _error(self, code) -> CVODEError:
+        cb, ud = self._cb, self._ud
+        what = f"CVODE failed at t = {self.t:.9g} s: {FLAGS.get(code, code)}"
+        status = int(ud[cb.STATUS])
+        if status != -1:
+            t_fail = self._arrays["fail_t"][0]
+            if status >= 0:
+                cause = (f"joint {self.system.topology.tree_joints[status].name!r} moves no mass or inertia along "
+                         "one of its freedoms")
+            else:
+                cause = "the state derivative became non-finite"
+            what += f"; at t = {t_fail:.9g} s {cause}"
+        error = CVODEError(what)
+        error.t = float(self._arrays["fail_t"][0]) if status != -1 else self.t
+        return error
+
+    def dense_output(self):
+        """CVODE's interpolant over its last step (``CVodeGetDky``), valid until it steps again.
+
+        Returns
+        -------
+        callable
+            ``t -> y(t)`` for ``t`` in ``[t_old, t]``.
+        """
+        t_now = self.t
+
+        def interpolate(t):
+            if self.t != t_now or self._mem is None:
+                raise RuntimeError("a CVODE dense output is valid only until the solver's next step")
+            self._check(self._S.CVodeGetDky(self._mem, float(t), 0, self._out), "CVodeGetDky")
+            return self._data(self._out).copy()
+
+        return interpolate
+
+    def stats(self) -> dict:
+        """CVODE's counters, and the callbacks' own.
+
+        Returns
+        -------
+        dict
+            ``steps``, ``rhs_cvode``, ``rhs_ls``, ``err_test_fails``,
+            ``newton_iters``, ``newton_fails``, ``lin_iters``,
+            ``lin_setups``; ``rhs`` and ``jac`` (Jacobians or preconditioner
+            set-ups) as the callbacks counted them.
+        """
+        S, cb, out = self._S, self._cb, {}
+        for key, name in (("steps", "NumSteps"), ("rhs_cvode", "NumRhsEvals"), ("rhs_ls", "NumLinRhsEvals"),
+                          ("err_test_fails", "NumErrTestFails"), ("newton_iters", "NumNonlinSolvIters"),
+                          ("newton_fails", "NumNonlinSolvConvFails"), ("lin_iters", "NumLinIters"),
+                          ("lin_setups", "NumLinSolvSetups")):
+            v = c_long()
+            self._check(getattr(S, f"CVodeGet{name}")(self._mem, byref(v)), f"CVodeGet{name}")
+            out[key] = v.value
+        out["rhs"] = int(self._ud[cb.RHS])
+        out["jac"] = int(self._ud[cb.SETUPS] + self._ud[cb.JACS])
+        return out
+
+    def close(self) -> None:
+        """Free CVODE, the linear solver, the matrix, the vectors and the context (once)."""
+        S = getattr(self, "_S", None)
+        if S is None:
+            return
+        if self._mem:
+            S.CVodeFree(byref(c_void_p(self._mem)))
+        if self._ls:
+            S.SUNLinSolFree(self._ls)
+        if self._A:
+            S.SUNMatDestroy(self._A)
+        for v in (self._y, self._out, self._atol):
+            if v:
+                S.N_VDestroy(v)
+        if self._ctx:
+            S.SUNContext_Free(byref(self._ctx))
+        self._mem = self._ls = self._A = self._y = self._out = self._atol = None
+        self.y = None
+        self._S = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def __del__(self):
+        self.close()
+
+
+class DirectCVODEBDF(DirectCVODE):
+    family, max_order = "BDF", 5
+
+
+class DirectCVODEAdams(DirectCVODE):
+    family, max_order = "Adams", 12
+
+
+_PARAMETERS = DirectCVODE.__doc__[DirectCVODE.__doc__.index("    Parameters\n"):]
+DirectCVODEBDF.__doc__ = (":class:`DirectCVODE` with CVODE's variable-order BDF (orders 1-5): ``'CVODE_BDF'`` on "
+                          "open trees.\n\n" + _PARAMETERS)
+DirectCVODEAdams.__doc__ = (":class:`DirectCVODE` with CVODE's Adams-Moulton (orders 1-12, Newton): "
+                            "``'CVODE_Adams'`` on open trees.\n\n" + _PARAMETERS)
+
+
+def _nonfinite(t, names):
+    from ..errors import AssemblyError
+
+    err = AssemblyError(f"at t = {t:.9g} s: the state rates became non-finite ({', '.join(names)})")
+    err.t = t
+    return err
+
+
+class _Step:
+    """What the monitor reads of a solver after a step."""
+
+    def __init__(self, t, t_old, y):
+        self.t, self.t_old, self.y = float(t), float(t_old), y

@@ -1,0 +1,146 @@
+"""Integrators that step in their own loop between output times: CVODE through scikit-sundae, or compiled.
+
+:class:`flexmb.stepping.Run` hands a run with nothing to check or project
+after each step (no loop constraints, no contact events) to
+:func:`advance_between_stops`: the integrator steps in its own loop from
+stop to stop (the output times, and each percent of the span when showing
+progress), and the run's checks after a step (the resolution monitor, the
+gimbal watch, the winding offsets) are given to it as a callback.
+
+For CVODE stepped in compiled code
+(:class:`~flexmb.integrators.cvode_direct.DirectCVODE`, open trees with
+compiled force elements) :func:`compiled_options` gives the integrator the
+model, the monitor and what to watch: the steps run without Python, the
+monitor receives their sizes at its checkpoints, and the loop returns to
+call the callback only after a step that an angle's winding bound or the
+gimbal watch flags, so the run acts on the very step it would act on when
+stepping in Python.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["advance_between_stops", "compiled_options", "NonFinite"]
+
+
+class NonFinite(Exception):
+    """The state or the integrator failed at time ``t`` (the run stops with status 'failed').
+
+    Parameters
+    ----------
+    t : float
+        When, s.
+    what : str
+        What failed.
+    """
+
+    def __init__(self, t, what):
+        super().__init__(what)
+        self.t = t
+
+
+class _Wound(Exception):
+    """An angle left the winding bound during :func:`advance_between_stops` (the run moves the offsets, goes on)."""
+
+
+def compiled_options(run, x, xd, krylov_min: int, bound: float) -> dict:
+    """What :class:`~flexmb.integrators.cvode_direct.DirectCVODE` is given by ``run`` besides the common options.
+
+    Parameters
+    ----------
+    run : Run
+        The run (:class:`flexmb.stepping.Run`).
+    x, xd : ndarray
+        The initial state.
+    krylov_min : int
+        Coordinates from which BDF solves by GMRES with the O(n) preconditioner.
+    bound : float
+        The winding angles' bound, rad.
+
+    Returns
+    -------
+    dict
+        The model, the Krylov choice (BDF from ``krylov_min`` coordinates
+        on, as for scikit-sundae's CVODE), else flexmb's Jacobian, the
+        monitor, the watches, the counters.
+    """
+    system = run.system
+    krylov = run.solver_cls.family == "BDF" and run.n >= krylov_min
+    run.counters["jac"] = 0
+    options = dict(system=system, krylov=krylov, monitor=run.monitor, angles=run.angles,
+                   bound=bound, gimbal=run.gimbal, counters=run.counters)
+    if not krylov and system.state_jacobian(run.t0, x, xd) is not None:  # flexmb's, from Python (a few calls)
+        layout = run.layout
+        options["jacobian"] = lambda t, y: system.state_jacobian(t, *layout.split(y))
+    return options
+
+
+def advance_between_stops(run, solver, bar, bound: float) -> None:
+    """Step ``solver`` in its own loop from stop to stop, storing the outputs (nothing to project after a step).
+
+    Parameters
+    ----------
+    run : Run
+        The run (its times, monitor, gimbal watch, angles, outputs).
+    solver : OdeSolver
+        An integrator with ``advance`` (``advances``).
+    bar : Progress
+        The progress bar.
+    bound : float
+        The winding angles' bound, rad (an angle past it ends the step's loop: the run moves the offsets).
+    """
+
+    times, t0 = run.times, run.t0
+    stops = times[run.k_out:]
+    if run.progress:
+        stops = np.union1d(stops, np.linspace(t0, run.t_end, 101)[1:])
+    monitor, angles, t_end, gimbal = run.monitor, run.angles, run.t_end, run.gimbal
+
+    def watch(solver):
+        if gimbal is not None:
+            gimbal.check(solver.t, solver.y)
+        if solver.t < t_end and np.max(np.abs(solver.y[angles])) > bound:
+            raise _Wound
+
+    def wound(solver):
+        if monitor is not None:
+            monitor.step(solver)
+        watch(solver)
+
+    # a callback after each step only where there is something to do (a Python call per step costs); the
+    # compiled loop feeds the monitor itself and calls back only after a step that its watches flag
+    if getattr(solver, "steps_in_compiled_code", False):
+        step = watch if len(angles) or gimbal is not None else None
+    else:
+        step = wound if len(angles) or gimbal is not None else (None if monitor is None else monitor.step)
+
+    done = 0  # steps of the solvers restarted before this one
+    for t_stop in stops:
+        y_stop = None
+        while y_stop is None and t_stop > run.t_now:
+            try:
+                y_stop = solver.advance(t_stop, step)
+            except RuntimeError as exc:
+                raise NonFinite(getattr(exc, "t", solver.t), f"the integrator failed: {exc}") from exc
+            except _Wound:  # at the end of a step: the outputs it passed, then the offsets move
+                run.t_now = solver.t
+                run._store(solver)
+                moved = run._unwound(solver)
+                if moved is not solver:
+                    done += solver.n_steps
+                    solver = moved
+            finally:
+                run.n_steps = done + solver.n_steps
+        if y_stop is None:  # passed by the step after which the offsets moved, and stored then
+            bar.update_to(run.t_now - t0)
+            continue
+        if run.offset is not None:
+            y_stop = y_stop + run.offset
+        run.t_now = t_stop
+        if not np.all(np.isfinite(y_stop)):
+            raise NonFinite(run.t_now, "the state became non-finite")
+        if run.k_out < len(times) and times[run.k_out] == t_stop:
+            run.out_y.append(y_stop)
+            run.k_out += 1
+        bar.update_to(run.t_now - t0)

@@ -16,6 +16,12 @@ under cProfile, and splits the profiled time by the cumulative time of:
   counted in ``integrator_other``);
 - ``newton_kernels``: generalized-alpha's compiled step arithmetic
   (``predict``, ``newton_update``, ``error_control``);
+- ``precond_setup``, ``precond_solve``: CVODE's Newton preconditioner
+  (GMRES from ``KRYLOV_MIN_COORDS`` coordinates on; ``system/tangent.py``),
+  within the solve the compiled kernel (``precond_kernel``: ``loop_newton``,
+  or ``loop_newton_factor`` and ``loop_newton_solve``) and of it the
+  factorisation (``precond_factor``); a solve is one GMRES iteration (or
+  the first of a Newton iteration), so their calls count them;
 - ``drift``: the constraint check after every step and, past the bound,
   the projection and the new solver (``stepping`` _restart_if_drifted);
 - ``integrator_other``: the integrator's ``step`` less the above
@@ -56,9 +62,14 @@ PARTS = {
     "factorisation": [("flexmb/genalpha/solver.py", "_factor")],
     "newton_kernels": [("flexmb/kernels/genalpha.py", name) for name in ("predict", "newton_update",
                                                                          "error_control")],
+    "precond_setup": [("flexmb/system/tangent.py", "setup")],
+    "precond_solve": [("flexmb/system/tangent.py", "solve")],
+    "precond_kernel": [("flexmb/kernels/loops.py", name) for name in ("loop_newton", "loop_newton_solve",
+                                                                      "loop_newton_factor")],
+    "precond_factor": [("flexmb/kernels/loops.py", "loop_newton_factor")],
     "drift": [("flexmb/stepping.py", "_restart_if_drifted")],
     "drift_projection": [("flexmb/system/projection.py", "project")],
-    "integrator_step": [("scipy/integrate/_ivp/base.py", "step")],
+    "integrator_step": [("scipy/integrate/_ivp/base.py", "step"), ("flexmb/integrators/sundials.py", "advance")],
     "total": [("flexmb/simulate.py", "simulate")],
 }
 
@@ -93,8 +104,9 @@ def profile(n: int, method: str, rtol: float) -> dict:
     step = parts["integrator_step"][0]
     inside = sum(parts[k][0] for k in ("rhs", "jacobian", "factorisation", "newton_kernels"))
     split = {k: parts[k][0] for k in ("rhs", "rhs_loop_kernel", "jacobian", "factorisation", "newton_kernels",
+                                      "precond_setup", "precond_solve", "precond_kernel", "precond_factor",
                                       "drift", "drift_projection")}
-    split["integrator_other"] = step - inside
+    split["integrator_other"] = step - inside - parts["precond_setup"][0] - parts["precond_solve"][0]
     split["rest"] = total - step - parts["drift"][0]
     return {"scene": "B6 damped", "n_segments": n, "t_end": 0.5, "method": method, "method_used": res.method,
             "rtol": rtol, "wall_s": wall, "steps": int(res.n_steps), "rhs_evals": int(res.n_rhs),

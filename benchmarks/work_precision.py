@@ -143,7 +143,7 @@ def atol_for(rtol: float) -> float:
 
 
 def run_once(scene: Scene, n: int, method: str, rtol: float, atol: float | None = None):
-    """Build and simulate once (``atol`` None: :func:`atol_for`).
+    """Build and simulate once (``atol`` None: :func:`atol_for`; ``rtol`` and ``atol`` None: ``simulate``'s defaults).
 
     Returns
     -------
@@ -156,7 +156,9 @@ def run_once(scene: Scene, n: int, method: str, rtol: float, atol: float | None 
     system, kw = scene.build(n)
     setup = time.perf_counter() - t0
     t0, c0 = time.perf_counter(), time.process_time()
-    res = fm.simulate(system, scene.t_end, method=method, rtol=rtol, atol=atol_for(rtol) if atol is None else atol,
+    if atol is None and rtol is not None:
+        atol = atol_for(rtol)  # rtol None: simulate's defaults for both
+    res = fm.simulate(system, scene.t_end, method=method, rtol=rtol, atol=atol,
                       n_out=2, progress=False, **kw)
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     return setup, wall, cpu, res, system
@@ -242,7 +244,8 @@ def run_config(scene: Scene, n: int, method: str, rtol: float, prep: dict, atol:
     atol : float, optional
         Absolute tolerance (default :func:`atol_for`, ``rtol / 100``).
     """
-    atol = atol_for(rtol) if atol is None else atol
+    if atol is None and rtol is not None:
+        atol = atol_for(rtol)  # rtol None: simulate's defaults for both
     try:
         s, w, cpu, res, _ = run_once(scene, n, method, rtol, atol)
     except fm.SimulationError as exc:

@@ -255,6 +255,35 @@ def test_newton_preconditioner_solves_the_newton_matrix_of_the_loops(name):
         np.testing.assert_allclose((np.eye(2 * n) - gamma * J) @ z, r, rtol=0, atol=1e-13 * scale)
 
 
+def test_newton_preconditioner_keeps_its_factors_per_gamma_and_drops_them_at_a_new_setup():
+    """The factors made at one gamma serve that gamma's later solves only, and only until the next set-up.
+
+    Solves alternating between two gammas, and a set-up at other positions
+    in between, equal those of a preconditioner set up afresh for each one
+    (to 1e-13 of the solution: the same arithmetic).
+    """
+    model, initial = MODELS["b6_8"]()
+    system = model.build(complement="articulated")
+    x, xd = fm.initial_state(system, 0.0, **initial)
+    system = _calibrated(system, 0.0, x, xd)
+    n = system.n_coords
+    rng = np.random.default_rng(5)
+    x2 = x + 1e-2 * rng.normal(size=n)
+    pre = system.newton_preconditioner()
+
+    def fresh(at, r, gamma):
+        p = system.newton_preconditioner()
+        p.setup(0.0, at, xd)
+        return np.concatenate(p.solve(r[:n], r[n:], gamma))
+
+    for at in (x, x2, x):
+        pre.setup(0.0, at, xd)
+        for gamma in (1e-4, 1e-2, 1e-4, 1e-4, 1e-2):
+            r = rng.normal(size=2 * n)
+            z = np.concatenate(pre.solve(r[:n], r[n:], gamma))
+            np.testing.assert_allclose(z, fresh(at, r, gamma), rtol=0, atol=1e-13 * np.max(np.abs(z)))
+
+
 def test_cvode_with_the_loops_preconditioner_equals_the_dense_jacobian():
     """B6 with 64 segments (past KRYLOV_MIN_COORDS): CVODE_BDF by GMRES and the O(n m) preconditioner."""
     model, positions = scenes.b6(True, 64)

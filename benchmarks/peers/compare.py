@@ -242,7 +242,8 @@ def flexmb_round(scene, n, configs, prep, failed: set, log=print) -> list:
         row.update(openblas_num_threads=os.environ.get("OPENBLAS_NUM_THREADS"),
                    atol_perturbation=c["atol_perturbation"], setting=c["setting"])
         rows.append(row)
-        what = f"  flexmb {c['method']:9s} rtol {c['rtol']:7.0e} atol x(1{c['atol_perturbation']:+.0e})"
+        rtol = "default" if c["rtol"] is None else f"{c['rtol']:7.0e}"
+        what = f"  flexmb {c['method']:9s} rtol {rtol:>7s} atol x(1{c['atol_perturbation']:+.0e})"
         if row["status"] != "finished":
             failed.add(key)
             log(f"{what}  {row['status']}")

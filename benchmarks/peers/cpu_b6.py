@@ -16,6 +16,9 @@ model, span, error and settings are those of ``compare_b6.py`` (0.5 s,
 articulated complement, atol = rtol / 100; the error is the largest slider
 difference at 100 times from the cached CVODE_BDF reference at rtol 1e-11,
 which compare_b6.py writes to ``results/refs``: run it first for each N).
+``--direct`` adds the direct CVODE prototype of loops
+(``cvode_loop_direct.py``: ctypes on SUNDIALS, compiled callbacks and step
+loop), timed around its run over the same span, with the same error.
 Writes ``benchmarks/results/cpu_b6.jsonl``.
 """
 
@@ -52,6 +55,23 @@ print(json.dumps(dict(cpu_s=cpu, wall_s=wall, error=err, steps=int(res.n_steps),
                       jac_evals=int(res.n_jac), method_used=res.method, flexmb=fm.__file__)))
 """
 
+DIRECT_CHILD = """
+import json, sys, time
+import numpy as np
+sys.path.insert(0, {bench!r})
+import cvode_loop_direct as d
+n, rtol, krylov = {n}, {rtol}, {krylov}
+system, y0, slider = d.b6_setup(n)
+d.run_direct(system, y0, slider, rtol, t_end=0.01, n_out=1, krylov=krylov)  # kernels and callbacks loaded
+c0, w0 = time.process_time(), time.perf_counter()
+xs, stats = d.run_direct(system, y0, slider, rtol, krylov=krylov)
+cpu, wall = time.process_time() - c0, time.perf_counter() - w0
+ref = np.load({ref!r})["output"]
+print(json.dumps(dict(cpu_s=cpu, wall_s=wall, error=float(np.max(np.abs(xs - ref))), steps=stats["steps"],
+                      rhs_evals=stats["rhs"], jac_evals=stats["setups"], psolves=stats["psolves"],
+                      factors=stats["factors"], restarts=stats["restarts"], lin_iters=stats["lin_iters"])))
+"""
+
 EXUDYN_CHILD = """
 import json, sys, time
 sys.path.insert(0, {here!r})
@@ -81,13 +101,21 @@ def _child(python, code, env) -> dict:
     return dict(json.loads(lines[-1]), status="finished")
 
 
+def _upto(specs, n) -> list:
+    """The specs ``A:B[:MAX_N]`` that apply at N (all, or those whose MAX_N >= N)."""
+    return [s for s in specs if len(s.split(":")) < 3 or n <= int(s.split(":")[2])]
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--n", type=int, nargs="+", default=[8, 32])
     ap.add_argument("--src", nargs="+", default=["installed="], help="LABEL=PATH of flexmb source trees ('' for the "
                                                                       "installed one)")
-    ap.add_argument("--flexmb", nargs="+", default=["GeneralizedAlpha:1e-4", "auto:1e-4"], help="METHOD:RTOL")
-    ap.add_argument("--exudyn", nargs="+", default=["4000:1e-4"], help="STEPS:NEWTON_RTOL")
+    ap.add_argument("--flexmb", nargs="+", default=["GeneralizedAlpha:1e-4", "auto:1e-4"], help="METHOD:RTOL[:MAX_N]")
+    ap.add_argument("--exudyn", nargs="+", default=["4000:1e-4"], help="STEPS:NEWTON_RTOL[:MAX_N]")
+    ap.add_argument("--direct", nargs="*", default=[],
+                    help="KIND:RTOL[:MAX_N], KIND 'krylov' or 'pyjac': the direct CVODE prototype "
+                         "(cvode_loop_direct.py, this source tree)")
     ap.add_argument("--peers-python", default="/work/venv-peers/bin/python")
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--out", default=os.path.join(BENCH, "results", "cpu_b6.jsonl"))
@@ -104,12 +132,16 @@ def main(argv=None):
             for src in args.src:
                 label, path = src.split("=", 1)
                 cenv = dict(env, PYTHONPATH=os.path.abspath(path)) if path else env
-                for spec in args.flexmb:
-                    method, rtol = spec.split(":")
+                for spec in _upto(args.flexmb, n):
+                    method, rtol = spec.split(":")[:2]
                     code = FLEXMB_CHILD.format(bench=BENCH, n=n, method=method, rtol=float(rtol), ref=ref_npz)
                     runs.append((("flexmb", label, method, float(rtol)), sys.executable, code, cenv))
-            for spec in args.exudyn:
-                steps, newton = spec.split(":")
+            for spec in _upto(args.direct, n):
+                kind, rtol = spec.split(":")[:2]
+                code = DIRECT_CHILD.format(bench=BENCH, n=n, rtol=float(rtol), krylov=kind == "krylov", ref=ref_npz)
+                runs.append((("direct", "", kind, float(rtol)), sys.executable, code, env))
+            for spec in _upto(args.exudyn, n):
+                steps, newton = spec.split(":")[:2]
                 code = EXUDYN_CHILD.format(here=HERE, data=data, ref=ref_json, steps=int(steps), newton=float(newton))
                 runs.append((("exudyn", "", int(steps), float(newton)), args.peers_python, code, env))
             for key, python, code, cenv in runs:

@@ -13,7 +13,7 @@ of
     P_S H dx = -P_S g,
 
 ``P_S b`` being the constrained solve ``S v = b + psi^T lambda``,
-``psi v = 0`` (:func:`~flexmb.kernels.loops.loop_newton`, O(n m), the
+``psi v = 0`` (:func:`~flexmb.kernels.loops.loop_newton_solve`, O(n m), the
 solve of the loops' Newton preconditioner). It is solved by GMRES, each
 product ``H d`` a central difference of ``g + psi^T mu`` along d (as the
 dense path differences along T's columns; ``psi^T mu`` from the rows'
@@ -36,7 +36,7 @@ from scipy.sparse.linalg import LinearOperator, gmres
 
 from ..errors import AssemblyError
 from ..kernels.loop_statics import loop_balance
-from ..kernels.loops import loop_newton, loop_speeds
+from ..kernels.loops import loop_newton_factor, loop_newton_solve, loop_speeds
 from ..system.solve import _plain
 from ..system.tangent import NewtonPreconditioner
 
@@ -103,8 +103,8 @@ class LoopEquations:
     def _solve(self, x, armature, load):
         """``v, lambda`` of ``(A + diag(armature)) v = load + psi^T lambda``, ``psi v = 0`` at x."""
         system = self.system
-        v, lam, kept, status = loop_newton(system._packed, system._loop_layout, x, armature, _plain(load),
-                                           system._loop_tol, self.limit)
+        factored = loop_newton_factor(system._packed, system._loop_layout, x, armature, system._loop_tol, self.limit)
+        v, lam, kept, status = loop_newton_solve(factored, system._packed, system._loop_layout, _plain(load))
         if status in (1, 3):
             raise AssemblyError(system._massless_message(kept, f"static equilibrium at t = {self.t:.6g} s"))
         if status:

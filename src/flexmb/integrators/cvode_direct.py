@@ -26,11 +26,13 @@ steps, so that Ctrl-C and other signals are handled within a long interval.
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 from ctypes import byref, c_double, c_int, c_long, c_void_p
 
 import numpy as np
 
+from .._signals import held
 from .cvode_library import FLAGS, CVODEError, sundials
 
 __all__ = ["DirectCVODE", "DirectCVODEBDF", "DirectCVODEAdams", "compiled_loop", "CVODEError", "STEPS_PER_CALL"]
@@ -308,9 +310,13 @@ class DirectCVODE:
             times = np.empty(max(mon.next_check - mon.n_steps, 1) if live else 0)
             t_entry = self._tret[0]
             gimbal = self._gimbal if self.gimbal is not None and not self.gimbal.warned else self._gimbal[:0]
+            # with a callback in Python (the Jacobian, a Python rhs), Ctrl-C and the other interruptions are held
+            # back until the loop returns: raised inside a ctypes callback, outside its try, C would lose them
+            python = self._py_jac is not None or self._py_rhs is not None
             try:
-                code, k = cb.advance(self._lp, t_stop, self.t_bound, times, STEPS_PER_CALL, self._angles,
-                                     self._bound, gimbal, self._limit)
+                with held() if python else contextlib.nullcontext():
+                    code, k = cb.advance(self._lp, t_stop, self.t_bound, times, STEPS_PER_CALL, self._angles,
+                                         self._bound, gimbal, self._limit)
             finally:
                 self._count()
             self.n_steps += k

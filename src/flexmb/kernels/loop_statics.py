@@ -6,7 +6,7 @@ array; a row of psi is the two wrenches it is made of
 (:func:`~flexmb.kernels.constraints.cut_row_wrenches`), so ``psi^T w`` is
 the axes' projection of those wrenches (:func:`~flexmb.kernels.dynamics.axis_projections`,
 O(n + m)), and the multipliers of ``A v = load + psi^T lambda``,
-``psi v = 0`` come from :func:`~flexmb.kernels.loops.loop_newton`'s solve.
+``psi v = 0`` come from :func:`~flexmb.kernels.loops.loop_newton_solve`'s solve.
 """
 
 from __future__ import annotations
@@ -109,7 +109,7 @@ def loop_reactions(packed, layout, y, nq, xdd, force0, torque0, generalized0, to
     """The multipliers lambda of ``A xdd = f + psi^T lambda`` for given accelerations, in O(n m).
 
     ``A v = (f - A xdd) + psi^T lambda``, ``psi v = 0`` is solved as
-    :func:`~flexmb.kernels.loops.loop_newton` solves it (``A xdd`` by
+    :func:`~flexmb.kernels.loops.loop_newton_solve` solves it (``A xdd`` by
     :func:`~flexmb.kernels.articulated.mass_times`, f by the recursion's
     loads): where ``A xdd - f`` lies in the range of ``psi^T`` (the
     accelerations of the model), ``v = 0`` and lambda is its multipliers.

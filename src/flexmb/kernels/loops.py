@@ -46,8 +46,8 @@ UNFIXED = 1e-8
 REFINE_TOL = 1e-15
 REFINE_MAX = 50
 
-__all__ = ["MASSLESS", "LIFT", "loop_rhs", "loop_speeds", "loop_newton", "rows_at_positions",
-           "row_spatial_accelerations"]
+__all__ = ["MASSLESS", "LIFT", "loop_rhs", "loop_speeds", "loop_newton_factor", "loop_newton_solve",
+           "rows_at_positions", "row_spatial_accelerations"]
 
 
 @njit(cache=True)
@@ -204,21 +204,18 @@ def _unfixed_massless(parent, coord_start, Sw, Sv, U, DinvUT, Dinv, W, body, coo
 
 
 @njit(cache=True)
-def _constrained_solve(parent, coord_start, Sw, Sv, spatial, pA0, g0, W, body, coord, rhs, layout_arrays, band, tol,
-                       window, rank_limit, armature0):
-    """x and lambda with ``(A + diag(armature0)) x = f + psi^T lambda``, ``psi x = rhs``; f as loads ``(pA0, g0)``.
+def _constrained_factor(parent, coord_start, Sw, Sv, spatial, W, body, coord, layout_arrays, band, tol, window,
+                        rank_limit, armature0):
+    """What :func:`_constrained_apply` needs of ``A + diag(armature0)`` and psi: their factors, load-independent.
 
-    A freedom that moves no mass (a slender bar's spin closed by a loop:
-    A singular, the reduced mass ``T^T A T`` not) gets an armature E
-    (:data:`LIFT`); the solution of ``A + E`` is then refined by solves
-    with the load ``E x`` until it no longer changes (iterative
-    refinement: each pass divides the error by about the ratio of E to the
-    reduced mass along those freedoms).
+    The articulated-body factors of ``A + E`` (a freedom that moves no
+    mass, a slender bar's spin closed by a loop: A singular, the reduced
+    mass ``T^T A T`` not, gets an armature, :data:`LIFT`) and ``K = psi (A +
+    E)^-1 psi^T`` factored (:func:`_loop_matrix`).
 
-    Returns (x, lambda, kept, smallest pivot, status); status 3 if the
-    refinement did not settle in :data:`REFINE_MAX` passes (no loop fixes
-    the massless freedom, or too weakly): then the first massless
-    freedom's body is returned in place of ``kept``.
+    Returns the tuple ``(U, DinvUT, Dinv, lift, Kb, d, dfilt, kept,
+    smallest, V, status)``: status 0; 1 if a freedom moves no mass and no
+    row fixes it (``kept`` its body); 2 if K is not finite.
     """
     root_of, row_roots, visit_ptr, visit, root_ptr, root_rows, order, position = layout_arrays
     nb = parent.shape[0]
@@ -226,24 +223,51 @@ def _constrained_solve(parent, coord_start, Sw, Sv, spatial, pA0, g0, W, body, c
     m = W.shape[0]
     armature = armature0.copy()
     U, DinvUT, Dinv, bad = articulated_factor(parent, coord_start, spatial, Sw, Sv, armature, MASSLESS, LIFT)
-    if bad >= 0:
-        return np.zeros(n), np.zeros(m), bad, 0.0, 1
-    x = np.empty(n)
-    dA = np.zeros((nb + 1, 6))
     lift = armature - armature0  # E: what the factorization added to massless freedoms
-    unfixed = _unfixed_massless(parent, coord_start, Sw, Sv, U, DinvUT, Dinv, W, body, coord, lift, dA, x)
+    none = (np.zeros((m, band + 1)), np.zeros(m), np.zeros(m))
+    if bad >= 0:
+        return U, DinvUT, Dinv, lift, none[0], none[1], none[2], bad, 0.0, np.zeros((0, 0)), 1
+    unfixed = _unfixed_massless(parent, coord_start, Sw, Sv, U, DinvUT, Dinv, W, body, coord, lift,
+                                np.zeros((nb + 1, 6)), np.empty(n))
     if unfixed >= 0:
-        return np.zeros(n), np.zeros(m), unfixed, 0.0, 1
-    pA = pA0.copy()
-    articulated_solve(parent, coord_start, Sw, Sv, U, DinvUT, Dinv, pA, g0, np.arange(nb), x, dA)
-    residual = np.empty(m)
-    for a in range(m):
-        residual[a] = -row_spatial_accelerations(W, body, coord, dA, x, a)
+        return U, DinvUT, Dinv, lift, none[0], none[1], none[2], unfixed, 0.0, np.zeros((0, 0)), 1
     Kb, d, dfilt, kept, smallest, finite, V = _loop_matrix(parent, coord_start, Sw, Sv, U, DinvUT, Dinv, W, body,
                                                            coord, root_of, row_roots, visit_ptr, visit, root_ptr,
                                                            root_rows, position, band, tol, window, rank_limit)
-    if not finite:
+    return U, DinvUT, Dinv, lift, Kb, d, dfilt, kept, smallest, V, 0 if finite else 2
+
+
+@njit(cache=True)
+def _constrained_apply(parent, coord_start, Sw, Sv, W, body, coord, order, band, factors, pA0, g0, rhs):
+    """x and lambda with ``(A + E) x = f + psi^T lambda``, ``psi x = rhs``, by :func:`_constrained_factor`'s factors.
+
+    f is given as loads ``(pA0, g0)``. Where the factorization lifted
+    massless freedoms (E), the solution of ``A + E`` is refined by solves
+    with the load ``E x`` until it no longer changes (iterative
+    refinement: each pass divides the error by about the ratio of E to the
+    reduced mass along those freedoms).
+
+    Returns (x, lambda, kept, smallest pivot, status); status as the
+    factors' (1, 2), or 3 if the refinement did not settle in
+    :data:`REFINE_MAX` passes (no loop fixes the massless freedom, or too
+    weakly): then the first massless freedom's body is returned in place
+    of ``kept``.
+    """
+    U, DinvUT, Dinv, lift, Kb, d, dfilt, kept, smallest, V, status = factors
+    nb = parent.shape[0]
+    n = Sw.shape[0]
+    m = W.shape[0]
+    if status == 1:
+        return np.zeros(n), np.zeros(m), kept, 0.0, 1
+    x = np.empty(n)
+    dA = np.zeros((nb + 1, 6))
+    pA = pA0.copy()
+    articulated_solve(parent, coord_start, Sw, Sv, U, DinvUT, Dinv, pA, g0, np.arange(nb), x, dA)
+    if status == 2:
         return x, np.zeros(m), 0, 0.0, 2
+    residual = np.empty(m)
+    for a in range(m):
+        residual[a] = -row_spatial_accelerations(W, body, coord, dA, x, a)
     g = np.zeros(n)
     dx, lam = _respond(parent, coord_start, Sw, Sv, U, DinvUT, Dinv, W, body, coord, Kb, d, dfilt, band, order, pA, g,
                        rhs, residual, V)
@@ -252,10 +276,31 @@ def _constrained_solve(parent, coord_start, Sw, Sv, spatial, pA0, g0, W, body, c
     lifted = False
     for i in range(n):
         lifted = lifted or lift[i] > 0.0
-    # the residual of A x = f + psi^T lambda is E x after the first solve, E dx after each correction
-    last = x.copy()
-    converged = not lifted
-    for _ in range(REFINE_MAX if lifted else 0):
+    converged = _refine(parent, coord_start, Sw, Sv, U, DinvUT, Dinv, W, body, coord, Kb, d, dfilt, band, order, V,
+                        lift, x, x.copy(), lam, pA, g, dA) if lifted else True
+    for i in range(n):
+        if not np.isfinite(x[i]):
+            return x, lam, kept, smallest, 2
+    if not converged:  # name the first massless freedom's body in kept's place
+        for i in range(n):
+            if lift[i] > 0.0:
+                return x, lam, _coord_body(coord_start, i), smallest, 3
+    return x, lam, kept, smallest, 0
+
+
+@njit(cache=True)
+def _refine(parent, coord_start, Sw, Sv, U, DinvUT, Dinv, W, body, coord, Kb, d, dfilt, band, order, V, lift, x, last,
+            lam, pA, g, dA):
+    """Iterative refinement of ``x`` and ``lam`` (in place) for the armature ``lift``; True if it settled.
+
+    The residual of ``A x = f + psi^T lambda`` is ``E x`` after the first
+    solve (``last`` is x then; overwritten), ``E dx`` after each correction.
+    """
+    nb = parent.shape[0]
+    n = Sw.shape[0]
+    m = W.shape[0]
+    residual = np.empty(m)
+    for _ in range(REFINE_MAX):
         # the correction: A_E dx = E last + psi^T dlam, psi dx = 0
         big = 0.0
         for i in range(n):
@@ -281,16 +326,22 @@ def _constrained_solve(parent, coord_start, Sw, Sv, spatial, pA0, g0, W, body, c
             lstep = max(lstep, abs(dlam[a]))
             lbig = max(lbig, abs(lam[a]))
         if not (step > REFINE_TOL * big or lstep > REFINE_TOL * lbig):
-            converged = True
-            break
-    for i in range(n):
-        if not np.isfinite(x[i]):
-            return x, lam, kept, smallest, 2
-    if not converged:  # name the first massless freedom's body in kept's place
-        for i in range(n):
-            if lift[i] > 0.0:
-                return x, lam, _coord_body(coord_start, i), smallest, 3
-    return x, lam, kept, smallest, 0
+            return True
+    return False
+
+
+@njit(cache=True)
+def _constrained_solve(parent, coord_start, Sw, Sv, spatial, pA0, g0, W, body, coord, rhs, layout_arrays, band, tol,
+                       window, rank_limit, armature0):
+    """x and lambda with ``(A + diag(armature0)) x = f + psi^T lambda``, ``psi x = rhs``; f as loads ``(pA0, g0)``.
+
+    :func:`_constrained_factor` then :func:`_constrained_apply` (which
+    see for the massless freedoms and the returned status).
+    """
+    factors = _constrained_factor(parent, coord_start, Sw, Sv, spatial, W, body, coord, layout_arrays, band, tol,
+                                  window, rank_limit, armature0)
+    return _constrained_apply(parent, coord_start, Sw, Sv, W, body, coord, layout_arrays[6], band, factors, pA0, g0,
+                              rhs)
 
 
 @njit(cache=True, inline="always")
@@ -426,13 +477,13 @@ def loop_speeds(packed, layout, x, xd, b, tol, window, rank_limit):
 
 
 @njit(cache=True)
-def loop_newton(packed, layout, x, armature, load, tol, rank_limit):
-    """``v`` with ``(A + diag(armature)) v = load + psi^T lambda`` and ``psi v = 0``: a Newton step's solve.
+def loop_newton_factor(packed, layout, x, armature, tol, rank_limit):
+    """The factors of a Newton step's solve at the positions x with the armature E (see :func:`loop_newton_solve`).
 
-    ``P_E load`` with ``P_E = T (T^T (A + E) T)^-1 T^T``, by the same O(n m)
-    solves as :func:`loop_rhs`, T never formed: the solve of the Newton
-    preconditioner of a model with loops
-    (:class:`flexmb.system.tangent.LoopNewtonPreconditioner`).
+    The tree's axes and spatial inertias and the rows' wrenches at x, the
+    articulated-body factors of ``A + diag(armature)`` and ``K = psi (A +
+    E)^-1 psi^T`` factored: everything of :func:`loop_newton_solve` that
+    does not depend on its load, O(n m) once for any number of solves.
 
     Parameters
     ----------
@@ -444,12 +495,42 @@ def loop_newton(packed, layout, x, armature, load, tol, rank_limit):
         Coordinates (:mod:`flexmb.state_layout`).
     armature : ndarray, shape (n,)
         Diagonal E added to A.
-    load : ndarray, shape (n,)
-        Generalized forces.
     tol : float
         As for :func:`loop_rhs`.
     rank_limit : int
         As for :func:`loop_rhs`.
+
+    Returns
+    -------
+    tuple
+        ``(Sw, Sv, W, body, factors)``, opaque: the first argument of
+        :func:`loop_newton_solve`.
+    """
+    tree, Sw, Sv, spatial, W, body = rows_at_positions(packed, layout, x)
+    factors = _constrained_factor(tree.parent, tree.coord_start, Sw, Sv, spatial, W, body, layout.row_coord,
+                                  _arrays(layout), layout.band, tol, 0.0, rank_limit, armature)
+    return Sw, Sv, W, body, factors
+
+
+@njit(cache=True)
+def loop_newton_solve(factored, packed, layout, load):
+    """``v`` with ``(A + diag(armature)) v = load + psi^T lambda`` and ``psi v = 0``: a Newton step's solve.
+
+    ``P_E load`` with ``P_E = T (T^T (A + E) T)^-1 T^T``, two articulated-body
+    solves with the factors of :func:`loop_newton_factor` (O(n) each), T
+    never formed: the solve of the Newton preconditioner of a model with
+    loops (:class:`flexmb.system.tangent.LoopNewtonPreconditioner`).
+
+    Parameters
+    ----------
+    factored : tuple
+        :func:`loop_newton_factor`'s result at the positions and armature wanted.
+    packed : tuple
+        The model's constant arrays.
+    layout : LoopLayout
+        The rows' layout.
+    load : ndarray, shape (n,)
+        Generalized forces.
 
     Returns
     -------
@@ -462,13 +543,13 @@ def loop_newton(packed, layout, x, armature, load, tol, rank_limit):
     status : int
         0; 1 if ``A + E`` is singular on a freedom no row fixes; 2 if not finite; 3 if not settled.
     """
-    tree, Sw, Sv, spatial, W, body = rows_at_positions(packed, layout, x)
+    Sw, Sv, W, body, factors = factored
+    tree, _, _ = unpack(packed)
     m = layout.row_coord.shape[0]
     nb = tree.parent.shape[0]
-    out, lam, kept, smallest, status = _constrained_solve(tree.parent, tree.coord_start, Sw, Sv, spatial,
-                                                          np.zeros((nb + 1, 6)), load, W, body, layout.row_coord,
-                                                          np.zeros(m), _arrays(layout), layout.band, tol, 0.0,
-                                                          rank_limit, armature)
+    out, lam, kept, smallest, status = _constrained_apply(tree.parent, tree.coord_start, Sw, Sv, W, body,
+                                                          layout.row_coord, layout.order, layout.band, factors,
+                                                          np.zeros((nb + 1, 6)), load, np.zeros(m))
     return out, lam, kept, status
 
 

@@ -6,7 +6,7 @@ import numpy as np
 
 from .tangent import NewtonPreconditioner
 from ..kernels.articulated import articulated_accelerations
-from ..kernels.loops import loop_newton
+from ..kernels.loops import loop_newton_factor, loop_newton_solve
 from .solve import _plain
 
 
@@ -123,7 +123,7 @@ class Rates:
         """The largest eigenvalues of ``P K`` and ``P C`` by Arnoldi iteration, O(n) per product (O(n m) with loops).
 
         ``P = A^-1`` for open trees, ``T (T^T A T)^-1 T^T`` for loops closed
-        by the articulated strategy (:func:`~flexmb.kernels.loops.loop_newton`,
+        by the articulated strategy (:func:`~flexmb.kernels.loops.loop_newton_solve`,
         T never formed). For models whose coordinate springs and dampers are
         diagonal (None if a velocity-dependent element, such as friction,
         couples coordinates: the dense path then applies).
@@ -139,7 +139,9 @@ class Rates:
         topo, n = self.topology, self.n_speeds
         spatial, Sw, Sv, r = pre._state
         zeros = np.zeros((topo.n_bodies + 1, 3))
-        x_plain, limit = _plain(np.array(x, dtype=float)), -1 if self.rank_limit is None else self.rank_limit
+        limit = -1 if self.rank_limit is None else self.rank_limit
+        factored = loop_newton_factor(self._packed, self._loop_layout, _plain(np.array(x, dtype=float)),
+                                      self._no_armature, self._loop_tol, limit) if self._loop_kernel else None
 
         def largest(diag):
             if not np.any(diag):
@@ -147,8 +149,7 @@ class Rates:
 
             def apply(v):
                 if self._loop_kernel:
-                    z, *_ = loop_newton(self._packed, self._loop_layout, x_plain, self._no_armature,
-                                       _plain(diag * np.ravel(v)), self._loop_tol, limit)
+                    z, *_ = loop_newton_solve(factored, self._packed, self._loop_layout, _plain(diag * np.ravel(v)))
                     return z
                 z, _ = articulated_accelerations(topo.parent, topo.coord_start, spatial, Sw, Sv, r, zeros, zeros,
                                                  diag * np.ravel(v), self._no_armature)

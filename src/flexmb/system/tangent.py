@@ -10,7 +10,7 @@ from ..errors import AssemblyError, ModelError
 from ..forces import BodyTorque, Loads, PointForce
 from .solve import _plain
 from ..kernels.articulated import articulated_accelerations, mass_times
-from ..kernels.loops import loop_newton
+from ..kernels.loops import loop_newton_factor, loop_newton_solve
 
 
 def _skew(v):
@@ -400,8 +400,14 @@ class LoopNewtonPreconditioner(NewtonPreconditioner):
     (with Euler parameters, r1 as a displacement and z1 by the kinematic
     equations' rows, as for open trees).
     ``P_E b`` is the constrained solve ``(A + gamma E) v = b + psi^T lambda``,
-    ``psi v = 0`` (:func:`~flexmb.kernels.loops.loop_newton`): the
+    ``psi v = 0`` (:func:`~flexmb.kernels.loops.loop_newton_solve`): the
     articulated-body recursion with ``gamma E`` as armature, T never formed.
+    Its factors (those of ``A + gamma E`` and of ``K = psi (A + gamma
+    E)^-1 psi^T``, :func:`~flexmb.kernels.loops.loop_newton_factor`) depend
+    on the set-up's positions and on gamma only: they are made at the first
+    solve with a new gamma after a set-up and kept for the solves with that
+    gamma (CVODE calls the solve a few times per Newton iteration, and keeps
+    gamma over several steps), so that a solve costs two O(n) recursions.
     The geometric stiffness and the velocity-dependent terms are left out,
     as for open trees: GMRES converges to the exact Newton step in a few
     iterations. :meth:`solve` raises an :class:`~flexmb.AssemblyError` if
@@ -414,17 +420,23 @@ class LoopNewtonPreconditioner(NewtonPreconditioner):
         (:meth:`System.newton_preconditioner`).
     """
 
-    def setup(self, t, x, xd) -> None:  # the positions only: the kernel evaluates the rest at each solve
+    _factored = None  # (gamma, the factors at the set-up's positions)
+
+    def setup(self, t, x, xd) -> None:  # the positions only; the factors are made by the first solve
         self._state = _plain(np.array(x, dtype=float))
         self._at = (self._state, np.array(xd, dtype=float))
+        self._factored = None
         self.n_setups += 1
 
     def solve(self, r1, r2, gamma):
         system = self.system
         E = gamma * self.stiffness + self.damping
+        if self._factored is None or self._factored[0] != gamma:
+            self._factored = (gamma, loop_newton_factor(system._packed, system._loop_layout, self._state, gamma * E,
+                                                        system._loop_tol,
+                                                        -1 if system.rank_limit is None else system.rank_limit))
         load = _plain(self.stiffness * self._displaced(r1) + E * r2)
-        v, _, _, status = loop_newton(system._packed, system._loop_layout, self._state, gamma * E, load, system._loop_tol,
-                                -1 if system.rank_limit is None else system.rank_limit)
+        v, _, _, status = loop_newton_solve(self._factored[1], system._packed, system._loop_layout, load)
         if status:
             raise AssemblyError("the Newton preconditioner of the loops is singular (a freedom without mass, "
                                 "stiffness or damping that no loop fixes)")

@@ -13,7 +13,8 @@ central difference of two right-hand sides along v (as
 :func:`flexmb.linearize` differences along the columns of T), ``A v``
 one pass of :func:`~flexmb.kernels.articulated.mass_times`, and the
 constrained solve of ``(A + E) v = b + psi^T lambda``, ``psi v = 0``
-(:func:`~flexmb.kernels.loops.loop_newton`) maps loads onto the tangent
+(:func:`~flexmb.kernels.loops.loop_newton_solve`, factored once per
+armature) maps loads onto the tangent
 space. A, K, T and M are never formed.
 
 For a few modes of many independent coordinates p, V grows by the
@@ -48,7 +49,7 @@ import scipy.linalg as sla
 
 from ..errors import ModelError
 from ..kernels.articulated import mass_times
-from ..kernels.loops import loop_newton
+from ..kernels.loops import loop_newton_factor, loop_newton_solve
 from ..system.solve import _plain
 from ..system.tangent import NewtonPreconditioner
 
@@ -104,6 +105,7 @@ class LoopModes:
         self._limit = -1 if system.rank_limit is None else system.rank_limit
         self.n_rhs = 0
         self.n_solves = 0
+        self._factors = {}
 
     def mass_times(self, v):
         """``A v``, O(n), A never formed.
@@ -141,8 +143,12 @@ class LoopModes:
             If the constrained matrix is singular.
         """
         s = self.system
-        v, _, _, status = loop_newton(s._packed, s._loop_layout, self.x0, _plain(armature), _plain(load), s._loop_tol,
-                                self._limit)
+        armature = _plain(armature)
+        key = armature.tobytes()  # two armatures: none (P) and the preconditioner's
+        if key not in self._factors:
+            self._factors[key] = loop_newton_factor(s._packed, s._loop_layout, self.x0, armature, s._loop_tol,
+                                                    self._limit)
+        v, _, _, status = loop_newton_solve(self._factors[key], s._packed, s._loop_layout, _plain(load))
         self.n_solves += 1
         if status:
             raise ModelError("modes: the shift-invert solve of the loops is singular (a freedom without mass or "

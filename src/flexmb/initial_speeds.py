@@ -245,15 +245,17 @@ def held_speeds(system, t, x, xd, held, motions, hold):
         both.
     """
     n = system.n_speeds
-    rows = system._rows(t, x, xd) if system.n_constraints else None
     if not motions:
-        if rows is None:
+        if not system.n_constraints:
             return xd
         if not hold:
             return system.project(t, x, xd, fixed=None)[1]
         xd = system.project(t, x, xd, fixed=held)[1]
-        _check(system, t, x, xd, rows.psi, rows.b, held, [], None, None)
+        if system._constraint_residuals(t, x, xd)[1] > SPEED_TOL * _scale(xd):  # psi formed only to name rows
+            rows = system._rows(t, x, xd)
+            _check(system, t, x, xd, rows.psi, rows.b, held, [], None, None)
         return xd
+    rows = system._rows(t, x, xd) if system.n_constraints else None
     C, c, owner = motion_rows(system, t, x, motions)
     psi = np.zeros((0, n)) if rows is None else rows.psi
     b = np.zeros(0) if rows is None else rows.b
@@ -270,9 +272,14 @@ def held_speeds(system, t, x, xd, held, motions, hold):
     return system.project(t, x, target, fixed=None)[1] if rows is not None else target
 
 
+def _scale(xd) -> float:
+    """The scale of :data:`SPEED_TOL`: one plus the largest speed."""
+    return 1.0 + float(np.max(np.abs(xd))) if xd.size else 1.0
+
+
 def _check(system, t, x, xd, psi, b, held, motions, C, c):
     """Refuse speeds held that leave the constraints (or the point/angular velocities given) unmet."""
-    scale = 1.0 + float(np.max(np.abs(xd))) if xd.size else 1.0
+    scale = _scale(xd)
     res_psi = psi @ xd - b if psi.shape[0] else np.zeros(0)
     res_c = C @ xd - c if C is not None else np.zeros(0)
     worst = max(float(np.max(np.abs(res_psi), initial=0.0)), float(np.max(np.abs(res_c), initial=0.0)))

@@ -28,13 +28,26 @@ INTEGRATORS = registry.builtin_table("integrators")
 _SUNDIALS = "flexmb.integrators.sundials"
 
 
-def _coordinate_mask(system, names, speeds=False):
-    """Boolean mask of coordinates (``speeds``: of speeds) from names (coordinate or joint names) or joints."""
+def _name_index(all_names) -> dict:
+    """``{name: [positions]}`` of coordinate names and of the joint names before their last dot."""
+    index = {}
+    for i, c in enumerate(all_names):
+        for key in {c, c.rsplit(".", 1)[0]}:
+            index.setdefault(key, []).append(i)
+    return index
+
+
+def _coordinate_mask(system, names, speeds=False, index=None):
+    """Boolean mask of coordinates (``speeds``: of speeds) from names (coordinate or joint names) or joints.
+
+    ``index``: :func:`_name_index` of those names, when one is at hand (a lookup per name, not a scan).
+    """
     all_names = system.speed_names if speeds else system.coordinate_names
+    index = _name_index(all_names) if index is None else index
     mask = np.zeros(len(all_names), bool)
     for name in names:
         name = name if isinstance(name, str) else system.model.element(name, Joint).name
-        hits = [i for i, c in enumerate(all_names) if c == name or c.rsplit(".", 1)[0] == name]
+        hits = index.get(name, [])
         if not hits:
             what = "speed" if speeds and all_names != system.coordinate_names else "coordinate"
             raise ModelError(f"no {what} or joint named {name!r}; {what}s are {all_names}")
@@ -51,8 +64,9 @@ def _fill(system, values, what):
     if values is not None and not isinstance(values, Mapping):
         raise ModelError(f"initial state: {what}s must be a dict {{name: value}} of coordinate or joint names, got "
                          f"{type(values).__name__} {values!r:.60}")
+    index = _name_index(system.speed_names if speeds else system.coordinate_names) if values else None
     for name, value in (values or {}).items():
-        mask = _coordinate_mask(system, [name], speeds)
+        mask = _coordinate_mask(system, [name], speeds, index)
         k = int(mask.sum())
         try:
             v = np.broadcast_to(np.asarray(value, dtype=float), (k,))

@@ -23,6 +23,9 @@ campbell_diagram
     Campbell diagrams: frequencies and damping against a parameter.
 steady
     First-order linearisation about a steady motion (velocity rows allowed).
+loop_modes
+    The lowest modes of a large looped model by preconditioned Davidson
+    iteration, O(n m) per step.
 """
 
 from .linear import Linearization, linear_statics, linearize, modes, tangent_gap

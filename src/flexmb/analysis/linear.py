@@ -15,6 +15,7 @@ from .._validate import state_time, state_vector, whole
 from ..errors import ModelError
 from ..forces import BeamElasticity, BodyTorque, Gravity, JointSpringDamper, PointForce
 from ..threads import limited_blas
+from .loop_modes import loop_modes, takes_loop_modes
 
 __all__ = ["Linearization", "linearize", "modes", "linear_statics", "tangent_gap", "LINEARIZE_METHODS"]
 
@@ -274,6 +275,22 @@ def modes(system_or_lin, n_modes: int | None = None, **kw):
         Mode shapes in the generalized coordinates x (``T phi``), each
         normalised to unit largest entry.
 
+    Notes
+    -----
+    The dense path linearises (:func:`linearize`: T from the SVD of psi,
+    p columns of differences) and solves the p x p eigenproblem: O(n^3)
+    time and O(n^2) memory with loops. A model whose loops the articulated
+    strategy closes, with at least
+    ``flexmb.analysis.loop_modes.SPARSE_MODES_MIN`` coordinates and
+    ``n_modes`` given, takes ``flexmb.analysis.loop_modes`` instead:
+    Davidson iteration preconditioned by the constrained articulated-body
+    recursion, a fixed number of O(n m) solves, no n x n array (for few
+    independent coordinates, their whole basis: O(p n m)). Both difference
+    the accelerations, so they agree to the differences' noise (about 1e-8
+    of the largest eigenvalue found), not to round-off. Away from an
+    equilibrium, where the stiffness is not symmetric, the sparse path
+    stops with a ModelError that names the dense one.
+
     Examples
     --------
     >>> import flexmb as fm
@@ -285,17 +302,30 @@ def modes(system_or_lin, n_modes: int | None = None, **kw):
     >>> round(float(f[0]), 2)
     4.11
     """
-    lin = system_or_lin if isinstance(system_or_lin, Linearization) else linearize(system_or_lin, **kw)
-    K = 0.5 * (lin.K + lin.K.T)
-    w2, phi = sla.eigh(K, lin.M)
-    order = np.argsort(w2)
-    w2, phi = w2[order], phi[:, order]
     if n_modes is not None:
         n_modes = whole("modes", "n_modes", n_modes)
-        w2, phi = w2[:n_modes], phi[:, :n_modes]
-    shapes = lin.T @ phi
+    if not isinstance(system_or_lin, Linearization) and takes_loop_modes(system_or_lin, n_modes,
+                                                                         kw.get("method", "auto")):
+        w2, shapes = _loop_modes(system_or_lin, n_modes, **kw)
+    else:
+        lin = system_or_lin if isinstance(system_or_lin, Linearization) else linearize(system_or_lin, **kw)
+        K = 0.5 * (lin.K + lin.K.T)
+        w2, phi = sla.eigh(K, lin.M)
+        order = np.argsort(w2)
+        w2, phi = w2[order][:n_modes], phi[:, order][:, :n_modes]
+        shapes = lin.T @ phi
     shapes /= shapes[np.argmax(np.abs(shapes), axis=0), np.arange(shapes.shape[1])]
     return np.sqrt(np.maximum(w2, 0.0)) / (2 * np.pi), shapes
+
+
+def _loop_modes(system, k, x0=None, xd0=None, t=0.0, h=1e-6, method="auto"):
+    """:func:`~flexmb.analysis.loop_modes.loop_modes` with :func:`linearize`'s arguments and checks."""
+    system.constraints.refuse_velocity_rows(
+        "modes", "about a steady motion, flexmb.linearize_steady takes it (naming the ignorable coordinates)")
+    t = state_time("modes", t)
+    x0 = system.layout.reference() if x0 is None else state_vector("modes", "x0", x0, system.n_coords)
+    xd0 = np.zeros(system.n_speeds) if xd0 is None else state_vector("modes", "xd0", xd0, system.n_speeds)
+    return loop_modes(system, k, x0, xd0, t, h)
 
 
 @limited_blas

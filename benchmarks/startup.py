@@ -32,6 +32,14 @@ Both print the beam tip's position at t = 1 s; they must agree to 1e-5 m
 (each is within 1e-6 m of the reference). One JSON line per run goes to
 ``--out`` (default ``benchmarks/results/startup.jsonl``, appended);
 ``--summary`` prints the least CPU per venv and the ratios flexmb/Exudyn.
+With ``--parts`` each round also times, per venv, a process that only
+imports flexmb and one that imports it and builds the model.
+
+**The exit** (``--exit``): the run as it is, ending with ``gc.freeze()``
+and ending with ``os._exit`` (:data:`EXIT_ENDINGS`), alternating: what the
+interpreter's clean-up costs, and how much of it is the cyclic garbage
+collector's final collections over every object still alive. Written to
+``--exit-out`` (default ``benchmarks/results/startup_exit.jsonl``).
 
 **Breakdown** (``--breakdown``): one new process per venv, repeated
 ``--repeat`` times (the least of each figure is kept), timing with
@@ -73,6 +81,24 @@ system = b1(8).build()
 res = fm.simulate(system, 1.0, method="CVODE_BDF", rtol=2e-5, atol=2e-7, n_out=2, progress=False)
 print([float(v) for v in res.shape("beam")[-1, -1]])
 """
+
+#: the parts of it: importing flexmb alone, and importing it and building the model (what every script pays
+#: before it simulates); they print no tip
+PARTS = {
+    "import": "import flexmb\nprint('[]')\n",
+    "import_build": "import sys\nsys.path.insert(0, {bench!r})\nimport flexmb\nfrom scenes import b1\n"
+                    "system = b1(8).build()\nprint('[]')\n",
+}
+
+#: the exit (``--exit``): the same run ending as it does, with ``gc.freeze()`` as its last line (the
+#: interpreter's final collections then skip every object alive), and with ``os._exit`` (no clean-up at all,
+#: the standard streams flushed first); the run also prints the objects the collector tracks at its end
+EXIT_ENDINGS = {
+    "normal": "",
+    "gc_freeze": "import gc\ngc.freeze()\n",
+    "os_exit": "import os\nsys.stdout.flush()\nsys.stderr.flush()\nos._exit(0)\n",
+}
+TRACKED = "import gc\nprint(len(gc.get_objects()), file=sys.stderr)\n"
 
 #: Exudyn's run, the peer script's own function (its harness, as compare.py times it)
 EXUDYN_RUN = """
@@ -197,8 +223,11 @@ def _row(tool, label, commit, r, extra) -> dict:
             **extra}
 
 
-def measure(venvs: dict[str, str], peers_python: str, repeat: int, out: str) -> None:
-    """Alternating rounds: each flexmb venv, then Exudyn, one new process each, ``repeat`` times."""
+def measure(venvs: dict[str, str], peers_python: str, repeat: int, out: str, parts: bool = False) -> None:
+    """Alternating rounds: each flexmb venv, then Exudyn, one new process each, ``repeat`` times.
+
+    With ``parts``, each venv's round also runs :data:`PARTS` (``import flexmb`` alone; it and the build).
+    """
     info = {}
     for label, venv in venvs.items():
         python = os.path.join(venv, "bin", "python")
@@ -219,12 +248,35 @@ def measure(venvs: dict[str, str], peers_python: str, repeat: int, out: str) -> 
                 res = run_process(python, flexmb_code, work)
                 tips[label] = res["output"]
                 _write(out, _row("flexmb", label, commit, r, res))
+                if parts:
+                    for part, code in PARTS.items():
+                        _write(out, _row(part, label, commit, r, run_process(python, code.format(bench=HERE), work)))
             res = run_process(peers_python, exudyn_code, work)
             tips["exudyn"] = res["output"]
             _write(out, _row("exudyn", "peers", "", r, res))
             _check_tips(tips)
             label, (python, commit) = list(info.items())[-1]
             _write(out, _row("dependencies", label, commit, r, run_process(python, DEPENDENCIES_RUN, work)))
+
+
+def measure_exit(venvs: dict[str, str], repeat: int, out: str) -> None:
+    """The exit's share: :data:`EXIT_ENDINGS` of flexmb's run, alternating, ``repeat`` rounds, per venv."""
+    info = {label: os.path.join(venv, "bin", "python") for label, venv in venvs.items()}
+    codes = {k: FLEXMB_RUN.format(bench=HERE) + TRACKED + v for k, v in EXIT_ENDINGS.items()}
+    with tempfile.TemporaryDirectory(prefix="flexmb-startup-") as work:
+        for python in info.values():
+            run_process(python, codes["normal"], work)
+        best: dict = {}
+        for r in range(repeat):
+            for label, python in info.items():
+                for ending, code in codes.items():
+                    res = run_process(python, code, work)
+                    if res["status"]:
+                        raise SystemExit(f"{label} {ending}: {res['stderr_tail']}")
+                    _write(out, _row("exit_" + ending, label, _commit(_checkout(python)), r, res))
+                    best.setdefault((label, ending), []).append(res["cpu_s"])
+    for (label, ending), cpus in best.items():
+        print(f"{label:10s} {ending:10s} least CPU {min(cpus):.3f} s over {len(cpus)}")
 
 
 def _check_tips(tips: dict) -> None:
@@ -292,6 +344,14 @@ def summary(out: str) -> str:
              f"| Exudyn | - | {len(exudyn)} | {ex:.3f} | - |"]
     for (venv, commit), cpus in sorted(best.items()):
         lines.append(f"| flexmb ({venv}) | {commit} | {len(cpus)} | {min(cpus):.3f} | {min(cpus) / ex:.2f} |")
+    for part in PARTS:
+        cpus: dict[tuple, list] = {}
+        for r in rows:
+            if r["tool"] == part and r["status"] == 0:
+                cpus.setdefault((r["venv"], r["commit"]), []).append(r["cpu_s"])
+        for (venv, commit), c in sorted(cpus.items()):
+            lines.append(f"| only {part.replace('_', ' + ')} ({venv}) | {commit} | {len(c)} | {min(c):.3f} | "
+                         f"{min(c) / ex:.2f} |")
     deps = [r["cpu_s"] for r in rows if r["tool"] == "dependencies" and r["status"] == 0]
     if deps:
         lines.append(f"| only importing numpy, numba, scipy.integrate, sksundae.cvode | - | {len(deps)} | "
@@ -309,13 +369,19 @@ def main(argv=None) -> None:
     p.add_argument("--breakdown", action="store_true", help="time the phases of one run instead")
     p.add_argument("--breakdown-out", default=os.path.join(RESULTS, "startup_breakdown.jsonl"))
     p.add_argument("--summary", action="store_true", help="only print the table of --out")
+    p.add_argument("--exit", action="store_true", help="time the run's exit instead (EXIT_ENDINGS)")
+    p.add_argument("--exit-out", default=os.path.join(RESULTS, "startup_exit.jsonl"))
+    p.add_argument("--parts", action="store_true", help="also time `import flexmb` alone and with the build")
     args = p.parse_args(argv)
     venvs = dict(v.split("=", 1) for v in args.venv) or {"this": sys.prefix}
     if args.breakdown:
         breakdown(venvs, args.repeat, args.breakdown_out)
         return
+    if args.exit:
+        measure_exit(venvs, args.repeat, args.exit_out)
+        return
     if not args.summary:
-        measure(venvs, args.peers_python, args.repeat, args.out)
+        measure(venvs, args.peers_python, args.repeat, args.out, args.parts)
     print(summary(args.out))
 
 

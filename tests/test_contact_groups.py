@@ -293,3 +293,25 @@ def test_group_against_group_with_the_broad_phase_is_every_pair_to_the_bit(monke
             for s in (fast, every)]
     assert runs[0].n_contact_onsets > 0 and runs[0].n_steps == runs[1].n_steps
     assert np.array_equal(runs[0].x, runs[1].x) and np.array_equal(runs[0].xd, runs[1].xd)
+
+
+def test_the_broad_phase_helpers_are_numpys_min_max_and_searchsorted():
+    """The loops that stand for ``a[:, x].min()``, ``.max()`` and ``np.searchsorted`` (numba's would import
+    scipy.linalg at every run) give numpy's values, NaN and ties included."""
+    from flexmb.kernels.broadphase import _column_max, _column_min, _search
+
+    rng = np.random.default_rng(3)
+    for rows in (1, 2, 7, 40):
+        a = rng.normal(size=(rows, 3))
+        for x in range(3):
+            assert _column_min(a, x) == a[:, x].min() and _column_max(a, x) == a[:, x].max()
+        a[rows // 2, 1] = np.nan
+        assert np.isnan(_column_min(a, 1)) and np.isnan(_column_max(a, 1))
+        assert _column_min(a, 0) == a[:, 0].min()
+    a = np.array([[np.nan, 1.0]])
+    assert np.isnan(_column_min(a, 0)) and np.isnan(_column_max(a, 0))
+    for n in (0, 1, 2, 5, 33):
+        keys = np.sort(rng.integers(0, 12, size=n)).astype(np.int64)
+        for key in range(-1, 14):
+            assert _search(keys, key, False) == np.searchsorted(keys, key), (keys, key)
+            assert _search(keys, key, True) == np.searchsorted(keys, key, side="right"), (keys, key)

@@ -3,7 +3,9 @@
 Every process that runs flexmb pays for its imports (a script, a test, a
 study's case): the analyses import scipy.optimize, the integrators
 scipy.integrate (which imports scipy.optimize and scipy.special), the VTK
-export meshio, the plots matplotlib. ``import flexmb`` imports none of them;
+export meshio, the plots matplotlib, a closed loop's factorizations
+scipy.linalg (through :class:`flexmb._lazy.LazyModule`; numba imports it
+itself for kernels that call BLAS or numpy's array functions). ``import flexmb`` imports none of them;
 the public names that need them are imported on first use (the package's
 ``__getattr__``), and a model's build and simulation import the integrators
 but not the analyses, scenes, studies, exports or plots. Each check runs in
@@ -22,8 +24,8 @@ import textwrap
 import flexmb
 
 #: never imported by ``import flexmb``
-NOT_AT_IMPORT = ["matplotlib", "meshio", "scipy.optimize", "scipy.integrate", "scipy.special", "sksundae", "dask",
-                 "pyvista", "flexmb.analysis", "flexmb.study", "flexmb.scene", "flexmb.viz", "flexmb.export",
+NOT_AT_IMPORT = ["matplotlib", "meshio", "scipy.linalg", "scipy.optimize", "scipy.integrate", "scipy.special",
+                 "sksundae", "dask", "pyvista", "flexmb.analysis", "flexmb.study", "flexmb.scene", "flexmb.viz", "flexmb.export",
                  "flexmb.genalpha", "flexmb.integrators", "flexmb.system"]
 
 #: never imported by building and simulating a model (the integrators are)
@@ -51,6 +53,37 @@ def test_import_flexmb_imports_no_analysis_integrator_export_or_plot():
     assert [m for m in NOT_AT_IMPORT if loaded[m]] == []
 
 
+def test_lazy_module_imports_at_first_read_and_keeps_the_name():
+    from flexmb._lazy import LazyModule
+
+    code = textwrap.dedent("""
+        import sys
+        from flexmb._lazy import LazyModule
+        lazy = LazyModule("fractions")
+        assert "fractions" not in sys.modules
+        assert lazy.Fraction(1, 3) * 3 == 1
+        assert "fractions" in sys.modules and vars(lazy)["Fraction"] is sys.modules["fractions"].Fraction
+        print("ok")
+    """)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "ok"
+    lazy = LazyModule("json")
+    try:
+        lazy.no_such_function
+    except AttributeError as exc:
+        assert "no_such_function" in str(exc)
+    else:
+        raise AssertionError("no AttributeError")
+    try:
+        lazy.__wrapped__
+    except AttributeError:
+        pass
+    else:
+        raise AssertionError("a dunder read imported the module")
+    assert "json" in repr(lazy)
+
+
 def test_a_simulation_imports_no_analysis_scene_study_export_or_plot():
     loaded = _modules_after(f"""
         import sys
@@ -62,6 +95,27 @@ def test_a_simulation_imports_no_analysis_scene_study_export_or_plot():
     """)
     assert [m for m in NOT_IN_A_RUN if loaded[m]] == []
     assert loaded["flexmb.integrators"]  # the check reads sys.modules of the run
+
+
+def test_an_open_trees_build_rates_and_result_import_no_scipy_linalg():
+    """The kernels of an open tree's build and right-hand side call no BLAS and nothing of numba.np.arraymath
+    (numba imports scipy.linalg for either): the integrators and the Jacobian import it."""
+    out = subprocess.run([sys.executable, "-c", textwrap.dedent(f"""
+        import sys
+        sys.path.insert(0, {BENCH!r})
+        import numpy as np
+        import flexmb as fm
+        from scenes import b1
+        system = b1(2).build()
+        y = np.zeros(2 * system.n_speeds)
+        y[system.n_speeds:] = 0.5
+        rate = system.state_rate(0.0, y)
+        res = fm.Result.from_states(system, y[:system.n_speeds], y[system.n_speeds:], t=0.0)
+        assert np.all(np.isfinite(rate)) and res.shape("beam").shape[-1] == 3
+        print(sorted(m for m in ("scipy.linalg", "numba.np.arraymath") if m in sys.modules))
+    """)], capture_output=True, text=True, timeout=300, env=dict(os.environ, OPENBLAS_NUM_THREADS="1"))
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip().splitlines()[-1] == "[]"
 
 
 def test_every_public_name_resolves_and_is_listed():

@@ -4,12 +4,15 @@ from __future__ import annotations
 
 import numpy as np
 from attrs import define, field, frozen
-from scipy.linalg import solve_triangular
 
+from .._lazy import LazyModule
 from ..errors import AssemblyError, ModelError
 from ..kernels.reduced import filtered
 
 __all__ = ["Complement", "ComplementStrategy"]
+
+#: scipy.linalg, imported by the first least-squares solve on a complete orthogonal decomposition
+_linalg = LazyModule("scipy.linalg")
 
 #: Entries of psi at or below this (m per coordinate unit, or dimensionless)
 #: are round-off: a psi made only of them constrains nothing (e.g. a cut
@@ -84,7 +87,7 @@ class Complement:
             if window > 0.0 and self.scale.size and np.min(self.scale) < 10.0 * window:
                 U, s, Vt = np.linalg.svd(self.factor)
                 return self.basis @ (Vt.T @ _filtered(s, U.T @ (self.left.T @ rhs), window))
-            return self.basis @ solve_triangular(self.factor, self.left.T @ rhs, check_finite=False)
+            return self.basis @ _linalg.solve_triangular(self.factor, self.left.T @ rhs, check_finite=False)
         if window > 0.0:
             return self.basis @ _filtered(self.scale, self.left.T @ rhs, window)
         return self.basis @ ((self.left.T @ rhs) / self.scale)
@@ -108,7 +111,7 @@ class Complement:
         """
         g = self.basis.T @ rhs
         if self.factor is not None:  # psi^T = basis K^T left^T
-            return self.left @ solve_triangular(self.factor, g, trans="T", check_finite=False)
+            return self.left @ _linalg.solve_triangular(self.factor, g, trans="T", check_finite=False)
         return self.left @ (g / self.scale)
 
     def singular_values(self) -> np.ndarray:

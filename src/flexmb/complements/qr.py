@@ -5,11 +5,14 @@ from __future__ import annotations
 from functools import lru_cache
 
 import numpy as np
-from scipy.linalg import lapack
 
+from .._lazy import LazyModule
 from .base import Complement, ComplementStrategy
 
 __all__ = ["QRComplement", "complement_from_qr", "pivoted_qr", "qr_rank"]
+
+#: LAPACK through scipy, imported by the first factorization
+lapack = LazyModule("scipy.linalg.lapack")
 
 #: Number of coordinates n from which the orthogonal factor Q (n x n) is
 #: formed as ``I - V S V^T`` with one matrix product (compact WY form,

@@ -55,14 +55,53 @@ def _boxes(first, count, rows, local, radius, R, origin, lo, hi):
             hi[s, x] = max(a, b) + radius[first + s]
 
 
+# Column extremes and sorted searches are loops here, not numpy's: numba implements those in
+# numba.np.arraymath, whose import imports scipy.linalg (numba checks there for BLAS), and every
+# kernel that applies loads compiles this module in.
+
+@njit(cache=True, inline="always")
+def _column_min(a, x):
+    """``a[:, x].min()`` of a non-empty 2-d array (NaN if any entry is, as numpy's)."""
+    out = a[0, x]
+    for i in range(1, a.shape[0]):
+        v = a[i, x]
+        if v < out or v != v:
+            out = v
+    return out
+
+
+@njit(cache=True, inline="always")
+def _column_max(a, x):
+    """``a[:, x].max()`` of a non-empty 2-d array (NaN if any entry is, as numpy's)."""
+    out = a[0, x]
+    for i in range(1, a.shape[0]):
+        v = a[i, x]
+        if v > out or v != v:
+            out = v
+    return out
+
+
+@njit(cache=True, inline="always")
+def _search(sorted_keys, key, right):
+    """``np.searchsorted(sorted_keys, key, side="right" if right else "left")`` by bisection."""
+    lo, hi = 0, sorted_keys.shape[0]
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if sorted_keys[mid] < key or (right and sorted_keys[mid] == key):
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
 @njit(cache=True)
 def _grow(lo, hi):
     """Grow the boxes by the margin; return the grid's corner (3,) and cell size (the largest box's side)."""
     corner = np.empty(3)
     top = np.empty(3)
     for x in range(3):
-        corner[x] = lo[:, x].min()
-        top[x] = hi[:, x].max()
+        corner[x] = _column_min(lo, x)
+        top[x] = _column_max(hi, x)
     margin = MARGIN * max(top[0] - corner[0], top[1] - corner[1], top[2] - corner[2], 1e-6)
     lo -= margin
     hi += margin
@@ -136,7 +175,7 @@ def block_candidates(blocks, rows, local, radius, block_map, R, origin):
         corner, size = _grow(lo, hi)
         top = np.empty(3)
         for x in range(3):
-            top[x] = hi[:, x].max()
+            top[x] = _column_max(hi, x)
         dims, size = _cells(corner, max(size, 1e-300), top)
         keys = np.empty(n2, dtype=np.int64)
         for j in range(n2):
@@ -153,8 +192,8 @@ def block_candidates(blocks, rows, local, radius, block_map, R, origin):
             for cx in range(max(c[0] - 1, 0), min(c[0] + 2, dims[0])):
                 for cy in range(max(c[1] - 1, 0), min(c[1] + 2, dims[1])):
                     base = (cx * dims[1] + cy) * dims[2]
-                    a = np.searchsorted(sorted_keys, base + max(c[2] - 1, 0))
-                    z = np.searchsorted(sorted_keys, base + min(c[2] + 1, dims[2] - 1), side="right")
+                    a = _search(sorted_keys, base + max(c[2] - 1, 0), False)
+                    z = _search(sorted_keys, base + min(c[2] + 1, dims[2] - 1), True)
                     for t in range(a, z):
                         j = order[t]
                         s = n1 + j

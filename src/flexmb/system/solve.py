@@ -3,15 +3,17 @@
 from __future__ import annotations
 
 import numpy as np
-from scipy.linalg.lapack import dpotrf as _potrf
-from scipy.linalg.lapack import dpotrs as _potrs
 
+from .._lazy import LazyModule
 from ..forces import Loads
 from ..complements import SVDComplement
 from ..complements.base import PSI_ZERO
 from .._validate import LARGEST
 from ..errors import AssemblyError
 from ..kernels.reduced import svd_reduced_solve
+
+#: LAPACK through scipy, imported by the first Cholesky factorization of a mass matrix outside the kernels
+_lapack = LazyModule("scipy.linalg.lapack")
 
 
 def _plain(a) -> np.ndarray:
@@ -163,9 +165,9 @@ class ReducedSolve:
         # cost more than the factorization itself at a few dozen coordinates
         if M.shape[0] == 0:
             return np.zeros_like(rhs)
-        c, info = _potrf(M, lower=False, clean=False)
+        c, info = _lapack.dpotrf(M, lower=False, clean=False)
         if info == 0:
-            z, info = _potrs(c, rhs, lower=False)
+            z, info = _lapack.dpotrs(c, rhs, lower=False)
         if info != 0:
             raise AssemblyError(
                 f"reduced mass matrix T^T A T is not positive definite at t = {t:.6g} s "

@@ -3,14 +3,17 @@
 from __future__ import annotations
 
 import numpy as np
-import scipy.linalg as sla
 
+from .._lazy import LazyModule
 from ..assembly import geometric_stiffness, mass_matrix
 from ..errors import AssemblyError, ModelError
 from ..forces import BodyTorque, Loads, PointForce
 from .solve import _plain
 from ..kernels.articulated import articulated_accelerations, mass_times
 from ..kernels.loops import loop_newton_factor, loop_newton_solve
+
+#: scipy.linalg, imported by the first Newton preconditioner or Jacobian that factors a matrix
+sla = LazyModule("scipy.linalg")
 
 
 def _skew(v):

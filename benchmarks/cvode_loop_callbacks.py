@@ -2,7 +2,7 @@
 
 Issue 28's prototype.
 
-The loops' counterpart of :mod:`cvode_callbacks` (open trees), for models
+The loops' counterpart of :mod:`flexmb.kernels.cvode_callbacks` (open trees), for models
 whose loops the articulated strategy closes (``System._loop_kernel``) and
 whose force elements are all compiled: the right-hand side is
 :func:`flexmb.kernels.loops.loop_rhs`, the Newton preconditioner's solve
@@ -37,8 +37,8 @@ from numba import carray, types
 from numba.core import sigutils
 from numba.core.ccallback import CFunc
 
-from cvode_callbacks import _call_cvode, _call_dky, _call_p_p, _voidp
 from flexmb.kernels import cache as _kc
+from flexmb.kernels.cvode_callbacks import _call_cvode, _call_dky, _call_p_p, _voidp
 from flexmb.kernels.equations import RESIDUALS, tree_equations
 from flexmb.kernels.loop_layout import LoopLayout
 from flexmb.kernels.loops import loop_newton_factor, loop_newton_solve, loop_rhs
@@ -59,11 +59,8 @@ REACHED, CHECKPOINT, PAUSED, DRIFTED, DRIFTED_PAST = 0, 1, 2, 3, 4
 
 @functools.lru_cache(maxsize=None)
 def _own_stamp() -> str:
-    h = hashlib.sha256()
-    for name in ("cvode_loop_callbacks.py", "cvode_callbacks.py"):
-        with open(os.path.join(os.path.dirname(os.path.abspath(__file__)), name), "rb") as f:
-            h.update(f.read())
-    return h.hexdigest()
+    with open(os.path.abspath(__file__), "rb") as f:
+        return hashlib.sha256(f.read()).hexdigest()
 
 
 class _Stamp:
@@ -76,7 +73,7 @@ class _Impl(_kc._KernelCacheImpl):
 
 
 class _Cache(_kc.KernelCache):
-    """flexmb's kernel cache, stamped with the kernels' sources and this file's (and cvode_callbacks.py's)."""
+    """flexmb's kernel cache, stamped with the kernels' sources (cvode_callbacks.py's among them) and this file's."""
 
     _impl_class = _Impl
 
@@ -304,7 +301,7 @@ def drift(ud, t, y):
 def advance(lp, ud, t_stop, t_bound, steps, budget):
     """Step CVODE (``CV_ONE_STEP``) until ``t_stop``, checking the constraints after each step.
 
-    As :func:`cvode_callbacks.advance`, and DRIFTED (the state at the
+    As :func:`flexmb.kernels.cvode_callbacks.advance`, and DRIFTED (the state at the
     step's end in CVODE's y) when the residual exceeds the bound
     ``A_REAL[R_BOUND]``: the step is kept and Python projects and restarts;
     DRIFTED_PAST if that step also reached ``t_stop`` (the state there in

@@ -3,7 +3,7 @@
     OPENBLAS_NUM_THREADS=1 python benchmarks/cvode_loop_direct.py --n 8 32 128 --rtol 1e-5
 
 :class:`DirectLoopCVODE` drives CVODE (BDF) through ctypes on the SUNDIALS
-libraries of scikit-sundae's wheel (:mod:`sundials_direct`) with the numba
+libraries of scikit-sundae's wheel (:mod:`flexmb.integrators.cvode_library`) with the numba
 C callbacks of :mod:`cvode_loop_callbacks`: the loops' right-hand side
 (``loop_rhs``), GMRES with the loops' Newton preconditioner (its factors
 kept per gamma) or, for a small model, the dense Jacobian from Python
@@ -49,8 +49,9 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 
-from sundials_direct import CV_BDF, FLAGS, KRYLOV_DIM, MAX_STEPS, STEPS_PER_CALL, SUN_PREC_LEFT, CVODEError, \
-    _addr, _Sundials  # noqa: E402
+from flexmb.integrators.cvode_direct import CV_BDF, STEPS_PER_CALL, SUN_PREC_LEFT, _addr  # noqa: E402
+from flexmb.integrators.cvode_library import FLAGS, CVODEError, sundials  # noqa: E402
+from flexmb.integrators.sundials import KRYLOV_DIM, MAX_STEPS  # noqa: E402
 
 REFS = os.path.join(HERE, "results", "refs")
 #: the counts printed
@@ -58,7 +59,7 @@ COUNTS = ("steps", "rhs", "jac", "psolves", "factors", "setups", "restarts", "pr
 
 
 def _reinit(S):
-    """``CVodeReInit`` declared on the loaded libraries (sundials_direct does not declare it)."""
+    """``CVodeReInit`` declared on the loaded libraries (flexmb.integrators.cvode_library does not declare it)."""
     for lib in S._libs:
         if hasattr(lib, "CVodeReInit"):
             f = lib.CVodeReInit
@@ -108,7 +109,7 @@ class DirectLoopCVODE:
         if not system._loop_kernel or system._python_groups or not system.layout.identity:
             raise ValueError("DirectLoopCVODE needs loops closed by the articulated strategy, compiled force "
                              "elements only, and no Euler parameters")
-        self._cb, self.system, self._S = cb, system, _Sundials.get()
+        self._cb, self.system, self._S = cb, system, sundials()
         self._reinit_fn = _reinit(self._S)
         self.t, self.t_bound, self.n_steps, self.n_restarts = float(t0), float(t_bound), 0, 0
         self.projection_tol, self.krylov = projection_tol, krylov

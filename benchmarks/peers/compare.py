@@ -242,7 +242,7 @@ def flexmb_round(scene, n, configs, prep, failed: set, log=print) -> list:
         row.update(openblas_num_threads=os.environ.get("OPENBLAS_NUM_THREADS"),
                    atol_perturbation=c["atol_perturbation"], setting=c["setting"])
         rows.append(row)
-        rtol = "default" if c["rtol"] is None else f"{c['rtol']:7.0e}"
+        rtol = rtol_label(c["rtol"], "7.0e")
         what = f"  flexmb {c['method']:9s} rtol {rtol:>7s} atol x(1{c['atol_perturbation']:+.0e})"
         if row["status"] != "finished":
             failed.add(key)
@@ -311,12 +311,17 @@ def peer_config(tool: str, row: dict) -> str:
     return f"{row['integrator'].split()[1]}:{row['rtol']:g}"
 
 
+def rtol_label(rtol, spec: str = "g") -> str:
+    """A flexmb rtol as text: ``"default"`` for None (``simulate()``'s default, the integrator's own)."""
+    return "default" if rtol is None else format(rtol, spec)
+
+
 def conf_label(row) -> str:
     """A run's setting in words."""
     if row is None:
         return "none passes"
     if row["tool"] == "flexmb":
-        return f"{row['integrator']}, rtol {row['rtol']:g}"
+        return f"{row['integrator']}, rtol {rtol_label(row['rtol'])}"
     if row["tool"] == "exudyn":
         return f"Newton {row['newton_rtol']:g}, h {row['h']:.3g} s"
     if row["tool"] == "mujoco":

@@ -22,7 +22,6 @@ from scipy.integrate import OdeSolver
 from scipy.linalg import lu_factor
 
 from ..kernels import genalpha as kernels
-from ..kernels.genalpha import NEWTON_MAXITER
 from .chart import ChartDenseOutput, RotationChart
 from .dense import GeneralizedAlphaDenseOutput
 from .jacobian import forward_differences, low_pass, warn_f_max_cost
@@ -36,7 +35,6 @@ _EPS = np.finfo(float).eps
 NEWTON_REGROWTH = 1.05
 #: the error estimate's projector when there is none (``f_max`` not set, or no mode above it)
 _NO_LOW_PASS = np.empty((0, 0))
-
 
 #: memory of the last instance per right-hand side, for restarts at the time it stopped (see GeneralizedAlpha)
 _MEMORY: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
@@ -192,8 +190,10 @@ class GeneralizedAlpha(OdeSolver):
     explicit = False
     uses_jacobian = True
     uses_preconditioner = True
-    #: simulate passes the O(n) Newton preconditioner (the matrix-free Newton solves) from this many speeds on
-    krylov_min_coords, krylov_min_loop_coords = KRYLOV_MIN_COORDS, KRYLOV_MIN_LOOP_COORDS
+    #: Speeds from which simulate passes the O(n) Newton preconditioner (matrix-free Newton solves), open trees.
+    krylov_min_coords = KRYLOV_MIN_COORDS
+    #: Speeds from which simulate passes the O(n m) Newton preconditioner, models with loops.
+    krylov_min_loop_coords = KRYLOV_MIN_LOOP_COORDS
     second_order = True
     has_dense_output = True
     needs_n_second = True
@@ -411,7 +411,7 @@ class GeneralizedAlpha(OdeSolver):
             return self._krylov.newton(self, t1, h, base, a1, y1, abar1, scale)
         lu, piv = self.lu
         d, rate = -1.0, -1.0
-        for k in range(NEWTON_MAXITER):
+        for k in range(kernels.NEWTON_MAXITER):
             f = self._zfun(t1, y1)
             self.n_newton += 1
             outcome, d, rate = kernels.newton_update(f, lu, piv, h, n, k, d, self._par, self.atol, base, self.g,
@@ -420,7 +420,7 @@ class GeneralizedAlpha(OdeSolver):
                 return (y1, a1, abar1, f[2 * n :]), k + 1, rate
             if outcome == kernels.FAILED:
                 return None, k + 1, rate
-        return None, NEWTON_MAXITER, rate
+        return None, kernels.NEWTON_MAXITER, rate
 
     def _error_control(self, end, h, h_abs):
         """The error test of a converged step (see :func:`~flexmb.kernels.genalpha.error_control`).

@@ -102,3 +102,30 @@ def test_a_base_exception_raised_as_a_kernel_returns_goes_on_as_itself(monkeypat
     monkeypatch.setattr(type(system), "_state_rate", rate)
     with pytest.raises(_Stop):
         fm.simulate(system, 1.0, positions={"pin": 0.5}, progress=False)
+
+
+@pytest.mark.skipif(not hasattr(signal, "SIGHUP"), reason="POSIX signals")
+def test_deferred_interruptions_act_where_the_loop_checks_and_at_the_end():
+    from flexmb._signals import act_on_deferred, deferred
+
+    def tick():  # give the interpreter every chance to run a handler here
+        for _ in range(1000):
+            time.sleep(0)
+
+    with pytest.raises(KeyboardInterrupt):
+        with deferred():
+            os.kill(os.getpid(), signal.SIGINT)
+            tick()  # recorded, not raised
+            with deferred():  # nested: changes nothing
+                tick()
+            act_on_deferred()  # raised here
+            pytest.fail("act_on_deferred did not raise")
+    with pytest.raises(KeyboardInterrupt):  # not acted on inside: raised as the block ends
+        with deferred():
+            os.kill(os.getpid(), signal.SIGINT)
+            tick()
+            done = True
+    assert done
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # the handlers are back
+    with deferred():
+        act_on_deferred()  # nothing recorded: nothing happens

@@ -25,7 +25,8 @@ import contextlib
 import signal
 import threading
 
-__all__ = ["Terminated", "as_interrupts", "escaped", "held", "in_callback", "interrupted_status", "interruption", "who"]
+__all__ = ["Terminated", "act_on_deferred", "as_interrupts", "deferred", "escaped", "held", "in_callback",
+           "interrupted_status", "interruption", "who"]
 
 #: the signals taken as an interruption, where the platform has them
 SIGNALS = tuple(getattr(signal, s) for s in ("SIGTERM", "SIGHUP") if hasattr(signal, s))
@@ -130,6 +131,53 @@ def held():
                 block(signal.SIG_SETMASK, mask)
     if caught and os.getpid() == pid:
         previous[caught[0]](caught[0], None)  # Python's default handler raises KeyboardInterrupt
+
+
+class deferred:
+    """Within the block, Ctrl-C, SIGTERM, SIGHUP and SIGQUIT are recorded, not raised; :func:`act_on_deferred`
+    (and the block's end) hands the first to its own handler.
+
+    For compiled loops that call back into Python through ctypes (CVODE's
+    Jacobian from Python): an exception raised by a signal handler at a
+    callback's first line, before its ``try``, would be printed and lost.
+    The handlers are swapped once per block (not per call, as :func:`held`
+    does), so the loop can check for an interruption after each return from
+    compiled code at the cost of a list's truth test. Nested blocks and
+    other threads change nothing.
+    """
+
+    #: the signals recorded by the active block (None: no block active)
+    caught: list | None = None
+    #: the handlers the active block stands in for
+    previous: dict = {}
+
+    def __enter__(self):
+        self._owner = deferred.caught is None and threading.current_thread() is threading.main_thread()
+        if self._owner:
+            caught = []
+            deferred.previous = {s: signal.signal(s, lambda signum, frame: caught.append(signum))
+                                 for s in HELD if callable(signal.getsignal(s))}
+            deferred.caught = caught
+        return self
+
+    def __exit__(self, kind, exc, tb):
+        if not self._owner:
+            return False
+        caught, previous = deferred.caught, deferred.previous
+        deferred.caught, deferred.previous = None, {}
+        _restore(previous)
+        if caught and kind is None:
+            previous[caught[0]](caught[0], None)  # Python's default handler raises KeyboardInterrupt
+        return False
+
+
+def act_on_deferred() -> None:
+    """Within :class:`deferred`, hand the first interruption recorded so far to its own handler (which raises)."""
+    caught = deferred.caught
+    if caught:
+        signum = caught[0]
+        del caught[:]
+        deferred.previous[signum](signum, None)
 
 
 def _later(signum) -> None:

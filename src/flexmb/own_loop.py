@@ -19,7 +19,11 @@ stepping in Python.
 
 from __future__ import annotations
 
+import contextlib
+
 import numpy as np
+
+from ._signals import deferred
 
 __all__ = ["advance_between_stops", "compiled_options", "NonFinite"]
 
@@ -116,6 +120,14 @@ def advance_between_stops(run, solver, bar, bound: float) -> None:
         step = wound if len(angles) or gimbal is not None else (None if monitor is None else monitor.step)
 
     done = 0  # steps of the solvers restarted before this one
+    # a compiled loop checks for Ctrl-C after each return (the handlers swapped once for the run, not per call)
+    with deferred() if getattr(solver, "steps_in_compiled_code", False) else contextlib.nullcontext():
+        _between_stops(run, solver, bar, stops, step, done)
+
+
+def _between_stops(run, solver, bar, stops, step, done) -> None:
+    """The loop of :func:`advance_between_stops` over its stops."""
+    times, t0 = run.times, run.t0
     for t_stop in stops:
         y_stop = None
         while y_stop is None and t_stop > run.t_now:

@@ -26,13 +26,12 @@ steps, so that Ctrl-C and other signals are handled within a long interval.
 
 from __future__ import annotations
 
-import contextlib
 import ctypes
 from ctypes import byref, c_double, c_int, c_long, c_void_p
 
 import numpy as np
 
-from .._signals import held
+from .._signals import act_on_deferred, deferred
 from .cvode_library import FLAGS, CVODEError, sundials
 
 __all__ = ["DirectCVODE", "DirectCVODEBDF", "DirectCVODEAdams", "compiled_loop", "CVODEError", "STEPS_PER_CALL"]
@@ -300,7 +299,16 @@ class DirectCVODE:
         ------
         CVODEError
             If CVODE fails (its flag, the time, the callback's cause).
+        KeyboardInterrupt
+            Ctrl-C (or SIGTERM, SIGHUP) while it stepped: recorded meanwhile
+            (:class:`flexmb._signals.deferred`, here or around the whole run)
+            and raised once the compiled loop returns, so that none is lost
+            in a Python callback.
         """
+        with deferred():
+            return self._advance(t_stop, on_step)
+
+    def _advance(self, t_stop, on_step):
         if self._mem is None:
             raise CVODEError("this DirectCVODE is closed")
         t_stop = min(float(t_stop), self.t_bound)
@@ -310,15 +318,12 @@ class DirectCVODE:
             times = np.empty(max(mon.next_check - mon.n_steps, 1) if live else 0)
             t_entry = self._tret[0]
             gimbal = self._gimbal if self.gimbal is not None and not self.gimbal.warned else self._gimbal[:0]
-            # with a callback in Python (the Jacobian, a Python rhs), Ctrl-C and the other interruptions are held
-            # back until the loop returns: raised inside a ctypes callback, outside its try, C would lose them
-            python = self._py_jac is not None or self._py_rhs is not None
             try:
-                with held() if python else contextlib.nullcontext():
-                    code, k = cb.advance(self._lp, t_stop, self.t_bound, times, STEPS_PER_CALL, self._angles,
-                                         self._bound, gimbal, self._limit)
+                code, k = cb.advance(self._lp, t_stop, self.t_bound, times, STEPS_PER_CALL, self._angles,
+                                     self._bound, gimbal, self._limit)
             finally:
                 self._count()
+            act_on_deferred()  # a Ctrl-C recorded meanwhile (see advance's docstring)
             self.n_steps += k
             if k:
                 self.t = float(self._tret[0])

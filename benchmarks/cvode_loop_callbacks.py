@@ -34,10 +34,9 @@ import os
 
 import numpy as np
 from numba import carray, types
-from numba.core import sigutils
-from numba.core.ccallback import CFunc
 
 from flexmb.kernels import cache as _kc
+from flexmb.kernels.cvode_callbacks import _LazyCFunc as _OpenTreeLazyCFunc
 from flexmb.kernels.cvode_callbacks import _call_cvode, _call_dky, _call_p_p, _voidp
 from flexmb.kernels.equations import RESIDUALS, tree_equations
 from flexmb.kernels.loop_layout import LoopLayout
@@ -78,22 +77,10 @@ class _Cache(_kc.KernelCache):
     _impl_class = _Impl
 
 
-class _LazyCFunc:
-    """A numba C callback compiled (or loaded from the cache) when its address is first asked for."""
+class _LazyCFunc(_OpenTreeLazyCFunc):
+    """A numba C callback compiled (or loaded from :class:`_Cache`) when its address is first asked for."""
 
-    def __init__(self, func, sig):
-        self._func, self._sig, self._cf = func, sig, None
-        self.__doc__ = func.__doc__
-
-    @property
-    def address(self) -> int:
-        """The callback's address (loading its machine code on first use)."""
-        if self._cf is None:
-            cf = CFunc(self._func, sigutils.normalize_signature(self._sig), locals={}, options={"nopython": True})
-            cf._cache = _Cache(self._func)
-            cf.compile()
-            self._cf = cf
-        return self._cf.address
+    cache_class = _Cache
 
 
 def _cfunc(sig):

@@ -57,6 +57,9 @@ NONFINITE = -2
 class _LazyCFunc:
     """A C callback compiled (or loaded from flexmb's kernel cache) when its address is first asked for."""
 
+    #: the cache its machine code is kept in (a subclass may stamp it with other sources)
+    cache_class = KernelCache
+
     def __init__(self, func, sig):
         self._func, self._sig, self._cf = func, sig, None
         self.__doc__ = func.__doc__
@@ -67,7 +70,7 @@ class _LazyCFunc:
         """The callback's address (its machine code loaded or compiled on first use)."""
         if self._cf is None:
             cf = CFunc(self._func, sigutils.normalize_signature(self._sig), locals={}, options={"nopython": True})
-            cf._cache = KernelCache(self._func)
+            cf._cache = self.cache_class(self._func)
             cf.compile()
             self._cf = cf
         return self._cf.address

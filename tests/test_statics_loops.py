@@ -80,7 +80,8 @@ MODELS = {
 NOISE = {"fourbar": 0.05, "fourbar_revolute_cut": 0.05, "bricard": 0.05, "wiper": 0.05, "b6_40_bent": 0.01}
 STATICS = sorted(MODELS)
 REACTIONS = sorted(MODELS)
-PARTIAL = ["parallelogram", "parallelogram_revolute_cut", "parallelogram_chain"]
+PARTIAL = ["parallelogram", "parallelogram_revolute_cut", "parallelogram_chain", "b7_4_flat", "b7_40_flat",
+           "b7_4_flat_spatial_cuts"]
 
 
 def _system(name):
@@ -118,8 +119,33 @@ def _flat(name, theta):
     return positions
 
 
+def _b7_partial_states(name):
+    """B7's states with the rods 1e-3 rad before, 2e-2 rad before and 1e-3 rad past flat, off the constraints.
+
+    Half of psi's singular values fall below the singular window there (N of 2N).
+    """
+    n = int(name.split("_")[1])
+    model, initial = scenes.b7(n, not name.endswith("spatial_cuts"))
+
+    def at(theta):
+        return {k: (theta if k.startswith("pin") else -theta) for k in initial["positions"]}
+
+    system = model.build(complement="articulated")
+    x, xd = fm.initial_state(system, 0.0, positions=at(0.4), speeds={"pin_0": -1.0})
+    system = _calibrated(system, 0.0, x, xd)
+    rng = np.random.default_rng(11)
+    out = []
+    for theta in (np.pi / 2 - 1e-3, np.pi / 2 - 2e-2, np.pi / 2 + 1e-3):
+        x, xd = fm.initial_state(system, 0.0, positions=at(theta), speeds={"pin_0": -1.0})
+        x, xd = x + 1e-5 * rng.normal(size=x.size), xd + 1e-5 * rng.normal(size=x.size)
+        out.append((system, 0.0, x, xd, system.constraint_residual(0.0, x, xd)))
+    return out
+
+
 def partial_states(name):
     """(system, t, x, xd, residual): states near the flattened position, off the constraints."""
+    if name.startswith("b7"):
+        return _b7_partial_states(name)
     cut = fm.Revolute if name.endswith("revolute_cut") else fm.PlanarRevolute
     model = hc.parallelogram_chain(cut) if name.endswith("chain") else hc.parallelogram(cut)
     system = model.build(complement="articulated")

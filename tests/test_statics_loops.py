@@ -259,3 +259,38 @@ def test_no_n_by_n_array_at_large_n():
     tracemalloc.stop()
     assert np.max(np.abs(x_eq[: n // 2])) < 1e-10  # upright (pins and hinges 0)
     assert statics_peak < 0.1 * 8 * n * n and reactions_peak < 0.1 * 8 * n * n, (statics_peak, reactions_peak)
+
+
+def _rank_limited_states():
+    """Bricard's linkage (5 rows, rank 4) with a tiny singular window, off the constraints by 1e-3.
+
+    Its redundant row's singular value (of the size of the violation) lies
+    above the window and the rank rule's floor: the rank limit (4, from the
+    calibration) is what cuts it.
+    """
+    system = hc.bricard().build(complement=fm.ArticulatedComplement(singular_window=1e-6))
+    x, xd = fm.initial_state(system, 0.0)
+    system = _calibrated(system, 0.0, x, xd)
+    rng = np.random.default_rng(13)
+    x, xd = x + 1e-3 * rng.normal(size=x.size), xd + 1e-3 * rng.normal(size=x.size)
+    return system, x, xd
+
+
+@pytest.mark.parametrize("name", PARTIAL + ["rank_limited"])
+def test_partial_projection_by_the_filter_agrees_with_the_dense_form(name, monkeypatch):
+    """The loops' form (psi sparse, rational filter, no complement formed) against the dense SVD form, live."""
+    from flexmb.output_projection import _project_partial_dense
+
+    if name == "rank_limited":
+        system, x, xd = _rank_limited_states()
+        states = [(system, 0.0, x, xd, system.constraint_residual(0.0, x, xd))]
+        assert system.rank_limit == 4 and system.n_constraints == 5
+    else:
+        states = partial_states(name)
+    for system, t, x, xd, res in states:
+        xr, vr = _project_partial_dense(system, t, x, xd, res, system.singular_window(), 3)
+        with monkeypatch.context() as m:
+            m.setattr(type(system), "complement", lambda *a, **k: pytest.fail("the complement was formed"))
+            xp, vp = project_partial(system, t, x, xd, res)
+        assert np.max(np.abs(xp - xr)) < 1e-10 and np.max(np.abs(vp - vr)) < 1e-10, name
+        assert np.max(np.abs(vp - xd)) > 1e-7, name  # the speeds were projected, not kept

@@ -46,7 +46,7 @@ CG_TOL = 1e-15
 
 
 class LoopRows:
-    """psi (sparse), phi and b of a system whose loops the kernels close, at positions x.
+    """The rows of a system whose loops the kernels close, at positions x: psi (sparse), phi and b.
 
     Parameters
     ----------
@@ -74,7 +74,25 @@ class LoopRows:
         self._tree = (tree, Sw, Sv, spatial)
 
     def mass_solver(self, system, t):
-        """``g -> A^-1 g`` by the articulated-body recursion (AssemblyError naming a joint that moves no mass)."""
+        """The solver ``g -> A^-1 g`` of the mass matrix at these positions, by the articulated-body recursion.
+
+        Parameters
+        ----------
+        system : System
+            The system the rows are of.
+        t : float
+            Time, s (for the error message).
+
+        Returns
+        -------
+        callable
+            ``g -> A^-1 g``, O(n) per call.
+
+        Raises
+        ------
+        AssemblyError
+            If a joint moves no mass or inertia along a freedom (it is named).
+        """
         tree, Sw, Sv, spatial = self._tree
         nb, n = tree.parent.shape[0], Sw.shape[0]
         U, DinvUT, Dinv, bad = articulated_factor(tree.parent, tree.coord_start, spatial, Sw, Sv, np.zeros(n))
@@ -143,7 +161,18 @@ class KeptRows:
         self._solves = [_factor((z * eye - Gc).tocsc()) for z in R * np.exp(1j * np.pi * (2 * np.arange(N // 2) + 1) / N)]
 
     def inverse(self, v):
-        """``F(G) v``: G^-1 on the kept eigenvalues, 0 on the others."""
+        """Apply ``F(G)``: G^-1 on the kept eigenvalues, 0 on the others.
+
+        Parameters
+        ----------
+        v : ndarray, shape (m,)
+            A vector of row values.
+
+        Returns
+        -------
+        ndarray, shape (m,)
+            ``F(G) v``.
+        """
         if self.k == 0:
             return np.zeros(self.m)
         if self._N == 0:
@@ -155,7 +184,18 @@ class KeptRows:
         return -s / self._N
 
     def project(self, v):
-        """``P_k v = G F(G) v``: v's part along the kept rows."""
+        """The part of v along the kept rows, ``P_k v = G F(G) v``.
+
+        Parameters
+        ----------
+        v : ndarray, shape (m,)
+            A vector of row values.
+
+        Returns
+        -------
+        ndarray, shape (m,)
+            ``P_k v``.
+        """
         if self._N == 0 and self.k:
             return np.array(v, dtype=float)
         return self.G @ self.inverse(v)

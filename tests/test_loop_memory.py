@@ -19,6 +19,17 @@ about 10 kB per body while a file is written: linear, with a constant that
 * B6 with 512 and 2048 segments (slow): the run's whole peak stays below
   a third of 8 n^2 bytes at N = 2048 and grows by less than 6x from 512,
   as does the export's.
+* Every consumer of the equations alone (build, assembly off the loops, the
+  right-hand side, both projections, the output projection, CVODE,
+  generalized-alpha, statics, reactions, modes, path following,
+  linearisation, state space, energy, VTK export, the memory estimate;
+  ``benchmarks/loop_consumers_memory.py``, which also measures them), on B7
+  at N = 512 (n = 1025): its traced peak stays below half of one n x n
+  array (8 n^2 bytes), so that forming psi (m x n, m = n - 1) or any n x n
+  array fails. Those still dense are marked as expected failures (strict:
+  one made linear fails until its mark goes): path following and the
+  linearisation (docs/benchmarks.md, "Memory of the consumers of the
+  equations").
 """
 
 from __future__ import annotations
@@ -36,6 +47,7 @@ from flexmb.export.vtk import write_vtu
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(os.path.dirname(HERE), "benchmarks"))
 
+import loop_consumers_memory as consumers  # noqa: E402
 import scenes  # noqa: E402
 
 
@@ -95,3 +107,58 @@ def test_b6_at_2048_segments_needs_memory_far_below_n_squared(tmp_path):
     assert large < 8 * n * n / 3
     assert large < 6 * small
     assert vtk_large < 6 * vtk_small
+
+
+
+#: consumers that still form an n x n array on B7 (docs/benchmarks.md, "Memory of the consumers of the equations")
+DENSE = {
+    "path": "path following forms psi, its SVD's V and the p x p tangent densely",
+    "linearize": "the linearisation forms T from psi's dense SVD and the n x n mass matrix",
+    "state_space": "state_space linearises through linearize (its 2p x 2p result is its contract; B7 has p = 1)",
+}
+#: linear, with a constant above the bound at this size (about 12 kB per body while a file is written): its
+#: growth is bounded instead (the tests above)
+GROWTH_ONLY = {"vtk"}
+SIZE = 512  # n = 1025
+
+
+def _peaks_of(skip, tmp_path_factory):
+    rows = consumers.run("b7", SIZE, skip=skip, tmp=str(tmp_path_factory.mktemp("consumers")))
+    return {r["consumer"]: r for r in rows}
+
+
+@pytest.fixture(scope="module")
+def linear_peaks(tmp_path_factory):
+    """The traced peak of each consumer made linear, on B7 at N = 512."""
+    return _peaks_of(set(DENSE) | GROWTH_ONLY, tmp_path_factory)
+
+
+@pytest.fixture(scope="module")
+def dense_peaks(tmp_path_factory):
+    """The traced peak of each consumer still dense, on B7 at N = 512 (with the build and assembly they need)."""
+    return _peaks_of(set(consumers.CONSUMERS) - set(DENSE) - {"build", "assemble"}, tmp_path_factory)
+
+
+def _check(row):
+    assert row["error"] is None, row["error"]
+    assert row["peak_bytes"] < 8 * row["n"] ** 2 / 2, (row["consumer"], row["peak_bytes"], row["n"])
+
+
+@pytest.mark.parametrize("name", [c for c in consumers.CONSUMERS if c not in DENSE and c not in GROWTH_ONLY])
+def test_each_consumer_forms_no_n_by_n_array(name, linear_peaks):
+    _check(linear_peaks[name])
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", [pytest.param(c, marks=pytest.mark.xfail(strict=True, reason=r))
+                                  for c, r in DENSE.items()])
+def test_the_consumers_still_dense(name, dense_peaks):
+    """Strict expected failures: one made linear fails here until its mark goes."""
+    _check(dense_peaks[name])
+
+
+def test_section_loads_form_no_n_by_n_array(tmp_path):
+    """B6's section loads (a flexible rod of 1024 segments in the loop): no partial velocity arrays (nb x 3 x n)."""
+    rows = {r["consumer"]: r for r in consumers.run("b6", 1024, skip=set(consumers.CONSUMERS) - {
+        "build", "assemble", "cvode"}, tmp=str(tmp_path))}
+    _check(rows["sections"])

@@ -80,7 +80,8 @@ MODELS = {
 NOISE = {"fourbar": 0.05, "fourbar_revolute_cut": 0.05, "bricard": 0.05, "wiper": 0.05, "b6_40_bent": 0.01}
 STATICS = sorted(MODELS)
 REACTIONS = sorted(MODELS)
-PARTIAL = ["parallelogram", "parallelogram_revolute_cut", "parallelogram_chain"]
+PARTIAL = ["parallelogram", "parallelogram_revolute_cut", "parallelogram_chain", "b7_4_flat", "b7_40_flat",
+           "b7_4_flat_spatial_cuts"]
 
 
 def _system(name):
@@ -118,8 +119,33 @@ def _flat(name, theta):
     return positions
 
 
+def _b7_partial_states(name):
+    """B7's states with the rods 1e-3 rad before, 2e-2 rad before and 1e-3 rad past flat, off the constraints.
+
+    Half of psi's singular values fall below the singular window there (N of 2N).
+    """
+    n = int(name.split("_")[1])
+    model, initial = scenes.b7(n, not name.endswith("spatial_cuts"))
+
+    def at(theta):
+        return {k: (theta if k.startswith("pin") else -theta) for k in initial["positions"]}
+
+    system = model.build(complement="articulated")
+    x, xd = fm.initial_state(system, 0.0, positions=at(0.4), speeds={"pin_0": -1.0})
+    system = _calibrated(system, 0.0, x, xd)
+    rng = np.random.default_rng(11)
+    out = []
+    for theta in (np.pi / 2 - 1e-3, np.pi / 2 - 2e-2, np.pi / 2 + 1e-3):
+        x, xd = fm.initial_state(system, 0.0, positions=at(theta), speeds={"pin_0": -1.0})
+        x, xd = x + 1e-5 * rng.normal(size=x.size), xd + 1e-5 * rng.normal(size=x.size)
+        out.append((system, 0.0, x, xd, system.constraint_residual(0.0, x, xd)))
+    return out
+
+
 def partial_states(name):
     """(system, t, x, xd, residual): states near the flattened position, off the constraints."""
+    if name.startswith("b7"):
+        return _b7_partial_states(name)
     cut = fm.Revolute if name.endswith("revolute_cut") else fm.PlanarRevolute
     model = hc.parallelogram_chain(cut) if name.endswith("chain") else hc.parallelogram(cut)
     system = model.build(complement="articulated")
@@ -233,3 +259,38 @@ def test_no_n_by_n_array_at_large_n():
     tracemalloc.stop()
     assert np.max(np.abs(x_eq[: n // 2])) < 1e-10  # upright (pins and hinges 0)
     assert statics_peak < 0.1 * 8 * n * n and reactions_peak < 0.1 * 8 * n * n, (statics_peak, reactions_peak)
+
+
+def _rank_limited_states():
+    """Bricard's linkage (5 rows, rank 4) with a tiny singular window, off the constraints by 1e-3.
+
+    Its redundant row's singular value (of the size of the violation) lies
+    above the window and the rank rule's floor: the rank limit (4, from the
+    calibration) is what cuts it.
+    """
+    system = hc.bricard().build(complement=fm.ArticulatedComplement(singular_window=1e-6))
+    x, xd = fm.initial_state(system, 0.0)
+    system = _calibrated(system, 0.0, x, xd)
+    rng = np.random.default_rng(13)
+    x, xd = x + 1e-3 * rng.normal(size=x.size), xd + 1e-3 * rng.normal(size=x.size)
+    return system, x, xd
+
+
+@pytest.mark.parametrize("name", PARTIAL + ["rank_limited"])
+def test_partial_projection_by_the_filter_agrees_with_the_dense_form(name, monkeypatch):
+    """The loops' form (psi sparse, rational filter, no complement formed) against the dense SVD form, live."""
+    from flexmb.output_projection import _project_partial_dense
+
+    if name == "rank_limited":
+        system, x, xd = _rank_limited_states()
+        states = [(system, 0.0, x, xd, system.constraint_residual(0.0, x, xd))]
+        assert system.rank_limit == 4 and system.n_constraints == 5
+    else:
+        states = partial_states(name)
+    for system, t, x, xd, res in states:
+        xr, vr = _project_partial_dense(system, t, x, xd, res, system.singular_window(), 3)
+        with monkeypatch.context() as m:
+            m.setattr(type(system), "complement", lambda *a, **k: pytest.fail("the complement was formed"))
+            xp, vp = project_partial(system, t, x, xd, res)
+        assert np.max(np.abs(xp - xr)) < 1e-10 and np.max(np.abs(vp - vr)) < 1e-10, name
+        assert np.max(np.abs(vp - xd)) > 1e-7, name  # the speeds were projected, not kept

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .complements.articulated import ArticulatedComplement
 from .errors import AssemblyError
 
 __all__ = ["project_output"]
@@ -66,10 +67,53 @@ def _project_partial(system, t, x, xd, res, n_iter=3):
     judged apart: each correction is kept only if it reduces its own
     residual (``|phi|``, ``|psi xd - b|``) and is no larger than
     ``OUTPUT_PROJECTION_GAIN`` times the state's residual.
+
+    Loops closed by the articulated strategy take
+    :mod:`flexmb.partial_projection` (psi sparse, the left-out rows reached
+    by a rational filter of ``psi psi^T``, no n x n array); the other
+    strategies this dense form, since they cut by their own complement's
+    scale (the pivoted QR's ``|diag R|`` for 'qr', and for 'auto' where it
+    takes QR), which only that complement gives, and they form psi and T
+    at every evaluation anyway. The two agree to 1e-10 where both apply
+    (tests/test_statics_loops.py).
     """
     window = system.singular_window()
     if window <= 0.0:
         return x, xd
+    if system._loop_kernel and type(system.strategy) is ArticulatedComplement:
+        return _project_partial_loops(system, t, x, xd, res, window, n_iter)
+    return _project_partial_dense(system, t, x, xd, res, window, n_iter)
+
+
+def _project_partial_loops(system, t, x, xd, res, window, n_iter):
+    """:func:`_project_partial` for loops closed by the articulated strategy, in O(n) memory."""
+    from .partial_projection import KeptRows, LoopRows, partial_speeds
+
+    limit_rank = -1 if system.rank_limit is None else system.rank_limit
+
+    def kept(rows):
+        return KeptRows(rows.psi, window, system.strategy.tol, limit_rank)
+
+    limit = OUTPUT_PROJECTION_GAIN * res
+    first = rows = LoopRows(system, t, x)
+    xp = np.array(x, dtype=float)
+    for i in range(n_iter):  # the positions (all the kernels' rows are position rows)
+        rows = first if i == 0 else LoopRows(system, t, xp)
+        c = kept(rows)
+        if c.k:
+            xp = system.layout.displace(xp, -(rows.psi.T @ c.inverse(rows.phi)))
+    rows = LoopRows(system, t, xp)
+    if np.max(np.abs(rows.phi)) >= np.max(np.abs(first.phi)) or np.max(np.abs(xp - x)) > limit:
+        xp, rows = np.array(x, dtype=float), first  # the positions are kept
+    vp = partial_speeds(rows, kept(rows), rows.mass_solver(system, t), xd)
+    psi, b = rows.psi, rows.b
+    if np.max(np.abs(psi @ vp - b)) >= np.max(np.abs(psi @ xd - b)) or np.max(np.abs(vp - xd)) > limit:
+        vp = np.array(xd, dtype=float)
+    return xp, vp
+
+
+def _project_partial_dense(system, t, x, xd, res, window, n_iter):
+    """:func:`_project_partial` by the system's dense complement (SVD, QR) of psi."""
 
     def well_conditioned(psi):
         c = system.complement(psi)

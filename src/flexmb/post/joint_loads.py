@@ -16,6 +16,7 @@ from ..errors import FlexmbError
 from ..model import as_system
 from ..rotations import cross
 from ..kernels.dynamics import subtree_sums
+from ..kinematics import Kinematics
 from .fields import JointLoads
 
 __all__ = ["joint_loads", "constraint_loads"]
@@ -108,8 +109,12 @@ def _loads_at(system, t, x, xd, xdd, lam):
     cforce, ctorque, cut_f, cut_m = constraint_loads(system, kin, lam)
     F = (applied.force + cforce)[:-1]
     tau = (applied.torque + ctorque)[:-1]
-    a = kin.V[:-1] @ xdd + kin.a_bias[:-1]
-    alpha = kin.W[:-1] @ xdd + kin.alpha_bias[:-1]
+    # V xdd and W xdd: the velocities are linear in the speeds (v = V xd, omega = W xd, eqs. 7, 17), so
+    # one O(n) pass of the tree with xdd as the speeds gives them, the partial velocities never formed
+    # (they are (n_bodies + 1) x 3 x n: quadratic in memory for a flexible body)
+    at_xdd = Kinematics(topo, t, kin.x, np.ascontiguousarray(xdd, dtype=float))
+    a = at_xdd.v[:-1] + kin.a_bias[:-1]
+    alpha = at_xdd.omega[:-1] + kin.alpha_bias[:-1]
     I = kin.inertia_world()
     w = kin.omega[:-1]
     # Newton-Euler residual of each body: what its parent joint must supply

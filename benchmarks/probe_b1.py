@@ -1,6 +1,6 @@
 """Issue 31's probe: B1 by hand in numba, integrated by CVODE's own loop, against ``fm.simulate`` in one run.
 
-    OPENBLAS_NUM_THREADS=1 python benchmarks/probe_b1.py               # N = 8, rtol 2e-5, 7 rounds
+    OPENBLAS_NUM_THREADS=1 python benchmarks/probe_b1.py               # N = 8, 7 rounds
     OPENBLAS_NUM_THREADS=1 python benchmarks/probe_b1.py --rounds 9 --rtol 2e-5
 
 **The probe.** B1 (benchmarks/scenes.py) as a planar chain in its N
@@ -33,9 +33,11 @@ own step loop), the stop time and step bound flexmb gives it.
 (``time.process_time``) of each: ``fm.simulate(system, 1.0,
 method="CVODE_BDF", rtol, atol = rtol / 100, n_out=2)`` (the compiled
 loop; kernels warm) and a whole probe run (CVODE created, integrated,
-freed). rtol 2e-5 is B1 N = 8's robust rtol in benchmarks/cvode_direct.py
-(docs/benchmarks.md). The error of both is the tip's distance at t = 1 s
-to ``work_precision.reference`` (Radau, rtol 1e-9). The breakdown then
+freed), at rtol 2e-5 (B1 N = 8's robust rtol in benchmarks/cvode_direct.py,
+docs/benchmarks.md) and at each one's robust rtol, found first on
+cvode_direct.py's grid, target and atol perturbations (:func:`robust_rtols`).
+The error of both is the tip's distance at t = 1 s to
+``work_precision.reference`` (Radau, rtol 1e-9). The breakdown then
 times the parts per call, each in a loop: the right-hand sides (compiled
 loops calling the probe's ``chain_rate`` and flexmb's ``open_tree_rhs``),
 the Jacobians (flexmb's ``System.state_jacobian`` from Python; the probe's
@@ -295,11 +297,13 @@ def probe_run(p, n, t_out, rtol, atol) -> dict:
 # ----------------------------------------------------------------------------- measurements
 
 def _tip(system, y) -> np.ndarray:
+    """The beam's tip at the state ``y`` (flexmb's shape: the probe's output, not timed)."""
     beam = next(iter(system.topology.flexible))
     return np.asarray(system.shape(beam, y[: system.n_coords])[-1], float)
 
 
 def _scene_tip(res) -> np.ndarray:
+    """The tip at t_end of a flexmb result, as work_precision's B1 scene reads it."""
     import work_precision as wp
 
     return np.asarray(wp.scenes()["B1"].output(res), float)

@@ -178,7 +178,9 @@ def build(workloads, cpu: str = "x86-64-v3", target: str | None = None) -> dict:
         for workload in workloads:
             for argv in commands(workload, work):
                 t0, r0 = time.perf_counter(), resource.getrusage(resource.RUSAGE_CHILDREN)
-                proc = subprocess.run(argv, env=env, cwd=work, capture_output=True, text=True)
+                # the README's test command runs in the checkout (tests read tutorials/ relative to it)
+                proc = subprocess.run(argv, env=env, cwd=CHECKOUT if workload == "tests" else work,
+                                      capture_output=True, text=True)
                 r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
                 seconds = r1.ru_utime - r0.ru_utime + r1.ru_stime - r0.ru_stime
                 lines = proc.stdout.strip().splitlines() or [""]

@@ -212,12 +212,14 @@ def measure(venvs: dict[str, str], commands: list[str], repeat: int, out: str, w
                     cache = os.path.join(work, "numba-cache")
                     os.mkdir(cache)
                     purge_in_tree(checkout)
-                    for kind in ("cold",) + ("warm",) * warm_runs:
+                    for i, kind in enumerate(("cold",) + ("warm",) * warm_runs):
+                        run_dir = os.path.join(work, f"run-{i}")  # each run's outputs anew (a study resumes)
+                        os.mkdir(run_dir)
                         row = {"venv": label, "commit": commit, "shipped": ship, "command": command, "cache": kind,
                                "repeat": r,
                                "date": time.strftime("%Y-%m-%d %H:%M", time.gmtime()),
                                "loadavg_1min": round(os.getloadavg()[0], 2),
-                               **run_once(python, checkout, command, cache, work)}
+                               **run_once(python, checkout, command, cache, run_dir)}
                         print(json.dumps(row), file=sys.stderr)
                         with open(out, "a", encoding="utf-8") as f:
                             f.write(json.dumps(row) + "\n")

@@ -11,7 +11,9 @@ empty folder, then *warm*, the same command again with that folder
 venvs take turns within each repeat (cold and warm of one, then of the
 next), so a machine's load drifts over all of them alike. The figure is the
 CPU time (user + system) of the process and the children it waited for,
-from ``getrusage(RUSAGE_CHILDREN)``; wall time is recorded too.
+from ``getrusage(RUSAGE_CHILDREN)``, with the descendants orphaned on the
+way (a study's case processes, children of multiprocessing's forkserver)
+adopted and waited for; wall time is recorded too.
 
 Commands:
 
@@ -26,8 +28,12 @@ Commands:
   that command).
 
 Where the branch ships its kernels' machine code (:mod:`flexmb.kernels.prebuilt`),
-a cold run loads it: ``NUMBA_CACHE_DIR`` empty is a new installation's
-state. ``--warm-runs 0`` runs the cold runs only.
+a cold run loads it: ``NUMBA_CACHE_DIR`` empty, and no numba cache files in
+the checkout's ``__pycache__`` folders (deleted before each cold run: a
+subprocess run without ``NUMBA_CACHE_DIR`` caches there), is a new
+installation's state. Each row records the kernels the run compiled
+(``compiled``: index files it created or rewrote in ``NUMBA_CACHE_DIR``)
+and the shipped folder's build (``shipped``). ``--warm-runs 0`` runs the cold runs only.
 
 One JSON line per run goes to ``--out`` (default
 ``benchmarks/results/cold_start.jsonl``, appended): venv label, commit,
@@ -104,40 +110,116 @@ def _argv(python: str, checkout: str, command: str, work: str) -> list[str]:
     raise SystemExit(f"unknown command {command!r}")
 
 
+def _entries(cache: str) -> dict[str, tuple]:
+    """The numba index files under ``cache`` (relative path -> size and mtime): what has been saved there."""
+    out = {}
+    for dirpath, _, files in os.walk(cache):
+        for name in files:
+            if name.endswith(".nbi"):
+                st = os.stat(os.path.join(dirpath, name))
+                out[os.path.relpath(os.path.join(dirpath, name), cache)] = (st.st_size, st.st_mtime_ns)
+    return out
+
+
+def purge_in_tree(checkout: str) -> int:
+    """Delete numba's cache files from the ``__pycache__`` folders of the checkout's sources (a new installation's
+    state: a subprocess run without ``NUMBA_CACHE_DIR`` caches there); the number deleted."""
+    n = 0
+    for top in ("src", "plugins"):
+        for dirpath, _, files in os.walk(os.path.join(checkout, top)):
+            if os.path.basename(dirpath) == "__pycache__":
+                for name in files:
+                    if name.endswith((".nbi", ".nbc")):
+                        os.remove(os.path.join(dirpath, name))
+                        n += 1
+    return n
+
+
+def shipped(checkout: str) -> str | None:
+    """The checkout's shipped machine code for this interpreter (its manifest's build time and file count), if any."""
+    import glob
+
+    found = sorted(glob.glob(os.path.join(checkout, "src", "flexmb", "kernels", "_prebuilt", "*", "manifest.json")))
+    if not found:
+        return None
+    with open(found[0], encoding="utf-8") as f:
+        manifest = json.load(f)
+    return f"{manifest.get('built')}, {len(manifest.get('kernels', []))} files"
+
+
+def _adopt_orphans() -> bool:
+    """Make this process the reaper of its descendants whose parent exits (Linux ``PR_SET_CHILD_SUBREAPER``).
+
+    A study's case processes are children of multiprocessing's forkserver,
+    which the script that started it never waits for: adopted here and
+    waited for (:func:`_reap`), their CPU counts in the run's.
+    """
+    try:
+        import ctypes
+
+        return ctypes.CDLL(None, use_errno=True).prctl(36, 1, 0, 0, 0) == 0  # PR_SET_CHILD_SUBREAPER
+    except (OSError, AttributeError):
+        return False
+
+
+def _reap(timeout: float = 60.0) -> None:
+    """Wait for adopted descendants (a forkserver ends once its script has) so that their CPU is counted."""
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        try:
+            pid, _ = os.waitpid(-1, os.WNOHANG)
+        except ChildProcessError:
+            return
+        if pid == 0:
+            time.sleep(0.05)
+
+
 def run_once(python: str, checkout: str, command: str, cache: str, work: str) -> dict:
-    """One process: CPU (user + system, with waited-for children) and wall seconds, status, stderr's first line."""
+    """One process: CPU (user + system, with waited-for children) and wall seconds, status, stderr's first line,
+    and the kernels it compiled into ``cache`` (index files new or rewritten: ``compiled``)."""
     argv = _argv(python, checkout, command, work)
+    saved = _entries(cache)
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
-    proc = subprocess.run(argv, capture_output=True, text=True, env=_env(cache), cwd=work)
+    # the README's test command runs in the checkout (tests read tutorials/ relative to it)
+    proc = subprocess.run(argv, capture_output=True, text=True, env=_env(cache),
+                          cwd=checkout if command == "tests" else work)
+    _reap()
     wall = time.perf_counter() - t0
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     lines = [ln for ln in proc.stderr.splitlines() if ln.strip()]
     out = [ln for ln in proc.stdout.splitlines() if ln.strip()]
+    compiled = sorted(os.path.basename(k).rsplit("-", 1)[0] for k, v in _entries(cache).items() if saved.get(k) != v)
     return {"cpu_s": round(cpu, 3), "wall_s": round(wall, 3), "status": proc.returncode,
             "stderr_first": lines[0] if lines else "", "stderr_tail": lines[-1] if proc.returncode and lines else "",
-            "stdout_tail": out[-1] if out else ""}
+            "stdout_tail": out[-1] if out else "", "compiled_n": len(compiled), "compiled": compiled[:40]}
 
 
 def measure(venvs: dict[str, str], commands: list[str], repeat: int, out: str, warm_runs: int = 1) -> None:
     info = {}
+    if not _adopt_orphans():
+        print("cannot adopt orphaned descendants here: a study's case processes are not counted", file=sys.stderr)
     for label, venv in venvs.items():
         python = os.path.join(venv, "bin", "python")
         checkout = _checkout(python)
-        info[label] = (python, checkout, _commit(checkout))
-        print(f"{label}: {checkout} at {info[label][2]}", file=sys.stderr)
+        info[label] = (python, checkout, _commit(checkout), shipped(checkout))
+        print(f"{label}: {checkout} at {info[label][2]}, shipped machine code: {info[label][3]}", file=sys.stderr)
     for r in range(repeat):
         for command in commands:
-            for label, (python, checkout, commit) in info.items():
+            for label, (python, checkout, commit, ship) in info.items():
                 with tempfile.TemporaryDirectory(prefix="flexmb-cold-") as work:
                     cache = os.path.join(work, "numba-cache")
                     os.mkdir(cache)
-                    for kind in ("cold",) + ("warm",) * warm_runs:
-                        row = {"venv": label, "commit": commit, "command": command, "cache": kind, "repeat": r,
+                    purge_in_tree(checkout)
+                    for i, kind in enumerate(("cold",) + ("warm",) * warm_runs):
+                        run_dir = os.path.join(work, f"run-{i}")  # each run's outputs anew (a study resumes)
+                        os.mkdir(run_dir)
+                        row = {"venv": label, "commit": commit, "shipped": ship, "command": command, "cache": kind,
+                               "repeat": r,
                                "date": time.strftime("%Y-%m-%d %H:%M", time.gmtime()),
                                "loadavg_1min": round(os.getloadavg()[0], 2),
-                               **run_once(python, checkout, command, cache, work)}
+                               **run_once(python, checkout, command, cache, run_dir)}
                         print(json.dumps(row), file=sys.stderr)
                         with open(out, "a", encoding="utf-8") as f:
                             f.write(json.dumps(row) + "\n")

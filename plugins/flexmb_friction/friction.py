@@ -29,11 +29,11 @@ from typing import ClassVar
 
 import numpy as np
 from attrs import field, frozen
-from numba import njit
 
 from flexmb import Body, ForceElement, ModelError, reference
 from flexmb.fields import (as_array, as_float, as_unit_vector, finite_number, label, non_negative, positive,
                            unit_vector, vector3)
+from flexmb.kernels.cache import njit
 from flexmb.kernels.friction import coulomb_law, velocity_weakening_law, viscous_law
 from flexmb.kernels.loads import body_points
 
@@ -49,6 +49,7 @@ DEFAULT_SMOOTHING_SPEED = 1e-3
 _GATHERED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
+# flexmb's kernel cache (not numba's own): the shipped machine code (flexmb.kernels.prebuilt) serves it too
 @njit(cache=True)
 def _sliding(p_vel, normals):
     """``v - (v . n) n`` row by row: the sliding velocities."""

@@ -44,6 +44,12 @@ class Driver:
         rates); they must be consistent derivatives.
     coordinate : int
         Which coordinate of the joint (0 for a revolute).
+    constant : tuple of float, optional
+        ``(start, speed)`` when ``theta(t) = start + speed t`` (set by
+        :meth:`constant_speed`): compiled code may then evaluate the driver
+        itself (CVODE stepped in compiled code on a model with loops,
+        :mod:`flexmb.integrators.cvode_direct_loops`); None for any other
+        motion, which is evaluated through the three callables.
 
     Examples
     --------
@@ -62,6 +68,7 @@ class Driver:
     velocity: Callable[[float], float] = field(validator=_callable)
     acceleration: Callable[[float], float] = field(validator=_callable)
     coordinate: int = field(default=0, converter=as_count)
+    constant: tuple[float, float] | None = field(default=None, kw_only=True)
 
     def __attrs_post_init__(self):
         if isinstance(self.coordinate, bool) or not isinstance(self.coordinate, int):
@@ -119,6 +126,7 @@ class Driver:
             velocity=lambda t: speed,
             acceleration=lambda t: 0.0,
             coordinate=coordinate,
+            constant=(start, speed),
         )
 
     @classmethod

@@ -58,15 +58,25 @@ def compiled_loop(system, solver_cls, track_work: bool, events) -> type | None:
     Returns
     -------
     type or None
-        :class:`DirectCVODEBDF` or :class:`DirectCVODEAdams`.
+        :class:`DirectCVODEBDF` or :class:`DirectCVODEAdams` (open trees),
+        :class:`~flexmb.integrators.cvode_direct_loops.DirectLoopCVODEBDF` or
+        :class:`~flexmb.integrators.cvode_direct_loops.DirectLoopCVODEAdams`
+        (loops, :func:`~flexmb.integrators.cvode_direct_loops.loop_class`).
     """
     from .sundials import CVODEAdams, CVODEBDF
 
-    direct = {CVODEBDF: DirectCVODEBDF, CVODEAdams: DirectCVODEAdams}.get(solver_cls)
-    if (direct is None or system._packed_open is None or not system.layout.identity or track_work
-            or events is not None):
+    family = {CVODEBDF: "BDF", CVODEAdams: "Adams"}.get(solver_cls)
+    # work terms are computed in Python, contact events located by scikit-sundae's root finding, and the
+    # callbacks take qd = u only (no Euler parameters): those runs stay on scikit-sundae
+    if family is None or track_work or events is not None or not system.layout.identity:
         return None
-    return direct
+    if system._packed_open is not None:  # an open tree, joints and force elements all compiled
+        return {"BDF": DirectCVODEBDF, "Adams": DirectCVODEAdams}[family]
+    if system.n_constraints:  # loops: see loop_class for what they need
+        from .cvode_direct_loops import loop_class
+
+        return loop_class(system, family)
+    return None  # an open tree with force elements or joints evaluated in Python
 
 
 def _addr(f) -> int:
@@ -140,11 +150,8 @@ class DirectCVODE:
     def __init__(self, fun, t0, y0, t_bound, *, rtol, atol, max_step=np.inf, first_step=None, system,
                  krylov=False, jacobian=None, python_rhs=False, offset=None, monitor=None,
                  angles=(), bound=np.inf, gimbal=None, counters=None, nonfinite_flag=-1, **extraneous):
-        from ..kernels import cvode_callbacks as cb
-
-        if system._packed_open is None or not system.layout.identity:
-            raise ValueError("DirectCVODE needs an open tree whose joints and force elements are all compiled, "
-                             "with qd = u")
+        cb = self._callbacks()
+        self._refuse(system)
         self._cb, self.system, self.monitor, self.gimbal = cb, system, monitor, gimbal
         self._S = S = sundials()
         self.t, self.t_old, self.t_bound, self.n_steps, self.status = float(t0), None, float(t_bound), 0, "running"
@@ -176,6 +183,20 @@ class DirectCVODE:
         self._lp = np.array([_addr(S.CVode), _addr(S.CVodeGetDky), self._mem, self._y, self.y.ctypes.data, self._out,
                              self._tret.ctypes.data, self.m, _addr(S.N_VGetArrayPointer)], dtype=np.int64)
 
+    @staticmethod
+    def _callbacks():
+        """The module of the C callbacks and of the compiled step loop."""
+        from ..kernels import cvode_callbacks
+
+        return cvode_callbacks
+
+    @staticmethod
+    def _refuse(system) -> None:
+        """Raise ValueError for a model these callbacks cannot evaluate."""
+        if system._packed_open is None or not system.layout.identity:
+            raise ValueError("DirectCVODE needs an open tree whose joints and force elements are all compiled, "
+                             "with qd = u")
+
     def _user_data(self, system, nonfinite_flag):
         from ..system.tangent import NewtonPreconditioner
 
@@ -206,8 +227,9 @@ class DirectCVODE:
         f = cb.rhs.address if self._py_rhs is None else _addr(self._py_rhs)
         ck(S.CVodeInit(mem, f, self.t, self._y), "CVodeInit")
         if np.ndim(atol):
-            self._atol = S.N_VNew_Serial(self.m, self._ctx)
-            self._data(self._atol)[:] = atol
+            if self._atol is None:
+                self._atol = S.N_VNew_Serial(self.m, self._ctx)
+                self._data(self._atol)[:] = atol
             ck(S.CVodeSVtolerances(mem, float(rtol), self._atol), "CVodeSVtolerances")
         else:
             ck(S.CVodeSStolerances(mem, float(rtol), float(atol)), "CVodeSStolerances")

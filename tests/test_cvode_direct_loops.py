@@ -5,7 +5,7 @@ loops the articulated strategy closes (``complement="articulated"`` or ``"auto"`
 constant-speed drivers, now steps CVODE in compiled code and returns to the
 run only after the steps it must act on (outputs, drift past the bound,
 winding offsets). The old results are the test: scikit-sundae's path
-(selected by patching :func:`~flexmb.integrators.cvode_direct.compiled_loop`
+(selected by patching :func:`~flexmb.integrators.direct_choice.compiled_loop`
 to return None, as for the models it does not cover) must give the same
 step, right-hand side, Jacobian (or preconditioner set-up) and projection
 counts and the same states to 1e-10.
@@ -24,7 +24,7 @@ import pytest
 
 import flexmb as fm
 from conftest import fourbar, fourbar_initial
-from flexmb.integrators import cvode_direct
+from flexmb.integrators import cvode_direct, direct_choice
 from flexmb.integrators.cvode_direct_loops import DirectLoopCVODEAdams, DirectLoopCVODEBDF
 
 BENCH = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "benchmarks")
@@ -38,7 +38,7 @@ ADAMS = fm.registry.get("integrators", "CVODE_Adams")
 
 def _sksundae(monkeypatch):
     """Make simulate() take scikit-sundae's CVODE (main's path) for every model."""
-    monkeypatch.setattr(cvode_direct, "compiled_loop", lambda *args: None)
+    monkeypatch.setattr(direct_choice, "compiled_loop", lambda *args: None)
 
 
 def _wiper():
@@ -55,7 +55,7 @@ MODELS = {
     "fourbar_spatial_cut": (lambda: (fourbar(fm.Revolute), {"positions": fourbar_initial()}), 2.0),
     "b6_8": (lambda: (lambda m, p: (m, {"positions": p}))(*scenes.b6(True, 8)), 0.2),
     "b7_4": (lambda: scenes.b7(4), 2.0),
-    "b7_40": (lambda: scenes.b7(40), 0.5),
+    "b7_40": (lambda: scenes.b7(40), 0.2),
 }
 
 
@@ -72,14 +72,14 @@ def _same(new, old):
 def test_looped_models_with_compiled_elements_step_in_compiled_code():
     model, initial = MODELS["fourbar"][0]()
     system = model.build(complement="articulated")
-    assert cvode_direct.compiled_loop(system, BDF, False, None) is DirectLoopCVODEBDF
-    assert cvode_direct.compiled_loop(model.build(complement="auto"), BDF, False, None) is DirectLoopCVODEBDF
-    assert cvode_direct.compiled_loop(system, ADAMS, False, None) is DirectLoopCVODEAdams
-    assert cvode_direct.compiled_loop(system, BDF, True, None) is None  # work terms: computed in Python
-    assert cvode_direct.compiled_loop(model.build(complement="svd"), BDF, False, None) is None  # a dense strategy
+    assert direct_choice.compiled_loop(system, BDF, False, None) is DirectLoopCVODEBDF
+    assert direct_choice.compiled_loop(model.build(complement="auto"), BDF, False, None) is DirectLoopCVODEBDF
+    assert direct_choice.compiled_loop(system, ADAMS, False, None) is DirectLoopCVODEAdams
+    assert direct_choice.compiled_loop(system, BDF, True, None) is None  # work terms: computed in Python
+    assert direct_choice.compiled_loop(model.build(complement="svd"), BDF, False, None) is None  # a dense strategy
     model, initial = scenes.b6(True, 8)
     system = model.build(complement="articulated")
-    assert cvode_direct.compiled_loop(system, BDF, False, None) is DirectLoopCVODEBDF  # a constant-speed driver
+    assert direct_choice.compiled_loop(system, BDF, False, None) is DirectLoopCVODEBDF  # a constant-speed driver
 
 
 def test_drivers_known_only_to_python_stay_on_sksundae():
@@ -87,7 +87,7 @@ def test_drivers_known_only_to_python_stay_on_sksundae():
     model = fourbar()
     model.add(fm.Driver.harmonic("wobble", "A", amplitude=0.1, frequency=1.0, offset=np.pi / 4))
     system = model.build(complement="articulated")
-    assert cvode_direct.compiled_loop(system, BDF, False, None) is None
+    assert direct_choice.compiled_loop(system, BDF, False, None) is None
     res = fm.simulate(system, 0.2, positions=fourbar_initial(), method="CVODE_BDF", n_out=3, progress=False)
     assert res.status == "finished"
 
@@ -150,7 +150,7 @@ def test_non_finite_rates_stop_with_time_and_cause(monkeypatch):
     model = fourbar()
     model.add(fm.PointForce("push", "coupler", (0.0, -1e300, 0.0), point=(0.15, 0.0, 0.0)))
     system = model.build(complement="articulated")
-    assert cvode_direct.compiled_loop(system, BDF, False, None) is DirectLoopCVODEBDF
+    assert direct_choice.compiled_loop(system, BDF, False, None) is DirectLoopCVODEBDF
     kw = dict(positions=fourbar_initial(), method="CVODE_BDF", progress=False)
     with monkeypatch.context() as m:
         _sksundae(m)

@@ -3,7 +3,7 @@
 For an open tree whose joints and force elements are all compiled
 (``System._packed_open``), whose coordinates are their speeds' integrals
 (``qd = u``), and whose run tracks no work and locates no contact events,
-:func:`compiled_loop` replaces scikit-sundae's :class:`~flexmb.integrators.CVODE`
+:func:`~flexmb.integrators.direct_choice.compiled_loop` replaces scikit-sundae's :class:`~flexmb.integrators.CVODE`
 by :class:`DirectCVODE`: CVODE called directly through ctypes
 (:mod:`~flexmb.integrators.cvode_library`), the right-hand side and the
 O(n) Newton preconditioner as compiled C callbacks
@@ -34,49 +34,11 @@ import numpy as np
 from .._signals import act_on_deferred, deferred
 from .cvode_library import FLAGS, CVODEError, sundials
 
-__all__ = ["DirectCVODE", "DirectCVODEBDF", "DirectCVODEAdams", "compiled_loop", "CVODEError", "STEPS_PER_CALL"]
+__all__ = ["DirectCVODE", "DirectCVODEBDF", "DirectCVODEAdams", "CVODEError", "STEPS_PER_CALL"]
 
 CV_ADAMS, CV_BDF, SUN_PREC_LEFT = 1, 2, 1
 #: steps of one compiled call before it returns to Python (which then handles signals: Ctrl-C, SIGTERM)
 STEPS_PER_CALL = 1000
-
-
-def compiled_loop(system, solver_cls, track_work: bool, events) -> type | None:
-    """The compiled-loop class for a run of ``solver_cls`` on ``system``, or None where it does not apply.
-
-    Parameters
-    ----------
-    system : System
-        The model.
-    solver_cls : type
-        The integrator chosen (scikit-sundae's CVODEBDF or CVODEAdams are replaced).
-    track_work : bool
-        Whether the run integrates the work terms (computed in Python: not replaced).
-    events : ContactEvents or None
-        The run's contact events (located by scikit-sundae's root finding: not replaced).
-
-    Returns
-    -------
-    type or None
-        :class:`DirectCVODEBDF` or :class:`DirectCVODEAdams` (open trees),
-        :class:`~flexmb.integrators.cvode_direct_loops.DirectLoopCVODEBDF` or
-        :class:`~flexmb.integrators.cvode_direct_loops.DirectLoopCVODEAdams`
-        (loops, :func:`~flexmb.integrators.cvode_direct_loops.loop_class`).
-    """
-    from .sundials import CVODEAdams, CVODEBDF
-
-    family = {CVODEBDF: "BDF", CVODEAdams: "Adams"}.get(solver_cls)
-    # work terms are computed in Python, contact events located by scikit-sundae's root finding, and the
-    # callbacks take qd = u only (no Euler parameters): those runs stay on scikit-sundae
-    if family is None or track_work or events is not None or not system.layout.identity:
-        return None
-    if system._packed_open is not None:  # an open tree, joints and force elements all compiled
-        return {"BDF": DirectCVODEBDF, "Adams": DirectCVODEAdams}[family]
-    if system.n_constraints:  # loops: see loop_class for what they need
-        from .cvode_direct_loops import loop_class
-
-        return loop_class(system, family)
-    return None  # an open tree with force elements or joints evaluated in Python
 
 
 def _addr(f) -> int:

@@ -4,7 +4,7 @@ For a model whose loops the articulated strategy closes
 (``System._loop_kernel``), whose force elements are all compiled, whose
 drivers are at constant speed (``Driver.constant``) and whose coordinates
 are their speeds' integrals, and for a run that tracks no work and locates
-no contact events, :func:`~flexmb.integrators.cvode_direct.compiled_loop`
+no contact events, :func:`~flexmb.integrators.direct_choice.compiled_loop`
 gives :class:`DirectLoopCVODE` instead of scikit-sundae's CVODE: the loops'
 right-hand side and Newton preconditioner as compiled C callbacks
 (:mod:`flexmb.kernels.cvode_loop_callbacks`), CVODE's step loop compiled,
@@ -85,11 +85,11 @@ class DirectLoopCVODE(DirectCVODE):
 
     checks_constraints = restarts_in_place = True
 
-    def __init__(self, fun, t0, y0, t_bound, *, rtol, atol, max_step=np.inf, first_step=None, **options):
-        self._options = (rtol, atol, bool(options.get("krylov", False)), max_step)
-        self._carried = {key: 0 for key, _ in _CVODE_COUNTS}
-        super().__init__(fun, t0, y0, t_bound, rtol=rtol, atol=atol, max_step=max_step, first_step=first_step,
-                         **options)
+    def _setup(self, rtol, atol, krylov, max_step, first_step):
+        """CVODE's options (:meth:`DirectCVODE._setup`), kept for :meth:`restart`."""
+        if not hasattr(self, "_carried"):  # the first memory: CVODE's counters of the restarted ones start at 0
+            self._options, self._carried = (rtol, atol, krylov, max_step), {key: 0 for key, _ in _CVODE_COUNTS}
+        super()._setup(rtol, atol, krylov, max_step, first_step)
 
     @staticmethod
     def _callbacks():
@@ -276,6 +276,9 @@ class DirectLoopCVODEAdams(DirectLoopCVODE):
     family, max_order = "Adams", 12
 
 
-DirectLoopCVODEBDF.__doc__ = ":class:`DirectLoopCVODE` with CVODE's variable-order BDF: ``'CVODE_BDF'`` on loops."
+_PARAMETERS = DirectCVODE.__doc__[DirectCVODE.__doc__.index("    Parameters\n"):]
+DirectLoopCVODE.__doc__ += "\n" + _PARAMETERS
+DirectLoopCVODEBDF.__doc__ = (":class:`DirectLoopCVODE` with CVODE's variable-order BDF: ``'CVODE_BDF'`` on loops.\n\n"
+                              + _PARAMETERS)
 DirectLoopCVODEAdams.__doc__ = (":class:`DirectLoopCVODE` with CVODE's Adams-Moulton (Newton): ``'CVODE_Adams'`` on "
-                                "loops.")
+                                "loops.\n\n" + _PARAMETERS)

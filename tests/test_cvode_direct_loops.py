@@ -83,13 +83,32 @@ def test_looped_models_with_compiled_elements_step_in_compiled_code():
 
 
 def test_drivers_known_only_to_python_stay_on_sksundae():
-    """A harmonic driver's motion is known only to its Python callables: the run stays on scikit-sundae's path."""
+    """A driver given only by its Python callables (no ``law``): the run stays on scikit-sundae's path."""
     model = fourbar()
-    model.add(fm.Driver.harmonic("wobble", "A", amplitude=0.1, frequency=1.0, offset=np.pi / 4))
+    model.add(fm.Driver("ramp", "A", position=lambda t: np.pi / 4 + t * t, velocity=lambda t: 2 * t,
+                        acceleration=lambda t: 2.0))
     system = model.build(complement="articulated")
     assert direct_choice.compiled_loop(system, BDF, False, None) is None
     res = fm.simulate(system, 0.2, positions=fourbar_initial(), method="CVODE_BDF", n_out=3, progress=False)
     assert res.status == "finished"
+
+
+def test_harmonic_drivers_step_in_compiled_code_as_before(monkeypatch):
+    """A harmonic driver (``Driver.law``) is evaluated in compiled code with its callables' arithmetic: the
+    four-bar's crank driven back and forth takes scikit-sundae's steps, with projections, to its states."""
+    model = fourbar()
+    model.add(fm.Driver.harmonic("wobble", "A", amplitude=0.3, frequency=2.0, offset=np.pi / 4))
+    system = model.build(complement="articulated")
+    assert direct_choice.compiled_loop(system, BDF, False, None) is DirectLoopCVODEBDF
+    for rtol in (1e-5, 1e-9):
+        kw = dict(positions=fourbar_initial(), method="CVODE_BDF", rtol=rtol, atol=rtol / 100, n_out=21,
+                  progress=False)
+        with monkeypatch.context() as m:
+            _sksundae(m)
+            old = fm.simulate(system, 1.0, **kw)
+        new = fm.simulate(system, 1.0, **kw)
+        _same(new, old)
+        assert np.ptp(new.coordinate("A")) > 0.5
 
 
 @pytest.mark.parametrize("name", sorted(MODELS))

@@ -2,7 +2,7 @@
 
 For a model whose loops the articulated strategy closes
 (``System._loop_kernel``), whose force elements are all compiled, whose
-drivers are at constant speed (``Driver.constant``) and whose coordinates
+drivers have a closed form (``Driver.law``: constant speed, harmonic) and whose coordinates
 are their speeds' integrals, and for a run that tracks no work and locates
 no contact events, :func:`~flexmb.integrators.direct_choice.compiled_loop`
 gives :class:`DirectLoopCVODE` instead of scikit-sundae's CVODE: the loops'
@@ -28,7 +28,7 @@ path makes a new solver: the runs take the very steps of scikit-sundae's
 Left to scikit-sundae (``compiled_loop`` returns None): loops closed by a
 dense strategy (``eigen``, ``svd``, ``qr``), force elements or joints
 evaluated in Python, drivers given only by their callables (their motion,
-in Python, is not known to compiled code), Euler parameters, work terms,
+in Python, is not known to compiled code: ``Driver.law`` None), Euler parameters, work terms,
 contact events.
 """
 
@@ -69,9 +69,15 @@ def loop_class(system, family: str) -> type | None:
         return None
     if system._python_groups:  # force elements evaluated in Python
         return None
-    if any(d.constant is None for d in system.constraints.drivers):  # a motion known only to Python callables
+    if any(d.law is None for d in system.constraints.drivers):  # a motion known only to its Python callables
         return None
     return {"BDF": DirectLoopCVODEBDF, "Adams": DirectLoopCVODEAdams}[family]
+
+
+def _driver_row(driver, column) -> tuple:
+    """The row ``(column, kind, p1, p2, p3)`` of :func:`flexmb.kernels.cvode_loop_callbacks.driver`."""
+    kind, *p = driver.law
+    return (column, 0.0, *p, 0.0) if kind == "constant_speed" else (column, 1.0, *p)
 
 
 class DirectLoopCVODE(DirectCVODE):
@@ -103,7 +109,7 @@ class DirectLoopCVODE(DirectCVODE):
         """Raise ValueError for a model the loops' callbacks cannot evaluate (see :func:`loop_class`)."""
         if not system.layout.identity or loop_class(system, "BDF") is None:
             raise ValueError("DirectLoopCVODE needs loops closed by the articulated strategy, force elements all "
-                             "compiled, drivers at constant speed, and qd = u")
+                             "compiled, drivers with a closed form (Driver.law), and qd = u")
 
     def _user_data(self, system, nonfinite_flag):
         from ..system.tangent import NewtonPreconditioner
@@ -114,7 +120,8 @@ class DirectLoopCVODE(DirectCVODE):
         K, C = NewtonPreconditioner.diagonal_terms(system)
         nb, mr, band = system.topology.n_bodies, lay.row_coord.shape[0], int(lay.band)
         drivers = system.constraints.drivers
-        drv = np.array([(c, *d.constant) for d, c in zip(drivers, system.constraints.driver_cols)], float)
+        drv = np.array([_driver_row(d, c) for d, c in zip(drivers, system.constraints.driver_cols)] or [(0.0,) * 5],
+                       float)
         offset = np.zeros(m) if self._offset is None else np.array(self._offset, dtype=float)
         self._offset = None if self._offset is None else offset  # the array the callbacks read
         a = self._arrays = {

@@ -3,8 +3,9 @@
 The loops' counterpart of :mod:`flexmb.kernels.cvode_callbacks` (open
 trees), for models whose loops the articulated strategy closes
 (``System._loop_kernel``), whose force elements are all compiled and whose
-drivers are at constant speed (``theta = start + speed t``: their
-prescribed acceleration is zero). The right-hand side is
+drivers have a closed form (``Driver.law``: constant speed, harmonic),
+evaluated here with their callables' arithmetic (:func:`driver`). The
+right-hand side is
 :func:`~flexmb.kernels.loops.loop_rhs`; the Newton preconditioner is
 ``LoopNewtonPreconditioner``'s: its set-up keeps the positions, its solve
 makes the factors of :func:`~flexmb.kernels.loops.loop_newton_factor` at
@@ -41,7 +42,7 @@ from .equations import RESIDUALS, tree_equations
 from .loop_layout import LoopLayout
 from .loops import loop_newton_factor, loop_newton_solve, loop_rhs
 
-__all__ = ["rhs", "psetup", "psolve", "advance", "drift", "UD_SIZE", "REACHED", "CHECKPOINT", "PAUSED", "WATCH",
+__all__ = ["rhs", "psetup", "psolve", "advance", "drift", "driver", "UD_SIZE", "REACHED", "CHECKPOINT", "PAUSED", "WATCH",
            "DRIFTED", "NOT_FINITE"]
 
 #: slots of the user_data array (int64): addresses (A_*), sizes, counters, the failure's status
@@ -131,6 +132,24 @@ def _fail(ud, status, t, y, flag):
 
 # ----------------------------------------------------------------------------- the callbacks
 
+@njit(cache=True)
+def driver(drv, k, t):
+    """Position, speed and acceleration of driver ``k`` at ``t``, as its callables give them (flexmb.drivers).
+
+    ``drv[k]`` is ``(column, kind, p1, p2, p3)``: kind 0, constant speed
+    (``p1 + p2 t``); kind 1, harmonic (``p1 + p2 sin(p3 t)``).
+    """
+    if drv[k, 1] == 0.0:
+        return drv[k, 2] + drv[k, 3] * t, drv[k, 3], 0.0
+    o, a, w = drv[k, 2], drv[k, 3], drv[k, 4]
+    return o + a * np.sin(w * t), a * w * np.cos(w * t), -a * w * w * np.sin(w * t)
+
+
+@njit(cache=True)
+def _drivers(ud):
+    return _f2(ud[A_DRV], max(ud[N_DRV], 1), 5)
+
+
 @_cfunc(types.int32(types.float64, types.voidptr, types.voidptr, types.voidptr))
 def rhs(t, y, ydot, user_data):
     """CVRhsFn: ``ydot = (xd, xdd)`` by loop_rhs; NONFINITE_FLAG if not finite, -1 if a freedom moves no mass."""
@@ -141,9 +160,11 @@ def rhs(t, y, ydot, user_data):
     real = _f1(ud[A_REAL], N_REAL)
     ud[RHS] += 1
     zeros = np.zeros((nb + 1, 3))
+    drv, gamma_d = _drivers(ud), np.empty(ud[N_DRV])
+    for k in range(ud[N_DRV]):
+        gamma_d[k] = driver(drv, k, t)[2]
     xdd, lam, kept, smallest, status = loop_rhs(_packed(ud), _layout(ud), yv, n, np.zeros(0), zeros, zeros,
-                                                np.zeros(n), np.zeros(ud[N_DRV]), real[R_TOL], real[R_WINDOW],
-                                                ud[RANK_LIMIT])
+                                                np.zeros(n), gamma_d, real[R_TOL], real[R_WINDOW], ud[RANK_LIMIT])
     for i in range(n):
         out[i] = yv[n + i]
         out[n + i] = xdd[i]
@@ -250,18 +271,18 @@ def drift(ud, t, y):
     """The largest constraint residual at the true state ``(t, y)``, as ``System._constraint_residuals`` gives it.
 
     The cut joints' position and velocity residuals (``tree_equations(...,
-    RESIDUALS, ...)``) and the drivers' (``A_DRV``: column, start, speed of
-    each, ``theta = start + speed t``).
+    RESIDUALS, ...)``) and the drivers' (:func:`driver`).
     """
     n, nb = ud[N], ud[NB]
     zeros = np.zeros((nb + 1, 3))
     res = tree_equations(_packed(ud), y, n, RESIDUALS, np.zeros(0), zeros, zeros, np.zeros(n))[2]
     position, velocity = res[0], res[1]
-    drv = _f2(ud[A_DRV], max(ud[N_DRV], 1), 3)
+    drv = _drivers(ud)
     for k in range(ud[N_DRV]):
         c = int(drv[k, 0])
-        position = max(position, abs(y[c] - (drv[k, 1] + drv[k, 2] * t)))
-        velocity = max(velocity, abs(y[n + c] - drv[k, 2]))
+        p, v, _ = driver(drv, k, t)
+        position = max(position, abs(y[c] - p))
+        velocity = max(velocity, abs(y[n + c] - v))
     return max(position, velocity)
 
 

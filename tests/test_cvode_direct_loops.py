@@ -206,3 +206,21 @@ def test_ctrl_c_stops_a_looped_run():
         assert res.status == "interrupted" and res.message.startswith("interrupted by") and res.n_steps > 0, \
             (res.status, res.message)
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_only_the_runs_loop_steps_it():
+    """The loops' class steps only under the run's checks (step_on), and is restarted in place after a projection."""
+    model, positions = scenes.b6(True, 8)
+    system = model.build(complement="articulated")
+    x, xd = fm.initial_state(system, 0.0, positions=positions)
+    cv = DirectLoopCVODEBDF(None, 0.0, np.concatenate([x, xd]), 0.1, rtol=1e-6, atol=1e-8, system=system)
+    with pytest.raises(TypeError, match="step_on"):
+        cv.advance(0.05)
+    code = cv.step_on(0.05, 1e-6)
+    assert cv.t > 0 and cv.n_steps > 0 and code in (0, 2, 4)  # reached 0.05, paused, or drifted past 1e-6
+    steps = cv.stats()["steps"]
+    cv.restart(cv.y.copy())
+    while cv.status == "running":
+        cv.step_on(0.1, 1.0)
+    assert cv.t >= 0.1 and cv.stats()["steps"] == cv.n_steps > steps
+    cv.close()

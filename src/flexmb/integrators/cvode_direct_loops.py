@@ -90,6 +90,25 @@ class DirectLoopCVODE(DirectCVODE):
     """
 
     checks_constraints = restarts_in_place = True
+    advances = False  # stepped by step_on, the run's checks acting after its steps (DirectCVODE.advance's are not)
+
+    def advance(self, t_stop: float, on_step=None):
+        """Refused: a looped model's steps need the run's checks (see :meth:`step_on`).
+
+        Parameters
+        ----------
+        t_stop : float
+            Time to reach.
+        on_step : callable, optional
+            Not used.
+
+        Raises
+        ------
+        TypeError
+            Always.
+        """
+        raise TypeError("DirectLoopCVODE is stepped by step_on (flexmb.own_loop.advance_checking): the constraint "
+                        "checks and restarts of the run act after its steps")
 
     def _setup(self, rtol, atol, krylov, max_step, first_step):
         """CVODE's options (:meth:`DirectCVODE._setup`), kept for :meth:`restart`."""

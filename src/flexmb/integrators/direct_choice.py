@@ -10,7 +10,10 @@ compare the two paths).
 
 from __future__ import annotations
 
-__all__ = ["compiled_loop"]
+__all__ = ["compiled_loop", "FAMILIES"]
+
+#: the integrators replaced: the import path of scikit-sundae's class -> CVODE's method
+FAMILIES = {"flexmb.integrators.sundials:CVODEBDF": "BDF", "flexmb.integrators.sundials:CVODEAdams": "Adams"}
 
 
 def compiled_loop(system, solver_cls, track_work: bool, events) -> type | None:
@@ -20,8 +23,11 @@ def compiled_loop(system, solver_cls, track_work: bool, events) -> type | None:
     ----------
     system : System
         The model.
-    solver_cls : type
-        The integrator chosen (scikit-sundae's CVODEBDF or CVODEAdams are replaced).
+    solver_cls : type or str
+        The integrator chosen, or the import path (``module:qualname``) it is
+        registered under (:func:`flexmb.registry.path`): scikit-sundae's
+        CVODEBDF and CVODEAdams are replaced, by their path, so that a run
+        looked up by name never imports them.
     track_work : bool
         Whether the run integrates the work terms (computed in Python: not replaced).
     events : ContactEvents or None
@@ -36,17 +42,16 @@ def compiled_loop(system, solver_cls, track_work: bool, events) -> type | None:
         :class:`~flexmb.integrators.cvode_direct_loops.DirectLoopCVODEAdams`
         (loops, :func:`~flexmb.integrators.cvode_direct_loops.loop_class`).
     """
-    from .sundials import CVODEAdams, CVODEBDF
-
-    family = {CVODEBDF: "BDF", CVODEAdams: "Adams"}.get(solver_cls)
+    path = solver_cls if isinstance(solver_cls, str) else f"{solver_cls.__module__}:{solver_cls.__qualname__}"
+    family = FAMILIES.get(path)
     # work terms are computed in Python, contact events located by scikit-sundae's root finding, and the
     # callbacks take qd = u only (no Euler parameters): those runs stay on scikit-sundae
     if family is None or track_work or events is not None or not system.layout.identity:
         return None
     if system._packed_open is not None:  # an open tree, joints and force elements all compiled
-        from .cvode_direct import DirectCVODEAdams, DirectCVODEBDF
+        from .cvode_direct import REPLACES
 
-        return {"BDF": DirectCVODEBDF, "Adams": DirectCVODEAdams}[family]
+        return REPLACES[path]
     if system.n_constraints:  # loops: see loop_class for what they need
         from .cvode_direct_loops import loop_class
 

@@ -9,7 +9,7 @@ two outputs), in alternating rounds (``--repeat``, least CPU time of each):
 
 * ``main``: ``fm.simulate(system, 1.0, method="CVODE_BDF", ...)`` on
   scikit-sundae's CVODE (a Python call per step and per evaluation), main's
-  path, selected by patching ``cvode_direct.compiled_loop`` to return None
+  path, selected by patching ``direct_choice.compiled_loop`` to return None
   (what happens for the models the compiled loop does not cover);
 * ``simulate``: the same call, now CVODE stepped in compiled code;
 * ``simulate_robust``: the same at its own robust rtol, where that differs
@@ -49,7 +49,7 @@ sys.path.insert(0, HERE)
 
 import flexmb as fm  # noqa: E402
 import work_precision as wp  # noqa: E402
-from flexmb.integrators import cvode_direct  # noqa: E402
+from flexmb.integrators import cvode_direct, direct_choice  # noqa: E402
 from peers.picks import robust_setting  # noqa: E402
 from startup import PEERS, _env  # noqa: E402
 
@@ -66,16 +66,16 @@ COMPILE_RUN = """
 import sys, time, json
 sys.path.insert(0, {bench!r})
 import flexmb as fm
-from flexmb.integrators import cvode_direct
+from flexmb.integrators import cvode_direct, direct_choice
 from scenes import b1
 system = b1(4).build()
 kw = dict(method="CVODE_BDF", rtol=1e-6, n_out=2, progress=False)
-orig = cvode_direct.compiled_loop
-cvode_direct.compiled_loop = lambda *a: None
+orig = direct_choice.compiled_loop
+direct_choice.compiled_loop = lambda *a: None
 c = [time.process_time()]
 fm.simulate(system, 0.1, **kw)
 c.append(time.process_time())
-cvode_direct.compiled_loop = orig
+direct_choice.compiled_loop = orig
 fm.simulate(system, 0.1, **kw)
 c.append(time.process_time())
 fm.simulate(system, 0.1, **kw)
@@ -92,16 +92,16 @@ def parse_case(text: str) -> tuple[str, int, float]:
 
 def run_simulate(system, rtol, main=False, atol=None):
     """simulate() on the compiled loop, or on main's path: (result, cpu s, wall s)."""
-    orig = cvode_direct.compiled_loop
+    orig = direct_choice.compiled_loop
     if main:
-        cvode_direct.compiled_loop = lambda *args: None
+        direct_choice.compiled_loop = lambda *args: None
     try:
         c0, t0 = time.process_time(), time.perf_counter()
         res = fm.simulate(system, 1.0, method="CVODE_BDF", rtol=rtol, atol=rtol / 100 if atol is None else atol,
                           n_out=2, progress=False)
         return res, time.process_time() - c0, time.perf_counter() - t0
     finally:
-        cvode_direct.compiled_loop = orig
+        direct_choice.compiled_loop = orig
 
 
 def run_exudyn(python, scene, n):

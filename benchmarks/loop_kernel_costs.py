@@ -46,10 +46,22 @@ def _per_call(f, calls: int, repeat: int) -> float:
     return 1e6 * best
 
 
+def b6_setup(n_segments: int):
+    """B6 damped, calibrated as simulate calibrates it: (system, y0, index of the slider's coordinate)."""
+    import scenes
+
+    import flexmb as fm
+    from flexmb.simulate import _calibrated
+
+    model, positions = scenes.b6(damped=True, n_segments=n_segments)
+    system = model.build(complement="articulated")
+    x0, xd0 = fm.initial_state(system, 0.0, positions=positions)
+    system = _calibrated(system, 0.0, x0, xd0)
+    return system, np.concatenate([x0, xd0]), list(system.speed_names).index("rail.slide")
+
+
 def costs(n_segments: int, repeat: int) -> dict:
     """Per-call CPU microseconds of each piece at B6 damped's initial state."""
-    from cvode_loop_direct import b6_setup
-
     from flexmb.kernels.equations import RESIDUALS, tree_equations
     from flexmb.kernels.loops import loop_newton_factor, loop_newton_solve, loop_rhs
 

@@ -3,7 +3,7 @@
 ``simulate(..., method="CVODE_BDF")`` (and ``"CVODE_Adams"``) on an open tree
 whose force elements are all compiled now steps CVODE in compiled code.
 The old results are the test: scikit-sundae's path (selected here by
-patching :func:`~flexmb.integrators.cvode_direct.compiled_loop` to return
+patching :func:`~flexmb.integrators.direct_choice.compiled_loop` to return
 None, as for the models it does not cover) must give the same counts and
 states to 1e-10; what ``simulate()`` does around the steps (the monitor,
 signals, non-finite states, the winding offsets, max_step, t_eval,
@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 
 import flexmb as fm
-from flexmb.integrators import cvode_direct
+from flexmb.integrators import cvode_direct, direct_choice
 from flexmb.integrators.cvode_library import NEEDED, libraries
 
 BENCH = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "benchmarks")
@@ -33,7 +33,7 @@ scenes = pytest.importorskip("scenes")
 
 def _sksundae(monkeypatch):
     """Make simulate() take scikit-sundae's CVODE (main's path) for every model."""
-    monkeypatch.setattr(cvode_direct, "compiled_loop", lambda *args: None)
+    monkeypatch.setattr(direct_choice, "compiled_loop", lambda *args: None)
 
 
 def _final(res):
@@ -62,10 +62,10 @@ def test_simulate_steps_in_compiled_code_on_open_trees():
     system = scenes.b1(4).build()
     res = fm.simulate(system, 0.1, method="CVODE_BDF", n_out=3, progress=False)
     assert res.status == "finished" and res.method == "CVODE_BDF"
-    assert cvode_direct.compiled_loop(system, fm.registry.get("integrators", "CVODE_BDF"), False, None) \
+    assert direct_choice.compiled_loop(system, fm.registry.get("integrators", "CVODE_BDF"), False, None) \
         is cvode_direct.DirectCVODEBDF
-    assert cvode_direct.compiled_loop(system, fm.registry.get("integrators", "CVODE_BDF"), True, None) is None
-    assert cvode_direct.compiled_loop(system, fm.registry.get("integrators", "IDA"), False, None) is None
+    assert direct_choice.compiled_loop(system, fm.registry.get("integrators", "CVODE_BDF"), True, None) is None
+    assert direct_choice.compiled_loop(system, fm.registry.get("integrators", "IDA"), False, None) is None
 
 
 @pytest.mark.parametrize("method", ["CVODE_BDF", "CVODE_Adams"])

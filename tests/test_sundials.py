@@ -221,20 +221,27 @@ def test_multistep_restarts_are_rationed():
     assert res.status == "finished" and res.n_steps < 5000 and res.n_projections < 10
 
 
-def test_restart_after_a_projection_that_excites_stiff_modes():
+@pytest.mark.parametrize("path", ["sksundae", "compiled"])
+def test_restart_after_a_projection_that_excites_stiff_modes(monkeypatch, path):
     """CVODE restarted from a projected state chooses its own first step.
 
     The drifted state of B6 damped with 256 segments (tests/data/b6_restart_state.npz, written by
     make_b6_restart_state.py) is projected onto the constraints, which excites the rod's overdamped segment
     modes; restarted at order one with the last step (1.4e-4 s) as its first, CVODE's error test failed seven
     times down to 3.5e-11 s (flag -3) and the 1 s run stopped at t = 0.956 s. Restarted by simulate's rule it
-    steps on: a millisecond further, its steps are back above 1e-6 s and the loop closed."""
+    steps on: a millisecond further, its steps are back above 1e-6 s and the loop closed. Through
+    scikit-sundae (the path of models the compiled loop does not take) and stepped in compiled code
+    (flexmb.integrators.cvode_direct_loops, B6's own path)."""
     import os
     import sys
     from types import SimpleNamespace
 
+    from flexmb.integrators import direct_choice
     from flexmb.simulate import _calibrated
     from flexmb.stepping import Run
+
+    if path == "sksundae":
+        monkeypatch.setattr(direct_choice, "compiled_loop", lambda *args: None)
 
     here = os.path.dirname(os.path.abspath(__file__))
     sys.path.insert(0, os.path.join(os.path.dirname(here), "benchmarks"))
@@ -250,12 +257,16 @@ def test_restart_after_a_projection_that_excites_stiff_modes():
     run = Run(system, CVODEBDF, "CVODE_BDF", np.array([0.0, 1.0]), t0=0.0, t_end=1.0, rtol=1e-8, atol=1e-10,
               max_step=np.inf, projection_tol=1e-10, track_work=False, progress=False, auto=False)
     run._set_options(x, xd)
-    assert run.preconditioner is not None  # GMRES with the loops' Newton preconditioner, as simulate runs it
+    # GMRES with the loops' Newton preconditioner, as simulate runs it (in Python, or compiled)
+    assert run.preconditioner is not None if path == "sksundae" else run.options["krylov"]
     run.t_now = t
     assert system.constraint_residual(t, y[:n], y[n:]) > run.state_tol  # the restart is due
     solver = run._restart_if_drifted(SimpleNamespace(t=t, y=y, step_size=step))
     assert run.n_proj == 1 and solver.t == t
     while solver.t < t + 1e-3:
+        if path == "compiled":  # raises if CVODE fails
+            solver.step_on(t + 1e-3, np.inf)
+            continue
         message = solver.step()
         assert solver.status != "failed", message
     assert solver.t - solver.t_old > 1e-6

@@ -16,10 +16,12 @@ model, span, error and settings are those of ``compare_b6.py`` (0.5 s,
 articulated complement, atol = rtol / 100; the error is the largest slider
 difference at 100 times from the cached CVODE_BDF reference at rtol 1e-11,
 which compare_b6.py writes to ``results/refs``: run it first for each N).
-``--direct`` adds the direct CVODE prototype of loops
-(``cvode_loop_direct.py``: ctypes on SUNDIALS, compiled callbacks and step
-loop), timed around its run over the same span, with the same error.
-Writes ``benchmarks/results/cpu_b6.jsonl``.
+Besides the time, each flexmb row has the run's exact counts (steps, right-hand
+sides, Jacobians or preconditioner set-ups, projections). CVODE_BDF on B6
+steps in compiled code (``flexmb.integrators.cvode_direct_loops``) since
+issue 28's prototype moved into flexmb; ``--src before=PATH`` times an
+older source tree beside it. Writes ``--out``
+(``benchmarks/results/cpu_b6.jsonl``).
 """
 
 from __future__ import annotations
@@ -52,24 +54,8 @@ cpu, wall = time.process_time() - c0, time.perf_counter() - w0
 ref = np.load({ref!r})["output"]
 err = float(np.max(np.abs(np.asarray(res.coordinate("rail"), float)[1:] - ref)))
 print(json.dumps(dict(cpu_s=cpu, wall_s=wall, error=err, steps=int(res.n_steps), rhs_evals=int(res.n_rhs),
-                      jac_evals=int(res.n_jac), method_used=res.method, flexmb=fm.__file__)))
-"""
-
-DIRECT_CHILD = """
-import json, sys, time
-import numpy as np
-sys.path.insert(0, {bench!r})
-import cvode_loop_direct as d
-n, rtol, krylov = {n}, {rtol}, {krylov}
-system, y0, slider = d.b6_setup(n)
-d.run_direct(system, y0, slider, rtol, t_end=0.01, n_out=1, krylov=krylov)  # kernels and callbacks loaded
-c0, w0 = time.process_time(), time.perf_counter()
-xs, stats = d.run_direct(system, y0, slider, rtol, krylov=krylov)
-cpu, wall = time.process_time() - c0, time.perf_counter() - w0
-ref = np.load({ref!r})["output"]
-print(json.dumps(dict(cpu_s=cpu, wall_s=wall, error=float(np.max(np.abs(xs - ref))), steps=stats["steps"],
-                      rhs_evals=stats["rhs"], jac_evals=stats["setups"], psolves=stats["psolves"],
-                      factors=stats["factors"], restarts=stats["restarts"], lin_iters=stats["lin_iters"])))
+                      jac_evals=int(res.n_jac), projections=int(res.n_projections), method_used=res.method,
+                      flexmb=fm.__file__)))
 """
 
 EXUDYN_CHILD = """
@@ -113,9 +99,6 @@ def main(argv=None):
                                                                       "installed one)")
     ap.add_argument("--flexmb", nargs="+", default=["GeneralizedAlpha:1e-4", "auto:1e-4"], help="METHOD:RTOL[:MAX_N]")
     ap.add_argument("--exudyn", nargs="+", default=["4000:1e-4"], help="STEPS:NEWTON_RTOL[:MAX_N]")
-    ap.add_argument("--direct", nargs="*", default=[],
-                    help="KIND:RTOL[:MAX_N], KIND 'krylov' or 'pyjac': the direct CVODE prototype "
-                         "(cvode_loop_direct.py, this source tree)")
     ap.add_argument("--peers-python", default="/work/venv-peers/bin/python")
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--out", default=os.path.join(BENCH, "results", "cpu_b6.jsonl"))
@@ -136,10 +119,6 @@ def main(argv=None):
                     method, rtol = spec.split(":")[:2]
                     code = FLEXMB_CHILD.format(bench=BENCH, n=n, method=method, rtol=float(rtol), ref=ref_npz)
                     runs.append((("flexmb", label, method, float(rtol)), sys.executable, code, cenv))
-            for spec in _upto(args.direct, n):
-                kind, rtol = spec.split(":")[:2]
-                code = DIRECT_CHILD.format(bench=BENCH, n=n, rtol=float(rtol), krylov=kind == "krylov", ref=ref_npz)
-                runs.append((("direct", "", kind, float(rtol)), sys.executable, code, env))
             for spec in _upto(args.exudyn, n):
                 steps, newton = spec.split(":")[:2]
                 code = EXUDYN_CHILD.format(here=HERE, data=data, ref=ref_json, steps=int(steps), newton=float(newton))

@@ -44,6 +44,14 @@ class Driver:
         rates); they must be consistent derivatives.
     coordinate : int
         Which coordinate of the joint (0 for a revolute).
+    law : tuple, optional
+        The closed form of ``theta(t)``, set by :meth:`constant_speed`
+        (``('constant_speed', start, speed)``) and :meth:`harmonic`
+        (``('harmonic', offset, amplitude, omega)``, omega in rad/s):
+        compiled code may then evaluate the driver itself, with the
+        callables' arithmetic (CVODE stepped in compiled code on a model
+        with loops, :mod:`flexmb.integrators.cvode_direct_loops`). None for
+        any other motion, which only the three callables give.
 
     Examples
     --------
@@ -62,6 +70,7 @@ class Driver:
     velocity: Callable[[float], float] = field(validator=_callable)
     acceleration: Callable[[float], float] = field(validator=_callable)
     coordinate: int = field(default=0, converter=as_count)
+    law: tuple | None = field(default=None, kw_only=True)
 
     def __attrs_post_init__(self):
         if isinstance(self.coordinate, bool) or not isinstance(self.coordinate, int):
@@ -119,6 +128,7 @@ class Driver:
             velocity=lambda t: speed,
             acceleration=lambda t: 0.0,
             coordinate=coordinate,
+            law=("constant_speed", start, speed),
         )
 
     @classmethod
@@ -156,4 +166,5 @@ class Driver:
             velocity=lambda t: a * w * np.cos(w * t),
             acceleration=lambda t: -a * w * w * np.sin(w * t),
             coordinate=coordinate,
+            law=("harmonic", o, a, w),
         )

@@ -15,6 +15,14 @@ monitor receives their sizes at its checkpoints, and the loop returns to
 call the callback only after a step that an angle's winding bound or the
 gimbal watch flags, so the run acts on the very step it would act on when
 stepping in Python.
+
+A model with loops has more to do after a step (the outputs projected, the
+state projected and CVODE restarted when the constraints drift): for CVODE
+stepped in compiled code on such a model
+(:class:`~flexmb.integrators.cvode_direct_loops.DirectLoopCVODE`)
+:func:`advance_checking` lets the compiled loop step until a step needs any
+of it, and then does what the run's step loop does after that step, with
+the run's own methods.
 """
 
 from __future__ import annotations
@@ -25,7 +33,7 @@ import numpy as np
 
 from ._signals import deferred
 
-__all__ = ["advance_between_stops", "compiled_options", "NonFinite"]
+__all__ = ["advance_between_stops", "advance_checking", "compiled_options", "NonFinite"]
 
 
 class NonFinite(Exception):
@@ -156,3 +164,53 @@ def _between_stops(run, solver, bar, stops, step, done) -> None:
             run.out_y.append(y_stop)
             run.k_out += 1
         bar.update_to(run.t_now - t0)
+
+
+def advance_checking(run, solver, bar) -> None:
+    """Step a :class:`~flexmb.integrators.cvode_direct_loops.DirectLoopCVODE` to the end, doing the run's checks.
+
+    The compiled loop returns after a step that reached the next output
+    time (or progress mark), that left the constraints by more than
+    ``run.state_tol``, that a winding angle or the gimbal watch flags, or
+    that left a non-finite state (and at the monitor's checkpoints and
+    every so many steps). After each return the run does what
+    ``Run._step`` does after a step: the gimbal check, the outputs the step
+    passed (``Run._store``, projected), the winding offsets
+    (``Run._unwound``) and the drift (``Run._restart_if_drifted``, which
+    may restart the solver in place); steps after which none of it does
+    anything are not seen by Python.
+
+    Parameters
+    ----------
+    run : Run
+        The run.
+    solver : DirectLoopCVODE
+        Its integrator, at the start.
+    bar : Progress
+        The progress bar.
+    """
+    times, t0 = run.times, run.t0
+    marks = np.linspace(t0, run.t_end, 101)[1:] if run.progress else np.zeros(0)
+    not_finite = solver._cb.NOT_FINITE
+    with deferred():  # the handlers swapped once for the run (see advance_between_stops)
+        while solver.status == "running":
+            t_stop = times[run.k_out] if run.k_out < len(times) else run.t_end
+            j = np.searchsorted(marks, run.t_now, side="right")
+            if j < len(marks):
+                t_stop = min(t_stop, marks[j])
+            try:  # the bound a hair lower: the run decides on its own residual (the same arithmetic)
+                code = solver.step_on(t_stop, run.state_tol * (1.0 - 1e-9))
+            except RuntimeError as exc:
+                raise NonFinite(getattr(exc, "t", solver.t), f"the integrator failed: {exc}") from exc
+            finally:
+                run.n_steps = solver.n_steps
+            if code == not_finite:
+                raise NonFinite(solver.t, "the state became non-finite")
+            if run.gimbal is not None:
+                run.gimbal.check(solver.t, solver.y)
+            run.t_now = solver.t
+            run._store(solver)
+            if solver.status == "running":
+                solver = run._unwound(solver)
+                solver = run._restart_if_drifted(solver)
+            bar.update_to(run.t_now - t0)

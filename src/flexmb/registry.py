@@ -299,8 +299,8 @@ def path(kind: str, name: str) -> str:
 
     What a caller needs to tell a plugin apart before paying for its
     import: :func:`flexmb.simulate` runs flexmb's ``'CVODE_BDF'`` and
-    ``'CVODE_Adams'`` of an open tree in compiled code
-    (:func:`flexmb.integrators.cvode_direct.compiled_loop`), without
+    ``'CVODE_Adams'`` of an open tree or of loops in compiled code
+    (:func:`flexmb.integrators.direct_choice.compiled_loop`), without
     importing the scikit-sundae classes registered under those names
     (and scipy.integrate with them).
 

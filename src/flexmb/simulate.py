@@ -157,9 +157,10 @@ def _solver_class(method, system, track_work: bool, contact_events: bool):
     """The integrator class: ``method`` itself, or looked up by name in the plugin registry.
 
     A name registered as flexmb's scikit-sundae CVODE_BDF or CVODE_Adams
-    gives, where the run can step it in compiled code (an open tree with
-    compiled force elements, no work terms, no contact events), the
-    compiled loop's class (:func:`~flexmb.integrators.cvode_direct.compiled_loop`),
+    gives, where the run can step it in compiled code (an open tree, or
+    loops closed by the articulated strategy, with compiled force elements,
+    no work terms, no contact events), the compiled loop's class
+    (:func:`~flexmb.integrators.direct_choice.compiled_loop`),
     looked up by its import path (:func:`flexmb.registry.path`): the
     scikit-sundae class, and scipy.integrate with it, is then never imported.
     """
@@ -178,7 +179,7 @@ def _solver_class(method, system, track_work: bool, contact_events: bool):
         raise ModelError(f"unknown integrator {method!r}; pick one of {others}"
                          + (f" or, from SUNDIALS, {sundials}" if sundials else ""))
     from .contact_events import _contact_groups
-    from .integrators.cvode_direct import compiled_loop
+    from .integrators.direct_choice import compiled_loop
 
     events = True if contact_events and _contact_groups(system) else None
     direct = compiled_loop(system, registry.path("integrators", method), track_work, events)

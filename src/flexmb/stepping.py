@@ -38,7 +38,7 @@ from .gimbal import GimbalWatch
 from .errors import AssemblyError
 from .offset_preconditioner import OffsetPreconditioner
 from .output_projection import project_output
-from .own_loop import NonFinite, advance_between_stops, compiled_options
+from .own_loop import NonFinite, advance_between_stops, advance_checking, compiled_options
 from .progress import Progress
 from .result import Result
 
@@ -122,7 +122,7 @@ class Run:
     def __init__(self, system, solver_cls, name, times, *, t0, t_end, rtol, atol, max_step, projection_tol,
                  track_work, progress, auto, contact_events=True):
         from .integrators import adapt, capabilities
-        from .integrators.cvode_direct import compiled_loop
+        from .integrators.direct_choice import compiled_loop
         from .integrators.monitor import ResolutionMonitor
 
         self.system = system
@@ -150,7 +150,7 @@ class Run:
                           else max(projection_tol, min(RESTART_ATOL_FACTOR * atol, RESTART_TOL_MAX)))
         self.events = (ContactEvents.of(system, t0, t_end, self.caps.explicit, name) if contact_events else None)
         direct = compiled_loop(system, self.solver_cls, track_work, self.events)
-        if direct is not None:  # CVODE stepped in compiled code (open trees with compiled force elements)
+        if direct is not None:  # CVODE stepped in compiled code (compiled force elements: open trees, loops)
             self.solver_cls, self.caps = direct, capabilities(direct)
         # an event needs the step that crossed it: the run steps the integrator itself then
         self.own_loop = self.caps.advances and not system.n_constraints and self.events is None
@@ -310,6 +310,8 @@ class Run:
             solver = self._make(self.t0, y if shift is None else y - shift)
             if self.own_loop:
                 advance_between_stops(self, solver, bar, WINDING_BOUND)
+            elif getattr(solver, "checks_constraints", False):  # loops: CVODE stepped in compiled code
+                advance_checking(self, solver, bar)
             else:
                 self._step(solver, bar)
             self.status, self.message = "finished", "reached t_end"
@@ -465,6 +467,9 @@ class Run:
         step than CVODE's error-test failures in one step can cut it (at
         most seven, each by at most a factor of ten).
         """
+        if getattr(solver, "restarts_in_place", False):  # a new CVODE memory on the same buffers: the same start
+            solver.restart(z, self.offset)
+            return solver
         step = solver.step_size if self.caps.cheap_restart else None
         first = min(max(step, 1e-14), self.t_end - solver.t) if step else None
         return self._make(solver.t, z, first_step=first)

@@ -3,7 +3,7 @@
 For an open tree whose joints and force elements are all compiled
 (``System._packed_open``), whose coordinates are their speeds' integrals
 (``qd = u``), and whose run tracks no work and locates no contact events,
-:func:`compiled_loop` replaces scikit-sundae's :class:`~flexmb.integrators.CVODE`
+:func:`~flexmb.integrators.direct_choice.compiled_loop` replaces scikit-sundae's :class:`~flexmb.integrators.CVODE`
 by :class:`DirectCVODE`: CVODE called directly through ctypes
 (:mod:`~flexmb.integrators.cvode_library`), the right-hand side and the
 O(n) Newton preconditioner as compiled C callbacks
@@ -35,42 +35,12 @@ from .._signals import act_on_deferred, deferred
 from .cvode_library import FLAGS, CVODEError, sundials
 from .cvode_options import KRYLOV_DIM, MAX_STEPS
 
-__all__ = ["DirectCVODE", "DirectCVODEBDF", "DirectCVODEAdams", "compiled_loop", "REPLACES", "CVODEError",
+__all__ = ["DirectCVODE", "DirectCVODEBDF", "DirectCVODEAdams", "REPLACES", "CVODEError",
            "STEPS_PER_CALL"]
 
 CV_ADAMS, CV_BDF, SUN_PREC_LEFT = 1, 2, 1
 #: steps of one compiled call before it returns to Python (which then handles signals: Ctrl-C, SIGTERM)
 STEPS_PER_CALL = 1000
-
-
-def compiled_loop(system, solver_cls, track_work: bool, events) -> type | None:
-    """The compiled-loop class for a run of ``solver_cls`` on ``system``, or None where it does not apply.
-
-    Parameters
-    ----------
-    system : System
-        The model.
-    solver_cls : type or str
-        The integrator chosen, or the import path (``module:qualname``) it is
-        registered under (:func:`flexmb.registry.path`): scikit-sundae's
-        CVODEBDF and CVODEAdams are replaced (:data:`REPLACES`), by their
-        path, so that a run looked up by name never imports them.
-    track_work : bool
-        Whether the run integrates the work terms (computed in Python: not replaced).
-    events : ContactEvents or None
-        The run's contact events (located by scikit-sundae's root finding: not replaced).
-
-    Returns
-    -------
-    type or None
-        :class:`DirectCVODEBDF` or :class:`DirectCVODEAdams`.
-    """
-    path = solver_cls if isinstance(solver_cls, str) else f"{solver_cls.__module__}:{solver_cls.__qualname__}"
-    direct = REPLACES.get(path)
-    if (direct is None or system._packed_open is None or not system.layout.identity or track_work
-            or events is not None):
-        return None
-    return direct
 
 
 def _addr(f) -> int:
@@ -144,11 +114,8 @@ class DirectCVODE:
     def __init__(self, fun, t0, y0, t_bound, *, rtol, atol, max_step=np.inf, first_step=None, system,
                  krylov=False, jacobian=None, python_rhs=False, offset=None, monitor=None,
                  angles=(), bound=np.inf, gimbal=None, counters=None, nonfinite_flag=-1, **extraneous):
-        from ..kernels import cvode_callbacks as cb
-
-        if system._packed_open is None or not system.layout.identity:
-            raise ValueError("DirectCVODE needs an open tree whose joints and force elements are all compiled, "
-                             "with qd = u")
+        cb = self._callbacks()
+        self._refuse(system)
         self._cb, self.system, self.monitor, self.gimbal = cb, system, monitor, gimbal
         self._S = S = sundials()
         self.t, self.t_old, self.t_bound, self.n_steps, self.status = float(t0), None, float(t_bound), 0, "running"
@@ -180,6 +147,20 @@ class DirectCVODE:
         self._lp = np.array([_addr(S.CVode), _addr(S.CVodeGetDky), self._mem, self._y, self.y.ctypes.data, self._out,
                              self._tret.ctypes.data, self.m, _addr(S.N_VGetArrayPointer)], dtype=np.int64)
 
+    @staticmethod
+    def _callbacks():
+        """The module of the C callbacks and of the compiled step loop."""
+        from ..kernels import cvode_callbacks
+
+        return cvode_callbacks
+
+    @staticmethod
+    def _refuse(system) -> None:
+        """Raise ValueError for a model these callbacks cannot evaluate."""
+        if system._packed_open is None or not system.layout.identity:
+            raise ValueError("DirectCVODE needs an open tree whose joints and force elements are all compiled, "
+                             "with qd = u")
+
     def _user_data(self, system, nonfinite_flag):
         from ..system.tangent import NewtonPreconditioner
 
@@ -210,8 +191,9 @@ class DirectCVODE:
         f = cb.rhs.address if self._py_rhs is None else _addr(self._py_rhs)
         ck(S.CVodeInit(mem, f, self.t, self._y), "CVodeInit")
         if np.ndim(atol):
-            self._atol = S.N_VNew_Serial(self.m, self._ctx)
-            self._data(self._atol)[:] = atol
+            if self._atol is None:
+                self._atol = S.N_VNew_Serial(self.m, self._ctx)
+                self._data(self._atol)[:] = atol
             ck(S.CVodeSVtolerances(mem, float(rtol), self._atol), "CVodeSVtolerances")
         else:
             ck(S.CVodeSStolerances(mem, float(rtol), float(atol)), "CVodeSStolerances")

@@ -1,0 +1,310 @@
+"""CVODE stepped in compiled code on a model with loops: the ``CVODE_BDF`` and ``CVODE_Adams`` of looped models.
+
+For a model whose loops the articulated strategy closes
+(``System._loop_kernel``), whose force elements are all compiled, whose
+drivers have a closed form (``Driver.law``: constant speed, harmonic) and whose coordinates
+are their speeds' integrals, and for a run that tracks no work and locates
+no contact events, :func:`~flexmb.integrators.direct_choice.compiled_loop`
+gives :class:`DirectLoopCVODE` instead of scikit-sundae's CVODE: the loops'
+right-hand side and Newton preconditioner as compiled C callbacks
+(:mod:`flexmb.kernels.cvode_loop_callbacks`), CVODE's step loop compiled,
+and the dense Jacobian of a small model, as on open trees, flexmb's own
+``System.state_jacobian`` called from Python.
+
+What ``flexmb.stepping.Run`` does after each step of a looped model is done
+by the run itself, on the very steps it would do it on
+(:func:`flexmb.own_loop.advance_checking`): the compiled loop returns to
+Python after a step that reached an output time, that left the constraints
+farther than the run's bound, that moved a winding angle or a joint in
+Bryant angles past its watch, or that left a non-finite state; the run then
+stores the outputs (projected, as before), moves the offsets, projects and
+restarts (``Run._restart_if_drifted``, its bound raised when restarts crowd:
+``RESTART_MIN_STEPS``, read from :mod:`flexmb.stepping`) as it does when
+stepping in Python. A restart makes a new CVODE memory (:meth:`DirectLoopCVODE.restart`:
+the state, the callbacks' buffers and the counters are kept), as the Python
+path makes a new solver: the runs take the very steps of scikit-sundae's
+(tests/test_cvode_direct_loops.py).
+
+Left to scikit-sundae (``compiled_loop`` returns None): loops closed by a
+dense strategy (``eigen``, ``svd``, ``qr``), force elements or joints
+evaluated in Python, drivers given only by their callables (their motion,
+in Python, is not known to compiled code: ``Driver.law`` None), Euler parameters, work terms,
+contact events.
+"""
+
+from __future__ import annotations
+
+from ctypes import byref, c_double, c_long, c_void_p
+
+import numpy as np
+
+from .._signals import act_on_deferred
+from .cvode_direct import CV_ADAMS, CV_BDF, STEPS_PER_CALL, DirectCVODE, _addr
+
+__all__ = ["DirectLoopCVODE", "DirectLoopCVODEBDF", "DirectLoopCVODEAdams", "loop_class"]
+
+#: the counters CVODE keeps per memory (summed over the restarts by :meth:`DirectLoopCVODE.stats`)
+_CVODE_COUNTS = (("steps", "NumSteps"), ("rhs_cvode", "NumRhsEvals"), ("rhs_ls", "NumLinRhsEvals"),
+                 ("err_test_fails", "NumErrTestFails"), ("newton_iters", "NumNonlinSolvIters"),
+                 ("newton_fails", "NumNonlinSolvConvFails"), ("lin_iters", "NumLinIters"),
+                 ("lin_setups", "NumLinSolvSetups"))
+
+
+def loop_class(system, family: str) -> type | None:
+    """The compiled-loop class for a model with loops, or None where its callbacks cannot evaluate the model.
+
+    Parameters
+    ----------
+    system : System
+        The model (with constraints; ``qd = u``).
+    family : {'BDF', 'Adams'}
+        CVODE's method.
+
+    Returns
+    -------
+    type or None
+        :class:`DirectLoopCVODEBDF` or :class:`DirectLoopCVODEAdams`.
+    """
+    if not system._loop_kernel:  # loops closed by a dense strategy, plugin joints, constraint elements
+        return None
+    if system._python_groups:  # force elements evaluated in Python
+        return None
+    if any(d.law is None for d in system.constraints.drivers):  # a motion known only to its Python callables
+        return None
+    return {"BDF": DirectLoopCVODEBDF, "Adams": DirectLoopCVODEAdams}[family]
+
+
+def _driver_row(driver, column) -> tuple:
+    """The row ``(column, kind, p1, p2, p3)`` of :func:`flexmb.kernels.cvode_loop_callbacks.driver`."""
+    kind, *p = driver.law
+    return (column, 0.0, *p, 0.0) if kind == "constant_speed" else (column, 1.0, *p)
+
+
+class DirectLoopCVODE(DirectCVODE):
+    """CVODE on a model with loops with compiled callbacks, stepped until a step needs the run's attention.
+
+    Built by :class:`flexmb.stepping.Run` with the options of
+    :class:`~flexmb.integrators.cvode_direct.DirectCVODE` (the same
+    parameters); driven by :func:`flexmb.own_loop.advance_checking`
+    through :meth:`step_on`, restarted in place by :meth:`restart`.
+    """
+
+    checks_constraints = restarts_in_place = True
+    advances = False  # stepped by step_on, the run's checks acting after its steps (DirectCVODE.advance's are not)
+
+    def advance(self, t_stop: float, on_step=None):
+        """Refused: a looped model's steps need the run's checks (see :meth:`step_on`).
+
+        Parameters
+        ----------
+        t_stop : float
+            Time to reach.
+        on_step : callable, optional
+            Not used.
+
+        Raises
+        ------
+        TypeError
+            Always.
+        """
+        raise TypeError("DirectLoopCVODE is stepped by step_on (flexmb.own_loop.advance_checking): the constraint "
+                        "checks and restarts of the run act after its steps")
+
+    def _setup(self, rtol, atol, krylov, max_step, first_step):
+        """CVODE's options (:meth:`DirectCVODE._setup`), kept for :meth:`restart`."""
+        if not hasattr(self, "_carried"):  # the first memory: CVODE's counters of the restarted ones start at 0
+            self._options, self._carried = (rtol, atol, krylov, max_step), {key: 0 for key, _ in _CVODE_COUNTS}
+        super()._setup(rtol, atol, krylov, max_step, first_step)
+
+    @staticmethod
+    def _callbacks():
+        """The module of the loops' C callbacks and of their compiled step loop."""
+        from ..kernels import cvode_loop_callbacks
+
+        return cvode_loop_callbacks
+
+    @staticmethod
+    def _refuse(system) -> None:
+        """Raise ValueError for a model the loops' callbacks cannot evaluate (see :func:`loop_class`)."""
+        if not system.layout.identity or loop_class(system, "BDF") is None:
+            raise ValueError("DirectLoopCVODE needs loops closed by the articulated strategy, force elements all "
+                             "compiled, drivers with a closed form (Driver.law), and qd = u")
+
+    def _user_data(self, system, nonfinite_flag):
+        from ..system.tangent import NewtonPreconditioner
+
+        cb, S, n, m = self._cb, self._S, self.n, self.m
+        fl, it, fg, ix = system._packed
+        lay = system._loop_layout
+        K, C = NewtonPreconditioner.diagonal_terms(system)
+        nb, mr, band = system.topology.n_bodies, lay.row_coord.shape[0], int(lay.band)
+        drivers = system.constraints.drivers
+        drv = np.array([_driver_row(d, c) for d, c in zip(drivers, system.constraints.driver_cols)] or [(0.0,) * 5],
+                       float)
+        offset = np.zeros(m) if self._offset is None else np.array(self._offset, dtype=float)
+        self._offset = None if self._offset is None else offset  # the array the callbacks read
+        a = self._arrays = {
+            "fl": fl, "it": it, "fg": fg, "ix": ix, "K": np.ascontiguousarray(K, float),
+            "C": np.ascontiguousarray(C, float), "x": np.zeros(n), "drv": np.ascontiguousarray(drv.reshape(-1)),
+            "real": np.zeros(cb.N_REAL), "Sw": np.zeros(n * 3), "Sv": np.zeros(n * 3), "W": np.zeros(mr * 12),
+            "body": np.zeros(mr * 2, np.int64), "U": np.zeros(n * 6), "DUT": np.zeros(n * 6), "Dinv": np.zeros(n * 6),
+            "lift": np.zeros(n), "Kb": np.zeros(mr * (band + 1)), "d": np.zeros(mr), "df": np.zeros(mr),
+            "V": np.zeros(mr * mr), "fail_t": np.zeros(1), "fail_y": np.zeros(m), "offset": offset}
+        for f in lay._fields[:-1]:
+            a[f] = np.ascontiguousarray(getattr(lay, f), dtype=np.int64)
+        ud = np.zeros(cb.UD_SIZE, dtype=np.int64)
+        ud[cb.A_GETPTR] = _addr(S.N_VGetArrayPointer)
+        ud[cb.N], ud[cb.M], ud[cb.NB], ud[cb.MROWS], ud[cb.BAND] = n, m, nb, mr, band
+        for slot, size, key in ((cb.A_FL, cb.N_FL, "fl"), (cb.A_IT, cb.N_IT, "it"), (cb.A_FG, cb.N_FG, "fg")):
+            ud[slot], ud[size] = a[key].ctypes.data, a[key].size
+        ud[cb.A_IX], ud[cb.N_IX] = ix.ctypes.data, ix.shape[0]
+        ud[cb.N_VISIT], ud[cb.N_ROOTS], ud[cb.N_ROOT_ROWS] = a["visit"].size, a["root_ptr"].size - 1, a["root_rows"].size
+        for key in ("row_body", "row_coord", "root_of", "row_roots", "visit_ptr", "visit", "root_ptr", "root_rows",
+                    "order", "position", "K", "C", "x", "drv", "real", "Sw", "Sv", "W", "body", "U", "DUT", "Dinv",
+                    "lift", "Kb", "d", "df", "V", "fail_t", "fail_y", "offset"):
+            ud[getattr(cb, "A_" + key.upper())] = a[key].ctypes.data
+        ud[cb.N_DRV] = len(drivers)
+        ud[cb.RANK_LIMIT] = -1 if system.rank_limit is None else system.rank_limit
+        a["real"][cb.R_TOL], a["real"][cb.R_WINDOW] = system._loop_tol, system.singular_window()
+        ud[cb.HAS_OFFSET] = self._offset is not None
+        ud[cb.STATUS], ud[cb.NONFINITE_FLAG] = -1, nonfinite_flag
+        return ud
+
+    def restart(self, z, offset=None) -> None:
+        """Start CVODE again from ``z`` at :attr:`t` (order one, its own first step), as a new solver would.
+
+        A new CVODE memory and linear solver (the Python path makes a new
+        scikit-sundae solver: the same fresh start), on the same vectors,
+        callbacks' buffers and counters.
+
+        Parameters
+        ----------
+        z : ndarray, shape (m,)
+            The integrator's new state (the true state less ``offset``).
+        offset : ndarray, optional
+            The winding offsets from now on (None: none).
+        """
+        S = self._S
+        for key, value in self._cvode_counts().items():
+            self._carried[key] += value
+        S.CVodeFree(byref(c_void_p(self._mem)))
+        S.SUNLinSolFree(self._ls)
+        if self._A:
+            S.SUNMatDestroy(self._A)
+        self._mem = self._ls = self._A = None
+        self.y[:] = z
+        cb, buf = self._cb, self._arrays["offset"]
+        buf[:] = 0.0 if offset is None else offset
+        self._offset = None if offset is None else buf
+        self._ud[cb.HAS_OFFSET] = offset is not None
+        self._ud[cb.F_VALID] = 0
+        self._mem = S.CVodeCreate(CV_BDF if self.family == "BDF" else CV_ADAMS, self._ctx)
+        if not self._mem:
+            raise MemoryError("CVodeCreate returned NULL")
+        rtol, atol, krylov, max_step = self._options
+        self._setup(rtol, atol, krylov, max_step, None)
+        self._tret[0] = self.t
+        self._lp[2] = self._mem
+        self.t_old = None
+
+    def step_on(self, t_stop: float, bound: float) -> int:
+        """Step until a step needs the run's attention (see the module docstring), or up to ``t_stop``.
+
+        Parameters
+        ----------
+        t_stop : float
+            The next output time (or progress mark): the loop returns after
+            the step that reaches it, before interpolating.
+        bound : float
+            The run's drift bound on the constraint residuals.
+
+        Returns
+        -------
+        int
+            :mod:`~flexmb.kernels.cvode_loop_callbacks`'s code (REACHED,
+            CHECKPOINT, PAUSED, WATCH, DRIFTED, NOT_FINITE); :attr:`t`,
+            :attr:`y` and :meth:`dense_output` are those of the last step.
+
+        Raises
+        ------
+        CVODEError, AssemblyError
+            If CVODE or a callback failed (flexmb's diagnosis of the state
+            where it did, as in :meth:`DirectCVODE.advance`).
+        """
+        if self._mem is None:
+            raise RuntimeError("this DirectLoopCVODE is closed")
+        mon, cb = self.monitor, self._cb
+        live = mon is not None and not mon.warned
+        times = np.empty(max(mon.next_check - mon.n_steps, 1) if live else 0)
+        t_entry = self._tret[0]
+        gimbal = self._gimbal if self.gimbal is not None and not self.gimbal.warned else self._gimbal[:0]
+        try:
+            code, k = cb.advance(self._lp, self._ud, min(float(t_stop), self.t_bound), self.t_bound, float(bound),
+                                 times, STEPS_PER_CALL, self._angles, self._bound, gimbal, self._limit)
+        finally:
+            self._count()
+        act_on_deferred()  # a Ctrl-C recorded meanwhile (DirectCVODE.advance's docstring)
+        self.n_steps += k
+        if k:
+            self.t = float(self._tret[0])
+            h = c_double()
+            self._S.CVodeGetLastStep(self._mem, byref(h))
+            self.t_old = self.t - h.value
+            if live:
+                self._feed(mon, np.concatenate(([t_entry], times[: min(k, len(times))])))
+        if code < 0:
+            self.status = "failed"
+            if self._raised is not None:
+                raised, self._raised = self._raised, None
+                raise raised
+            if int(self._ud[cb.STATUS]) == cb.SINGULAR_PRECONDITIONER:  # LoopNewtonPreconditioner's error
+                from ..errors import AssemblyError
+
+                raise AssemblyError("the Newton preconditioner of the loops is singular (a freedom without mass, "
+                                    "stiffness or damping that no loop fixes)")
+            self._diagnose()
+            raise self._error(code)
+        if self.t >= self.t_bound:
+            self.status = "finished"
+        return code
+
+    def _cvode_counts(self) -> dict:
+        """CVODE's counters of the current memory (since the last restart)."""
+        out = {}
+        for key, name in _CVODE_COUNTS:
+            v = c_long()
+            self._check(getattr(self._S, f"CVodeGet{name}")(self._mem, byref(v)), f"CVodeGet{name}")
+            out[key] = v.value
+        return out
+
+    def stats(self) -> dict:
+        """CVODE's counters summed over the restarts, and the callbacks' own.
+
+        Returns
+        -------
+        dict
+            As :meth:`DirectCVODE.stats`, and ``psolves`` and ``factors``
+            (the preconditioner's solves, and its factorisations: one per
+            set-up and gamma).
+        """
+        cb, ud = self._cb, self._ud
+        out = {k: v + self._carried[k] for k, v in self._cvode_counts().items()}
+        out.update(rhs=int(ud[cb.RHS]), jac=int(ud[cb.SETUPS] + ud[cb.JACS]), psolves=int(ud[cb.PSOLVES]),
+                   factors=int(ud[cb.FACTORS]))
+        return out
+
+
+class DirectLoopCVODEBDF(DirectLoopCVODE):
+    family, max_order = "BDF", 5
+
+
+class DirectLoopCVODEAdams(DirectLoopCVODE):
+    family, max_order = "Adams", 12
+
+
+_PARAMETERS = DirectCVODE.__doc__[DirectCVODE.__doc__.index("    Parameters\n"):]
+DirectLoopCVODE.__doc__ += "\n" + _PARAMETERS
+DirectLoopCVODEBDF.__doc__ = (":class:`DirectLoopCVODE` with CVODE's variable-order BDF: ``'CVODE_BDF'`` on loops.\n\n"
+                              + _PARAMETERS)
+DirectLoopCVODEAdams.__doc__ = (":class:`DirectLoopCVODE` with CVODE's Adams-Moulton (Newton): ``'CVODE_Adams'`` on "
+                                "loops.\n\n" + _PARAMETERS)

@@ -9,9 +9,9 @@ matrix, :func:`compiled_genalpha` replaces the run's
 times in one compiled call (:func:`flexmb.kernels.genalpha_loop.advance`):
 the same steps, Newton iterations, Jacobians and states as the step of the
 Python class (tests/test_genalpha_compiled.py). The loop returns to Python
-where Python has something to do: a Jacobian or new LU factors of the
-iteration matrix (formed by the solver's own :meth:`_new_jacobian` and
-:meth:`_factor`), a failure (diagnosed as the Python step diagnoses it),
+where Python has something to do: a Jacobian (formed by the solver's own
+:meth:`_new_jacobian`; the LU factors of the iteration matrix are
+LAPACK's, called from the loop), a failure (diagnosed as the Python step diagnoses it),
 the resolution monitor's checkpoints, an angle past its winding bound or a
 joint near gimbal lock, every ``STEPS_PER_CALL`` steps (signals), and the
 output time.
@@ -81,6 +81,13 @@ def compiled_genalpha(system, solver_cls, track_work: bool, events, matrix_free:
     return cls
 
 
+def _getrf() -> int:
+    """The address of LAPACK's ``dgetrf`` (scipy's ``cython_lapack``: the routine ``lu_factor`` calls)."""
+    from numba.extending import get_cython_function_address
+
+    return get_cython_function_address("scipy.linalg.cython_lapack", "dgetrf")
+
+
 class CompiledGeneralizedAlpha(GeneralizedAlpha):
     """:class:`GeneralizedAlpha` whose steps between output times run in compiled code (see the module docstring).
 
@@ -131,6 +138,9 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         self._arrays = [np.zeros(m), np.zeros(self.n_pos), np.zeros(self.n_pos), np.zeros(m - 2 * self.n_pos),
                         np.zeros(m), np.zeros(self.n_pos), np.zeros(m - 2 * self.n_pos)]
         self._fail_y = np.zeros(m)
+        n = self.n_pos
+        self._lu, self._piv = np.zeros((n, n)), np.zeros(n, np.int32)  # the factors, refactored in place
+        self._getrf = _getrf()
 
     def rebase(self, shift) -> None:
         """:meth:`GeneralizedAlpha.rebase`; the offsets its right-hand side adds move by ``shift``.
@@ -184,11 +194,11 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             t_entry = self.t
             gimbal = self._gimbal if self.gimbal is not None and not self.gimbal.warned else self._gimbal[:0]
             self._enter()
-            lu, piv = self.lu if self.lu is not None else (np.empty((0, 0)), np.empty(0, np.int32))
-            code, k = kernel.advance(self.system._packed_open, self._offset, *self._arrays, lu, piv,
-                                     _NO_LOW_PASS if self.low_pass is None else self.low_pass, self._par, self.atol,
-                                     self._st, self._ct, t_stop, times, STEPS_PER_CALL, self._angles, self._bound,
-                                     gimbal, self._limit, self._fail_y)
+            Jx, Jv = (np.ascontiguousarray(b) for b in self.J) if self.J is not None else (_NO_LOW_PASS, _NO_LOW_PASS)
+            code, k = kernel.advance(self.system._packed_open, self._offset, *self._arrays, self._getrf, Jx, Jv,
+                                     self._lu, self._piv, _NO_LOW_PASS if self.low_pass is None else self.low_pass,
+                                     self._par, self.atol, self._st, self._ct, t_stop, times, STEPS_PER_CALL,
+                                     self._angles, self._bound, gimbal, self._limit, self._fail_y)
             self._leave(k)
             act_on_deferred()  # a Ctrl-C recorded meanwhile
             if live and k:
@@ -197,9 +207,9 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
                 return self._reached(t_stop)
             if code == kernel.WATCH and on_step is not None:
                 on_step(self)
-            elif code in (kernel.NEED_JACOBIAN, kernel.NEED_FACTOR):
-                if code == kernel.NEED_JACOBIAN:
-                    self._new_jacobian(self.t, self.z)
+            elif code == kernel.NEED_JACOBIAN:
+                self._new_jacobian(self.t, self.z)
+            elif code == kernel.NEED_FACTOR:  # singular: scipy's factors and its warning, as the Python step
                 self._factor(float(self._st[kernel.H_FACTOR]))
             elif code not in (kernel.CHECKPOINT, kernel.PAUSED, kernel.WATCH):
                 self._failed(code)
@@ -244,7 +254,9 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         ct[K.N_POS], ct[K.FIXED] = self.n_pos, self.fixed_step is not None
         ct[K.N_NEWTON], ct[K.N_REJECTED], ct[K.N_RHS] = self.n_newton, self.n_rejected, 0
         ct[K.HAS_J], ct[K.JAC_CURRENT], ct[K.HAS_LU] = self.J is not None, self.jac_current, self.lu is not None
-        ct[K.HAS_OFFSET] = self._has_offset
+        ct[K.HAS_OFFSET], ct[K.N_LU] = self._has_offset, self.nlu
+        if self.lu is not None and self.lu[0] is not self._lu:  # factored in Python
+            self._lu[:], self._piv[:] = self.lu
 
     def _leave(self, k):
         """The loop's state back into the solver (the steps taken, the counters, the interpolant's data)."""
@@ -256,8 +268,9 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         self.n_newton, self.n_rejected = int(ct[K.N_NEWTON]), int(ct[K.N_REJECTED])
         self.h_abs, self.h_newton = float(st[K.H_ABS]), float(st[K.H_NEWTON])
         self.jac_current = bool(ct[K.JAC_CURRENT])
-        if not ct[K.HAS_LU]:
-            self.lu = None
+        self.nlu = int(ct[K.N_LU])
+        self.lu = (self._lu, self._piv) if ct[K.HAS_LU] else None
+        self.lu_h = float(st[K.LU_H]) if ct[K.HAS_LU] else self.lu_h
         if not k:
             return
         z, a, abar, g, z_old, abar_old, g_old = (v.copy() for v in self._arrays)

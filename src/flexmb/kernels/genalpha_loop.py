@@ -9,11 +9,18 @@ model's packed arrays (``System._packed_open``) and the arithmetic of
 time. The loop returns to Python (its code, and the steps taken) where the
 Python step would do something the loop does not:
 
-- ``NEED_JACOBIAN`` / ``NEED_FACTOR``: a Jacobian (with the LU factors of
-  the iteration matrix) or the factors alone are due, at the step size in
-  ``st[H_FACTOR]``; Python forms and factors them with the solver's own
-  code and calls again, and the step goes on where it stopped (its trial
-  size is kept in ``st[H_TRIAL]``, ``ct[RESUME]`` set);
+- ``NEED_JACOBIAN``: a Jacobian is due; Python forms it with the solver's
+  own code and calls again, and the step goes on where it stopped (its
+  trial size is kept in ``st[H_TRIAL]``, ``ct[RESUME]`` set);
+- ``NEED_FACTOR``: LAPACK found the iteration matrix singular; Python
+  factors it (``scipy.linalg.lu_factor``, which warns) at the step
+  ``st[H_FACTOR]`` and calls again.
+
+The LU factors of the iteration matrix ``I - gamma' h Jv - beta' h^2 Jx``
+are LAPACK's ``dgetrf`` (called through its address: scipy's
+``cython_lapack``, the routine ``lu_factor`` calls) on the matrix formed as
+:meth:`~flexmb.genalpha.GeneralizedAlpha._factor` forms it: the same
+factors to the bit.
 - ``RHS_FAILED``: the right-hand side is not finite or a joint moves no
   mass (the time and the true state are left in ``st[FAIL_T]`` and
   ``fail_y``, where Python's diagnosis of them raises);
@@ -32,11 +39,16 @@ indexed by the constants below; the arrays are updated in place.
 from __future__ import annotations
 
 import numpy as np
+from llvmlite import ir
+from numba import types
+from numba.core import cgutils
+from numba.extending import intrinsic
 
 from .articulated import open_tree_rhs
 from .cache import njit
 from .cvode_callbacks import CHECKPOINT, PAUSED, REACHED, WATCH, _watched
-from .genalpha import CONVERGED, FAILED, NEWTON_MAXITER, error_control, newton_update, predict
+from .genalpha import (CONVERGED, FAILED, NEWTON_MAXITER, P_BETA_P, P_GAMMA_P, error_control, newton_update,
+                       predict)
 
 __all__ = ["advance", "REACHED", "CHECKPOINT", "PAUSED", "WATCH", "NEED_JACOBIAN", "NEED_FACTOR", "RHS_FAILED",
            "NONFINITE_STATE", "TOO_SMALL", "FIXED_FAILED", "N_ST", "N_CT"]
@@ -52,9 +64,46 @@ _TAKEN = -1
  REGROWTH) = range(14)
 N_ST = 14
 #: slots of ``ct`` (integers): positions, fixed step, Newton iterations, rejected steps, right-hand sides, the
-#: Jacobian is there / is current, the LU factors are there, a step is resumed, the offsets are set
-(N_POS, FIXED, N_NEWTON, N_REJECTED, N_RHS, HAS_J, JAC_CURRENT, HAS_LU, RESUME, HAS_OFFSET) = range(10)
-N_CT = 10
+#: Jacobian is there / is current, the LU factors are there, a step is resumed, the offsets are set, LU factorisations
+(N_POS, FIXED, N_NEWTON, N_REJECTED, N_RHS, HAS_J, JAC_CURRENT, HAS_LU, RESUME, HAS_OFFSET, N_LU) = range(11)
+N_CT = 11
+
+
+@intrinsic
+def _call_getrf(typingctx, fn, m, a, ipiv, info):
+    """``dgetrf(m, m, a, m, ipiv, info)`` (LAPACK, Fortran calling convention) through its address; pointers as int64."""
+    def codegen(context, builder, sig, args):
+        vp = cgutils.voidptr_t
+        fnty = ir.FunctionType(ir.VoidType(), [vp] * 6)
+        f = builder.inttoptr(args[0], fnty.as_pointer())
+        mp, ap, pp, ip = (builder.inttoptr(v, vp) for v in args[1:])
+        builder.call(f, [mp, mp, ap, mp, pp, ip])
+        return context.get_dummy_value()
+    return types.none(types.int64, types.int64, types.int64, types.int64, types.int64), codegen
+
+
+@njit(cache=True)
+def _factor(getrf, Jx, Jv, h, par, lu, piv, fwork, iwork):
+    """LU factors of ``I - gamma' h Jv - beta' h^2 Jx`` into ``lu`` (C order) and ``piv`` (0-based); False if singular.
+
+    The matrix is formed entry by entry as numpy forms it in
+    GeneralizedAlpha._factor (the same operations in the same order), in
+    Fortran order for ``dgetrf``.
+    """
+    n = lu.shape[0]
+    c1, c2 = par[P_GAMMA_P] * h, par[P_BETA_P] * h * h
+    for i in range(n):
+        for j in range(n):
+            fwork[j * n + i] = ((1.0 if i == j else 0.0) - c1 * Jv[i, j]) - c2 * Jx[i, j]
+    iwork[0], iwork[1] = n, 0
+    _call_getrf(getrf, iwork.ctypes.data, fwork.ctypes.data, iwork[2:].ctypes.data, iwork[1:].ctypes.data)
+    if iwork[1] != 0:
+        return False
+    for i in range(n):
+        piv[i] = iwork[2 + i] - 1
+        for j in range(n):
+            lu[i, j] = fwork[j * n + i]
+    return True
 
 
 @njit(cache=True)
@@ -102,8 +151,8 @@ def _hold(st, ct, h_abs, h, code):
 
 
 @njit(cache=True)
-def _step(packed, offset, z, a, abar, g, z_old, abar_old, g_old, lu, piv, low_pass, par, atol, st, ct, work,
-          fail_y):
+def _step(packed, offset, z, a, abar, g, z_old, abar_old, g_old, getrf, Jx, Jv, lu, piv, fwork, iwork, low_pass, par,
+          atol, st, ct, work, fail_y):
     """One step of GeneralizedAlpha._step_impl (dense iteration matrix): _TAKEN, or the code to return."""
     n = ct[N_POS]
     t, direction, fixed = st[T], st[DIRECTION], ct[FIXED]
@@ -123,7 +172,10 @@ def _step(packed, offset, z, a, abar, g, z_old, abar_old, g_old, lu, piv, low_pa
         if not ct[HAS_J]:
             return _hold(st, ct, h_abs, h, NEED_JACOBIAN)
         if not ct[HAS_LU] or st[LU_H] != h:
-            return _hold(st, ct, h_abs, h, NEED_FACTOR)
+            if not _factor(getrf, Jx, Jv, h, par, lu, piv, fwork, iwork):
+                return _hold(st, ct, h_abs, h, NEED_FACTOR)
+            ct[HAS_LU], ct[N_LU] = 1, ct[N_LU] + 1
+            st[LU_H] = h
         outcome, f = _newton(packed, offset, z, a, abar, g, lu, piv, t1, h, par, atol, ct, st, work, fail_y)
         if outcome == RHS_FAILED:
             return RHS_FAILED
@@ -172,8 +224,8 @@ def _accept(z, a, abar, g, z_old, abar_old, g_old, f, work, st, ct, t1, h_abs, e
 
 
 @njit(cache=True)
-def advance(packed, offset, z, a, abar, g, z_old, abar_old, g_old, lu, piv, low_pass, par, atol, st, ct, t_stop,
-            steps, budget, angles, bound, gimbal, limit, fail_y):
+def advance(packed, offset, z, a, abar, g, z_old, abar_old, g_old, getrf, Jx, Jv, lu, piv, low_pass, par, atol, st, ct,
+            t_stop, steps, budget, angles, bound, gimbal, limit, fail_y):
     """Take generalized-alpha steps until one ends at or past ``t_stop`` (or a reason to return to Python).
 
     Parameters
@@ -188,9 +240,14 @@ def advance(packed, offset, z, a, abar, g, z_old, abar_old, g_old, lu, piv, low_
         further rates; updated in place.
     z_old, abar_old, g_old : ndarray
         Out: the same at the last step's start (the interpolant's).
-    lu, piv : ndarray
+    getrf : int
+        The address of LAPACK's ``dgetrf``.
+    Jx, Jv : ndarray, shape (n, n)
+        The Jacobian's blocks (read where ``ct[HAS_J]``).
+    lu, piv : ndarray, shape (n, n) and (n,) int32
         LU factors of the iteration matrix (``lu_factor``'s), for the step
-        ``st[LU_H]`` (valid where ``ct[HAS_LU]``).
+        ``st[LU_H]`` (valid where ``ct[HAS_LU]``); refactored in place when
+        the step changes.
     low_pass : ndarray, shape (n, n) or (0, 0)
         The error estimate's projector (empty: none).
     par, atol : ndarray
@@ -219,11 +276,12 @@ def advance(packed, offset, z, a, abar, g, z_old, abar_old, g_old, lu, piv, low_
     """
     n, m = ct[N_POS], z.shape[0]
     work = (np.empty((3, n)), np.empty(n), np.empty(m), np.empty(n), np.empty((2, n)))
+    fwork, iwork = np.empty(n * n), np.empty(n + 2, np.int32)
     direction, t_bound = st[DIRECTION], st[T_BOUND]
     k, cap = 0, steps.shape[0]
     while direction * (t_stop - st[T]) > 0:
-        code = _step(packed, offset, z, a, abar, g, z_old, abar_old, g_old, lu, piv, low_pass, par, atol, st, ct,
-                     work, fail_y)
+        code = _step(packed, offset, z, a, abar, g, z_old, abar_old, g_old, getrf, Jx, Jv, lu, piv, fwork, iwork,
+                     low_pass, par, atol, st, ct, work, fail_y)
         if code != _TAKEN:
             return code, k
         tn = st[T]

@@ -274,6 +274,10 @@ class Run:
             self.options = compiled_options(self, x, xd, KRYLOV_MIN_COORDS, WINDING_BOUND)
             if not caps.second_order:  # CVODE: all it is given
                 return
+            from .integrators.cvode_direct import STEPS_PER_CALL, DirectCVODE
+
+            # generalized-alpha: CVODE's loop's budget of steps per call and its feed of the monitor
+            self.options.update(budget=STEPS_PER_CALL, feed=DirectCVODE._feed)
         if caps.needs_n_second:  # written for y = (x, xd, ...): given the layout when qd = W(q) u (GeneralizedAlpha)
             self.options["n_second"] = n
             if not system.layout.identity:

@@ -13,8 +13,8 @@ where Python has something to do: a Jacobian (formed by the solver's own
 :meth:`_new_jacobian`; the LU factors of the iteration matrix are
 LAPACK's, called from the loop), a failure (diagnosed as the Python step diagnoses it),
 the resolution monitor's checkpoints, an angle past its winding bound or a
-joint near gimbal lock, every ``STEPS_PER_CALL`` steps (signals), and the
-output time.
+joint near gimbal lock, every so many steps (signals), and the output
+time.
 
 Everything else keeps the Python step (:meth:`GeneralizedAlpha.step`),
 for the reasons :func:`compiled_genalpha` gives.
@@ -114,6 +114,13 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
     counters : dict, optional
         The run's counters: ``"rhs"`` is increased by the compiled
         right-hand sides.
+    budget : int
+        Steps after which the loop returns to Python (signals are handled
+        there; the run gives CVODE's ``STEPS_PER_CALL``).
+    feed : callable, optional
+        ``feed(solver, monitor, times)``: gives the monitor the steps ending
+        at ``times[1:]`` (the run gives CVODE's loop's); needed with
+        ``monitor``.
     **options
         :class:`GeneralizedAlpha`'s.
     """
@@ -121,12 +128,12 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
     advances = steps_in_compiled_code = True
 
     def __init__(self, fun, t0, y0, t_bound, *, system, offset=None, monitor=None, angles=(), bound=np.inf,
-                 gimbal=None, counters=None, **options):
+                 gimbal=None, counters=None, budget=1000, feed=None, **options):
         from ..kernels import genalpha_loop as kernel
 
         super().__init__(fun, t0, y0, t_bound, **options)
         self._kernel, self.system, self.monitor, self.gimbal, self._counters = kernel, system, monitor, gimbal, counters
-        self.n_steps = 0
+        self.n_steps, self._budget, self._feed = 0, int(budget), feed
         m = len(self.z)
         self._offset = np.zeros(m) if offset is None else np.array(offset, dtype=float)
         self._has_offset = offset is not None
@@ -185,8 +192,6 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             return self._advance(min(float(t_stop), self.t_bound), on_step)
 
     def _advance(self, t_stop, on_step):
-        from ..integrators.cvode_direct import STEPS_PER_CALL, DirectCVODE
-
         kernel, mon = self._kernel, self.monitor
         while True:
             live = mon is not None and not mon.warned
@@ -197,12 +202,12 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
             Jx, Jv = (np.ascontiguousarray(b) for b in self.J) if self.J is not None else (_NO_LOW_PASS, _NO_LOW_PASS)
             code, k = kernel.advance(self.system._packed_open, self._offset, *self._arrays, self._getrf, Jx, Jv,
                                      self._lu, self._piv, _NO_LOW_PASS if self.low_pass is None else self.low_pass,
-                                     self._par, self.atol, self._st, self._ct, t_stop, times, STEPS_PER_CALL,
+                                     self._par, self.atol, self._st, self._ct, t_stop, times, self._budget,
                                      self._angles, self._bound, gimbal, self._limit, self._fail_y)
             self._leave(k)
             act_on_deferred()  # a Ctrl-C recorded meanwhile
             if live and k:
-                DirectCVODE._feed(self, mon, np.concatenate(([t_entry], times[: min(k, len(times))])))
+                self._feed(self, mon, np.concatenate(([t_entry], times[: min(k, len(times))])))
             if code == kernel.REACHED:
                 return self._reached(t_stop)
             if code == kernel.WATCH and on_step is not None:

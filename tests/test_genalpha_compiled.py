@@ -142,7 +142,7 @@ def test_non_finite_rates_stop_with_time_and_cause(monkeypatch):
         _python_step(m)
         with pytest.raises(fm.SimulationError) as old:
             fm.simulate(system, 1.0, **kw)
-    with pytest.raises(fm.SimulationError, match=r"at t = 1e-12 s: the state overflowed: .* force element 'push'") as new:
+    with pytest.raises(fm.SimulationError, match=r"at t = 1e-12 s: the state overflowed: .* 'push'") as new:
         fm.simulate(system, 1.0, **kw)
     assert str(new.value) == str(old.value) and new.value.t == old.value.t
     assert new.value.result.status == "failed"

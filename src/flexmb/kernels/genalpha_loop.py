@@ -71,7 +71,7 @@ N_CT = 11
 
 @intrinsic
 def _call_getrf(typingctx, fn, m, a, ipiv, info):
-    """``dgetrf(m, m, a, m, ipiv, info)`` (LAPACK, Fortran calling convention) through its address; pointers as int64."""
+    """``dgetrf(m, m, a, m, ipiv, info)`` (LAPACK, Fortran convention) through its address; pointers as int64."""
     def codegen(context, builder, sig, args):
         vp = cgutils.voidptr_t
         fnty = ir.FunctionType(ir.VoidType(), [vp] * 6)

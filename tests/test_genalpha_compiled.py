@@ -95,6 +95,10 @@ def test_chosen_where_the_rhs_is_compiled():
 
     top = rotations.flexmb_model("top").build()  # Euler parameters: the rotation chart steps in Python
     assert compiled.compiled_genalpha(top, ga, False, None, False) is None
+    assert compiled.compiled_genalpha(b1, cls, False, None, False) is cls
+    assert compiled.compiled_genalpha(top, cls, False, None, False) is None
+    with pytest.raises(ValueError, match="open tree"):
+        cls(None, 0.0, np.zeros(top.layout.size), 1.0, system=top)
 
 
 def test_monitor_gets_every_step(monkeypatch):

@@ -135,7 +135,6 @@ class Run:
     def __init__(self, system, solver_cls, name, times, *, t0, t_end, rtol, atol, max_step, projection_tol,
                  track_work, progress, auto, contact_events=True):
         from .integrators import adapt, capabilities  # on first use: they import scipy.integrate
-        from .genalpha.compiled import compiled_genalpha
         from .integrators.cvode_direct import compiled_loop
         from .integrators.monitor import ResolutionMonitor
 
@@ -165,9 +164,12 @@ class Run:
         self.events = (ContactEvents.of(system, t0, t_end, self.caps.explicit, name) if contact_events else None)
         # CVODE or generalized-alpha stepped in compiled code (open trees with compiled force elements; the
         # cases each keeps in Python: compiled_loop's and compiled_genalpha's docstrings)
-        direct = (compiled_loop(system, self.solver_cls, track_work, self.events)
-                  or compiled_genalpha(system, self.solver_cls, track_work, self.events,
-                                       _matrix_free(system, self.solver_cls, self.caps)))
+        direct = compiled_loop(system, self.solver_cls, track_work, self.events)
+        if direct is None and self.caps.second_order:  # (flexmb.genalpha imported only for such a class)
+            from .genalpha.compiled import compiled_genalpha
+
+            direct = compiled_genalpha(system, self.solver_cls, track_work, self.events,
+                                       _matrix_free(system, self.solver_cls, self.caps))
         if direct is not None:
             self.solver_cls, self.caps = direct, capabilities(direct)
         # an event needs the step that crossed it: the run steps the integrator itself then

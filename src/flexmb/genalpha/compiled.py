@@ -67,18 +67,22 @@ def compiled_genalpha(system, solver_cls, track_work: bool, events, matrix_free:
     """
     if not (isinstance(solver_cls, type) and issubclass(solver_cls, GeneralizedAlpha)):
         return None
+    if not _serves(system) or track_work or events is not None or matrix_free:
+        return None
     if issubclass(solver_cls, CompiledGeneralizedAlpha):
         return solver_cls
     if any(getattr(solver_cls, name) is not getattr(GeneralizedAlpha, name) for name in _STEP_METHODS):
-        return None
-    if (system._packed_open is None or system.n_constraints or not system.layout.identity or track_work
-            or events is not None or matrix_free):
         return None
     cls = _CLASSES.get(solver_cls)
     if cls is None:
         cls = _CLASSES[solver_cls] = type(solver_cls.__name__, (CompiledGeneralizedAlpha, solver_cls),
                                           {"__module__": solver_cls.__module__, "__doc__": solver_cls.__doc__})
     return cls
+
+
+def _serves(system) -> bool:
+    """Whether the compiled loop can step ``system``: an open tree with a compiled right-hand side and ``qd = u``."""
+    return system._packed_open is not None and not system.n_constraints and system.layout.identity
 
 
 def _getrf() -> int:
@@ -131,6 +135,9 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
                  gimbal=None, counters=None, budget=1000, feed=None, **options):
         from ..kernels import genalpha_loop as kernel
 
+        if not _serves(system):
+            raise ValueError("CompiledGeneralizedAlpha needs an open tree whose joints and force elements are all "
+                             "compiled, with qd = u")
         super().__init__(fun, t0, y0, t_bound, **options)
         self._kernel, self.system, self.monitor, self.gimbal, self._counters = kernel, system, monitor, gimbal, counters
         self.n_steps, self._budget, self._feed = 0, int(budget), feed

@@ -172,7 +172,9 @@ def test_ctrl_c_stops_a_long_interval():
     system = scenes.b1(8).build()
     kw = dict(method="GeneralizedAlpha", rtol=1e-8, n_out=2, progress=False)
     fm.simulate(system, 1e-3, **kw)  # compiled first: the signal is to come while the loop steps
-    for delay in (0.02, 0.05, 0.11):  # at different moments of the loop
+    # at different moments of the loop; not so early that a loaded machine is still setting up the run (at 0.02 s
+    # tests/test_cvode_direct.py's run was interrupted before its first step under a load of 9 on 2 cores)
+    for delay in (0.2, 0.45, 0.8):
         sender = subprocess.Popen(["sh", "-c", f"sleep {delay}; kill -INT {os.getpid()}"])
         t0 = time.perf_counter()
         try:

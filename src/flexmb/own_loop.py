@@ -7,8 +7,9 @@ stop to stop (the output times, and each percent of the span when showing
 progress), and the run's checks after a step (the resolution monitor, the
 gimbal watch, the winding offsets) are given to it as a callback.
 
-For CVODE stepped in compiled code
-(:class:`~flexmb.integrators.cvode_direct.DirectCVODE`, open trees with
+For CVODE and generalized-alpha stepped in compiled code
+(:class:`~flexmb.integrators.cvode_direct.DirectCVODE`,
+:class:`~flexmb.genalpha.compiled.CompiledGeneralizedAlpha`: open trees with
 compiled force elements) :func:`compiled_options` gives the integrator the
 model, the monitor and what to watch: the steps run without Python, the
 monitor receives their sizes at its checkpoints, and the loop returns to
@@ -57,7 +58,7 @@ class _Wound(Exception):
 
 
 def compiled_options(run, x, xd, krylov_min: int, bound: float) -> dict:
-    """What :class:`~flexmb.integrators.cvode_direct.DirectCVODE` is given by ``run`` besides the common options.
+    """What a compiled loop (DirectCVODE, CompiledGeneralizedAlpha) is given by ``run`` besides the common options.
 
     Parameters
     ----------
@@ -73,11 +74,15 @@ def compiled_options(run, x, xd, krylov_min: int, bound: float) -> dict:
     Returns
     -------
     dict
-        The model, the Krylov choice (BDF from ``krylov_min`` coordinates
-        on, as for scikit-sundae's CVODE), else flexmb's Jacobian, the
-        monitor, the watches, the counters.
+        The model, the monitor, the watches, the counters; for CVODE, the
+        Krylov choice (BDF from ``krylov_min`` coordinates on, as for
+        scikit-sundae's CVODE), else flexmb's Jacobian (the compiled
+        generalized-alpha loop is given its Jacobian as the Python one is).
     """
     system = run.system
+    if run.caps.second_order:  # generalized-alpha (flexmb.genalpha.compiled)
+        return dict(system=system, monitor=run.monitor, angles=run.angles, bound=bound, gimbal=run.gimbal,
+                    counters=run.counters)
     krylov = run.solver_cls.family == "BDF" and run.n >= krylov_min
     run.counters["jac"] = 0
     options = dict(system=system, krylov=krylov, monitor=run.monitor, angles=run.angles,

@@ -75,6 +75,19 @@ WINDING_PERIOD = 2.0 * np.pi
 WINDING_BOUND = 3.0 * np.pi
 
 
+def _matrix_free(system, solver_cls, caps) -> bool:
+    """Whether a run of ``solver_cls`` solves its Newton systems with the O(n) preconditioner and no matrix.
+
+    From the class's own threshold of speeds (GeneralizedAlpha's
+    ``krylov_min_coords``, ``krylov_min_loop_coords``; else
+    ``KRYLOV_MIN_COORDS``) on open trees and loops closed through the
+    recursion, unless the class's ``f_max`` needs the dense Jacobian.
+    """
+    floor = getattr(solver_cls, f"krylov_min_{'loop_' if system._loop_kernel else ''}coords", KRYLOV_MIN_COORDS)
+    return bool(caps.uses_preconditioner and (system.articulated or system._loop_kernel)
+                and system.n_speeds >= floor and not getattr(solver_cls, "f_max", None))
+
+
 class Run:
     """One simulation run of a system from its initial state.
 
@@ -149,8 +162,15 @@ class Run:
                           else projection_tol if self.caps.cheap_restart
                           else max(projection_tol, min(RESTART_ATOL_FACTOR * atol, RESTART_TOL_MAX)))
         self.events = (ContactEvents.of(system, t0, t_end, self.caps.explicit, name) if contact_events else None)
+        # CVODE (open trees and loops) or generalized-alpha (open trees) stepped in compiled code where the force
+        # elements are compiled (the cases each keeps in Python: compiled_loop's and compiled_genalpha's docstrings)
         direct = compiled_loop(system, self.solver_cls, track_work, self.events)
-        if direct is not None:  # CVODE stepped in compiled code (compiled force elements: open trees, loops)
+        if direct is None and self.caps.second_order:  # (flexmb.genalpha imported only for such a class)
+            from .genalpha.compiled import compiled_genalpha
+
+            direct = compiled_genalpha(system, self.solver_cls, track_work, self.events,
+                                       _matrix_free(system, self.solver_cls, self.caps))
+        if direct is not None:
             self.solver_cls, self.caps = direct, capabilities(direct)
         # an event needs the step that crossed it: the run steps the integrator itself then
         self.own_loop = self.caps.advances and not system.n_constraints and self.events is None
@@ -251,10 +271,15 @@ class Run:
 
     def _set_options(self, x, xd) -> None:
         """What the integrator is given besides the rhs: a Jacobian or a preconditioner, the second-order size."""
-        caps, system, n, f_max = self.caps, self.system, self.n, getattr(self.solver_cls, "f_max", None)
+        caps, system, n = self.caps, self.system, self.n
         if getattr(self.solver_cls, "steps_in_compiled_code", False):
             self.options = compiled_options(self, x, xd, KRYLOV_MIN_COORDS, WINDING_BOUND)
-            return
+            if not caps.second_order:  # CVODE: all it is given
+                return
+            from .integrators.cvode_direct import STEPS_PER_CALL, DirectCVODE
+
+            # generalized-alpha: CVODE's loop's budget of steps per call and its feed of the monitor
+            self.options.update(budget=STEPS_PER_CALL, feed=DirectCVODE._feed)
         if caps.needs_n_second:  # written for y = (x, xd, ...): given the layout when qd = W(q) u (GeneralizedAlpha)
             self.options["n_second"] = n
             if not system.layout.identity:
@@ -263,9 +288,7 @@ class Run:
             events = self.events
             self.options["events"] = (
                 lambda t, z: events.root_functions(t, z if self.offset is None else z + self.offset), events.count)
-        cls = self.solver_cls  # a class's own thresholds (GeneralizedAlpha's); its f_max needs the dense Jacobian
-        floor = getattr(cls, f"krylov_min_{'loop_' if system._loop_kernel else ''}coords", KRYLOV_MIN_COORDS)
-        if caps.uses_preconditioner and (system.articulated or system._loop_kernel) and n >= floor and not f_max:
+        if _matrix_free(system, self.solver_cls, caps):
             # an open tree, or loops closed through the recursion: O(n) Newton solves, no matrix (also qd = W(q) u)
             self.preconditioner = system.newton_preconditioner()
             self.options["preconditioner"] = OffsetPreconditioner(self.preconditioner, self)

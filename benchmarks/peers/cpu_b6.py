@@ -18,7 +18,9 @@ difference at 100 times from the cached CVODE_BDF reference at rtol 1e-11,
 which compare_b6.py writes to ``results/refs``: run it first for each N).
 ``--direct`` adds the direct CVODE prototype of loops
 (``cvode_loop_direct.py``: ctypes on SUNDIALS, compiled callbacks and step
-loop), timed around its run over the same span, with the same error.
+loop), timed around its run over the same span, with the same error;
+``--steps`` the prototype with remedies of ``b6_steps.py`` (CVODE's max
+order, restart bound, ... ; its Python projection callback is not timed fairly).
 Writes ``benchmarks/results/cpu_b6.jsonl``.
 """
 
@@ -72,6 +74,25 @@ print(json.dumps(dict(cpu_s=cpu, wall_s=wall, error=float(np.max(np.abs(xs - ref
                       factors=stats["factors"], restarts=stats["restarts"], lin_iters=stats["lin_iters"])))
 """
 
+STEPS_CHILD = """
+import json, sys, time
+import numpy as np
+sys.path.insert(0, {bench!r})
+import cvode_loop_direct as d
+import b6_steps as s
+n, rtol, remedy = {n}, {rtol}, s.remedy({remedy!r})
+system, y0, slider = d.b6_setup(n)
+s.run(system, y0, slider, rtol, remedy, t_end=0.01, n_out=1)  # kernels and callbacks loaded
+system, y0, slider = d.b6_setup(n)  # fresh: a run's counts depend on the System's history
+c0, w0 = time.process_time(), time.perf_counter()
+xs, stats = s.run(system, y0, slider, rtol, remedy)
+cpu, wall = time.process_time() - c0, time.perf_counter() - w0
+ref = np.load({ref!r})["output"]
+print(json.dumps(dict(cpu_s=cpu, wall_s=wall, error=float(np.max(np.abs(xs - ref))), steps=stats["steps"],
+                      rhs_evals=stats["rhs"], jac_evals=stats["setups"], psolves=stats["psolves"],
+                      err_test_fails=stats["err_test_fails"], restarts=stats["restarts"])))
+"""
+
 EXUDYN_CHILD = """
 import json, sys, time
 sys.path.insert(0, {here!r})
@@ -116,6 +137,8 @@ def main(argv=None):
     ap.add_argument("--direct", nargs="*", default=[],
                     help="KIND:RTOL[:MAX_N], KIND 'krylov' or 'pyjac': the direct CVODE prototype "
                          "(cvode_loop_direct.py, this source tree)")
+    ap.add_argument("--steps", nargs="*", default=[],
+                    help="REMEDY:RTOL[:MAX_N]: the prototype with a remedy of b6_steps.py ('+' joins several)")
     ap.add_argument("--peers-python", default="/work/venv-peers/bin/python")
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--out", default=os.path.join(BENCH, "results", "cpu_b6.jsonl"))
@@ -140,6 +163,10 @@ def main(argv=None):
                 kind, rtol = spec.split(":")[:2]
                 code = DIRECT_CHILD.format(bench=BENCH, n=n, rtol=float(rtol), krylov=kind == "krylov", ref=ref_npz)
                 runs.append((("direct", "", kind, float(rtol)), sys.executable, code, env))
+            for spec in _upto(args.steps, n):
+                name, rtol = spec.split(":")[:2]
+                code = STEPS_CHILD.format(bench=BENCH, n=n, rtol=float(rtol), remedy=name, ref=ref_npz)
+                runs.append((("steps", "", name, float(rtol)), sys.executable, code, env))
             for spec in _upto(args.exudyn, n):
                 steps, newton = spec.split(":")[:2]
                 code = EXUDYN_CHILD.format(here=HERE, data=data, ref=ref_json, steps=int(steps), newton=float(newton))

@@ -14,7 +14,8 @@ against compare_b6.py's cached reference. Counts only, no timing (the
 trace steps one step per call); ``peers/cpu_b6.py --steps`` times the
 remedies against Exudyn.
 
-Rows go to ``--out`` (``results/b6_steps.jsonl``).
+Rows go to ``--out`` (``results/b6_steps.jsonl``). ``--stability`` prints
+where BDF2-5 are unstable on the rod's first bending modes.
 """
 
 from __future__ import annotations
@@ -212,6 +213,36 @@ def run(system, y0, slider, rtol, remedy: dict, *, trace=False, t_end=0.5, n_out
     return out, stats
 
 
+def bdf_unstable(order: int, z: complex) -> bool:
+    """Whether BDF of ``order`` is unstable at ``z = h lambda``: a root of its characteristic polynomial outside 1."""
+    from numpy.polynomial import polynomial as P
+
+    c = np.zeros(order + 1, complex)  # sum_j (x - 1)^j x^(k - j) / j - z x^k, coefficients from x^0 up
+    for j in range(1, order + 1):
+        c += P.polymul(P.polypow([-1.0, 1.0], j), P.polypow([0.0, 1.0], order - j))[: order + 1] / j
+    c[order] -= z
+    return bool(np.max(np.abs(np.roots(c[::-1]))) > 1.0 + 1e-12)
+
+
+def stability_table(h_max=6e-4, n_h=3000) -> list:
+    """The steps h at which BDF2-5 are unstable on the B6 rod's first four bending modes (pinned-pinned, scenes).
+
+    Mode k: ``k^2 f1`` with ``k^2 zeta1`` of critical damping (stiffness-proportional, scenes.B6_ZETA).
+    """
+    import scenes
+
+    f1, rows = scenes.b6_rod_frequency(), []
+    for k in (1, 2, 3, 4):
+        w, zeta = 2 * np.pi * f1 * k * k, scenes.B6_ZETA * k * k
+        lam = w * (-zeta + 1j * np.sqrt(1.0 - zeta * zeta))
+        row = {"mode": k, "f_hz": round(w / (2 * np.pi), 1), "zeta": zeta}
+        for order in (2, 3, 4, 5):
+            bad = [h for h in np.linspace(h_max / n_h, h_max, n_h) if bdf_unstable(order, h * lam)]
+            row[f"bdf{order}_unstable_h"] = [min(bad), max(bad)] if bad else None
+        rows.append(row)
+    return rows
+
+
 def remedy(name: str) -> dict:
     """The options of the remedies named in ``name`` (joined by '+'); KeyError names an unknown one."""
     out = {}
@@ -229,8 +260,13 @@ def main(argv=None):
     ap.add_argument("--remedy", nargs="+", default=["base"],
                     help=f"names of {sorted(REMEDIES)}, or several joined by '+' (applied together)")
     ap.add_argument("--trace", action="store_true")
+    ap.add_argument("--stability", action="store_true", help="print where BDF2-5 are unstable on the rod's modes")
     ap.add_argument("--out", default=os.path.join(HERE, "results", "b6_steps.jsonl"))
     args = ap.parse_args(argv)
+    if args.stability:
+        for row in stability_table():
+            print(json.dumps(row))
+        return
     for n in args.n:
         ref = np.load(os.path.join(REFS, f"B6damped_N{n}_T0.5_out100_rtol1e-11.npz"))["output"]
         for rtol in args.rtol:

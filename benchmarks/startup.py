@@ -24,9 +24,10 @@ loading, the simulation, the clean-up. The kernels' cache must be warm
 * Exudyn: ``benchmarks/peers/exudyn_beam.py``'s ``run("B1", 8, 4000)``:
   the same beam, generalized-alpha with h = 2.5e-4 s, the pick of that run.
 * The dependencies alone (in the last venv given): a process that only
-  imports numpy, numba, scipy.integrate and scikit-sundae's CVODE, what
-  flexmb's CVODE run cannot do without (scikit-sundae imports
-  scipy.optimize): the floor of that run.
+  imports numpy, numba and scipy.linalg, what flexmb's CVODE run (stepped
+  in compiled code, CVODE called through ctypes) cannot do without: the
+  kernels, and the dense Jacobian's Cholesky factor (numba's ``np.dot``
+  and ``np.all`` import scipy.linalg too): the floor of that run.
 
 Both print the beam tip's position at t = 1 s; they must agree to 1e-5 m
 (each is within 1e-6 m of the reference). One JSON line per run goes to
@@ -44,7 +45,7 @@ collector's final collections over every object still alive. Written to
 **Breakdown** (``--breakdown``): one new process per venv, repeated
 ``--repeat`` times (the least of each figure is kept), timing with
 ``time.process_time`` the interpreter's start, the imports a run needs
-(numpy, numba, scipy.integrate, scikit-sundae's CVODE, then flexmb itself),
+(numpy, numba, scipy.linalg, then flexmb itself),
 the first ``build()`` and ``simulate()`` and the same again in the same
 process (warm: the kernels loaded), and numba's cache loads inside the first
 ones: how many, and their CPU split into the index lookup (reading the
@@ -110,10 +111,10 @@ assert counters["ok"], counters
 print([float(v) for v in tip])
 """
 
-#: the floor of flexmb's CVODE run: importing what it cannot run without (numba for the kernels, scipy.integrate for
-#: the integrators' base class, scikit-sundae for CVODE, which imports scipy.optimize), and the interpreter's exit
+#: the floor of flexmb's CVODE run: importing what it cannot run without (numba for the kernels, scipy.linalg for the
+#: dense Jacobian's factor), and the interpreter's exit
 DEPENDENCIES_RUN = """
-import numpy, numba, scipy.integrate, sksundae.cvode
+import numpy, numba, scipy.linalg
 print("[]")
 """
 
@@ -131,11 +132,8 @@ t = time.process_time()
 import numba
 out["import_numba_s"] = time.process_time() - t
 t = time.process_time()
-import scipy.integrate
-out["import_scipy_integrate_s"] = time.process_time() - t
-t = time.process_time()
-import sksundae.cvode
-out["import_sksundae_cvode_s"] = time.process_time() - t
+import scipy.linalg
+out["import_scipy_linalg_s"] = time.process_time() - t
 t = time.process_time()
 import flexmb as fm
 out["import_flexmb_s"] = time.process_time() - t
@@ -354,7 +352,7 @@ def summary(out: str) -> str:
                          f"{min(c) / ex:.2f} |")
     deps = [r["cpu_s"] for r in rows if r["tool"] == "dependencies" and r["status"] == 0]
     if deps:
-        lines.append(f"| only importing numpy, numba, scipy.integrate, sksundae.cvode | - | {len(deps)} | "
+        lines.append(f"| only importing numpy, numba, scipy.linalg | - | {len(deps)} | "
                      f"{min(deps):.3f} | {min(deps) / ex:.2f} |")
     return "\n".join(lines)
 

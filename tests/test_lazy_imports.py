@@ -97,6 +97,55 @@ def test_a_simulation_imports_no_analysis_scene_study_export_or_plot():
     assert loaded["flexmb.integrators"]  # the check reads sys.modules of the run
 
 
+#: never imported by a run of CVODE_BDF stepped in compiled code (an open tree with compiled force elements): it
+#: uses none of scipy's solvers, and looks its integrator up by name without importing scikit-sundae's class
+NOT_IN_A_COMPILED_CVODE_RUN = ["scipy.integrate", "scipy.optimize", "scipy.special", "scipy.sparse", "sksundae",
+                               "flexmb.integrators.sundials", "flexmb.integrators.second_order",
+                               "flexmb.genalpha.solver"]
+
+
+def _run_modules(method: str, check: list[str]) -> dict:
+    """Simulate B1 N = 8 by ``method`` in a new interpreter: which of ``check`` are then in sys.modules."""
+    out = subprocess.run([sys.executable, "-c", textwrap.dedent(f"""
+        import json, sys
+        sys.path.insert(0, {BENCH!r})
+        import flexmb as fm
+        from scenes import b1
+        res = fm.simulate(b1(8).build(), 0.01, method={method!r}, n_out=2, progress=False)
+        assert res.status == "finished" and res.method == {method!r}, (res.status, res.method)
+        print(json.dumps({{m: m in sys.modules for m in {check!r}}}))
+    """)], capture_output=True, text=True, timeout=300, env=dict(os.environ, OPENBLAS_NUM_THREADS="1"))
+    assert out.returncode == 0, out.stderr
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def test_a_compiled_cvode_run_imports_no_scipy_integrate_optimize_or_sundae():
+    loaded = _run_modules("CVODE_BDF", NOT_IN_A_COMPILED_CVODE_RUN)
+    assert [m for m in NOT_IN_A_COMPILED_CVODE_RUN if loaded[m]] == []
+
+
+def test_scipys_solvers_are_imported_when_asked_for():
+    loaded = _run_modules("RK45", ["scipy.integrate", "flexmb.integrators.sundials"])
+    assert loaded == {"scipy.integrate": True, "flexmb.integrators.sundials": False}
+
+
+def test_the_integrators_public_names_resolve_on_first_use():
+    import flexmb.integrators as integrators
+    from flexmb.integrators import sundials
+
+    assert set(integrators.__all__) <= set(dir(integrators))
+    for name in integrators.__all__:
+        assert getattr(integrators, name) is not None, name
+    assert integrators.CVODEBDF is sundials.CVODEBDF is flexmb.registry.get("integrators", "CVODE_BDF")
+    assert flexmb.registry.path("integrators", "CVODE_BDF") == "flexmb.integrators.sundials:CVODEBDF"
+    try:
+        integrators.no_such_name
+    except AttributeError as exc:
+        assert "no_such_name" in str(exc)
+    else:
+        raise AssertionError("no AttributeError")
+
+
 def test_an_open_trees_build_rates_and_result_import_no_scipy_linalg():
     """The kernels of an open tree's build and right-hand side call no BLAS and nothing of numba.np.arraymath
     (numba imports scipy.linalg for either): the integrators and the Jacobian import it."""

@@ -167,6 +167,41 @@ def test_name_conflict_between_distributions_names_both(fake_eps):
     assert registry.get("forces", "drag") is OtherDrag
 
 
+def test_path_names_a_plugin_without_importing_it(fake_eps):
+    plugin = ep("drag", "drag_pkg:Drag", obj=Drag)
+    fake_eps(plugin, ep("twice", "a_pkg:A", dist="a", obj=Drag), ep("twice", "b_pkg:B", dist="b", obj=Drag))
+    assert registry.path("forces", "drag") == registry.path("force", "drag") == "drag_pkg:Drag"
+    assert plugin.n_loads == 0
+    with pytest.raises(PluginError, match="claimed by 2 distributions"):
+        registry.path("forces", "twice")
+    with pytest.raises(PluginError, match="no forces plugin named 'nope'"):
+        registry.path("forces", "nope")
+    fm.register("forces", "drag", OtherDrag, replace=True)
+    assert registry.path("forces", "drag") == f"{OtherDrag.__module__}:{OtherDrag.__qualname__}"
+
+
+def test_a_session_replacement_of_cvode_bdf_is_what_simulate_runs(monkeypatch):
+    """flexmb's CVODE_BDF runs stepped in compiled code on an open tree; a class registered in its place runs as it is."""
+    from flexmb.integrators import CVODEBDF
+
+    monkeypatch.syspath_prepend(str(pathlib.Path(__file__).parents[1] / "benchmarks"))
+    import scenes
+
+    made = []
+
+    class Spy(CVODEBDF):
+        def __init__(self, *args, **kwargs):
+            made.append(self)
+            super().__init__(*args, **kwargs)
+
+    system = scenes.b1(2).build()
+    res = fm.simulate(system, 0.01, method="CVODE_BDF", n_out=2, progress=False)
+    assert res.status == "finished" and made == []
+    fm.register("integrators", "CVODE_BDF", Spy, replace=True)
+    res = fm.simulate(system, 0.01, method="CVODE_BDF", n_out=2, progress=False)
+    assert res.status == "finished" and len(made) == 1
+
+
 def test_one_distribution_found_twice_is_not_a_conflict(fake_eps):
     # e.g. an egg-info in the working directory and the dist-info in site-packages
     fake_eps(ep("drag", "drag_pkg:Drag", dist="flexmb_drag", obj=Drag),

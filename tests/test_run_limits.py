@@ -103,4 +103,4 @@ def test_explicit_method_warned_of_a_stiff_spring():
     """A SpringDamper's stiffness was not counted: no StiffnessWarning for DOP853 on k = 1e8 (omega = 1e4 rad/s)."""
     s = spring_damper_slider(0.0, stiffness=1e8).build()
     with pytest.warns(fm.StiffnessWarning, match="highest natural frequency is about 1e\\+04 rad/s"):
-        _warn_if_stiff(s, _solver_class("DOP853"), 0.0, 1.0, np.array([1.0]), np.zeros(1))
+        _warn_if_stiff(s, _solver_class("DOP853", s, False, True), 0.0, 1.0, np.array([1.0]), np.zeros(1))

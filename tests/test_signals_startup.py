@@ -67,7 +67,7 @@ def _flexmb(code, tmp_path, *argv, **env):
 
 
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM, signal.SIGHUP], ids=lambda s: s.name)
-@pytest.mark.parametrize("module", ["numba", "scipy.integrate", "flexmb.scene"])
+@pytest.mark.parametrize("module", ["numba", "flexmb.integrators", "flexmb.scene"])
 def test_a_signal_while_flexmb_imports_ends_it_with_one_line(tmp_path, sig, module):
     proc = _flexmb(DURING_IMPORT, tmp_path, "run", PENDULUM, "--out", "out", "--t-end", "0.1", "--quiet",
                    AT_MODULE=module, SIGNAL=str(int(sig)))

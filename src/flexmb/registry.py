@@ -36,7 +36,8 @@ from attrs import define, field, frozen
 
 from .errors import PluginError
 
-__all__ = ["KINDS", "BuiltinTable", "PluginInfo", "builtin_table", "get", "names", "plugins", "refresh", "register"]
+__all__ = ["KINDS", "BuiltinTable", "PluginInfo", "builtin_table", "get", "names", "path", "plugins", "refresh",
+           "register"]
 
 #: Plugin kinds and the base class (``module:qualname``) a plugin must subclass, or the base classes it
 #: may subclass one of. The entry-point group of a kind is ``flexmb.<kind>``.
@@ -276,16 +277,61 @@ def get(kind: str, name: str) -> type:
     """
     kind = _kind(kind)
     with _lock:
-        entries = _table(kind).get(name)
-        if not entries:
-            raise PluginError(f"no {kind} plugin named {name!r}; pick one of {names(kind)}")
-        if len(entries) > 1:
-            raise PluginError(_conflict(entries))
-        entry = entries[0]
+        entry = _entry(kind, name)
         _load(entry)
     if entry.error:
         raise PluginError(entry.error) from entry.cause
     return entry.obj
+
+
+def _entry(kind: str, name: str) -> _Entry:
+    """The one claimant of ``name``; raises for an unknown or conflicting name (the caller holds the lock)."""
+    entries = _table(kind).get(name)
+    if not entries:
+        raise PluginError(f"no {kind} plugin named {name!r}; pick one of {names(kind)}")
+    if len(entries) > 1:
+        raise PluginError(_conflict(entries))
+    return entries[0]
+
+
+def path(kind: str, name: str) -> str:
+    """The import path (``module:qualname``) of the plugin registered as ``name``, without importing it.
+
+    What a caller needs to tell a plugin apart before paying for its
+    import: :func:`flexmb.simulate` runs flexmb's ``'CVODE_BDF'`` and
+    ``'CVODE_Adams'`` of an open tree in compiled code
+    (:func:`flexmb.integrators.cvode_direct.compiled_loop`), without
+    importing the scikit-sundae classes registered under those names
+    (and scipy.integrate with them).
+
+    Parameters
+    ----------
+    kind : {'bodies', 'joints', 'forces', 'constraints', 'contacts', 'complements', 'integrators'}
+        Plugin kind (the singular is accepted too).
+    name : str
+        Plugin name.
+
+    Returns
+    -------
+    str
+        The entry point's value, or ``module:qualname`` of the class
+        given to :func:`register`.
+
+    Raises
+    ------
+    PluginError
+        If the name is unknown or claimed by several distributions (as
+        :func:`get`); a plugin that would fail to load is not noticed.
+
+    Examples
+    --------
+    >>> from flexmb import registry
+    >>> registry.path("integrators", "CVODE_BDF")
+    'flexmb.integrators.sundials:CVODEBDF'
+    """
+    kind = _kind(kind)
+    with _lock:
+        return _entry(kind, name).value
 
 
 def names(kind: str) -> list[str]:

@@ -153,10 +153,19 @@ def initial_state(system, t0: float = 0.0, positions=None, speeds=None, x0=None,
     return x, held_speeds(system, t0, x, xd, held_v, motions, bool(hold_speeds))
 
 
-def _solver_class(method):
-    """The OdeSolver class: ``method`` itself, or looked up by name in the plugin registry."""
-    from scipy.integrate import OdeSolver  # on first use: it imports scipy.optimize
+def _solver_class(method, system, track_work: bool, contact_events: bool):
+    """The integrator class: ``method`` itself, or looked up by name in the plugin registry.
+
+    A name registered as flexmb's scikit-sundae CVODE_BDF or CVODE_Adams
+    gives, where the run can step it in compiled code (an open tree with
+    compiled force elements, no work terms, no contact events), the
+    compiled loop's class (:func:`~flexmb.integrators.cvode_direct.compiled_loop`),
+    looked up by its import path (:func:`flexmb.registry.path`): the
+    scikit-sundae class, and scipy.integrate with it, is then never imported.
+    """
     if not isinstance(method, str):
+        from scipy.integrate import OdeSolver  # a class given: scipy.integrate is imported if it is one
+
         if not (isinstance(method, type) and issubclass(method, OdeSolver)):
             raise ModelError(f"simulate: method must be an integrator's name or an OdeSolver class, got "
                              f"{type(method).__name__} {method!r:.60}")
@@ -168,7 +177,12 @@ def _solver_class(method):
         others = [m for m in known if m not in sundials]
         raise ModelError(f"unknown integrator {method!r}; pick one of {others}"
                          + (f" or, from SUNDIALS, {sundials}" if sundials else ""))
-    return registry.get("integrators", method)
+    from .contact_events import _contact_groups
+    from .integrators.cvode_direct import compiled_loop
+
+    events = True if contact_events and _contact_groups(system) else None
+    direct = compiled_loop(system, registry.path("integrators", method), track_work, events)
+    return direct if direct is not None else registry.get("integrators", method)
 
 
 #: the default of ``simulate(max_steps=...)``: a run that needs more steps than this is refused before it starts
@@ -479,7 +493,7 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     # a run never changes the caller's system: another strategy gives a new one
     system = as_system(model, complement=complement)
     auto = isinstance(method, str) and method == "auto"
-    solver_cls = None if auto else _solver_class(method)
+    solver_cls = None if auto else _solver_class(method, system, track_work, contact_events)
     name = method if isinstance(method, str) else getattr(method, "__name__", str(method))
     memory.check(system, n_out if t_eval is None else len(t_eval), what="simulate", model=False)
     progress = shown(progress)
@@ -488,7 +502,7 @@ def simulate(model, t_end: float, *, t0: float = 0.0, positions=None, speeds=Non
     reason = ""
     if auto:
         method, reason = _choose_method(system, t0, t_end, x, xd, rtol, rtol / 100 if atol is None else atol)
-        solver_cls = _solver_class(method)
+        solver_cls = _solver_class(method, system, track_work, contact_events)
         name = getattr(method, "__name__", method)
     else:
         _warn_if_stiff(system, solver_cls, t0, t_end, x, xd)

@@ -130,7 +130,7 @@ class Run:
 
     def __init__(self, system, solver_cls, name, times, *, t0, t_end, rtol, atol, max_step, projection_tol,
                  track_work, progress, auto, contact_events=True):
-        from .integrators import adapt, capabilities  # on first use: they import scipy.integrate
+        from .integrators import adapt, capabilities
         from .integrators.cvode_direct import compiled_loop
         from .integrators.monitor import ResolutionMonitor
 

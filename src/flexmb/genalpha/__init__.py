@@ -85,7 +85,9 @@ The solver is in :mod:`flexmb.genalpha.solver` (its interpolant in
 :mod:`flexmb.genalpha.dense`, configured classes in
 :mod:`flexmb.genalpha.configured`), the method's parameters and
 amplification in :mod:`flexmb.genalpha.parameters`; their public names are
-importable from here.
+importable from here. The solver's are imported on first use (PEP 562): it
+is a :class:`scipy.integrate.OdeSolver`, and a run of another integrator
+reads only the parameters (the resolution monitor's damping figures).
 
 References
 ----------
@@ -93,9 +95,25 @@ References
 .. [2] M. Arnold, O. Bruels, Multibody Syst. Dyn. 18 (2007) 185-202.
 """
 
+import importlib as _importlib
+
 from .parameters import DEFAULT_RHO_INF, alpha_parameters, amplification_matrix, numerical_damping
-from .configured import generalized_alpha
-from .solver import GeneralizedAlpha, GeneralizedAlphaDenseOutput
 
 __all__ = ["GeneralizedAlpha", "generalized_alpha", "alpha_parameters", "amplification_matrix",
            "numerical_damping", "DEFAULT_RHO_INF"]
+
+#: public names imported from their module on first use: the solver imports scipy.integrate and scipy.linalg
+_LAZY = {"generalized_alpha": ".configured", "GeneralizedAlpha": ".solver", "GeneralizedAlphaDenseOutput": ".solver"}
+
+
+def __getattr__(name):
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(_importlib.import_module(module, __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY))

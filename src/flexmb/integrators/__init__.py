@@ -10,19 +10,43 @@ what it relies on (dense output) are read from class attributes
   only the n x n Schur complement of their Newton matrix;
 - :mod:`~flexmb.integrators.sundials`: CVODE's BDF and Adams methods
   (``'CVODE_BDF'``, ``'CVODE_Adams'``) and IDA (``'IDA'``), through
-  scikit-sundae.
+  scikit-sundae; an open tree with compiled force elements runs them
+  stepped in compiled code (:mod:`~flexmb.integrators.cvode_direct`).
 
 :mod:`~flexmb.integrators.tolerances` holds the relative tolerance each
 runs at when none is given.
+
+The names of this package are imported on first use (PEP 562): the
+solver classes import scipy.integrate (and with it scipy.optimize,
+scipy.special and scipy.linalg), which a run stepped in compiled code
+never uses (tests/test_lazy_imports.py).
 """
 
-from .base import SCIPY_ADAPTERS, SCIPY_CAPABILITIES, Capabilities, adapt, capabilities
-from .second_order import SecondOrderBDF, SecondOrderRadau, second_order
-from .sundials import CVODE, IDA, CVODEAdams, CVODEBDF, CVODEDenseOutput
-from .tolerances import DOP853_DEFAULT_RTOL, default_rtol
+import importlib as _importlib
+
+#: public names, imported from their module on first use
+_LAZY = {
+    **dict.fromkeys(("Capabilities", "SCIPY_CAPABILITIES", "SCIPY_ADAPTERS", "capabilities", "adapt"), ".base"),
+    **dict.fromkeys(("SecondOrderRadau", "SecondOrderBDF"), ".second_order"),
+    **dict.fromkeys(("CVODE", "CVODEBDF", "CVODEAdams", "IDA", "CVODEDenseOutput"), ".sundials"),
+    **dict.fromkeys(("default_rtol", "DOP853_DEFAULT_RTOL"), ".tolerances"),
+}
 
 __all__ = [
     "Capabilities", "SCIPY_CAPABILITIES", "SCIPY_ADAPTERS", "capabilities", "adapt",
-    "SecondOrderRadau", "SecondOrderBDF", "second_order",
+    "SecondOrderRadau", "SecondOrderBDF",
     "CVODE", "CVODEBDF", "CVODEAdams", "IDA", "CVODEDenseOutput", "default_rtol", "DOP853_DEFAULT_RTOL",
 ]
+
+
+def __getattr__(name):
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(_importlib.import_module(module, __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY))

@@ -80,18 +80,21 @@ flexmb's own integrators declare them; scipy's get them from
 :data:`SCIPY_CAPABILITIES` (looked up along the class's bases, so a subclass
 of ``RK45`` is explicit too), and Radau and BDF are replaced by their
 second-order variants (:data:`SCIPY_ADAPTERS`), which are scipy's solvers
-unchanged when no Jacobian is given.
+unchanged when no Jacobian is given. Both tables name scipy's classes as
+:mod:`scipy.integrate` exports them (``"RK45"``): this module imports no
+scipy, so that a run that never uses scipy's solvers does not import
+scipy.integrate (and scipy.optimize, scipy.special and scipy.linalg with
+it) to look its own integrator up.
 """
 
 from __future__ import annotations
 
+import importlib
+
 import attrs
 from attrs import frozen
-from scipy.integrate import BDF, DOP853, LSODA, RK23, RK45, Radau
 
-from .second_order import SecondOrderBDF, SecondOrderRadau
-
-__all__ = ["Capabilities", "SCIPY_CAPABILITIES", "SCIPY_ADAPTERS", "capabilities", "adapt"]
+__all__ = ["Capabilities", "SCIPY_CAPABILITIES", "SCIPY_ADAPTERS", "capabilities", "adapt", "scipy_name"]
 
 
 @frozen
@@ -149,19 +152,53 @@ class Capabilities:
     limits_order: bool = False
 
 
-#: scipy's solvers, which declare nothing themselves. LSODA could take a
-#: Jacobian too; it is left without, as before, so its results do not change.
+#: scipy's solvers, which declare nothing themselves, by their name in scipy.integrate (:func:`scipy_name`).
+#: LSODA could take a Jacobian too; it is left without, as before, so its results do not change.
 SCIPY_CAPABILITIES = {
-    RK45: Capabilities(explicit=True),
-    RK23: Capabilities(explicit=True),
-    DOP853: Capabilities(explicit=True),
-    Radau: Capabilities(uses_jacobian=True),
-    BDF: Capabilities(uses_jacobian=True),
-    LSODA: Capabilities(),
+    "RK45": Capabilities(explicit=True),
+    "RK23": Capabilities(explicit=True),
+    "DOP853": Capabilities(explicit=True),
+    "Radau": Capabilities(uses_jacobian=True),
+    "BDF": Capabilities(uses_jacobian=True),
+    "LSODA": Capabilities(),
 }
 
-#: the class simulate instantiates for a scipy solver asked for by name or class
-SCIPY_ADAPTERS = {Radau: SecondOrderRadau, BDF: SecondOrderBDF}
+#: the class simulate instantiates for a scipy solver asked for by name or class: scipy's name -> the
+#: ``module:qualname`` of flexmb's variant (imported when asked for)
+SCIPY_ADAPTERS = {"Radau": "flexmb.integrators.second_order:SecondOrderRadau",
+                  "BDF": "flexmb.integrators.second_order:SecondOrderBDF"}
+
+
+def scipy_name(solver_cls: type) -> str | None:
+    """The name scipy.integrate exports ``solver_cls`` under, if ``solver_cls`` is one of its classes, else None.
+
+    Read from the class itself (its module and name), without importing
+    scipy: a class defined by scipy.integrate has it imported already.
+
+    Parameters
+    ----------
+    solver_cls : type
+        Any class.
+
+    Returns
+    -------
+    str or None
+        ``solver_cls.__name__`` for a class defined in a scipy.integrate module
+        and exported by it, else None.
+
+    Examples
+    --------
+    >>> from scipy.integrate import RK45
+    >>> from flexmb.integrators.base import scipy_name
+    >>> scipy_name(RK45), scipy_name(int)
+    ('RK45', None)
+    """
+    module = getattr(solver_cls, "__module__", None) or ""
+    if not module.startswith("scipy.integrate"):
+        return None
+    name = getattr(solver_cls, "__name__", "")
+    exported = getattr(importlib.import_module("scipy.integrate"), name, None)
+    return name if exported is solver_cls else None
 
 
 def capabilities(solver_cls: type) -> Capabilities:
@@ -186,8 +223,8 @@ def capabilities(solver_cls: type) -> Capabilities:
     >>> capabilities(DOP853).explicit
     True
     """
-    found = next((SCIPY_CAPABILITIES[k] for k in getattr(solver_cls, "__mro__", ()) if k in SCIPY_CAPABILITIES),
-                 Capabilities())
+    found = next((SCIPY_CAPABILITIES[name] for name in map(scipy_name, getattr(solver_cls, "__mro__", ()))
+                  if name in SCIPY_CAPABILITIES), Capabilities())
     declared = {a.name: bool(getattr(solver_cls, a.name)) for a in attrs.fields(Capabilities)
                 if hasattr(solver_cls, a.name)}
     return attrs.evolve(found, **declared)
@@ -215,4 +252,8 @@ def adapt(solver_cls: type) -> type:
     >>> adapt(Radau).__name__
     'SecondOrderRadau'
     """
-    return SCIPY_ADAPTERS.get(solver_cls, solver_cls)
+    adapter = SCIPY_ADAPTERS.get(scipy_name(solver_cls))
+    if adapter is None:
+        return solver_cls
+    module, _, qualname = adapter.partition(":")
+    return getattr(importlib.import_module(module), qualname)

@@ -33,8 +33,10 @@ import numpy as np
 
 from .._signals import act_on_deferred, deferred
 from .cvode_library import FLAGS, CVODEError, sundials
+from .cvode_options import KRYLOV_DIM, MAX_STEPS
 
-__all__ = ["DirectCVODE", "DirectCVODEBDF", "DirectCVODEAdams", "compiled_loop", "CVODEError", "STEPS_PER_CALL"]
+__all__ = ["DirectCVODE", "DirectCVODEBDF", "DirectCVODEAdams", "compiled_loop", "REPLACES", "CVODEError",
+           "STEPS_PER_CALL"]
 
 CV_ADAMS, CV_BDF, SUN_PREC_LEFT = 1, 2, 1
 #: steps of one compiled call before it returns to Python (which then handles signals: Ctrl-C, SIGTERM)
@@ -48,8 +50,11 @@ def compiled_loop(system, solver_cls, track_work: bool, events) -> type | None:
     ----------
     system : System
         The model.
-    solver_cls : type
-        The integrator chosen (scikit-sundae's CVODEBDF or CVODEAdams are replaced).
+    solver_cls : type or str
+        The integrator chosen, or the import path (``module:qualname``) it is
+        registered under (:func:`flexmb.registry.path`): scikit-sundae's
+        CVODEBDF and CVODEAdams are replaced (:data:`REPLACES`), by their
+        path, so that a run looked up by name never imports them.
     track_work : bool
         Whether the run integrates the work terms (computed in Python: not replaced).
     events : ContactEvents or None
@@ -60,9 +65,8 @@ def compiled_loop(system, solver_cls, track_work: bool, events) -> type | None:
     type or None
         :class:`DirectCVODEBDF` or :class:`DirectCVODEAdams`.
     """
-    from .sundials import CVODEAdams, CVODEBDF
-
-    direct = {CVODEBDF: DirectCVODEBDF, CVODEAdams: DirectCVODEAdams}.get(solver_cls)
+    path = solver_cls if isinstance(solver_cls, str) else f"{solver_cls.__module__}:{solver_cls.__qualname__}"
+    direct = REPLACES.get(path)
     if (direct is None or system._packed_open is None or not system.layout.identity or track_work
             or events is not None):
         return None
@@ -212,8 +216,6 @@ class DirectCVODE:
         else:
             ck(S.CVodeSStolerances(mem, float(rtol), float(atol)), "CVodeSStolerances")
         if krylov:
-            from .sundials import KRYLOV_DIM
-
             self._ls = S.SUNLinSol_SPGMR(self._y, SUN_PREC_LEFT, KRYLOV_DIM, self._ctx)
         else:
             self._A = S.SUNDenseMatrix(self.m, self.m, self._ctx)
@@ -231,8 +233,6 @@ class DirectCVODE:
         ck(S.CVodeSetMinStep(mem, 0.0), "CVodeSetMinStep")
         ck(S.CVodeSetMaxStep(mem, 0.0 if not np.isfinite(max_step) else float(max_step)), "CVodeSetMaxStep")
         ck(S.CVodeSetMaxOrd(mem, self.max_order), "CVodeSetMaxOrd")
-        from .sundials import MAX_STEPS
-
         ck(S.CVodeSetMaxNumSteps(mem, MAX_STEPS), "CVodeSetMaxNumSteps")
         ck(S.CVodeSetStopTime(mem, self.t_bound), "CVodeSetStopTime")
 
@@ -472,6 +472,10 @@ class DirectCVODEBDF(DirectCVODE):
 class DirectCVODEAdams(DirectCVODE):
     family, max_order = "Adams", 12
 
+
+#: the integrators stepped in compiled code on an open tree: the import path of scikit-sundae's class -> this one's
+REPLACES = {"flexmb.integrators.sundials:CVODEBDF": DirectCVODEBDF,
+            "flexmb.integrators.sundials:CVODEAdams": DirectCVODEAdams}
 
 _PARAMETERS = DirectCVODE.__doc__[DirectCVODE.__doc__.index("    Parameters\n"):]
 DirectCVODEBDF.__doc__ = (":class:`DirectCVODE` with CVODE's variable-order BDF (orders 1-5): ``'CVODE_BDF'`` on "

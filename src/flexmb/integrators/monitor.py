@@ -41,10 +41,13 @@ import warnings
 
 import numpy as np
 from attrs import frozen
-from scipy.linalg import eig
-
+from .._lazy import LazyModule
 from ..errors import StiffnessWarning
-from ..genalpha import amplification_matrix, generalized_alpha, numerical_damping
+from ..genalpha.parameters import amplification_matrix, numerical_damping
+
+#: the ringing modes' eigenproblem, imported at its first use (a run that never analyses its modes imports no
+#: scipy.linalg)
+linalg = LazyModule("scipy.linalg")
 
 __all__ = ["Modes", "ringing_modes", "motion_frequency", "stiff_choice", "dissipative_choice",
            "ResolutionMonitor", "FAR_ABOVE", "RINGING_ZETA", "AUTO_RHO_INF", "MODES_MAX_COORDS", "CHECK_STEPS",
@@ -227,7 +230,7 @@ def ringing_modes(system, t0: float, t1: float, x, xd, rtol: float, atol: float,
     J = system.state_jacobian(t0, x, xd)
     if J is None:
         return None
-    lam, left, right = eig(J, left=True, right=True, check_finite=False)
+    lam, left, right = linalg.eig(J, left=True, right=True, check_finite=False)
     scale = np.abs(lam).max(initial=0.0)
     if not np.all(np.isfinite(lam)) or scale == 0.0:
         return None
@@ -326,6 +329,8 @@ def dissipative_choice(modes: Modes):
     freqs = modes.frequency[modes.ringing()]
     f_low, f_high = float(freqs.min()), float(freqs.max())
     min_step = 1.0 / (2 * np.pi * f_low)
+    from ..genalpha import generalized_alpha
+
     cls = generalized_alpha(AUTO_RHO_INF, f_max=0.5 * f_low, min_step=min_step)
     z_low = float(numerical_damping(AUTO_RHO_INF, 1.0))
     loss_high = 1.0 - float(np.max(np.abs(np.linalg.eigvals(amplification_matrix(AUTO_RHO_INF, f_high / f_low)))))

@@ -20,7 +20,7 @@ import numpy as np
 from scipy.integrate import BDF, Radau
 from scipy.linalg import lu_factor, lu_solve
 
-__all__ = ["SecondOrderRadau", "SecondOrderBDF", "second_order"]
+__all__ = ["SecondOrderRadau", "SecondOrderBDF"]
 
 
 def _install(solver, n: int) -> None:
@@ -105,19 +105,3 @@ class SecondOrderBDF(BDF):
         if n_second is not None:
             _install(self, n_second)
 
-
-def second_order(solver_cls):
-    """The Schur-complement variant of a scipy implicit solver class, or None.
-
-    Parameters
-    ----------
-    solver_cls : type
-        An :class:`scipy.integrate.OdeSolver` subclass.
-
-    Returns
-    -------
-    type or None
-        :class:`SecondOrderRadau` for Radau, :class:`SecondOrderBDF` for
-        BDF, None for anything else.
-    """
-    return {Radau: SecondOrderRadau, BDF: SecondOrderBDF}.get(solver_cls)

@@ -18,13 +18,9 @@ from __future__ import annotations
 import numpy as np
 from scipy.integrate import DenseOutput, OdeSolver
 
-__all__ = ["CVODE", "CVODEBDF", "CVODEAdams", "IDA", "CVODEDenseOutput", "KRYLOV_DIM"]
+from .cvode_options import KRYLOV_DIM, MAX_STEPS
 
-#: Krylov dimension of the preconditioned GMRES (the Newton preconditioner leaves little to iterate on)
-KRYLOV_DIM = 10
-
-#: CVODE's bound on the internal steps of one call
-MAX_STEPS = 10**9
+__all__ = ["CVODE", "CVODEBDF", "CVODEAdams", "IDA", "CVODEDenseOutput", "KRYLOV_DIM", "MAX_STEPS"]
 
 #: the flag of a call that returned at a root (CV_ROOT_RETURN, IDA_ROOT_RETURN)
 ROOT_RETURN = 2

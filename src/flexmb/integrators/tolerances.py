@@ -21,9 +21,8 @@ An integrator class may declare its own, as the class attribute
 
 from __future__ import annotations
 
-from scipy.integrate import DOP853
-
 from .._validate import DEFAULT_RTOL
+from .base import scipy_name
 
 __all__ = ["DOP853_DEFAULT_RTOL", "SCIPY_DEFAULT_RTOL", "default_rtol"]
 
@@ -32,8 +31,8 @@ __all__ = ["DOP853_DEFAULT_RTOL", "SCIPY_DEFAULT_RTOL", "default_rtol"]
 #: (benchmarks/default_tolerances.py, docs/benchmarks.md "Default tolerances")
 DOP853_DEFAULT_RTOL = 5e-10
 
-#: scipy's solvers whose default relative tolerance is not DEFAULT_RTOL
-SCIPY_DEFAULT_RTOL = {DOP853: DOP853_DEFAULT_RTOL}
+#: scipy's solvers whose default relative tolerance is not DEFAULT_RTOL, by their name in scipy.integrate
+SCIPY_DEFAULT_RTOL = {"DOP853": DOP853_DEFAULT_RTOL}
 
 
 def default_rtol(solver_cls: type) -> float:
@@ -60,5 +59,5 @@ def default_rtol(solver_cls: type) -> float:
     """
     if hasattr(solver_cls, "default_rtol"):
         return float(solver_cls.default_rtol)
-    return next((SCIPY_DEFAULT_RTOL[k] for k in getattr(solver_cls, "__mro__", ()) if k in SCIPY_DEFAULT_RTOL),
-                DEFAULT_RTOL)
+    return next((SCIPY_DEFAULT_RTOL[name] for name in map(scipy_name, getattr(solver_cls, "__mro__", ()))
+                 if name in SCIPY_DEFAULT_RTOL), DEFAULT_RTOL)

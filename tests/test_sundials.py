@@ -86,7 +86,7 @@ def test_scipy_solvers_get_their_capabilities_from_the_table():
 def test_flexmb_integrators_declare_their_capabilities():
     assert capabilities(SecondOrderRadau) == Capabilities(uses_jacobian=True, second_order=True)
     assert capabilities(CVODEBDF) == Capabilities(uses_jacobian=True, uses_preconditioner=True, cheap_restart=False,
-                                                  advances=True, finds_roots=True)
+                                                  advances=True, finds_roots=True, limits_order=True)
     assert capabilities(CVODEAdams) == Capabilities(uses_jacobian=True, cheap_restart=False, advances=True,
                                                     finds_roots=True)
     assert capabilities(IDA) == Capabilities(uses_jacobian=True, uses_preconditioner=True, cheap_restart=False,

@@ -59,6 +59,15 @@ RESTART_TOL_MAX = 1e-6
 RESTART_MIN_STEPS = 50
 RESTART_TOL_CEILING = 1e-4
 
+#: BDF orders 4 and 5 are not stable near the imaginary axis (A(73 deg)- and A(52 deg)-stable only): a flexible
+#: body's lightly damped modes sit there, and at loose tolerances, where the step reaches them, CVODE's error
+#: estimate is held by the bodies' deformation speeds and orders 4-5 take more steps than order 3 (B6, its
+#: looped flexible rod, docs/benchmarks.md "What limits CVODE's step on B6"). An integrator that takes
+#: ``max_order`` (``limits_order``) is held to OSCILLATION_MAX_ORDER on a model with flexible bodies in loops
+#: from rtol OSCILLATION_RTOL_MIN up; at tighter tolerances the higher orders pay (and rigid loops keep them)
+OSCILLATION_MAX_ORDER = 3
+OSCILLATION_RTOL_MIN = 1e-4
+
 #: open trees with at least this many coordinates are integrated by integrators declaring
 #: ``uses_preconditioner`` (CVODE_BDF) with O(n) preconditioned Krylov solves instead of a dense
 #: Jacobian; measured on B1 and B2 (docs/benchmarks.md, "Large open trees"): dense LU is as fast
@@ -274,7 +283,9 @@ class Run:
         caps, system, n = self.caps, self.system, self.n
         if getattr(self.solver_cls, "steps_in_compiled_code", False):
             self.options = compiled_options(self, x, xd, KRYLOV_MIN_COORDS, WINDING_BOUND)
-            if not caps.second_order:  # CVODE: all it is given
+            if not caps.second_order:  # CVODE: all it is given, with the order cap
+                if caps.limits_order and self.oscillation_limited():
+                    self.options["max_order"] = OSCILLATION_MAX_ORDER
                 return
             from .integrators.cvode_direct import STEPS_PER_CALL, DirectCVODE
 
@@ -288,6 +299,8 @@ class Run:
             events = self.events
             self.options["events"] = (
                 lambda t, z: events.root_functions(t, z if self.offset is None else z + self.offset), events.count)
+        if caps.limits_order and self.oscillation_limited():
+            self.options["max_order"] = OSCILLATION_MAX_ORDER
         if _matrix_free(system, self.solver_cls, caps):
             # an open tree, or loops closed through the recursion: O(n) Newton solves, no matrix (also qd = W(q) u)
             self.preconditioner = system.newton_preconditioner()
@@ -298,6 +311,19 @@ class Run:
             if caps.second_order and system.layout.identity:
                 # the Jacobian has the block form [[0, I], [Jx, Jv]] (qd = u): factor n x n only
                 self.options["n_second"] = n
+
+    def oscillation_limited(self) -> bool:
+        """Whether a BDF method's orders above OSCILLATION_MAX_ORDER cost steps here.
+
+        Returns
+        -------
+        bool
+            True for a model with flexible bodies and loops (cut joints or
+            constraint elements) run at rtol >= OSCILLATION_RTOL_MIN.
+        """
+        system = self.system
+        return (bool(system.constraints.n_cut or system.constraints.elements) and bool(system.topology.flexible)
+                and float(np.min(self.rtol)) >= OSCILLATION_RTOL_MIN)
 
     def _make(self, tstart, ystart, first_step=None, t_bound=None, events=True):
         options = self.options if events else {k: v for k, v in self.options.items() if k != "events"}

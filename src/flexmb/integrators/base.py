@@ -70,6 +70,11 @@ from these class attributes,
     unchanged) or None after a step that met none. simulate locates
     contact onsets and separations so (:mod:`flexmb.contact_events`); for
     any other integrator it locates them itself on the dense output.
+``limits_order``
+    The constructor takes ``max_order``, the largest order of a
+    variable-order method; simulate lowers it where the higher orders cost
+    steps (:data:`flexmb.stepping.OSCILLATION_MAX_ORDER`;
+    :class:`~flexmb.integrators.CVODEBDF`).
 
 flexmb's own integrators declare them; scipy's get them from
 :data:`SCIPY_CAPABILITIES` (looked up along the class's bases, so a subclass
@@ -123,6 +128,8 @@ class Capabilities:
         Has ``move_to(y)``: continues in place from a projected state.
     finds_roots : bool
         Takes ``events=(g, m, direction)`` and ends a step at the first root of ``g``.
+    limits_order : bool
+        Takes ``max_order=`` (a variable-order method's largest order).
 
     Examples
     --------
@@ -142,6 +149,7 @@ class Capabilities:
     rebases: bool = False
     moves: bool = False
     finds_roots: bool = False
+    limits_order: bool = False
 
 
 #: scipy's solvers, which declare nothing themselves, by their name in scipy.integrate (:func:`scipy_name`).

@@ -102,6 +102,8 @@ class DirectCVODE:
         What the right-hand side returns when its result is not finite: -1
         (unrecoverable: the run stops there, as flexmb's Python right-hand
         side does) or 1 (recoverable: CVODE retries with a smaller step).
+    max_order : int, optional
+        The method's largest order (default: the class's ``max_order``).
     **extraneous
         Other options of the integrators a run makes, ignored.
     """
@@ -113,8 +115,11 @@ class DirectCVODE:
 
     def __init__(self, fun, t0, y0, t_bound, *, rtol, atol, max_step=np.inf, first_step=None, system,
                  krylov=False, jacobian=None, python_rhs=False, offset=None, monitor=None,
-                 angles=(), bound=np.inf, gimbal=None, counters=None, nonfinite_flag=-1, **extraneous):
+                 angles=(), bound=np.inf, gimbal=None, counters=None, nonfinite_flag=-1, max_order=None,
+                 **extraneous):
         cb = self._callbacks()
+        if max_order is not None:  # the run's cap (flexmb.stepping.OSCILLATION_MAX_ORDER), else the class's
+            self.max_order = min(int(max_order), type(self).max_order)
         self._refuse(system)
         self._cb, self.system, self.monitor, self.gimbal = cb, system, monitor, gimbal
         self._S = S = sundials()
@@ -449,6 +454,7 @@ class DirectCVODE:
 
 class DirectCVODEBDF(DirectCVODE):
     family, max_order = "BDF", 5
+    limits_order = True
 
 
 class DirectCVODEAdams(DirectCVODE):

@@ -296,6 +296,7 @@ class DirectLoopCVODE(DirectCVODE):
 
 class DirectLoopCVODEBDF(DirectLoopCVODE):
     family, max_order = "BDF", 5
+    limits_order = True
 
 
 class DirectLoopCVODEAdams(DirectLoopCVODE):

@@ -98,10 +98,13 @@ def _declare(libs, index) -> dict:
         "CVodeSetMaxStep": (i, [vp, d]), "CVodeSetMaxOrd": (i, [vp, i]), "CVodeSetMaxNumSteps": (i, [vp, L]),
         "CVodeSetStopTime": (i, [vp, d]), "CVode": (i, [vp, d, vp, POINTER(d), i]),
         "CVodeGetDky": (i, [vp, d, i, vp]), "CVodeFree": (None, [POINTER(vp)]),
-        "CVodeGetLastStep": (i, [vp, POINTER(d)]),
+        "CVodeGetLastStep": (i, [vp, POINTER(d)]), "CVodeGetLastOrder": (i, [vp, POINTER(i)]),
+        "CVodeGetEstLocalErrors": (i, [vp, vp]), "CVodeGetErrWeights": (i, [vp, vp]),
+        "CVodeSetStabLimDet": (i, [vp, i]), "CVodeSetProjFn": (i, [vp, vp]), "CVodeSetProjErrEst": (i, [vp, i]),
     }
     for stat in ("NumSteps", "NumRhsEvals", "NumLinRhsEvals", "NumJacEvals", "NumPrecEvals", "NumPrecSolves",
-                 "NumLinIters", "NumNonlinSolvIters", "NumErrTestFails", "NumNonlinSolvConvFails", "NumLinSolvSetups"):
+                 "NumLinIters", "NumNonlinSolvIters", "NumErrTestFails", "NumNonlinSolvConvFails", "NumLinSolvSetups",
+                 "NumProjEvals", "NumProjFails", "NumStabLimOrderReds"):
         protos[f"CVodeGet{stat}"] = (i, [vp, POINTER(L)])
     out = {}
     for name, (res, args) in protos.items():

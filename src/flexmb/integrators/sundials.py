@@ -70,6 +70,8 @@ class CVODE(OdeSolver):
         dampers exactly; the rest left to the Krylov iterations), with
         Jacobian-vector products by differences of the right-hand side. No
         matrix is formed: O(n) per step. ``jac`` is then not used.
+    max_order : int, optional
+        The method's largest order (default: the class's ``max_order``).
     vectorized : bool
         Ignored (accepted for :func:`scipy.integrate.solve_ivp`).
     **extraneous
@@ -111,14 +113,14 @@ class CVODE(OdeSolver):
 
     def __init__(self, fun, t0, y0, t_bound, *, rtol: float = 1e-3, atol=1e-6, max_step: float = np.inf,
                  first_step: float | None = None, jac=None, preconditioner=None, events=None,
-                 vectorized: bool = False, **extraneous):
+                 max_order: int | None = None, vectorized: bool = False, **extraneous):
         super().__init__(fun, t0, y0, t_bound, vectorized=False)
         self._raw_fun = fun
         self.n_steps = 0
         self.root = None
         atol = np.asarray(atol, dtype=float)
         options = dict(
-            max_num_steps=MAX_STEPS, max_order=self.max_order, linsolver=self.linsolver, rtol=float(rtol),
+            max_num_steps=MAX_STEPS, max_order=self.max_order if max_order is None else int(max_order), linsolver=self.linsolver, rtol=float(rtol),
             atol=float(atol) if atol.ndim == 0 else [float(a) for a in atol],
             max_step=0.0 if not np.isfinite(max_step) else float(max_step),
             first_step=0.0 if first_step is None else float(first_step),
@@ -310,6 +312,10 @@ class CVODEBDF(CVODE):
         O(n) preconditioned Krylov solves of an open tree (see :class:`CVODE`).
     events : (callable, int, array_like), optional
         Root finding on the functions ``g(t, y)`` (see :class:`CVODE`).
+    max_order : int, optional
+        The largest BDF order (default 5; simulate lowers it to
+        :data:`flexmb.stepping.OSCILLATION_MAX_ORDER` for flexible bodies in
+        loops at loose tolerances).
     vectorized : bool
         Ignored.
     **extraneous
@@ -325,6 +331,7 @@ class CVODEBDF(CVODE):
     family = "BDF"
     max_order = 5
     uses_preconditioner = True
+    limits_order = True
 
 
 class CVODEAdams(CVODE):
@@ -352,6 +359,8 @@ class CVODEAdams(CVODE):
         O(n) preconditioned Krylov solves of an open tree (see :class:`CVODE`).
     events : (callable, int, array_like), optional
         Root finding on the functions ``g(t, y)`` (see :class:`CVODE`).
+    max_order : int, optional
+        The largest order (default: the class's ``max_order``).
     vectorized : bool
         Ignored.
     **extraneous
@@ -405,6 +414,8 @@ class IDA(CVODE):
     events : (callable, int, array_like), optional
         Root finding on the functions ``g(t, y)``, by IDA's root finding (see
         :class:`CVODE`).
+    max_order : int, optional
+        The largest order (default: the class's ``max_order``).
     vectorized : bool
         Ignored.
     **extraneous

@@ -133,6 +133,8 @@ class DirectLoopCVODE(DirectCVODE):
     def _user_data(self, system, nonfinite_flag):
         from ..system.tangent import NewtonPreconditioner
 
+        from ..kernels.constraint_matrix import DENSE_K  # K's eigenvectors V (m x m) only where it is factored densely
+
         cb, S, n, m = self._cb, self._S, self.n, self.m
         fl, it, fg, ix = system._packed
         lay = system._loop_layout
@@ -149,7 +151,7 @@ class DirectLoopCVODE(DirectCVODE):
             "real": np.zeros(cb.N_REAL), "Sw": np.zeros(n * 3), "Sv": np.zeros(n * 3), "W": np.zeros(mr * 12),
             "body": np.zeros(mr * 2, np.int64), "U": np.zeros(n * 6), "DUT": np.zeros(n * 6), "Dinv": np.zeros(n * 6),
             "lift": np.zeros(n), "Kb": np.zeros(mr * (band + 1)), "d": np.zeros(mr), "df": np.zeros(mr),
-            "V": np.zeros(mr * mr), "fail_t": np.zeros(1), "fail_y": np.zeros(m), "offset": offset}
+            "V": np.zeros(mr * mr if mr <= DENSE_K or 2 * band >= mr else 0), "fail_t": np.zeros(1), "fail_y": np.zeros(m), "offset": offset}
         for f in lay._fields[:-1]:
             a[f] = np.ascontiguousarray(getattr(lay, f), dtype=np.int64)
         ud = np.zeros(cb.UD_SIZE, dtype=np.int64)

@@ -16,9 +16,9 @@ if _sys.argv[:1] == ["-m"]:  # the interpreter is still locating the module of `
     if _command.module_run(_sys.orig_argv) == "flexmb":  # `python -m flexmb`: signals answered from here on
         _command.install()
 
-import importlib as _importlib
 import logging as _logging
 
+from ._lazy import lazy_names as _lazy_names
 from .bodies import Body, Ground, Marker, RigidBody
 from .complements import COMPLEMENTS, ComplementStrategy, EigenComplement, SVDComplement, get_complement
 from .drivers import Driver
@@ -61,17 +61,7 @@ _LAZY = {
 }
 
 
-def __getattr__(name):
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(_importlib.import_module(module, __name__), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__():
-    return sorted(set(globals()) | set(_LAZY))
+__getattr__, __dir__ = _lazy_names(globals(), _LAZY)
 
 
 __version__ = "0.1.0"

@@ -95,8 +95,7 @@ References
 .. [2] M. Arnold, O. Bruels, Multibody Syst. Dyn. 18 (2007) 185-202.
 """
 
-import importlib as _importlib
-
+from .._lazy import lazy_names as _lazy_names
 from .parameters import DEFAULT_RHO_INF, alpha_parameters, amplification_matrix, numerical_damping
 
 __all__ = ["GeneralizedAlpha", "generalized_alpha", "alpha_parameters", "amplification_matrix",
@@ -106,14 +105,4 @@ __all__ = ["GeneralizedAlpha", "generalized_alpha", "alpha_parameters", "amplifi
 _LAZY = {"generalized_alpha": ".configured", "GeneralizedAlpha": ".solver", "GeneralizedAlphaDenseOutput": ".solver"}
 
 
-def __getattr__(name):
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(_importlib.import_module(module, __name__), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__():
-    return sorted(set(globals()) | set(_LAZY))
+__getattr__, __dir__ = _lazy_names(globals(), _LAZY)

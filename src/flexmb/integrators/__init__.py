@@ -22,7 +22,7 @@ scipy.special and scipy.linalg), which a run stepped in compiled code
 never uses (tests/test_lazy_imports.py).
 """
 
-import importlib as _importlib
+from .._lazy import lazy_names as _lazy_names
 
 #: public names, imported from their module on first use
 _LAZY = {
@@ -39,14 +39,4 @@ __all__ = [
 ]
 
 
-def __getattr__(name):
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(_importlib.import_module(module, __name__), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__():
-    return sorted(set(globals()) | set(_LAZY))
+__getattr__, __dir__ = _lazy_names(globals(), _LAZY)

@@ -175,7 +175,8 @@ class DirectCVODE:
         self._arrays = arrays = dict(fl=fl, it=it, fg=fg, ix=ix, K=np.ascontiguousarray(K, float),
                                      C=np.ascontiguousarray(C, float), spatial=np.zeros(nb * 36),
                                      Sw=np.zeros(n * 3), Sv=np.zeros(n * 3), r=np.zeros((nb + 1) * 3),
-                                     fail_t=np.zeros(1), fail_y=np.zeros(self.m), offset=self._offset)
+                                     fail_t=np.zeros(1), fail_y=np.zeros(self.m), offset=self._offset,
+                                     work=np.zeros(cb.work_size(nb, n, self.m)))
         ud = np.zeros(cb.UD_SIZE, dtype=np.int64)
         ud[cb.A_GETPTR], ud[cb.N], ud[cb.M], ud[cb.NB] = _addr(S.N_VGetArrayPointer), n, self.m, nb
         for slot, size, key in ((cb.A_FL, cb.N_FL, "fl"), (cb.A_IT, cb.N_IT, "it"), (cb.A_FG, cb.N_FG, "fg")):
@@ -184,6 +185,7 @@ class DirectCVODE:
         for slot, key in ((cb.A_K, "K"), (cb.A_C, "C"), (cb.A_SPATIAL, "spatial"), (cb.A_SW, "Sw"), (cb.A_SV, "Sv"),
                           (cb.A_R, "r"), (cb.A_FAIL_T, "fail_t"), (cb.A_FAIL_Y, "fail_y")):
             ud[slot] = arrays[key].ctypes.data
+        ud[cb.A_WORK], ud[cb.N_WORK] = arrays["work"].ctypes.data, arrays["work"].size
         if self._offset is not None:
             ud[cb.A_OFFSET], ud[cb.HAS_OFFSET] = self._offset.ctypes.data, 1
         ud[cb.STATUS], ud[cb.NONFINITE_FLAG] = -1, nonfinite_flag

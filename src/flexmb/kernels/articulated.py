@@ -17,14 +17,18 @@ origin, so no frame transformations appear.
 from __future__ import annotations
 
 import numpy as np
+from numba.extending import register_jitable
+
 from .cache import njit
 
-from .dynamics import axis_projections, bias_wrenches, spatial_inertias
+from .dynamics import axis_projections, bias_wrenches, bias_wrenches_into, spatial_inertias, spatial_inertias_into
 from .loads import apply_load_tables
 from .packing import unpack
-from .tree import euler_parameter_rates, tree_state
+from .tree import euler_parameter_rates, kinematics_work_size, tree_kinematics_into
 
-__all__ = ["solve_spd", "articulated_factor", "articulated_solve", "articulated_accelerations", "open_tree_accelerations", "open_tree_rhs", "mass_times"]
+__all__ = ["solve_spd", "articulated_factor", "articulated_factor_into", "articulated_solve", "articulated_solve_into",
+           "articulated_accelerations", "open_tree_accelerations", "open_tree_rhs", "open_tree_rhs_into",
+           "rhs_work_size", "mass_times"]
 
 
 @njit(cache=True)
@@ -77,7 +81,15 @@ def solve_spd(D, rhs, out, tiny=0.0):
 @njit(cache=True)
 def _minus_bias_wrenches(nb, r, force, torque):
     """Minus the wrenches ``B_k`` about the origin (eq. 3's loads and velocity terms, Plucker form); the ground's row (last) zero."""
-    pA = np.zeros((nb + 1, 6))
+    pA = np.empty((nb + 1, 6))
+    _minus_bias_wrenches_into(nb, r, force, torque, pA)
+    return pA
+
+
+@njit(cache=True)
+def _minus_bias_wrenches_into(nb, r, force, torque, pA):
+    """:func:`_minus_bias_wrenches` into ``pA`` (n_bodies + 1, 6)."""
+    pA[nb] = 0.0
     for k in range(nb):
         pA[k, 0] = -(torque[k, 0] + r[k, 1] * force[k, 2] - r[k, 2] * force[k, 1])
         pA[k, 1] = -(torque[k, 1] + r[k, 2] * force[k, 0] - r[k, 0] * force[k, 2])
@@ -85,7 +97,6 @@ def _minus_bias_wrenches(nb, r, force, torque):
         pA[k, 3] = -force[k, 0]
         pA[k, 4] = -force[k, 1]
         pA[k, 5] = -force[k, 2]
-    return pA
 
 
 @njit(cache=True, inline="always")
@@ -141,12 +152,36 @@ def articulated_factor(parent, coord_start, spatial, Sw, Sv, armature, floor=0.0
         -1, or the body whose joint has a singular articulated inertia
         (a freedom without mass or inertia); the factors are then not valid.
     """
-    nb = parent.shape[0]
     n = Sw.shape[0]
-    IA = spatial.copy()
     U = np.empty((n, 6))
     DinvUT = np.empty((n, 6))
-    Dinv = np.zeros((n, 6))
+    Dinv = np.empty((n, 6))
+    bad = articulated_factor_into(parent, coord_start, spatial, Sw, Sv, armature, floor, lift, spatial.copy(), U,
+                                  DinvUT, Dinv)
+    return U, DinvUT, Dinv, bad
+
+
+@njit(cache=True)
+def articulated_factor_into(parent, coord_start, spatial, Sw, Sv, armature, floor, lift, IA, U, DinvUT, Dinv):
+    """:func:`articulated_factor` into given arrays; returns ``bad``.
+
+    Parameters
+    ----------
+    parent, coord_start, spatial, Sw, Sv, armature, floor, lift
+        As :func:`articulated_factor`.
+    IA : ndarray, shape (n_bodies, 6, 6)
+        Scratch: the articulated inertias (``spatial`` is copied into it).
+    U, DinvUT, Dinv : ndarray, shape (n, 6)
+        Outputs: the factors (:func:`articulated_factor`).
+
+    Returns
+    -------
+    int
+        -1, or the body whose joint has a singular articulated inertia.
+    """
+    nb = parent.shape[0]
+    IA[:] = spatial
+    Dinv[:] = 0.0
     for k in range(nb - 1, -1, -1):
         c0, c1 = coord_start[k], coord_start[k + 1]
         m = c1 - c0
@@ -165,7 +200,7 @@ def articulated_factor(parent, coord_start, spatial, Sw, Sv, armature, floor=0.0
                 armature[c0] += lift * tiny / floor
                 d += lift * tiny / floor
             if not d > tiny:
-                return U, DinvUT, Dinv, k
+                return k
             for i in range(6):
                 DinvUT[c0, i] = U[c0, i] / d
             Dinv[c0, 0] = 1.0 / d
@@ -190,7 +225,7 @@ def articulated_factor(parent, coord_start, spatial, Sw, Sv, armature, floor=0.0
                     D[a, a] += lift * tiny / floor
                 ok = solve_spd(D, rhs, sol, tiny)
             if not ok:
-                return U, DinvUT, Dinv, k
+                return k
             for a in range(m):
                 for i in range(6):
                     DinvUT[c0 + a, i] = sol[a, i]
@@ -204,7 +239,7 @@ def articulated_factor(parent, coord_start, spatial, Sw, Sv, armature, floor=0.0
                     for c in range(c0, c1):
                         s -= U[c, i] * DinvUT[c, j]
                     IA[p, i, j] += s
-    return U, DinvUT, Dinv, -1
+    return -1
 
 
 @njit(cache=True)
@@ -238,10 +273,29 @@ def articulated_solve(parent, coord_start, Sw, Sv, U, DinvUT, Dinv, pA, generali
         Spatial accelerations, written on ``bodies`` (the ground's row,
         last, must be zero).
     """
+    articulated_solve_into(parent, coord_start, Sw, Sv, U, DinvUT, Dinv, pA, generalized, bodies, bodies.shape[0],
+                           xdd, dA, np.empty(6))
+
+
+@njit(cache=True)
+def articulated_solve_into(parent, coord_start, Sw, Sv, U, DinvUT, Dinv, pA, generalized, bodies, count, xdd, dA, u):
+    """:func:`articulated_solve` on ``bodies[:count]`` (or on bodies ``0 ... count - 1`` if ``bodies`` is empty), scratch ``u`` (6,).
+
+    Parameters
+    ----------
+    parent, coord_start, Sw, Sv, U, DinvUT, Dinv, pA, generalized, xdd, dA
+        As :func:`articulated_solve`.
+    bodies : ndarray of int
+        The bodies to visit, increasing; empty: all of them.
+    count : int
+        How many.
+    u : ndarray, shape (6,)
+        Scratch.
+    """
     nb = parent.shape[0]
-    u = np.empty(6)
-    for q in range(bodies.shape[0] - 1, -1, -1):
-        k = bodies[q]
+    every = bodies.shape[0] == 0
+    for q in range(count - 1, -1, -1):
+        k = q if every else bodies[q]
         c0, c1 = coord_start[k], coord_start[k + 1]
         for c in range(c0, c1):
             u[c - c0] = generalized[c] - (Sw[c, 0] * pA[k, 0] + Sw[c, 1] * pA[k, 1] + Sw[c, 2] * pA[k, 2]
@@ -258,8 +312,8 @@ def articulated_solve(parent, coord_start, Sw, Sv, U, DinvUT, Dinv, pA, generali
                 for c in range(c0, c1):
                     s += U[c, i] * xdd[c]
                 pA[p, i] += s
-    for q in range(bodies.shape[0]):
-        k = bodies[q]
+    for q in range(count):
+        k = q if every else bodies[q]
         p = parent[k]
         if p < 0:
             p = nb
@@ -400,19 +454,90 @@ def open_tree_rhs(packed, y, nq, armature):
         -1 if ``ydot`` is finite, -2 if not, or the body whose joint has a
         singular articulated inertia.
     """
+    n = armature.shape[0]
+    nb = packed[3][0, 1]  # the parents' count: the number of bodies
+    ydot = np.empty(nq + n)
+    status = open_tree_rhs_into(packed, y, nq, armature, ydot, np.empty(rhs_work_size(nb, n)))
+    return ydot, status
+
+
+@register_jitable
+def rhs_work_size(nb, n):
+    """Length of the work array :func:`open_tree_rhs_into` needs for ``nb`` bodies and ``n`` speeds."""
+    return 48 * (nb + 1) + 87 * nb + 26 * n + 6 + kinematics_work_size(nb, n)
+
+
+@njit(cache=True)
+def open_tree_rhs_into(packed, y, nq, armature, ydot, work):
+    """:func:`open_tree_rhs` into ``ydot``, with scratch ``work``: nothing allocated (what CVODE's callback calls).
+
+    Parameters
+    ----------
+    packed, y, nq, armature
+        As :func:`open_tree_rhs`.
+    ydot : ndarray, shape (>= nq + n,)
+        Output: ``(qd, ud)`` in its first ``nq + n`` entries.
+    work : ndarray, shape (>= rhs_work_size(n_bodies, n),)
+        Scratch (its contents on entry are not read).
+
+    Returns
+    -------
+    int
+        The status of :func:`open_tree_rhs`.
+    """
     tree, tables, _ = unpack(packed)
     n = armature.shape[0]
+    nb = tree.parent.shape[0]
     x = y[:nq]
     xd = y[nq : nq + n]
-    R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = tree_state(tree, x, xd)
-    nb1 = R.shape[0]
-    force = np.zeros((nb1, 3))
-    torque = np.zeros((nb1, 3))
-    generalized = np.zeros(n)
-    apply_load_tables(tables, tree.mass, R, origin, r, omega, v, x, xd, force, torque, generalized, np.zeros(0))
-    xdd, bad = open_tree_accelerations(tree.parent, tree.coord_start, R, r, omega, alpha, acc, tree.mass,
-                                       tree.inertia, Sw, Sv, force, torque, generalized, armature)
-    ydot = np.empty(nq + n)
+    o = 0
+    R = work[o : o + 9 * (nb + 1)].reshape((nb + 1, 3, 3))
+    o += 9 * (nb + 1)
+    kin = work[o : o + 21 * (nb + 1)].reshape((7, nb + 1, 3))  # origin, r, omega, v, alpha, acc, jp
+    o += 21 * (nb + 1)
+    Sw = work[o : o + 3 * n].reshape((n, 3))
+    Sv = work[o + 3 * n : o + 6 * n].reshape((n, 3))
+    o += 6 * n
+    m = kinematics_work_size(nb, n)
+    empty3 = work[:0].reshape((0, 3))
+    tree_kinematics_into(tree.parent, tree.coord_start, tree.coord_kind, tree.coord_axis, tree.external,
+                         tree.parent_frame, tree.child_frame, tree.lever, tree.child_point, tree.com, x, xd,
+                         work[:0].reshape((0, 3, 3)), empty3, empty3, empty3, empty3, empty3, R, kin[0], kin[1],
+                         kin[2], kin[3], kin[4], kin[5], kin[6], Sw, Sv, work[o : o + m])
+    o += m
+    origin, r, omega, v, alpha, acc = kin[0], kin[1], kin[2], kin[3], kin[4], kin[5]
+    loads = work[o : o + 6 * (nb + 1) + n]  # force, torque, generalized
+    loads[:] = 0.0
+    force = loads[: 3 * (nb + 1)].reshape((nb + 1, 3))
+    torque = loads[3 * (nb + 1) : 6 * (nb + 1)].reshape((nb + 1, 3))
+    generalized = loads[6 * (nb + 1) :]
+    o += 6 * (nb + 1) + n
+    apply_load_tables(tables, tree.mass, R, origin, r, omega, v, x, xd, force, torque, generalized, work[:0])
+    Iw = work[o : o + 9 * nb].reshape((nb, 3, 3))
+    spatial = work[o + 9 * nb : o + 45 * nb].reshape((nb, 6, 6))
+    IA = work[o + 45 * nb : o + 81 * nb].reshape((nb, 6, 6))
+    f = work[o + 81 * nb : o + 84 * nb].reshape((nb, 3))
+    t = work[o + 84 * nb : o + 87 * nb].reshape((nb, 3))
+    o += 87 * nb
+    U = work[o : o + 6 * n].reshape((n, 6))
+    DinvUT = work[o + 6 * n : o + 12 * n].reshape((n, 6))
+    Dinv = work[o + 12 * n : o + 18 * n].reshape((n, 6))
+    xdd = work[o + 18 * n : o + 19 * n]
+    o += 19 * n
+    pA = work[o : o + 6 * (nb + 1)].reshape((nb + 1, 6))
+    dA = work[o + 6 * (nb + 1) : o + 12 * (nb + 1)].reshape((nb + 1, 6))
+    u = work[o + 12 * (nb + 1) : o + 12 * (nb + 1) + 6]
+    spatial_inertias_into(R, r, tree.mass, tree.inertia, Iw, spatial)
+    bias_wrenches_into(tree.mass, Iw, omega, alpha, acc, force, torque, f, t)
+    bad = articulated_factor_into(tree.parent, tree.coord_start, spatial, Sw, Sv, armature, 0.0, 0.0, IA, U, DinvUT,
+                                  Dinv)
+    if bad < 0:
+        _minus_bias_wrenches_into(nb, r, f, t, pA)
+        dA[nb] = 0.0
+        articulated_solve_into(tree.parent, tree.coord_start, Sw, Sv, U, DinvUT, Dinv, pA, generalized,
+                               tree.parent[:0], nb, xdd, dA, u)
+    else:
+        xdd[:] = 0.0
     status = bad
     for i in range(n):
         ydot[i] = xd[i]
@@ -421,7 +546,7 @@ def open_tree_rhs(packed, y, nq, armature):
             status = -2
     if nq > n:
         euler_parameter_rates(tree.coord_start, tree.coord_kind, tree.coord_axis, x, xd, ydot)
-    return ydot, status
+    return status
 
 
 @njit(cache=True)

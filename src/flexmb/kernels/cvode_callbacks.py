@@ -36,18 +36,18 @@ from numba.core import cgutils, sigutils
 from numba.core.ccallback import CFunc
 from numba.extending import intrinsic
 
-from .articulated import articulated_accelerations, mass_times, open_tree_rhs
+from .articulated import articulated_accelerations, mass_times, open_tree_rhs_into, rhs_work_size
 from .cache import KernelCache, njit
 from .dynamics import spatial_inertias
 from .packing import unpack
 from .tree import tree_state
 
-__all__ = ["rhs", "psetup", "psolve", "advance", "UD_SIZE", "REACHED", "CHECKPOINT", "PAUSED", "WATCH"]
+__all__ = ["rhs", "psetup", "psolve", "advance", "work_size", "UD_SIZE", "REACHED", "CHECKPOINT", "PAUSED", "WATCH"]
 
 #: slots of the user_data array (int64): addresses (A_*), sizes, counters, the failure's status
 (A_GETPTR, N, M, A_FL, N_FL, A_IT, N_IT, A_FG, N_FG, A_IX, N_IX, A_K, A_C, A_SPATIAL, A_SW, A_SV, A_R, NB,
- SETUPS, JACS, RHS, STATUS, A_FAIL_T, NONFINITE_FLAG, A_OFFSET, HAS_OFFSET, A_FAIL_Y) = range(27)
-UD_SIZE = 27
+ SETUPS, JACS, RHS, STATUS, A_FAIL_T, NONFINITE_FLAG, A_OFFSET, HAS_OFFSET, A_FAIL_Y, A_WORK, N_WORK) = range(29)
+UD_SIZE = 29
 #: the loop's return codes (CVODE's negative flags pass through)
 REACHED, CHECKPOINT, PAUSED, WATCH = 0, 1, 2, 3
 #: the status of a failed callback when it is not a joint's index
@@ -168,19 +168,32 @@ def _fail(ud, status, t, y, flag):
     return flag
 
 
+def work_size(nb, n, m):
+    """Length of the work array (user_data's ``A_WORK``) of :func:`rhs` for ``nb`` bodies, ``n`` speeds, ``m`` states."""
+    return rhs_work_size(nb, n) + n + m
+
+
 # ----------------------------------------------------------------------------- the callbacks
 
 @_cfunc(types.int32(types.float64, types.voidptr, types.voidptr, types.voidptr))
 def rhs(t, y, ydot, user_data):
     """CVRhsFn: ``ydot = (xd, xdd)`` by open_tree_rhs; NONFINITE_FLAG if not finite, -1 if a joint is singular."""
     ud = _ud(user_data)
-    n, m = ud[N], ud[M]
-    yv = _state(ud, y, m)
+    n, m, nb = ud[N], ud[M], ud[NB]
     out = _vector(ud, ydot, m)
+    work = _floats(ud[A_WORK], ud[N_WORK])
+    w = rhs_work_size(nb, n)
+    armature = work[w : w + n]
+    armature[:] = 0.0
+    yv = _vector(ud, y, m)
+    if ud[HAS_OFFSET]:  # the true state y = z + c, in the work array
+        c = _floats(ud[A_OFFSET], m)
+        z = yv
+        yv = work[w + n : w + n + m]
+        for i in range(m):
+            yv[i] = z[i] + c[i]
     ud[RHS] += 1
-    rate, status = open_tree_rhs(_packed(ud), yv, n, np.zeros(n))
-    for i in range(2 * n):
-        out[i] = rate[i]
+    status = open_tree_rhs_into(_packed(ud), yv, n, armature, out, work[:w])
     for i in range(2 * n, m):  # states nothing depends on
         out[i] = 0.0
     if status == -1:

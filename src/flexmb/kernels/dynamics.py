@@ -14,7 +14,8 @@ from __future__ import annotations
 import numpy as np
 from .cache import njit
 
-__all__ = ["spatial_inertias", "composite_inertias", "subtree_sums", "axis_projections", "mass_matrix", "generalized_force", "bias_wrenches"]
+__all__ = ["spatial_inertias", "spatial_inertias_into", "composite_inertias", "subtree_sums", "axis_projections",
+           "mass_matrix", "generalized_force", "bias_wrenches", "bias_wrenches_into"]
 
 
 @njit(cache=True)
@@ -42,16 +43,31 @@ def spatial_inertias(R, r, mass, inertia):
     """
     nb = mass.shape[0]
     Iw = np.empty((nb, 3, 3))
-    out = np.zeros((nb, 6, 6))
+    out = np.empty((nb, 6, 6))
+    spatial_inertias_into(R, r, mass, inertia, Iw, out)
+    return Iw, out
+
+
+@njit(cache=True)
+def spatial_inertias_into(R, r, mass, inertia, Iw, out):
+    """:func:`spatial_inertias` into given arrays ``Iw`` (n_bodies, 3, 3) and ``out`` (n_bodies, 6, 6).
+
+    Parameters
+    ----------
+    R, r, mass, inertia : ndarray
+        As :func:`spatial_inertias`.
+    Iw, out : ndarray
+        Outputs: what :func:`spatial_inertias` returns (every entry written).
+    """
+    nb = mass.shape[0]
     for k in range(nb):
         Rk = R[k]
-        RI = np.empty((3, 3))
-        for i in range(3):
+        for i in range(3):  # RI = R_k I_k, row i; Iw = RI R_k^T
+            ri0 = Rk[i, 0] * inertia[k, 0, 0] + Rk[i, 1] * inertia[k, 1, 0] + Rk[i, 2] * inertia[k, 2, 0]
+            ri1 = Rk[i, 0] * inertia[k, 0, 1] + Rk[i, 1] * inertia[k, 1, 1] + Rk[i, 2] * inertia[k, 2, 1]
+            ri2 = Rk[i, 0] * inertia[k, 0, 2] + Rk[i, 1] * inertia[k, 1, 2] + Rk[i, 2] * inertia[k, 2, 2]
             for j in range(3):
-                RI[i, j] = Rk[i, 0] * inertia[k, 0, j] + Rk[i, 1] * inertia[k, 1, j] + Rk[i, 2] * inertia[k, 2, j]
-        for i in range(3):
-            for j in range(3):
-                Iw[k, i, j] = RI[i, 0] * Rk[j, 0] + RI[i, 1] * Rk[j, 1] + RI[i, 2] * Rk[j, 2]
+                Iw[k, i, j] = ri0 * Rk[j, 0] + ri1 * Rk[j, 1] + ri2 * Rk[j, 2]
         m = mass[k]
         x, y, z = r[k, 0], r[k, 1], r[k, 2]
         # m [r]^T [r] = m (|r|^2 E - r r^T)
@@ -61,6 +77,7 @@ def spatial_inertias(R, r, mass, inertia):
             for j in range(3):
                 out[k, i, j] = Iw[k, i, j] + m * ((rr if i == j else 0.0) - rv[i] * rv[j])
         # m [r] (skew), and its negative below
+        out[k, 0, 3] = out[k, 1, 4] = out[k, 2, 5] = 0.0
         out[k, 0, 4] = -m * z
         out[k, 0, 5] = m * y
         out[k, 1, 3] = m * z
@@ -70,8 +87,8 @@ def spatial_inertias(R, r, mass, inertia):
         for i in range(3):
             for j in range(3):
                 out[k, 3 + i, j] = -out[k, i, 3 + j]
+                out[k, 3 + i, 3 + j] = 0.0
             out[k, 3 + i, 3 + i] = m
-    return Iw, out
 
 
 @njit(cache=True)
@@ -258,6 +275,22 @@ def bias_wrenches(mass, inertia_world, omega, alpha_bias, a_bias, force, torque)
     nb = mass.shape[0]
     f = np.empty((nb, 3))
     t = np.empty((nb, 3))
+    bias_wrenches_into(mass, inertia_world, omega, alpha_bias, a_bias, force, torque, f, t)
+    return f, t
+
+
+@njit(cache=True)
+def bias_wrenches_into(mass, inertia_world, omega, alpha_bias, a_bias, force, torque, f, t):
+    """:func:`bias_wrenches` into given arrays ``f`` and ``t`` (n_bodies, 3).
+
+    Parameters
+    ----------
+    mass, inertia_world, omega, alpha_bias, a_bias, force, torque : ndarray
+        As :func:`bias_wrenches`.
+    f, t : ndarray
+        Outputs: what :func:`bias_wrenches` returns.
+    """
+    nb = mass.shape[0]
     for k in range(nb):
         J = inertia_world[k]
         w0, w1, w2 = omega[k, 0], omega[k, 1], omega[k, 2]
@@ -270,4 +303,4 @@ def bias_wrenches(mass, inertia_world, omega, alpha_bias, a_bias, force, torque)
         t[k, 0] = torque[k, 0] - (J[0, 0] * a0 + J[0, 1] * a1 + J[0, 2] * a2) - (w1 * h2 - w2 * h1)
         t[k, 1] = torque[k, 1] - (J[1, 0] * a0 + J[1, 1] * a1 + J[1, 2] * a2) - (w2 * h0 - w0 * h2)
         t[k, 2] = torque[k, 2] - (J[2, 0] * a0 + J[2, 1] * a1 + J[2, 2] * a2) - (w0 * h1 - w1 * h0)
-    return f, t
+

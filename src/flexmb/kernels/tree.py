@@ -19,9 +19,12 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
+from numba.extending import register_jitable
+
 from .cache import njit
 
-__all__ = ["TreeArrays", "joint_motions", "euler_parameter_rates", "tree_kinematics", "tree_state", "upstream_rows"]
+__all__ = ["TreeArrays", "joint_motions", "euler_parameter_rates", "tree_kinematics", "tree_kinematics_into",
+           "kinematics_work_size", "tree_state", "upstream_rows"]
 
 
 class TreeArrays(NamedTuple):
@@ -406,37 +409,90 @@ def tree_kinematics(parent, coord_start, coord_kind, coord_axis, external, paren
     """
     nb = parent.shape[0]
     n = xd.shape[0]
-    Rj = np.empty((nb, 3, 3))
-    d = np.empty((nb, 3))
-    aw = np.empty((nb, 3))
-    av = np.empty((nb, 3))
-    hw = np.empty((n, 3))
-    hv = np.empty((n, 3))
-    joint_motions(x, xd, coord_start, coord_kind, coord_axis, external, Rj, d, hw, hv, aw, av)
-    _external_motions(coord_start, external, ext_Rj, ext_d, ext_hw, ext_hv, ext_aw, ext_av, Rj, d, hw, hv, aw, av)
     R = np.empty((nb + 1, 3, 3))
-    R[nb] = np.eye(3)
-    origin = np.zeros((nb + 1, 3))
-    r = np.zeros((nb + 1, 3))
-    jp = np.zeros((nb + 1, 3))
-    omega = np.zeros((nb + 1, 3))
-    v_o = np.zeros((nb + 1, 3))  # Plucker linear velocity about the origin
-    v = np.zeros((nb + 1, 3))
-    alpha = np.zeros((nb + 1, 3))
-    a_jp = np.zeros((nb + 1, 3))
-    acc = np.zeros((nb + 1, 3))
+    origin = np.empty((nb + 1, 3))
+    r = np.empty((nb + 1, 3))
+    jp = np.empty((nb + 1, 3))
+    omega = np.empty((nb + 1, 3))
+    v = np.empty((nb + 1, 3))
+    alpha = np.empty((nb + 1, 3))
+    acc = np.empty((nb + 1, 3))
     Sw = np.empty((n, 3))
     Sv = np.empty((n, 3))
-    Gw = np.empty((n, 3))
-    Gv = np.empty((n, 3))
-    RM = np.empty((3, 3))
-    F = np.empty((3, 3))
-    G = np.empty((3, 3))
-    s = np.empty(3)
-    t1 = np.empty(3)
-    t2 = np.empty(3)
-    v_rel = np.empty(3)
-    u = np.empty(3)
+    tree_kinematics_into(parent, coord_start, coord_kind, coord_axis, external, parent_frame, child_frame, lever,
+                         child_point, com, x, xd, ext_Rj, ext_d, ext_hw, ext_hv, ext_aw, ext_av, R, origin, r, omega,
+                         v, alpha, acc, jp, Sw, Sv, np.empty(kinematics_work_size(nb, n)))
+    return R, origin, r, omega, v, alpha, acc, jp[:nb].copy(), Sw, Sv
+
+
+@register_jitable
+def kinematics_work_size(nb, n):
+    """Length of the work array :func:`tree_kinematics_into` needs for ``nb`` bodies and ``n`` speeds."""
+    return 24 * nb + 6 + 12 * n + 42
+
+
+@njit(cache=True)
+def tree_kinematics_into(parent, coord_start, coord_kind, coord_axis, external, parent_frame, child_frame, lever,
+                         child_point, com, x, xd, ext_Rj, ext_d, ext_hw, ext_hv, ext_aw, ext_av, R, origin, r, omega,
+                         v, alpha, acc, jp, Sw, Sv, work):
+    """:func:`tree_kinematics` into given arrays: nothing allocated (a right-hand side called by CVODE reuses them).
+
+    Parameters
+    ----------
+    parent, coord_start, coord_kind, coord_axis, external, parent_frame, child_frame, lever, child_point, com : ndarray
+        The tree's layout and body data (:func:`tree_kinematics`).
+    x, xd : ndarray
+        Coordinates and speeds.
+    ext_Rj, ext_d, ext_hw, ext_hv, ext_aw, ext_av : ndarray
+        The external joints' motions (:func:`tree_kinematics`).
+    R : ndarray, shape (n_bodies + 1, 3, 3)
+        Output: body rotations, the ground last.
+    origin, r, omega, v, alpha, acc, jp : ndarray, shape (n_bodies + 1, 3)
+        Outputs: what :func:`tree_kinematics` returns (``jp`` with the
+        ground's row, zero, last).
+    Sw, Sv : ndarray, shape (n, 3)
+        Outputs: Plucker axes of the coordinates.
+    work : ndarray, shape (>= kinematics_work_size(n_bodies, n),)
+        Scratch.
+    """
+    nb = parent.shape[0]
+    n = xd.shape[0]
+    o = 0
+    Rj = work[o : o + 9 * nb].reshape((nb, 3, 3))
+    o += 9 * nb
+    d = work[o : o + 3 * nb].reshape((nb, 3))
+    o += 3 * nb
+    aw = work[o : o + 3 * nb].reshape((nb, 3))
+    o += 3 * nb
+    av = work[o : o + 3 * nb].reshape((nb, 3))
+    o += 3 * nb
+    v_o = work[o : o + 3 * nb + 3].reshape((nb + 1, 3))  # Plucker linear velocity about the origin
+    o += 3 * nb + 3
+    a_jp = work[o : o + 3 * nb + 3].reshape((nb + 1, 3))
+    o += 3 * nb + 3
+    hw = work[o : o + 3 * n].reshape((n, 3))
+    o += 3 * n
+    hv = work[o : o + 3 * n].reshape((n, 3))
+    o += 3 * n
+    Gw = work[o : o + 3 * n].reshape((n, 3))
+    o += 3 * n
+    Gv = work[o : o + 3 * n].reshape((n, 3))
+    o += 3 * n
+    RM = work[o : o + 9].reshape((3, 3))
+    F = work[o + 9 : o + 18].reshape((3, 3))
+    G = work[o + 18 : o + 27].reshape((3, 3))
+    s = work[o + 27 : o + 30]
+    t1 = work[o + 30 : o + 33]
+    t2 = work[o + 33 : o + 36]
+    v_rel = work[o + 36 : o + 39]
+    u = work[o + 39 : o + 42]
+    joint_motions(x, xd, coord_start, coord_kind, coord_axis, external, Rj, d, hw, hv, aw, av)
+    _external_motions(coord_start, external, ext_Rj, ext_d, ext_hw, ext_hv, ext_aw, ext_av, Rj, d, hw, hv, aw, av)
+    R[nb] = 0.0
+    R[nb, 0, 0] = R[nb, 1, 1] = R[nb, 2, 2] = 1.0
+    for i in range(3):  # the ground's rows
+        origin[nb, i] = r[nb, i] = jp[nb, i] = omega[nb, i] = v_o[nb, i] = 0.0
+        v[nb, i] = alpha[nb, i] = a_jp[nb, i] = acc[nb, i] = 0.0
     for k in range(nb):
         p = parent[k]
         if p < 0:
@@ -446,7 +502,6 @@ def tree_kinematics(parent, coord_start, coord_kind, coord_axis, external, paren
         _body_velocity(k, p, coord_start[k], coord_start[k + 1], RM, hw, hv, xd, jp, r, omega, v_o, v, Sw, Sv, Gw, Gv,
                        v_rel, t1)
         _body_bias_accelerations(k, p, RM, s, v_rel, aw, av, omega, jp, r, alpha, a_jp, acc, t1, t2, u)
-    return R, origin, r, omega, v, alpha, acc, jp[:nb].copy(), Sw, Sv
 
 
 @njit(cache=True)

@@ -25,6 +25,7 @@ from .dynamics import axis_projections, bias_wrenches, bias_wrenches_into, spati
 from .loads import apply_load_tables
 from .packing import unpack
 from .tree import euler_parameter_rates, kinematics_work_size, tree_kinematics_into
+from .views import view2, view3
 
 __all__ = ["solve_spd", "articulated_factor", "articulated_factor_into", "articulated_solve", "articulated_solve_into",
            "articulated_accelerations", "open_tree_accelerations", "open_tree_rhs", "open_tree_rhs_into",
@@ -490,42 +491,41 @@ def open_tree_rhs_into(packed, y, nq, armature, ydot, work):
     nb = tree.parent.shape[0]
     x = y[:nq]
     xd = y[nq : nq + n]
-    o = 0
-    R = work[o : o + 9 * (nb + 1)].reshape((nb + 1, 3, 3))
-    o += 9 * (nb + 1)
-    kin = work[o : o + 21 * (nb + 1)].reshape((7, nb + 1, 3))  # origin, r, omega, v, alpha, acc, jp
+    R = view3(work, 0, nb + 1, 3, 3)
+    o = 9 * (nb + 1)
+    kin = view3(work, o, 7, nb + 1, 3)  # origin, r, omega, v, alpha, acc, jp
     o += 21 * (nb + 1)
-    Sw = work[o : o + 3 * n].reshape((n, 3))
-    Sv = work[o + 3 * n : o + 6 * n].reshape((n, 3))
+    Sw = view2(work, o, n, 3)
+    Sv = view2(work, o + 3 * n, n, 3)
     o += 6 * n
     m = kinematics_work_size(nb, n)
-    empty3 = work[:0].reshape((0, 3))
+    empty3 = view2(work, 0, 0, 3)
     tree_kinematics_into(tree.parent, tree.coord_start, tree.coord_kind, tree.coord_axis, tree.external,
                          tree.parent_frame, tree.child_frame, tree.lever, tree.child_point, tree.com, x, xd,
-                         work[:0].reshape((0, 3, 3)), empty3, empty3, empty3, empty3, empty3, R, kin[0], kin[1],
+                         view3(work, 0, 0, 3, 3), empty3, empty3, empty3, empty3, empty3, R, kin[0], kin[1],
                          kin[2], kin[3], kin[4], kin[5], kin[6], Sw, Sv, work[o : o + m])
     o += m
     origin, r, omega, v, alpha, acc = kin[0], kin[1], kin[2], kin[3], kin[4], kin[5]
     loads = work[o : o + 6 * (nb + 1) + n]  # force, torque, generalized
     loads[:] = 0.0
-    force = loads[: 3 * (nb + 1)].reshape((nb + 1, 3))
-    torque = loads[3 * (nb + 1) : 6 * (nb + 1)].reshape((nb + 1, 3))
+    force = view2(loads, 0, nb + 1, 3)
+    torque = view2(loads, 3 * (nb + 1), nb + 1, 3)
     generalized = loads[6 * (nb + 1) :]
     o += 6 * (nb + 1) + n
     apply_load_tables(tables, tree.mass, R, origin, r, omega, v, x, xd, force, torque, generalized, work[:0])
-    Iw = work[o : o + 9 * nb].reshape((nb, 3, 3))
-    spatial = work[o + 9 * nb : o + 45 * nb].reshape((nb, 6, 6))
-    IA = work[o + 45 * nb : o + 81 * nb].reshape((nb, 6, 6))
-    f = work[o + 81 * nb : o + 84 * nb].reshape((nb, 3))
-    t = work[o + 84 * nb : o + 87 * nb].reshape((nb, 3))
+    Iw = view3(work, o, nb, 3, 3)
+    spatial = view3(work, o + 9 * nb, nb, 6, 6)
+    IA = view3(work, o + 45 * nb, nb, 6, 6)
+    f = view2(work, o + 81 * nb, nb, 3)
+    t = view2(work, o + 84 * nb, nb, 3)
     o += 87 * nb
-    U = work[o : o + 6 * n].reshape((n, 6))
-    DinvUT = work[o + 6 * n : o + 12 * n].reshape((n, 6))
-    Dinv = work[o + 12 * n : o + 18 * n].reshape((n, 6))
+    U = view2(work, o, n, 6)
+    DinvUT = view2(work, o + 6 * n, n, 6)
+    Dinv = view2(work, o + 12 * n, n, 6)
     xdd = work[o + 18 * n : o + 19 * n]
     o += 19 * n
-    pA = work[o : o + 6 * (nb + 1)].reshape((nb + 1, 6))
-    dA = work[o + 6 * (nb + 1) : o + 12 * (nb + 1)].reshape((nb + 1, 6))
+    pA = view2(work, o, nb + 1, 6)
+    dA = view2(work, o + 6 * (nb + 1), nb + 1, 6)
     u = work[o + 12 * (nb + 1) : o + 12 * (nb + 1) + 6]
     spatial_inertias_into(R, r, tree.mass, tree.inertia, Iw, spatial)
     bias_wrenches_into(tree.mass, Iw, omega, alpha, acc, force, torque, f, t)

@@ -21,6 +21,7 @@ from .cache import njit
 
 from .loads import LoadTables
 from .tree import TreeArrays
+from .views import view2, view3
 
 __all__ = ["LAYOUT", "N_TREE", "N_TABLES", "N_CUTS", "pack", "unpack"]
 
@@ -106,15 +107,12 @@ def _view1(buffer, index, k):
 
 @njit(cache=True, inline="always")
 def _view2(buffer, index, k):
-    o = index[k, 0]
-    return buffer[o : o + index[k, 1] * index[k, 2]].reshape((index[k, 1], index[k, 2]))
+    return view2(buffer, index[k, 0], index[k, 1], index[k, 2])
 
 
 @njit(cache=True, inline="always")
 def _view3(buffer, index, k):
-    o = index[k, 0]
-    n = index[k, 1] * index[k, 2] * index[k, 3]
-    return buffer[o : o + n].reshape((index[k, 1], index[k, 2], index[k, 3]))
+    return view3(buffer, index[k, 0], index[k, 1], index[k, 2], index[k, 3])
 
 
 @njit(cache=True)

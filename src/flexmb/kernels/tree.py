@@ -22,6 +22,7 @@ import numpy as np
 from numba.extending import register_jitable
 
 from .cache import njit
+from .views import view2, view3
 
 __all__ = ["TreeArrays", "joint_motions", "euler_parameter_rates", "tree_kinematics", "tree_kinematics_into",
            "kinematics_work_size", "tree_state", "upstream_rows"]
@@ -457,30 +458,21 @@ def tree_kinematics_into(parent, coord_start, coord_kind, coord_axis, external, 
     """
     nb = parent.shape[0]
     n = xd.shape[0]
-    o = 0
-    Rj = work[o : o + 9 * nb].reshape((nb, 3, 3))
-    o += 9 * nb
-    d = work[o : o + 3 * nb].reshape((nb, 3))
-    o += 3 * nb
-    aw = work[o : o + 3 * nb].reshape((nb, 3))
-    o += 3 * nb
-    av = work[o : o + 3 * nb].reshape((nb, 3))
-    o += 3 * nb
-    v_o = work[o : o + 3 * nb + 3].reshape((nb + 1, 3))  # Plucker linear velocity about the origin
-    o += 3 * nb + 3
-    a_jp = work[o : o + 3 * nb + 3].reshape((nb + 1, 3))
-    o += 3 * nb + 3
-    hw = work[o : o + 3 * n].reshape((n, 3))
-    o += 3 * n
-    hv = work[o : o + 3 * n].reshape((n, 3))
-    o += 3 * n
-    Gw = work[o : o + 3 * n].reshape((n, 3))
-    o += 3 * n
-    Gv = work[o : o + 3 * n].reshape((n, 3))
-    o += 3 * n
-    RM = work[o : o + 9].reshape((3, 3))
-    F = work[o + 9 : o + 18].reshape((3, 3))
-    G = work[o + 18 : o + 27].reshape((3, 3))
+    Rj = view3(work, 0, nb, 3, 3)
+    d = view2(work, 9 * nb, nb, 3)
+    aw = view2(work, 12 * nb, nb, 3)
+    av = view2(work, 15 * nb, nb, 3)
+    v_o = view2(work, 18 * nb, nb + 1, 3)  # Plucker linear velocity about the origin
+    a_jp = view2(work, 21 * nb + 3, nb + 1, 3)
+    o = 24 * nb + 6
+    hw = view2(work, o, n, 3)
+    hv = view2(work, o + 3 * n, n, 3)
+    Gw = view2(work, o + 6 * n, n, 3)
+    Gv = view2(work, o + 9 * n, n, 3)
+    o += 12 * n
+    RM = view2(work, o, 3, 3)
+    F = view2(work, o + 9, 3, 3)
+    G = view2(work, o + 18, 3, 3)
     s = work[o + 27 : o + 30]
     t1 = work[o + 30 : o + 33]
     t2 = work[o + 33 : o + 36]

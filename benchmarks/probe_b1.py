@@ -39,7 +39,7 @@ cvode_direct.py's grid, target and atol perturbations (:func:`robust_rtols`).
 The error of both is the tip's distance at t = 1 s to
 ``work_precision.reference`` (Radau, rtol 1e-9). The breakdown then
 times the parts per call, each in a loop: the right-hand sides (compiled
-loops calling the probe's ``chain_rate`` and flexmb's ``open_tree_rhs``),
+loops calling the probe's ``chain_rate`` and flexmb's ``open_tree_rhs_into`` as CVODE's callback calls it),
 the Jacobians (flexmb's ``System.state_jacobian`` from Python; the probe's
 is 2 n right-hand sides inside CVODE) and each run's fixed cost (both
 integrated to t = 1e-9 s: set-up, first step, output handling).
@@ -350,19 +350,37 @@ def _loop_probe(y, p, n, reps):
 
 
 def per_call(system, p, reps=20000) -> dict:
-    """Least CPU per call (s) of 5: the two right-hand sides in compiled loops, flexmb's Jacobian from Python."""
-    from flexmb.kernels.articulated import open_tree_rhs
+    """Least CPU per call (s) of 5: the two right-hand sides in compiled loops, flexmb's Jacobian from Python.
+
+    flexmb's right-hand side is timed as CVODE's callback calls it: ``open_tree_rhs_into`` on the packed
+    buffers seen through raw pointers (numba arrays without a reference count, as ``carray`` gives them in
+    the callback) with one work array for all calls.
+    """
+    from numba import carray
+
+    from flexmb.kernels.articulated import open_tree_rhs_into, rhs_work_size
+    from flexmb.kernels.cvode_callbacks import _voidp
 
     n = system.n_coords
     y = np.concatenate([np.random.default_rng(1).normal(0.0, 0.01, n), np.zeros(n)])
-    packed = system._packed_open
+    fl, it, fg, ix = system._packed_open
+    work, ydot, armature = np.zeros(rhs_work_size(system.topology.n_bodies, n)), np.zeros(2 * n), np.zeros(n)
+    arrays = (fl, it, fg, ix, work, y, ydot, armature)
+    addr = np.array([a.ctypes.data for a in arrays] + [a.shape[0] for a in arrays], dtype=np.int64)
 
     @njit
-    def loop_flexmb(packed, y, n, reps):
+    def loop_flexmb(a, n, reps):
+        k = 8
+        packed = (carray(_voidp(a[0]), (a[k],), np.float64), carray(_voidp(a[1]), (a[k + 1],), np.int64),
+                  carray(_voidp(a[2]), (a[k + 2],), np.bool_), carray(_voidp(a[3]), (a[k + 3], 4), np.int64))
+        work = carray(_voidp(a[4]), (a[k + 4],), np.float64)
+        y = carray(_voidp(a[5]), (a[k + 5],), np.float64)
+        ydot = carray(_voidp(a[6]), (a[k + 6],), np.float64)
+        armature = carray(_voidp(a[7]), (a[k + 7],), np.float64)
         s = 0.0
         for _ in range(reps):
-            rate, _status = open_tree_rhs(packed, y, n, np.zeros(n))
-            s += rate[-1]
+            open_tree_rhs_into(packed, y, n, armature, ydot, work)
+            s += ydot[-1]
         return s
 
     def least(f, count):
@@ -375,7 +393,7 @@ def per_call(system, p, reps=20000) -> dict:
         return best / count
 
     return {"rhs_probe_s": least(lambda: _loop_probe(y, p, n, reps), reps),
-            "rhs_flexmb_s": least(lambda: loop_flexmb(packed, y, n, reps), reps),
+            "rhs_flexmb_s": least(lambda: loop_flexmb(addr, n, reps), reps),
             "jac_flexmb_s": least(lambda: [system.state_jacobian(0.0, y[:n], y[n:]) for _ in range(200)], 200)}
 
 

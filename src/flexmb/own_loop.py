@@ -87,7 +87,8 @@ def compiled_options(run, x, xd, krylov_min: int, bound: float) -> dict:
     run.counters["jac"] = 0
     options = dict(system=system, krylov=krylov, monitor=run.monitor, angles=run.angles,
                    bound=bound, gimbal=run.gimbal, counters=run.counters)
-    if not krylov and system.state_jacobian(run.t0, x, xd) is not None:  # flexmb's, from Python (a few calls)
+    # flexmb's Jacobian, from Python (a few calls), where it exists: where an element gives coordinate terms
+    if not krylov and system.coordinate_terms(system.kinematics(run.t0, x, xd)) is not None:
         layout = run.layout
         options["jacobian"] = lambda t, y: system.state_jacobian(t, *layout.split(y))
     return options

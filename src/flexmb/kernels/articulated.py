@@ -464,7 +464,20 @@ def open_tree_rhs(packed, y, nq, armature):
 
 @register_jitable
 def rhs_work_size(nb, n):
-    """Length of the work array :func:`open_tree_rhs_into` needs for ``nb`` bodies and ``n`` speeds."""
+    """Length of the work array :func:`open_tree_rhs_into` needs.
+
+    Parameters
+    ----------
+    nb : int
+        Number of bodies.
+    n : int
+        Number of speeds.
+
+    Returns
+    -------
+    int
+        The length.
+    """
     return 48 * (nb + 1) + 87 * nb + 26 * n + 6 + kinematics_work_size(nb, n)
 
 

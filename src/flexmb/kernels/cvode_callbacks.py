@@ -169,7 +169,22 @@ def _fail(ud, status, t, y, flag):
 
 
 def work_size(nb, n, m):
-    """Length of the work array (user_data's ``A_WORK``) of :func:`rhs` for ``nb`` bodies, ``n`` speeds, ``m`` states."""
+    """Length of the work array (user_data's ``A_WORK``) of :func:`rhs`.
+
+    Parameters
+    ----------
+    nb : int
+        Number of bodies.
+    n : int
+        Number of speeds.
+    m : int
+        Length of the integrator's state.
+
+    Returns
+    -------
+    int
+        ``open_tree_rhs_into``'s work, the zero armature (n) and the true state with its winding offsets (m).
+    """
     return rhs_work_size(nb, n) + n + m
 
 

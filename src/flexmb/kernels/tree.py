@@ -428,7 +428,20 @@ def tree_kinematics(parent, coord_start, coord_kind, coord_axis, external, paren
 
 @register_jitable
 def kinematics_work_size(nb, n):
-    """Length of the work array :func:`tree_kinematics_into` needs for ``nb`` bodies and ``n`` speeds."""
+    """Length of the work array :func:`tree_kinematics_into` needs.
+
+    Parameters
+    ----------
+    nb : int
+        Number of bodies.
+    n : int
+        Number of speeds.
+
+    Returns
+    -------
+    int
+        The length.
+    """
     return 24 * nb + 6 + 12 * n + 42
 
 

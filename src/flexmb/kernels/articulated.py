@@ -154,9 +154,7 @@ def articulated_factor(parent, coord_start, spatial, Sw, Sv, armature, floor=0.0
         (a freedom without mass or inertia); the factors are then not valid.
     """
     n = Sw.shape[0]
-    U = np.empty((n, 6))
-    DinvUT = np.empty((n, 6))
-    Dinv = np.empty((n, 6))
+    U, DinvUT, Dinv = np.empty((n, 6)), np.empty((n, 6)), np.empty((n, 6))
     bad = articulated_factor_into(parent, coord_start, spatial, Sw, Sv, armature, floor, lift, spatial.copy(), U,
                                   DinvUT, Dinv)
     return U, DinvUT, Dinv, bad
@@ -455,8 +453,7 @@ def open_tree_rhs(packed, y, nq, armature):
         -1 if ``ydot`` is finite, -2 if not, or the body whose joint has a
         singular articulated inertia.
     """
-    n = armature.shape[0]
-    nb = packed[3][0, 1]  # the parents' count: the number of bodies
+    n, nb = armature.shape[0], packed[3][0, 1]  # the parents' count: the number of bodies
     ydot = np.empty(nq + n)
     status = open_tree_rhs_into(packed, y, nq, armature, ydot, np.empty(rhs_work_size(nb, n)))
     return ydot, status
@@ -468,10 +465,8 @@ def rhs_work_size(nb, n):
 
     Parameters
     ----------
-    nb : int
-        Number of bodies.
-    n : int
-        Number of speeds.
+    nb, n : int
+        Numbers of bodies and of speeds.
 
     Returns
     -------
@@ -502,14 +497,12 @@ def open_tree_rhs_into(packed, y, nq, armature, ydot, work):
     tree, tables, _ = unpack(packed)
     n = armature.shape[0]
     nb = tree.parent.shape[0]
-    x = y[:nq]
-    xd = y[nq : nq + n]
+    x, xd = y[:nq], y[nq : nq + n]
     R = view3(work, 0, nb + 1, 3, 3)
     o = 9 * (nb + 1)
     kin = view3(work, o, 7, nb + 1, 3)  # origin, r, omega, v, alpha, acc, jp
     o += 21 * (nb + 1)
-    Sw = view2(work, o, n, 3)
-    Sv = view2(work, o + 3 * n, n, 3)
+    Sw, Sv = view2(work, o, n, 3), view2(work, o + 3 * n, n, 3)
     o += 6 * n
     m = kinematics_work_size(nb, n)
     empty3 = view2(work, 0, 0, 3)
@@ -521,36 +514,30 @@ def open_tree_rhs_into(packed, y, nq, armature, ydot, work):
     origin, r, omega, v, alpha, acc = kin[0], kin[1], kin[2], kin[3], kin[4], kin[5]
     loads = work[o : o + 6 * (nb + 1) + n]  # force, torque, generalized
     loads[:] = 0.0
-    force = view2(loads, 0, nb + 1, 3)
-    torque = view2(loads, 3 * (nb + 1), nb + 1, 3)
+    force, torque = view2(loads, 0, nb + 1, 3), view2(loads, 3 * (nb + 1), nb + 1, 3)
     generalized = loads[6 * (nb + 1) :]
     o += 6 * (nb + 1) + n
     apply_load_tables(tables, tree.mass, R, origin, r, omega, v, x, xd, force, torque, generalized, work[:0])
-    Iw = view3(work, o, nb, 3, 3)
-    spatial = view3(work, o + 9 * nb, nb, 6, 6)
+    Iw, spatial = view3(work, o, nb, 3, 3), view3(work, o + 9 * nb, nb, 6, 6)
     IA = view3(work, o + 45 * nb, nb, 6, 6)
-    f = view2(work, o + 81 * nb, nb, 3)
-    t = view2(work, o + 84 * nb, nb, 3)
+    f, t = view2(work, o + 81 * nb, nb, 3), view2(work, o + 84 * nb, nb, 3)
     o += 87 * nb
-    U = view2(work, o, n, 6)
-    DinvUT = view2(work, o + 6 * n, n, 6)
+    U, DinvUT = view2(work, o, n, 6), view2(work, o + 6 * n, n, 6)
     Dinv = view2(work, o + 12 * n, n, 6)
     xdd = work[o + 18 * n : o + 19 * n]
     o += 19 * n
-    pA = view2(work, o, nb + 1, 6)
-    dA = view2(work, o + 6 * (nb + 1), nb + 1, 6)
+    pA, dA = view2(work, o, nb + 1, 6), view2(work, o + 6 * (nb + 1), nb + 1, 6)
     u = work[o + 12 * (nb + 1) : o + 12 * (nb + 1) + 6]
     spatial_inertias_into(R, r, tree.mass, tree.inertia, Iw, spatial)
     bias_wrenches_into(tree.mass, Iw, omega, alpha, acc, force, torque, f, t)
     bad = articulated_factor_into(tree.parent, tree.coord_start, spatial, Sw, Sv, armature, 0.0, 0.0, IA, U, DinvUT,
                                   Dinv)
+    xdd[:] = 0.0
     if bad < 0:
         _minus_bias_wrenches_into(nb, r, f, t, pA)
         dA[nb] = 0.0
         articulated_solve_into(tree.parent, tree.coord_start, Sw, Sv, U, DinvUT, Dinv, pA, generalized,
                                tree.parent[:0], nb, xdd, dA, u)
-    else:
-        xdd[:] = 0.0
     status = bad
     for i in range(n):
         ydot[i] = xd[i]

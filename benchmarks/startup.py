@@ -158,6 +158,9 @@ def timed(key, f):
 caching.IndexDataCacheFile._load_index = timed("index_s", caching.IndexDataCacheFile._load_index)
 caching.IndexDataCacheFile._load_data = timed("read_unpickle_s", caching.IndexDataCacheFile._load_data)
 caching.CompileResultCacheImpl.rebuild = timed("rebuild_s", caching.CompileResultCacheImpl.rebuild)
+from flexmb.kernels import cache as flexmb_cache
+if "rebuild" in vars(flexmb_cache._KernelCacheImpl):  # flexmb's own rebuild (the bitcode parsed lazily)
+    flexmb_cache._KernelCacheImpl.rebuild = timed("rebuild_s", flexmb_cache._KernelCacheImpl.rebuild)
 BaseContext.refresh = timed("refresh_s", BaseContext.refresh)
 from llvmlite import binding as ll
 ll.parse_bitcode = timed("of_it_parse_bitcode_s", ll.parse_bitcode)

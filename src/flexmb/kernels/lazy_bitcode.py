@@ -70,7 +70,15 @@ def elf_defined_symbols(obj: bytes) -> set[str] | None:
 
 
 class LazyLinkLibrary(JITCodeLibrary):
-    """numba's JIT code library of a cached entry, its bitcode parsed only when a compilation links it in."""
+    """The JIT code library (numba's) of a cached entry, its bitcode parsed only when a compilation links it in.
+
+    Parameters
+    ----------
+    codegen : JITCPUCodegen
+        numba's code generator of this process.
+    name : str
+        The library's name (the entry's).
+    """
 
     #: the entry's bitcode, until it is parsed
     _bitcode: bytes | None = None
@@ -108,7 +116,7 @@ def _ready(codegen, name, object_code, bitcode, symbols):
 
 def rebuild(target_context, libdata, fndesc, env, signature, objectmode, lifted, typeann, reload_init,
             referenced_envs):
-    """numba's ``CompileResult._rebuild`` of a cache entry's payload, with the library from :func:`_ready`.
+    """The compile result of a cache entry's payload: numba's ``CompileResult._rebuild``, the library from :func:`_ready`.
 
     Parameters
     ----------

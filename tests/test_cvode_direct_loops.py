@@ -1,17 +1,18 @@
-"""CVODE stepped in compiled code on models with loops (flexmb.integrators.cvode_direct_loops).
+"""CVODE stepped in compiled code on models with loops (flexmb.integrators.cvode_direct_loops) runs as scikit-sundae did.
 
 ``simulate(..., method="CVODE_BDF")`` (and ``"CVODE_Adams"``) on a model whose
 loops the articulated strategy closes (``complement="articulated"`` or ``"auto"``), with compiled force elements and
-constant-speed drivers, steps CVODE in compiled code and returns to the
+constant-speed drivers, now steps CVODE in compiled code and returns to the
 run only after the steps it must act on (outputs, drift past the bound,
-winding offsets). scikit-sundae's path (selected by patching
-:func:`~flexmb.integrators.direct_choice.compiled_loop` to return None, as
-for the models it does not cover) is the test. Adams gives the same step, right-hand side, Jacobian (or
-preconditioner set-up) and projection counts and the same states to 1e-10.
-BDF projects the state onto the constraints inside CVODE
-(``CVodeSetProjFn``) instead of restarting it: its steps differ, and its
-runs are held to scikit-sundae's accuracy against a tight reference, with
-no restart.
+winding offsets). The old results are the test: scikit-sundae's path
+(selected by patching :func:`~flexmb.integrators.direct_choice.compiled_loop`
+to return None, as for the models it does not cover) must give the same
+step, right-hand side, Jacobian (or preconditioner set-up) and projection
+counts and the same states to 1e-10, except for BDF held to order 3
+(flexible bodies in loops, rtol >= 1e-4): CVODE then projects the state onto the
+constraints itself (``CVodeSetProjFn``) instead of being restarted, its
+steps differ, and its runs are held to scikit-sundae's accuracy against a
+tight reference, with no restart.
 """
 
 from __future__ import annotations
@@ -111,16 +112,11 @@ def test_drivers_known_only_to_python_stay_on_sksundae():
 
 def test_harmonic_drivers_step_in_compiled_code_as_before(monkeypatch):
     """A harmonic driver (``Driver.law``) is evaluated in compiled code with its callables' arithmetic: the
-    four-bar's crank driven back and forth reaches scikit-sundae's accuracy (BDF projecting in CVODE where
-    scikit-sundae restarts) against a tight reference."""
+    four-bar's crank driven back and forth takes scikit-sundae's steps, with projections, to its states."""
     model = fourbar()
     model.add(fm.Driver.harmonic("wobble", "A", amplitude=0.3, frequency=2.0, offset=np.pi / 4))
     system = model.build(complement="articulated")
     assert direct_choice.compiled_loop(system, BDF, False, None) is DirectLoopCVODEBDF
-    with monkeypatch.context() as m:
-        _sksundae(m)
-        ref = fm.simulate(system, 1.0, positions=fourbar_initial(), method="CVODE_BDF", rtol=1e-11, atol=1e-13,
-                          n_out=21, progress=False)
     for rtol in (1e-5, 1e-9):
         kw = dict(positions=fourbar_initial(), method="CVODE_BDF", rtol=rtol, atol=rtol / 100, n_out=21,
                   progress=False)
@@ -128,31 +124,44 @@ def test_harmonic_drivers_step_in_compiled_code_as_before(monkeypatch):
             _sksundae(m)
             old = fm.simulate(system, 1.0, **kw)
         new = fm.simulate(system, 1.0, **kw)
-        _projected_as_accurate(new, old, ref, rtol / 100)
+        _same(new, old)
         assert np.ptp(new.coordinate("A")) > 0.5
 
 
 @pytest.mark.parametrize("name", sorted(MODELS))
 def test_runs_are_sksundae_runs(monkeypatch, name):
-    """Adams: counts and states of scikit-sundae's runs (dense Jacobian from Python below 48 coordinates, the
-    loops' compiled preconditioner with GMRES from there: B7 N = 40). BDF at two tolerances (CVODE's projection
-    instead of restarts): no restart, and scikit-sundae's accuracy against a tight reference."""
+    """Counts and states of scikit-sundae's runs (dense Jacobian from Python below 48 coordinates, the loops'
+    compiled preconditioner with GMRES from there: B7 N = 40), BDF at two tolerances and Adams."""
     build, span = MODELS[name]
     model, initial = build()
     system = model.build(complement="articulated")
-    ref = None
     for method, rtol in (("CVODE_BDF", 1e-5), ("CVODE_BDF", 1e-9), ("CVODE_Adams", 1e-7)):
         kw = dict(initial, method=method, rtol=rtol, atol=rtol / 100, n_out=21, progress=False)
         with monkeypatch.context() as m:
             _sksundae(m)
             old = fm.simulate(system, span, **kw)
-            if ref is None:
-                ref = fm.simulate(system, span, **dict(kw, rtol=1e-11, atol=1e-13))
         new = fm.simulate(system, span, **kw)
-        if method == "CVODE_BDF":
-            _projected_as_accurate(new, old, ref, rtol / 100)
-        else:
-            _same(new, old)
+        _same(new, old)
+
+
+def test_bdf_projects_in_cvode_instead_of_restarting(monkeypatch):
+    """BDF held to order 3 (a flexible body in a loop, rtol >= 1e-4: B6 N = 8): CVODE's projection (a compiled
+    CVProjFn) keeps the state on the constraints, no restart, the outputs on them, the states as near a tight
+    reference as scikit-sundae's restarting run (rtol 1e-4, 1e-3, 3e-3: the benchmarks'), in fewer steps from
+    1e-3 on."""
+    build, span = MODELS["b6_8"]
+    model, initial = build()
+    system = model.build(complement="articulated")
+    kw = dict(initial, method="CVODE_BDF", n_out=21, progress=False)
+    with monkeypatch.context() as m:
+        _sksundae(m)
+        ref = fm.simulate(system, span, **dict(kw, rtol=1e-11, atol=1e-13))
+        olds = {rtol: fm.simulate(system, span, **dict(kw, rtol=rtol, atol=rtol / 100)) for rtol in (1e-4, 1e-3, 3e-3)}
+    for rtol, old in olds.items():
+        new = fm.simulate(system, span, **dict(kw, rtol=rtol, atol=rtol / 100))
+        _projected_as_accurate(new, old, ref, rtol / 100)
+        if rtol >= 1e-3:  # (at 1e-4 it takes more: 3,217 against 2,859 steps, 2 restarts)
+            assert old.n_projections >= 20 and new.n_steps < 0.95 * old.n_steps, (rtol, new.n_steps, old.n_steps)
 
 
 def _spinning_fourbar():
@@ -161,45 +170,33 @@ def _spinning_fourbar():
 
 
 def test_winding_offsets_move_as_before(monkeypatch):
-    """The crank's and the coupler's angles wind past their bound: the offsets move as often as on
-    scikit-sundae's path (each a restart); CVODE's projection replaces that path's restarts for drift, and
-    the run is as accurate (Adams, which CVODE does not project: the same steps and states)."""
+    """The crank's and the coupler's angles wind past their bound: the offsets move after the same steps as on
+    scikit-sundae's path (each a restart), between the projections, and the runs agree."""
     system, initial = _spinning_fourbar()
     kw = dict(initial, method="CVODE_BDF", rtol=1e-8, atol=1e-10, n_out=21, progress=False)
     with monkeypatch.context() as m:
         _sksundae(m)
         old = fm.simulate(system, 3.0, **kw)
-        ref = fm.simulate(system, 3.0, **dict(kw, rtol=1e-11, atol=1e-13))
     new = fm.simulate(system, 3.0, **kw)
-    assert old.n_projections >= 1
-    _projected_as_accurate(new, old, ref, 1e-10)
-    assert new.n_rebases >= 3 and abs(new.x[-1, 0]) > 6 * np.pi
-    kw["method"] = "CVODE_Adams"
-    with monkeypatch.context() as m:
-        _sksundae(m)
-        old = fm.simulate(system, 3.0, **kw)
-    _same(fm.simulate(system, 3.0, **kw), old)
+    _same(new, old)
+    assert new.n_rebases >= 3 and new.n_projections >= 1 and abs(new.x[-1, 0]) > 6 * np.pi
 
 
 def test_progress_and_reused_systems_change_nothing(monkeypatch):
     """The progress bar's marks (more returns to Python) and earlier runs on the same System object leave the
-    counts and states as on a fresh object; B6 N = 8 restarts (projections) on the way with Adams, and on
-    scikit-sundae's path, which then takes the same steps."""
+    counts and states as on a fresh object; B6 N = 8 restarts (projections) on the way."""
     model, positions = scenes.b6(True, 8)
-    kw = dict(positions=positions, method="CVODE_Adams", rtol=1e-5, atol=1e-7, n_out=21)
+    kw = dict(positions=positions, method="CVODE_BDF", rtol=1e-5, atol=1e-7, n_out=21)
     fresh = fm.simulate(model.build(complement="articulated"), 0.2, progress=False, **kw)
     assert fresh.n_projections >= 2
     system = model.build(complement="articulated")
-    fm.simulate(system, 0.05, progress=False, **dict(kw, method="CVODE_BDF", rtol=3e-3, atol=3e-5))
-    fm.simulate(system, 0.05, progress=False, method="CVODE_BDF", positions=positions)
+    fm.simulate(system, 0.05, progress=False, **dict(kw, rtol=3e-3, atol=3e-5))
+    fm.simulate(system, 0.05, progress=False, method="CVODE_Adams", positions=positions)
     again = fm.simulate(system, 0.2, progress=True, **kw)
     _same(again, fresh)
     with monkeypatch.context() as m:
         _sksundae(m)
         _same(fm.simulate(system, 0.2, progress=False, **kw), fresh)
-    bdf = dict(kw, method="CVODE_BDF")
-    _same(fm.simulate(system, 0.2, progress=True, **bdf), fm.simulate(model.build(complement="articulated"), 0.2,
-                                                                      progress=False, **bdf))
 
 
 @pytest.mark.filterwarnings("ignore::RuntimeWarning")

@@ -87,7 +87,7 @@ def compiled_options(run, x, xd, krylov_min: int, bound: float) -> dict:
     run.counters["jac"] = 0
     options = dict(system=system, krylov=krylov, monitor=run.monitor, angles=run.angles,
                    bound=bound, gimbal=run.gimbal, counters=run.counters)
-    if system.n_constraints:  # CVODE's projection of a looped model's state (DirectLoopCVODE)
+    if system.n_constraints:  # for CVODE's projection of a looped model's state (DirectLoopCVODE)
         options["projection_tol"] = run.projection_tol
     if not krylov and system.state_jacobian(run.t0, x, xd) is not None:  # flexmb's, from Python (a few calls)
         layout = run.layout

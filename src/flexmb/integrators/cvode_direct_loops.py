@@ -23,7 +23,12 @@ restarts (``Run._restart_if_drifted``, its bound raised when restarts crowd:
 stepping in Python. A restart makes a new CVODE memory (:meth:`DirectLoopCVODE.restart`:
 the state, the callbacks' buffers and the counters are kept), as the Python
 path makes a new solver: the runs take the very steps of scikit-sundae's
-(tests/test_cvode_direct_loops.py).
+(tests/test_cvode_direct_loops.py). Where the run holds BDF to order 3
+(flexible bodies in loops at loose tolerances, ``project=True``), CVODE
+instead projects the state onto the constraints itself after its steps
+(``CVodeSetProjFn``, :func:`flexmb.kernels.cvode_loop_callbacks.project`),
+keeping its order and history; the drift check then acts only where a
+projection is refused.
 
 Left to scikit-sundae (``compiled_loop`` returns None): loops closed by a
 dense strategy (``eigen``, ``svd``, ``qr``), force elements or joints
@@ -99,8 +104,8 @@ class DirectLoopCVODE(DirectCVODE):
     checks_constraints = restarts_in_place = True
     advances = False  # stepped by step_on, the run's checks acting after its steps (DirectCVODE.advance's are not)
 
-    def __init__(self, *args, projection_tol=1e-10, **kwargs):
-        self._projection_tol = float(projection_tol)
+    def __init__(self, *args, projection_tol=1e-10, project=False, **kwargs):
+        self._projection_tol, self._projects = float(projection_tol), bool(project)
         super().__init__(*args, **kwargs)
 
     def advance(self, t_stop: float, on_step=None):
@@ -126,7 +131,8 @@ class DirectLoopCVODE(DirectCVODE):
         if not hasattr(self, "_carried"):  # the first memory: CVODE's counters of the restarted ones start at 0
             self._options, self._carried = (rtol, atol, krylov, max_step), {key: 0 for key, _ in _CVODE_COUNTS}
         super()._setup(rtol, atol, krylov, max_step, first_step)
-        if self.family == "BDF":  # CVODE projects only its BDF steps
+        self._projects = self._projects and self.family == "BDF"  # (CVODE projects BDF steps only)
+        if self._projects:
             self._project_in_cvode()
 
     def _project_in_cvode(self) -> None:
@@ -276,7 +282,7 @@ class DirectLoopCVODE(DirectCVODE):
         times = np.empty(max(mon.next_check - mon.n_steps, 1) if live else 0)
         t_entry = self._tret[0]
         gimbal = self._gimbal if self.gimbal is not None and not self.gimbal.warned else self._gimbal[:0]
-        if self.family == "BDF":
+        if self._projects:
             real = self._arrays["real"]
             real[cb.R_PROJ_TOL] = min(PROJECTION_BOUND_FRACTION * float(bound), PROJECTION_ATOL_FRACTION * self._atol_min)
             real[cb.R_NEWTON_TOL] = min(1e-12, self._projection_tol, 0.1 * real[cb.R_PROJ_TOL])
@@ -347,7 +353,16 @@ class DirectLoopCVODEAdams(DirectLoopCVODE):
     family, max_order = "Adams", 12
 
 
-_PARAMETERS = DirectCVODE.__doc__[DirectCVODE.__doc__.index("    Parameters\n"):]
+_PARAMETERS = DirectCVODE.__doc__[DirectCVODE.__doc__.index("    Parameters\n"):].replace("""    **extraneous""", """\
+    projection_tol : float
+        The run's ``projection_tol`` (CVODE's projection closes the loops'
+        positions to ``min(1e-12, projection_tol)`` or tighter).
+    project : bool
+        BDF: CVODE projects the state onto the constraints after its steps
+        (:meth:`DirectLoopCVODE._project_in_cvode`) instead of the run
+        restarting it; given by the run where it holds BDF to order 3
+        (flexible bodies in loops, ``flexmb.stepping.oscillation_limited``).
+    **extraneous""")
 DirectLoopCVODE.__doc__ += "\n" + _PARAMETERS
 DirectLoopCVODEBDF.__doc__ = (":class:`DirectLoopCVODE` with CVODE's variable-order BDF: ``'CVODE_BDF'`` on loops.\n\n"
                               + _PARAMETERS)

@@ -96,6 +96,8 @@ def compiled_jacobian(system) -> bool:
     Returns
     -------
     bool
+        True if the run's CVODE takes the compiled Jacobian (C callback
+        ``cvode_loop_callbacks.jac``) instead of the Python one.
     """
     from ..forces import BodyTorque, PointForce
 

@@ -40,10 +40,11 @@ from .cache import njit
 from .cvode_callbacks import _call_cvode, _call_p_p, _cfunc, _voidp, _watched
 from .equations import RESIDUALS, tree_equations
 from .loop_layout import LoopLayout
+from .loop_jacobian import loop_state_jacobian
 from .loop_projection import loop_min_norm, loop_phi
 from .loops import loop_newton_factor, loop_newton_solve, loop_rhs, loop_speeds
 
-__all__ = ["rhs", "psetup", "psolve", "project", "advance", "drift", "driver", "UD_SIZE", "REACHED", "CHECKPOINT", "PAUSED", "WATCH",
+__all__ = ["rhs", "jac", "psetup", "psolve", "project", "advance", "drift", "driver", "UD_SIZE", "REACHED", "CHECKPOINT", "PAUSED", "WATCH",
            "DRIFTED", "NOT_FINITE"]
 
 #: slots of the user_data array (int64): addresses (A_*), sizes, counters, the failure's status
@@ -53,7 +54,8 @@ __all__ = ["rhs", "psetup", "psolve", "project", "advance", "drift", "driver", "
  A_SW, A_SV, A_W, A_BODY, A_U, A_DUT, A_DINV, A_LIFT, A_KB, A_D, A_DF, A_V, V_ROWS, F_KEPT, F_STATUS, F_VALID,
  SETUPS, JACS, RHS, PSOLVES, FACTORS, STATUS, NONFINITE_FLAG, A_FAIL_T, A_FAIL_Y, A_OFFSET, HAS_OFFSET,
  PROJECTIONS, PROJ_REFUSED, PROJ_OK) = range(64)
-UD_SIZE = 64
+A_MATDATA = 64  # SUNDenseMatrix_Data, for jac
+UD_SIZE = 65
 #: the float parameters (A_REAL): the rank tolerance, the singular window, the factors' gamma and smallest pivot;
 #: for :func:`project`, the residual below which a state is kept, the Newton tolerance, the largest correction
 #: per unit residual, and the time of the last state it left on the constraints
@@ -181,6 +183,33 @@ def rhs(t, y, ydot, user_data):
     if status == 2:
         return _fail(ud, NONFINITE, t, yv, ud[NONFINITE_FLAG])
     return _fail(ud, kept, t, yv, -1)  # a freedom that moves no mass and that no loop fixes
+
+
+@_cfunc(types.int32(types.float64, types.voidptr, types.voidptr, types.voidptr, types.voidptr, types.voidptr,
+                    types.voidptr, types.voidptr))
+def jac(t, y, fy, J, user_data, tmp1, tmp2, tmp3):
+    """CVLsJacFn: the dense state Jacobian by :func:`~flexmb.kernels.loop_jacobian.loop_state_jacobian`.
+
+    K and C are the diagonal terms of the preconditioner's slots; -1 (the
+    cause recorded as :func:`rhs` records it) if the state's equations fail.
+    """
+    ud = _ud(user_data)
+    n, m = ud[N], ud[M]
+    yv = _state(ud, y, m)
+    real = _f1(ud[A_REAL], N_REAL)
+    ud[JACS] += 1
+    drv, gamma_d = _drivers(ud), np.empty(ud[N_DRV])
+    for k in range(ud[N_DRV]):
+        gamma_d[k] = driver(drv, k, t)[2]
+    full = np.empty((m, m))
+    status, body = loop_state_jacobian(_packed(ud), _layout(ud), yv, n, _f1(ud[A_K], n), _f1(ud[A_C], n), gamma_d,
+                                       real[R_TOL], real[R_WINDOW], ud[RANK_LIMIT], full)
+    if status == 2:
+        return _fail(ud, NONFINITE, t, yv, -1)
+    if status:
+        return _fail(ud, body, t, yv, -1)
+    carray(_call_p_p(ud[A_MATDATA], J), (m, m), np.float64)[:, :] = full.T  # SUNDIALS' column-major data
+    return 0
 
 
 @_cfunc(types.int32(types.float64, types.voidptr, types.voidptr, types.int32, types.voidptr, types.float64,

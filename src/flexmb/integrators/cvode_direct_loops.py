@@ -42,6 +42,7 @@ contact events.
 
 from __future__ import annotations
 
+import inspect
 from ctypes import byref, c_double, c_long, c_void_p
 
 import numpy as np
@@ -125,6 +126,14 @@ def compiled_jacobian(system) -> bool:
     return True
 
 
+def _with_projection(init) -> inspect.Signature:
+    """``DirectCVODE.__init__``'s signature with the keywords ``projection_tol`` and ``project`` before its ``**``."""
+    params = list(inspect.signature(init).parameters.values())
+    extra = [inspect.Parameter(name, inspect.Parameter.KEYWORD_ONLY, default=default)
+             for name, default in (("projection_tol", 1e-10), ("project", False))]
+    return inspect.Signature(params[:-1] + extra + params[-1:])
+
+
 def _driver_row(driver, column) -> tuple:
     """The row ``(column, kind, p1, p2, p3)`` of :func:`flexmb.kernels.cvode_loop_callbacks.driver`."""
     kind, *p = driver.law
@@ -147,6 +156,8 @@ class DirectLoopCVODE(DirectCVODE):
     def __init__(self, *args, projection_tol=1e-10, project=False, **kwargs):
         self._projection_tol, self._projects = float(projection_tol), bool(project)
         super().__init__(*args, **kwargs)
+
+    __init__.__signature__ = _with_projection(DirectCVODE.__init__)
 
     def advance(self, t_stop: float, on_step=None):
         """Refused: a looped model's steps need the run's checks (see :meth:`step_on`).

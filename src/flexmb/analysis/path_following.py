@@ -365,8 +365,7 @@ def _follow(eq, x, lam, lam_end, options, tol_end, who="load path"):
                 continue
             pt_end = eq(x_end, lam_end)
             path.counts["tangents"] += 1
-            path.add(x_end, float(lam_end), _norm(pt_end.R), ds * u, *_tangent_or(eq, pt_end, lam_end, tx, tl, c),
-                     pt_end)
+            path.add(x_end, float(lam_end), _norm(pt_end.R), ds * u, *_tangent_or(eq, pt_end, lam_end, tx, tl, c))
             path.check_bifurcation()
             return path.result(True)
         try:
@@ -400,10 +399,11 @@ def _follow(eq, x, lam, lam_end, options, tol_end, who="load path"):
 
 
 def _tangent_or(eq, pt, lam, tx, tl, c):
+    """The unit tangent at ``pt`` (or ``(tx, tl)`` where it is undefined), and ``pt``: the rest of :meth:`_Path.add`."""
     try:
-        return _tangent(eq, pt, lam, (tx, tl), c)
+        return (*_tangent(eq, pt, lam, (tx, tl), c), pt)
     except np.linalg.LinAlgError:
-        return tx, tl
+        return tx, tl, pt
 
 
 def _corrector(eq, x_a, lam_a, tx, tl, ds, c, options, counts):
@@ -516,6 +516,12 @@ def load_path(system, load=None, x0=None, t: float = 0.0, *, lam_end: float = 1.
     centre fixed in direction, which misses the turning lever arm of a
     force applied off the mass centre (a tip force); Newton's method would
     then converge only linearly.
+
+    For loops closed by the articulated strategy none of psi, T or J is
+    formed (:mod:`flexmb.analysis.loop_paths`, O(n m) per product): the
+    bordered systems are solved by GMRES in the null space of psi,
+    preconditioned as :func:`static_equilibrium`'s Newton steps; the
+    residual is then ``g + psi^T mu`` and the corrector's step ``max |dx|``.
 
     Stability: at each point the eigenvalues of the symmetric part of the
     reduced tangent stiffness ``-J`` are counted (``LoadPath.n_unstable``,

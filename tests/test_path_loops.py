@@ -3,12 +3,14 @@
 What is checked
 ---------------
 On the looped models of the tests (the planar four-bar and the four-bar
-with a full revolute cut, Bricard's linkage, B6 with gravity at N = 4,
-B7 at N = 4 and 40 with planar and spatial cuts, and the von Mises truss,
-whose path passes a limit point and snaps through), built with
+with a full revolute cut, Bricard's linkage, B6 with gravity at N = 4
+and 64, B7 at N = 4 and 40 with planar and spatial cuts and hanging, B7
+at N = 4 turned by a torque through its flat, singular position, and the
+von Mises truss, whose path passes a limit point and snaps through), built with
 ``complement='articulated'``: :func:`flexmb.load_path` follows the same
 path as main's dense form (tests/data/path_loops_reference.npz, written by
-tests/data/make_path_loops_reference.py).
+tests/data/make_path_loops_reference.py) with the complement never formed;
+B6 at N = 64 (p = 63) counts its stability from Davidson's lowest pairs.
 """
 
 from __future__ import annotations
@@ -42,6 +44,13 @@ def _b6_64():
     return fm.load_path(system, None, x0=x + 0.01 * np.random.default_rng(3).normal(size=x.size))
 
 
+def _b7_past_flat():
+    """B7 at N = 4 held by a spring on its first pin and turned by a torque through the flat, singular position."""
+    model, _ = sl.scenes.b7(4)
+    model.add(fm.JointSpringDamper("spring", "pin_0", 500.0, 0.0, 0.0), fm.BodyTorque("T", "rod_0", (0.0, 0.0, 950.0)))
+    return fm.load_path(model.build(complement="articulated"), "T", options=fm.PathOptions(step=0.03, max_step=0.03))
+
+
 def _truss():
     a, h = 1.0, 0.05
     _, _, k = st.von_mises_truss(1.0, a=a, h=h)
@@ -56,6 +65,7 @@ CASES = {name: (lambda name=name: _homotopy(name)) for name in
          ("fourbar", "fourbar_revolute_cut", "bricard", "b6_4_gravity", "b7_4", "b7_40", "b7_40_hanging",
           "b7_4_spatial_cuts")}
 CASES["b6_64_gravity"] = _b6_64
+CASES["b7_4_past_flat"] = _b7_past_flat
 CASES["truss"] = _truss
 
 
@@ -75,9 +85,9 @@ def test_load_path_equals_main(name, reference, monkeypatch):
 
     Measured: the load factors within 5e-9 (the truss, B6 at N = 4: the
     corrector stops on ``max |dx|`` where main stopped on ``max |dz|``, both
-    below ``PathOptions.tol`` = 1e-8), 5e-12 elsewhere; the coordinates
-    within 1e-10; the limit points' load factors within 1e-10, their
-    coordinates within 1e-9.
+    below ``PathOptions.tol`` = 1e-8), 6e-10 through B7's flat position,
+    1e-11 elsewhere; the coordinates within 1e-9 (through the flat position)
+    and 1e-10 elsewhere; the limit points' load factors within 3e-11.
     """
     def dense(*args, **kwargs):
         raise AssertionError("the complement T was formed")

@@ -187,7 +187,7 @@ class LoopPathEquations(LoopEquations):
         stalls (a singular bordered matrix).
         """
         x, n = pt.x, self.n
-        apply = self.operator(pt, lam)
+        apply = self.operator(pt, lam, onto=True)
         slope = self._tangential(x, self._solve(x, self.stiffness, pt.R_lam)[0])
         border = np.asarray(tx, dtype=float) / c**2
 

@@ -148,12 +148,23 @@ class LoopEquations:
         """``g(x, lambda) + psi(x)^T w`` (the balance differenced at fixed multipliers w)."""
         return self._balance(_plain(x), w)[1] - (1.0 - lam) * self.ref
 
-    def operator(self, pt: _LoopPoint, lam):
+    def operator(self, pt: _LoopPoint, lam, onto=False):
         """The product ``d -> (P_S H d_t, d_t)`` at a point, ``d_t`` the part of d in the null space of psi.
 
         ``H d_t`` is a central difference of ``g + psi^T mu`` (mu fixed)
-        along the unit direction of ``d_t``; one product costs two balances
-        and one constrained solve.
+        along the unit direction of ``d_t``; one product costs two balances,
+        one constrained solve and one projection onto the null space (two
+        with ``onto``).
+
+        ``P_S``'s result is on ``psi v = 0`` to the kernel's accuracy only;
+        near a singular position (psi's smallest singular values a few
+        thousandths) that leaves it off the null space enough to stall a
+        solve whose right-hand side is on it: ``onto=True`` takes the
+        result's part there too (the bordered solves of the path). Newton's
+        step (:meth:`krylov`) leaves it: on a mechanism with no stiffness
+        along its free motion the products are round-off, and their part off
+        the null space is what stalls the solve and reports the singular
+        tangent stiffness.
         """
         x, mu, h = pt.x, pt.mu, self.h
 
@@ -165,7 +176,8 @@ class LoopEquations:
             e = d / size
             self.n_products += 1
             diff = self._shifted(self.move(x, h * e), lam, mu) - self._shifted(self.move(x, -h * e), lam, mu)
-            return self._solve(x, self.stiffness, diff * (size / (2 * h)))[0], d
+            v = self._solve(x, self.stiffness, diff * (size / (2 * h)))[0]
+            return (self._tangential(x, v) if onto else v), d
 
         return product
 

@@ -6,7 +6,8 @@ On the looped models of the tests (the planar four-bar and the four-bar
 with a full revolute cut, Bricard's linkage, B6 with gravity at N = 4
 and 64, B7 at N = 4 and 40 with planar and spatial cuts and hanging, B7
 at N = 4 turned by a torque through its flat, singular position, and the
-von Mises truss, whose path passes a limit point and snaps through), built with
+von Mises truss, whose path passes a limit point and snaps through, also
+as :func:`flexmb.static_equilibrium`'s continuation), built with
 ``complement='articulated'``: :func:`flexmb.load_path` follows the same
 path as main's dense form (tests/data/path_loops_reference.npz, written by
 tests/data/make_path_loops_reference.py) with the complement never formed;
@@ -51,13 +52,23 @@ def _b7_past_flat():
     return fm.load_path(model.build(complement="articulated"), "T", options=fm.PathOptions(step=0.03, max_step=0.03))
 
 
-def _truss():
+def _truss_system():
     a, h = 1.0, 0.05
     _, _, k = st.von_mises_truss(1.0, a=a, h=h)
     best = st.minimize_scalar(lambda w: -st.truss_load(w, k, a, h), bounds=(0.0, h), method="bounded",
                               options={"xatol": 1e-12})
-    system, _, _ = st.von_mises_truss(-2.0 * best.fun, a=a, h=h, complement="articulated")
-    return fm.load_path(system, "P")
+    return st.von_mises_truss(-2.0 * best.fun, a=a, h=h, complement="articulated")[0]
+
+
+def _truss():
+    return fm.load_path(_truss_system(), "P")
+
+
+def _truss_statics():
+    """static_equilibrium beyond the limit load: Newton's method alone fails, its continuation snaps through."""
+    x, path = fm.static_equilibrium(_truss_system(), full_output=True)
+    assert path is not None and np.array_equal(x, path.x[-1])
+    return path
 
 
 #: the cases: Newton's homotopy from the statics tests' starts, and the truss under a named load
@@ -67,6 +78,7 @@ CASES = {name: (lambda name=name: _homotopy(name)) for name in
 CASES["b6_64_gravity"] = _b6_64
 CASES["b7_4_past_flat"] = _b7_past_flat
 CASES["truss"] = _truss
+CASES["truss_statics"] = _truss_statics
 
 
 def run(name):
@@ -125,3 +137,14 @@ def test_the_stability_of_many_coordinates_comes_from_the_lowest_eigenvalues(mon
     monkeypatch.setattr(loop_modes.LoopModes, "subspace", whole)
     path = run("b6_64_gravity")
     assert path.reached and not path.n_unstable.any()
+
+
+def test_a_mechanism_with_no_stiffness_against_the_load_is_reported():
+    """A parallelogram pushed along its free motion: the path's slope is undefined at the start."""
+    model = sl.hc.parallelogram()
+    model.add(fm.BodyTorque("push", model["A"].child, (0.0, 0.0, 1.0)))
+    system = model.build(complement="articulated")
+    x, _ = fm.initial_state(system, 0.0, positions=sl._flat("parallelogram", 0.5))
+    with pytest.raises(fm.AssemblyError, match=r"the tangent stiffness is singular at the start .*a mechanism with "
+                                               r"no stiffness against the load \(push\)"):
+        fm.load_path(system, "push", x0=x)

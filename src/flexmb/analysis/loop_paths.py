@@ -65,6 +65,39 @@ STABILITY_MODES = 4
 SIGN_RTOL = 0.1
 
 
+def chosen_loads(system, load) -> list:
+    """The force elements a load factor scales, from an element, a name or a sequence of them.
+
+    Parameters
+    ----------
+    system : System
+        The compiled model.
+    load : ForceElement, str or sequence of them
+        What :func:`flexmb.load_path` was given.
+
+    Returns
+    -------
+    list of ForceElement
+        The elements, in the order given.
+
+    Raises
+    ------
+    ModelError
+        If ``load`` names none, or an element that is not among the system's force elements.
+    """
+    refs = [load] if isinstance(load, (str, ForceElement)) else list(load)
+    if not refs:
+        raise ModelError("load_path: load names no force element (give an element, a name, a list or None)")
+    elements = [e for _, group in system.forces.groups for e in group]
+    chosen = []
+    for ref in refs:
+        e = system.model.element(ref, ForceElement)
+        if not any(e is o for o in elements):
+            raise ModelError(f"load_path: {label(e)} is not among the system's force elements")
+        chosen.append(e)
+    return chosen
+
+
 class Stiffness(NamedTuple):
     """The stability record of a path point: eigenvalues ascending, ``K`` (p x p, or None) and its basis."""
 
@@ -81,10 +114,25 @@ class _Products(LoopModes):
         self.eq, self.pt, self.lam = eq, pt, lam
 
     def stiffness_times(self, v):
-        """``A P (-H v)``: ``-H v`` (a central difference of ``g + psi^T mu`` along the unit direction of v) plus
-        the constraint forces that keep it on the loops (``P`` the constrained solve with A): the same
-        ``V^T K V`` on ``psi V = 0``, and residuals that the Davidson iteration can make vanish (at fixed mu,
-        ``H v`` has a part along ``psi^T`` that no displacement on the loops balances)."""
+        """``A P (-H v)``, the static tangent stiffness times v made consistent with the loops.
+
+        ``-H v`` is a central difference of ``g + psi^T mu`` (mu fixed)
+        along the unit direction of v; ``A P`` (P the constrained solve
+        with A) adds the constraint forces that keep it on the loops: the
+        same ``V^T K V`` on ``psi V = 0``, and residuals that the Davidson
+        iteration can make vanish (at fixed mu, ``H v`` has a part along
+        ``psi^T`` that no displacement on the loops balances).
+
+        Parameters
+        ----------
+        v : ndarray, shape (n,)
+            A displacement on ``psi v = 0``.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            Generalized forces.
+        """
         v = np.ravel(v)
         size = float(np.linalg.norm(v))
         if size == 0.0:
@@ -117,16 +165,7 @@ class LoopPathEquations(LoopEquations):
         self.chosen = None
         if load is None:
             return
-        refs = [load] if isinstance(load, (str, ForceElement)) else list(load)
-        if not refs:
-            raise ModelError("load_path: load names no force element (give an element, a name, a list or None)")
-        elements = [e for _, group in system.forces.groups for e in group]
-        chosen = []
-        for ref in refs:
-            e = system.model.element(ref, ForceElement)
-            if not any(e is o for o in elements):
-                raise ModelError(f"load_path: {label(e)} is not among the system's force elements")
-            chosen.append(e)
+        chosen = chosen_loads(system, load)
         self.chosen = [(cls, [e for e in group if any(e is c for c in chosen)]) for cls, group in system.forces.groups]
         self.chosen = [(cls, group) for cls, group in self.chosen if group]
         self.name = ", ".join(e.name for e in chosen)
@@ -167,10 +206,6 @@ class LoopPathEquations(LoopEquations):
             return super().project(x)
         except _NewtonFailed as exc:
             raise _NotConverged(str(exc), np.inf, np.inf, 0) from None
-
-    def between(self, x_a, x_b, u):
-        """The coordinates a fraction ``u`` of the way from ``x_a`` to ``x_b``, along the speeds."""
-        return self.move(x_a, u * self.system.layout.difference(x_b, x_a))
 
     def along(self, pt, lam):
         """``dx/dlambda`` on the path, ``P_S H dx = -P_S dg/dlambda`` (LinAlgError where J is singular)."""

@@ -20,11 +20,9 @@ import scipy.linalg as sla
 
 from ..assembly import ForceAssembler
 from .._validate import state_vector
-from ..errors import AssemblyError, ModelError
-from ..fields import label
-from ..forces import ForceElement
+from ..errors import AssemblyError
 from ..threads import limited_blas
-from .loop_paths import LoopPathEquations, Stiffness
+from .loop_paths import LoopPathEquations, Stiffness, chosen_loads
 from .loop_statics import _NewtonFailed, _NotConverged
 from .paths import CriticalPoint, LoadPath, PathOptions, _list_limits
 
@@ -59,23 +57,11 @@ class _Equations:
             self.rest, self.load, self.name = system.forces, None, "Newton homotopy F(x) - (1 - lambda) F(x0)"
             self.ref = system.forces.active_force(self._kin(x0))
             return
-        refs = [load] if isinstance(load, (str, ForceElement)) else list(load)
-        if not refs:
-            raise ModelError("load_path: load names no force element (give an element, a name, a list or None)")
-        chosen = []
-        for ref in refs:
-            e = system.model.element(ref, ForceElement)
-            if not any(e is o for o in elements):
-                raise ModelError(f"load_path: {label(e)} is not among the system's force elements")
-            chosen.append(e)
+        chosen = chosen_loads(system, load)
         self.rest = ForceAssembler([e for e in elements if not any(e is c for c in chosen)])
         self.load = ForceAssembler(chosen)
         self.name = ", ".join(e.name for e in chosen)
         self.ref = None
-
-    def between(self, x_a, x_b, u):
-        """The coordinates a fraction ``u`` of the way from ``x_a`` to ``x_b``, along the speeds."""
-        return self.move(x_a, u * self.system.layout.difference(x_b, x_a))
 
     def _kin(self, x):
         return self.system.kinematics(self.t, x, self.zero)
@@ -152,6 +138,11 @@ class _Equations:
         """The stability record: eigenvalues, ascending, of the symmetric part of ``K = -J``, and K."""
         K = -0.5 * (pt.J + pt.J.T)
         return Stiffness(np.linalg.eigvalsh(K) if K.size else np.zeros(0), K, None)
+
+
+def _between(eq, x_a, x_b, u):
+    """The coordinates a fraction ``u`` of the way from ``x_a`` to ``x_b``, along the speeds."""
+    return eq.move(x_a, u * eq.system.layout.difference(x_b, x_a))
 
 
 def _norm(v) -> float:
@@ -353,7 +344,7 @@ def _follow(eq, x, lam, lam_end, options, tol_end, who="load path"):
             # the target lies in this step: interpolate, then Newton at the target load factor
             u = (lam_end - lam_a) / (lam_new - lam_a)
             try:
-                x_end, pt_end = _newton(eq, eq.project(eq.between(x_a, x_new, u)), lam_end, tol_end,
+                x_end, pt_end = _newton(eq, eq.project(_between(eq, x_a, x_new, u)), lam_end, tol_end,
                                         max(options.max_iter, 20), path.counts)
             except _NotConverged as exc:
                 path.counts["rejected"] += 1

@@ -201,25 +201,90 @@ class LoopPathEquations(LoopEquations):
         return _LoopPoint(x, self._shifted(x, lam, mu), g, g_lam, mu)
 
     def project(self, x):
-        """x moved onto the constraints; a failure is a failed step (:class:`_NotConverged`)."""
+        """The coordinates x moved onto the constraints (:meth:`System.project`).
+
+        Parameters
+        ----------
+        x : ndarray, shape (nq,)
+            Coordinates.
+
+        Returns
+        -------
+        ndarray, shape (nq,)
+            On the constraints.
+
+        Raises
+        ------
+        _NotConverged
+            If the loops cannot be closed: a failed step of the path.
+        """
         try:
             return super().project(x)
         except _NewtonFailed as exc:
             raise _NotConverged(str(exc), np.inf, np.inf, 0) from None
 
     def along(self, pt, lam):
-        """``dx/dlambda`` on the path, ``P_S H dx = -P_S dg/dlambda`` (LinAlgError where J is singular)."""
+        """The path's slope ``dx/dlambda`` at fixed load factor: ``P_S H dx = -P_S dg/dlambda`` on psi dx = 0.
+
+        Parameters
+        ----------
+        pt : _LoopPoint
+            The equations at the point.
+        lam : float
+            Its load factor.
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            ``dx/dlambda``, along the speeds (``T v`` with ``J v = -dR/dlambda``).
+
+        Raises
+        ------
+        numpy.linalg.LinAlgError
+            Where the tangent stiffness is singular.
+        """
         try:
             return self.krylov(pt, lam, pt.R_lam)
         except _NewtonFailed:
             raise np.linalg.LinAlgError("singular tangent stiffness") from None
 
     def bordered(self, pt, lam, tx, tl, c, end, residual=True):
-        """``(dx, dl, max |dx|)`` of ``[J, R_lam; (T^T tx / c^2)^T, tl] [dz; dl] = [-R or 0; end]``, ``dx = T dz``.
+        """The bordered system ``[J, R_lam; (T^T tx / c^2)^T, tl] [dz; dl] = [-R or 0; end]`` with ``dx = T dz``.
 
         One GMRES solve of ``[P_S H, P_S g_lambda; tx^T / c^2, tl]`` in the
-        null space of psi (see the module's notes); LinAlgError if it
-        stalls (a singular bordered matrix).
+        null space of psi (see the module's notes).
+
+        Parameters
+        ----------
+        pt : _LoopPoint
+            The equations at the point.
+        lam : float
+            Its load factor.
+        tx : ndarray, shape (n,)
+            The border's coordinate part (a tangent, along the speeds).
+        tl : float
+            The border's load-factor part.
+        c : float
+            The arc length's scale of the coordinates.
+        end : float
+            The border row's right-hand side.
+        residual : bool
+            The first rows' right-hand side: ``-R`` (Riks' corrector) or 0
+            (the tangent).
+
+        Returns
+        -------
+        dx : ndarray, shape (n,)
+            ``T dz``, along the speeds.
+        dl : float
+            The load factor's part.
+        size : float
+            ``max |dx|``.
+
+        Raises
+        ------
+        numpy.linalg.LinAlgError
+            If the solve stalls (a singular bordered matrix).
         """
         x, n = pt.x, self.n
         apply = self.operator(pt, lam, onto=True)
@@ -249,7 +314,23 @@ class LoopPathEquations(LoopEquations):
         return sol[:n], float(sol[n]), float(np.max(np.abs(sol[:n]))) if n else 0.0
 
     def stiffness_at(self, pt, lam, previous):
-        """The stability record at a point (:class:`Stiffness`), the basis carried on from ``previous``."""
+        """The stability record at a point, the basis carried on from the previous point's.
+
+        Parameters
+        ----------
+        pt : _LoopPoint
+            The equations at the point.
+        lam : float
+            Its load factor.
+        previous : Stiffness or None
+            The previous point's record.
+
+        Returns
+        -------
+        Stiffness
+            The eigenvalues, ascending (of ``-sym(J)`` for p <= :data:`SUBSPACE_MAX`,
+            else the lowest of the pencil ``(K, A)``), and K in its basis (or None).
+        """
         ops = _Products(self, pt, lam)
         p = self.system.dof(self.t, pt.x)
         if p == 0:

@@ -120,7 +120,23 @@ class LoopEquations:
         return v, lam
 
     def project(self, x):
-        """x moved onto the constraints (:meth:`System.project`); a failure is a failed step."""
+        """The coordinates x moved onto the constraints (:meth:`System.project`).
+
+        Parameters
+        ----------
+        x : ndarray, shape (nq,)
+            Coordinates.
+
+        Returns
+        -------
+        ndarray, shape (nq,)
+            On the constraints.
+
+        Raises
+        ------
+        _NewtonFailed
+            If the loops cannot be closed: a failed step.
+        """
         try:
             return self.system.project(self.t, x, np.zeros(self.n))[0]
         except AssemblyError as exc:
@@ -165,6 +181,20 @@ class LoopEquations:
         along its free motion the products are round-off, and their part off
         the null space is what stalls the solve and reports the singular
         tangent stiffness.
+
+        Parameters
+        ----------
+        pt : _LoopPoint
+            The equations at the point.
+        lam : float
+            Its load factor.
+        onto : bool
+            Whether the result's part on the null space is taken.
+
+        Returns
+        -------
+        callable
+            ``d -> (P_S H d_t, d_t)``, both ndarray of shape (n,).
         """
         x, mu, h = pt.x, pt.mu, self.h
 
@@ -183,6 +213,13 @@ class LoopEquations:
 
     def newton_step(self, pt: _LoopPoint, lam):
         """``dx`` in the null space of psi with ``T^T (H dx + g) = 0``, by GMRES on ``P_S H dx = -P_S g``.
+
+        Parameters
+        ----------
+        pt : _LoopPoint
+            The equations at the state.
+        lam : float
+            The load factor.
 
         Returns
         -------

@@ -23,7 +23,12 @@ restarts (``Run._restart_if_drifted``, its bound raised when restarts crowd:
 stepping in Python. A restart makes a new CVODE memory (:meth:`DirectLoopCVODE.restart`:
 the state, the callbacks' buffers and the counters are kept), as the Python
 path makes a new solver: the runs take the very steps of scikit-sundae's
-(tests/test_cvode_direct_loops.py).
+(tests/test_cvode_direct_loops.py). Where the run holds BDF to order 3
+(flexible bodies in loops at loose tolerances, ``project=True``), CVODE
+instead projects the state onto the constraints itself after its steps
+(``CVodeSetProjFn``, :func:`flexmb.kernels.cvode_loop_callbacks.project`),
+keeping its order and history; the drift check then acts only where a
+projection is refused.
 
 Left to scikit-sundae (``compiled_loop`` returns None): loops closed by a
 dense strategy (``eigen``, ``svd``, ``qr``), force elements or joints
@@ -39,7 +44,14 @@ from ctypes import byref, c_double, c_long, c_void_p
 import numpy as np
 
 from .._signals import act_on_deferred
+from ..output_projection import OUTPUT_PROJECTION_GAIN
 from .cvode_direct import CV_ADAMS, CV_BDF, STEPS_PER_CALL, DirectCVODE, _addr
+
+#: CVODE's projection moves a state whose constraint residual exceeds this fraction of the run's drift bound or
+#: PROJECTION_ATOL_FRACTION of the smallest atol, whichever is less: smaller residuals are left to the next steps
+#: and the outputs' projection (a correction of several atol upsets BDF's history: the four-bar at rtol 1e-9)
+PROJECTION_BOUND_FRACTION = 0.5
+PROJECTION_ATOL_FRACTION = 0.1
 
 __all__ = ["DirectLoopCVODE", "DirectLoopCVODEBDF", "DirectLoopCVODEAdams", "loop_class"]
 
@@ -92,6 +104,10 @@ class DirectLoopCVODE(DirectCVODE):
     checks_constraints = restarts_in_place = True
     advances = False  # stepped by step_on, the run's checks acting after its steps (DirectCVODE.advance's are not)
 
+    def __init__(self, *args, projection_tol=1e-10, project=False, **kwargs):
+        self._projection_tol, self._projects = float(projection_tol), bool(project)
+        super().__init__(*args, **kwargs)
+
     def advance(self, t_stop: float, on_step=None):
         """Refused: a looped model's steps need the run's checks (see :meth:`step_on`).
 
@@ -115,6 +131,31 @@ class DirectLoopCVODE(DirectCVODE):
         if not hasattr(self, "_carried"):  # the first memory: CVODE's counters of the restarted ones start at 0
             self._options, self._carried = (rtol, atol, krylov, max_step), {key: 0 for key, _ in _CVODE_COUNTS}
         super()._setup(rtol, atol, krylov, max_step, first_step)
+        self._projects = self._projects and self.family == "BDF"  # (CVODE projects BDF steps only)
+        if self._projects:
+            self._project_in_cvode()
+
+    def _project_in_cvode(self) -> None:
+        """CVODE's own projection onto the constraints after each step (``CVodeSetProjFn``), its error not projected.
+
+        :func:`~flexmb.kernels.cvode_loop_callbacks.project` moves a state
+        whose residual exceeds ``PROJECTION_BOUND_FRACTION`` of the run's
+        drift bound (:meth:`step_on`) or ``PROJECTION_ATOL_FRACTION`` of
+        atol, whichever is less, onto the constraints (Newton to a tenth of
+        that, at most ``min(1e-12, projection_tol)``, as the run's own projection) (positions by Newton, speeds
+        mass-orthogonally, as ``System.project(..., speeds='mass')``), so
+        that CVODE keeps its order and history where the run restarted it
+        (docs/benchmarks.md, "What limits CVODE's step on B6"); where it
+        refuses, the step loop's drift check hands the state to the run.
+        """
+        S, cb, mem, ck = self._S, self._cb, self._mem, self._check
+        real = self._arrays["real"]
+        self._atol_min = float(np.min(self._options[1]))
+        real[cb.R_PROJ_TOL] = PROJECTION_ATOL_FRACTION * self._atol_min  # until step_on gives the run's bound
+        real[cb.R_NEWTON_TOL] = min(1e-12, self._projection_tol, 0.1 * real[cb.R_PROJ_TOL])
+        real[cb.R_GAIN] = OUTPUT_PROJECTION_GAIN
+        ck(S.CVodeSetProjFn(mem, cb.project.address), "CVodeSetProjFn")
+        ck(S.CVodeSetProjErrEst(mem, 0), "CVodeSetProjErrEst")
 
     @staticmethod
     def _callbacks():
@@ -199,7 +240,7 @@ class DirectLoopCVODE(DirectCVODE):
         buf[:] = 0.0 if offset is None else offset
         self._offset = None if offset is None else buf
         self._ud[cb.HAS_OFFSET] = offset is not None
-        self._ud[cb.F_VALID] = 0
+        self._ud[cb.F_VALID] = self._ud[cb.PROJ_OK] = 0
         self._mem = S.CVodeCreate(CV_BDF if self.family == "BDF" else CV_ADAMS, self._ctx)
         if not self._mem:
             raise MemoryError("CVodeCreate returned NULL")
@@ -218,7 +259,8 @@ class DirectLoopCVODE(DirectCVODE):
             The next output time (or progress mark): the loop returns after
             the step that reaches it, before interpolating.
         bound : float
-            The run's drift bound on the constraint residuals.
+            The run's drift bound on the constraint residuals (BDF: CVODE's
+            projection acts from ``PROJECTION_BOUND_FRACTION`` of it on).
 
         Returns
         -------
@@ -240,6 +282,10 @@ class DirectLoopCVODE(DirectCVODE):
         times = np.empty(max(mon.next_check - mon.n_steps, 1) if live else 0)
         t_entry = self._tret[0]
         gimbal = self._gimbal if self.gimbal is not None and not self.gimbal.warned else self._gimbal[:0]
+        if self._projects:
+            real = self._arrays["real"]
+            real[cb.R_PROJ_TOL] = min(PROJECTION_BOUND_FRACTION * float(bound), PROJECTION_ATOL_FRACTION * self._atol_min)
+            real[cb.R_NEWTON_TOL] = min(1e-12, self._projection_tol, 0.1 * real[cb.R_PROJ_TOL])
         try:
             code, k = cb.advance(self._lp, self._ud, min(float(t_stop), self.t_bound), self.t_bound, float(bound),
                                  times, STEPS_PER_CALL, self._angles, self._bound, gimbal, self._limit)
@@ -287,12 +333,14 @@ class DirectLoopCVODE(DirectCVODE):
         dict
             As :meth:`DirectCVODE.stats`, and ``psolves`` and ``factors``
             (the preconditioner's solves, and its factorisations: one per
-            set-up and gamma).
+            set-up and gamma), ``projections`` and ``projections_refused``
+            (CVODE's projections that moved the state, and those refused).
         """
         cb, ud = self._cb, self._ud
         out = {k: v + self._carried[k] for k, v in self._cvode_counts().items()}
         out.update(rhs=int(ud[cb.RHS]), jac=int(ud[cb.SETUPS] + ud[cb.JACS]), psolves=int(ud[cb.PSOLVES]),
-                   factors=int(ud[cb.FACTORS]))
+                   factors=int(ud[cb.FACTORS]), projections=int(ud[cb.PROJECTIONS]),
+                   projections_refused=int(ud[cb.PROJ_REFUSED]))
         return out
 
 
@@ -305,7 +353,16 @@ class DirectLoopCVODEAdams(DirectLoopCVODE):
     family, max_order = "Adams", 12
 
 
-_PARAMETERS = DirectCVODE.__doc__[DirectCVODE.__doc__.index("    Parameters\n"):]
+_PARAMETERS = DirectCVODE.__doc__[DirectCVODE.__doc__.index("    Parameters\n"):].replace("""    **extraneous""", """\
+    projection_tol : float
+        The run's ``projection_tol`` (CVODE's projection closes the loops'
+        positions to ``min(1e-12, projection_tol)`` or tighter).
+    project : bool
+        BDF: CVODE projects the state onto the constraints after its steps
+        (:meth:`DirectLoopCVODE._project_in_cvode`) instead of the run
+        restarting it; given by the run where it holds BDF to order 3
+        (flexible bodies in loops, ``flexmb.stepping.oscillation_limited``).
+    **extraneous""")
 DirectLoopCVODE.__doc__ += "\n" + _PARAMETERS
 DirectLoopCVODEBDF.__doc__ = (":class:`DirectLoopCVODE` with CVODE's variable-order BDF: ``'CVODE_BDF'`` on loops.\n\n"
                               + _PARAMETERS)

@@ -209,7 +209,7 @@ class LoopModes:
         KW = np.column_stack([self.stiffness_times(c) for c in W.T])
         return np.hstack([V, W]), np.hstack([AV, AW]), np.hstack([KV, KW])
 
-    def lowest(self, k, sigma=None):
+    def lowest(self, k, sigma=None, rtol=RESIDUAL_RTOL):
         """The k lowest eigenvalues ``w^2`` and their vectors v (``T phi``), ascending, by Davidson iteration.
 
         Parameters
@@ -219,6 +219,10 @@ class LoopModes:
             must exceed; see :meth:`subspace` for small p).
         sigma : float, optional
             The preconditioner's shift, 1/s^2 (default :data:`SHIFT`).
+        rtol : float
+            A pair has converged when its residual is below this fraction
+            of ``|w^2| |A x|`` (default :data:`RESIDUAL_RTOL`; a sign
+            needs far less).
 
         Returns
         -------
@@ -230,7 +234,7 @@ class LoopModes:
         Raises
         ------
         ModelError
-            If the residuals do not fall below :data:`RESIDUAL_RTOL` in
+            If the residuals do not fall below ``rtol`` in
             :data:`MAX_ITERATIONS` iterations.
         """
         sigma = SHIFT if sigma is None else sigma
@@ -253,10 +257,10 @@ class LoopModes:
             X, AX, KX = V @ Y, AV @ Y, KV @ Y
             R = KX - AX * w2
             miss = np.linalg.norm(R, axis=0) / np.maximum(np.abs(w2) * np.linalg.norm(AX, axis=0), 1e-300)
-            if np.all(miss <= RESIDUAL_RTOL):
+            if np.all(miss <= rtol):
                 self.n_iterations = iteration + 1
                 return w2, X
-            W = np.column_stack([precondition(R[:, j]) for j in np.flatnonzero(miss > RESIDUAL_RTOL)])
+            W = np.column_stack([precondition(R[:, j]) for j in np.flatnonzero(miss > rtol)])
             if V.shape[1] + W.shape[1] > 4 * (k + 2):  # restart from the Ritz vectors
                 basis = (X, AX, KX)
         raise ModelError(f"modes: the Davidson iteration of the loops left residuals up to {np.max(miss):.3g} of "

@@ -62,6 +62,14 @@ class _NewtonFailed(Exception):
     """A Newton step that cannot be taken (the caller turns it into its own failure)."""
 
 
+class _NotConverged(Exception):
+    """A Newton iteration or a path step that failed: why, the last correction, the residual, the iterations."""
+
+    def __init__(self, why, step, residual, iterations):
+        super().__init__(why)
+        self.why, self.step, self.residual, self.iterations = why, step, residual, iterations
+
+
 class LoopEquations:
     """``g(x, lambda) = F(x) - (1 - lambda) F(x0)`` and its Newton step, for loops closed by the articulated strategy.
 
@@ -112,7 +120,23 @@ class LoopEquations:
         return v, lam
 
     def project(self, x):
-        """x moved onto the constraints (:meth:`System.project`); a failure is a failed step."""
+        """The coordinates x moved onto the constraints (:meth:`System.project`).
+
+        Parameters
+        ----------
+        x : ndarray, shape (nq,)
+            Coordinates.
+
+        Returns
+        -------
+        ndarray, shape (nq,)
+            On the constraints.
+
+        Raises
+        ------
+        _NewtonFailed
+            If the loops cannot be closed: a failed step.
+        """
         try:
             return self.system.project(self.t, x, np.zeros(self.n))[0]
         except AssemblyError as exc:
@@ -136,16 +160,66 @@ class LoopEquations:
             raise _NewtonFailed("the mass matrix is singular on the constraints' null space")
         return v
 
+    def _shifted(self, x, lam, w):
+        """``g(x, lambda) + psi(x)^T w`` (the balance differenced at fixed multipliers w)."""
+        return self._balance(_plain(x), w)[1] - (1.0 - lam) * self.ref
+
+    def operator(self, pt: _LoopPoint, lam, onto=False):
+        """The product ``d -> (P_S H d_t, d_t)`` at a point, ``d_t`` the part of d in the null space of psi.
+
+        ``H d_t`` is a central difference of ``g + psi^T mu`` (mu fixed)
+        along the unit direction of ``d_t``; one product costs two balances,
+        one constrained solve and one projection onto the null space (two
+        with ``onto``).
+
+        ``P_S``'s result is on ``psi v = 0`` to the kernel's accuracy only;
+        near a singular position (psi's smallest singular values a few
+        thousandths) that leaves it off the null space enough to stall a
+        solve whose right-hand side is on it: ``onto=True`` takes the
+        result's part there too (the bordered solves of the path). Newton's
+        step (:meth:`krylov`) leaves it: on a mechanism with no stiffness
+        along its free motion the products are round-off, and their part off
+        the null space is what stalls the solve and reports the singular
+        tangent stiffness.
+
+        Parameters
+        ----------
+        pt : _LoopPoint
+            The equations at the point.
+        lam : float
+            Its load factor.
+        onto : bool
+            Whether the result's part on the null space is taken.
+
+        Returns
+        -------
+        callable
+            ``d -> (P_S H d_t, d_t)``, both ndarray of shape (n,).
+        """
+        x, mu, h = pt.x, pt.mu, self.h
+
+        def product(d):
+            d = self._tangential(x, np.ravel(d))
+            size = float(np.linalg.norm(d))
+            if size == 0.0:
+                return np.zeros(self.n), d
+            e = d / size
+            self.n_products += 1
+            diff = self._shifted(self.move(x, h * e), lam, mu) - self._shifted(self.move(x, -h * e), lam, mu)
+            v = self._solve(x, self.stiffness, diff * (size / (2 * h)))[0]
+            return (self._tangential(x, v) if onto else v), d
+
+        return product
+
     def newton_step(self, pt: _LoopPoint, lam):
         """``dx`` in the null space of psi with ``T^T (H dx + g) = 0``, by GMRES on ``P_S H dx = -P_S g``.
 
-        The products take their direction's part in the null space of psi
-        first (the operator is singular on the rest, where round-off would
-        otherwise leave arbitrary components), the right-hand side is
-        projected there too (near the solution its rounding error, of the
-        size of ``|P_S| |g|``, is as large as itself, and GMRES would chase
-        the part no product can give), and the solve stops at that rounding
-        floor.
+        Parameters
+        ----------
+        pt : _LoopPoint
+            The equations at the state.
+        lam : float
+            The load factor.
 
         Returns
         -------
@@ -159,27 +233,51 @@ class LoopEquations:
         _NewtonFailed
             If the tangent stiffness is singular (the Krylov solve stalls above its floor).
         """
-        x, mu, h = pt.x, pt.mu, self.h
-        shift = (1.0 - lam) * self.ref
+        dx = self.krylov(pt, lam, pt.g)
+        return dx, float(np.max(np.abs(dx))) if dx.size else 0.0
 
-        def balance(d):
-            return self._balance(_plain(self.move(x, d)), mu)[1] - shift
+    def krylov(self, pt: _LoopPoint, lam, load):
+        """``dx`` in the null space of psi with ``T^T (H dx + load) = 0``, by GMRES on ``P_S H dx = -P_S load``.
+
+        The products take their direction's part in the null space of psi
+        first (the operator is singular on the rest, where round-off would
+        otherwise leave arbitrary components), the right-hand side is
+        projected there too (near the solution its rounding error, of the
+        size of ``|P_S| |load|``, is as large as itself, and GMRES would
+        chase the part no product can give), and the solve stops at that
+        rounding floor.
+
+        Parameters
+        ----------
+        pt : _LoopPoint
+            The equations at the state.
+        lam : float
+            The load factor.
+        load : ndarray, shape (n,)
+            Generalized forces (``g`` for a Newton step, ``dg/dlambda`` for the path's slope).
+
+        Returns
+        -------
+        ndarray, shape (n,)
+            dx, along the speeds (zeros where ``P_S load`` is round-off).
+
+        Raises
+        ------
+        _NewtonFailed
+            If the tangent stiffness is singular (the Krylov solve stalls above its floor).
+        """
+        x = pt.x
+        apply = self.operator(pt, lam)
 
         def product(d):
-            d = self._tangential(x, np.ravel(d))
-            size = float(np.linalg.norm(d))
-            if size == 0.0:
-                return np.zeros(self.n)
-            e = d / size
-            self.n_products += 1
-            return self._solve(x, self.stiffness, (balance(h * e) - balance(-h * e)) * (size / (2 * h)))[0]
+            return apply(d)[0]
 
         # in the null space of psi up to round-off of its own size (not of |P_S| |g|): the operator's range
-        rhs = -self._tangential(x, self._solve(x, self.stiffness, pt.g)[0])
+        rhs = -self._tangential(x, self._solve(x, self.stiffness, load)[0])
         scale = float(np.linalg.norm(rhs))
-        floor = KRYLOV_FLOOR * float(np.linalg.norm(self._solve(x, self.stiffness, np.abs(pt.g))[0]))
+        floor = KRYLOV_FLOOR * float(np.linalg.norm(self._solve(x, self.stiffness, np.abs(load))[0]))
         if scale <= floor:  # the residual is round-off: no step
-            return np.zeros(self.n), 0.0
+            return np.zeros(self.n)
         op = LinearOperator((self.n, self.n), matvec=product, dtype=float)
         dx, _ = gmres(op, rhs, rtol=KRYLOV_RTOL, atol=floor, restart=min(self.n, KRYLOV_RESTART),
                       maxiter=max(1, 4 * self.n // KRYLOV_RESTART + 1))
@@ -187,4 +285,4 @@ class LoopEquations:
         left = float(np.linalg.norm(product(dx) - rhs))
         if not (np.all(np.isfinite(dx)) and left <= max(KRYLOV_SINGULAR * scale, 10 * floor)):
             raise _NewtonFailed("the tangent stiffness is singular")
-        return dx, float(np.max(np.abs(dx)))
+        return dx

@@ -20,11 +20,10 @@ import scipy.linalg as sla
 
 from ..assembly import ForceAssembler
 from .._validate import state_vector
-from ..errors import AssemblyError, ModelError
-from ..fields import label
-from ..forces import ForceElement
+from ..errors import AssemblyError
 from ..threads import limited_blas
-from .loop_statics import _NewtonFailed
+from .loop_paths import LoopPathEquations, Stiffness, chosen_loads
+from .loop_statics import _NewtonFailed, _NotConverged
 from .paths import CriticalPoint, LoadPath, PathOptions, _list_limits
 
 __all__ = ["load_path"]
@@ -58,23 +57,11 @@ class _Equations:
             self.rest, self.load, self.name = system.forces, None, "Newton homotopy F(x) - (1 - lambda) F(x0)"
             self.ref = system.forces.active_force(self._kin(x0))
             return
-        refs = [load] if isinstance(load, (str, ForceElement)) else list(load)
-        if not refs:
-            raise ModelError("load_path: load names no force element (give an element, a name, a list or None)")
-        chosen = []
-        for ref in refs:
-            e = system.model.element(ref, ForceElement)
-            if not any(e is o for o in elements):
-                raise ModelError(f"load_path: {label(e)} is not among the system's force elements")
-            chosen.append(e)
+        chosen = chosen_loads(system, load)
         self.rest = ForceAssembler([e for e in elements if not any(e is c for c in chosen)])
         self.load = ForceAssembler(chosen)
         self.name = ", ".join(e.name for e in chosen)
         self.ref = None
-
-    def between(self, x_a, x_b, u):
-        """The coordinates a fraction ``u`` of the way from ``x_a`` to ``x_b``, along the speeds."""
-        return self.move(x_a, u * self.system.layout.difference(x_b, x_a))
 
     def _kin(self, x):
         return self.system.kinematics(self.t, x, self.zero)
@@ -132,11 +119,30 @@ class _Equations:
         g, _, psi = self._forces(x, lam)
         return g if mu is None else g + psi.T @ mu
 
+    def along(self, pt, lam):
+        """``dx/dlambda = T v``, ``J v = -dR/dlambda`` (LinAlgError where J is singular)."""
+        if pt.J.shape[0] and np.linalg.cond(pt.J) > 1e13:
+            raise np.linalg.LinAlgError("singular tangent stiffness")
+        return pt.T @ -np.linalg.solve(pt.J, pt.R_lam)
 
-class _NotConverged(Exception):
-    def __init__(self, why, step, residual, iterations):
-        super().__init__(why)
-        self.why, self.step, self.residual, self.iterations = why, step, residual, iterations
+    def bordered(self, pt, lam, tx, tl, c, end, residual=True):
+        """``(T dz, dl, max |dz|)`` of ``[J, R_lam; (T^T tx / c^2)^T, tl] [dz; dl] = [-R or 0; end]``."""
+        p = pt.J.shape[0]
+        M = np.zeros((p + 1, p + 1))
+        M[:p, :p], M[:p, p] = pt.J, pt.R_lam
+        M[p, :p], M[p, p] = pt.T.T @ tx / c**2, tl
+        sol = np.linalg.solve(M, np.append(-pt.R if residual else np.zeros(p), end))
+        return pt.T @ sol[:p], sol[p], _norm(sol[:p])
+
+    def stiffness_at(self, pt, lam, previous):
+        """The stability record: eigenvalues, ascending, of the symmetric part of ``K = -J``, and K."""
+        K = -0.5 * (pt.J + pt.J.T)
+        return Stiffness(np.linalg.eigvalsh(K) if K.size else np.zeros(0), K, None)
+
+
+def _between(eq, x_a, x_b, u):
+    """The coordinates a fraction ``u`` of the way from ``x_a`` to ``x_b``, along the speeds."""
+    return eq.move(x_a, u * eq.system.layout.difference(x_b, x_a))
 
 
 def _norm(v) -> float:
@@ -167,23 +173,13 @@ def _newton(eq, x, lam, tol, max_iter, counts, monotone=False):
     raise _NotConverged(f"no convergence in {max_iter} Newton steps", step, _norm(pt.R), max_iter)
 
 
-def _tangent(pt, prev, c):
+def _tangent(eq, pt, lam, prev, c):
     """Unit tangent (t_x, t_lam) of the path, oriented along ``prev`` (or towards growing lambda)."""
-    p = pt.J.shape[0]
     if prev is None:
-        if p and np.linalg.cond(pt.J) > 1e13:
-            raise np.linalg.LinAlgError("singular tangent stiffness")
-        v = -np.linalg.solve(pt.J, pt.R_lam)
-        tx, tl = pt.T @ v, 1.0
+        tx, tl = eq.along(pt, lam), 1.0
     else:
         # bordered system [J R_lam; prev] t = [0; 1]: regular at limit points, where J is singular
-        M = np.zeros((p + 1, p + 1))
-        M[:p, :p], M[:p, p] = pt.J, pt.R_lam
-        M[p, :p], M[p, p] = pt.T.T @ prev[0] / c**2, prev[1]
-        rhs = np.zeros(p + 1)
-        rhs[p] = 1.0
-        sol = np.linalg.solve(M, rhs)
-        tx, tl = pt.T @ sol[:p], sol[p]
+        tx, tl, _ = eq.bordered(pt, lam, prev[0], prev[1], c, 1.0, residual=False)
     size = np.sqrt(tx @ tx / c**2 + tl**2)
     return tx / size, tl / size
 
@@ -203,23 +199,23 @@ def _hermite_extreme(s0, s1, l0, l1, d0, d1):
 class _Path:
     """Accumulates the accepted points of a path and finds its limit points."""
 
-    def __init__(self, eq, x, lam, residual, J):
+    def __init__(self, eq, x, lam, residual, pt):
         self.eq = eq
         self.lam, self.x, self.residual, self.arc, self.t_lam, self.t_x = [lam], [x], [residual], [0.0], [None], [None]
-        self.eigs = [_stiffness_eigenvalues(J)]
-        self.J = [None, J]  # the tangents at the last two points
+        self.K = [None, eq.stiffness_at(pt, lam, None)]  # the stability records of the last two points
+        self.eigs = [self.K[1].eigs]
         self.limits, self.bifurcations = [], []
         self.counts = {"iterations": 0, "tangents": 0, "steps": 0, "rejected": 0}
 
-    def add(self, x, lam, residual, ds, tx, tl, J):
+    def add(self, x, lam, residual, ds, tx, tl, pt):
         self.lam.append(lam)
         self.x.append(x)
         self.residual.append(residual)
         self.arc.append(self.arc[-1] + ds)
         self.t_lam.append(tl)
         self.t_x.append(tx)
-        self.eigs.append(_stiffness_eigenvalues(J))
-        self.J = [self.J[1], J]
+        self.K = [self.K[1], self.eq.stiffness_at(pt, lam, self.K[1])]
+        self.eigs.append(self.K[1].eigs)
 
     def n_unstable(self) -> np.ndarray:
         return np.array([_count_negative(e) for e in self.eigs], dtype=int)
@@ -236,8 +232,10 @@ class _Path:
         u = e0 / (e0 - e1) if e0 != e1 else 0.5
         # refined with the tangent stiffness interpolated linearly over the step (exact where it is
         # linear in lambda, as on the straight path of a perfect column): K0 + u (K1 - K0) singular
-        K0, K1 = (-0.5 * (J + J.T) for J in self.J)
+        K0, K1 = (record.K for record in self.K)
         try:
+            if K0 is None or K1 is None or K0.shape != K1.shape:  # no common basis: the linear estimate stands
+                raise ValueError
             roots = sla.eigvals(K0, K0 - K1)
             roots = roots.real[(np.abs(roots.imag) < 1e-9) & (roots.real >= 0) & (roots.real <= 1)]
             if roots.size:
@@ -271,7 +269,7 @@ class _Path:
         try:
             for _ in range(20):
                 x_s, lam_s, pt, _ = _corrector(self.eq, x_a, lam_a, tx_a, tl_a, s, c, options, self.counts)
-                f = _tangent(pt, (tx_a, tl_a), c)[1]
+                f = _tangent(self.eq, pt, lam_s, (tx_a, tl_a), c)[1]
                 x, lam = x_s, lam_s
                 if abs(f) < 1e-10 or hi - lo < options.tol:
                     break
@@ -297,11 +295,6 @@ class _Path:
                         n_tangents=c["tangents"])
 
 
-def _stiffness_eigenvalues(J) -> np.ndarray:
-    """Eigenvalues, ascending, of the symmetric part of the tangent stiffness ``K = -J``."""
-    return np.linalg.eigvalsh(-0.5 * (J + J.T)) if J.size else np.zeros(0)
-
-
 def _count_negative(eigs) -> int:
     # negative beyond round-off, relative to the largest stiffness
     return int(np.sum(eigs < -1e-9 * np.max(np.abs(eigs)))) if eigs.size else 0
@@ -316,18 +309,18 @@ def _fail(message, path):
 def _follow(eq, x, lam, lam_end, options, tol_end, who="load path"):
     """Follow the path from the equilibrium (x, lam) until lambda reaches lam_end."""
     pt = eq(x, lam)
-    path = _Path(eq, x, lam, _norm(pt.R), pt.J)
+    path = _Path(eq, x, lam, _norm(pt.R), pt)
     path.counts["tangents"] += 1
     direction = 1.0 if lam_end >= lam else -1.0
     try:
-        tx, tl = _tangent(pt, None, 1.0)
+        tx, tl = _tangent(eq, pt, lam, None, 1.0)
     except np.linalg.LinAlgError:
         raise _fail(f"{who}: the tangent stiffness is singular at the start (load factor {lam:.6g}, residual "
                     f"{_norm(pt.R):.3g}, load to carry {_norm(pt.R_lam):.3g}): a mechanism with no stiffness "
                     f"against the load ({eq.name})?", path) from None
     c = float(np.linalg.norm(tx)) / abs(tl) if tl else 1.0
     c = c if c > 0 and np.isfinite(c) else 1.0
-    tx, tl = _tangent(pt, None, c)
+    tx, tl = _tangent(eq, pt, lam, None, c)
     tx, tl = direction * tx, direction * tl
     path.set_tangent(tx, tl)
     ds = options.step
@@ -351,7 +344,7 @@ def _follow(eq, x, lam, lam_end, options, tol_end, who="load path"):
             # the target lies in this step: interpolate, then Newton at the target load factor
             u = (lam_end - lam_a) / (lam_new - lam_a)
             try:
-                x_end, pt_end = _newton(eq, eq.project(eq.between(x_a, x_new, u)), lam_end, tol_end,
+                x_end, pt_end = _newton(eq, eq.project(_between(eq, x_a, x_new, u)), lam_end, tol_end,
                                         max(options.max_iter, 20), path.counts)
             except _NotConverged as exc:
                 path.counts["rejected"] += 1
@@ -363,11 +356,11 @@ def _follow(eq, x, lam, lam_end, options, tol_end, who="load path"):
                 continue
             pt_end = eq(x_end, lam_end)
             path.counts["tangents"] += 1
-            path.add(x_end, float(lam_end), _norm(pt_end.R), ds * u, *_tangent_or(pt_end, tx, tl, c), pt_end.J)
+            path.add(x_end, float(lam_end), _norm(pt_end.R), ds * u, *_tangent_or(eq, pt_end, lam_end, tx, tl, c))
             path.check_bifurcation()
             return path.result(True)
         try:
-            tx_new, tl_new = _tangent(pt_new, (tx, tl), c)
+            tx_new, tl_new = _tangent(eq, pt_new, lam_new, (tx, tl), c)
         except np.linalg.LinAlgError:
             raise _fail(f"{who}: the path's tangent is undefined at load step {path.counts['steps']}, load "
                         f"factor {lam_new:.6g} (a bifurcation?); residual {_norm(pt_new.R):.3g}", path) from None
@@ -378,7 +371,7 @@ def _follow(eq, x, lam, lam_end, options, tol_end, who="load path"):
             ds /= 2
             continue
         tx, tl = tx_new, tl_new
-        path.add(x_new, lam_new, _norm(pt_new.R), ds, tx, tl, pt_new.J)
+        path.add(x_new, lam_new, _norm(pt_new.R), ds, tx, tl, pt_new)
         if path.turned():
             path.add_limit(options, c)
             if len(path.limits) >= options.max_limit_points:
@@ -396,11 +389,12 @@ def _follow(eq, x, lam, lam_end, options, tol_end, who="load path"):
                 + f"), residual {path.residual[-1]:.3g}: can the structure carry the load?", path)
 
 
-def _tangent_or(pt, tx, tl, c):
+def _tangent_or(eq, pt, lam, tx, tl, c):
+    """The unit tangent at ``pt`` (or ``(tx, tl)`` where it is undefined), and ``pt``: the rest of :meth:`_Path.add`."""
     try:
-        return _tangent(pt, (tx, tl), c)
+        return (*_tangent(eq, pt, lam, (tx, tl), c), pt)
     except np.linalg.LinAlgError:
-        return tx, tl
+        return tx, tl, pt
 
 
 def _corrector(eq, x_a, lam_a, tx, tl, ds, c, options, counts):
@@ -415,19 +409,17 @@ def _corrector(eq, x_a, lam_a, tx, tl, ds, c, options, counts):
         res = _norm(pt.R)
         if not np.isfinite(res):
             raise _NotConverged("the forces are not finite", step, res, k)
-        p = pt.J.shape[0]
-        M = np.zeros((p + 1, p + 1))
-        M[:p, :p], M[:p, p] = pt.J, pt.R_lam
-        M[p, :p], M[p, p] = pt.T.T @ tx / c**2, tl
         # normal plane through the predictor: (x - x_a) . tx / c^2 + (lam - lam_a) tl = ds
         plane = eq.system.layout.difference(x, x_a) @ tx / c**2 + (lam - lam_a) * tl - ds
         try:
-            sol = np.linalg.solve(M, -np.append(pt.R, plane))
+            dx, dl, size = eq.bordered(pt, lam, tx, tl, c, -plane)
+            x = eq.project(eq.move(x, dx))
         except np.linalg.LinAlgError:
             raise _NotConverged("the bordered tangent matrix is singular", step, res, k) from None
-        x = eq.project(eq.move(x, pt.T @ sol[:p]))
-        lam = lam + sol[p]
-        step = max(_norm(sol[:p]), abs(sol[p]))
+        except _NewtonFailed as exc:
+            raise _NotConverged(str(exc), step, res, k) from None
+        lam = lam + dl
+        step = max(size, abs(dl))
         if step < options.tol:
             counts["tangents"] += 1
             return x, lam, eq(x, lam), k
@@ -516,6 +508,12 @@ def load_path(system, load=None, x0=None, t: float = 0.0, *, lam_end: float = 1.
     force applied off the mass centre (a tip force); Newton's method would
     then converge only linearly.
 
+    For loops closed by the articulated strategy none of psi, T or J is
+    formed (:mod:`flexmb.analysis.loop_paths`, O(n m) per product): the
+    bordered systems are solved by GMRES in the null space of psi,
+    preconditioned as :func:`static_equilibrium`'s Newton steps; the
+    residual is then ``g + psi^T mu`` and the corrector's step ``max |dx|``.
+
     Stability: at each point the eigenvalues of the symmetric part of the
     reduced tangent stiffness ``-J`` are counted (``LoadPath.n_unstable``,
     the negative ones). Where that count changes over a step with no limit
@@ -556,7 +554,8 @@ def load_path(system, load=None, x0=None, t: float = 0.0, *, lam_end: float = 1.
     options = PathOptions() if options is None else options
     x = _start(system, x0)
     x = system.project(t, x, np.zeros(system.n_speeds))[0]
-    eq = _Equations(system, t, load, x)
+    # loops closed by the articulated strategy: T, psi and J never formed (loop_paths.py)
+    eq = LoopPathEquations(system, t, load, x) if system._loop_kernel else _Equations(system, t, load, x)
     counts = {"iterations": 0, "tangents": 0}
     if load is not None:
         try:

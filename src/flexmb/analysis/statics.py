@@ -15,7 +15,7 @@ import numpy as np
 from .._validate import number, whole
 from ..errors import AssemblyError
 from ..threads import limited_blas
-from .loop_statics import LoopEquations
+from .loop_paths import LoopPathEquations
 from .path_following import _Equations, _follow, _newton, _NotConverged, _start
 from .paths import PathOptions
 
@@ -83,7 +83,8 @@ def static_equilibrium(system, x0=None, t: float = 0.0, tol: float = 1e-10, max_
     constrained articulated solve with the springs as armature, O(n m) per
     product (:class:`~flexmb.analysis.loop_statics.LoopEquations`; the same
     equilibria as the dense route); its residual is ``g + psi^T mu``, its
-    step ``max |dx|``. The continuation forms T.
+    step ``max |dx|``. So does the continuation
+    (:class:`~flexmb.analysis.loop_paths.LoopPathEquations`).
 
     Newton's homotopy at an unstressed ``x0`` (straight beams, springs at
     their free lengths) starts from the loads alone, so the continuation is
@@ -118,7 +119,7 @@ def static_equilibrium(system, x0=None, t: float = 0.0, tol: float = 1e-10, max_
     x = _start(system, x0)
     x, _ = system.project(t, x, np.zeros(system.n_speeds))
     # loops closed by the articulated strategy: Newton's iteration in O(n m), T never formed (loop_statics.py)
-    eq = LoopEquations(system, t, x) if system._loop_kernel else _Equations(system, t, None, x)
+    eq = LoopPathEquations(system, t, None, x) if system._loop_kernel else _Equations(system, t, None, x)
     counts = {"iterations": 0, "tangents": 0}
     try:
         x_eq, _ = _newton(eq, x, 1.0, tol, max_iter, counts, monotone=continuation)
@@ -133,8 +134,6 @@ def static_equilibrium(system, x0=None, t: float = 0.0, tol: float = 1e-10, max_
             raise AssemblyError(
                 f"static equilibrium: Newton's method stopped at step {exc.iterations + 1}: {exc.why}{hint}; "
                 f"last step {exc.step:.3g}, force residual {exc.residual:.3g}") from None
-    if not isinstance(eq, _Equations):  # the continuation forms T (a dense p x p tangent for its stability)
-        eq = _Equations(system, t, None, x)
     path = _follow(eq, x, 0.0, 1.0, PathOptions() if options is None else options, tol, "static equilibrium")
     path.n_iterations += counts["iterations"]
     path.n_tangents += counts["tangents"]

@@ -95,9 +95,10 @@ class LoadSampler(threading.Thread):
         return {"load_min": round(min(s), 2), "load_mean": round(sum(s) / len(s), 2), "load_max": round(max(s), 2)}
 
 
-def run_tests(python: str, checkout: str, cache: str, tmp: str, basetemp: str) -> dict:
-    """One run of the README's test command in ``checkout``: CPU, wall, pytest's counts, load, compiles saved."""
-    argv = [python, "-m", "pytest", "-q", "-p", "no:cacheprovider", f"--basetemp={basetemp}"]
+def run_tests(python: str, checkout: str, cache: str, tmp: str, basetemp: str, tests: list[str]) -> dict:
+    """One run of the README's test command in ``checkout`` (only ``tests`` if given): CPU, wall, pytest's counts,
+    load, compiles saved."""
+    argv = [python, "-m", "pytest", "-q", "-p", "no:cacheprovider", f"--basetemp={basetemp}", *tests]
     env = dict(_env(cache), TMPDIR=tmp)
     shared = (cache, os.path.join(checkout, "src"), os.path.join(checkout, "plugins"), tmp)
     files = cache_files(*shared)
@@ -120,7 +121,7 @@ def run_tests(python: str, checkout: str, cache: str, tmp: str, basetemp: str) -
             "shared": saved(files, cache_files(*shared)), "probes": saved({}, cache_files(basetemp)), **load}
 
 
-def measure(venvs: dict[str, str], rounds: int, out: str) -> None:
+def measure(venvs: dict[str, str], rounds: int, out: str, tests: list[str]) -> None:
     """``rounds`` rounds: every venv cold, then every venv warm on its own cache of that round."""
     if not _adopt_orphans():
         print("cannot adopt orphaned descendants: processes they leave are not counted", file=sys.stderr)
@@ -140,10 +141,11 @@ def measure(venvs: dict[str, str], rounds: int, out: str) -> None:
             for kind in ("cold", "warm"):
                 for label, (python, checkout, commit, ship) in info.items():
                     basetemp = os.path.join(work[label], f"basetemp-{kind}")
-                    row = {"venv": label, "commit": commit, "shipped": ship, "cache": kind, "round": r,
+                    row = {"venv": label, "commit": commit, "shipped": ship, "tests": " ".join(tests) or "all",
+                           "cache": kind, "round": r,
                            "date": time.strftime("%Y-%m-%d %H:%M", time.gmtime()),
                            **run_tests(python, checkout, os.path.join(work[label], "numba-cache"),
-                                       os.path.join(work[label], "tmp"), basetemp)}
+                                       os.path.join(work[label], "tmp"), basetemp, tests)}
                     shutil.rmtree(basetemp, ignore_errors=True)
                     print(json.dumps(row), file=sys.stderr)
                     with open(out, "a", encoding="utf-8") as f:
@@ -156,20 +158,22 @@ def measure(venvs: dict[str, str], rounds: int, out: str) -> None:
 def summary(out: str, base: str = "base") -> str:
     """Markdown table, one line per venv and round: cold, warm, compile = cold - warm, against ``base``'s."""
     rows = [json.loads(ln) for ln in open(out, encoding="utf-8") if ln.strip()]
-    runs = {(row["venv"], row["commit"], row["round"], row["cache"]): row for row in rows}
-    lines = [f"| venv | commit | round | cold CPU s | warm CPU s | compile s | compile / {base}'s | cold wall s | "
+    runs = {(row.get("tests", "all"), row["venv"], row["commit"], row["round"], row["cache"]): row for row in rows}
+    lines = [f"| tests | venv | commit | round | cold CPU s | warm CPU s | compile s | compile / {base}'s | cold wall s | "
              "warm wall s | passed / skipped / failed (cold; warm) | kernels / signatures saved cold (warm) | "
-             "probes' signatures cold / warm | load 1 min (min-max) |", "|---" * 13 + "|"]
-    for (venv, commit, r, kind), cold in sorted(runs.items(), key=lambda kv: (kv[0][2], kv[0][0] != base)):
-        warm = runs.get((venv, commit, r, "warm"))
+             "probes' signatures cold / warm | load 1 min (min-max) |", "|---" * 14 + "|"]
+    for (tests, venv, commit, r, kind), cold in sorted(runs.items(), key=lambda kv: (kv[0][0], kv[0][3],
+                                                                                       kv[0][1] != base)):
+        warm = runs.get((tests, venv, commit, r, "warm"))
         if kind != "cold" or warm is None:
             continue
-        ref = [(runs[k], runs.get(k[:3] + ("warm",))) for k in runs if k[0] == base and k[2] == r and k[3] == "cold"]
+        ref = [(runs[k], runs.get(k[:4] + ("warm",))) for k in runs
+               if k[0] == tests and k[1] == base and k[3] == r and k[4] == "cold"]
         compile_s = cold["cpu_s"] - warm["cpu_s"]
         vs = (f"{compile_s / (ref[0][0]['cpu_s'] - ref[0][1]['cpu_s']):.3f}" if ref and ref[0][1] else "-")
         c = [f"{x['counts'].get('passed', 0)} / {x['counts'].get('skipped', 0)} / {x['counts'].get('failed', 0)}"
              for x in (cold, warm)]
-        lines.append(f"| {venv} | {commit} | {r} | {cold['cpu_s']:.1f} | {warm['cpu_s']:.1f} | {compile_s:+.1f} | "
+        lines.append(f"| {tests} | {venv} | {commit} | {r} | {cold['cpu_s']:.1f} | {warm['cpu_s']:.1f} | {compile_s:+.1f} | "
                      f"{vs} | {cold['wall_s']:.0f} | {warm['wall_s']:.0f} | {c[0]}; {c[1]} | "
                      f"{cold['shared']['nbi']} / {cold['shared']['nbc']} ({warm['shared']['nbi']} / "
                      f"{warm['shared']['nbc']}) | {cold['probes']['nbc']} / {warm['probes']['nbc']} | "
@@ -182,6 +186,8 @@ def main(argv=None) -> None:
     p.add_argument("--venv", action="append", default=[], metavar="LABEL=PATH",
                    help="a venv with flexmb installed editable from a checkout, repeatable (the first is the base)")
     p.add_argument("--rounds", type=int, default=1)
+    p.add_argument("--tests", nargs="*", default=[],
+                   help="only these test files (to time what they compile); default: the whole command")
     p.add_argument("--out", default=os.path.join(HERE, "results", "test_command_compile.jsonl"))
     p.add_argument("--summary", action="store_true", help="only print the table of --out")
     args = p.parse_args(argv)
@@ -189,7 +195,7 @@ def main(argv=None) -> None:
     if not args.summary:
         if not venvs:
             p.error("give --venv LABEL=PATH at least once")
-        measure(venvs, args.rounds, args.out)
+        measure(venvs, args.rounds, args.out, args.tests)
     print(summary(args.out, base=next(iter(venvs), "base")))
 
 

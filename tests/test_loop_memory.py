@@ -26,10 +26,11 @@ about 10 kB per body while a file is written: linear, with a constant that
   ``benchmarks/loop_consumers_memory.py``, which also measures them), on B7
   at N = 512 (n = 1025): its traced peak stays below half of one n x n
   array (8 n^2 bytes), so that forming psi (m x n, m = n - 1) or any n x n
-  array fails. Those still dense are marked as expected failures (strict:
-  one made linear fails until its mark goes): path following and the
-  linearisation (docs/benchmarks.md, "Memory of the consumers of the
-  equations").
+  array fails (the linearisation and state space: B7 has p = 1, their
+  n x p basis and p x p results are small). Those still dense are marked
+  as expected failures (strict: one made linear fails until its mark
+  goes): path following (docs/benchmarks.md, "Memory of the consumers of
+  the equations").
 """
 
 from __future__ import annotations
@@ -113,8 +114,6 @@ def test_b6_at_2048_segments_needs_memory_far_below_n_squared(tmp_path):
 #: consumers that still form an n x n array on B7 (docs/benchmarks.md, "Memory of the consumers of the equations")
 DENSE = {
     "path": "path following forms psi, its SVD's V and the p x p tangent densely",
-    "linearize": "the linearisation forms T from psi's dense SVD and the n x n mass matrix",
-    "state_space": "state_space linearises through linearize (its 2p x 2p result is its contract; B7 has p = 1)",
 }
 #: linear, with a constant above the bound at this size (about 12 kB per body while a file is written): its
 #: growth is bounded instead (the tests above)

@@ -15,7 +15,7 @@ from .._validate import state_time, state_vector, whole
 from ..errors import ModelError
 from ..forces import BeamElasticity, BodyTorque, Gravity, JointSpringDamper, PointForce
 from ..threads import limited_blas
-from .loop_modes import loop_modes, takes_loop_modes
+from .loop_modes import LoopModes, loop_modes, takes_loop_modes
 
 __all__ = ["Linearization", "linearize", "modes", "linear_statics", "tangent_gap", "LINEARIZE_METHODS"]
 
@@ -229,29 +229,47 @@ def linearize(system, x0=None, xd0=None, t: float = 0.0, h: float = 1e-6, method
     t = state_time("linearize", t)
     x0 = system.layout.reference() if x0 is None else state_vector("linearize", "x0", x0, nq)
     xd0 = np.zeros(n) if xd0 is None else state_vector("linearize", "xd0", xd0, n)
-    eq = system.equations(t, x0, xd0)
-    kin, A, f, psi, gamma = eq.kin, eq.A, eq.f, eq.psi, eq.gamma
-    c = system.complement(psi)
-    T = c.T
-    p = T.shape[1]
-    M = T.T @ A @ T
-    xdd_p = c.particular(gamma) if c.rank else np.zeros(n)
-    F = T.T @ (f - A @ xdd_p)
+    T, AT, M, F = _reduced(system, t, x0, xd0, h)
     reason = tangent_gap(system, x0, xd0, t) if method != "fd" else "asked for"
     if method == "analytic" and reason:
         raise ModelError(f"linearize: the analytic tangent is not exact here ({reason}); use method='auto' or 'fd'")
     if not reason:
-        K, C = _analytic(system, kin, T, system.accelerations(t, x0, xd0))
+        K, C = _analytic(system, system.kinematics(t, x0, xd0), T, system.accelerations(t, x0, xd0))
         return Linearization(M=M, C=C, K=K, F=F, T=T, x0=x0, xd0=xd0, t=t, method="analytic")
-    Jx = np.zeros((n, p))
-    Jv = np.zeros((n, p))
+    p = T.shape[1]
+    K, C = np.zeros((p, p)), np.zeros((p, p))
     move = system.layout.displace  # the coordinates perturbed along the speeds: x0 + W(x0) d
-    for i in range(p):
+    for i in range(p):  # a column of the differences at a time: no n x p arrays beyond T and A T
         d = h * T[:, i]
-        Jx[:, i] = (system.accelerations(t, move(x0, d), xd0) - system.accelerations(t, move(x0, -d), xd0)) / (2 * h)
-        Jv[:, i] = (system.accelerations(t, x0, xd0 + d) - system.accelerations(t, x0, xd0 - d)) / (2 * h)
-    return Linearization(M=M, C=-T.T @ A @ Jv, K=-T.T @ A @ Jx, F=F, T=T, x0=x0, xd0=xd0, t=t, method="fd",
-                         reason=reason)
+        jx = (system.accelerations(t, move(x0, d), xd0) - system.accelerations(t, move(x0, -d), xd0)) / (2 * h)
+        jv = (system.accelerations(t, x0, xd0 + d) - system.accelerations(t, x0, xd0 - d)) / (2 * h)
+        K[:, i], C[:, i] = -AT.T @ jx, -AT.T @ jv
+    return Linearization(M=M, C=C, K=K, F=F, T=T, x0=x0, xd0=xd0, t=t, method="fd", reason=reason)
+
+
+def _reduced(system, t, x0, xd0, h):
+    """T, ``A T``, ``M = T^T A T`` and ``F = T^T (f - A xdd_p)`` at a state.
+
+    With dense complements from the equations (A, psi and T by the
+    system's strategy: n x n arrays). Where the articulated strategy
+    closes the loops (:attr:`System._loop_kernel`) without an n x n array:
+    T an orthonormal basis of ``psi v = 0`` from p constrained solves
+    (:meth:`flexmb.analysis.loop_modes.LoopModes.basis`), ``A T`` by p
+    passes of the recursion, and ``F = M T^T xdd`` (equal to the above:
+    ``xdd_p = (I - T T^T) xdd`` is the particular solution of least norm,
+    and ``T^T (f - A xdd) = 0`` are the reduced equations, eq. 39).
+    O(p n m) time, n x p memory.
+    """
+    if system._loop_kernel:
+        T, AT = LoopModes(system, x0, xd0, t, h, where="linearize").basis(system.dof(t, x0))
+        M = T.T @ AT
+        return T, AT, M, M @ (T.T @ system.accelerations(t, x0, xd0))
+    eq = system.equations(t, x0, xd0)
+    c = system.complement(eq.psi)
+    T = c.T
+    AT = eq.A @ T
+    xdd_p = c.particular(eq.gamma) if c.rank else np.zeros(system.n_speeds)
+    return T, AT, T.T @ AT, T.T @ (eq.f - eq.A @ xdd_p)
 
 
 @limited_blas

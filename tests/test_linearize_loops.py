@@ -23,6 +23,10 @@ What is checked
   ``sqrt`` of K's scale where it vanishes). Not while moving: there the
   differences along T leave the speeds off the loops, which the two
   strategies' accelerations treat differently (the four-bar's K: 0.6 %).
+* A coordinate no row holds (a chain with a driven middle joint, built
+  with ``articulated``: the loop kernel's path) keeps its own column of
+  T and its name in the states, as with ``svd``; poles and static gain
+  equal svd's to 1e-8.
 """
 
 from __future__ import annotations
@@ -91,3 +95,23 @@ def test_the_dense_strategy_agrees_at_rest(case):
               "K": stiff, "C": max(float(np.max(np.abs(dense["C"]))), np.sqrt(stiff))}
     for key, scale in scales.items():
         assert np.max(np.abs(got[key] - dense[key])) <= 1e-7 * scale, (name, key)
+
+
+def test_coordinates_no_row_holds_keep_their_names():
+    """A chain of three bars hanging (gravity along them), its middle joint held: the other two are the states."""
+    model = fm.Model("driven chain")
+    bars = [fm.RigidBody.slender_bar(name, 1.0, 1.0) for name in "abc"]
+    parents, points = [model.ground, *bars[:2]], [(0, 0, 0), (1, 0, 0), (1, 0, 0)]
+    for i, (parent, bar, point) in enumerate(zip(parents, bars, points)):
+        model.add(fm.Revolute(f"p{i + 1}", parent, bar, parent_point=point, axis=(0, 0, 1)))
+    model.add(fm.Driver.constant_speed("drive", "p2", 0.0), fm.Gravity((9.81, 0.0, 0.0)))
+    x0 = np.zeros(3)
+    models = {c: model.build(complement=c) for c in ("svd", "articulated")}
+    assert models["articulated"]._loop_kernel and not models["svd"]._loop_kernel
+    ss = {c: fm.state_space(s, ["p1"], ["p3"], about=(x0, np.zeros(3))) for c, s in models.items()}
+    assert ss["articulated"].states == ss["svd"].states == ["p1.angle", "p3.angle", "p1.angle'", "p3.angle'"]
+    np.testing.assert_array_equal(np.abs(ss["articulated"].linearization.T), [[1, 0], [0, 0], [0, 1]])
+    poles = ss["articulated"].poles()  # by frequency
+    assert np.all(np.abs(poles.real) < 1e-6) and np.all(np.abs(poles.imag) > 1.0)  # hanging: it swings
+    np.testing.assert_allclose(poles, ss["svd"].poles(), rtol=1e-8)
+    np.testing.assert_allclose(ss["articulated"].static_gain(), ss["svd"].static_gain(), rtol=1e-8)

@@ -43,9 +43,15 @@ class Linearization:
         Generalized force left at the linearisation state (0 at an
         equilibrium).
     T : ndarray, shape (n, p)
-        Orthogonal complement over the speeds: the coordinates are
-        ``x0`` displaced by ``T z`` (``x0 + T z`` while the speeds are the
-        coordinates' rates; :meth:`flexmb.state_layout.StateLayout.displace`).
+        Orthogonal complement over the speeds (orthonormal columns with
+        ``psi T = 0``): the coordinates are ``x0`` displaced by ``T z``
+        (``x0 + T z`` while the speeds are the coordinates' rates;
+        :meth:`flexmb.state_layout.StateLayout.displace`). Its basis is
+        the strategy's: the SVD's (or QR's, eigen's) columns, or for loops
+        closed by the articulated strategy p constrained solves
+        (:meth:`flexmb.analysis.loop_modes.LoopModes.basis`); M, C, K and
+        F are in that basis, what does not depend on it (``T M^-1 K T^T``,
+        the modes, poles and transfer functions) is the same.
     x0 : ndarray, shape (nq,)
         The coordinates linearised about.
     xd0 : ndarray, shape (n,)
@@ -208,6 +214,15 @@ def linearize(system, x0=None, xd0=None, t: float = 0.0, h: float = 1e-6, method
     Where both apply they agree to the accuracy of the differences (about
     1e-10 relative with the default step; ``tests/test_state_space.py``).
 
+    With a dense complement (``svd``, ``qr``, ``eigen``) A, psi and T are
+    formed: O(n^3) time, n x n arrays. Where the articulated strategy
+    closes the loops, none is: T comes from p constrained solves of the
+    articulated-body recursion, ``A T`` from p passes of it, and K and C a
+    column of differences at a time, O(p n m) time and a few n x p arrays
+    (linear in n for few independent coordinates p; where p grows with n,
+    as for a flexible body in a loop, the result itself is that size;
+    ``tests/test_linearize_loops.py``).
+
     Examples
     --------
     A pendulum of mass m = 2 kg with its mass centre d = 0.5 m below the pin
@@ -261,7 +276,11 @@ def _reduced(system, t, x0, xd0, h):
     O(p n m) time, n x p memory.
     """
     if system._loop_kernel:
-        T, AT = LoopModes(system, x0, xd0, t, h, where="linearize").basis(system.dof(t, x0))
+        ops = LoopModes(system, x0, xd0, t, h, where="linearize")
+        T = _axes_first(ops.basis(system.dof(t, x0))[0])
+        AT = np.empty_like(T)
+        for j in range(T.shape[1]):
+            AT[:, j] = ops.mass_times(T[:, j])
         M = T.T @ AT
         return T, AT, M, M @ (T.T @ system.accelerations(t, x0, xd0))
     eq = system.equations(t, x0, xd0)
@@ -270,6 +289,38 @@ def _reduced(system, t, x0, xd0, h):
     AT = eq.A @ T
     xdd_p = c.particular(eq.gamma) if c.rank else np.zeros(system.n_speeds)
     return T, AT, T.T @ AT, T.T @ (eq.f - eq.A @ xdd_p)
+
+
+def _axes_first(V):
+    """The same space as V's orthonormal columns, with the coordinate axes in it as columns of their own.
+
+    A coordinate that no loop or driver row holds (``e_j`` in the space:
+    a row of V of unit norm) keeps its own column, first and in
+    coordinate order, as psi's SVD gives it, so that its states are named
+    after it; the rest is an orthonormal basis of the vectors of the space
+    that leave those coordinates at zero (their SVD).
+
+    Parameters
+    ----------
+    V : ndarray, shape (n, p)
+        Orthonormal columns.
+
+    Returns
+    -------
+    ndarray, shape (n, p)
+        Orthonormal columns spanning the same space.
+    """
+    n, p = V.shape
+    axes = np.flatnonzero(np.abs(np.einsum("ij,ij->i", V, V) - 1.0) < 1e-12)
+    if axes.size == 0:
+        return V
+    T = np.zeros((n, p))
+    T[axes, np.arange(axes.size)] = 1.0
+    if axes.size < p:
+        rest = V.copy()
+        rest[axes] = 0.0
+        T[:, axes.size:] = np.linalg.svd(rest, full_matrices=False)[0][:, :p - axes.size]
+    return T
 
 
 @limited_blas
@@ -295,9 +346,10 @@ def modes(system_or_lin, n_modes: int | None = None, **kw):
 
     Notes
     -----
-    The dense path linearises (:func:`linearize`: T from the SVD of psi,
-    p columns of differences) and solves the p x p eigenproblem: O(n^3)
-    time and O(n^2) memory with loops. A model whose loops the articulated
+    The dense path linearises (:func:`linearize`: p columns of
+    differences) and solves the p x p eigenproblem: O(p^3) time and
+    O(p^2 + n p) memory (O(n^3) and n x n arrays with a dense complement
+    of psi). A model whose loops the articulated
     strategy closes, with at least
     ``flexmb.analysis.loop_modes.SPARSE_MODES_MIN`` coordinates and
     ``n_modes`` given, takes ``flexmb.analysis.loop_modes`` instead:

@@ -258,7 +258,7 @@ def linearize(system, x0=None, xd0=None, t: float = 0.0, h: float = 1e-6, method
         d = h * T[:, i]
         jx = (system.accelerations(t, move(x0, d), xd0) - system.accelerations(t, move(x0, -d), xd0)) / (2 * h)
         jv = (system.accelerations(t, x0, xd0 + d) - system.accelerations(t, x0, xd0 - d)) / (2 * h)
-        K[:, i], C[:, i] = -AT.T @ jx, -AT.T @ jv
+        K[:, i], C[:, i] = -(AT.T @ jx), -(AT.T @ jv)
     return Linearization(M=M, C=C, K=K, F=F, T=T, x0=x0, xd0=xd0, t=t, method="fd", reason=reason)
 
 

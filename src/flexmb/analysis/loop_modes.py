@@ -57,7 +57,7 @@ __all__ = ["LoopModes", "loop_modes", "takes_loop_modes", "SPARSE_MODES_MIN", "S
            "MAX_ITERATIONS"]
 
 #: the fewest coordinates n at which :func:`flexmb.modes` takes this path for a few modes of a looped model:
-#: below it the dense linearisation (T by the SVD of psi, O(n^3)) costs little and gives every mode
+#: below it the linearisation of every mode (p constrained solves and 2p differences, a p x p eigenproblem) costs little
 SPARSE_MODES_MIN = 200
 
 #: the most independent coordinates p solved in a basis of the whole tangent space (:meth:`LoopModes.subspace`):

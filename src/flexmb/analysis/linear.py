@@ -254,12 +254,20 @@ def linearize(system, x0=None, xd0=None, t: float = 0.0, h: float = 1e-6, method
     p = T.shape[1]
     K, C = np.zeros((p, p)), np.zeros((p, p))
     move = system.layout.displace  # the coordinates perturbed along the speeds: x0 + W(x0) d
-    for i in range(p):  # a column of the differences at a time: no n x p arrays beyond T and A T
-        d = h * T[:, i]
-        jx = (system.accelerations(t, move(x0, d), xd0) - system.accelerations(t, move(x0, -d), xd0)) / (2 * h)
-        jv = (system.accelerations(t, x0, xd0 + d) - system.accelerations(t, x0, xd0 - d)) / (2 * h)
-        K[:, i], C[:, i] = -(AT.T @ jx), -(AT.T @ jv)
+    for start in range(0, p, _BLOCK):  # a block of columns at a time: no n x p arrays beyond T and A T
+        cols = range(start, min(start + _BLOCK, p))
+        Jx, Jv = np.empty((n, len(cols))), np.empty((n, len(cols)))
+        for j, i in enumerate(cols):
+            d = h * T[:, i]
+            Jx[:, j] = system.accelerations(t, move(x0, d), xd0) - system.accelerations(t, move(x0, -d), xd0)
+            Jv[:, j] = system.accelerations(t, x0, xd0 + d) - system.accelerations(t, x0, xd0 - d)
+        K[:, cols.start:cols.stop] = (AT.T @ Jx) / (-2 * h)
+        C[:, cols.start:cols.stop] = (AT.T @ Jv) / (-2 * h)
     return Linearization(M=M, C=C, K=K, F=F, T=T, x0=x0, xd0=xd0, t=t, method="fd", reason=reason)
+
+
+#: columns of the differences held at once by :func:`linearize` (n x _BLOCK each): products by blocks
+_BLOCK = 64
 
 
 def _reduced(system, t, x0, xd0, h):
@@ -277,10 +285,11 @@ def _reduced(system, t, x0, xd0, h):
     """
     if system._loop_kernel:
         ops = LoopModes(system, x0, xd0, t, h, where="linearize")
-        T = _axes_first(ops.basis(system.dof(t, x0))[0])
-        AT = np.empty_like(T)
-        for j in range(T.shape[1]):
-            AT[:, j] = ops.mass_times(T[:, j])
+        V, AT = ops.basis(system.dof(t, x0))
+        T = _axes_first(V)
+        if T is not V:
+            for j in range(T.shape[1]):
+                AT[:, j] = ops.mass_times(T[:, j])
         M = T.T @ AT
         return T, AT, M, M @ (T.T @ system.accelerations(t, x0, xd0))
     eq = system.equations(t, x0, xd0)

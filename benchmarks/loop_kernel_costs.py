@@ -10,9 +10,9 @@ preconditioner's factorisation (``loop_newton_factor``) and solve
 (``loop_newton_solve``) and the solve through Python
 (``LoopNewtonPreconditioner.solve`` with its factors kept); the constraint
 check after a step (``tree_equations`` RESIDUALS and through Python
-``System._constraint_residuals``); the dense state Jacobian
-(``System.state_jacobian``, what CVODE takes below KRYLOV_MIN_COORDS) up to
-N = 128; the mass-orthogonal projection (``System.project``). Each is the
+``System._constraint_residuals``); the dense state Jacobian from Python
+(``System.state_jacobian``, what CVODE took below KRYLOV_MIN_COORDS before
+its compiled form: ``probe_b6_step.py`` times both) up to N = 128; the mass-orthogonal projection (``System.project``). Each is the
 least over ``--repeat`` blocks of calls, in microseconds. Multiplied by a
 run's exact counts, these split its time. Writes ``--out``.
 """

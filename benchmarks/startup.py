@@ -36,6 +36,9 @@ Both print the beam tip's position at t = 1 s; they must agree to 1e-5 m
 With ``--parts`` each round also times, per venv, a process that only
 imports flexmb and one that imports it and builds the model.
 
+**The floor** (``--floor``): processes that only import numpy and numba, and numpy alone, against
+Exudyn's run, alternating (rows to ``--out`` as tools ``floor_numpy_numba``, ``floor_numpy``).
+
 **The exit** (``--exit``): the run as it is, ending with ``gc.freeze()``
 and ending with ``os._exit`` (:data:`EXIT_ENDINGS`), alternating: what the
 interpreter's clean-up costs, and how much of it is the cyclic garbage
@@ -118,6 +121,13 @@ import numpy, numba, scipy.linalg
 print("[]")
 """
 
+#: the floor of any run that loads its kernels through numba (``--floor``): the interpreter, numpy and numba,
+#: imported and left; and numpy alone (what a run whose machine code loads without numba could not avoid)
+FLOOR_RUNS = {
+    "floor_numpy_numba": "import numpy, numba\nprint('[]')\n",
+    "floor_numpy": "import numpy\nprint('[]')\n",
+}
+
 #: the breakdown, in one new process of the venv's Python
 BREAKDOWN = """
 import time
@@ -158,6 +168,9 @@ def timed(key, f):
 caching.IndexDataCacheFile._load_index = timed("index_s", caching.IndexDataCacheFile._load_index)
 caching.IndexDataCacheFile._load_data = timed("read_unpickle_s", caching.IndexDataCacheFile._load_data)
 caching.CompileResultCacheImpl.rebuild = timed("rebuild_s", caching.CompileResultCacheImpl.rebuild)
+from flexmb.kernels import cache as flexmb_cache
+if "rebuild" in vars(flexmb_cache._KernelCacheImpl):  # flexmb's own rebuild (the bitcode parsed lazily)
+    flexmb_cache._KernelCacheImpl.rebuild = timed("rebuild_s", flexmb_cache._KernelCacheImpl.rebuild)
 BaseContext.refresh = timed("refresh_s", BaseContext.refresh)
 from llvmlite import binding as ll
 ll.parse_bitcode = timed("of_it_parse_bitcode_s", ll.parse_bitcode)
@@ -255,6 +268,23 @@ def measure(venvs: dict[str, str], peers_python: str, repeat: int, out: str, par
             _check_tips(tips)
             label, (python, commit) = list(info.items())[-1]
             _write(out, _row("dependencies", label, commit, r, run_process(python, DEPENDENCIES_RUN, work)))
+
+
+def measure_floor(python: str, peers_python: str, repeat: int, out: str) -> None:
+    """The floor (:data:`FLOOR_RUNS`) against Exudyn's run, alternating, ``repeat`` rounds, in ``python``'s venv."""
+    exudyn_code = EXUDYN_RUN.format(peers=PEERS)
+    with tempfile.TemporaryDirectory(prefix="flexmb-startup-") as work:
+        run_process(peers_python, exudyn_code, work)
+        best: dict = {}
+        for r in range(repeat):
+            for tool, code in [("exudyn", exudyn_code), *FLOOR_RUNS.items()]:
+                res = run_process(peers_python if tool == "exudyn" else python, code, work)
+                if res["status"]:
+                    raise SystemExit(f"{tool}: {res['stderr_tail']}")
+                _write(out, _row(tool, "peers" if tool == "exudyn" else "floor", "", r, res))
+                best.setdefault(tool, []).append(res["cpu_s"])
+    for tool, cpus in best.items():
+        print(f"{tool:18s} least CPU {min(cpus):.3f} s over {len(cpus)}, / Exudyn {min(cpus) / min(best['exudyn']):.2f}")
 
 
 def measure_exit(venvs: dict[str, str], repeat: int, out: str) -> None:
@@ -370,6 +400,8 @@ def main(argv=None) -> None:
     p.add_argument("--exit", action="store_true", help="time the run's exit instead (EXIT_ENDINGS)")
     p.add_argument("--exit-out", default=os.path.join(RESULTS, "startup_exit.jsonl"))
     p.add_argument("--parts", action="store_true", help="also time `import flexmb` alone and with the build")
+    p.add_argument("--floor", action="store_true",
+                   help="time only importing numpy and numba (and numpy alone) against Exudyn's run instead")
     args = p.parse_args(argv)
     venvs = dict(v.split("=", 1) for v in args.venv) or {"this": sys.prefix}
     if args.breakdown:
@@ -377,6 +409,10 @@ def main(argv=None) -> None:
         return
     if args.exit:
         measure_exit(venvs, args.repeat, args.exit_out)
+        return
+    if args.floor:
+        measure_floor(os.path.join(list(venvs.values())[-1], "bin", "python"), args.peers_python, args.repeat,
+                      args.out)
         return
     if not args.summary:
         measure(venvs, args.peers_python, args.repeat, args.out, args.parts)

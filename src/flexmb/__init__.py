@@ -18,6 +18,7 @@ if _sys.argv[:1] == ["-m"]:  # the interpreter is still locating the module of `
 
 import logging as _logging
 
+from . import _exit
 from ._lazy import lazy_names as _lazy_names
 from .bodies import Body, Ground, Marker, RigidBody
 from .complements import COMPLEMENTS, ComplementStrategy, EigenComplement, SVDComplement, get_complement
@@ -65,6 +66,9 @@ __getattr__, __dir__ = _lazy_names(globals(), _LAZY)
 
 
 __version__ = "0.1.0"
+
+# the exit skips the final collections' passes over the objects still alive (flexmb._exit)
+_exit.install()
 
 # a library logs, the application decides what is shown (logging HOWTO, "Configuring Logging for a Library")
 _logging.getLogger(__name__).addHandler(_logging.NullHandler())

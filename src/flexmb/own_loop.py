@@ -75,7 +75,7 @@ def compiled_options(run, x, xd, krylov_min: int, bound: float) -> dict:
     -------
     dict
         The model, the monitor, the watches, the counters; for CVODE, the
-        Krylov choice (BDF from ``krylov_min`` coordinates on, as for
+        run's ``projection_tol`` on a model with constraints, the Krylov choice (BDF from ``krylov_min`` coordinates on, as for
         scikit-sundae's CVODE), else flexmb's Jacobian (the compiled
         generalized-alpha loop is given its Jacobian as the Python one is).
     """
@@ -87,6 +87,8 @@ def compiled_options(run, x, xd, krylov_min: int, bound: float) -> dict:
     run.counters["jac"] = 0
     options = dict(system=system, krylov=krylov, monitor=run.monitor, angles=run.angles,
                    bound=bound, gimbal=run.gimbal, counters=run.counters)
+    if system.n_constraints:  # for CVODE's projection of a looped model's state (DirectLoopCVODE)
+        options["projection_tol"] = run.projection_tol
     if not krylov and system.state_jacobian(run.t0, x, xd) is not None:  # flexmb's, from Python (a few calls)
         layout = run.layout
         options["jacobian"] = lambda t, y: system.state_jacobian(t, *layout.split(y))

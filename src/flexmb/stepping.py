@@ -286,6 +286,7 @@ class Run:
             if not caps.second_order:  # CVODE: all it is given, with the order cap
                 if caps.limits_order and self.oscillation_limited():
                     self.options["max_order"] = OSCILLATION_MAX_ORDER
+                    self.options["project"] = bool(system.n_constraints)  # loops: CVODE projects (DirectLoopCVODE)
                 return
             from .integrators.cvode_direct import STEPS_PER_CALL, DirectCVODE
 

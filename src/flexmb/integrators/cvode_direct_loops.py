@@ -8,8 +8,11 @@ no contact events, :func:`~flexmb.integrators.direct_choice.compiled_loop`
 gives :class:`DirectLoopCVODE` instead of scikit-sundae's CVODE: the loops'
 right-hand side and Newton preconditioner as compiled C callbacks
 (:mod:`flexmb.kernels.cvode_loop_callbacks`), CVODE's step loop compiled,
-and the dense Jacobian of a small model, as on open trees, flexmb's own
-``System.state_jacobian`` called from Python.
+and the dense Jacobian of a small model (below ``KRYLOV_MIN_COORDS``)
+``System.state_jacobian``'s, compiled
+(:func:`~flexmb.kernels.loop_jacobian.loop_state_jacobian`, a C callback)
+where the model's tangent is what that kernel forms
+(:func:`compiled_jacobian`), else called from Python.
 
 What ``flexmb.stepping.Run`` does after each step of a looped model is done
 by the run itself, on the very steps it would do it on
@@ -23,7 +26,12 @@ restarts (``Run._restart_if_drifted``, its bound raised when restarts crowd:
 stepping in Python. A restart makes a new CVODE memory (:meth:`DirectLoopCVODE.restart`:
 the state, the callbacks' buffers and the counters are kept), as the Python
 path makes a new solver: the runs take the very steps of scikit-sundae's
-(tests/test_cvode_direct_loops.py).
+(tests/test_cvode_direct_loops.py). Where the run holds BDF to order 3
+(flexible bodies in loops at loose tolerances, ``project=True``), CVODE
+instead projects the state onto the constraints itself after its steps
+(``CVodeSetProjFn``, :func:`flexmb.kernels.cvode_loop_callbacks.project`),
+keeping its order and history; the drift check then acts only where a
+projection is refused.
 
 Left to scikit-sundae (``compiled_loop`` returns None): loops closed by a
 dense strategy (``eigen``, ``svd``, ``qr``), force elements or joints
@@ -39,9 +47,16 @@ from ctypes import byref, c_double, c_long, c_void_p
 import numpy as np
 
 from .._signals import act_on_deferred
+from ..output_projection import OUTPUT_PROJECTION_GAIN
 from .cvode_direct import CV_ADAMS, CV_BDF, STEPS_PER_CALL, DirectCVODE, _addr
 
-__all__ = ["DirectLoopCVODE", "DirectLoopCVODEBDF", "DirectLoopCVODEAdams", "loop_class"]
+#: CVODE's projection moves a state whose constraint residual exceeds this fraction of the run's drift bound or
+#: PROJECTION_ATOL_FRACTION of the smallest atol, whichever is less: smaller residuals are left to the next steps
+#: and the outputs' projection (a correction of several atol upsets BDF's history: the four-bar at rtol 1e-9)
+PROJECTION_BOUND_FRACTION = 0.5
+PROJECTION_ATOL_FRACTION = 0.1
+
+__all__ = ["DirectLoopCVODE", "DirectLoopCVODEBDF", "DirectLoopCVODEAdams", "loop_class", "compiled_jacobian"]
 
 #: the counters CVODE keeps per memory (summed over the restarts by :meth:`DirectLoopCVODE.stats`)
 _CVODE_COUNTS = (("steps", "NumSteps"), ("rhs_cvode", "NumRhsEvals"), ("rhs_ls", "NumLinRhsEvals"),
@@ -74,6 +89,42 @@ def loop_class(system, family: str) -> type | None:
     return {"BDF": DirectLoopCVODEBDF, "Adams": DirectLoopCVODEAdams}[family]
 
 
+def compiled_jacobian(system) -> bool:
+    """Whether :func:`flexmb.kernels.loop_jacobian.loop_state_jacobian` gives this model's ``state_jacobian``.
+
+    Its tangent must be the diagonal coordinate springs and dampers, the
+    loads' and inertia forces' geometric stiffness and nothing else: no
+    springs or dampers between points (``pair_tangent_all``), no
+    velocity-dependent point forces (``velocity_tangent_all``), no
+    constant point forces or body-axis torques turning with their bodies
+    (``System._turning_loads``'s). Elsewhere the run's Jacobian is
+    ``System.state_jacobian``, called from Python.
+
+    Parameters
+    ----------
+    system : System
+        A model the loops' callbacks evaluate (:func:`loop_class`).
+
+    Returns
+    -------
+    bool
+        True if the run's CVODE takes the compiled Jacobian (C callback
+        ``cvode_loop_callbacks.jac``) instead of the Python one.
+    """
+    from ..forces import BodyTorque, PointForce
+
+    kin = system.kinematics(0.0, system.layout.reference(), np.zeros(system.n_speeds))
+    for cls, elements in system.forces.groups:
+        if cls.pair_tangent_all(elements, kin) is not None or cls.velocity_tangent_all(elements, kin) is not None:
+            return False
+        for e in elements:
+            if type(e) is PointForce and not callable(e.force):
+                return False
+            if type(e) is BodyTorque and e.frame == "body" and not callable(e.torque):
+                return False
+    return True
+
+
 def _driver_row(driver, column) -> tuple:
     """The row ``(column, kind, p1, p2, p3)`` of :func:`flexmb.kernels.cvode_loop_callbacks.driver`."""
     kind, *p = driver.law
@@ -90,7 +141,12 @@ class DirectLoopCVODE(DirectCVODE):
     """
 
     checks_constraints = restarts_in_place = True
+    _compiled_jac = False  # the dense Jacobian by the loops' C callback (set with the run's jacobian)
     advances = False  # stepped by step_on, the run's checks acting after its steps (DirectCVODE.advance's are not)
+
+    def __init__(self, *args, projection_tol=1e-10, project=False, **kwargs):
+        self._projection_tol, self._projects = float(projection_tol), bool(project)
+        super().__init__(*args, **kwargs)
 
     def advance(self, t_stop: float, on_step=None):
         """Refused: a looped model's steps need the run's checks (see :meth:`step_on`).
@@ -111,10 +167,42 @@ class DirectLoopCVODE(DirectCVODE):
                         "checks and restarts of the run act after its steps")
 
     def _setup(self, rtol, atol, krylov, max_step, first_step):
-        """CVODE's options (:meth:`DirectCVODE._setup`), kept for :meth:`restart`."""
+        """CVODE's options (:meth:`DirectCVODE._setup`), kept for :meth:`restart`; the compiled Jacobian."""
         if not hasattr(self, "_carried"):  # the first memory: CVODE's counters of the restarted ones start at 0
             self._options, self._carried = (rtol, atol, krylov, max_step), {key: 0 for key, _ in _CVODE_COUNTS}
         super()._setup(rtol, atol, krylov, max_step, first_step)
+        if self._compiled_jac and not krylov:
+            self._check(self._S.CVodeSetJacFn(self._mem, self._cb.jac.address), "CVodeSetJacFn")
+        self._projects = self._projects and self.family == "BDF"  # (CVODE projects BDF steps only)
+        if self._projects:
+            self._project_in_cvode()
+
+    def _python_jacobian(self, jacobian):
+        """None where the compiled Jacobian (:func:`compiled_jacobian`) replaces the run's, else the ctypes callback."""
+        self._compiled_jac = compiled_jacobian(self.system)
+        return None if self._compiled_jac else super()._python_jacobian(jacobian)
+
+    def _project_in_cvode(self) -> None:
+        """CVODE's own projection onto the constraints after each step (``CVodeSetProjFn``), its error not projected.
+
+        :func:`~flexmb.kernels.cvode_loop_callbacks.project` moves a state
+        whose residual exceeds ``PROJECTION_BOUND_FRACTION`` of the run's
+        drift bound (:meth:`step_on`) or ``PROJECTION_ATOL_FRACTION`` of
+        atol, whichever is less, onto the constraints (Newton to a tenth of
+        that, at most ``min(1e-12, projection_tol)``, as the run's own projection) (positions by Newton, speeds
+        mass-orthogonally, as ``System.project(..., speeds='mass')``), so
+        that CVODE keeps its order and history where the run restarted it
+        (docs/benchmarks.md, "What limits CVODE's step on B6"); where it
+        refuses, the step loop's drift check hands the state to the run.
+        """
+        S, cb, mem, ck = self._S, self._cb, self._mem, self._check
+        real = self._arrays["real"]
+        self._atol_min = float(np.min(self._options[1]))
+        real[cb.R_PROJ_TOL] = PROJECTION_ATOL_FRACTION * self._atol_min  # until step_on gives the run's bound
+        real[cb.R_NEWTON_TOL] = min(1e-12, self._projection_tol, 0.1 * real[cb.R_PROJ_TOL])
+        real[cb.R_GAIN] = OUTPUT_PROJECTION_GAIN
+        ck(S.CVodeSetProjFn(mem, cb.project.address), "CVodeSetProjFn")
+        ck(S.CVodeSetProjErrEst(mem, 0), "CVodeSetProjErrEst")
 
     @staticmethod
     def _callbacks():
@@ -155,7 +243,7 @@ class DirectLoopCVODE(DirectCVODE):
         for f in lay._fields[:-1]:
             a[f] = np.ascontiguousarray(getattr(lay, f), dtype=np.int64)
         ud = np.zeros(cb.UD_SIZE, dtype=np.int64)
-        ud[cb.A_GETPTR] = _addr(S.N_VGetArrayPointer)
+        ud[cb.A_GETPTR], ud[cb.A_MATDATA] = _addr(S.N_VGetArrayPointer), _addr(S.SUNDenseMatrix_Data)
         ud[cb.N], ud[cb.M], ud[cb.NB], ud[cb.MROWS], ud[cb.BAND] = n, m, nb, mr, band
         for slot, size, key in ((cb.A_FL, cb.N_FL, "fl"), (cb.A_IT, cb.N_IT, "it"), (cb.A_FG, cb.N_FG, "fg")):
             ud[slot], ud[size] = a[key].ctypes.data, a[key].size
@@ -199,7 +287,7 @@ class DirectLoopCVODE(DirectCVODE):
         buf[:] = 0.0 if offset is None else offset
         self._offset = None if offset is None else buf
         self._ud[cb.HAS_OFFSET] = offset is not None
-        self._ud[cb.F_VALID] = 0
+        self._ud[cb.F_VALID] = self._ud[cb.PROJ_OK] = 0
         self._mem = S.CVodeCreate(CV_BDF if self.family == "BDF" else CV_ADAMS, self._ctx)
         if not self._mem:
             raise MemoryError("CVodeCreate returned NULL")
@@ -218,7 +306,8 @@ class DirectLoopCVODE(DirectCVODE):
             The next output time (or progress mark): the loop returns after
             the step that reaches it, before interpolating.
         bound : float
-            The run's drift bound on the constraint residuals.
+            The run's drift bound on the constraint residuals (BDF: CVODE's
+            projection acts from ``PROJECTION_BOUND_FRACTION`` of it on).
 
         Returns
         -------
@@ -240,6 +329,10 @@ class DirectLoopCVODE(DirectCVODE):
         times = np.empty(max(mon.next_check - mon.n_steps, 1) if live else 0)
         t_entry = self._tret[0]
         gimbal = self._gimbal if self.gimbal is not None and not self.gimbal.warned else self._gimbal[:0]
+        if self._projects:
+            real = self._arrays["real"]
+            real[cb.R_PROJ_TOL] = min(PROJECTION_BOUND_FRACTION * float(bound), PROJECTION_ATOL_FRACTION * self._atol_min)
+            real[cb.R_NEWTON_TOL] = min(1e-12, self._projection_tol, 0.1 * real[cb.R_PROJ_TOL])
         try:
             code, k = cb.advance(self._lp, self._ud, min(float(t_stop), self.t_bound), self.t_bound, float(bound),
                                  times, STEPS_PER_CALL, self._angles, self._bound, gimbal, self._limit)
@@ -287,12 +380,14 @@ class DirectLoopCVODE(DirectCVODE):
         dict
             As :meth:`DirectCVODE.stats`, and ``psolves`` and ``factors``
             (the preconditioner's solves, and its factorisations: one per
-            set-up and gamma).
+            set-up and gamma), ``projections`` and ``projections_refused``
+            (CVODE's projections that moved the state, and those refused).
         """
         cb, ud = self._cb, self._ud
         out = {k: v + self._carried[k] for k, v in self._cvode_counts().items()}
         out.update(rhs=int(ud[cb.RHS]), jac=int(ud[cb.SETUPS] + ud[cb.JACS]), psolves=int(ud[cb.PSOLVES]),
-                   factors=int(ud[cb.FACTORS]))
+                   factors=int(ud[cb.FACTORS]), projections=int(ud[cb.PROJECTIONS]),
+                   projections_refused=int(ud[cb.PROJ_REFUSED]))
         return out
 
 
@@ -305,7 +400,16 @@ class DirectLoopCVODEAdams(DirectLoopCVODE):
     family, max_order = "Adams", 12
 
 
-_PARAMETERS = DirectCVODE.__doc__[DirectCVODE.__doc__.index("    Parameters\n"):]
+_PARAMETERS = DirectCVODE.__doc__[DirectCVODE.__doc__.index("    Parameters\n"):].replace("""    **extraneous""", """\
+    projection_tol : float
+        The run's ``projection_tol`` (CVODE's projection closes the loops'
+        positions to ``min(1e-12, projection_tol)`` or tighter).
+    project : bool
+        BDF: CVODE projects the state onto the constraints after its steps
+        (:meth:`DirectLoopCVODE._project_in_cvode`) instead of the run
+        restarting it; given by the run where it holds BDF to order 3
+        (flexible bodies in loops, ``flexmb.stepping.oscillation_limited``).
+    **extraneous""")
 DirectLoopCVODE.__doc__ += "\n" + _PARAMETERS
 DirectLoopCVODEBDF.__doc__ = (":class:`DirectLoopCVODE` with CVODE's variable-order BDF: ``'CVODE_BDF'`` on loops.\n\n"
                               + _PARAMETERS)

@@ -19,6 +19,9 @@ that never stops flexmb from running:
   kernels' sources, not only its own file: a kernel inlines or calls
   kernels of other files, and numba's own stamp would keep a caller's stale
   machine code after a callee changed.
+* **Loading.** An entry's machine code is made ready to run without
+  parsing its LLVM bitcode, which only a later compilation linking against
+  the kernel needs (:mod:`flexmb.kernels.lazy_bitcode`).
 * **Damage.** An index or data file that cannot be read back (truncated,
   empty, random: what a crash or a full disk can leave) is a cache miss:
   the kernel compiles and its entry is rewritten (or, in a read-only cache,
@@ -45,7 +48,7 @@ from numba.core.caching import (
     _SourceFileBackedLocatorMixin,
 )
 
-from . import prebuilt
+from . import lazy_bitcode, prebuilt
 
 __all__ = ["njit", "cache_locations", "sources_stamp"]
 
@@ -53,7 +56,7 @@ __all__ = ["njit", "cache_locations", "sources_stamp"]
 KERNELS = os.path.dirname(os.path.abspath(__file__))
 
 #: the files of the kernels' folder that hold no kernel (not stamped)
-NOT_KERNELS = ("cache.py", "compiling.py", "prebuilt.py", "prebuild.py")
+NOT_KERNELS = ("cache.py", "compiling.py", "lazy_bitcode.py", "prebuilt.py", "prebuild.py")
 
 #: notices already given in this process (each at most once)
 _told: set[str] = set()
@@ -200,6 +203,10 @@ class _InMemory(_WholeSourceStamp, _SourceFileBackedLocatorMixin, _CacheLocator)
 
 class _KernelCacheImpl(CompileResultCacheImpl):
     _locator_classes = [_UserProvided, _InTree, _ReadOnly, _UserWide, _PerUserTemp, _InMemory]
+
+    def rebuild(self, target_context, payload):
+        """An entry's compile result, its bitcode parsed only if a compilation links it (:mod:`.lazy_bitcode`)."""
+        return lazy_bitcode.rebuild(target_context, *payload)
 
 
 def _ready_to_load(target_context) -> None:

@@ -40,9 +40,11 @@ from .cache import njit
 from .cvode_callbacks import _call_cvode, _call_p_p, _cfunc, _voidp, _watched
 from .equations import RESIDUALS, tree_equations
 from .loop_layout import LoopLayout
-from .loops import loop_newton_factor, loop_newton_solve, loop_rhs
+from .loop_jacobian import loop_state_jacobian
+from .loop_projection import loop_min_norm, loop_phi
+from .loops import loop_newton_factor, loop_newton_solve, loop_rhs, loop_speeds
 
-__all__ = ["rhs", "psetup", "psolve", "advance", "drift", "driver", "UD_SIZE", "REACHED", "CHECKPOINT", "PAUSED", "WATCH",
+__all__ = ["rhs", "jac", "psetup", "psolve", "project", "advance", "drift", "driver", "UD_SIZE", "REACHED", "CHECKPOINT", "PAUSED", "WATCH",
            "DRIFTED", "NOT_FINITE"]
 
 #: slots of the user_data array (int64): addresses (A_*), sizes, counters, the failure's status
@@ -50,11 +52,17 @@ __all__ = ["rhs", "psetup", "psolve", "advance", "drift", "driver", "UD_SIZE", "
  A_ROW_BODY, A_ROW_COORD, A_ROOT_OF, A_ROW_ROOTS, A_VISIT_PTR, A_VISIT, A_ROOT_PTR, A_ROOT_ROWS, A_ORDER, A_POSITION,
  MROWS, N_VISIT, N_ROOTS, N_ROOT_ROWS, BAND, N_DRV, A_DRV, A_REAL, RANK_LIMIT, A_K, A_C, A_X,
  A_SW, A_SV, A_W, A_BODY, A_U, A_DUT, A_DINV, A_LIFT, A_KB, A_D, A_DF, A_V, V_ROWS, F_KEPT, F_STATUS, F_VALID,
- SETUPS, JACS, RHS, PSOLVES, FACTORS, STATUS, NONFINITE_FLAG, A_FAIL_T, A_FAIL_Y, A_OFFSET, HAS_OFFSET) = range(61)
-UD_SIZE = 61
-#: the float parameters (A_REAL): the rank tolerance, the singular window, the factors' gamma and smallest pivot
-R_TOL, R_WINDOW, R_GAMMA, R_SMALLEST = range(4)
-N_REAL = 4
+ SETUPS, JACS, RHS, PSOLVES, FACTORS, STATUS, NONFINITE_FLAG, A_FAIL_T, A_FAIL_Y, A_OFFSET, HAS_OFFSET,
+ PROJECTIONS, PROJ_REFUSED, PROJ_OK) = range(64)
+A_MATDATA = 64  # SUNDenseMatrix_Data, for jac
+UD_SIZE = 65
+#: the float parameters (A_REAL): the rank tolerance, the singular window, the factors' gamma and smallest pivot;
+#: for :func:`project`, the residual below which a state is kept, the Newton tolerance, the largest correction
+#: per unit residual, and the time of the last state it left on the constraints
+R_TOL, R_WINDOW, R_GAMMA, R_SMALLEST, R_PROJ_TOL, R_NEWTON_TOL, R_GAIN, R_PROJ_T = range(8)
+N_REAL = 8
+#: Newton iterations and the largest change of a coordinate per iteration of :func:`project` (System.project's)
+PROJ_MAX_ITER, PROJ_MAX_STEP = 50, 0.5
 #: the loop's return codes (CVODE's negative flags pass through)
 REACHED, CHECKPOINT, PAUSED, WATCH, DRIFTED, NOT_FINITE = 0, 1, 2, 3, 4, 5
 #: the status of a failed callback when it is not a joint's index
@@ -177,6 +185,33 @@ def rhs(t, y, ydot, user_data):
     return _fail(ud, kept, t, yv, -1)  # a freedom that moves no mass and that no loop fixes
 
 
+@_cfunc(types.int32(types.float64, types.voidptr, types.voidptr, types.voidptr, types.voidptr, types.voidptr,
+                    types.voidptr, types.voidptr))
+def jac(t, y, fy, J, user_data, tmp1, tmp2, tmp3):
+    """CVLsJacFn: the dense state Jacobian by :func:`~flexmb.kernels.loop_jacobian.loop_state_jacobian`.
+
+    K and C are the diagonal terms of the preconditioner's slots; -1 (the
+    cause recorded as :func:`rhs` records it) if the state's equations fail.
+    """
+    ud = _ud(user_data)
+    n, m = ud[N], ud[M]
+    yv = _state(ud, y, m)
+    real = _f1(ud[A_REAL], N_REAL)
+    ud[JACS] += 1
+    drv, gamma_d = _drivers(ud), np.empty(ud[N_DRV])
+    for k in range(ud[N_DRV]):
+        gamma_d[k] = driver(drv, k, t)[2]
+    full = np.empty((m, m))
+    status, body = loop_state_jacobian(_packed(ud), _layout(ud), yv, n, _f1(ud[A_K], n), _f1(ud[A_C], n), gamma_d,
+                                       real[R_TOL], real[R_WINDOW], ud[RANK_LIMIT], full)
+    if status == 2:
+        return _fail(ud, NONFINITE, t, yv, -1)
+    if status:
+        return _fail(ud, body, t, yv, -1)
+    carray(_call_p_p(ud[A_MATDATA], J), (m, m), np.float64)[:, :] = full.T  # SUNDIALS' column-major data
+    return 0
+
+
 @_cfunc(types.int32(types.float64, types.voidptr, types.voidptr, types.int32, types.voidptr, types.float64,
                     types.voidptr))
 def psetup(t, y, fy, jok, jcur, gamma, user_data):
@@ -273,6 +308,13 @@ def drift(ud, t, y):
     The cut joints' position and velocity residuals (``tree_equations(...,
     RESIDUALS, ...)``) and the drivers' (:func:`driver`).
     """
+    position, velocity = _residuals(ud, t, y)
+    return max(position, velocity)
+
+
+@njit(cache=True)
+def _residuals(ud, t, y):
+    """The largest position and the largest velocity residual at ``(t, y)`` (:func:`drift`'s two parts)."""
     n, nb = ud[N], ud[NB]
     zeros = np.zeros((nb + 1, 3))
     res = tree_equations(_packed(ud), y, n, RESIDUALS, np.zeros(0), zeros, zeros, np.zeros(n))[2]
@@ -283,7 +325,7 @@ def drift(ud, t, y):
         p, v, _ = driver(drv, k, t)
         position = max(position, abs(y[c] - p))
         velocity = max(velocity, abs(y[n + c] - v))
-    return max(position, velocity)
+    return position, velocity
 
 
 @njit(cache=True)
@@ -300,8 +342,10 @@ def advance(lp, ud, t_stop, t_bound, bound, steps, budget, angles, wind, gimbal,
         The time to reach (an output time) and the end of the run (CVODE's stop time).
     bound : float
         The run's drift bound: the loop returns DRIFTED after a step whose
-        state leaves the constraints by more than ``bound`` (:func:`drift`);
-        the run decides (it may raise its bound instead of restarting).
+        state leaves the constraints by more than ``bound`` (:func:`drift`;
+        not evaluated after a step whose state CVODE's projection,
+        :func:`project`, left on the constraints); the run decides (it may
+        raise its bound instead of restarting).
     steps : ndarray of float
         The times reached by the steps, for the monitor (CHECKPOINT when full; length 0: none).
     budget : int
@@ -339,7 +383,8 @@ def advance(lp, ud, t_stop, t_bound, bound, steps, budget, angles, wind, gimbal,
         tn = t_new
         if not np.all(np.isfinite(z)):
             return NOT_FINITE, k
-        if tn < t_bound and drift(ud, tn, z + _f1(ud[A_OFFSET], m) if ud[HAS_OFFSET] else z) > bound:
+        if tn < t_bound and not _projected_at(ud, tn) and drift(ud, tn, z + _f1(ud[A_OFFSET], m)
+                                                                 if ud[HAS_OFFSET] else z) > bound:
             return DRIFTED, k
         if (len(angles) and tn < t_bound or len(gimbal)) and _watched(z, angles if tn < t_bound else angles[:0],
                                                                       wind, gimbal, limit):
@@ -349,3 +394,102 @@ def advance(lp, ud, t_stop, t_bound, bound, steps, budget, angles, wind, gimbal,
         if k == budget and tn < t_stop:
             return PAUSED, k
     return REACHED, k
+
+
+# ----------------------------------------------------------------------------- CVODE's projection
+
+@njit(cache=True)
+def _projected(ud, t, y, positions):
+    """The state ``y`` projected onto the constraints as ``System.project(..., speeds='mass')`` projects it.
+
+    The positions by Newton's minimum-norm steps onto the cut joints' and
+    the drivers' rows (:func:`~flexmb.kernels.loop_projection.loop_min_norm`,
+    at most ``PROJ_MAX_STEP`` per coordinate and iteration, to
+    ``R_NEWTON_TOL``), then the speeds mass-orthogonally onto ``psi xd = b``
+    (:func:`~flexmb.kernels.loops.loop_speeds`; the minimum-norm correction
+    where A is singular), eqs. 28-29.
+
+    Returns
+    -------
+    x, xd : ndarray, shape (n,)
+        The projected positions and speeds.
+    converged : bool
+        False if Newton did not close the loops in ``PROJ_MAX_ITER`` iterations.
+
+    ``positions`` False: the positions are kept (within the tolerance), the speeds projected.
+    """
+    n, mr, nd = ud[N], ud[MROWS], ud[N_DRV]
+    real = _f1(ud[A_REAL], N_REAL)
+    packed, layout, drv, limit = _packed(ud), _layout(ud), _drivers(ud), ud[RANK_LIMIT]
+    x, xd = y[:n].copy(), y[n:2 * n].copy()
+    free, zeros, phi, m_cut = np.ones(n, np.bool_), np.zeros(n), np.empty(mr), mr - nd
+    converged = not positions
+    for _ in range(PROJ_MAX_ITER if positions else 0):
+        phi[:m_cut] = loop_phi(packed, layout, x)
+        for k in range(nd):
+            phi[m_cut + k] = x[int(drv[k, 0])] - driver(drv, k, t)[0]
+        if np.max(np.abs(phi)) <= real[R_NEWTON_TOL]:
+            converged = True
+            break
+        step = loop_min_norm(packed, layout, x, zeros, -phi, free, real[R_TOL], limit)[0]
+        big = np.max(np.abs(step))
+        x -= step * min(1.0, PROJ_MAX_STEP / big) if big > 0.0 else step
+    b = np.zeros(mr)
+    for k in range(nd):
+        b[m_cut + k] = driver(drv, k, t)[1]
+    v, _, status = loop_speeds(packed, layout, x, xd, b, real[R_TOL], real[R_WINDOW], limit)
+    if status:  # A singular: the minimum-norm correction (System._project_loops' fallback)
+        v = xd - loop_min_norm(packed, layout, x, xd, b, free, real[R_TOL], limit)[0]
+    return x, v, converged
+
+
+@_cfunc(types.int32(types.float64, types.voidptr, types.voidptr, types.float64, types.voidptr, types.voidptr))
+def project(t, ycur, corr, eps, err, user_data):
+    """CVProjFn: ``corr`` = the state projected onto the constraints (:func:`_projected`) less ``ycur``.
+
+    A state whose position and velocity residuals (:func:`_residuals`) are
+    within ``R_PROJ_TOL`` is kept (``corr = 0``); one whose positions are
+    within it has its speeds projected only. A projection that does not
+    converge, is not finite, or moves the state by more than ``R_GAIN``
+    times the residual (near a singular position, where the minimum-norm
+    step divides by a tiny singular value; ``flexmb.output_projection``'s
+    rule) is refused: ``corr = 0``, counted in ``PROJ_REFUSED``, and the
+    step loop's drift check (:func:`advance`) hands the state to the run,
+    which projects and restarts as without CVODE's projection. Otherwise
+    the time is kept (``R_PROJ_T``): the step loop then skips its drift
+    check. The error estimate is not projected
+    (``CVodeSetProjErrEst(mem, 0)``); ``err`` is not used.
+    """
+    ud = _ud(user_data)
+    n, m = ud[N], ud[M]
+    y = _state(ud, ycur, m)
+    c = _vector(ud, corr, m)
+    c[:] = 0.0
+    real = _f1(ud[A_REAL], N_REAL)
+    ud[PROJ_OK] = 0
+    position, velocity = _residuals(ud, t, y)
+    tol = real[R_PROJ_TOL]
+    if not (position > tol or velocity > tol):
+        if position <= tol and velocity <= tol:  # (a non-finite state: left to the step loop's check)
+            ud[PROJ_OK], real[R_PROJ_T] = 1, t
+        return 0
+    x, v, converged = _projected(ud, t, y, position > tol)
+    big = 0.0
+    for i in range(n):
+        big = max(big, abs(x[i] - y[i]), abs(v[i] - y[n + i]))
+    if not (converged and np.all(np.isfinite(x)) and np.all(np.isfinite(v))
+            and big <= real[R_GAIN] * max(position, velocity)):
+        ud[PROJ_REFUSED] += 1
+        return 0
+    for i in range(n):
+        c[i] = x[i] - y[i]
+        c[n + i] = v[i] - y[n + i]
+    ud[PROJECTIONS] += 1
+    ud[PROJ_OK], real[R_PROJ_T] = 1, t
+    return 0
+
+
+@njit(cache=True)
+def _projected_at(ud, t):
+    """Whether CVODE's projection (:func:`project`) left the state of time ``t`` on the constraints."""
+    return ud[PROJ_OK] == 1 and _f1(ud[A_REAL], N_REAL)[R_PROJ_T] == t

@@ -1,0 +1,94 @@
+"""Cached kernels load without parsing their bitcode; a later compilation that links them still works.
+
+:mod:`flexmb.kernels.lazy_bitcode` takes a loaded entry's defined symbols from
+its object code instead of its bitcode, and parses the bitcode only when a new
+compilation links the kernel in. The tests check that the two symbol sets are
+the same on every shipped entry, and, in a new process with a warm cache, that
+loading parses nothing, that a new kernel calling a loaded one (a user's
+plugin kernel) and a loaded kernel's new signature compile and agree with the
+loaded machine code, and that the bitcode is parsed once.
+"""
+
+from __future__ import annotations
+
+import glob
+import os
+import pickle
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from llvmlite import binding as ll
+
+from flexmb.kernels import cache, lazy_bitcode, prebuilt
+from flexmb.kernels.genalpha import _matvec
+
+
+def _shipped_entries():
+    if not prebuilt.usable(cache.sources_stamp()):
+        pytest.skip("no usable shipped machine code on this branch (stale or another platform)")
+    return sorted(glob.glob(os.path.join(prebuilt.folder(), "*.nbc")))
+
+
+def test_object_code_defines_the_symbols_the_bitcode_defines():
+    """On every shipped entry: numba's set (the bitcode's defined functions and globals) = the ELF symbol table's."""
+    paths = _shipped_entries()
+    assert len(paths) > 50
+    for path in paths:
+        with open(path, "rb") as f:
+            name, kind, (object_code, bitcode) = pickle.loads(f.read())[0]
+        assert kind == "object"
+        module = ll.parse_bitcode(bitcode)
+        from_bitcode = {g.name for group in (module.functions, module.global_variables) for g in group
+                        if not g.is_declaration}
+        assert lazy_bitcode.elf_defined_symbols(object_code) == from_bitcode, os.path.basename(path)
+
+
+def test_not_an_elf_object_is_left_to_numba():
+    assert lazy_bitcode.elf_defined_symbols(b"\xcf\xfa\xed\xfe" + bytes(60)) is None  # Mach-O
+    assert lazy_bitcode.elf_defined_symbols(b"\x7fELF\x01\x01" + bytes(60)) is None  # 32-bit
+
+
+#: in a new process: load _matvec from the cache, then compile a new kernel calling it and a new signature of it
+LINK_AFTER_LOAD = r"""
+import numpy as np
+import numba
+from llvmlite import binding as ll
+from flexmb.kernels import lazy_bitcode
+from flexmb.kernels.genalpha import _matvec
+
+parses = []
+parse = ll.parse_bitcode
+ll.parse_bitcode = lambda data: parses.append(len(data)) or parse(data)
+
+M = np.array([[1.0, 2.0], [3.0, 4.0]])
+v = np.array([0.5, -1.25])
+loaded = _matvec(M, v)
+assert _matvec.stats.cache_hits, ("the kernel was compiled, not loaded", _matvec.stats)
+library = _matvec.overloads[_matvec.signatures[0]].library
+assert isinstance(library, lazy_bitcode.LazyLinkLibrary), type(library)
+assert parses == [], parses
+
+@numba.njit
+def plugin(M, v):  # a user's kernel: links the loaded kernel's bitcode in
+    return 2.0 * _matvec(M, v)
+
+assert list(plugin(M, v)) == list(2.0 * loaded), (plugin(M, v), loaded)
+assert len(parses) == 1, parses
+assert list(plugin(M, v)) == list(2.0 * loaded)
+assert len(parses) == 1, parses  # parsed once
+assert list(_matvec(M.astype(np.float32), v.astype(np.float32))) == list(loaded)  # a new signature compiles
+print("LOADED", list(loaded))
+"""
+
+
+def test_a_kernel_compiled_after_loading_links_the_loaded_one():
+    M = np.array([[1.0, 2.0], [3.0, 4.0]])
+    v = np.array([0.5, -1.25])
+    expected = _matvec(M, v)  # compiled or loaded here: the entry is then in a cache the new process reads
+    env = {k: val for k, val in os.environ.items() if k != "NUMBA_DISABLE_JIT"}
+    out = subprocess.run([sys.executable, "-c", LINK_AFTER_LOAD], capture_output=True, text=True, env=env,
+                         timeout=600)
+    assert out.returncode == 0, out.stderr[-3000:]
+    assert out.stdout.split("LOADED ", 1)[1].strip() == str(list(expected))

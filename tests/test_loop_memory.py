@@ -26,9 +26,9 @@ about 10 kB per body while a file is written: linear, with a constant that
   ``benchmarks/loop_consumers_memory.py``, which also measures them), on B7
   at N = 512 (n = 1025): its traced peak stays below half of one n x n
   array (8 n^2 bytes), so that forming psi (m x n, m = n - 1) or any n x n
-  array fails. Those still dense are marked as expected failures (strict:
-  one made linear fails until its mark goes): the linearisation (docs/benchmarks.md, "Memory of the consumers of the
-  equations").
+  array fails (the linearisation and state space: B7 has p = 1, their
+  n x p basis and p x p results are small). None is still dense
+  (docs/benchmarks.md, "Memory of the consumers of the equations").
 """
 
 from __future__ import annotations
@@ -109,11 +109,6 @@ def test_b6_at_2048_segments_needs_memory_far_below_n_squared(tmp_path):
 
 
 
-#: consumers that still form an n x n array on B7 (docs/benchmarks.md, "Memory of the consumers of the equations")
-DENSE = {
-    "linearize": "the linearisation forms T from psi's dense SVD and the n x n mass matrix",
-    "state_space": "state_space linearises through linearize (its 2p x 2p result is its contract; B7 has p = 1)",
-}
 #: linear, with a constant above the bound at this size (about 12 kB per body while a file is written): its
 #: growth is bounded instead (the tests above)
 GROWTH_ONLY = {"vtk"}
@@ -128,13 +123,7 @@ def _peaks_of(skip, tmp_path_factory):
 @pytest.fixture(scope="module")
 def linear_peaks(tmp_path_factory):
     """The traced peak of each consumer made linear, on B7 at N = 512."""
-    return _peaks_of(set(DENSE) | GROWTH_ONLY, tmp_path_factory)
-
-
-@pytest.fixture(scope="module")
-def dense_peaks(tmp_path_factory):
-    """The traced peak of each consumer still dense, on B7 at N = 512 (with the build and assembly they need)."""
-    return _peaks_of(set(consumers.CONSUMERS) - set(DENSE) - {"build", "assemble"}, tmp_path_factory)
+    return _peaks_of(GROWTH_ONLY, tmp_path_factory)
 
 
 def _check(row):
@@ -142,17 +131,9 @@ def _check(row):
     assert row["peak_bytes"] < 8 * row["n"] ** 2 / 2, (row["consumer"], row["peak_bytes"], row["n"])
 
 
-@pytest.mark.parametrize("name", [c for c in consumers.CONSUMERS if c not in DENSE and c not in GROWTH_ONLY])
+@pytest.mark.parametrize("name", [c for c in consumers.CONSUMERS if c not in GROWTH_ONLY])
 def test_each_consumer_forms_no_n_by_n_array(name, linear_peaks):
     _check(linear_peaks[name])
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("name", [pytest.param(c, marks=pytest.mark.xfail(strict=True, reason=r))
-                                  for c, r in DENSE.items()])
-def test_the_consumers_still_dense(name, dense_peaks):
-    """Strict expected failures: one made linear fails here until its mark goes."""
-    _check(dense_peaks[name])
 
 
 def test_section_loads_form_no_n_by_n_array(tmp_path):

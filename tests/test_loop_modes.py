@@ -79,7 +79,7 @@ def _assembled(name):
 
 
 def _dense(system, x):
-    lin = fm.linearize(system, x)
+    lin = fm.linearize(system.with_complement("svd"), x)  # T from psi's SVD (the articulated one: p solves)
     w2, phi = sla.eigh(0.5 * (lin.K + lin.K.T), lin.M)
     return w2, lin.T @ phi, lin
 

@@ -15,7 +15,7 @@ from .._validate import state_time, state_vector, whole
 from ..errors import ModelError
 from ..forces import BeamElasticity, BodyTorque, Gravity, JointSpringDamper, PointForce
 from ..threads import limited_blas
-from .loop_modes import loop_modes, takes_loop_modes
+from .loop_modes import LoopModes, loop_modes, takes_loop_modes
 
 __all__ = ["Linearization", "linearize", "modes", "linear_statics", "tangent_gap", "LINEARIZE_METHODS"]
 
@@ -43,9 +43,15 @@ class Linearization:
         Generalized force left at the linearisation state (0 at an
         equilibrium).
     T : ndarray, shape (n, p)
-        Orthogonal complement over the speeds: the coordinates are
-        ``x0`` displaced by ``T z`` (``x0 + T z`` while the speeds are the
-        coordinates' rates; :meth:`flexmb.state_layout.StateLayout.displace`).
+        Orthogonal complement over the speeds (orthonormal columns with
+        ``psi T = 0``): the coordinates are ``x0`` displaced by ``T z``
+        (``x0 + T z`` while the speeds are the coordinates' rates;
+        :meth:`flexmb.state_layout.StateLayout.displace`). Its basis is
+        the strategy's: the SVD's (or QR's, eigen's) columns, or for loops
+        closed by the articulated strategy p constrained solves
+        (:meth:`flexmb.analysis.loop_modes.LoopModes.basis`); M, C, K and
+        F are in that basis, what does not depend on it (``T M^-1 K T^T``,
+        the modes, poles and transfer functions) is the same.
     x0 : ndarray, shape (nq,)
         The coordinates linearised about.
     xd0 : ndarray, shape (n,)
@@ -208,6 +214,15 @@ def linearize(system, x0=None, xd0=None, t: float = 0.0, h: float = 1e-6, method
     Where both apply they agree to the accuracy of the differences (about
     1e-10 relative with the default step; ``tests/test_state_space.py``).
 
+    With a dense complement (``svd``, ``qr``, ``eigen``) A, psi and T are
+    formed: O(n^3) time, n x n arrays. Where the articulated strategy
+    closes the loops, none is: T comes from p constrained solves of the
+    articulated-body recursion, ``A T`` from p passes of it, and K and C a
+    column of differences at a time, O(p n m) time and a few n x p arrays
+    (linear in n for few independent coordinates p; where p grows with n,
+    as for a flexible body in a loop, the result itself is that size;
+    ``tests/test_linearize_loops.py``).
+
     Examples
     --------
     A pendulum of mass m = 2 kg with its mass centre d = 0.5 m below the pin
@@ -229,29 +244,92 @@ def linearize(system, x0=None, xd0=None, t: float = 0.0, h: float = 1e-6, method
     t = state_time("linearize", t)
     x0 = system.layout.reference() if x0 is None else state_vector("linearize", "x0", x0, nq)
     xd0 = np.zeros(n) if xd0 is None else state_vector("linearize", "xd0", xd0, n)
-    eq = system.equations(t, x0, xd0)
-    kin, A, f, psi, gamma = eq.kin, eq.A, eq.f, eq.psi, eq.gamma
-    c = system.complement(psi)
-    T = c.T
-    p = T.shape[1]
-    M = T.T @ A @ T
-    xdd_p = c.particular(gamma) if c.rank else np.zeros(n)
-    F = T.T @ (f - A @ xdd_p)
+    T, AT, M, F = _reduced(system, t, x0, xd0, h)
     reason = tangent_gap(system, x0, xd0, t) if method != "fd" else "asked for"
     if method == "analytic" and reason:
         raise ModelError(f"linearize: the analytic tangent is not exact here ({reason}); use method='auto' or 'fd'")
     if not reason:
-        K, C = _analytic(system, kin, T, system.accelerations(t, x0, xd0))
+        K, C = _analytic(system, system.kinematics(t, x0, xd0), T, system.accelerations(t, x0, xd0))
         return Linearization(M=M, C=C, K=K, F=F, T=T, x0=x0, xd0=xd0, t=t, method="analytic")
-    Jx = np.zeros((n, p))
-    Jv = np.zeros((n, p))
+    p = T.shape[1]
+    K, C = np.zeros((p, p)), np.zeros((p, p))
     move = system.layout.displace  # the coordinates perturbed along the speeds: x0 + W(x0) d
-    for i in range(p):
-        d = h * T[:, i]
-        Jx[:, i] = (system.accelerations(t, move(x0, d), xd0) - system.accelerations(t, move(x0, -d), xd0)) / (2 * h)
-        Jv[:, i] = (system.accelerations(t, x0, xd0 + d) - system.accelerations(t, x0, xd0 - d)) / (2 * h)
-    return Linearization(M=M, C=-T.T @ A @ Jv, K=-T.T @ A @ Jx, F=F, T=T, x0=x0, xd0=xd0, t=t, method="fd",
-                         reason=reason)
+    for start in range(0, p, _BLOCK):  # a block of columns at a time: no n x p arrays beyond T and A T
+        cols = range(start, min(start + _BLOCK, p))
+        Jx, Jv = np.empty((n, len(cols))), np.empty((n, len(cols)))
+        for j, i in enumerate(cols):
+            d = h * T[:, i]
+            Jx[:, j] = system.accelerations(t, move(x0, d), xd0) - system.accelerations(t, move(x0, -d), xd0)
+            Jv[:, j] = system.accelerations(t, x0, xd0 + d) - system.accelerations(t, x0, xd0 - d)
+        K[:, cols.start:cols.stop] = (AT.T @ Jx) / (-2 * h)
+        C[:, cols.start:cols.stop] = (AT.T @ Jv) / (-2 * h)
+    return Linearization(M=M, C=C, K=K, F=F, T=T, x0=x0, xd0=xd0, t=t, method="fd", reason=reason)
+
+
+#: columns of the differences held at once by :func:`linearize` (n x _BLOCK each): products by blocks
+_BLOCK = 64
+
+
+def _reduced(system, t, x0, xd0, h):
+    """T, ``A T``, ``M = T^T A T`` and ``F = T^T (f - A xdd_p)`` at a state.
+
+    With dense complements from the equations (A, psi and T by the
+    system's strategy: n x n arrays). Where the articulated strategy
+    closes the loops (:attr:`System._loop_kernel`) without an n x n array:
+    T an orthonormal basis of ``psi v = 0`` from p constrained solves
+    (:meth:`flexmb.analysis.loop_modes.LoopModes.basis`), ``A T`` by p
+    passes of the recursion, and ``F = M T^T xdd`` (equal to the above:
+    ``xdd_p = (I - T T^T) xdd`` is the particular solution of least norm,
+    and ``T^T (f - A xdd) = 0`` are the reduced equations, eq. 39).
+    O(p n m) time, n x p memory.
+    """
+    if system._loop_kernel:
+        ops = LoopModes(system, x0, xd0, t, h, where="linearize")
+        V, AT = ops.basis(system.dof(t, x0))
+        T = _axes_first(V)
+        if T is not V:
+            for j in range(T.shape[1]):
+                AT[:, j] = ops.mass_times(T[:, j])
+        M = T.T @ AT
+        return T, AT, M, M @ (T.T @ system.accelerations(t, x0, xd0))
+    eq = system.equations(t, x0, xd0)
+    c = system.complement(eq.psi)
+    T = c.T
+    AT = eq.A @ T
+    xdd_p = c.particular(eq.gamma) if c.rank else np.zeros(system.n_speeds)
+    return T, AT, T.T @ AT, T.T @ (eq.f - eq.A @ xdd_p)
+
+
+def _axes_first(V):
+    """The same space as V's orthonormal columns, with the coordinate axes in it as columns of their own.
+
+    A coordinate that no loop or driver row holds (``e_j`` in the space:
+    a row of V of unit norm) keeps its own column, first and in
+    coordinate order, as psi's SVD gives it, so that its states are named
+    after it; the rest is an orthonormal basis of the vectors of the space
+    that leave those coordinates at zero (their SVD).
+
+    Parameters
+    ----------
+    V : ndarray, shape (n, p)
+        Orthonormal columns.
+
+    Returns
+    -------
+    ndarray, shape (n, p)
+        Orthonormal columns spanning the same space.
+    """
+    n, p = V.shape
+    axes = np.flatnonzero(np.abs(np.einsum("ij,ij->i", V, V) - 1.0) < 1e-12)
+    if axes.size == 0:
+        return V
+    T = np.zeros((n, p))
+    T[axes, np.arange(axes.size)] = 1.0
+    if axes.size < p:
+        rest = V.copy()
+        rest[axes] = 0.0
+        T[:, axes.size:] = np.linalg.svd(rest, full_matrices=False)[0][:, :p - axes.size]
+    return T
 
 
 @limited_blas
@@ -277,9 +355,10 @@ def modes(system_or_lin, n_modes: int | None = None, **kw):
 
     Notes
     -----
-    The dense path linearises (:func:`linearize`: T from the SVD of psi,
-    p columns of differences) and solves the p x p eigenproblem: O(n^3)
-    time and O(n^2) memory with loops. A model whose loops the articulated
+    The dense path linearises (:func:`linearize`: p columns of
+    differences) and solves the p x p eigenproblem: O(p^3) time and
+    O(p^2 + n p) memory (O(n^3) and n x n arrays with a dense complement
+    of psi). A model whose loops the articulated
     strategy closes, with at least
     ``flexmb.analysis.loop_modes.SPARSE_MODES_MIN`` coordinates and
     ``n_modes`` given, takes ``flexmb.analysis.loop_modes`` instead:

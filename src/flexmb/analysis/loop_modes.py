@@ -57,7 +57,7 @@ __all__ = ["LoopModes", "loop_modes", "takes_loop_modes", "SPARSE_MODES_MIN", "S
            "MAX_ITERATIONS"]
 
 #: the fewest coordinates n at which :func:`flexmb.modes` takes this path for a few modes of a looped model:
-#: below it the dense linearisation (T by the SVD of psi, O(n^3)) costs little and gives every mode
+#: below it the linearisation of every mode (p constrained solves and 2p differences, a p x p eigenproblem) costs little
 SPARSE_MODES_MIN = 200
 
 #: the most independent coordinates p solved in a basis of the whole tangent space (:meth:`LoopModes.subspace`):
@@ -92,10 +92,13 @@ class LoopModes:
     h : float
         Step of the central differences along a unit displacement (as
         :func:`flexmb.linearize`'s).
+    where : str
+        The function named in error messages.
     """
 
-    def __init__(self, system, x0, xd0, t, h):
+    def __init__(self, system, x0, xd0, t, h, where="modes"):
         self.system, self.x0, self.xd0, self.t, self.h = system, _plain(x0), _plain(xd0), t, h
+        self.where = where
         pre = NewtonPreconditioner(system)
         kin = system.kinematics(t, x0, xd0)
         self._mass = (system.topology.parent, system.topology.coord_start, system.topology.coord_body,
@@ -151,8 +154,8 @@ class LoopModes:
         v, _, _, status = loop_newton_solve(self._factors[key], s._packed, s._loop_layout, _plain(load))
         self.n_solves += 1
         if status:
-            raise ModelError("modes: the shift-invert solve of the loops is singular (a freedom without mass or "
-                             "stiffness that no loop fixes)")
+            raise ModelError(f"{self.where}: the constrained solve of the loops is singular (a freedom without "
+                             "mass or stiffness that no loop fixes)")
         return v
 
     def stiffness_times(self, v):
@@ -267,13 +270,45 @@ class LoopModes:
                          f"w^2 |A x| after {MAX_ITERATIONS} iterations (not an equilibrium, where the stiffness is "
                          "not symmetric?); the dense path takes its symmetric part: modes(linearize(system), k)")
 
+    def basis(self, p):
+        """An orthonormal basis of the loops' tangent space ``psi v = 0`` from p solves, and A times it.
+
+        ``V = P A R`` for p random columns R (a fixed seed: the same basis
+        at every call) spans the p-dimensional space ``psi v = 0``; its QR
+        factor makes the columns orthonormal (unit directions, as the
+        columns of the SVD's T). O(p n m), n x p arrays.
+
+        Parameters
+        ----------
+        p : int
+            The number of independent coordinates.
+
+        Returns
+        -------
+        V : ndarray, shape (n, p)
+            Orthonormal columns with ``psi V = 0``.
+        AV : ndarray, shape (n, p)
+            ``A V`` (p passes of the recursion).
+        """
+        n = self.system.n_speeds
+        if p == 0:
+            return np.zeros((n, 0)), np.zeros((n, 0))
+        rng = np.random.default_rng(0)
+        V = np.empty((n, p))
+        for j in range(p):
+            V[:, j] = self.project(self.mass_times(rng.normal(size=n)))
+        V, _ = np.linalg.qr(V)  # orthonormal columns: unit directions, as T's
+        AV = np.empty((n, p))
+        for j in range(p):
+            AV[:, j] = self.mass_times(V[:, j])
+        return V, AV
+
     def subspace(self, p):
         """Every eigenpair in a basis of the loops' tangent space built from p solves (small p).
 
-        ``V = P A R`` for p random columns R spans the p-dimensional space
-        ``psi v = 0``; ``V^T K_x V`` and ``V^T A V`` are the linearisation's
-        K and M in that basis (as :func:`flexmb.linearize` forms them in
-        the basis T). O(p n m), an n x p array.
+        In the basis of :meth:`basis`, ``V^T K_x V`` and ``V^T A V`` are
+        the linearisation's K and M (as :func:`flexmb.linearize` forms
+        them). O(p n m), an n x p array.
 
         Parameters
         ----------
@@ -287,11 +322,7 @@ class LoopModes:
         v : ndarray, shape (n, p)
             Their vectors ``T phi``.
         """
-        n = self.system.n_speeds
-        rng = np.random.default_rng(0)
-        V = np.column_stack([self.project(self.mass_times(rng.normal(size=n))) for _ in range(p)])
-        V, _ = np.linalg.qr(V)  # orthonormal columns: unit directions, as T's
-        AV = np.column_stack([self.mass_times(c) for c in V.T])
+        V, AV = self.basis(p)
         KV = np.column_stack([self.stiffness_times(c) for c in V.T])
         K = V.T @ KV
         w2, phi = sla.eigh(0.5 * (K + K.T), V.T @ AV)

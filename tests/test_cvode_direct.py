@@ -156,24 +156,37 @@ def test_non_finite_state_stops_with_time_and_cause(monkeypatch):
     assert new.value.result.status == "failed"
 
 
+def _interrupted_after(system, delay, kw):
+    """A long run sent SIGINT from another process after ``delay`` seconds, as a user's Ctrl-C (it arrives whatever
+    this process runs, mostly compiled code)."""
+    sender = subprocess.Popen(["sh", "-c", f"sleep {delay}; kill -INT {os.getpid()}"])
+    t0 = time.perf_counter()
+    try:
+        res = fm.simulate(system, 1e5, **kw)  # far longer than the delay
+    finally:
+        sender.wait()
+    assert time.perf_counter() - t0 < 20.0
+    assert res.status == "interrupted" and res.message.startswith("interrupted by"), (res.status, res.message)
+    return res
+
+
 @pytest.mark.parametrize("linear", ["dense", "gmres"])
 def test_ctrl_c_stops_a_long_interval(linear):
     """Ctrl-C while CVODE steps (the dense runs call flexmb's Jacobian from Python: a Ctrl-C raised inside that
-    ctypes callback was lost, and the run went on to its end) stops the run at the loop's next return."""
+    ctypes callback was lost, and the run went on to its end) stops the run at the loop's next return.
+
+    On a loaded machine the signal can land before the first step (the run then stops before stepping, also
+    correct): the same delay is then tried doubled, until the signal lands among the steps.
+    """
     system = scenes.b1(8 if linear == "dense" else 64).build()
-    kw = dict(method="CVODE_BDF", rtol=1e-8, n_out=2, progress=False)
+    kw = dict(method="CVODE_BDF", rtol=1e-10, n_out=2, progress=False)  # about 2e5 steps at B1 N = 8
     fm.simulate(system, 1e-3, **kw)  # compiled first: the signal is to come while CVODE steps
     for delay in (0.02, 0.05, 0.11):  # at different moments of the loop
-        # from another process, as a user's Ctrl-C: it arrives whatever this process runs (mostly compiled code)
-        sender = subprocess.Popen(["sh", "-c", f"sleep {delay}; kill -INT {os.getpid()}"])
-        t0 = time.perf_counter()
-        try:
-            res = fm.simulate(system, 1e5, **kw)  # tens of thousands of steps: far longer than the delay
-        finally:
-            sender.wait()
-        assert time.perf_counter() - t0 < 20.0
-        assert res.status == "interrupted" and res.message.startswith("interrupted by") and res.n_steps > 0, \
-            (res.status, res.message)
+        for attempt in range(3):
+            res = _interrupted_after(system, delay * 2 ** attempt, kw)
+            if res.n_steps > 0:
+                break
+        assert res.n_steps > 0, (delay, attempt)
 
 
 def test_max_step_and_outputs_as_on_sksundae(monkeypatch):

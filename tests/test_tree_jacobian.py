@@ -16,6 +16,7 @@ tangent has more keep the Python one (one decision,
 from __future__ import annotations
 
 import os
+import subprocess
 import sys
 
 import numpy as np
@@ -137,3 +138,16 @@ def test_a_non_finite_jacobian_is_refused():
     assert tree_state_jacobian(system._packed_open, y, n, K, C, J) == (2, -1)
     y[n:] = 1.0
     assert tree_state_jacobian(system._packed_open, y, n, K, C, J) == (0, -1)
+
+
+def test_a_run_loads_no_scipy_linalg_interface():
+    """B1 N = 8 with CVODE (the compiled Jacobian, BLAS through scipy's cython_blas loaded alone) in a new process
+    imports none of scipy.linalg's Python interface."""
+    script = (f"import sys\nsys.path.insert(0, {BENCH!r})\nimport flexmb as fm\nfrom scenes import b1\n"
+              "res = fm.simulate(b1(8).build(), 0.2, method='CVODE_BDF', rtol=2e-5, atol=2e-7, n_out=2, "
+              "progress=False)\nassert res.n_jac > 0\n"
+              "print(sorted(m for m in sys.modules if m.startswith('scipy.linalg')))\n")
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=600,
+                         env=dict(os.environ, OPENBLAS_NUM_THREADS="1"))
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "['scipy.linalg.cython_blas', 'scipy.linalg.cython_lapack']"

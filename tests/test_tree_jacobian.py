@@ -142,12 +142,16 @@ def test_a_non_finite_jacobian_is_refused():
 
 def test_a_run_loads_no_scipy_linalg_interface():
     """B1 N = 8 with CVODE (the compiled Jacobian, BLAS through scipy's cython_blas loaded alone) in a new process
-    imports none of scipy.linalg's Python interface."""
+    imports none of scipy.linalg's Python interface; importing it afterwards works as usual."""
     script = (f"import sys\nsys.path.insert(0, {BENCH!r})\nimport flexmb as fm\nfrom scenes import b1\n"
               "res = fm.simulate(b1(8).build(), 0.2, method='CVODE_BDF', rtol=2e-5, atol=2e-7, n_out=2, "
               "progress=False)\nassert res.n_jac > 0\n"
-              "print(sorted(m for m in sys.modules if m.startswith('scipy.linalg')))\n")
+              "print(sorted(m for m in sys.modules if m.startswith('scipy.linalg')))\n"
+              "import numpy as np, scipy.linalg\nfrom scipy.linalg import cython_blas\n"  # still usable after it
+              "a = np.array([[4.0, 1.0], [1.0, 3.0]])\n"
+              "assert np.allclose(scipy.linalg.cho_solve(scipy.linalg.cho_factor(a), [1.0, 2.0]), "
+              "np.linalg.solve(a, [1.0, 2.0]))\nassert cython_blas.__pyx_capi__['dgemm']\n")
     out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=600,
                          env=dict(os.environ, OPENBLAS_NUM_THREADS="1"))
     assert out.returncode == 0, out.stderr
-    assert out.stdout.strip() == "['scipy.linalg.cython_blas', 'scipy.linalg.cython_lapack']"
+    assert out.stdout.strip() == "['scipy.linalg.cython_blas', 'scipy.linalg.cython_lapack']"  # nothing else

@@ -40,7 +40,9 @@ The error of both is the tip's distance at t = 1 s to
 ``work_precision.reference`` (Radau, rtol 1e-9). The breakdown then
 times the parts per call, each in a loop: the right-hand sides (compiled
 loops calling the probe's ``chain_rate`` and flexmb's ``open_tree_rhs_into`` as CVODE's callback calls it),
-the Jacobians (flexmb's ``System.state_jacobian`` from Python; the probe's
+the Jacobians (flexmb's ``System.state_jacobian`` from Python, and the
+compiled one CVODE's callback calls where
+``flexmb.integrators.cvode_direct.compiled_jacobian`` says so; the probe's
 is 2 n right-hand sides inside CVODE) and each run's fixed cost (both
 integrated to t = 1e-9 s: set-up, first step, output handling).
 
@@ -350,7 +352,10 @@ def _loop_probe(y, p, n, reps):
 
 
 def per_call(system, p, reps=20000) -> dict:
-    """Least CPU per call (s) of 5: the two right-hand sides in compiled loops, flexmb's Jacobian from Python.
+    """Least CPU per call (s) of 5: the two right-hand sides in compiled loops, flexmb's Jacobians.
+
+    ``jac_flexmb_s`` is the one the run calls: the compiled one (in a compiled loop, where it exists and
+    ``compiled_jacobian`` says so), else ``System.state_jacobian`` from Python (``jac_python_s``).
 
     flexmb's right-hand side is timed as CVODE's callback calls it: ``open_tree_rhs_into`` on the packed
     buffers seen through raw pointers (numba arrays without a reference count, as ``carray`` gives them in
@@ -392,9 +397,41 @@ def per_call(system, p, reps=20000) -> dict:
             best = min(best, time.process_time() - c0)
         return best / count
 
-    return {"rhs_probe_s": least(lambda: _loop_probe(y, p, n, reps), reps),
-            "rhs_flexmb_s": least(lambda: loop_flexmb(addr, n, reps), reps),
-            "jac_flexmb_s": least(lambda: [system.state_jacobian(0.0, y[:n], y[n:]) for _ in range(200)], 200)}
+    out = {"rhs_probe_s": least(lambda: _loop_probe(y, p, n, reps), reps),
+           "rhs_flexmb_s": least(lambda: loop_flexmb(addr, n, reps), reps),
+           "jac_python_s": least(lambda: [system.state_jacobian(0.0, y[:n], y[n:]) for _ in range(200)], 200)}
+    out["jac_flexmb_s"] = out["jac_python_s"]
+    compiled = _compiled_jacobian_loop(system)
+    if compiled is not None:
+        out["jac_compiled_s"] = least(lambda: compiled(y, 200), 200)
+        from flexmb.integrators.cvode_direct import compiled_jacobian
+
+        if compiled_jacobian(system):
+            out["jac_flexmb_s"] = out["jac_compiled_s"]
+    return out
+
+
+def _compiled_jacobian_loop(system):
+    """``f(y, reps)``: the compiled open-tree Jacobian called ``reps`` times in a compiled loop (None before it)."""
+    try:
+        from flexmb.kernels.tree_jacobian import tree_state_jacobian
+    except ImportError:
+        return None
+    from flexmb.system.tangent import NewtonPreconditioner
+
+    n = system.n_coords
+    K, C = NewtonPreconditioner.diagonal_terms(system)
+    packed, J = system._packed_open, np.zeros((2 * n, 2 * n))
+
+    @njit
+    def loop(packed, y, n, K, C, J, reps):
+        s = 0.0
+        for _ in range(reps):
+            tree_state_jacobian(packed, y, n, K, C, J)
+            s += J[-1, 0]
+        return s
+
+    return lambda y, reps: loop(packed, y, n, K, C, J, reps)
 
 
 def breakdown(system, p, rows, rounds, t_short=1e-9) -> dict:

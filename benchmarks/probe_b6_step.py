@@ -51,7 +51,7 @@ sys.path.insert(0, HERE)
 import scenes  # noqa: E402
 
 import flexmb as fm  # noqa: E402
-from flexmb.integrators import cvode_direct_loops  # noqa: E402
+from flexmb.integrators import cvode_direct, cvode_direct_loops  # noqa: E402
 from flexmb.kernels import cvode_loop_callbacks  # noqa: E402
 from flexmb.kernels.cache import njit  # noqa: E402
 from flexmb.kernels.equations import RESIDUALS, loaded_state, tree_equations  # noqa: E402
@@ -230,7 +230,7 @@ def probe(n_seg: int, rounds: int) -> dict:
         _time_jacobian(packed, layout, y, n, K, C, gamma_d, tol, window, rank_limit, 1)
         cj = _least(lambda r: _time_jacobian(packed, layout, y, n, K, C, gamma_d, tol, window, rank_limit, r),
                     max(20, 4000 // n), rounds)
-        compiled = cvode_direct_loops.compiled_jacobian(system)
+        compiled = cvode_direct.compiled_jacobian(system)
         out.update(jacobian_python_us=py * 1e6, jacobian_compiled_us=cj * 1e6, jacobian_used="compiled" if compiled
                    else "python")
         spent += counts["jac"] * (cj if compiled else py)

@@ -25,9 +25,12 @@ loading, the simulation, the clean-up. The kernels' cache must be warm
   the same beam, generalized-alpha with h = 2.5e-4 s, the pick of that run.
 * The dependencies alone (in the last venv given): a process that only
   imports numpy, numba and scipy.linalg, what flexmb's CVODE run (stepped
-  in compiled code, CVODE called through ctypes) cannot do without: the
-  kernels, and the dense Jacobian's Cholesky factor (numba's ``np.dot``
-  and ``np.all`` import scipy.linalg too): the floor of that run.
+  in compiled code, CVODE called through ctypes) could not do without
+  until session 9 (the dense Jacobian's Cholesky factor; numba's ``np.dot``
+  and ``np.all`` imported scipy.linalg too). Since then the run compiles
+  its Jacobian and loads only scipy's ``cython_blas`` and ``cython_lapack``
+  (``flexmb._blas``): its floor is ``--floor``'s numpy and numba; the row
+  is kept so that its figures compare with the earlier ones.
 
 Both print the beam tip's position at t = 1 s; they must agree to 1e-5 m
 (each is within 1e-6 m of the reference). One JSON line per run goes to
@@ -114,8 +117,8 @@ assert counters["ok"], counters
 print([float(v) for v in tip])
 """
 
-#: the floor of flexmb's CVODE run: importing what it cannot run without (numba for the kernels, scipy.linalg for the
-#: dense Jacobian's factor), and the interpreter's exit
+#: the floor of flexmb's CVODE run until session 9: importing numba for the kernels and scipy.linalg for the dense
+#: Jacobian's factor, and the interpreter's exit (kept for comparison with the earlier rows)
 DEPENDENCIES_RUN = """
 import numpy, numba, scipy.linalg
 print("[]")

@@ -36,6 +36,13 @@ def _sksundae(monkeypatch):
     monkeypatch.setattr(direct_choice, "compiled_loop", lambda *args: None)
 
 
+@pytest.fixture
+def python_jacobian(monkeypatch):
+    """The compiled loop's CVODE with the Python Jacobian, as scikit-sundae's CVODE is given it (the compiled one
+    agrees to 1e-10, not to the last bit, which moves the steps: its test is tests/test_tree_jacobian.py)."""
+    monkeypatch.setattr(cvode_direct, "compiled_jacobian", lambda system: False)
+
+
 def _final(res):
     return np.concatenate([res.x[-1], res.xd[-1]])
 
@@ -69,7 +76,7 @@ def test_simulate_steps_in_compiled_code_on_open_trees():
 
 
 @pytest.mark.parametrize("method", ["CVODE_BDF", "CVODE_Adams"])
-def test_dense_runs_are_sksundae_runs(monkeypatch, method):
+def test_dense_runs_are_sksundae_runs(monkeypatch, python_jacobian, method):
     """Below KRYLOV_MIN_COORDS (dense LU, flexmb's Jacobian from Python) the compiled loop takes scikit-sundae's very
     steps, right-hand sides and Jacobians, and ends in its states (B1 N = 8 at the robust rtol, and tight)."""
     system = scenes.b1(8).build()
@@ -189,7 +196,7 @@ def test_ctrl_c_stops_a_long_interval(linear):
         assert res.n_steps > 0, (delay, attempt)
 
 
-def test_max_step_and_outputs_as_on_sksundae(monkeypatch):
+def test_max_step_and_outputs_as_on_sksundae(monkeypatch, python_jacobian):
     """max_step bounds the steps, and t_eval's output times are CVODE's interpolant there, as on scikit-sundae."""
     system = scenes.b1(8).build()
     t_eval = np.linspace(0.0, 0.2, 7)
@@ -225,7 +232,7 @@ def test_callbacks_go_through_flexmbs_kernel_cache():
     from flexmb.kernels import cvode_callbacks as cb
     from flexmb.kernels.cache import KernelCache, sources_stamp
 
-    for callback in (cb.rhs, cb.psetup, cb.psolve):
+    for callback in (cb.rhs, cb.jac, cb.psetup, cb.psolve):
         assert callback.address
         assert isinstance(callback._cf._cache, KernelCache)
         assert callback._cf._cache._impl.locator.get_source_stamp() == sources_stamp()

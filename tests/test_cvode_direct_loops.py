@@ -49,7 +49,7 @@ def _sksundae(monkeypatch):
 def python_jacobian(monkeypatch):
     """The compiled loops' CVODE with the Python Jacobian, as scikit-sundae's CVODE is given it (the compiled
     one agrees to 1e-13, not to the last bit, which moves the steps: its test is tests/test_loop_jacobian.py)."""
-    monkeypatch.setattr(cvode_direct_loops, "compiled_jacobian", lambda system: False)
+    monkeypatch.setattr(cvode_direct, "compiled_jacobian", lambda system: False)
 
 
 def _wiper():

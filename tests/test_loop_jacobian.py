@@ -23,7 +23,7 @@ import pytest
 
 import flexmb as fm
 from conftest import fourbar, fourbar_initial
-from flexmb.integrators import cvode_direct_loops
+from flexmb.integrators import cvode_direct, cvode_direct_loops
 from flexmb.kernels.loop_jacobian import loop_state_jacobian
 from flexmb.system.tangent import NewtonPreconditioner
 
@@ -58,7 +58,7 @@ def _compiled(system, t, x, xd):
 @pytest.mark.parametrize("build", [_sprung_fourbar, lambda: _b6(8), lambda: _b6(32)], ids=["fourbar", "b6_8", "b6_32"])
 def test_the_compiled_jacobian_is_state_jacobians(build):
     system, initial = build()
-    assert cvode_direct_loops.compiled_jacobian(system)
+    assert cvode_direct.compiled_jacobian(system)
     res = fm.simulate(system, 0.05, method="CVODE_BDF", rtol=1e-7, n_out=3, progress=False, **initial)
     rng = np.random.default_rng(7)
     n = system.n_speeds
@@ -74,16 +74,16 @@ def test_the_compiled_jacobian_is_state_jacobians(build):
 
 def test_which_models_get_it():
     """Springs between points, constant point forces (their arm turns) and Python-only terms keep the Python one."""
-    assert cvode_direct_loops.compiled_jacobian(_sprung_fourbar()[0])
+    assert cvode_direct.compiled_jacobian(_sprung_fourbar()[0])
     model = fourbar()
     model.add(fm.JointSpringDamper("kA", "A", 3.0, 0.2),
               fm.SpringDamper("sd", "crank", (0.1, 0, 0), "rocker", (0.25, 0, 0), stiffness=5.0,
                               rest_length=0.2))
-    assert not cvode_direct_loops.compiled_jacobian(model.build(complement="articulated"))
+    assert not cvode_direct.compiled_jacobian(model.build(complement="articulated"))
     model = fourbar()
     model.add(fm.JointSpringDamper("kA", "A", 3.0, 0.2), fm.PointForce("push", "coupler", (0.0, -1.0, 0.0),
                                                                        point=(0.15, 0.0, 0.0)))
-    assert not cvode_direct_loops.compiled_jacobian(model.build(complement="articulated"))
+    assert not cvode_direct.compiled_jacobian(model.build(complement="articulated"))
 
 
 @pytest.mark.parametrize("build", [_sprung_fourbar, lambda: _b6(8)], ids=["fourbar", "b6_8"])
@@ -103,7 +103,7 @@ def test_runs_with_it_end_where_the_python_jacobians_do(monkeypatch, build):
     monkeypatch.setattr(cvode_direct_loops.DirectLoopCVODE, "_python_jacobian", spy)
     new = fm.simulate(system, 0.2, **kw)
     assert calls and all(calls) and new.n_jac > 0
-    monkeypatch.setattr(cvode_direct_loops, "compiled_jacobian", lambda system: False)
+    monkeypatch.setattr(cvode_direct, "compiled_jacobian", lambda system: False)
     old = fm.simulate(system, 0.2, **kw)
     assert new.status == old.status == "finished"
     assert np.max(np.abs(new.x - old.x)) <= 1e-6 and np.max(np.abs(new.xd - old.xd)) <= 1e-4

@@ -11,8 +11,10 @@ O(n) Newton preconditioner as compiled C callbacks
 output times compiled (:func:`~flexmb.kernels.cvode_callbacks.advance`):
 one Python call per output time instead of one per step and per
 evaluation. A dense Jacobian (below ``KRYLOV_MIN_COORDS`` coordinates) is
-flexmb's own ``System.state_jacobian``, called from Python through a ctypes
-callback (CVODE evaluates it a few times per run). CVODE is given the
+flexmb's ``System.state_jacobian``: compiled as a C callback
+(:func:`~flexmb.kernels.cvode_callbacks.jac`) where the model's tangent is
+what the compiled one covers (:func:`compiled_jacobian`), else called from
+Python through a ctypes callback. CVODE is given the
 options scikit-sundae gives it for flexmb: the runs take scikit-sundae's
 very steps and end in its states (tests/test_cvode_direct.py).
 
@@ -36,7 +38,7 @@ from .cvode_library import FLAGS, CVODEError, sundials
 from .cvode_options import KRYLOV_DIM, MAX_STEPS
 
 __all__ = ["DirectCVODE", "DirectCVODEBDF", "DirectCVODEAdams", "REPLACES", "CVODEError",
-           "STEPS_PER_CALL"]
+           "STEPS_PER_CALL", "compiled_jacobian"]
 
 CV_ADAMS, CV_BDF, SUN_PREC_LEFT = 1, 2, 1
 #: steps of one compiled call before it returns to Python (which then handles signals: Ctrl-C, SIGTERM)
@@ -45,6 +47,46 @@ STEPS_PER_CALL = 1000
 
 def _addr(f) -> int:
     return ctypes.cast(f, c_void_p).value
+
+
+def compiled_jacobian(system) -> bool:
+    """Whether the compiled state Jacobian gives this model's ``System.state_jacobian``.
+
+    The compiled one (:func:`flexmb.kernels.tree_jacobian.tree_state_jacobian`
+    for open trees, :func:`flexmb.kernels.loop_jacobian.loop_state_jacobian`
+    with loops) holds the diagonal coordinate springs and dampers and the
+    loads' and inertia forces' geometric stiffness. The model's tangent
+    must have nothing else: no springs or dampers between points
+    (``pair_tangent_all``), no velocity-dependent point forces
+    (``velocity_tangent_all``), no constant point forces or body-axis
+    torques turning with their bodies (``System._turning_loads``'s).
+    Elsewhere the run's Jacobian is ``System.state_jacobian``, called from
+    Python.
+
+    Parameters
+    ----------
+    system : System
+        A model the compiled callbacks evaluate (an open tree with
+        ``System._packed_open``, or :func:`~flexmb.integrators.cvode_direct_loops.loop_class`'s).
+
+    Returns
+    -------
+    bool
+        True if the run's CVODE takes the compiled Jacobian (a C callback)
+        instead of the Python one.
+    """
+    from ..forces import BodyTorque, PointForce
+
+    kin = system.kinematics(0.0, system.layout.reference(), np.zeros(system.n_speeds))
+    for cls, elements in system.forces.groups:
+        if cls.pair_tangent_all(elements, kin) is not None or cls.velocity_tangent_all(elements, kin) is not None:
+            return False
+        for e in elements:
+            if type(e) is PointForce and not callable(e.force):
+                return False
+            if type(e) is BodyTorque and e.frame == "body" and not callable(e.torque):
+                return False
+    return True
 
 
 class DirectCVODE:
@@ -77,9 +119,11 @@ class DirectCVODE:
         GMRES with the O(n) Newton preconditioner instead of the dense
         Jacobian and LU (flexmb's choice from ``KRYLOV_MIN_COORDS`` on).
     jacobian : callable, optional
-        ``jacobian(t, y) -> (m, m)`` of the true state, called from Python
-        (a ctypes callback) for the dense linear solver; without it (and
-        without ``krylov``) CVODE's own difference quotients.
+        ``jacobian(t, y) -> (m, m)`` of the true state for the dense linear
+        solver: where :func:`compiled_jacobian` says so, the compiled one
+        replaces it (a C callback), else it is called from Python (a
+        ctypes callback); without it (and without ``krylov``) CVODE's own
+        difference quotients.
     python_rhs : bool
         Call ``fun`` from Python (a ctypes callback) instead of the compiled
         right-hand side (a check of the loop; what a model with Python force
@@ -112,6 +156,7 @@ class DirectCVODE:
     explicit = second_order = finds_roots = cheap_restart = rebases = moves = False
     uses_jacobian = uses_preconditioner = needs_n_second = False
     advances = steps_in_compiled_code = True
+    _compiled_jac = False  # the dense Jacobian by the callbacks' module's C callback ``jac`` (set with the run's)
 
     def __init__(self, fun, t0, y0, t_bound, *, rtol, atol, max_step=np.inf, first_step=None, system,
                  krylov=False, jacobian=None, python_rhs=False, offset=None, monitor=None,
@@ -179,6 +224,7 @@ class DirectCVODE:
                                      work=np.zeros(cb.work_size(nb, n, self.m)))
         ud = np.zeros(cb.UD_SIZE, dtype=np.int64)
         ud[cb.A_GETPTR], ud[cb.N], ud[cb.M], ud[cb.NB] = _addr(S.N_VGetArrayPointer), n, self.m, nb
+        ud[cb.A_MATDATA] = _addr(S.SUNDenseMatrix_Data)
         for slot, size, key in ((cb.A_FL, cb.N_FL, "fl"), (cb.A_IT, cb.N_IT, "it"), (cb.A_FG, cb.N_FG, "fg")):
             ud[slot], ud[size] = arrays[key].ctypes.data, arrays[key].size
         ud[cb.A_IX], ud[cb.N_IX] = ix.ctypes.data, ix.shape[0]
@@ -214,6 +260,8 @@ class DirectCVODE:
         ck(S.CVodeSetLinearSolver(mem, self._ls, self._A), "CVodeSetLinearSolver")
         if krylov:
             ck(S.CVodeSetPreconditioner(mem, cb.psetup.address, cb.psolve.address), "CVodeSetPreconditioner")
+        elif self._compiled_jac:
+            ck(S.CVodeSetJacFn(mem, cb.jac.address), "CVodeSetJacFn")
         elif self._py_jac is not None:
             ck(S.CVodeSetJacFn(mem, _addr(self._py_jac)), "CVodeSetJacFn")
         ck(S.CVodeSetMaxNonlinIters(mem, 3), "CVodeSetMaxNonlinIters")
@@ -241,7 +289,13 @@ class DirectCVODE:
         return proto(f)
 
     def _python_jacobian(self, jacobian):
-        """A ctypes callback (CVLsJacFn) filling the dense matrix with ``jacobian(t, z + c)``; -1 if it raises."""
+        """None where the compiled Jacobian (:func:`compiled_jacobian`) replaces the run's, else a ctypes callback.
+
+        The callback (CVLsJacFn) fills the dense matrix with ``jacobian(t, z + c)``; -1 if it raises.
+        """
+        self._compiled_jac = compiled_jacobian(self.system)
+        if self._compiled_jac:
+            return None
         proto = ctypes.CFUNCTYPE(c_int, c_double, c_void_p, c_void_p, c_void_p, c_void_p, c_void_p, c_void_p,
                                  c_void_p)
 

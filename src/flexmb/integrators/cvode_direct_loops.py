@@ -12,7 +12,7 @@ and the dense Jacobian of a small model (below ``KRYLOV_MIN_COORDS``)
 ``System.state_jacobian``'s, compiled
 (:func:`~flexmb.kernels.loop_jacobian.loop_state_jacobian`, a C callback)
 where the model's tangent is what that kernel forms
-(:func:`compiled_jacobian`), else called from Python.
+(:func:`~flexmb.integrators.cvode_direct.compiled_jacobian`), else called from Python.
 
 What ``flexmb.stepping.Run`` does after each step of a looped model is done
 by the run itself, on the very steps it would do it on
@@ -57,7 +57,7 @@ from .cvode_direct import CV_ADAMS, CV_BDF, STEPS_PER_CALL, DirectCVODE, _addr
 PROJECTION_BOUND_FRACTION = 0.5
 PROJECTION_ATOL_FRACTION = 0.1
 
-__all__ = ["DirectLoopCVODE", "DirectLoopCVODEBDF", "DirectLoopCVODEAdams", "loop_class", "compiled_jacobian"]
+__all__ = ["DirectLoopCVODE", "DirectLoopCVODEBDF", "DirectLoopCVODEAdams", "loop_class"]
 
 #: the counters CVODE keeps per memory (summed over the restarts by :meth:`DirectLoopCVODE.stats`)
 _CVODE_COUNTS = (("steps", "NumSteps"), ("rhs_cvode", "NumRhsEvals"), ("rhs_ls", "NumLinRhsEvals"),
@@ -90,42 +90,6 @@ def loop_class(system, family: str) -> type | None:
     return {"BDF": DirectLoopCVODEBDF, "Adams": DirectLoopCVODEAdams}[family]
 
 
-def compiled_jacobian(system) -> bool:
-    """Whether :func:`flexmb.kernels.loop_jacobian.loop_state_jacobian` gives this model's ``state_jacobian``.
-
-    Its tangent must be the diagonal coordinate springs and dampers, the
-    loads' and inertia forces' geometric stiffness and nothing else: no
-    springs or dampers between points (``pair_tangent_all``), no
-    velocity-dependent point forces (``velocity_tangent_all``), no
-    constant point forces or body-axis torques turning with their bodies
-    (``System._turning_loads``'s). Elsewhere the run's Jacobian is
-    ``System.state_jacobian``, called from Python.
-
-    Parameters
-    ----------
-    system : System
-        A model the loops' callbacks evaluate (:func:`loop_class`).
-
-    Returns
-    -------
-    bool
-        True if the run's CVODE takes the compiled Jacobian (C callback
-        ``cvode_loop_callbacks.jac``) instead of the Python one.
-    """
-    from ..forces import BodyTorque, PointForce
-
-    kin = system.kinematics(0.0, system.layout.reference(), np.zeros(system.n_speeds))
-    for cls, elements in system.forces.groups:
-        if cls.pair_tangent_all(elements, kin) is not None or cls.velocity_tangent_all(elements, kin) is not None:
-            return False
-        for e in elements:
-            if type(e) is PointForce and not callable(e.force):
-                return False
-            if type(e) is BodyTorque and e.frame == "body" and not callable(e.torque):
-                return False
-    return True
-
-
 def _with_projection(init) -> inspect.Signature:
     """``DirectCVODE.__init__``'s signature with the keywords ``projection_tol`` and ``project`` before its ``**``."""
     params = list(inspect.signature(init).parameters.values())
@@ -150,7 +114,6 @@ class DirectLoopCVODE(DirectCVODE):
     """
 
     checks_constraints = restarts_in_place = True
-    _compiled_jac = False  # the dense Jacobian by the loops' C callback (set with the run's jacobian)
     advances = False  # stepped by step_on, the run's checks acting after its steps (DirectCVODE.advance's are not)
 
     def __init__(self, *args, projection_tol=1e-10, project=False, **kwargs):
@@ -179,20 +142,13 @@ class DirectLoopCVODE(DirectCVODE):
                         "checks and restarts of the run act after its steps")
 
     def _setup(self, rtol, atol, krylov, max_step, first_step):
-        """CVODE's options (:meth:`DirectCVODE._setup`), kept for :meth:`restart`; the compiled Jacobian."""
+        """CVODE's options (:meth:`DirectCVODE._setup`), kept for :meth:`restart`."""
         if not hasattr(self, "_carried"):  # the first memory: CVODE's counters of the restarted ones start at 0
             self._options, self._carried = (rtol, atol, krylov, max_step), {key: 0 for key, _ in _CVODE_COUNTS}
         super()._setup(rtol, atol, krylov, max_step, first_step)
-        if self._compiled_jac and not krylov:
-            self._check(self._S.CVodeSetJacFn(self._mem, self._cb.jac.address), "CVodeSetJacFn")
         self._projects = self._projects and self.family == "BDF"  # (CVODE projects BDF steps only)
         if self._projects:
             self._project_in_cvode()
-
-    def _python_jacobian(self, jacobian):
-        """None where the compiled Jacobian (:func:`compiled_jacobian`) replaces the run's, else the ctypes callback."""
-        self._compiled_jac = compiled_jacobian(self.system)
-        return None if self._compiled_jac else super()._python_jacobian(jacobian)
 
     def _project_in_cvode(self) -> None:
         """CVODE's own projection onto the constraints after each step (``CVodeSetProjFn``), its error not projected.

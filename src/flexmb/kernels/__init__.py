@@ -29,3 +29,7 @@ __all__ = ["TRANSLATION", "ROTATION", "EXTERNAL", "QUATERNION"]
 from . import compiling as _compiling
 
 _compiling.install()  # one line on stderr when a family of kernels compiles; progress bars' clocks skip it
+
+from .._blas import load as _load_blas
+
+_load_blas()  # the BLAS and LAPACK the compiled code calls, without scipy.linalg's Python interface

@@ -11,7 +11,7 @@ reaches them only through CVODE's ``user_data``: a pointer to an int64
 array (the slots ``A_GETPTR`` ... below) holding the addresses and sizes of
 the packed buffers, of the diagonal springs and dampers, of the winding
 offsets, of the preconditioner's work arrays, and of SUNDIALS'
-``N_VGetArrayPointer`` (called through its address). Their signatures therefore do not depend on the model: they
+``N_VGetArrayPointer`` and ``SUNDenseMatrix_Data`` (called through their addresses). Their signatures therefore do not depend on the model: they
 compile once per installation, and their machine code goes through
 flexmb's kernel cache (:class:`~flexmb.kernels.cache.KernelCache`: the
 shipped entries first, the whole-source stamp).
@@ -41,13 +41,15 @@ from .cache import KernelCache, njit
 from .dynamics import spatial_inertias
 from .packing import unpack
 from .tree import tree_state
+from .tree_jacobian import tree_state_jacobian
 
-__all__ = ["rhs", "psetup", "psolve", "advance", "work_size", "UD_SIZE", "REACHED", "CHECKPOINT", "PAUSED", "WATCH"]
+__all__ = ["rhs", "jac", "psetup", "psolve", "advance", "work_size", "UD_SIZE", "REACHED", "CHECKPOINT", "PAUSED", "WATCH"]
 
 #: slots of the user_data array (int64): addresses (A_*), sizes, counters, the failure's status
 (A_GETPTR, N, M, A_FL, N_FL, A_IT, N_IT, A_FG, N_FG, A_IX, N_IX, A_K, A_C, A_SPATIAL, A_SW, A_SV, A_R, NB,
- SETUPS, JACS, RHS, STATUS, A_FAIL_T, NONFINITE_FLAG, A_OFFSET, HAS_OFFSET, A_FAIL_Y, A_WORK, N_WORK) = range(29)
-UD_SIZE = 29
+ SETUPS, JACS, RHS, STATUS, A_FAIL_T, NONFINITE_FLAG, A_OFFSET, HAS_OFFSET, A_FAIL_Y, A_WORK, N_WORK,
+ A_MATDATA) = range(30)
+UD_SIZE = 30
 #: the loop's return codes (CVODE's negative flags pass through)
 REACHED, CHECKPOINT, PAUSED, WATCH = 0, 1, 2, 3
 #: the status of a failed callback when it is not a joint's index
@@ -213,9 +215,40 @@ def rhs(t, y, ydot, user_data):
         out[i] = 0.0
     if status == -1:
         return 0
-    if status >= 0 and np.all(np.isfinite(yv)):  # a joint whose articulated inertia is singular
+    if status >= 0 and _finite(yv):  # a joint whose articulated inertia is singular
         return _fail(ud, status, t, yv, -1)
     return _fail(ud, NONFINITE, t, yv, ud[NONFINITE_FLAG])  # not finite (a non-finite state breaks the solve too)
+
+
+@njit(cache=True)
+def _finite(a):
+    """Whether every entry of ``a`` is finite (a loop: ``np.all`` would load numba's array-math module)."""
+    for i in range(a.shape[0]):
+        if not np.isfinite(a[i]):
+            return False
+    return True
+
+
+@_cfunc(types.int32(types.float64, types.voidptr, types.voidptr, types.voidptr, types.voidptr, types.voidptr,
+                    types.voidptr, types.voidptr))
+def jac(t, y, fy, J, user_data, tmp1, tmp2, tmp3):
+    """CVLsJacFn: the dense state Jacobian by :func:`~flexmb.kernels.tree_jacobian.tree_state_jacobian`.
+
+    K and C are the diagonal terms of the preconditioner's slots; -1 (the
+    cause recorded as :func:`rhs` records it) if the state's equations fail.
+    """
+    ud = _ud(user_data)
+    n, m = ud[N], ud[M]
+    yv = _state(ud, y, m)
+    ud[JACS] += 1
+    full = np.empty((m, m))
+    status, body = tree_state_jacobian(_packed(ud), yv, n, _floats(ud[A_K], n), _floats(ud[A_C], n), full)
+    if status == 2:
+        return _fail(ud, NONFINITE, t, yv, -1)
+    if status:
+        return _fail(ud, body, t, yv, -1)
+    carray(_call_p_p(ud[A_MATDATA], J), (m, m), np.float64)[:, :] = full.T  # SUNDIALS' column-major data
+    return 0
 
 
 @_cfunc(types.int32(types.float64, types.voidptr, types.voidptr, types.int32, types.voidptr, types.float64,

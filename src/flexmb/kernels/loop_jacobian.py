@@ -11,8 +11,9 @@ the accelerations of the same solve, K and C the diagonal coordinate
 springs and dampers (``NewtonPreconditioner.diagonal_terms``). It is for
 models whose tangent has nothing else (no springs between points, no
 velocity-dependent point forces, no constant point forces or body-axis
-torques turning with their bodies: :func:`flexmb.integrators.cvode_direct_loops.compiled_jacobian`
-says which), called by CVODE's dense linear solver through the C callback
+torques turning with their bodies: :func:`flexmb.integrators.cvode_direct.compiled_jacobian`
+says which; J assembled by :func:`~flexmb.kernels.tree_jacobian.fill_state_jacobian`, as the open
+tree's), called by CVODE's dense linear solver through the C callback
 :func:`flexmb.kernels.cvode_loop_callbacks.jac` (n below ``KRYLOV_MIN_COORDS``: n
 solves of O(n m) each and an n x n product).
 """
@@ -28,6 +29,7 @@ from .loops import _arrays, _constrained_apply, _constrained_factor, _minus_bias
 from .packing import unpack
 from .tangent import geometric_stiffness
 from .tree import tree_state
+from .tree_jacobian import fill_state_jacobian
 
 __all__ = ["loop_state_jacobian"]
 
@@ -101,19 +103,6 @@ def loop_state_jacobian(packed, layout, y, n, stiffness, damping, gamma_d, tol, 
         if status:
             return status, kept if status != 2 else -1
         P[:, j] = col
-    for j in range(n):
-        G[j, j] -= stiffness[j]
-    J[:, :] = 0.0
-    for i in range(n):
-        J[i, n + i] = 1.0
-        for j in range(n):
-            s = 0.0
-            for k in range(n):
-                s += P[i, k] * G[k, j]
-            J[n + i, j] = s
-            J[n + i, n + j] = -P[i, j] * damping[j]
-    for i in range(n, 2 * n):
-        for j in range(2 * n):
-            if not np.isfinite(J[i, j]):
-                return 2, -1
+    if not fill_state_jacobian(P, G, stiffness, damping, n, J):
+        return 2, -1
     return 0, -1

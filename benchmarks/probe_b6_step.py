@@ -25,7 +25,15 @@ CPU of the rounds, at the run's initial state:
 * with GMRES (from ``KRYLOV_MIN_COORDS``), the preconditioner's
   factorisation (``loop_newton_factor``) and solve (``loop_newton_solve``);
 * the step loop's drift check after every step (the cut joints'
-  residuals, ``tree_equations(..., RESIDUALS)``).
+  residuals, ``tree_equations(..., RESIDUALS)``); where CVODE projects
+  (``project=True``: the loop's drift check is skipped after a step the
+  projection kept or moved) CVODE's projection callback instead, called on
+  every attempt of a step
+  (:func:`~flexmb.kernels.step_projection.step_projection`): at the run's
+  state (kept: the residuals' one kinematic pass), and with its speeds, or
+  its positions and speeds, moved off the constraints by 1e-5 (projected);
+  the run's counts of moved and refused projections are CVODE's
+  (``projections``, ``projections_refused``).
 
 The run's CPU is split into the time inside the compiled step loop
 (``cvode_loop_callbacks.advance``: CVODE, the callbacks, the checks) and
@@ -56,6 +64,7 @@ from flexmb.kernels import cvode_loop_callbacks  # noqa: E402
 from flexmb.kernels.cache import njit  # noqa: E402
 from flexmb.kernels.equations import RESIDUALS, loaded_state, tree_equations  # noqa: E402
 from flexmb.kernels.loop_jacobian import loop_state_jacobian  # noqa: E402
+from flexmb.kernels.step_projection import step_projection  # noqa: E402
 from flexmb.kernels.loops import (_arrays, _constrained_apply, _constrained_factor, _minus_bias_wrenches,  # noqa: E402
                                   _rows, loop_newton_factor, loop_newton_solve, loop_rhs)
 
@@ -138,6 +147,16 @@ def _time_drift(packed, y, n, nb, reps):
     return s
 
 
+@njit
+def _time_projection(packed, layout, y, n, cols, p_d, v_d, tol, rank_tol, window, rank_limit, reps):
+    """``reps`` calls of CVODE's projection callback's work (:func:`step_projection`) at ``y``."""
+    s = 0.0
+    for _ in range(reps):
+        s += step_projection(packed, layout, y, n, cols, p_d, v_d, tol, 0.1 * tol, 1e3, rank_tol, window,
+                             rank_limit)[1]
+    return s
+
+
 def _least(f, reps, rounds):
     best = np.inf
     for _ in range(rounds):
@@ -213,13 +232,17 @@ def probe(n_seg: int, rounds: int) -> dict:
                  factors_us=(cum[2] - cum[1]) * 1e6, solve_us=(cum[3] - cum[2]) * 1e6)
     out = dict(n_segments=n_seg, n=n, rtol=RTOL, cpu_s=cpu, **counts,
                solver={k: solver.get(k) for k in ("steps", "rhs_cvode", "rhs_ls", "newton_iters", "lin_iters",
-                                                  "lin_setups", "psolves", "factors", "err_test_fails")},
+                                                  "lin_setups", "psolves", "factors", "err_test_fails",
+                                                  "projections", "projections_refused")},
                **parts)
     nb = system.topology.n_bodies
     _time_drift(packed, y, n, nb, 1)
     drift = _least(lambda r: _time_drift(packed, y, n, nb, r), reps, rounds)
     out.update(drift_us=drift * 1e6, inside_s=inside, python_s=cpu - inside)
-    spent = counts["rhs"] * whole + counts["steps"] * drift
+    if solver.get("projections", 0) or solver.get("projections_refused", 0):  # CVODE projects: its callback
+        spent = counts["rhs"] * whole + _projection_part(system, y, t, reps, rounds, solver, out)
+    else:
+        spent = counts["rhs"] * whole + counts["steps"] * drift
     if n < fm.stepping.KRYLOV_MIN_COORDS:  # the dense Jacobian (own_loop.compiled_options)
         from flexmb.system.tangent import NewtonPreconditioner
 
@@ -249,6 +272,32 @@ def probe(n_seg: int, rounds: int) -> dict:
     out["cvode_own_s"] = inside - spent  # CVODE's own work: inside the compiled loop, less the callbacks' parts
     out["rest_s"] = cpu - spent
     return out
+
+
+def _projection_part(system, y, t, reps, rounds, solver, out):
+    """CVODE's projection callback: per call kept / speeds moved / positions and speeds moved; its part of the run."""
+    n = system.n_speeds
+    packed, layout = system._packed, system._loop_layout
+    drivers = system.constraints.drivers
+    cols = np.array(system.constraints.driver_cols, dtype=np.int64)
+    p_d = np.array([d.position(t) for d in drivers])
+    v_d = np.array([d.velocity(t) for d in drivers])
+    rank_limit = -1 if system.rank_limit is None else system.rank_limit
+    tol = 0.1 * RTOL / 100  # PROJECTION_ATOL_FRACTION x atol
+    rng = np.random.default_rng(0)
+    states = dict(kept=y, speeds=y + np.concatenate([np.zeros(n), 1e-5 * rng.normal(size=n)]),
+                  positions=y + 1e-5 * rng.normal(size=2 * n))
+    per = {}
+    for key, state in states.items():
+        args = (packed, layout, state, n, cols, p_d, v_d, tol, system._loop_tol, system.singular_window(), rank_limit)
+        _time_projection(*args, 1)
+        per[key] = _least(lambda r: _time_projection(*args, r), max(50, reps // 4), rounds)
+    attempts = solver["steps"] + solver.get("err_test_fails", 0)
+    moved = solver.get("projections", 0)
+    out.update(projection_kept_us=per["kept"] * 1e6, projection_speeds_us=per["speeds"] * 1e6,
+               projection_positions_us=per["positions"] * 1e6, projection_calls=attempts)
+    # each attempt makes the residuals' pass; a moved one the projection's work on top (speeds moved: the bound)
+    return attempts * per["kept"] + moved * (per["speeds"] - per["kept"])
 
 
 def main(argv=None):

@@ -297,6 +297,7 @@ class DirectLoopCVODE(DirectCVODE):
         times = np.empty(max(mon.next_check - mon.n_steps, 1) if live else 0)
         t_entry = self._tret[0]
         gimbal = self._gimbal if self.gimbal is not None and not self.gimbal.warned else self._gimbal[:0]
+        self._drift_bound = float(bound)
         if self._projects:
             real = self._arrays["real"]
             real[cb.R_PROJ_TOL] = min(PROJECTION_BOUND_FRACTION * float(bound), PROJECTION_ATOL_FRACTION * self._atol_min)
@@ -336,9 +337,11 @@ class DirectLoopCVODE(DirectCVODE):
         """Whether the last :meth:`step_on` found its last step's state within its drift bound (:func:`drift`).
 
         True where that call took a step and returned for another cause than
-        the drift (or a non-finite state) after a step whose state it
-        checked: not one CVODE's projection left on the constraints (not
-        checked), not the run's end.
+        the drift (or a non-finite state) before the run's end, after a step
+        whose state the step loop checked, or CVODE's projection kept (its
+        residuals within ``PROJECTION_BOUND_FRACTION`` of the bound), or
+        CVODE's projection moved onto the constraints and whose drift,
+        evaluated here by the loop's own :func:`drift`, is within the bound.
 
         Parameters
         ----------
@@ -353,7 +356,10 @@ class DirectLoopCVODE(DirectCVODE):
         cb = self._cb
         if not self._last_steps or code in (cb.DRIFTED, cb.NOT_FINITE) or code < 0 or self.t >= self.t_bound:
             return False
-        return not (self._ud[cb.PROJ_OK] == 1 and self._arrays["real"][cb.R_PROJ_T] == self.t)
+        if not (self._ud[cb.PROJ_OK] == 2 and self._arrays["real"][cb.R_PROJ_T] == self.t):
+            return True  # checked by the step loop (no projection at t), or kept by the projection (PROJ_OK 1)
+        y = self.y if self._offset is None else self.y + self._offset
+        return cb.drift(self._ud, self.t, y) <= self._drift_bound
 
     def _cvode_counts(self) -> dict:
         """CVODE's counters of the current memory (since the last restart)."""

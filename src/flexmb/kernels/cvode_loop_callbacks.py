@@ -41,8 +41,8 @@ from .cvode_callbacks import _call_cvode, _call_p_p, _cfunc, _voidp, _watched
 from .equations import RESIDUALS, tree_equations
 from .loop_layout import LoopLayout
 from .loop_jacobian import loop_state_jacobian
-from .loop_projection import loop_min_norm, loop_phi
-from .loops import loop_newton_factor, loop_newton_solve, loop_rhs, loop_speeds
+from .loops import loop_newton_factor, loop_newton_solve, loop_rhs
+from .step_projection import KEPT, MOVED, REFUSED, step_projection
 
 __all__ = ["rhs", "jac", "psetup", "psolve", "project", "advance", "drift", "driver", "UD_SIZE", "REACHED", "CHECKPOINT", "PAUSED", "WATCH",
            "DRIFTED", "NOT_FINITE"]
@@ -61,8 +61,6 @@ UD_SIZE = 65
 #: per unit residual, and the time of the last state it left on the constraints
 R_TOL, R_WINDOW, R_GAMMA, R_SMALLEST, R_PROJ_TOL, R_NEWTON_TOL, R_GAIN, R_PROJ_T = range(8)
 N_REAL = 8
-#: Newton iterations and the largest change of a coordinate per iteration of :func:`project` (System.project's)
-PROJ_MAX_ITER, PROJ_MAX_STEP = 50, 0.5
 #: the loop's return codes (CVODE's negative flags pass through)
 REACHED, CHECKPOINT, PAUSED, WATCH, DRIFTED, NOT_FINITE = 0, 1, 2, 3, 4, 5
 #: the status of a failed callback when it is not a joint's index
@@ -398,56 +396,11 @@ def advance(lp, ud, t_stop, t_bound, bound, steps, budget, angles, wind, gimbal,
 
 # ----------------------------------------------------------------------------- CVODE's projection
 
-@njit(cache=True)
-def _projected(ud, t, y, positions):
-    """The state ``y`` projected onto the constraints as ``System.project(..., speeds='mass')`` projects it.
-
-    The positions by Newton's minimum-norm steps onto the cut joints' and
-    the drivers' rows (:func:`~flexmb.kernels.loop_projection.loop_min_norm`,
-    at most ``PROJ_MAX_STEP`` per coordinate and iteration, to
-    ``R_NEWTON_TOL``), then the speeds mass-orthogonally onto ``psi xd = b``
-    (:func:`~flexmb.kernels.loops.loop_speeds`; the minimum-norm correction
-    where A is singular), eqs. 28-29.
-
-    Returns
-    -------
-    x, xd : ndarray, shape (n,)
-        The projected positions and speeds.
-    converged : bool
-        False if Newton did not close the loops in ``PROJ_MAX_ITER`` iterations.
-
-    ``positions`` False: the positions are kept (within the tolerance), the speeds projected.
-    """
-    n, mr, nd = ud[N], ud[MROWS], ud[N_DRV]
-    real = _f1(ud[A_REAL], N_REAL)
-    packed, layout, drv, limit = _packed(ud), _layout(ud), _drivers(ud), ud[RANK_LIMIT]
-    x, xd = y[:n].copy(), y[n:2 * n].copy()
-    free, zeros, phi, m_cut = np.ones(n, np.bool_), np.zeros(n), np.empty(mr), mr - nd
-    converged = not positions
-    for _ in range(PROJ_MAX_ITER if positions else 0):
-        phi[:m_cut] = loop_phi(packed, layout, x)
-        for k in range(nd):
-            phi[m_cut + k] = x[int(drv[k, 0])] - driver(drv, k, t)[0]
-        if np.max(np.abs(phi)) <= real[R_NEWTON_TOL]:
-            converged = True
-            break
-        step = loop_min_norm(packed, layout, x, zeros, -phi, free, real[R_TOL], limit)[0]
-        big = np.max(np.abs(step))
-        x -= step * min(1.0, PROJ_MAX_STEP / big) if big > 0.0 else step
-    b = np.zeros(mr)
-    for k in range(nd):
-        b[m_cut + k] = driver(drv, k, t)[1]
-    v, _, status = loop_speeds(packed, layout, x, xd, b, real[R_TOL], real[R_WINDOW], limit)
-    if status:  # A singular: the minimum-norm correction (System._project_loops' fallback)
-        v = xd - loop_min_norm(packed, layout, x, xd, b, free, real[R_TOL], limit)[0]
-    return x, v, converged
-
-
 @_cfunc(types.int32(types.float64, types.voidptr, types.voidptr, types.float64, types.voidptr, types.voidptr))
 def project(t, ycur, corr, eps, err, user_data):
-    """CVProjFn: ``corr`` = the state projected onto the constraints (:func:`_projected`) less ``ycur``.
+    """CVProjFn: ``corr`` = the state projected onto the constraints (:func:`.step_projection`) less ``ycur``.
 
-    A state whose position and velocity residuals (:func:`_residuals`) are
+    A state whose position and velocity residuals (:func:`_residuals`'s) are
     within ``R_PROJ_TOL`` is kept (``corr = 0``); one whose positions are
     within it has its speeds projected only. A projection that does not
     converge, is not finite, or moves the state by more than ``R_GAIN``
@@ -456,40 +409,42 @@ def project(t, ycur, corr, eps, err, user_data):
     rule) is refused: ``corr = 0``, counted in ``PROJ_REFUSED``, and the
     step loop's drift check (:func:`advance`) hands the state to the run,
     which projects and restarts as without CVODE's projection. Otherwise
-    the time is kept (``R_PROJ_T``): the step loop then skips its drift
-    check. The error estimate is not projected
-    (``CVodeSetProjErrEst(mem, 0)``); ``err`` is not used.
+    the time is kept (``R_PROJ_T``) and ``PROJ_OK`` says what was done
+    (1: kept, its residuals within ``R_PROJ_TOL``; 2: moved onto the
+    constraints): the step loop then skips its drift check. The error
+    estimate is not projected (``CVodeSetProjErrEst(mem, 0)``); ``err`` is
+    not used. CVODE calls it on every attempt of a step, before its error
+    test: the last call before a step is accepted is that step's.
     """
     ud = _ud(user_data)
-    n, m = ud[N], ud[M]
+    n, m, nd = ud[N], ud[M], ud[N_DRV]
     y = _state(ud, ycur, m)
     c = _vector(ud, corr, m)
     c[:] = 0.0
     real = _f1(ud[A_REAL], N_REAL)
     ud[PROJ_OK] = 0
-    position, velocity = _residuals(ud, t, y)
-    tol = real[R_PROJ_TOL]
-    if not (position > tol or velocity > tol):
-        if position <= tol and velocity <= tol:  # (a non-finite state: left to the step loop's check)
-            ud[PROJ_OK], real[R_PROJ_T] = 1, t
-        return 0
-    x, v, converged = _projected(ud, t, y, position > tol)
-    big = 0.0
-    for i in range(n):
-        big = max(big, abs(x[i] - y[i]), abs(v[i] - y[n + i]))
-    if not (converged and np.all(np.isfinite(x)) and np.all(np.isfinite(v))
-            and big <= real[R_GAIN] * max(position, velocity)):
+    drv = _drivers(ud)
+    cols, p_d, v_d = np.empty(nd, np.int64), np.empty(nd), np.empty(nd)
+    for k in range(nd):
+        cols[k] = int(drv[k, 0])
+        p_d[k], v_d[k], _ = driver(drv, k, t)
+    what, position, velocity, x, v = step_projection(_packed(ud), _layout(ud), y, n, cols, p_d, v_d,
+                                                     real[R_PROJ_TOL], real[R_NEWTON_TOL], real[R_GAIN], real[R_TOL],
+                                                     real[R_WINDOW], ud[RANK_LIMIT])
+    if what == REFUSED:
         ud[PROJ_REFUSED] += 1
+    if what == KEPT or what == MOVED:
+        ud[PROJ_OK], real[R_PROJ_T] = 1 + what, t
+    if what != MOVED:  # (a residual not finite: left to the step loop's check)
         return 0
     for i in range(n):
         c[i] = x[i] - y[i]
         c[n + i] = v[i] - y[n + i]
     ud[PROJECTIONS] += 1
-    ud[PROJ_OK], real[R_PROJ_T] = 1, t
     return 0
 
 
 @njit(cache=True)
 def _projected_at(ud, t):
     """Whether CVODE's projection (:func:`project`) left the state of time ``t`` on the constraints."""
-    return ud[PROJ_OK] == 1 and _f1(ud[A_REAL], N_REAL)[R_PROJ_T] == t
+    return ud[PROJ_OK] >= 1 and _f1(ud[A_REAL], N_REAL)[R_PROJ_T] == t

@@ -23,7 +23,7 @@ from .loops import rows_at_positions
 from .packing import unpack
 from .tree import tree_state
 
-__all__ = ["sparse_rows", "loop_min_norm", "loop_phi"]
+__all__ = ["sparse_rows", "loop_min_norm", "min_norm_at_rows", "loop_phi"]
 
 
 @njit(cache=True)
@@ -158,9 +158,32 @@ def loop_min_norm(packed, layout, x, v, rhs, free, tol, rank_limit):
     residual : ndarray, shape (m,)
         ``psi v - rhs``.
     """
+    return min_norm_at_rows(rows_at_positions(packed, layout, x), layout, v, rhs, free, tol, rank_limit)
+
+
+@njit(cache=True)
+def min_norm_at_rows(rows, layout, v, rhs, free, tol, rank_limit):
+    """:func:`loop_min_norm` from the positions' rows (:func:`~flexmb.kernels.loops.rows_at_positions`).
+
+    Parameters
+    ----------
+    rows : tuple
+        What :func:`~flexmb.kernels.loops.rows_at_positions` returns at the positions.
+    layout : LoopLayout
+        The rows' layout.
+    v, rhs, free, tol, rank_limit
+        As for :func:`loop_min_norm`.
+
+    Returns
+    -------
+    dx : ndarray, shape (n,)
+        The correction (zero on the coordinates not free).
+    residual : ndarray, shape (m,)
+        ``psi v - rhs``.
+    """
     n = v.shape[0]
     m = layout.row_coord.shape[0]
-    tree, Sw, Sv, _, W, body = rows_at_positions(packed, layout, x)
+    tree, Sw, Sv, _, W, body = rows
     ptr, idx, val = sparse_rows(W, body, layout.row_coord, tree.parent, tree.coord_start, Sw, Sv, np.ones(n, np.bool_))
     residual = np.empty(m)
     work = np.zeros(n)

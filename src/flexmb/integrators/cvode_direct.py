@@ -117,6 +117,9 @@ class DirectCVODE:
                  krylov=False, jacobian=None, python_rhs=False, offset=None, monitor=None,
                  angles=(), bound=np.inf, gimbal=None, counters=None, nonfinite_flag=-1, max_order=None,
                  **extraneous):
+        from ..kernels.interpreted import require_jit
+
+        require_jit(f"{type(self).__name__}'s callbacks and step loop")
         cb = self._callbacks()
         if max_order is not None:  # the run's cap (flexmb.stepping.OSCILLATION_MAX_ORDER), else the class's
             self.max_order = min(int(max_order), type(self).max_order)

@@ -22,8 +22,8 @@ __all__ = ["Result"]
 _ARRAYS = ("t", "x", "xd", "xdd", "positions", "origins", "rotations", "kinetic", "potential",
            "residual", "velocity_residual", "reactions")
 _LISTS = ("coordinate_names", "body_names", "constraint_labels", "driver_names")
-_SCALARS = ("n_dof", "n_rhs", "n_jac", "n_steps", "n_complements", "n_projections", "n_rebases", "n_refused",
-            "wall_time",
+_SCALARS = ("n_dof", "n_rhs", "n_jac", "n_steps", "n_complements", "n_projections", "n_cvode_projections",
+            "n_rebases", "n_refused", "wall_time",
             "status", "message", "method", "complement", "method_reason", "rtol")
 
 
@@ -72,9 +72,24 @@ class Result(ResultPost):
         the segment length l = L / N, m (used by :meth:`shape`).
     n_dof : int
         Number of independent speeds p = n - rank(psi) at the start.
-    n_rhs, n_jac, n_steps, n_complements, n_projections, n_rebases : int
+    n_rhs, n_jac, n_steps, n_complements, n_rebases : int
         Work counters (right-hand sides, Jacobians, steps, complements,
-        projections, moves of the winding angles' offsets: :mod:`flexmb.stepping`).
+        moves of the winding angles' offsets: :mod:`flexmb.stepping`).
+    n_projections : int
+        Projections of the state onto the constraints by the run's drift
+        check after a step (:meth:`flexmb.stepping.Run._restart_if_drifted`):
+        each one restarts the integrator (generalized-alpha continues in
+        place). The output states' projection is not counted.
+    n_cvode_projections : int
+        Projections made by CVODE itself (its ``CVodeSetProjFn`` step,
+        after the corrector), counted where they moved the state: on the
+        compiled loops' BDF where the run holds it to order 3 (flexible
+        bodies in loops, rtol >= 1e-4:
+        :class:`~flexmb.integrators.cvode_direct_loops.DirectLoopCVODE`),
+        which then keeps the state on the constraints without restarts; 0
+        elsewhere. A projection CVODE's callback refuses (not converged,
+        too large) leaves the state to the drift check
+        (``n_projections``).
     n_refused : int
         Steps refused because they carried a touching body through its
         surface, and taken again shorter (:mod:`flexmb.contact_events`).
@@ -137,6 +152,7 @@ class Result(ResultPost):
     n_steps: int = 0
     n_complements: int = 0
     n_projections: int = 0
+    n_cvode_projections: int = 0
     n_rebases: int = 0
     wall_time: float = 0.0
     status: str = "running"
@@ -262,7 +278,9 @@ class Result(ResultPost):
         rows = [("status", f"{self.status}: {self.message}"), ("time", span),
                 ("integrator", self.method + (f" ({self.method_reason})" if self.method_reason else "")),
                 ("cost", f"{self.n_steps} steps, {self.n_rhs} right-hand sides, {self.n_jac} Jacobians, "
-                         f"{self.n_projections} projections, {self.wall_time:.3g} s"),
+                         f"{self.n_projections} drift projections, "
+                         + (f"{self.n_cvode_projections} CVODE projections, " if self.n_cvode_projections else "")
+                         + f"{self.wall_time:.3g} s"),
                 ("model", f"{len(self.coordinate_names)} coordinates, {self.n_dof} freedoms, "
                           f"{len(self.body_names)} bodies, {len(self.constraint_labels)} constraint rows")]
         if len(t) and len(self.constraint_labels):

@@ -399,6 +399,11 @@ class DirectLoopCVODE(DirectCVODE):
             return False
         return not (self._ud[cb.PROJ_OK] == 1 and self._arrays["real"][cb.R_PROJ_T] == self.t)
 
+    def _callback_counts(self) -> dict:
+        """:meth:`DirectCVODE._callback_counts`, and CVODE's projections that moved the state (the run's
+        ``"cvode_projections"``: :attr:`flexmb.Result.n_cvode_projections`)."""
+        return dict(super()._callback_counts(), cvode_projections=int(self._ud[self._cb.PROJECTIONS]))
+
     def _cvode_counts(self) -> dict:
         """CVODE's counters of the current memory (since the last restart)."""
         out = {}

@@ -104,7 +104,7 @@ def row(res, wall, setup, system, cpu, variant, integrator, rtol, t_end, rho=Non
     r = {"tool": "flexmb", "scene": "B6", "variant": variant, "n_segments": 8, "n_coords": system.n_coords,
          "n_dof": res.n_dof, "integrator": integrator, "rtol": rtol, "h": None, "setup_s": setup, "wall_s": wall, "cpu_s": cpu,
          "steps": res.n_steps, "rhs_evals": res.n_rhs, "jac_evals": res.n_jac,
-         "projections": res.n_projections, "t_end": t_end, "status": res.status,
+         "projections": res.n_projections, "cvode_projections": res.n_cvode_projections, "t_end": t_end, "status": res.status,
          "rho_inf": rho, "f_max_hz": f_max,
          "cpu_per_rhs_ms": 1e3 * cpu / max(res.n_rhs, 1), "cpu_per_step_ms": 1e3 * cpu / max(res.n_steps, 1),
          "load_avg_1min": os.getloadavg()[0]}
@@ -167,6 +167,7 @@ def auto_rows(repeat, damped_t_end, ref_rtol):
     r.update(method_asked="auto (default settings)", method_reason=first.method_reason, repeats=repeat,
              wall_s_all=[w for _, w, _ in runs], cpu_s_all=[c for _, _, c in runs],
              steps=first.n_steps, rhs_evals=first.n_rhs, jac_evals=first.n_jac, projections=first.n_projections,
+             cvode_projections=first.n_cvode_projections,
              rho_inf=_parameter(first.method, "rho_inf"), min_step_s=_parameter(first.method, "min_step"),
              warnings=[str(w.message) for w in caught],
              error=r["max_abs_energy_balance_J"],
@@ -183,7 +184,8 @@ def auto_rows(repeat, damped_t_end, ref_rtol):
          "integrator": res.method, "method_asked": "auto (default settings)", "method_reason": res.method_reason,
          "rtol": 1e-8, "t_end": damped_t_end, "wall_s": min(w for _, w, _ in runs),
          "cpu_s": min(c for _, _, c in runs), "repeats": repeat, "steps": res.n_steps, "rhs_evals": res.n_rhs,
-         "jac_evals": res.n_jac, "projections": res.n_projections, "status": res.status,
+         "jac_evals": res.n_jac, "projections": res.n_projections, "cvode_projections": res.n_cvode_projections,
+         "status": res.status,
          "error": torque_error(res, ref), "error_kind": "integration (crank torque, max relative)",
          "reference": f"flexmb Radau rtol={ref_rtol:g} same N", "load_avg_1min": os.getloadavg()[0]}
     rows.append(r)

@@ -199,7 +199,8 @@ def run_once(system, positions):
     finally:
         cdl.DirectLoopCVODE.close = close
         cvode_loop_callbacks.advance = advance
-    counts = dict(steps=int(res.n_steps), rhs=int(res.n_rhs), jac=int(res.n_jac), projections=int(res.n_projections))
+    counts = dict(steps=int(res.n_steps), rhs=int(res.n_rhs), jac=int(res.n_jac), projections=int(res.n_projections),
+                  cvode_projections=int(res.n_cvode_projections))
     seen["inside_s"] = inside[0]
     return cpu, counts, seen, res
 

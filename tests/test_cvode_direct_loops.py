@@ -171,6 +171,35 @@ def test_bdf_projects_in_cvode_instead_of_restarting(monkeypatch):
             assert old.n_projections >= 20 and new.n_steps < 0.95 * old.n_steps, (rtol, new.n_steps, old.n_steps)
 
 
+def test_cvode_projections_are_counted(monkeypatch):
+    """CVODE's own projections (those that moved the state) are the Result's ``n_cvode_projections``, in its
+    summary and the scene's summary.json; ``n_projections`` stays the drift check's (restarts: none here);
+    scikit-sundae's path restarts instead and makes none."""
+    from types import SimpleNamespace
+
+    from flexmb.scene.outputs import run_summary
+
+    build, span = MODELS["b6_8"]
+    model, initial = build()
+    system = model.build(complement="articulated")
+    kw = dict(initial, method="CVODE_BDF", n_out=21, progress=False, rtol=1e-3, atol=1e-5)
+    solvers, init = [], cvode_direct_loops.DirectLoopCVODE.__init__
+    monkeypatch.setattr(cvode_direct_loops.DirectLoopCVODE, "__init__",
+                        lambda self, *a, **k: (solvers.append(self), init(self, *a, **k))[1])
+    new = fm.simulate(system, span, **kw)
+    assert len(solvers) == 1
+    stats = solvers[0].stats()
+    assert stats["projections"] > 0 and new.n_projections == 0
+    assert new.n_cvode_projections == stats["projections"]
+    assert f"0 drift projections, {new.n_cvode_projections} CVODE projections" in dict(new._summary_rows())["cost"]
+    scene = SimpleNamespace(output=SimpleNamespace(metrics={}))
+    assert run_summary(scene, new, {}, {})["n_cvode_projections"] == new.n_cvode_projections
+    with monkeypatch.context() as m:
+        _sksundae(m)
+        old = fm.simulate(system, span, **kw)
+    assert old.n_cvode_projections == 0 and old.n_projections >= 20
+
+
 def _spinning_fourbar():
     """The four-bar with its crank (the shortest bar: a crank-rocker) turning over and over: its angles wind up."""
     return fourbar().build(complement="articulated"), dict(positions=fourbar_initial(), speeds={"A": 30.0})

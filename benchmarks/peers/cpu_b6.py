@@ -17,7 +17,9 @@ articulated complement, atol = rtol / 100; the error is the largest slider
 difference at 100 times from the cached CVODE_BDF reference at rtol 1e-11,
 which compare_b6.py writes to ``results/refs``: run it first for each N).
 Besides the time, each flexmb row has the run's exact counts (steps, right-hand
-sides, Jacobians or preconditioner set-ups, projections). CVODE_BDF on B6
+sides, Jacobians or preconditioner set-ups, ``projections``: the drift check's,
+each a restart, and ``cvode_projections``: CVODE's own, ``Result.n_cvode_projections``,
+null for a source tree older than that counter). CVODE_BDF on B6
 steps in compiled code (``flexmb.integrators.cvode_direct_loops``) since
 issue 28's prototype moved into flexmb; ``--src before=PATH`` times an
 older source tree beside it. Writes ``--out``
@@ -62,7 +64,8 @@ cpu, wall = time.process_time() - c0, time.perf_counter() - w0
 ref = np.load({ref!r})["output"]
 err = float(np.max(np.abs(np.asarray(res.coordinate("rail"), float)[1:] - ref)))
 print(json.dumps(dict(cpu_s=cpu, wall_s=wall, error=err, steps=int(res.n_steps), rhs_evals=int(res.n_rhs),
-                      jac_evals=int(res.n_jac), projections=int(res.n_projections), method_used=res.method,
+                      jac_evals=int(res.n_jac), projections=int(res.n_projections),
+                      cvode_projections=getattr(res, "n_cvode_projections", None), method_used=res.method,
                       flexmb=fm.__file__)))
 """
 

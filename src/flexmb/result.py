@@ -13,17 +13,17 @@ from ._names import name_of
 from .bodies import Body
 from .drivers import Driver
 from .errors import FlexmbError, ModelError
-from .impact_speeds import replaying
 from .joints import Joint
 from .post.accessors import ResultPost
+from .result_states import evaluate_states
 
 __all__ = ["Result"]
 
 _ARRAYS = ("t", "x", "xd", "xdd", "positions", "origins", "rotations", "kinetic", "potential",
            "residual", "velocity_residual", "reactions")
 _LISTS = ("coordinate_names", "body_names", "constraint_labels", "driver_names")
-_SCALARS = ("n_dof", "n_rhs", "n_jac", "n_steps", "n_complements", "n_projections", "n_rebases", "n_refused",
-            "wall_time",
+_SCALARS = ("n_dof", "n_rhs", "n_jac", "n_steps", "n_complements", "n_projections", "n_cvode_projections",
+            "n_rebases", "n_refused", "wall_time",
             "status", "message", "method", "complement", "method_reason", "rtol")
 
 
@@ -72,9 +72,24 @@ class Result(ResultPost):
         the segment length l = L / N, m (used by :meth:`shape`).
     n_dof : int
         Number of independent speeds p = n - rank(psi) at the start.
-    n_rhs, n_jac, n_steps, n_complements, n_projections, n_rebases : int
+    n_rhs, n_jac, n_steps, n_complements, n_rebases : int
         Work counters (right-hand sides, Jacobians, steps, complements,
-        projections, moves of the winding angles' offsets: :mod:`flexmb.stepping`).
+        moves of the winding angles' offsets: :mod:`flexmb.stepping`).
+    n_projections : int
+        Projections of the state onto the constraints by the run's drift
+        check after a step (:meth:`flexmb.stepping.Run._restart_if_drifted`):
+        each one restarts the integrator (generalized-alpha continues in
+        place). The output states' projection is not counted.
+    n_cvode_projections : int
+        Projections made by CVODE itself (its ``CVodeSetProjFn`` step,
+        after the corrector), counted where they moved the state: on the
+        compiled loops' BDF where the run holds it to order 3 (flexible
+        bodies in loops, rtol >= 1e-4:
+        :class:`~flexmb.integrators.cvode_direct_loops.DirectLoopCVODE`),
+        which then keeps the state on the constraints without restarts; 0
+        elsewhere. A projection CVODE's callback refuses (not converged,
+        too large) leaves the state to the drift check
+        (``n_projections``).
     n_refused : int
         Steps refused because they carried a touching body through its
         surface, and taken again shorter (:mod:`flexmb.contact_events`).
@@ -137,6 +152,7 @@ class Result(ResultPost):
     n_steps: int = 0
     n_complements: int = 0
     n_projections: int = 0
+    n_cvode_projections: int = 0
     n_rebases: int = 0
     wall_time: float = 0.0
     status: str = "running"
@@ -239,7 +255,7 @@ class Result(ResultPost):
             raise ModelError(f"Result.from_states: the times must be finite, got {t!r}")
         times = at + np.arange(nt) if np.ndim(t) == 0 else at
         XDD = None if xdd is None else np.atleast_2d(np.asarray(xdd, dtype=float)).reshape(XD.shape)
-        arrays = _evaluate_states(system, at, X, XD, XDD, fields.get("contact_events"))
+        arrays = evaluate_states(system, at, X, XD, XDD, fields.get("contact_events"))
         topo = system.topology
         fields.setdefault("status", "finished")
         return cls(
@@ -262,7 +278,9 @@ class Result(ResultPost):
         rows = [("status", f"{self.status}: {self.message}"), ("time", span),
                 ("integrator", self.method + (f" ({self.method_reason})" if self.method_reason else "")),
                 ("cost", f"{self.n_steps} steps, {self.n_rhs} right-hand sides, {self.n_jac} Jacobians, "
-                         f"{self.n_projections} projections, {self.wall_time:.3g} s"),
+                         f"{self.n_projections} drift projections, "
+                         + (f"{self.n_cvode_projections} CVODE projections, " if self.n_cvode_projections else "")
+                         + f"{self.wall_time:.3g} s"),
                 ("model", f"{len(self.coordinate_names)} coordinates, {self.n_dof} freedoms, "
                           f"{len(self.body_names)} bodies, {len(self.constraint_labels)} constraint rows")]
         if len(t) and len(self.constraint_labels):
@@ -564,36 +582,3 @@ class Result(ResultPost):
             kw["flexible"] = {str(k): (z[f"flexible_rows_{i}"].tolist(), float(z["flexible_lengths"][i]))
                               for i, k in enumerate(z["flexible_names"])}
         return cls(**kw)
-
-def _evaluate_states(system, t, X, XD, XDD, events=None) -> dict:
-    """The output quantities of :meth:`Result.from_states` at each state (with the impact speeds ``events`` held)."""
-    nt, n = XD.shape
-    nb, m = system.topology.n_bodies, system.n_constraints
-    out = {"xdd": np.zeros((nt, n)) if XDD is None else XDD.copy(), "positions": np.zeros((nt, nb, 3)),
-           "origins": np.zeros((nt, nb, 3)), "rotations": np.zeros((nt, nb, 3, 3)), "kinetic": np.zeros(nt),
-           "potential": np.zeros(nt), "residual": np.zeros(nt), "velocity_residual": np.zeros(nt),
-           "reactions": np.zeros((nt, m))}
-    with replaying(system, events, t) as hold:  # what the run held (flexmb.impact_speeds)
-        for i in range(nt):
-            hold(i)
-            x, xd = X[i], XD[i]
-            kin = system._kinematics(t[i], x, xd)  # the states were checked once (from_states)
-            try:
-                if XDD is not None:
-                    out["reactions"][i] = system.reactions(t[i], x, xd, XDD[i]) if m else 0.0
-                elif m == 0:  # no reactions: the system's own route (O(n) for an open tree)
-                    out["xdd"][i] = system._accelerations(t[i], x, xd)
-                else:
-                    out["xdd"][i], out["reactions"][i] = system._with_reactions(t[i], system.layout.join(x, xd))
-            except FlexmbError:
-                if XDD is None:
-                    out["xdd"][i] = np.nan
-                out["reactions"][i] = np.nan
-            out["positions"][i] = kin.r[:-1]
-            out["origins"][i] = kin.origin[:-1]
-            out["rotations"][i] = kin.R[:-1]
-            out["kinetic"][i] = kin.kinetic_energy()
-            out["potential"][i] = system.forces.potential_energy(kin)
-            if m:
-                out["residual"][i], out["velocity_residual"][i] = system._constraint_residuals(t[i], x, xd)
-    return out

@@ -594,7 +594,7 @@ class Run:
             work={name: works[:, i].copy() for i, name in enumerate(self.work_names)},
             n_dof=system.dof(self.t0, x), n_rhs=self.counters["rhs"],
             n_jac=self.counters.get("jac", 0) if preconditioner is None else preconditioner.n_setups,
-            n_steps=self.n_steps, n_complements=system.n_complements - self.start_complements,
-            n_projections=self.n_proj, n_rebases=self.n_rebases, wall_time=self.wall, status=self.status, message=self.message,
-            method=self.name, complement=system.strategy.name,
+            n_steps=self.n_steps, n_complements=system.n_complements - self.start_complements, n_rebases=self.n_rebases,
+            n_projections=self.n_proj, n_cvode_projections=self.counters.get("cvode_projections", 0), wall_time=self.wall,
+            status=self.status, message=self.message, method=self.name, complement=system.strategy.name,
             contact_events=[] if self.events is None else list(self.events.events), n_refused=self.n_steps_refused)

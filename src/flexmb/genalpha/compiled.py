@@ -38,7 +38,8 @@ _CLASSES: dict = {}
 def compiled_genalpha(system, solver_cls, track_work: bool, events, matrix_free: bool) -> type | None:
     """The compiled-loop class for a run of ``solver_cls`` on ``system``, or None where the Python step is kept.
 
-    The Python step stays for: loops and drivers, plugin joints, Python
+    The Python step stays for: numba's JIT disabled (``NUMBA_DISABLE_JIT=1``,
+    :mod:`flexmb.kernels.interpreted`); loops and drivers, plugin joints, Python
     force elements (their right-hand side is Python: ``System._packed_open``
     is None); Euler parameters (the rotation chart of
     :mod:`flexmb.genalpha.chart`); ``track_work`` (the work rates are
@@ -65,6 +66,10 @@ def compiled_genalpha(system, solver_cls, track_work: bool, events, matrix_free:
     type or None
         A :class:`CompiledGeneralizedAlpha` subclass of ``solver_cls``.
     """
+    from ..kernels import interpreted
+
+    if interpreted.disabled():  # NUMBA_DISABLE_JIT=1: the compiled loop cannot exist, the Python step is kept
+        return None
     if not (isinstance(solver_cls, type) and issubclass(solver_cls, GeneralizedAlpha)):
         return None
     if not _serves(system) or track_work or events is not None or matrix_free:
@@ -133,6 +138,9 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
 
     def __init__(self, fun, t0, y0, t_bound, *, system, offset=None, monitor=None, angles=(), bound=np.inf,
                  gimbal=None, counters=None, budget=1000, feed=None, **options):
+        from ..kernels import interpreted
+
+        interpreted.require_jit(f"{type(self).__name__}'s compiled step loop")
         from ..kernels import genalpha_loop as kernel
 
         if not _serves(system):

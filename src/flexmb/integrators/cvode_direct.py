@@ -141,7 +141,9 @@ class DirectCVODE:
         Its joints' ``ry`` watched while it has not warned.
     counters : dict, optional
         The run's counters: ``"rhs"`` and ``"jac"`` (Jacobians, or
-        preconditioner set-ups) are increased as CVODE calls them.
+        preconditioner set-ups) are increased as CVODE calls them (and, on
+        loops, ``"cvode_projections"``:
+        :class:`~flexmb.integrators.cvode_direct_loops.DirectLoopCVODE`).
     nonfinite_flag : int
         What the right-hand side returns when its result is not finite: -1
         (unrecoverable: the run stops there, as flexmb's Python right-hand
@@ -162,6 +164,9 @@ class DirectCVODE:
                  krylov=False, jacobian=None, python_rhs=False, offset=None, monitor=None,
                  angles=(), bound=np.inf, gimbal=None, counters=None, nonfinite_flag=-1, max_order=None,
                  **extraneous):
+        from ..kernels.interpreted import require_jit
+
+        require_jit(f"{type(self).__name__}'s callbacks and step loop")
         cb = self._callbacks()
         if max_order is not None:  # the run's cap (flexmb.stepping.OSCILLATION_MAX_ORDER), else the class's
             self.max_order = min(int(max_order), type(self).max_order)
@@ -180,7 +185,7 @@ class DirectCVODE:
         self._bound = float(bound)
         self._gimbal = np.zeros(0, np.int64) if gimbal is None else np.asarray(gimbal.index, dtype=np.int64)
         self._limit = 0.0 if gimbal is None else float(gimbal.limit)
-        self._counters, self._counted = counters, (0, 0)
+        self._counters, self._counted = counters, {}
         self._ud = self._user_data(system, nonfinite_flag)
         self._check(S.SUNContext_Create(0, byref(self._ctx)), "SUNContext_Create")
         S.SUNContext_ClearErrHandlers(self._ctx)  # failures become CVODEError, not lines on stderr
@@ -389,14 +394,18 @@ class DirectCVODE:
                     self.status = "finished"
                 return self._data(self._out).copy()
 
-    def _count(self):
-        """Add the callbacks' evaluations since the last call to the run's counters."""
+    def _callback_counts(self) -> dict:
+        """The callbacks' counters since the start, by the name of the run's counter they feed."""
         cb, ud = self._cb, self._ud
-        rhs, jac = int(ud[cb.RHS]), int(ud[cb.SETUPS] + ud[cb.JACS])
+        return {"rhs": int(ud[cb.RHS]), "jac": int(ud[cb.SETUPS] + ud[cb.JACS])}
+
+    def _count(self):
+        """Add the callbacks' counts since the last call to the run's counters."""
+        now = self._callback_counts()
         if self._counters is not None:
-            self._counters["rhs"] = self._counters.get("rhs", 0) + rhs - self._counted[0]
-            self._counters["jac"] = self._counters.get("jac", 0) + jac - self._counted[1]
-        self._counted = (rhs, jac)
+            for key, value in now.items():
+                self._counters[key] = self._counters.get(key, 0) + value - self._counted.get(key, 0)
+        self._counted = now
 
     def _feed(self, mon, times):
         """Give the monitor the steps between ``times`` as its ``step`` takes them one by one."""

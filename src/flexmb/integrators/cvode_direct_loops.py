@@ -361,6 +361,11 @@ class DirectLoopCVODE(DirectCVODE):
         y = self.y if self._offset is None else self.y + self._offset
         return cb.drift(self._ud, self.t, y) <= self._drift_bound
 
+    def _callback_counts(self) -> dict:
+        """:meth:`DirectCVODE._callback_counts`, and CVODE's projections that moved the state (the run's
+        ``"cvode_projections"``: :attr:`flexmb.Result.n_cvode_projections`)."""
+        return dict(super()._callback_counts(), cvode_projections=int(self._ud[self._cb.PROJECTIONS]))
+
     def _cvode_counts(self) -> dict:
         """CVODE's counters of the current memory (since the last restart)."""
         out = {}

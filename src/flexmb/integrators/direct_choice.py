@@ -5,7 +5,9 @@ replaces scikit-sundae's CVODE on a run: the open trees' one
 (:mod:`flexmb.integrators.cvode_direct`), the loops' one
 (:mod:`flexmb.integrators.cvode_direct_loops`), or None, and the run then
 steps through scikit-sundae as before (the tests patch it to None to
-compare the two paths).
+compare the two paths). With numba's JIT disabled (``NUMBA_DISABLE_JIT=1``:
+the kernels run as Python, :mod:`flexmb.kernels.interpreted`) every run
+steps through scikit-sundae.
 """
 
 from __future__ import annotations
@@ -36,12 +38,17 @@ def compiled_loop(system, solver_cls, track_work: bool, events) -> type | None:
     Returns
     -------
     type or None
+        None with ``NUMBA_DISABLE_JIT=1``; else
         :class:`~flexmb.integrators.cvode_direct.DirectCVODEBDF` or
         :class:`~flexmb.integrators.cvode_direct.DirectCVODEAdams` (open trees),
         :class:`~flexmb.integrators.cvode_direct_loops.DirectLoopCVODEBDF` or
         :class:`~flexmb.integrators.cvode_direct_loops.DirectLoopCVODEAdams`
         (loops, :func:`~flexmb.integrators.cvode_direct_loops.loop_class`).
     """
+    from ..kernels import interpreted
+
+    if interpreted.disabled():  # NUMBA_DISABLE_JIT=1: the compiled callbacks cannot exist, step in Python
+        return None
     path = solver_cls if isinstance(solver_cls, str) else f"{solver_cls.__module__}:{solver_cls.__qualname__}"
     family = FAMILIES.get(path)
     # work terms are computed in Python, contact events located by scikit-sundae's root finding, and the

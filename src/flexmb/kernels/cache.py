@@ -48,7 +48,7 @@ from numba.core.caching import (
     _SourceFileBackedLocatorMixin,
 )
 
-from . import lazy_bitcode, prebuilt
+from . import interpreted, lazy_bitcode, prebuilt
 
 __all__ = ["njit", "cache_locations", "sources_stamp"]
 
@@ -56,7 +56,7 @@ __all__ = ["njit", "cache_locations", "sources_stamp"]
 KERNELS = os.path.dirname(os.path.abspath(__file__))
 
 #: the files of the kernels' folder that hold no kernel (not stamped)
-NOT_KERNELS = ("cache.py", "compiling.py", "lazy_bitcode.py", "prebuilt.py", "prebuild.py")
+NOT_KERNELS = ("cache.py", "compiling.py", "interpreted.py", "lazy_bitcode.py", "prebuilt.py", "prebuild.py")
 
 #: notices already given in this process (each at most once)
 _told: set[str] = set()
@@ -339,12 +339,16 @@ def njit(*args, cache: bool = False, **options):
     Returns
     -------
     Dispatcher or callable
-        The compiled function, or the decorator that makes it.
+        The compiled function, or the decorator that makes it. With
+        ``NUMBA_DISABLE_JIT=1`` the Python function, ready to run as Python
+        (:mod:`flexmb.kernels.interpreted`).
     """
     if args and callable(args[0]):  # bare @njit
         return njit(cache=cache, **options)(args[0])
 
     def decorate(func):
+        if interpreted.disabled():  # NUMBA_DISABLE_JIT=1: numba returns the Python function
+            return interpreted.kernel(numba.njit(*args, **options)(func))
         dispatcher = numba.njit(*args, **options)(func)
         if cache:
             dispatcher._cache = KernelCache(dispatcher.py_func, full_refresh=bool(options.get("parallel")))

@@ -223,6 +223,7 @@ def run_summary(scene, res, tracks: dict, speeds: dict) -> dict:
         "complement": res.complement, "t_end": float(res.t[-1]) if len(res.t) else None,
         "n_out": int(len(res.t)), "n_coords": len(res.coordinate_names), "n_dof": res.n_dof,
         "n_rhs": res.n_rhs, "n_steps": res.n_steps, "n_projections": res.n_projections,
+        "n_cvode_projections": res.n_cvode_projections,
         "wall_time_s": res.wall_time,
     }
     if len(res.t):

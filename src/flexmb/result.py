@@ -13,8 +13,8 @@ from ._names import name_of
 from .bodies import Body
 from .drivers import Driver
 from .errors import FlexmbError, ModelError
-from .impact_speeds import replaying
 from .joints import Joint
+from .output_quantities import evaluate_states
 from .post.accessors import ResultPost
 
 __all__ = ["Result"]
@@ -239,7 +239,7 @@ class Result(ResultPost):
             raise ModelError(f"Result.from_states: the times must be finite, got {t!r}")
         times = at + np.arange(nt) if np.ndim(t) == 0 else at
         XDD = None if xdd is None else np.atleast_2d(np.asarray(xdd, dtype=float)).reshape(XD.shape)
-        arrays = _evaluate_states(system, at, X, XD, XDD, fields.get("contact_events"))
+        arrays = evaluate_states(system, at, X, XD, XDD, fields.get("contact_events"))
         topo = system.topology
         fields.setdefault("status", "finished")
         return cls(
@@ -564,36 +564,3 @@ class Result(ResultPost):
             kw["flexible"] = {str(k): (z[f"flexible_rows_{i}"].tolist(), float(z["flexible_lengths"][i]))
                               for i, k in enumerate(z["flexible_names"])}
         return cls(**kw)
-
-def _evaluate_states(system, t, X, XD, XDD, events=None) -> dict:
-    """The output quantities of :meth:`Result.from_states` at each state (with the impact speeds ``events`` held)."""
-    nt, n = XD.shape
-    nb, m = system.topology.n_bodies, system.n_constraints
-    out = {"xdd": np.zeros((nt, n)) if XDD is None else XDD.copy(), "positions": np.zeros((nt, nb, 3)),
-           "origins": np.zeros((nt, nb, 3)), "rotations": np.zeros((nt, nb, 3, 3)), "kinetic": np.zeros(nt),
-           "potential": np.zeros(nt), "residual": np.zeros(nt), "velocity_residual": np.zeros(nt),
-           "reactions": np.zeros((nt, m))}
-    with replaying(system, events, t) as hold:  # what the run held (flexmb.impact_speeds)
-        for i in range(nt):
-            hold(i)
-            x, xd = X[i], XD[i]
-            kin = system._kinematics(t[i], x, xd)  # the states were checked once (from_states)
-            try:
-                if XDD is not None:
-                    out["reactions"][i] = system.reactions(t[i], x, xd, XDD[i]) if m else 0.0
-                elif m == 0:  # no reactions: the system's own route (O(n) for an open tree)
-                    out["xdd"][i] = system._accelerations(t[i], x, xd)
-                else:
-                    out["xdd"][i], out["reactions"][i] = system._with_reactions(t[i], system.layout.join(x, xd))
-            except FlexmbError:
-                if XDD is None:
-                    out["xdd"][i] = np.nan
-                out["reactions"][i] = np.nan
-            out["positions"][i] = kin.r[:-1]
-            out["origins"][i] = kin.origin[:-1]
-            out["rotations"][i] = kin.R[:-1]
-            out["kinetic"][i] = kin.kinetic_energy()
-            out["potential"][i] = system.forces.potential_energy(kin)
-            if m:
-                out["residual"][i], out["velocity_residual"][i] = system._constraint_residuals(t[i], x, xd)
-    return out

@@ -36,10 +36,13 @@ CPU of the rounds, at the run's initial state:
   (``projections``, ``projections_refused``).
 
 The run's CPU is split into the time inside the compiled step loop
-(``cvode_loop_callbacks.advance``: CVODE, the callbacks, the checks) and
-the rest (Python: outputs and their projection, restarts, the result);
-CVODE's own work (its linear algebra, error test, interpolation) is the
-time inside the loop less the callbacks' counts x per-call costs.
+(``loop_outputs.advance_storing``: CVODE, the callbacks, the checks, the
+outputs' interpolation and projection; ``returns``: its calls from
+Python), the Result's quantities (``output_quantities.evaluate_states``,
+``result_s``) and the rest (Python: the run's bookkeeping, restarts,
+the Result's construction); CVODE's own work (its linear algebra, error
+test, interpolation) is the time inside the loop less the callbacks'
+counts x per-call costs (the outputs' projections included in it).
 One JSON line per N goes to ``--out`` (``benchmarks/results/probe_b6_step.jsonl``, appended).
 """
 
@@ -59,8 +62,9 @@ sys.path.insert(0, HERE)
 import scenes  # noqa: E402
 
 import flexmb as fm  # noqa: E402
+from flexmb import output_quantities, result as result_module  # noqa: E402
 from flexmb.integrators import cvode_direct, cvode_direct_loops  # noqa: E402
-from flexmb.kernels import cvode_loop_callbacks  # noqa: E402
+from flexmb.kernels import loop_outputs  # noqa: E402
 from flexmb.kernels.cache import njit  # noqa: E402
 from flexmb.kernels.equations import RESIDUALS, loaded_state, tree_equations  # noqa: E402
 from flexmb.kernels.loop_jacobian import loop_state_jacobian  # noqa: E402
@@ -179,8 +183,8 @@ def run_once(system, positions):
         close(self)
 
     cdl.DirectLoopCVODE.close = keep
-    inside = [0.0]
-    advance = cvode_loop_callbacks.advance
+    inside, returns, result = [0.0], [0], [0.0]
+    advance, evaluate = loop_outputs.advance_storing, output_quantities.evaluate_states
 
     def timed(*args):
         c0 = time.process_time()
@@ -188,8 +192,16 @@ def run_once(system, positions):
             return advance(*args)
         finally:
             inside[0] += time.process_time() - c0
+            returns[0] += 1
 
-    cvode_loop_callbacks.advance = timed
+    def timed_result(*args):
+        c0 = time.process_time()
+        try:
+            return evaluate(*args)
+        finally:
+            result[0] += time.process_time() - c0
+
+    loop_outputs.advance_storing, result_module.evaluate_states = timed, timed_result
     try:
         kw = dict(positions=positions, complement="articulated", method="CVODE_BDF", rtol=RTOL, atol=RTOL / 100,
                   n_out=101, progress=False)
@@ -198,10 +210,10 @@ def run_once(system, positions):
         cpu = time.process_time() - c0
     finally:
         cdl.DirectLoopCVODE.close = close
-        cvode_loop_callbacks.advance = advance
+        loop_outputs.advance_storing, result_module.evaluate_states = advance, evaluate
     counts = dict(steps=int(res.n_steps), rhs=int(res.n_rhs), jac=int(res.n_jac), projections=int(res.n_projections),
                   cvode_projections=int(res.n_cvode_projections))
-    seen["inside_s"] = inside[0]
+    seen.update(inside_s=inside[0], returns=returns[0], result_s=result[0])
     return cpu, counts, seen, res
 
 
@@ -211,10 +223,10 @@ def probe(n_seg: int, rounds: int) -> dict:
     kw = dict(positions=positions, complement="articulated", method="CVODE_BDF", rtol=RTOL, atol=RTOL / 100,
               n_out=101, progress=False)
     fm.simulate(system, 0.01, **kw)  # kernels loaded, the complement chosen
-    cpu, inside = np.inf, np.inf
+    cpu, inside, result = np.inf, np.inf, np.inf
     for _ in range(rounds):
         c, counts, solver, res = run_once(system, positions)
-        cpu, inside = min(cpu, c), min(inside, solver["inside_s"])
+        cpu, inside, result = min(cpu, c), min(inside, solver["inside_s"]), min(result, solver["result_s"])
     # the state the parts are timed at: the run's state at 0.25 s
     y = np.concatenate([res.x[50], res.xd[50]])
     n = system.n_speeds
@@ -239,7 +251,8 @@ def probe(n_seg: int, rounds: int) -> dict:
     nb = system.topology.n_bodies
     _time_drift(packed, y, n, nb, 1)
     drift = _least(lambda r: _time_drift(packed, y, n, nb, r), reps, rounds)
-    out.update(drift_us=drift * 1e6, inside_s=inside, python_s=cpu - inside)
+    out.update(drift_us=drift * 1e6, inside_s=inside, result_s=result, python_s=cpu - inside - result,
+               returns=solver["returns"])
     if solver.get("projections", 0) or solver.get("projections_refused", 0):  # CVODE projects: its callback
         spent = counts["rhs"] * whole + _projection_part(system, y, t, reps, rounds, solver, out)
     else:

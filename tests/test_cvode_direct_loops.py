@@ -222,9 +222,12 @@ def test_drift_left_to_the_step_loop_where_it_checked(monkeypatch):
     """The run re-evaluates the drift only after a return whose last step the compiled loop did not check
     (``DirectLoopCVODE.within_bound``): the four-bar (no CVODE projection: every step checked by the loop;
     restarts and offset moves on the way) and B6 N = 8 (CVODE projects) take the very steps, restarts and
-    states of a run that re-evaluates it after every return, and the four-bar's run checks less than half as often
-    (there after the offset moves and the restarts)."""
+    states of a run that re-evaluates it after every return and returns at every output (main's before the
+    outputs were stored in the loop, ``once``), and the four-bar's run checks less than half as often (there after
+    the offset moves and the restarts)."""
+    from flexmb import own_loop
     from flexmb.integrators.cvode_direct_loops import DirectLoopCVODE
+    from flexmb.output_projection import LoopOutputs
     from flexmb.stepping import Run
 
     calls = []
@@ -244,6 +247,7 @@ def test_drift_left_to_the_step_loop_where_it_checked(monkeypatch):
         new = fm.simulate(system, span, **kw)
         n_new = len(calls)
         monkeypatch.setattr(DirectLoopCVODE, "within_bound", lambda self, code: False)
+        monkeypatch.setattr(own_loop, "LoopOutputs", lambda *args, once: LoopOutputs(*args, once=True))
         old = fm.simulate(system, span, **kw)
         monkeypatch.undo()
         _same(new, old)

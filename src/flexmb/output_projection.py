@@ -12,7 +12,7 @@ import numpy as np
 from .complements.articulated import ArticulatedComplement
 from .errors import AssemblyError
 
-__all__ = ["project_output"]
+__all__ = ["project_output", "LoopOutputs"]
 
 #: largest ratio of an output projection's correction to the residual it removes
 OUTPUT_PROJECTION_GAIN = 1e3
@@ -140,3 +140,49 @@ def _project_partial_dense(system, t, x, xd, res, window, n_iter):
     if np.max(np.abs(psi @ vp - b)) >= np.max(np.abs(psi @ xd - b)) or np.max(np.abs(vp - xd)) > limit:
         vp = np.array(xd, dtype=float)
     return xp, vp
+
+
+class LoopOutputs:
+    """The outputs of a run of the compiled loops' CVODE, stored by its step loop by :func:`project_output`'s rule.
+
+    :meth:`flexmb.integrators.cvode_direct_loops.DirectLoopCVODE.step_on`
+    has :func:`flexmb.kernels.loop_outputs.advance_storing` store the
+    outputs its steps pass into :attr:`Y` (interpolated, offsets added,
+    projected: :func:`~flexmb.kernels.loop_outputs.output_projected`); an
+    output it leaves (not finite, a projection refused or not closed) is
+    stored by ``Run._store`` from Python, as every output was before.
+
+    Parameters
+    ----------
+    times : ndarray
+        The run's output times.
+    k : int
+        The index of the next output to store.
+    m : int
+        The state's size.
+    tol : float
+        The run's ``projection_tol`` (:func:`project_output`'s ``tol``).
+    once : bool
+        The step loop returns after its first stop (a run with a progress bar, whose marks are stops).
+    """
+
+    def __init__(self, times, k, m, tol, once):
+        self.times, self.k = np.ascontiguousarray(times, dtype=float), int(k)
+        self.Y = np.empty((len(self.times), m))
+        self.tol, self.newton_tol, self.gain = float(tol), min(1e-12, float(tol)), OUTPUT_PROJECTION_GAIN
+        self.once = bool(once)
+        self.made = 0  # the projections made since the last hand_over
+
+    def hand_over(self, run) -> None:
+        """Give ``run`` the outputs stored since the last call (``out_y``, ``k_out``) and count the projections.
+
+        Parameters
+        ----------
+        run : flexmb.stepping.Run
+            The run (its ``k_out`` where this store's was at the last call).
+        """
+        for i in range(run.k_out, self.k):
+            run.out_y.append(self.Y[i])
+        run.k_out = self.k
+        run.system.n_complements += self.made  # one mass-orthogonal speed projection each (System._loop_speeds')
+        self.made = 0

@@ -33,6 +33,7 @@ import contextlib
 import numpy as np
 
 from ._signals import deferred
+from .output_projection import LoopOutputs
 
 __all__ = ["advance_between_stops", "advance_checking", "compiled_options", "NonFinite"]
 
@@ -177,13 +178,16 @@ def _between_stops(run, solver, bar, stops, step, done) -> None:
 def advance_checking(run, solver, bar) -> None:
     """Step a :class:`~flexmb.integrators.cvode_direct_loops.DirectLoopCVODE` to the end, doing the run's checks.
 
-    The compiled loop returns after a step that reached the next output
-    time (or progress mark), that left the constraints by more than
+    The compiled loop stores the outputs its steps pass, projected as
+    ``Run._store`` projects them (:class:`~flexmb.output_projection.LoopOutputs`,
+    handed to the run after each return), and returns after a step that
+    reached a progress mark, that left the constraints by more than
     ``run.state_tol``, that a winding angle or the gimbal watch flags, or
-    that left a non-finite state (and at the monitor's checkpoints and
-    every so many steps). After each return the run does what
-    ``Run._step`` does after a step: the gimbal check, the outputs the step
-    passed (``Run._store``, projected), the winding offsets
+    that left a non-finite state (and at the monitor's checkpoints, every so
+    many steps, and at an output it leaves to the run: not finite, its
+    projection refused). After each return the run does what
+    ``Run._step`` does after a step: the gimbal check, the outputs left
+    (``Run._store``), the winding offsets
     (``Run._unwound``) and the drift (``Run._restart_if_drifted``, which
     may restart the solver in place; not evaluated again where the compiled
     loop found the step's state within the bound:
@@ -202,18 +206,22 @@ def advance_checking(run, solver, bar) -> None:
     times, t0 = run.times, run.t0
     marks = np.linspace(t0, run.t_end, 101)[1:] if run.progress else np.zeros(0)
     not_finite = solver._cb.NOT_FINITE
+    outputs = LoopOutputs(times, run.k_out, solver.m, run.projection_tol, once=len(marks) > 0)
     with deferred():  # the handlers swapped once for the run (see advance_between_stops)
         while solver.status == "running":
             t_stop = times[run.k_out] if run.k_out < len(times) else run.t_end
-            j = np.searchsorted(marks, run.t_now, side="right")
-            if j < len(marks):
-                t_stop = min(t_stop, marks[j])
+            if len(marks):
+                j = np.searchsorted(marks, run.t_now, side="right")
+                if j < len(marks):
+                    t_stop = min(t_stop, marks[j])
+            outputs.k = run.k_out  # (outputs the run stored itself: Run._store)
             try:  # the bound a hair lower: the run decides on its own residual (the same arithmetic)
-                code = solver.step_on(t_stop, run.state_tol * (1.0 - 1e-9))
+                code = solver.step_on(t_stop, run.state_tol * (1.0 - 1e-9), outputs)
             except RuntimeError as exc:
                 raise NonFinite(getattr(exc, "t", solver.t), f"the integrator failed: {exc}") from exc
             finally:
                 run.n_steps = solver.n_steps
+                outputs.hand_over(run)
             if code == not_finite:
                 raise NonFinite(solver.t, "the state became non-finite")
             if run.gimbal is not None:

@@ -14,6 +14,7 @@ from .bodies import Body
 from .drivers import Driver
 from .errors import FlexmbError, ModelError
 from .joints import Joint
+from .output_quantities import evaluate_states
 from .post.accessors import ResultPost
 from .result_states import evaluate_states
 

@@ -16,11 +16,14 @@ where the model's tangent is what that kernel forms
 
 What ``flexmb.stepping.Run`` does after each step of a looped model is done
 by the run itself, on the very steps it would do it on
-(:func:`flexmb.own_loop.advance_checking`): the compiled loop returns to
-Python after a step that reached an output time, that left the constraints
+(:func:`flexmb.own_loop.advance_checking`): the compiled loop stores the
+outputs its steps pass, projected by the run's rule
+(:func:`flexmb.kernels.loop_outputs.advance_storing`), and returns to
+Python after a step that left the constraints
 farther than the run's bound, that moved a winding angle or a joint in
-Bryant angles past its watch, or that left a non-finite state; the run then
-stores the outputs (projected, as before), moves the offsets, projects and
+Bryant angles past its watch, or that left a non-finite state (or an
+output it leaves to the run); the run then
+stores what outputs are left, moves the offsets, projects and
 restarts (``Run._restart_if_drifted``, its bound raised when restarts crowd:
 ``RESTART_MIN_STEPS``, read from :mod:`flexmb.stepping`) as it does when
 stepping in Python. A restart makes a new CVODE memory (:meth:`DirectLoopCVODE.restart`:
@@ -48,7 +51,7 @@ from ctypes import byref, c_double, c_long, c_void_p
 import numpy as np
 
 from .._signals import act_on_deferred
-from ..output_projection import OUTPUT_PROJECTION_GAIN
+from ..output_projection import OUTPUT_PROJECTION_GAIN, LoopOutputs
 from .cvode_direct import CV_ADAMS, CV_BDF, STEPS_PER_CALL, DirectCVODE, _addr
 
 #: CVODE's projection moves a state whose constraint residual exceeds this fraction of the run's drift bound or
@@ -120,6 +123,9 @@ class DirectLoopCVODE(DirectCVODE):
         self._projection_tol, self._projects = float(projection_tol), bool(project)
         self._last_steps = 0  # steps taken by the last step_on
         super().__init__(*args, **kwargs)
+        from ..kernels.loop_outputs import advance_storing
+
+        self._advance = advance_storing  # the step loop storing the outputs
 
     __init__.__signature__ = _with_projection(DirectCVODE.__init__)
 
@@ -265,7 +271,7 @@ class DirectLoopCVODE(DirectCVODE):
         self._lp[2] = self._mem
         self.t_old = None
 
-    def step_on(self, t_stop: float, bound: float) -> int:
+    def step_on(self, t_stop: float, bound: float, outputs=None) -> int:
         """Step until a step needs the run's attention (see the module docstring), or up to ``t_stop``.
 
         Parameters
@@ -276,6 +282,11 @@ class DirectLoopCVODE(DirectCVODE):
         bound : float
             The run's drift bound on the constraint residuals (BDF: CVODE's
             projection acts from ``PROJECTION_BOUND_FRACTION`` of it on).
+        outputs : flexmb.output_projection.LoopOutputs, optional
+            The run's outputs: those the steps pass are stored there
+            (projected, :func:`flexmb.kernels.loop_outputs.advance_storing`),
+            and the loop goes on from output to output while the run would
+            do nothing after its steps. None: one stop, nothing stored.
 
         Returns
         -------
@@ -302,9 +313,13 @@ class DirectLoopCVODE(DirectCVODE):
             real = self._arrays["real"]
             real[cb.R_PROJ_TOL] = min(PROJECTION_BOUND_FRACTION * float(bound), PROJECTION_ATOL_FRACTION * self._atol_min)
             real[cb.R_NEWTON_TOL] = min(1e-12, self._projection_tol, 0.1 * real[cb.R_PROJ_TOL])
+        out = LoopOutputs(np.zeros(0), 0, self.m, 0.0, True) if outputs is None else outputs
         try:
-            code, k = cb.advance(self._lp, self._ud, min(float(t_stop), self.t_bound), self.t_bound, float(bound),
-                                 times, STEPS_PER_CALL, self._angles, self._bound, gimbal, self._limit)
+            code, k, out.k, made = self._advance(
+                self._lp, self._ud, min(float(t_stop), self.t_bound), self.t_bound, float(bound), times,
+                STEPS_PER_CALL, self._angles, self._bound, gimbal, self._limit, out.times, out.k, out.Y, out.tol,
+                out.newton_tol, out.gain, out.once)
+            out.made += made
         finally:
             self._count()
         act_on_deferred()  # a Ctrl-C recorded meanwhile (DirectCVODE.advance's docstring)

@@ -396,6 +396,19 @@ def advance(lp, ud, t_stop, t_bound, bound, steps, budget, angles, wind, gimbal,
 
 # ----------------------------------------------------------------------------- CVODE's projection
 
+@njit(cache=True)
+def _step_projection(ud, t, y, tol, newton_tol, gain):
+    """:func:`.step_projection` of the true state ``y`` at ``t`` with the run's rows, drivers and rank settings."""
+    nd, real = ud[N_DRV], _f1(ud[A_REAL], N_REAL)
+    drv = _drivers(ud)
+    cols, p_d, v_d = np.empty(nd, np.int64), np.empty(nd), np.empty(nd)
+    for k in range(nd):
+        cols[k] = int(drv[k, 0])
+        p_d[k], v_d[k], _ = driver(drv, k, t)
+    return step_projection(_packed(ud), _layout(ud), y, ud[N], cols, p_d, v_d, tol, newton_tol, gain, real[R_TOL],
+                           real[R_WINDOW], ud[RANK_LIMIT])
+
+
 @_cfunc(types.int32(types.float64, types.voidptr, types.voidptr, types.float64, types.voidptr, types.voidptr))
 def project(t, ycur, corr, eps, err, user_data):
     """CVProjFn: ``corr`` = the state projected onto the constraints (:func:`.step_projection`) less ``ycur``.
@@ -423,14 +436,7 @@ def project(t, ycur, corr, eps, err, user_data):
     c[:] = 0.0
     real = _f1(ud[A_REAL], N_REAL)
     ud[PROJ_OK] = 0
-    drv = _drivers(ud)
-    cols, p_d, v_d = np.empty(nd, np.int64), np.empty(nd), np.empty(nd)
-    for k in range(nd):
-        cols[k] = int(drv[k, 0])
-        p_d[k], v_d[k], _ = driver(drv, k, t)
-    what, position, velocity, x, v = step_projection(_packed(ud), _layout(ud), y, n, cols, p_d, v_d,
-                                                     real[R_PROJ_TOL], real[R_NEWTON_TOL], real[R_GAIN], real[R_TOL],
-                                                     real[R_WINDOW], ud[RANK_LIMIT])
+    what, position, velocity, x, v = _step_projection(ud, t, y, real[R_PROJ_TOL], real[R_NEWTON_TOL], real[R_GAIN])
     if what == REFUSED:
         ud[PROJ_REFUSED] += 1
     if what == KEPT or what == MOVED:

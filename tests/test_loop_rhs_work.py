@@ -1,0 +1,52 @@
+"""The loops' right-hand side and Jacobians are main's to the bit (tests/data/loop_rhs_work.npz, main at 8c13991).
+
+The loops' right-hand side as the compiled CVODE callback calls it
+(:func:`flexmb.kernels.loops.loop_rhs`: accelerations, reactions, rank,
+smallest pivot, status), ``System.state_rate``, ``System.state_jacobian``
+and the compiled Jacobian (:func:`flexmb.kernels.loop_jacobian.loop_state_jacobian`)
+at random states of B6 damped (N = 8, 32), the planar, spatial and sprung
+four-bars and B7 (N = 4, 40), against the values stored from main before
+the loops' kernels wrote into work arrays: equal, not close (same
+arithmetic in the same order). The cases are evaluated in turn so that
+any state left in a reused work array would show.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE / "data"))
+
+import make_loop_rhs_work as make  # noqa: E402
+
+DATA = np.load(HERE / "data" / "loop_rhs_work.npz")
+
+
+@pytest.mark.parametrize("name", list(make.MODELS))
+def test_loop_rhs_is_mains(name):
+    system = make.build(name)
+    gamma_d = DATA[f"{name}_gamma_d"]
+    for k, y in enumerate(DATA[f"{name}_y"]):
+        xdd, lam, info = make.callback_rhs(system, y, gamma_d)
+        np.testing.assert_array_equal(xdd, DATA[f"{name}_xdd"][k])
+        np.testing.assert_array_equal(lam, DATA[f"{name}_lam"][k])
+        np.testing.assert_array_equal(info, DATA[f"{name}_info"][k])
+        np.testing.assert_array_equal(system.state_rate(make.T, y), DATA[f"{name}_rate"][k])
+
+
+@pytest.mark.parametrize("name", list(make.MODELS))
+def test_loop_jacobians_are_mains(name):
+    system = make.build(name)
+    y = DATA[f"{name}_y"][0]
+    J, info = make.compiled_jacobian(system, y, DATA[f"{name}_gamma_d"])
+    np.testing.assert_array_equal(J, DATA[f"{name}_jac"])
+    np.testing.assert_array_equal(info, DATA[f"{name}_jac_info"])
+    key = f"{name}_state_jacobian"
+    if key in DATA.files:
+        nq = system.layout.nq
+        np.testing.assert_array_equal(system.state_jacobian(make.T, y[:nq], y[nq:]), DATA[key])

@@ -50,3 +50,24 @@ def test_loop_jacobians_are_mains(name):
     if key in DATA.files:
         nq = system.layout.nq
         np.testing.assert_array_equal(system.state_jacobian(make.T, y[:nq], y[nq:]), DATA[key])
+
+
+@pytest.mark.parametrize("name", list(make.MODELS))
+def test_loop_rhs_into_a_reused_work_array_is_mains(name):
+    """One NaN-filled work array, never cleared, across the states: nothing read before it is written."""
+    from flexmb.kernels.loops import loop_rhs_into, loop_rhs_work_size
+
+    system = make.build(name)
+    n, nb = system.n_speeds, system.topology.n_bodies
+    m = system._loop_layout.row_coord.shape[0]
+    work = np.full(loop_rhs_work_size(nb, n, m), np.nan)
+    zeros = np.zeros((nb + 1, 3))
+    gamma_d = DATA[f"{name}_gamma_d"]
+    for k, y in enumerate(DATA[f"{name}_y"]):
+        xdd, lam = np.full(n, np.nan), np.full(m, np.nan)
+        kept, smallest, status = loop_rhs_into(system._packed, system._loop_layout, y, n, np.zeros(0), zeros, zeros,
+                                               np.zeros(n), gamma_d, system._loop_tol, system.singular_window(), -1,
+                                               xdd, lam, work)
+        np.testing.assert_array_equal(xdd, DATA[f"{name}_xdd"][k])
+        np.testing.assert_array_equal(lam, DATA[f"{name}_lam"][k])
+        np.testing.assert_array_equal([kept, status, smallest], DATA[f"{name}_info"][k])

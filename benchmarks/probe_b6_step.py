@@ -11,8 +11,8 @@ counters read from :class:`~flexmb.integrators.cvode_direct_loops.DirectLoopCVOD
 before it is closed), and the parts timed per call, each in a loop, least
 CPU of the rounds, at the run's initial state:
 
-* the right-hand side :func:`~flexmb.kernels.loops.loop_rhs` as its C
-  callback calls it, and its parts, each cumulated in a compiled loop: the
+* the right-hand side :func:`~flexmb.kernels.loops.loop_rhs_into` as its C
+  callback calls it (one work array), and its parts (their allocating forms), each cumulated in a compiled loop: the
   tree's kinematics and loads (``loaded_state``), the rows' wrenches
   (``_rows``), the factors (the articulated factorisation, ``K = psi A^-1
   psi^T`` by m recursions and its factorisation: ``_constrained_factor``),
@@ -57,7 +57,8 @@ from flexmb.kernels.cache import njit  # noqa: E402
 from flexmb.kernels.equations import RESIDUALS, loaded_state, tree_equations  # noqa: E402
 from flexmb.kernels.loop_jacobian import loop_state_jacobian  # noqa: E402
 from flexmb.kernels.loops import (_arrays, _constrained_apply, _constrained_factor, _minus_bias_wrenches,  # noqa: E402
-                                  _rows, loop_newton_factor, loop_newton_solve, loop_rhs)
+                                  _rows, loop_newton_factor, loop_newton_solve, loop_rhs_into,
+                                  loop_rhs_work_size)
 
 SPAN, RTOL = 0.5, 3e-3
 
@@ -94,12 +95,14 @@ def _time_rhs(packed, layout, y, n, gamma_d, tol, window, rank_limit, reps, upto
 
 @njit
 def _time_loop_rhs(packed, layout, y, n, gamma_d, tol, window, rank_limit, reps):
-    """``reps`` calls of loop_rhs as the C callback makes them (with its allocations)."""
+    """``reps`` calls of loop_rhs_into as the C callback makes them (one work array for all the calls)."""
     s = 0.0
+    nb, m = layout.root_of.shape[0], layout.row_coord.shape[0]
+    zeros = np.zeros((nb + 1, 3))
+    work, xdd, lam, generalized0 = np.empty(loop_rhs_work_size(nb, n, m)), np.empty(n), np.empty(m), np.zeros(n)
     for _ in range(reps):
-        zeros = np.zeros((layout.root_of.shape[0] + 1, 3))
-        xdd = loop_rhs(packed, layout, y, n, np.zeros(0), zeros, zeros, np.zeros(n), gamma_d, tol, window,
-                       rank_limit)[0]
+        loop_rhs_into(packed, layout, y, n, np.zeros(0)[:0], zeros, zeros, generalized0, gamma_d, tol, window,
+                      rank_limit, xdd, lam, work)
         s += xdd[0]
     return s
 

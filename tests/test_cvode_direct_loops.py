@@ -189,6 +189,41 @@ def test_winding_offsets_move_as_before(monkeypatch):
     assert new.n_rebases >= 3 and new.n_projections >= 1 and abs(new.x[-1, 0]) > 6 * np.pi
 
 
+def test_drift_left_to_the_step_loop_where_it_checked(monkeypatch):
+    """The run re-evaluates the drift only after a return whose last step the compiled loop did not check
+    (``DirectLoopCVODE.within_bound``): the four-bar (no CVODE projection: every step checked by the loop;
+    restarts and offset moves on the way) and B6 N = 8 (CVODE projects) take the very steps, restarts and
+    states of a run that re-evaluates it after every return, and the four-bar's run checks less than half as often
+    (there after the offset moves and the restarts)."""
+    from flexmb.integrators.cvode_direct_loops import DirectLoopCVODE
+    from flexmb.stepping import Run
+
+    calls = []
+    check = Run._restart_if_drifted
+
+    def counted(self, solver):
+        calls.append(solver.t)
+        return check(self, solver)
+
+    model, positions = scenes.b6(True, 8)
+    spinning, initial = _spinning_fourbar()
+    runs = [(spinning, 3.0, dict(initial, rtol=1e-8, atol=1e-10)),
+            (model.build(complement="articulated"), 0.2, dict(positions=positions, rtol=3e-3, atol=3e-5))]
+    for system, span, kw in runs:
+        kw = dict(kw, method="CVODE_BDF", n_out=41, progress=False)
+        monkeypatch.setattr(Run, "_restart_if_drifted", counted)
+        new = fm.simulate(system, span, **kw)
+        n_new = len(calls)
+        monkeypatch.setattr(DirectLoopCVODE, "within_bound", lambda self, code: False)
+        old = fm.simulate(system, span, **kw)
+        monkeypatch.undo()
+        _same(new, old)
+        assert new.n_rebases == old.n_rebases and n_new <= len(calls) - n_new
+        if system is spinning:
+            assert new.n_projections >= 1 and new.n_rebases >= 3 and n_new < 0.5 * (len(calls) - n_new), (n_new, len(calls))
+        calls.clear()
+
+
 def test_progress_and_reused_systems_change_nothing(monkeypatch, python_jacobian):
     """The progress bar's marks (more returns to Python) and earlier runs on the same System object leave the
     counts and states as on a fresh object; B6 N = 8 restarts (projections) on the way."""

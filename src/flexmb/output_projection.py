@@ -44,11 +44,11 @@ def project_output(system, t, x, xd, tol):
     x, xd : ndarray, shape (nq,) and (n,)
         The projected state.
     """
-    res = system.constraint_residual(t, x, xd)
+    res = max(system._constraint_residuals(t, x, xd))  # (the run's states are checked: finite, of their sizes)
     if res <= tol:
         return x, xd
     try:
-        xp, vp = system.project(t, x, xd, tol=min(1e-12, tol), speeds="mass")
+        xp, vp = system._project(t, x, xd, tol=min(1e-12, tol), speeds="mass")
     except AssemblyError:
         return _project_partial(system, t, x, xd, res)
     if max(np.max(np.abs(xp - x)), np.max(np.abs(vp - xd))) > OUTPUT_PROJECTION_GAIN * res:

@@ -493,7 +493,7 @@ class Run:
             self.state_tol = min(10.0 * self.state_tol, max(RESTART_TOL_CEILING, self.projection_tol))
             if residual <= self.state_tol:
                 return solver
-        xs, vs = self.system.project(t_now, xs, vs, tol=min(1e-12, self.projection_tol), speeds="mass")
+        xs, vs = self.system._project(t_now, xs, vs, tol=min(1e-12, self.projection_tol), speeds="mass")
         self.n_proj += 1
         self.last_restart = self.n_steps
         y = self.layout.join(xs, vs, self.layout.extra(y))

@@ -155,6 +155,7 @@ class DirectLoopCVODE(DirectCVODE):
 
     def __init__(self, *args, projection_tol=1e-10, project=False, **kwargs):
         self._projection_tol, self._projects = float(projection_tol), bool(project)
+        self._last_steps = 0  # steps taken by the last step_on
         super().__init__(*args, **kwargs)
 
     __init__.__signature__ = _with_projection(DirectCVODE.__init__)
@@ -352,6 +353,7 @@ class DirectLoopCVODE(DirectCVODE):
             self._count()
         act_on_deferred()  # a Ctrl-C recorded meanwhile (DirectCVODE.advance's docstring)
         self.n_steps += k
+        self._last_steps = k
         if k:
             self.t = float(self._tret[0])
             h = c_double()
@@ -374,6 +376,29 @@ class DirectLoopCVODE(DirectCVODE):
         if self.t >= self.t_bound:
             self.status = "finished"
         return code
+
+    def within_bound(self, code: int) -> bool:
+        """Whether the last :meth:`step_on` found its last step's state within its drift bound (:func:`drift`).
+
+        True where that call took a step and returned for another cause than
+        the drift (or a non-finite state) after a step whose state it
+        checked: not one CVODE's projection left on the constraints (not
+        checked), not the run's end.
+
+        Parameters
+        ----------
+        code : int
+            What that :meth:`step_on` returned.
+
+        Returns
+        -------
+        bool
+            True if the drift of the state at :attr:`t` was found ``<= bound``.
+        """
+        cb = self._cb
+        if not self._last_steps or code in (cb.DRIFTED, cb.NOT_FINITE) or code < 0 or self.t >= self.t_bound:
+            return False
+        return not (self._ud[cb.PROJ_OK] == 1 and self._arrays["real"][cb.R_PROJ_T] == self.t)
 
     def _cvode_counts(self) -> dict:
         """CVODE's counters of the current memory (since the last restart)."""

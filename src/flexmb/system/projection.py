@@ -74,12 +74,16 @@ class Projection:
             constraint rows with the largest residual.
         """
         t, x, xd = self._state("System.project", t, x=x, xd=xd)
-        x, xd = x.copy(), xd.copy()
         if fixed is not None:
             fixed = np.asarray(fixed)
             if fixed.shape != (self.n_speeds,) or fixed.dtype != bool:
                 raise ModelError(f"System.project: fixed must be a boolean array of shape ({self.n_speeds},), "
                                  f"got {fixed.dtype} of shape {fixed.shape}")
+        return self._project(t, x, xd, tol, max_iter, fixed, max_step, speeds)
+
+    def _project(self, t, x, xd, tol=1e-12, max_iter=50, fixed=None, max_step=0.5, speeds="min-norm"):
+        """:meth:`project` of a checked state (the run's own states: outputs, drifted states; the inputs not changed)."""
+        x, xd = x.copy(), xd.copy()
         if self.n_constraints == 0:
             return x, xd
         free = np.ones(self.n_speeds, bool) if fixed is None else ~fixed

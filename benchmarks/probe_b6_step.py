@@ -12,9 +12,9 @@ before it is closed), and the parts timed per call, each in a loop, least
 CPU of the rounds, at the run's initial state:
 
 * the right-hand side :func:`~flexmb.kernels.loops.loop_rhs_into` as its C
-  callback calls it (one work array), and its parts (their allocating forms), each cumulated in a compiled loop: the
-  tree's kinematics and loads (``loaded_state``), the rows' wrenches
-  (``_rows``), the factors (the articulated factorisation, ``K = psi A^-1
+  callback calls it (one work array), and its parts (the rows into given arrays, the others their allocating
+  forms), each cumulated in a compiled loop: the tree's kinematics and loads (``loaded_state``), the rows' wrenches
+  (``_rows_into``), the factors (the articulated factorisation, ``K = psi A^-1
   psi^T`` by m recursions and its factorisation: ``_constrained_factor``),
   and the solve (``a0`` by the recursion, the m x m solve, the response:
   ``_constrained_apply``);
@@ -54,10 +54,11 @@ import flexmb as fm  # noqa: E402
 from flexmb.integrators import cvode_direct_loops  # noqa: E402
 from flexmb.kernels import cvode_loop_callbacks  # noqa: E402
 from flexmb.kernels.cache import njit  # noqa: E402
+from flexmb.kernels.constraints import ROWS_SCRATCH  # noqa: E402
 from flexmb.kernels.equations import RESIDUALS, loaded_state, tree_equations  # noqa: E402
 from flexmb.kernels.loop_jacobian import loop_state_jacobian  # noqa: E402
 from flexmb.kernels.loops import (_arrays, _constrained_apply, _constrained_factor, _minus_bias_wrenches,  # noqa: E402
-                                  _rows, loop_newton_factor, loop_newton_solve, loop_rhs_into,
+                                  _rows_into, loop_newton_factor, loop_newton_solve, loop_rhs_into,
                                   loop_rhs_work_size)
 
 SPAN, RTOL = 0.5, 3e-3
@@ -67,6 +68,9 @@ SPAN, RTOL = 0.5, 3e-3
 def _time_rhs(packed, layout, y, n, gamma_d, tol, window, rank_limit, reps, upto):
     """``reps`` right-hand sides cut after part ``upto`` (0 kinematics and loads, 1 rows, 2 factors, 3 all)."""
     s = 0.0
+    m = layout.row_coord.shape[0]
+    W, gamma, phi, scratch = np.empty((m, 2, 6)), np.empty(m), np.empty(m), np.empty(ROWS_SCRATCH)
+    body = layout.row_body
     for _ in range(reps):
         zeros = np.zeros((layout.root_of.shape[0] + 1, 3))
         tree, cuts, kin, spatial, fw, tw, generalized = loaded_state(packed, y, n, np.zeros(0), zeros, zeros,
@@ -76,7 +80,7 @@ def _time_rhs(packed, layout, y, n, gamma_d, tol, window, rank_limit, reps, upto
             continue
         R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = kin
         nb = tree.parent.shape[0]
-        W, body, gamma = _rows(2, tree, cuts, R, origin, r, omega, v, alpha, acc, layout.row_coord, gamma_d)
+        _rows_into(tree, cuts, R, origin, r, omega, v, alpha, acc, gamma_d, W, gamma, phi, scratch, body[:0])
         if upto == 1:
             s += gamma[0]
             continue

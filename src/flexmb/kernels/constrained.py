@@ -46,13 +46,75 @@ def row_spatial_accelerations(W, body, coord, dA, xdd, a):
     return s
 
 
+#: columns of ``A^-1 psi^T`` carried by one sweep of :func:`_columns_solve`
+COLUMNS = 4
+
+
+@njit(cache=True)
+def _columns_solve(parent, coord_start, Sw, Sv, U, DinvUT, Dinv, P, G, bodies, root_of, s, nc, X, dA, u):
+    """:func:`~flexmb.kernels.articulated.articulated_solve` for ``nc`` load columns at once, on subtree s.
+
+    The bodies of ``bodies`` (increasing) that hang in subtree s are
+    visited once, each joint's factors read once for all columns; column j
+    gets, per body, the arithmetic of a solve with the loads ``P[:, j]``
+    (overwritten: the subtrees' biases) and ``G[:, j]``, its accelerations
+    in ``X[:, j]`` and spatial accelerations in ``dA[:, j]`` (the ground's
+    row, last, zero); ``u`` (6, nc) is scratch.
+    """
+    nb = parent.shape[0]
+    for q in range(bodies.shape[0] - 1, -1, -1):
+        k = bodies[q]
+        if root_of[k] != s:
+            continue
+        c0, c1 = coord_start[k], coord_start[k + 1]
+        for c in range(c0, c1):
+            for j in range(nc):
+                u[c - c0, j] = G[c, j] - (Sw[c, 0] * P[k, j, 0] + Sw[c, 1] * P[k, j, 1] + Sw[c, 2] * P[k, j, 2]
+                                          + Sv[c, 0] * P[k, j, 3] + Sv[c, 1] * P[k, j, 4] + Sv[c, 2] * P[k, j, 5])
+        for c in range(c0, c1):
+            for j in range(nc):
+                t = 0.0
+                for b in range(c1 - c0):
+                    t += Dinv[c, b] * u[b, j]
+                X[c, j] = t
+        p = parent[k]
+        if p >= 0:
+            for j in range(nc):
+                for i in range(6):
+                    t = P[k, j, i]
+                    for c in range(c0, c1):
+                        t += U[c, i] * X[c, j]
+                    P[p, j, i] += t
+    for q in range(bodies.shape[0]):
+        k = bodies[q]
+        if root_of[k] != s:
+            continue
+        p = parent[k]
+        if p < 0:
+            p = nb
+        for j in range(nc):
+            for i in range(6):
+                dA[k, j, i] = dA[p, j, i]
+            for c in range(coord_start[k], coord_start[k + 1]):
+                t = X[c, j]
+                for i in range(6):
+                    t -= DinvUT[c, i] * dA[p, j, i]
+                X[c, j] = t
+            for c in range(coord_start[k], coord_start[k + 1]):
+                for i in range(3):
+                    dA[k, j, i] += Sw[c, i] * X[c, j]
+                    dA[k, j, 3 + i] += Sv[c, i] * X[c, j]
+
+
 @njit(cache=True)
 def _loop_matrix(parent, coord_start, Sw, Sv, U, DinvUT, Dinv, W, body, coord, root_of, row_roots, visit_ptr, visit,
                  root_ptr, root_rows, position, band, tol, window, rank_limit):
     """``K = psi A^-1 psi^T`` within its band, in the factoring order, factored (:func:`_band_ldl`).
 
-    Column b is read from one solve with row b's wrenches on the subtrees
-    it touches; K is factored by
+    K is summed over the subtrees hanging from the ground (A is block
+    diagonal by subtree): on subtree s, the columns of the rows touching
+    it come from sweeps of :func:`_columns_solve`, :data:`COLUMNS` rows
+    at a time, each with that row's wrenches on s; K is factored by
     :func:`~flexmb.kernels.constraint_matrix.factor_constraint_matrix`.
     Returns (L in Kb, d or the eigenvalues, the same filtered, kept,
     smallest, finite, the eigenvectors (0 x 0 if banded)).
@@ -61,52 +123,52 @@ def _loop_matrix(parent, coord_start, Sw, Sv, U, DinvUT, Dinv, W, body, coord, r
     n = Sw.shape[0]
     m = W.shape[0]
     Kb = np.zeros((m, band + 1))
-    pA = np.zeros((nb + 1, 6))
-    dA = np.zeros((nb + 1, 6))
-    g = np.zeros(n)
-    col = np.zeros(n)
-    stamp = np.full(max(nb, 1), -1, dtype=np.int64)
-    seen = np.full(m, -1, dtype=np.int64)
-    for b in range(m):
-        bodies = visit[visit_ptr[b] : visit_ptr[b + 1]]
-        for q in range(bodies.shape[0]):
-            k = bodies[q]
-            for i in range(6):
-                pA[k, i] = 0.0
-        for side in range(2):
-            k = body[b, side]
-            if k >= 0:
-                for i in range(6):
-                    pA[k, i] -= W[b, side, i]
-        if coord[b] >= 0:
-            g[coord[b]] = 1.0
-        articulated_solve(parent, coord_start, Sw, Sv, U, DinvUT, Dinv, pA, g, bodies, col, dA)
-        if coord[b] >= 0:
-            g[coord[b]] = 0.0
-        for s in range(2):
-            if row_roots[b, s] >= 0:
-                stamp[row_roots[b, s]] = b
-        # K[a, b] for the rows a that touch b's subtrees, on the lower band only (a after b in the order)
-        pb = position[b]
-        for s in range(2):
-            root = row_roots[b, s]
-            if root < 0:
-                continue
-            for q in range(root_ptr[root], root_ptr[root + 1]):
-                a = root_rows[q]
-                pa = position[a]
-                if pa < pb or seen[a] == b:
-                    continue
-                seen[a] = b
-                v = 0.0
+    P = np.empty((nb + 1, COLUMNS, 6))
+    dA = np.zeros((nb + 1, COLUMNS, 6))
+    X = np.empty((n, COLUMNS))
+    G = np.empty((n, COLUMNS))
+    u = np.empty((6, COLUMNS))
+    for s in range(root_ptr.shape[0] - 1):
+        r0, r1 = root_ptr[s], root_ptr[s + 1]
+        if r1 == r0:
+            continue
+        first = root_rows[r0]
+        bodies = visit[visit_ptr[first] : visit_ptr[first + 1]]  # subtree s's bodies among them
+        for j0 in range(r0, r1, COLUMNS):
+            nc = min(COLUMNS, r1 - j0)
+            for q in range(bodies.shape[0]):
+                k = bodies[q]
+                if root_of[k] == s:
+                    P[k, :, :] = 0.0
+                    G[coord_start[k] : coord_start[k + 1], :] = 0.0
+            for j in range(nc):
+                b = root_rows[j0 + j]
                 for side in range(2):
-                    k = body[a, side]
-                    if k >= 0 and stamp[root_of[k]] == b:
+                    k = body[b, side]
+                    if k >= 0 and root_of[k] == s:
                         for i in range(6):
-                            v += W[a, side, i] * dA[k, i]
-                if coord[a] >= 0 and stamp[root_of[_coord_body(coord_start, coord[a])]] == b:
-                    v += col[coord[a]]
-                Kb[pa, pa - pb] = v
+                            P[k, j, i] -= W[b, side, i]
+                if coord[b] >= 0 and root_of[_coord_body(coord_start, coord[b])] == s:
+                    G[coord[b], j] = 1.0
+            _columns_solve(parent, coord_start, Sw, Sv, U, DinvUT, Dinv, P, G, bodies, root_of, s, nc, X, dA, u)
+            # K[a, b] on the lower band (a after b in the order): subtree s's part, for the rows a touching s
+            for j in range(nc):
+                b = root_rows[j0 + j]
+                pb = position[b]
+                for q in range(r0, r1):
+                    a = root_rows[q]
+                    pa = position[a]
+                    if pa < pb:
+                        continue
+                    v = 0.0
+                    for side in range(2):
+                        k = body[a, side]
+                        if k >= 0 and root_of[k] == s:
+                            for i in range(6):
+                                v += W[a, side, i] * dA[k, j, i]
+                    if coord[a] >= 0 and root_of[_coord_body(coord_start, coord[a])] == s:
+                        v += X[coord[a], j]
+                    Kb[pa, pa - pb] += v
     diag = np.empty(m)
     finite = True
     for j in range(m):
@@ -162,6 +224,11 @@ def _unfixed_massless(parent, coord_start, Sw, Sv, U, DinvUT, Dinv, W, body, coo
     nb = parent.shape[0]
     n = Sw.shape[0]
     m = W.shape[0]
+    lifted = False
+    for c in range(n):
+        lifted = lifted or lift[c] > 0.0
+    if not lifted:  # nothing to check, nothing allocated (the usual case)
+        return -1
     g = np.zeros(n)
     pA = np.zeros((nb + 1, 6))
     for c in range(n):

@@ -31,7 +31,7 @@ from .articulated import _minus_bias_wrenches, _minus_bias_wrenches_into, mass_t
 from .cache import njit
 from .constrained import (LIFT, MASSLESS, _constrained_apply, _constrained_apply_into, _constrained_factor,
                           _constrained_factor_into, _constrained_solve, apply_work_size, row_spatial_accelerations)
-from .constraints import cut_row_wrenches
+from .constraints import ROWS_SCRATCH, cut_row_wrenches, cut_row_wrenches_into
 from .dynamics import spatial_inertias
 from .equations import loaded_state_into, loaded_state_work_size
 from .packing import unpack
@@ -56,6 +56,22 @@ def _rows(level, tree, cuts, R, origin, r, omega, v, alpha, acc, coord, gamma_d)
     gamma[:mc] = gamma_c
     gamma[mc:] = gamma_d
     return W, body, gamma
+
+
+@njit(cache=True)
+def _rows_into(tree, cuts, R, origin, r, omega, v, alpha, acc, gamma_d, W, gamma, phi, scratch, no_body):
+    """:func:`_rows` at level 2 into ``W`` (m, 2, 6), ``gamma`` (m) and scratch ``phi`` (m), ``scratch``.
+
+    The rows' bodies are not written (``no_body``: an empty (0, 2) int
+    array): they are the layout's ``row_body``.
+    """
+    mc = _n_cut(cuts)
+    W[:, :, :] = 0.0
+    pt_i, pt_pi, pt_j, pt_pj, dr_i, dr_pi, dr_ai, dr_j, dr_pj, pp_i, pp_ai, pp_j, pp_bj = cuts
+    cut_row_wrenches_into(2, R, origin, r, omega, v, alpha, acc, pt_i, pt_pi, pt_j, pt_pj, dr_i, dr_pi, dr_ai, dr_j,
+                          dr_pj, pp_i, pp_ai, pp_j, pp_bj, phi[:mc], W[:mc], no_body,
+                          gamma[:mc], scratch)
+    gamma[mc:] = gamma_d
 
 
 @njit(cache=True)
@@ -124,7 +140,8 @@ def loop_rhs_work_size(nb, n, m):
     int
         The length.
     """
-    return loaded_state_work_size(nb, n) + 6 * (nb + 1) + 36 * nb + 21 * n + apply_work_size(nb, n, m)
+    return (loaded_state_work_size(nb, n) + 6 * (nb + 1) + 36 * nb + 21 * n + apply_work_size(nb, n, m) + 14 * m
+            + ROWS_SCRATCH)
 
 
 @njit(cache=True)
@@ -154,7 +171,11 @@ def loop_rhs_into(packed, layout, y, nq, powers, force0, torque0, generalized0, 
                                                                       generalized0, work[:o])
     R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = kin
     nb = tree.parent.shape[0]
-    W, body, gamma = _rows(2, tree, cuts, R, origin, r, omega, v, alpha, acc, layout.row_coord, gamma_d)
+    W, gamma = view3(work, o, m, 2, 6), work[o + 12 * m : o + 13 * m]
+    _rows_into(tree, cuts, R, origin, r, omega, v, alpha, acc, gamma_d, W, gamma, work[o + 13 * m : o + 14 * m],
+               work[o + 14 * m : o + 14 * m + ROWS_SCRATCH], layout.row_body[:0])
+    body = layout.row_body
+    o += 14 * m + ROWS_SCRATCH
     pA0 = view2(work, o, nb + 1, 6)
     IA = view3(work, o + 6 * (nb + 1), nb, 6, 6)
     o += 6 * (nb + 1) + 36 * nb

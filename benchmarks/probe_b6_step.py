@@ -11,10 +11,10 @@ counters read from :class:`~flexmb.integrators.cvode_direct_loops.DirectLoopCVOD
 before it is closed), and the parts timed per call, each in a loop, least
 CPU of the rounds, at the run's initial state:
 
-* the right-hand side :func:`~flexmb.kernels.loops.loop_rhs` as its C
-  callback calls it, and its parts, each cumulated in a compiled loop: the
-  tree's kinematics and loads (``loaded_state``), the rows' wrenches
-  (``_rows``), the factors (the articulated factorisation, ``K = psi A^-1
+* the right-hand side :func:`~flexmb.kernels.loops.loop_rhs_into` as its C
+  callback calls it (one work array), and its parts (the rows into given arrays, the others their allocating
+  forms), each cumulated in a compiled loop: the tree's kinematics and loads (``loaded_state``), the rows' wrenches
+  (``_rows_into``), the factors (the articulated factorisation, ``K = psi A^-1
   psi^T`` by m recursions and its factorisation: ``_constrained_factor``),
   and the solve (``a0`` by the recursion, the m x m solve, the response:
   ``_constrained_apply``);
@@ -66,11 +66,13 @@ from flexmb import output_quantities, result as result_module  # noqa: E402
 from flexmb.integrators import cvode_direct, cvode_direct_loops  # noqa: E402
 from flexmb.kernels import loop_outputs  # noqa: E402
 from flexmb.kernels.cache import njit  # noqa: E402
+from flexmb.kernels.constraints import ROWS_SCRATCH  # noqa: E402
 from flexmb.kernels.equations import RESIDUALS, loaded_state, tree_equations  # noqa: E402
 from flexmb.kernels.loop_jacobian import loop_state_jacobian  # noqa: E402
 from flexmb.kernels.step_projection import step_projection  # noqa: E402
 from flexmb.kernels.loops import (_arrays, _constrained_apply, _constrained_factor, _minus_bias_wrenches,  # noqa: E402
-                                  _rows, loop_newton_factor, loop_newton_solve, loop_rhs)
+                                  _rows_into, loop_newton_factor, loop_newton_solve, loop_rhs_into,
+                                  loop_rhs_work_size)
 
 SPAN, RTOL = 0.5, 3e-3
 
@@ -79,6 +81,9 @@ SPAN, RTOL = 0.5, 3e-3
 def _time_rhs(packed, layout, y, n, gamma_d, tol, window, rank_limit, reps, upto):
     """``reps`` right-hand sides cut after part ``upto`` (0 kinematics and loads, 1 rows, 2 factors, 3 all)."""
     s = 0.0
+    m = layout.row_coord.shape[0]
+    W, gamma, phi, scratch = np.empty((m, 2, 6)), np.empty(m), np.empty(m), np.empty(ROWS_SCRATCH)
+    body = layout.row_body
     for _ in range(reps):
         zeros = np.zeros((layout.root_of.shape[0] + 1, 3))
         tree, cuts, kin, spatial, fw, tw, generalized = loaded_state(packed, y, n, np.zeros(0), zeros, zeros,
@@ -88,7 +93,7 @@ def _time_rhs(packed, layout, y, n, gamma_d, tol, window, rank_limit, reps, upto
             continue
         R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = kin
         nb = tree.parent.shape[0]
-        W, body, gamma = _rows(2, tree, cuts, R, origin, r, omega, v, alpha, acc, layout.row_coord, gamma_d)
+        _rows_into(tree, cuts, R, origin, r, omega, v, alpha, acc, gamma_d, W, gamma, phi, scratch, body[:0])
         if upto == 1:
             s += gamma[0]
             continue
@@ -107,12 +112,14 @@ def _time_rhs(packed, layout, y, n, gamma_d, tol, window, rank_limit, reps, upto
 
 @njit
 def _time_loop_rhs(packed, layout, y, n, gamma_d, tol, window, rank_limit, reps):
-    """``reps`` calls of loop_rhs as the C callback makes them (with its allocations)."""
+    """``reps`` calls of loop_rhs_into as the C callback makes them (one work array for all the calls)."""
     s = 0.0
+    nb, m = layout.root_of.shape[0], layout.row_coord.shape[0]
+    zeros = np.zeros((nb + 1, 3))
+    work, xdd, lam, generalized0 = np.empty(loop_rhs_work_size(nb, n, m)), np.empty(n), np.empty(m), np.zeros(n)
     for _ in range(reps):
-        zeros = np.zeros((layout.root_of.shape[0] + 1, 3))
-        xdd = loop_rhs(packed, layout, y, n, np.zeros(0), zeros, zeros, np.zeros(n), gamma_d, tol, window,
-                       rank_limit)[0]
+        loop_rhs_into(packed, layout, y, n, np.zeros(0)[:0], zeros, zeros, generalized0, gamma_d, tol, window,
+                      rank_limit, xdd, lam, work)
         s += xdd[0]
     return s
 

@@ -16,7 +16,6 @@ from .errors import FlexmbError, ModelError
 from .joints import Joint
 from .output_quantities import evaluate_states
 from .post.accessors import ResultPost
-from .result_states import evaluate_states
 
 __all__ = ["Result"]
 

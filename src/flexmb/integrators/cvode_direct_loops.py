@@ -213,7 +213,8 @@ class DirectLoopCVODE(DirectCVODE):
             "real": np.zeros(cb.N_REAL), "Sw": np.zeros(n * 3), "Sv": np.zeros(n * 3), "W": np.zeros(mr * 12),
             "body": np.zeros(mr * 2, np.int64), "U": np.zeros(n * 6), "DUT": np.zeros(n * 6), "Dinv": np.zeros(n * 6),
             "lift": np.zeros(n), "Kb": np.zeros(mr * (band + 1)), "d": np.zeros(mr), "df": np.zeros(mr),
-            "V": np.zeros(mr * mr if mr <= DENSE_K or 2 * band >= mr else 0), "fail_t": np.zeros(1), "fail_y": np.zeros(m), "offset": offset}
+            "V": np.zeros(mr * mr if mr <= DENSE_K or 2 * band >= mr else 0), "fail_t": np.zeros(1), "fail_y": np.zeros(m), "offset": offset,
+            "work": np.zeros(cb.work_size(nb, n, mr, len(drivers)))}
         for f in lay._fields[:-1]:
             a[f] = np.ascontiguousarray(getattr(lay, f), dtype=np.int64)
         ud = np.zeros(cb.UD_SIZE, dtype=np.int64)
@@ -225,7 +226,7 @@ class DirectLoopCVODE(DirectCVODE):
         ud[cb.N_VISIT], ud[cb.N_ROOTS], ud[cb.N_ROOT_ROWS] = a["visit"].size, a["root_ptr"].size - 1, a["root_rows"].size
         for key in ("row_body", "row_coord", "root_of", "row_roots", "visit_ptr", "visit", "root_ptr", "root_rows",
                     "order", "position", "K", "C", "x", "drv", "real", "Sw", "Sv", "W", "body", "U", "DUT", "Dinv",
-                    "lift", "Kb", "d", "df", "V", "fail_t", "fail_y", "offset"):
+                    "lift", "Kb", "d", "df", "V", "fail_t", "fail_y", "offset", "work"):
             ud[getattr(cb, "A_" + key.upper())] = a[key].ctypes.data
         ud[cb.N_DRV] = len(drivers)
         ud[cb.RANK_LIMIT] = -1 if system.rank_limit is None else system.rank_limit

@@ -186,10 +186,9 @@ def articulated_factor_into(parent, coord_start, spatial, Sw, Sv, armature, floo
         m = c1 - c0
         _joint_axes(k, c0, c1, IA, Sw, Sv, U)
         tiny = 0.0
-        if floor > 0.0 and m:
+        if floor > 0.0 and m:  # I^A is positive semi-definite: its largest entry is on the diagonal
             for i in range(6):
-                for j in range(6):
-                    tiny = max(tiny, abs(IA[k, i, j]))
+                tiny = max(tiny, abs(IA[k, i, i]))
             tiny *= floor
         # D^-1 stays in this loop: moved into a helper (inlined or not), it slowed the recursion
         if m == 1:  # one freedom (most joints): D is a number, nothing to factor

@@ -28,7 +28,7 @@ from .cache import njit
 
 from .tree import _cross_to, _mv_to
 
-__all__ = ["cut_rows", "cut_row_wrenches", "scatter_rows"]
+__all__ = ["cut_rows", "cut_row_wrenches", "cut_row_wrenches_into", "scatter_rows", "ROWS_SCRATCH"]
 
 
 @njit(cache=True, inline="always")
@@ -89,11 +89,12 @@ def _point(out, R, origin, k, local):
 
 
 @njit(cache=True)
-def _bias_acceleration(out, k, p, r, omega, alpha_bias, a_bias):
-    """``a_bias + alpha_bias x l + omega x (omega x l)``, ``l = p - r_k``: the point's acceleration at xdd = 0."""
-    lever = np.empty(3)
-    t1 = np.empty(3)
-    t2 = np.empty(3)
+def _bias_acceleration(out, k, p, r, omega, alpha_bias, a_bias, tmp):
+    """``a_bias + alpha_bias x l + omega x (omega x l)``, ``l = p - r_k``: the point's acceleration at xdd = 0.
+
+    ``tmp`` (9,) is scratch.
+    """
+    lever, t1, t2 = tmp[0:3], tmp[3:6], tmp[6:9]
     for i in range(3):
         lever[i] = p[i] - r[k, i]
     _cross_to(t1, alpha_bias[k], lever)
@@ -104,9 +105,8 @@ def _bias_acceleration(out, k, p, r, omega, alpha_bias, a_bias):
 
 
 @njit(cache=True)
-def _velocity(out, k, p, r, omega, v):
-    """``v_k + omega_k x (p - r_k)``."""
-    lever = np.empty(3)
+def _velocity(out, k, p, r, omega, v, lever):
+    """``v_k + omega_k x (p - r_k)`` (``lever`` (3,) scratch)."""
     for i in range(3):
         lever[i] = p[i] - r[k, i]
     _cross_to(out, omega[k], lever)
@@ -116,28 +116,29 @@ def _velocity(out, k, p, r, omega, v):
 
 @njit(cache=True, inline="always")
 def _point_rows(level, row, phi, wrench, body, gamma, R, origin, r, omega, alpha_bias, a_bias, pt_i, pt_pi, pt_j,
-                pt_pj):
-    """Point rows ``P_i - P_j = 0`` (eq. 28), their psi (eq. 29) and gamma, from ``row`` on; returns the next row."""
-    Pi = np.empty(3)
-    Pj = np.empty(3)
-    t1 = np.empty(3)
-    t2 = np.empty(3)
-    unit = np.zeros((3, 3))
+                pt_pj, tmp):
+    """Point rows ``P_i - P_j = 0`` (eq. 28), their psi (eq. 29) and gamma, from ``row`` on; returns the next row.
+
+    ``tmp`` (>= 30,) is scratch; ``body`` is written only if not empty.
+    """
+    Pi, Pj, t1, t2, unit = tmp[0:3], tmp[3:6], tmp[6:9], tmp[9:12], tmp[12:21]
+    unit[:] = 0.0
     for a in range(3):
-        unit[a, a] = 1.0
+        unit[4 * a] = 1.0
     for q in range(pt_i.shape[0]):
         i, j = pt_i[q], pt_j[q]
         _point(Pi, R, origin, i, pt_pi[q])
         _point(Pj, R, origin, j, pt_pj[q])
         if level >= 2:
-            _bias_acceleration(t1, i, Pi, r, omega, alpha_bias, a_bias)
-            _bias_acceleration(t2, j, Pj, r, omega, alpha_bias, a_bias)
+            _bias_acceleration(t1, i, Pi, r, omega, alpha_bias, a_bias, tmp[21:30])
+            _bias_acceleration(t2, j, Pj, r, omega, alpha_bias, a_bias, tmp[21:30])
         for a in range(3):
             phi[row + a] = Pi[a] - Pj[a]
             if level >= 1:
-                body[row + a, 0], body[row + a, 1] = i, j
-                _set_point_wrench(wrench, row + a, 0, 1.0, Pi, unit[a])
-                _set_point_wrench(wrench, row + a, 1, -1.0, Pj, unit[a])
+                if body.shape[0]:
+                    body[row + a, 0], body[row + a, 1] = i, j
+                _set_point_wrench(wrench, row + a, 0, 1.0, Pi, unit[3 * a : 3 * a + 3])
+                _set_point_wrench(wrench, row + a, 1, -1.0, Pj, unit[3 * a : 3 * a + 3])
             if level >= 2:
                 gamma[row + a] = -(t1[a] - t2[a])
         row += 3
@@ -145,20 +146,20 @@ def _point_rows(level, row, phi, wrench, body, gamma, R, origin, r, omega, alpha
 
 
 @njit(cache=True, inline="always")
-def _direction_bias(i, j, Pi, Pj, d, e, de, r, omega, v, alpha_bias, a_bias):
-    """The velocity-dependent part of ``d/dt^2 (d . e)`` of a direction row, ``e = P_j - P_i`` (minus gamma)."""
-    t1 = np.empty(3)
-    t2 = np.empty(3)
-    t3 = np.empty(3)
-    t4 = np.empty(3)
+def _direction_bias(i, j, Pi, Pj, d, e, de, r, omega, v, alpha_bias, a_bias, tmp):
+    """The velocity-dependent part of ``d/dt^2 (d . e)`` of a direction row, ``e = P_j - P_i`` (minus gamma).
+
+    ``tmp`` (>= 21,) is scratch.
+    """
+    t1, t2, t3, t4, more = tmp[0:3], tmp[3:6], tmp[6:9], tmp[9:12], tmp[12:21]
     wi = omega[i]
     # edot, ebias: relative velocity and bias acceleration of the points
-    _velocity(t1, j, Pj, r, omega, v)
-    _velocity(t2, i, Pi, r, omega, v)
+    _velocity(t1, j, Pj, r, omega, v, more[:3])
+    _velocity(t2, i, Pi, r, omega, v, more[:3])
     for a in range(3):
         t1[a] -= t2[a]  # edot
-    _bias_acceleration(t2, j, Pj, r, omega, alpha_bias, a_bias)
-    _bias_acceleration(t3, i, Pi, r, omega, alpha_bias, a_bias)
+    _bias_acceleration(t2, j, Pj, r, omega, alpha_bias, a_bias, more)
+    _bias_acceleration(t3, i, Pi, r, omega, alpha_bias, a_bias, more)
     for a in range(3):
         t2[a] -= t3[a]  # ebias
     _cross_to(t3, wi, d)  # wd = w_i x d
@@ -173,13 +174,12 @@ def _direction_bias(i, j, Pi, Pj, d, e, de, r, omega, v, alpha_bias, a_bias):
 
 @njit(cache=True, inline="always")
 def _direction_rows(level, row, phi, wrench, body, gamma, R, origin, r, omega, v, alpha_bias, a_bias, dr_i, dr_pi,
-                    dr_ai, dr_j, dr_pj):
-    """Direction rows ``d . (P_j - P_i) = 0`` (eq. 28), their psi (eq. 29) and gamma; returns the next row."""
-    Pi = np.empty(3)
-    Pj = np.empty(3)
-    e = np.empty(3)
-    d = np.empty(3)
-    de = np.empty(3)
+                    dr_ai, dr_j, dr_pj, tmp):
+    """Direction rows ``d . (P_j - P_i) = 0`` (eq. 28), their psi (eq. 29) and gamma; returns the next row.
+
+    ``tmp`` (>= 36,) is scratch; ``body`` is written only if not empty.
+    """
+    Pi, Pj, e, d, de = tmp[0:3], tmp[3:6], tmp[6:9], tmp[9:12], tmp[12:15]
     for q in range(dr_i.shape[0]):
         i, j = dr_i[q], dr_j[q]
         _point(Pi, R, origin, i, dr_pi[q])
@@ -190,25 +190,24 @@ def _direction_rows(level, row, phi, wrench, body, gamma, R, origin, r, omega, v
         phi[row] = _dot3(d, e)
         _cross_to(de, d, e)
         if level >= 1:
-            body[row, 0], body[row, 1] = i, j
+            if body.shape[0]:
+                body[row, 0], body[row, 1] = i, j
             _set_angular_wrench(wrench, row, 0, 1.0, de)
             _set_point_wrench(wrench, row, 0, -1.0, Pi, d)
             _set_point_wrench(wrench, row, 1, 1.0, Pj, d)
         if level >= 2:
-            gamma[row] = -_direction_bias(i, j, Pi, Pj, d, e, de, r, omega, v, alpha_bias, a_bias)
+            gamma[row] = -_direction_bias(i, j, Pi, Pj, d, e, de, r, omega, v, alpha_bias, a_bias, tmp[15:36])
         row += 1
     return row
 
 
 @njit(cache=True, inline="always")
-def _perpendicular_rows(level, row, phi, wrench, body, gamma, R, omega, alpha_bias, pp_i, pp_ai, pp_j, pp_bj):
-    """Perpendicularity rows ``a . b = 0`` (eq. 28), their psi (eq. 29) and gamma; returns the next row."""
-    va = np.empty(3)
-    vb = np.empty(3)
-    ab = np.empty(3)
-    t1 = np.empty(3)
-    t2 = np.empty(3)
-    t3 = np.empty(3)
+def _perpendicular_rows(level, row, phi, wrench, body, gamma, R, omega, alpha_bias, pp_i, pp_ai, pp_j, pp_bj, tmp):
+    """Perpendicularity rows ``a . b = 0`` (eq. 28), their psi (eq. 29) and gamma; returns the next row.
+
+    ``tmp`` (>= 18,) is scratch; ``body`` is written only if not empty.
+    """
+    va, vb, ab, t1, t2, t3 = tmp[0:3], tmp[3:6], tmp[6:9], tmp[9:12], tmp[12:15], tmp[15:18]
     for q in range(pp_i.shape[0]):
         i, j = pp_i[q], pp_j[q]
         _mv_to(va, R[i], pp_ai[q])
@@ -216,7 +215,8 @@ def _perpendicular_rows(level, row, phi, wrench, body, gamma, R, omega, alpha_bi
         phi[row] = _dot3(va, vb)
         _cross_to(ab, va, vb)
         if level >= 1:
-            body[row, 0], body[row, 1] = i, j
+            if body.shape[0]:
+                body[row, 0], body[row, 1] = i, j
             _set_angular_wrench(wrench, row, 0, 1.0, ab)
             _set_angular_wrench(wrench, row, 1, -1.0, ab)
         if level >= 2:
@@ -267,16 +267,40 @@ def cut_row_wrenches(level, R, origin, r, omega, v, alpha_bias, a_bias, pt_i, pt
         Right-hand sides of ``psi xdd = gamma`` (zero below level 2).
     """
     m = 3 * pt_i.shape[0] + dr_i.shape[0] + pp_i.shape[0]
-    phi = np.zeros(m)
-    wrench = np.zeros((m, 2, 6))
-    body = np.full((m, 2), -1, dtype=np.int64)
-    gamma = np.zeros(m)
-    row = _point_rows(level, 0, phi, wrench, body, gamma, R, origin, r, omega, alpha_bias, a_bias, pt_i, pt_pi, pt_j,
-                      pt_pj)
-    row = _direction_rows(level, row, phi, wrench, body, gamma, R, origin, r, omega, v, alpha_bias, a_bias, dr_i,
-                          dr_pi, dr_ai, dr_j, dr_pj)
-    _perpendicular_rows(level, row, phi, wrench, body, gamma, R, omega, alpha_bias, pp_i, pp_ai, pp_j, pp_bj)
+    phi, wrench, body, gamma = np.zeros(m), np.zeros((m, 2, 6)), np.full((m, 2), -1, dtype=np.int64), np.zeros(m)
+    cut_row_wrenches_into(level, R, origin, r, omega, v, alpha_bias, a_bias, pt_i, pt_pi, pt_j, pt_pj, dr_i, dr_pi,
+                          dr_ai, dr_j, dr_pj, pp_i, pp_ai, pp_j, pp_bj, phi, wrench, body, gamma, np.empty(ROWS_SCRATCH))
     return phi, wrench, body, gamma
+
+
+#: length of the scratch of :func:`cut_row_wrenches_into`
+ROWS_SCRATCH = 36
+
+
+@njit(cache=True)
+def cut_row_wrenches_into(level, R, origin, r, omega, v, alpha_bias, a_bias, pt_i, pt_pi, pt_j, pt_pj, dr_i, dr_pi,
+                          dr_ai, dr_j, dr_pj, pp_i, pp_ai, pp_j, pp_bj, phi, wrench, body, gamma, scratch):
+    """:func:`cut_row_wrenches` into given arrays: nothing allocated (the loops' right-hand side).
+
+    Parameters
+    ----------
+    level, R, origin, r, omega, v, alpha_bias, a_bias, pt_i, pt_pi, pt_j, pt_pj, dr_i, dr_pi, dr_ai, dr_j, dr_pj, pp_i, pp_ai, pp_j, pp_bj
+        As :func:`cut_row_wrenches`.
+    phi, gamma : ndarray, shape (m,)
+        Outputs (gamma written from level 2).
+    wrench : ndarray, shape (m, 2, 6)
+        Output from level 1; it must be zero on entry (the rows add to it).
+    body : ndarray of int, shape (m, 2) or (0, 2)
+        Output from level 1, if not empty (the bodies are fixed by the
+        model: :attr:`~flexmb.kernels.loop_layout.LoopLayout.row_body`).
+    scratch : ndarray, shape (>= ROWS_SCRATCH,)
+        Scratch.
+    """
+    row = _point_rows(level, 0, phi, wrench, body, gamma, R, origin, r, omega, alpha_bias, a_bias, pt_i, pt_pi, pt_j,
+                      pt_pj, scratch)
+    row = _direction_rows(level, row, phi, wrench, body, gamma, R, origin, r, omega, v, alpha_bias, a_bias, dr_i,
+                          dr_pi, dr_ai, dr_j, dr_pj, scratch)
+    _perpendicular_rows(level, row, phi, wrench, body, gamma, R, omega, alpha_bias, pp_i, pp_ai, pp_j, pp_bj, scratch)
 
 
 @njit(cache=True)

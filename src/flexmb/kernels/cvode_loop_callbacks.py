@@ -35,16 +35,18 @@ from __future__ import annotations
 
 import numpy as np
 from numba import carray, types
+from numba.extending import register_jitable
 
 from .cache import njit
 from .cvode_callbacks import _call_cvode, _call_p_p, _cfunc, _voidp, _watched
 from .equations import RESIDUALS, tree_equations
 from .loop_layout import LoopLayout
 from .loop_jacobian import loop_state_jacobian
-from .loops import loop_newton_factor, loop_newton_solve, loop_rhs
+from .loops import loop_newton_factor, loop_newton_solve, loop_rhs_into, loop_rhs_work_size
 from .step_projection import KEPT, MOVED, REFUSED, step_projection
+from .views import view2
 
-__all__ = ["rhs", "jac", "psetup", "psolve", "project", "advance", "drift", "driver", "UD_SIZE", "REACHED", "CHECKPOINT", "PAUSED", "WATCH",
+__all__ = ["rhs", "work_size", "jac", "psetup", "psolve", "project", "advance", "drift", "driver", "UD_SIZE", "REACHED", "CHECKPOINT", "PAUSED", "WATCH",
            "DRIFTED", "NOT_FINITE"]
 
 #: slots of the user_data array (int64): addresses (A_*), sizes, counters, the failure's status
@@ -55,7 +57,8 @@ __all__ = ["rhs", "jac", "psetup", "psolve", "project", "advance", "drift", "dri
  SETUPS, JACS, RHS, PSOLVES, FACTORS, STATUS, NONFINITE_FLAG, A_FAIL_T, A_FAIL_Y, A_OFFSET, HAS_OFFSET,
  PROJECTIONS, PROJ_REFUSED, PROJ_OK) = range(64)
 A_MATDATA = 64  # SUNDenseMatrix_Data, for jac
-UD_SIZE = 65
+A_WORK = 65  # the work array of rhs (work_size)
+UD_SIZE = 66
 #: the float parameters (A_REAL): the rank tolerance, the singular window, the factors' gamma and smallest pivot;
 #: for :func:`project`, the residual below which a state is kept, the Newton tolerance, the largest correction
 #: per unit residual, and the time of the last state it left on the constraints
@@ -156,24 +159,48 @@ def _drivers(ud):
     return _f2(ud[A_DRV], max(ud[N_DRV], 1), 5)
 
 
+@register_jitable
+def work_size(nb, n, m, n_drv):
+    """Length of the work array (user_data's ``A_WORK``) of :func:`rhs`.
+
+    Parameters
+    ----------
+    nb, n, m, n_drv : int
+        Numbers of bodies, speeds, rows and drivers.
+
+    Returns
+    -------
+    int
+        The length.
+    """
+    return 6 * (nb + 1) + n + m + n_drv + loop_rhs_work_size(nb, n, m)
+
+
 @_cfunc(types.int32(types.float64, types.voidptr, types.voidptr, types.voidptr))
 def rhs(t, y, ydot, user_data):
-    """CVRhsFn: ``ydot = (xd, xdd)`` by loop_rhs; NONFINITE_FLAG if not finite, -1 if a freedom moves no mass."""
+    """CVRhsFn: ``ydot = (xd, xdd)`` by loop_rhs_into, work in ``A_WORK``; NONFINITE_FLAG if not finite, -1 if massless."""
     ud = _ud(user_data)
     n, m, nb = ud[N], ud[M], ud[NB]
     yv = _state(ud, y, m)
     out = _vector(ud, ydot, m)
     real = _f1(ud[A_REAL], N_REAL)
     ud[RHS] += 1
-    zeros = np.zeros((nb + 1, 3))
-    drv, gamma_d = _drivers(ud), np.empty(ud[N_DRV])
-    for k in range(ud[N_DRV]):
+    mr, n_drv = ud[MROWS], ud[N_DRV]
+    work = _f1(ud[A_WORK], work_size(nb, n, mr, n_drv))
+    zeros = view2(work, 0, 2 * (nb + 1), 3)  # the Python loads (none): force0, torque0 and generalized0
+    zeros[:, :] = 0.0
+    o = 6 * (nb + 1)
+    generalized0, lam, gamma_d = work[o : o + n], work[o + n : o + n + mr], work[o + n + mr : o + n + mr + n_drv]
+    generalized0[:] = 0.0
+    o += n + mr + n_drv
+    drv = _drivers(ud)
+    for k in range(n_drv):
         gamma_d[k] = driver(drv, k, t)[2]
-    xdd, lam, kept, smallest, status = loop_rhs(_packed(ud), _layout(ud), yv, n, np.zeros(0), zeros, zeros,
-                                                np.zeros(n), gamma_d, real[R_TOL], real[R_WINDOW], ud[RANK_LIMIT])
+    kept, smallest, status = loop_rhs_into(_packed(ud), _layout(ud), yv, n, work[:0], zeros[: nb + 1],
+                                           zeros[nb + 1 :], generalized0, gamma_d, real[R_TOL], real[R_WINDOW],
+                                           ud[RANK_LIMIT], out[n : 2 * n], lam, work[o:])
     for i in range(n):
         out[i] = yv[n + i]
-        out[n + i] = xdd[i]
     for i in range(2 * n, m):  # states nothing depends on
         out[i] = 0.0
     if status == 0:

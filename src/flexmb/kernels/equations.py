@@ -14,15 +14,18 @@ crosses from Python into compiled code once.
 from __future__ import annotations
 
 import numpy as np
+from numba.extending import register_jitable
+
 from .cache import njit
 
 from .constraints import cut_row_wrenches, cut_rows
-from .dynamics import bias_wrenches, composite_inertias, generalized_force, mass_matrix, spatial_inertias
+from .dynamics import bias_wrenches_into, composite_inertias, generalized_force, mass_matrix, spatial_inertias_into
 from .loads import apply_load_tables
 from .packing import unpack
-from .tree import tree_state
+from .tree import kinematics_work_size, tree_kinematics_into, tree_state
+from .views import view2, view3
 
-__all__ = ["loaded_state", "tree_equations", "RESIDUALS", "ROWS", "EQUATIONS"]
+__all__ = ["loaded_state", "loaded_state_into", "loaded_state_work_size", "tree_equations", "RESIDUALS", "ROWS", "EQUATIONS"]
 
 
 @njit(cache=True)
@@ -62,17 +65,76 @@ def loaded_state(packed, y, nq, powers, force0, torque0, generalized0):
     generalized : ndarray, shape (n,)
         Generalized forces applied on the coordinates.
     """
+    nb = packed[3][0, 1]  # the parents' count: the number of bodies
+    work = np.empty(loaded_state_work_size(nb, generalized0.shape[0]))
+    return loaded_state_into(packed, y, nq, powers, force0, torque0, generalized0, work)
+
+
+@register_jitable
+def loaded_state_work_size(nb, n):
+    """Length of the work array :func:`loaded_state_into` needs.
+
+    Parameters
+    ----------
+    nb, n : int
+        Numbers of bodies and of speeds.
+
+    Returns
+    -------
+    int
+        The length.
+    """
+    return 36 * (nb + 1) + 51 * nb + 7 * n + kinematics_work_size(nb, n)
+
+
+@njit(cache=True)
+def loaded_state_into(packed, y, nq, powers, force0, torque0, generalized0, work):
+    """:func:`loaded_state` with every array a view of ``work``: nothing allocated (the loops' CVODE callback).
+
+    Parameters
+    ----------
+    packed, y, nq, powers, force0, torque0, generalized0
+        As :func:`loaded_state`.
+    work : ndarray, shape (>= loaded_state_work_size(n_bodies, n),)
+        Scratch (its contents on entry are not read); the returned arrays
+        are views of it, valid until it is written again.
+
+    Returns
+    -------
+    tuple
+        What :func:`loaded_state` returns.
+    """
     tree, tables, cuts = unpack(packed)
+    n = generalized0.shape[0]
+    nb = tree.parent.shape[0]
     x = y[:nq]
-    xd = y[nq : nq + tree.coord_start[-1]]
-    kin = tree_state(tree, x, xd)
-    R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = kin
-    force = force0.copy()
-    torque = torque0.copy()
-    generalized = generalized0.copy()
+    xd = y[nq : nq + n]
+    R = view3(work, 0, nb + 1, 3, 3)
+    o = 9 * (nb + 1)
+    kin = view3(work, o, 7, nb + 1, 3)  # origin, r, omega, v, alpha, acc, jp
+    o += 21 * (nb + 1)
+    Sw, Sv = view2(work, o, n, 3), view2(work, o + 3 * n, n, 3)
+    o += 6 * n
+    k = kinematics_work_size(nb, n)
+    empty3 = view2(work, 0, 0, 3)
+    tree_kinematics_into(tree.parent, tree.coord_start, tree.coord_kind, tree.coord_axis, tree.external,
+                         tree.parent_frame, tree.child_frame, tree.lever, tree.child_point, tree.com, x, xd,
+                         view3(work, 0, 0, 3, 3), empty3, empty3, empty3, empty3, empty3, R, kin[0], kin[1],
+                         kin[2], kin[3], kin[4], kin[5], kin[6], Sw, Sv, work[o : o + k])
+    o += k
+    origin, r, omega, v, alpha, acc = kin[0], kin[1], kin[2], kin[3], kin[4], kin[5]
+    force, torque = view2(work, o, nb + 1, 3), view2(work, o + 3 * (nb + 1), nb + 1, 3)
+    generalized = work[o + 6 * (nb + 1) : o + 6 * (nb + 1) + n]
+    o += 6 * (nb + 1) + n
+    force[:] = force0
+    torque[:] = torque0
+    generalized[:] = generalized0
     apply_load_tables(tables, tree.mass, R, origin, r, omega, v, x, xd, force, torque, generalized, powers)
-    Iw, spatial = spatial_inertias(R, r, tree.mass, tree.inertia)
-    fw, tw = bias_wrenches(tree.mass, Iw, omega, alpha, acc, force, torque)
+    Iw, spatial = view3(work, o, nb, 3, 3), view3(work, o + 9 * nb, nb, 6, 6)
+    fw, tw = view2(work, o + 45 * nb, nb, 3), view2(work, o + 48 * nb, nb, 3)
+    spatial_inertias_into(R, r, tree.mass, tree.inertia, Iw, spatial)
+    bias_wrenches_into(tree.mass, Iw, omega, alpha, acc, force, torque, fw, tw)
+    kin = (R, origin, r, omega, v, alpha, acc, kin[6][:nb], Sw, Sv)
     return tree, cuts, kin, spatial, fw, tw, generalized
 
 

@@ -25,336 +25,21 @@ rank revealed and its singular positions filtered by
 from __future__ import annotations
 
 import numpy as np
-from .cache import njit
+from numba.extending import register_jitable
 
-from .articulated import _minus_bias_wrenches, articulated_factor, articulated_solve, mass_times
-from .constraint_matrix import factor_constraint_matrix, solve_constraint_matrix
-from .constraints import cut_row_wrenches
+from .articulated import _minus_bias_wrenches, _minus_bias_wrenches_into, mass_times  # noqa: F401 (loop_jacobian)
+from .cache import njit
+from .constrained import (LIFT, MASSLESS, _constrained_apply, _constrained_apply_into, _constrained_factor,
+                          _constrained_factor_into, _constrained_solve, apply_work_size, row_spatial_accelerations)
+from .constraints import ROWS_SCRATCH, cut_row_wrenches, cut_row_wrenches_into
 from .dynamics import spatial_inertias
-from .equations import loaded_state
+from .equations import loaded_state_into, loaded_state_work_size
 from .packing import unpack
 from .tree import tree_state
+from .views import view2, view3
 
-#: a joint inertia below this times the largest entry of its body's articulated inertia moves no mass
-#: (a slender bar's spin closed by a loop: A singular, the reduced mass not)
-MASSLESS = 1e-12
-#: the armature given to such a freedom, relative to that largest entry; the refinement removes it
-LIFT = 1e-4
-#: a massless freedom whose motion the rows see below this fraction of what they could is not fixed by them
-UNFIXED = 1e-8
-#: the refinement stops when a correction is below this times the solution, or after REFINE_MAX passes
-REFINE_TOL = 1e-15
-REFINE_MAX = 50
-
-__all__ = ["MASSLESS", "LIFT", "loop_rhs", "loop_speeds", "loop_newton_factor", "loop_newton_solve",
+__all__ = ["MASSLESS", "LIFT", "loop_rhs", "loop_rhs_into", "loop_rhs_work_size", "loop_speeds", "loop_newton_factor", "loop_newton_solve",
            "rows_at_positions", "row_spatial_accelerations"]
-
-
-@njit(cache=True)
-def row_spatial_accelerations(W, body, coord, dA, xdd, a):
-    """``psi_a xdd`` from the bodies' spatial accelerations: ``W_a0 . dA_i + W_a1 . dA_j (+ xdd_c)``."""
-    s = 0.0
-    for side in range(2):
-        k = body[a, side]
-        if k >= 0:
-            for i in range(6):
-                s += W[a, side, i] * dA[k, i]
-    if coord[a] >= 0:
-        s += xdd[coord[a]]
-    return s
-
-
-@njit(cache=True)
-def _loop_matrix(parent, coord_start, Sw, Sv, U, DinvUT, Dinv, W, body, coord, root_of, row_roots, visit_ptr, visit,
-                 root_ptr, root_rows, position, band, tol, window, rank_limit):
-    """``K = psi A^-1 psi^T`` within its band, in the factoring order, factored (:func:`_band_ldl`).
-
-    Column b is read from one solve with row b's wrenches on the subtrees
-    it touches; K is factored by
-    :func:`~flexmb.kernels.constraint_matrix.factor_constraint_matrix`.
-    Returns (L in Kb, d or the eigenvalues, the same filtered, kept,
-    smallest, finite, the eigenvectors (0 x 0 if banded)).
-    """
-    nb = parent.shape[0]
-    n = Sw.shape[0]
-    m = W.shape[0]
-    Kb = np.zeros((m, band + 1))
-    pA = np.zeros((nb + 1, 6))
-    dA = np.zeros((nb + 1, 6))
-    g = np.zeros(n)
-    col = np.zeros(n)
-    stamp = np.full(max(nb, 1), -1, dtype=np.int64)
-    seen = np.full(m, -1, dtype=np.int64)
-    for b in range(m):
-        bodies = visit[visit_ptr[b] : visit_ptr[b + 1]]
-        for q in range(bodies.shape[0]):
-            k = bodies[q]
-            for i in range(6):
-                pA[k, i] = 0.0
-        for side in range(2):
-            k = body[b, side]
-            if k >= 0:
-                for i in range(6):
-                    pA[k, i] -= W[b, side, i]
-        if coord[b] >= 0:
-            g[coord[b]] = 1.0
-        articulated_solve(parent, coord_start, Sw, Sv, U, DinvUT, Dinv, pA, g, bodies, col, dA)
-        if coord[b] >= 0:
-            g[coord[b]] = 0.0
-        for s in range(2):
-            if row_roots[b, s] >= 0:
-                stamp[row_roots[b, s]] = b
-        # K[a, b] for the rows a that touch b's subtrees, on the lower band only (a after b in the order)
-        pb = position[b]
-        for s in range(2):
-            root = row_roots[b, s]
-            if root < 0:
-                continue
-            for q in range(root_ptr[root], root_ptr[root + 1]):
-                a = root_rows[q]
-                pa = position[a]
-                if pa < pb or seen[a] == b:
-                    continue
-                seen[a] = b
-                v = 0.0
-                for side in range(2):
-                    k = body[a, side]
-                    if k >= 0 and stamp[root_of[k]] == b:
-                        for i in range(6):
-                            v += W[a, side, i] * dA[k, i]
-                if coord[a] >= 0 and stamp[root_of[_coord_body(coord_start, coord[a])]] == b:
-                    v += col[coord[a]]
-                Kb[pa, pa - pb] = v
-    diag = np.empty(m)
-    finite = True
-    for j in range(m):
-        diag[j] = Kb[j, 0]
-        for q in range(band + 1):
-            finite = finite and np.isfinite(Kb[j, q])
-    if not finite:
-        return Kb, np.zeros(m), np.zeros(m), 0, 0.0, False, np.zeros((0, 0))
-    d, dfilt, kept, smallest, V = factor_constraint_matrix(Kb, diag, band, tol, window, rank_limit)
-    return Kb, d, dfilt, kept, smallest, True, V
-
-
-@njit(cache=True)
-def _respond(parent, coord_start, Sw, Sv, U, DinvUT, Dinv, W, body, coord, Kb, d, dfilt, band, order, pA, g, filtered,
-             exact, V):
-    """``A^-1 psi^T lambda`` (one solve with every row's wrenches) and lambda, ``K lambda = filtered + exact``."""
-    nb = parent.shape[0]
-    n = Sw.shape[0]
-    m = W.shape[0]
-    lam = solve_constraint_matrix(Kb, d, dfilt, band, order, filtered, exact, V)
-    pA[:, :] = 0.0
-    g[:] = 0.0
-    for a in range(m):
-        for side in range(2):
-            k = body[a, side]
-            if k >= 0:
-                for i in range(6):
-                    pA[k, i] -= lam[a] * W[a, side, i]
-        if coord[a] >= 0:
-            g[coord[a]] += lam[a]
-    dx = np.empty(n)
-    articulated_solve(parent, coord_start, Sw, Sv, U, DinvUT, Dinv, pA, g, np.arange(nb), dx, np.zeros((nb + 1, 6)))
-    return dx, lam
-
-
-@njit(cache=True)
-def _unfixed_massless(parent, coord_start, Sw, Sv, U, DinvUT, Dinv, W, body, coord, lift, dA, v):
-    """The body of a massless freedom that no constraint row fixes, or -1.
-
-    For a lifted coordinate c, ``v = (A + E)^-1 e_c`` is (to the size of
-    E) a motion that moves no mass; if no row of psi sees it
-    (``|psi v|`` below :data:`UNFIXED` of what the rows' wrenches could
-    give), the reduced mass matrix is singular along it.
-    """
-    nb = parent.shape[0]
-    n = Sw.shape[0]
-    m = W.shape[0]
-    g = np.zeros(n)
-    pA = np.zeros((nb + 1, 6))
-    for c in range(n):
-        if not lift[c] > 0.0:
-            continue
-        g[c] = 1.0
-        pA[:, :] = 0.0
-        articulated_solve(parent, coord_start, Sw, Sv, U, DinvUT, Dinv, pA, g, np.arange(nb), v, dA)
-        g[c] = 0.0
-        seen = 0.0
-        scale = 0.0
-        for a in range(m):
-            seen = max(seen, abs(row_spatial_accelerations(W, body, coord, dA, v, a)))
-            s = 0.0
-            for side in range(2):
-                k = body[a, side]
-                if k >= 0:
-                    w = 0.0
-                    z = 0.0
-                    for i in range(6):
-                        w += W[a, side, i] * W[a, side, i]
-                        z += dA[k, i] * dA[k, i]
-                    s += np.sqrt(w * z)
-            if coord[a] >= 0:
-                s += abs(v[coord[a]])
-            scale = max(scale, s)
-        if not seen > UNFIXED * scale:
-            return _coord_body(coord_start, c)
-    return -1
-
-
-@njit(cache=True)
-def _constrained_factor(parent, coord_start, Sw, Sv, spatial, W, body, coord, layout_arrays, band, tol, window,
-                        rank_limit, armature0):
-    """What :func:`_constrained_apply` needs of ``A + diag(armature0)`` and psi: their factors, load-independent.
-
-    The articulated-body factors of ``A + E`` (a freedom that moves no
-    mass, a slender bar's spin closed by a loop: A singular, the reduced
-    mass ``T^T A T`` not, gets an armature, :data:`LIFT`) and ``K = psi (A +
-    E)^-1 psi^T`` factored (:func:`_loop_matrix`).
-
-    Returns the tuple ``(U, DinvUT, Dinv, lift, Kb, d, dfilt, kept,
-    smallest, V, status)``: status 0; 1 if a freedom moves no mass and no
-    row fixes it (``kept`` its body); 2 if K is not finite.
-    """
-    root_of, row_roots, visit_ptr, visit, root_ptr, root_rows, order, position = layout_arrays
-    nb = parent.shape[0]
-    n = Sw.shape[0]
-    m = W.shape[0]
-    armature = armature0.copy()
-    U, DinvUT, Dinv, bad = articulated_factor(parent, coord_start, spatial, Sw, Sv, armature, MASSLESS, LIFT)
-    lift = armature - armature0  # E: what the factorization added to massless freedoms
-    none = (np.zeros((m, band + 1)), np.zeros(m), np.zeros(m))
-    if bad >= 0:
-        return U, DinvUT, Dinv, lift, none[0], none[1], none[2], bad, 0.0, np.zeros((0, 0)), 1
-    unfixed = _unfixed_massless(parent, coord_start, Sw, Sv, U, DinvUT, Dinv, W, body, coord, lift,
-                                np.zeros((nb + 1, 6)), np.empty(n))
-    if unfixed >= 0:
-        return U, DinvUT, Dinv, lift, none[0], none[1], none[2], unfixed, 0.0, np.zeros((0, 0)), 1
-    Kb, d, dfilt, kept, smallest, finite, V = _loop_matrix(parent, coord_start, Sw, Sv, U, DinvUT, Dinv, W, body,
-                                                           coord, root_of, row_roots, visit_ptr, visit, root_ptr,
-                                                           root_rows, position, band, tol, window, rank_limit)
-    return U, DinvUT, Dinv, lift, Kb, d, dfilt, kept, smallest, V, 0 if finite else 2
-
-
-@njit(cache=True)
-def _constrained_apply(parent, coord_start, Sw, Sv, W, body, coord, order, band, factors, pA0, g0, rhs):
-    """x and lambda with ``(A + E) x = f + psi^T lambda``, ``psi x = rhs``, by :func:`_constrained_factor`'s factors.
-
-    f is given as loads ``(pA0, g0)``. Where the factorization lifted
-    massless freedoms (E), the solution of ``A + E`` is refined by solves
-    with the load ``E x`` until it no longer changes (iterative
-    refinement: each pass divides the error by about the ratio of E to the
-    reduced mass along those freedoms).
-
-    Returns (x, lambda, kept, smallest pivot, status); status as the
-    factors' (1, 2), or 3 if the refinement did not settle in
-    :data:`REFINE_MAX` passes (no loop fixes the massless freedom, or too
-    weakly): then the first massless freedom's body is returned in place
-    of ``kept``.
-    """
-    U, DinvUT, Dinv, lift, Kb, d, dfilt, kept, smallest, V, status = factors
-    nb = parent.shape[0]
-    n = Sw.shape[0]
-    m = W.shape[0]
-    if status == 1:
-        return np.zeros(n), np.zeros(m), kept, 0.0, 1
-    x = np.empty(n)
-    dA = np.zeros((nb + 1, 6))
-    pA = pA0.copy()
-    articulated_solve(parent, coord_start, Sw, Sv, U, DinvUT, Dinv, pA, g0, np.arange(nb), x, dA)
-    if status == 2:
-        return x, np.zeros(m), 0, 0.0, 2
-    residual = np.empty(m)
-    for a in range(m):
-        residual[a] = -row_spatial_accelerations(W, body, coord, dA, x, a)
-    g = np.zeros(n)
-    dx, lam = _respond(parent, coord_start, Sw, Sv, U, DinvUT, Dinv, W, body, coord, Kb, d, dfilt, band, order, pA, g,
-                       rhs, residual, V)
-    for i in range(n):
-        x[i] += dx[i]
-    lifted = False
-    for i in range(n):
-        lifted = lifted or lift[i] > 0.0
-    converged = _refine(parent, coord_start, Sw, Sv, U, DinvUT, Dinv, W, body, coord, Kb, d, dfilt, band, order, V,
-                        lift, x, x.copy(), lam, pA, g, dA) if lifted else True
-    for i in range(n):
-        if not np.isfinite(x[i]):
-            return x, lam, kept, smallest, 2
-    if not converged:  # name the first massless freedom's body in kept's place
-        for i in range(n):
-            if lift[i] > 0.0:
-                return x, lam, _coord_body(coord_start, i), smallest, 3
-    return x, lam, kept, smallest, 0
-
-
-@njit(cache=True)
-def _refine(parent, coord_start, Sw, Sv, U, DinvUT, Dinv, W, body, coord, Kb, d, dfilt, band, order, V, lift, x, last,
-            lam, pA, g, dA):
-    """Iterative refinement of ``x`` and ``lam`` (in place) for the armature ``lift``; True if it settled.
-
-    The residual of ``A x = f + psi^T lambda`` is ``E x`` after the first
-    solve (``last`` is x then; overwritten), ``E dx`` after each correction.
-    """
-    nb = parent.shape[0]
-    n = Sw.shape[0]
-    m = W.shape[0]
-    residual = np.empty(m)
-    for _ in range(REFINE_MAX):
-        # the correction: A_E dx = E last + psi^T dlam, psi dx = 0
-        big = 0.0
-        for i in range(n):
-            g[i] = lift[i] * last[i]
-            big = max(big, abs(x[i]))
-        pA[:, :] = 0.0
-        e = np.empty(n)
-        articulated_solve(parent, coord_start, Sw, Sv, U, DinvUT, Dinv, pA, g.copy(), np.arange(nb), e, dA)
-        for a in range(m):
-            residual[a] = -row_spatial_accelerations(W, body, coord, dA, e, a)
-        dx, dlam = _respond(parent, coord_start, Sw, Sv, U, DinvUT, Dinv, W, body, coord, Kb, d, dfilt, band, order, pA,
-                            g, np.zeros(m), residual, V)
-        step = 0.0
-        for i in range(n):
-            dx[i] += e[i]
-            x[i] += dx[i]
-            last[i] = dx[i]
-            step = max(step, abs(dx[i]))
-        lstep = 0.0
-        lbig = 0.0
-        for a in range(m):
-            lam[a] += dlam[a]
-            lstep = max(lstep, abs(dlam[a]))
-            lbig = max(lbig, abs(lam[a]))
-        if not (step > REFINE_TOL * big or lstep > REFINE_TOL * lbig):
-            return True
-    return False
-
-
-@njit(cache=True)
-def _constrained_solve(parent, coord_start, Sw, Sv, spatial, pA0, g0, W, body, coord, rhs, layout_arrays, band, tol,
-                       window, rank_limit, armature0):
-    """x and lambda with ``(A + diag(armature0)) x = f + psi^T lambda``, ``psi x = rhs``; f as loads ``(pA0, g0)``.
-
-    :func:`_constrained_factor` then :func:`_constrained_apply` (which
-    see for the massless freedoms and the returned status).
-    """
-    factors = _constrained_factor(parent, coord_start, Sw, Sv, spatial, W, body, coord, layout_arrays, band, tol,
-                                  window, rank_limit, armature0)
-    return _constrained_apply(parent, coord_start, Sw, Sv, W, body, coord, layout_arrays[6], band, factors, pA0, g0,
-                              rhs)
-
-
-@njit(cache=True, inline="always")
-def _coord_body(coord_start, c):
-    """The body whose joint owns coordinate c (binary search of coord_start)."""
-    lo, hi = 0, coord_start.shape[0] - 1
-    while hi - lo > 1:
-        mid = (lo + hi) // 2
-        if coord_start[mid] <= c:
-            lo = mid
-        else:
-            hi = mid
-    return lo
 
 
 @njit(cache=True)
@@ -371,6 +56,22 @@ def _rows(level, tree, cuts, R, origin, r, omega, v, alpha, acc, coord, gamma_d)
     gamma[:mc] = gamma_c
     gamma[mc:] = gamma_d
     return W, body, gamma
+
+
+@njit(cache=True)
+def _rows_into(tree, cuts, R, origin, r, omega, v, alpha, acc, gamma_d, W, gamma, phi, scratch, no_body):
+    """:func:`_rows` at level 2 into ``W`` (m, 2, 6), ``gamma`` (m) and scratch ``phi`` (m), ``scratch``.
+
+    The rows' bodies are not written (``no_body``: an empty (0, 2) int
+    array): they are the layout's ``row_body``.
+    """
+    mc = _n_cut(cuts)
+    W[:, :, :] = 0.0
+    pt_i, pt_pi, pt_j, pt_pj, dr_i, dr_pi, dr_ai, dr_j, dr_pj, pp_i, pp_ai, pp_j, pp_bj = cuts
+    cut_row_wrenches_into(2, R, origin, r, omega, v, alpha, acc, pt_i, pt_pi, pt_j, pt_pj, dr_i, dr_pi, dr_ai, dr_j,
+                          dr_pj, pp_i, pp_ai, pp_j, pp_bj, phi[:mc], W[:mc], no_body,
+                          gamma[:mc], scratch)
+    gamma[mc:] = gamma_d
 
 
 @njit(cache=True)
@@ -418,13 +119,80 @@ def loop_rhs(packed, layout, y, nq, powers, force0, torque0, generalized0, gamma
         2 if not finite; 3 if the refinement of a massless freedom did not
         settle.
     """
-    tree, cuts, kin, spatial, fw, tw, generalized = loaded_state(packed, y, nq, powers, force0, torque0, generalized0)
+    nb, n, m = packed[3][0, 1], generalized0.shape[0], layout.row_coord.shape[0]  # packed[3][0, 1]: the bodies
+    xdd, lam = np.empty(n), np.empty(m)
+    kept, smallest, status = loop_rhs_into(packed, layout, y, nq, powers, force0, torque0, generalized0, gamma_d, tol,
+                                           window, rank_limit, xdd, lam, np.empty(loop_rhs_work_size(nb, n, m)))
+    return xdd, lam, kept, smallest, status
+
+
+@register_jitable
+def loop_rhs_work_size(nb, n, m):
+    """Length of the work array :func:`loop_rhs_into` needs.
+
+    Parameters
+    ----------
+    nb, n, m : int
+        Numbers of bodies, speeds and rows (cut and driver rows).
+
+    Returns
+    -------
+    int
+        The length.
+    """
+    return (loaded_state_work_size(nb, n) + 6 * (nb + 1) + 36 * nb + 21 * n + apply_work_size(nb, n, m) + 14 * m
+            + ROWS_SCRATCH)
+
+
+@njit(cache=True)
+def loop_rhs_into(packed, layout, y, nq, powers, force0, torque0, generalized0, gamma_d, tol, window, rank_limit, xdd,
+                  lam, work):
+    """:func:`loop_rhs` into ``xdd`` and ``lam``, the tree's arrays and factors in ``work`` (the CVODE callback's).
+
+    Parameters
+    ----------
+    packed, layout, y, nq, powers, force0, torque0, generalized0, gamma_d, tol, window, rank_limit
+        As :func:`loop_rhs`.
+    xdd : ndarray, shape (n,)
+        Output: the accelerations.
+    lam : ndarray, shape (m,)
+        Output: the reactions.
+    work : ndarray, shape (>= loop_rhs_work_size(n_bodies, n, m),)
+        Scratch (its contents on entry are not read).
+
+    Returns
+    -------
+    kept, smallest, status
+        As :func:`loop_rhs`.
+    """
+    n, m = generalized0.shape[0], lam.shape[0]
+    o = loaded_state_work_size(packed[3][0, 1], n)
+    tree, cuts, kin, spatial, fw, tw, generalized = loaded_state_into(packed, y, nq, powers, force0, torque0,
+                                                                      generalized0, work[:o])
     R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = kin
     nb = tree.parent.shape[0]
-    W, body, gamma = _rows(2, tree, cuts, R, origin, r, omega, v, alpha, acc, layout.row_coord, gamma_d)
-    return _constrained_solve(tree.parent, tree.coord_start, Sw, Sv, spatial, _minus_bias_wrenches(nb, r, fw, tw),
-                              generalized, W, body, layout.row_coord, gamma, _arrays(layout), layout.band, tol, window,
-                              rank_limit, np.zeros(Sw.shape[0]))
+    W, gamma = view3(work, o, m, 2, 6), work[o + 12 * m : o + 13 * m]
+    _rows_into(tree, cuts, R, origin, r, omega, v, alpha, acc, gamma_d, W, gamma, work[o + 13 * m : o + 14 * m],
+               work[o + 14 * m : o + 14 * m + ROWS_SCRATCH], layout.row_body[:0])
+    body = layout.row_body
+    o += 14 * m + ROWS_SCRATCH
+    pA0 = view2(work, o, nb + 1, 6)
+    IA = view3(work, o + 6 * (nb + 1), nb, 6, 6)
+    o += 6 * (nb + 1) + 36 * nb
+    U, DinvUT, Dinv = view2(work, o, n, 6), view2(work, o + 6 * n, n, 6), view2(work, o + 12 * n, n, 6)
+    armature0, armature = work[o + 18 * n : o + 19 * n], work[o + 19 * n : o + 20 * n]
+    lift = work[o + 20 * n : o + 21 * n]
+    scratch = work[o + 21 * n : o + 21 * n + apply_work_size(nb, n, m)]
+    _minus_bias_wrenches_into(nb, r, fw, tw, pA0)
+    armature0[:] = 0.0
+    dA = view2(scratch, 0, nb + 1, 6)  # the apply's scratch, lent to the factors' check of massless freedoms
+    dA[:, :] = 0.0
+    Kb, d, dfilt, kept, smallest, V, status = _constrained_factor_into(
+        tree.parent, tree.coord_start, Sw, Sv, spatial, W, body, layout.row_coord, _arrays(layout), layout.band, tol,
+        window, rank_limit, armature0, armature, lift, IA, U, DinvUT, Dinv, dA, xdd)
+    factors = (U, DinvUT, Dinv, lift, Kb, d, dfilt, kept, smallest, V, status)
+    return _constrained_apply_into(tree.parent, tree.coord_start, Sw, Sv, W, body, layout.row_coord, layout.order,
+                                   layout.band, factors, pA0, generalized, gamma, xdd, lam, scratch)
 
 
 @njit(cache=True)
@@ -461,7 +229,13 @@ def loop_speeds(packed, layout, x, xd, b, tol, window, rank_limit):
     status : int
         0; 1 if A is singular; 2 if not finite.
     """
-    tree, Sw, Sv, spatial, W, body = rows_at_positions(packed, layout, x)
+    return speeds_at_rows(rows_at_positions(packed, layout, x), layout, xd, b, tol, window, rank_limit)
+
+
+@njit(cache=True)
+def speeds_at_rows(rows, layout, xd, b, tol, window, rank_limit):
+    """:func:`loop_speeds` from the rows at the positions (:func:`rows_at_positions`' or :func:`rows_at_kinematics`')."""
+    tree, Sw, Sv, spatial, W, body = rows
     n = xd.shape[0]
     zeros = np.zeros(n)
     # minimise (v - xd)^T A (v - xd) on psi v = b: A v = A xd + psi^T lambda, A xd as generalized forces
@@ -580,7 +354,13 @@ def rows_at_positions(packed, layout, x):
         Their bodies (-1: none).
     """
     tree, tables, cuts = unpack(packed)
-    R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = tree_state(tree, x, np.zeros(tree.coord_start[-1]))
+    return rows_at_kinematics(tree, cuts, layout, tree_state(tree, x, np.zeros(tree.coord_start[-1])))
+
+
+@njit(cache=True)
+def rows_at_kinematics(tree, cuts, layout, kin):
+    """:func:`rows_at_positions` from the tree's kinematics ``kin`` (``tree_state``'s) at the positions (any speeds)."""
+    R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = kin
     Iw, spatial = spatial_inertias(R, r, tree.mass, tree.inertia)
     m = layout.row_coord.shape[0]
     W, body, _ = _rows(1, tree, cuts, R, origin, r, omega, v, alpha, acc, layout.row_coord, np.zeros(m - _n_cut(cuts)))

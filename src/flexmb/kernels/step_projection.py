@@ -19,13 +19,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from .articulated import mass_times
 from .cache import njit
 from .constraints import cut_row_wrenches
-from .dynamics import spatial_inertias
 from .equations import _cut_residuals
 from .loop_projection import loop_min_norm, min_norm_at_rows
-from .loops import _arrays, _constrained_solve, _n_cut, _rows
+from .loops import rows_at_kinematics, speeds_at_rows
 from .packing import unpack
 from .tree import tree_state
 
@@ -36,29 +34,6 @@ PROJ_MAX_ITER, PROJ_MAX_STEP = 50, 0.5
 #: what :func:`step_projection` did: the state kept (within the tolerance), moved onto the constraints, left
 #: (the projection refused), or not checked (a residual not finite)
 KEPT, MOVED, REFUSED, UNCHECKED = 0, 1, 2, 3
-
-
-@njit(cache=True)
-def _rows_of(tree, cuts, layout, kin):
-    """:func:`~flexmb.kernels.loops.rows_at_positions` from the kinematics at the positions (any speeds)."""
-    R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = kin
-    Iw, spatial = spatial_inertias(R, r, tree.mass, tree.inertia)
-    m = layout.row_coord.shape[0]
-    W, body, _ = _rows(1, tree, cuts, R, origin, r, omega, v, alpha, acc, layout.row_coord, np.zeros(m - _n_cut(cuts)))
-    return tree, Sw, Sv, spatial, W, body
-
-
-@njit(cache=True)
-def _speeds_at(rows, layout, xd, b, tol, window, rank_limit):
-    """:func:`~flexmb.kernels.loops.loop_speeds` from the rows at the positions (:func:`_rows_of`)."""
-    tree, Sw, Sv, spatial, W, body = rows
-    nb = tree.parent.shape[0]
-    Axd = mass_times(tree.parent, tree.coord_start, tree.coord_body, spatial, Sw, Sv, xd)
-    out, lam, kept, smallest, status = _constrained_solve(tree.parent, tree.coord_start, Sw, Sv, spatial,
-                                                          np.zeros((nb + 1, 6)), Axd, W, body, layout.row_coord, b,
-                                                          _arrays(layout), layout.band, tol, window, rank_limit,
-                                                          np.zeros(xd.shape[0]))
-    return (xd.copy() if status else out), status
 
 
 @njit(cache=True)
@@ -135,7 +110,7 @@ def step_projection(packed, layout, y, n, cols, p_d, v_d, tol, newton_tol, gain,
         if np.max(np.abs(phi)) <= newton_tol:
             converged = True
             break
-        step = min_norm_at_rows(_rows_of(tree, cuts, layout, kin), layout, zeros, -phi, free, rank_tol,
+        step = min_norm_at_rows(rows_at_kinematics(tree, cuts, layout, kin), layout, zeros, -phi, free, rank_tol,
                                 rank_limit)[0]
         big = np.max(np.abs(step))
         x -= step * min(1.0, PROJ_MAX_STEP / big) if big > 0.0 else step
@@ -143,7 +118,8 @@ def step_projection(packed, layout, y, n, cols, p_d, v_d, tol, newton_tol, gain,
         kin = tree_state(tree, x, zeros)
     b = np.zeros(mr)
     b[mr - cols.shape[0]:] = v_d
-    v_new, status = _speeds_at(_rows_of(tree, cuts, layout, kin), layout, xd, b, rank_tol, window, rank_limit)
+    v_new, _, status = speeds_at_rows(rows_at_kinematics(tree, cuts, layout, kin), layout, xd, b, rank_tol, window,
+                                      rank_limit)
     if status:  # A singular: the minimum-norm correction (System._project_loops' fallback)
         v_new = xd - loop_min_norm(packed, layout, x, xd, b, free, rank_tol, rank_limit)[0]
     big = 0.0

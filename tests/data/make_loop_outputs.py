@@ -1,6 +1,7 @@
 """Write loop_outputs.npz: the Results of compiled-loop CVODE runs from main before their outputs were compiled.
 
-Generated with main at commit 7e2e2bb (each output interpolated,
+Generated with branch h-looprhs at dd2ab3e (main 7e2e2bb with the loops' rhs arithmetic of
+session 9, whose last bits move the four-bars' and B7's steps; otherwise main's code: each output interpolated,
 projected and evaluated from Python: ``Run._store``, ``project_output``,
 ``flexmb.result._evaluate_states``); tests/test_loop_outputs.py runs the same
 simulations and checks that every array the Result holds and every counter

@@ -1,6 +1,7 @@
 """Write loop_projection_runs.npz: the compiled loops' CVODE runs and CVODE's projection before its fused pass.
 
-Generated with main at commit 7e2e2bb (``cvode_loop_callbacks.project``
+Generated with branch h-looprhs at dd2ab3e (main 7e2e2bb with the loops' rhs arithmetic of
+session 9, whose last bits move the four-bars' and B7's steps; otherwise main's code: ``cvode_loop_callbacks.project``
 evaluating the residuals by ``tree_equations(..., RESIDUALS)`` and then
 projecting by ``loop_phi``, ``loop_min_norm`` and ``loop_speeds``, each
 making its own kinematic pass; the run checking the drift again in Python
@@ -8,7 +9,8 @@ after a return whose last step CVODE projected);
 tests/test_loop_projection_runs.py checks that the runs take the same
 steps (counts exact, CVODE's own counters too) to the same states, and that
 the projection gives the same corrections at perturbed states. Rerun only
-to add cases, from a checkout of that commit:
+to add cases, from a checkout of that commit (or of main 7e2e2bb, to compare
+with the arithmetic before it):
 
     python tests/data/make_loop_projection_runs.py
 """

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import signal
+
 import numpy as np
 import pytest
 
@@ -16,6 +18,27 @@ except ModuleNotFoundError as exc:  # run without installing: say what to do ins
 
 def pytest_addoption(parser):
     parser.addoption("--runslow", action="store_true", default=False, help="run slow benchmark-like tests")
+
+
+@pytest.fixture(autouse=True, scope="session")
+def answers_ctrl_c():
+    """Ctrl-C (SIGINT) answered by Python's handler for the session, as in a run started in the foreground.
+
+    A shell without job control starts a background command (``nohup
+    python -m pytest ... &``) with SIGINT ignored, and Python then keeps it
+    ignored: the tests that send Ctrl-C to this process (a run stopped as
+    interrupted, :class:`flexmb._signals.deferred`, an interrupted wait for
+    forked children) saw nothing, failed together, and the wait hung. The
+    library rightly leaves an ignored SIGINT ignored; the tests need it
+    answered. Processes the tests start then get SIGINT's default, as from a
+    foreground run.
+    """
+    if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+        yield
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+    else:
+        yield
 
 
 def pytest_collection_modifyitems(config, items):

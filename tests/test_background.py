@@ -253,8 +253,9 @@ def test_an_interrupted_wait_kills_the_children_before_it_is_raised(tmp_path):
 
     target, go = tmp_path / "late.txt", tmp_path / "go"
 
-    def late_writer():
-        while not go.exists():
+    def late_writer():  # gives up after 60 s: a lost Ctrl-C fails the test instead of hanging it
+        end = time.monotonic() + 60.0
+        while not go.exists() and time.monotonic() < end:
             time.sleep(0.01)
         target.write_text("late")
 
@@ -265,8 +266,13 @@ def test_an_interrupted_wait_kills_the_children_before_it_is_raised(tmp_path):
     timer = __import__("threading").Timer(0.3, os.kill, (os.getpid(), signal.SIGINT))
     timer.start()
     t0 = time.monotonic()
-    with pytest.raises(KeyboardInterrupt):
-        wait_all(jobs)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            wait_all(jobs)
+    finally:
+        timer.cancel()
+        for job in jobs:  # a child not waited for (a failure above) is ended here, not left running
+            job.kill()
     assert time.monotonic() - t0 < 20  # not waited for the sleeping child
     for pid in pids:  # killed and reaped: no such process any more
         with pytest.raises(ChildProcessError):

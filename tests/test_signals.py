@@ -129,3 +129,31 @@ def test_deferred_interruptions_act_where_the_loop_checks_and_at_the_end():
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # the handlers are back
     with deferred():
         act_on_deferred()  # nothing recorded: nothing happens
+
+
+#: the tests that send Ctrl-C to the test process itself (a compiled loop's run among them)
+SELF_INTERRUPTING = ["tests/test_signals.py::test_deferred_interruptions_act_where_the_loop_checks_and_at_the_end",
+                     "tests/test_background.py::test_an_interrupted_wait_kills_the_children_before_it_is_raised",
+                     "tests/test_genalpha_compiled.py::test_ctrl_c_stops_a_long_interval"]
+
+
+@pytest.mark.skipif(not hasattr(signal, "SIGHUP"), reason="POSIX signals")
+def test_ctrl_c_tests_hold_in_a_test_run_started_in_the_background(tmp_path):
+    """A shell without job control starts a background command (``nohup python -m pytest ... &``) with SIGINT
+    ignored, and Python keeps it ignored: those full-suite runs failed the Ctrl-C tests together (the Ctrl-C was
+    never seen) and hung in test_background's interrupted wait (pytest in waitpid, a child waiting on for ever).
+    The suite answers Ctrl-C as a foreground run does (conftest); the tests' children end by themselves."""
+    root = pathlib.Path(__file__).resolve().parents[1]
+    cmd = [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-p", "no:randomly",
+           f"--basetemp={tmp_path / 'bt'}", *SELF_INTERRUPTING]
+    # `trap '' INT` is what the shell does to a background command: SIGINT ignored, kept through exec
+    proc = subprocess.Popen(["sh", "-c", 'trap "" INT; exec "$@"', "sh", *cmd], cwd=root, start_new_session=True,
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    try:
+        out, _ = proc.communicate(timeout=300)
+    finally:
+        if proc.poll() is None:  # hung: end the run and the children it forked
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.communicate()
+    assert proc.returncode == 0, out[-3000:]
+    assert f"{len(SELF_INTERRUPTING)} passed" in out, out[-3000:]

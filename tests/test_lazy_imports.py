@@ -8,7 +8,10 @@ scipy.linalg (through :class:`flexmb._lazy.LazyModule`; numba imports it
 itself for kernels that call BLAS or numpy's array functions). ``import flexmb`` imports none of them;
 the public names that need them are imported on first use (the package's
 ``__getattr__``), and a model's build and simulation import the integrators
-but not the analyses, scenes, studies, exports or plots. Each check runs in
+but not the analyses, scenes, studies, exports or plots; nor, in a model
+without them, the contact elements and their laws, the constraint elements
+or the post-processing modules (``flexmb.forces``, ``flexmb.constraint_elements``
+and ``flexmb.post`` name them in lazy tables). Each check runs in
 a new interpreter and reads ``sys.modules`` (no timing: the times are in
 ``benchmarks/startup.py``).
 """
@@ -28,9 +31,19 @@ NOT_AT_IMPORT = ["matplotlib", "meshio", "scipy.linalg", "scipy.optimize", "scip
                  "sksundae", "dask", "pyvista", "flexmb.analysis", "flexmb.study", "flexmb.scene", "flexmb.viz", "flexmb.export",
                  "flexmb.genalpha", "flexmb.integrators", "flexmb.system"]
 
+#: the modules of contact elements, their laws, the constraint elements and the post-processing: imported
+#: by neither ``import flexmb`` nor a run of a model without them
+CONTACT_CONSTRAINT_POST = ["flexmb.forces.contact_base", "flexmb.forces.contact", "flexmb.forces.contact_laws",
+                           "flexmb.forces.friction_laws", "flexmb.forces.capsules", "flexmb.forces.contact_groups",
+                           "flexmb.constraint_elements.distance", "flexmb.constraint_elements.gear_pair",
+                           "flexmb.constraint_elements.knife_edge", "flexmb.constraint_elements.point_on_curve",
+                           "flexmb.constraint_elements.rolling_disc", "flexmb.post.contact", "flexmb.post.fields",
+                           "flexmb.post.joint_loads", "flexmb.post.motion", "flexmb.post.sections"]
+NOT_AT_IMPORT += CONTACT_CONSTRAINT_POST
+
 #: never imported by building and simulating a model (the integrators are)
 NOT_IN_A_RUN = ["matplotlib", "meshio", "dask", "pyvista", "flexmb.analysis", "flexmb.study", "flexmb.scene",
-                "flexmb.viz", "flexmb.export"]
+                "flexmb.viz", "flexmb.export", *CONTACT_CONSTRAINT_POST]
 
 BENCH = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "benchmarks")
 
@@ -198,3 +211,50 @@ def test_star_import_and_lazy_names_in_a_new_interpreter():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "ok"
+
+
+def test_the_subpackages_lazy_names_resolve_to_their_modules():
+    import flexmb.constraint_elements as constraint_elements
+    import flexmb.forces as forces
+    import flexmb.post as post
+    from flexmb.constraint_elements.point_on_curve import PointOnLine
+    from flexmb.forces.contact_groups import Spheres
+    from flexmb.post.sections import section_loads
+
+    for package in (forces, constraint_elements, post):
+        assert set(package.__all__) <= set(dir(package)), package.__name__
+        for name in package.__all__:
+            assert getattr(package, name) is not None, (package.__name__, name)
+        try:
+            package.no_such_name
+        except AttributeError as exc:
+            assert "no_such_name" in str(exc)
+        else:
+            raise AssertionError("no AttributeError")
+    assert forces.Spheres is Spheres is flexmb.Spheres
+    assert constraint_elements.PointOnLine is PointOnLine is flexmb.PointOnLine
+    assert post.section_loads is section_loads
+
+
+def test_a_contact_model_built_in_a_new_interpreter_finds_its_contacts():
+    """The contact modules, imported by the model's first contact element, are found by the run's checks
+    (``impact_speeds._contact_groups`` looks them up only where they were imported)."""
+    out = subprocess.run([sys.executable, "-c", textwrap.dedent("""
+        import sys
+        import flexmb as fm
+        from flexmb.impact_speeds import _contact_groups
+        def model(contact):
+            m = fm.Model()
+            ball = fm.RigidBody("ball", mass=1.0, inertia=[0.001, 0.001, 0.001])
+            m.add(fm.Free("free", m.ground, ball))
+            if contact:
+                m.add(fm.SpherePlaneContact("floor", ball, 0.05, fm.LinearContactLaw(1e5)))
+            return m.build()
+        assert _contact_groups(model(False)) == []
+        assert "flexmb.forces.contact_base" not in sys.modules
+        groups = _contact_groups(model(True))
+        assert [(cls.__name__, [e.name for e in es]) for cls, es in groups] == [("SpherePlaneContact", ["floor"])]
+        print("ok")
+    """)], capture_output=True, text=True, timeout=300, env=dict(os.environ, OPENBLAS_NUM_THREADS="1"))
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip().splitlines()[-1] == "ok"

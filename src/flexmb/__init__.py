@@ -23,17 +23,10 @@ from ._lazy import lazy_names as _lazy_names
 from .bodies import Body, Ground, Marker, RigidBody
 from .complements import COMPLEMENTS, ComplementStrategy, EigenComplement, SVDComplement, get_complement
 from .drivers import Driver
-from .constraint_elements import (ConstraintElement, CurveConstraint, Distance, GearPair, KnifeEdge, PointOnCircle,
-                                  PointOnCurve, PointOnLine, RollingDisc, velocity_rows)
+from .constraint_elements import ConstraintElement, velocity_rows
 from .errors import (AssemblyError, ExportError, FlexmbError, GimbalLockWarning, ModelError, PluginError, SceneError,
                      SimulationError, StiffnessWarning)
 from .forces import BodyTorque, ForceElement, Gravity, JointSpringDamper, Loads, PointForce, SpringDamper
-from .forces import (CapsuleCapsuleContact, CapsulePlaneContact, CapsuleSphereContact, Capsules, ContactGroup, Plane,
-                     Spheres)
-from .forces import FrictionLaw, NormalLaw
-from .forces import (CoulombLaw, FloresLaw, HuntCrossleyLaw, JournalBearingContact, LankaraniNikraveshLaw,
-                     LinearContactLaw, SpherePlaneContact, SphereSphereContact, StribeckLaw, VelocityWeakeningLaw,
-                     ViscousLaw, hertz_stiffness)
 from .joints import Cylindrical, Fixed, Free, Joint, PlanarRevolute, Prismatic, Revolute, Spherical, Universal
 from .flexible import FlexibleBody, Segment
 from .model import Model
@@ -51,6 +44,14 @@ from ._names import reference
 #: public names imported on first use (module-level ``__getattr__``, PEP 562): what a model's build and
 #: simulation do not need (the analyses import scipy.optimize, scenes and studies their readers and executors)
 _LAZY = {
+    # the contact elements, their laws and the constraint elements: imported where first named
+    **dict.fromkeys(("CapsuleCapsuleContact", "CapsulePlaneContact", "CapsuleSphereContact", "Capsules", "ContactGroup",
+                     "Plane", "Spheres", "FrictionLaw", "NormalLaw", "CoulombLaw", "FloresLaw", "HuntCrossleyLaw",
+                     "JournalBearingContact", "LankaraniNikraveshLaw", "LinearContactLaw", "SpherePlaneContact",
+                     "SphereSphereContact", "StribeckLaw", "VelocityWeakeningLaw", "ViscousLaw", "hertz_stiffness"),
+                    ".forces"),
+    **dict.fromkeys(("CurveConstraint", "Distance", "GearPair", "KnifeEdge", "PointOnCircle", "PointOnCurve",
+                     "PointOnLine", "RollingDisc"), ".constraint_elements"),
     **dict.fromkeys(("Calibration", "Campbell", "CriticalPoint", "FrequencyResponse", "Input", "Linearization",
                      "LoadPath", "Output", "PathOptions", "StateSpace", "SteadyLinearization", "calibrate",
                      "campbell", "frequency_response", "linear_statics", "linearize", "linearize_steady",

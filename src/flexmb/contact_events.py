@@ -57,7 +57,7 @@ import warnings
 import numpy as np
 
 from .errors import StiffnessWarning
-from .impact_speeds import HeldSpeeds
+from .impact_speeds import HeldSpeeds, _contact_groups
 
 __all__ = ["ContactEvents", "contact_gaps", "EVENT_TOL", "ROOT_OFFSET", "CONTACT_STEP_LIMIT",
            "TINY_STEP_RATIO", "REFUSED_STEP_SHRINK", "MIN_REFUSED_STEP"]
@@ -82,12 +82,6 @@ REFUSED_STEP_SHRINK = 0.125
 
 #: a refused step shorter than this (relative to max(|t|, 1 s)) ends the run: the contact cannot hold the body
 MIN_REFUSED_STEP = 1e-13
-
-
-def _contact_groups(system):
-    from .forces.contact import Contact
-
-    return [(cls, list(elements)) for cls, elements in system.forces.groups if issubclass(cls, Contact)]
 
 
 def contact_gaps(system, t, x, xd):

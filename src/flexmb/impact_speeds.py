@@ -26,6 +26,7 @@ records it).
 from __future__ import annotations
 
 import contextlib
+import sys
 
 import numpy as np
 
@@ -33,9 +34,26 @@ __all__ = ["HeldSpeeds", "held_speed", "replaying"]
 
 
 def _contact_groups(system):
-    from .forces.contact import Contact
+    """The system's contact force groups, ``[(class, elements), ...]``.
 
-    return [(cls, list(elements)) for cls, elements in system.forces.groups if issubclass(cls, Contact)]
+    Every contact element subclasses :class:`flexmb.forces.contact_base.Contact`: where that module
+    was never imported the system has none, and nothing is imported to say so (a run of a model
+    without contact does not import the contact modules and their kernels).
+
+    Parameters
+    ----------
+    system : System
+        The compiled model.
+
+    Returns
+    -------
+    list of tuple
+        The contact classes and their elements, in the system's order.
+    """
+    base = sys.modules.get("flexmb.forces.contact_base")
+    if base is None:
+        return []
+    return [(cls, list(elements)) for cls, elements in system.forces.groups if issubclass(cls, base.Contact)]
 
 
 class HeldSpeeds:

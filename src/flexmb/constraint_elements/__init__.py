@@ -10,11 +10,18 @@ is their base). A user's element subclasses
 """
 
 from .base import ConstraintElement, velocity_rows
-from .distance import Distance
-from .gear_pair import GearPair
-from .knife_edge import KnifeEdge
-from .point_on_curve import CurveConstraint, PointOnCircle, PointOnCurve, PointOnLine
-from .rolling_disc import RollingDisc
+from .._lazy import lazy_names as _lazy_names
+
+# the built-in elements are imported where one is first named (a model without them never imports them)
+_LAZY = {
+    "Distance": ".distance",
+    "GearPair": ".gear_pair",
+    "KnifeEdge": ".knife_edge",
+    **dict.fromkeys(("CurveConstraint", "PointOnCircle", "PointOnCurve", "PointOnLine"), ".point_on_curve"),
+    "RollingDisc": ".rolling_disc",
+}
+
+__getattr__, __dir__ = _lazy_names(globals(), _LAZY)
 
 __all__ = ["ConstraintElement", "velocity_rows", "CurveConstraint", "Distance", "GearPair", "KnifeEdge", "PointOnCircle",
            "PointOnCurve", "PointOnLine", "RollingDisc"]

@@ -8,15 +8,24 @@ gravity, springs, dampers, contact and friction all enter only through F
 """
 
 from .base import ForceElement, Loads
-from .capsules import CapsuleCapsuleContact, CapsulePlaneContact, CapsuleSphereContact
-from .contact_groups import Capsules, ContactGroup, Plane, Spheres
-from .contact import (CoulombLaw, FloresLaw, FrictionLaw, HuntCrossleyLaw, LankaraniNikraveshLaw, LinearContactLaw,
-                      JournalBearingContact, NormalLaw, SpherePlaneContact, SphereSphereContact, StribeckLaw,
-                      VelocityWeakeningLaw, ViscousLaw, hertz_stiffness)
 from .elastic import BeamElasticity
 from .gravity import Gravity
 from .loads import BodyTorque, PointForce
 from .springs import JointSpringDamper, SpringDamper
+from .._lazy import lazy_names as _lazy_names
+
+# the contact elements and their laws are imported where one is first named (a model without contact
+# never imports them, nor their kernels)
+_LAZY = {
+    **dict.fromkeys(("CapsuleCapsuleContact", "CapsulePlaneContact", "CapsuleSphereContact"), ".capsules"),
+    **dict.fromkeys(("Capsules", "ContactGroup", "Plane", "Spheres"), ".contact_groups"),
+    **dict.fromkeys(("CoulombLaw", "FloresLaw", "FrictionLaw", "HuntCrossleyLaw", "LankaraniNikraveshLaw",
+                     "LinearContactLaw", "JournalBearingContact", "NormalLaw", "SpherePlaneContact",
+                     "SphereSphereContact", "StribeckLaw", "VelocityWeakeningLaw", "ViscousLaw", "hertz_stiffness"),
+                    ".contact"),
+}
+
+__getattr__, __dir__ = _lazy_names(globals(), _LAZY)
 
 __all__ = ["ForceElement", "Loads", "Gravity", "SpringDamper", "JointSpringDamper", "PointForce", "BodyTorque",
            "BeamElasticity", "SpherePlaneContact", "SphereSphereContact", "JournalBearingContact", "CapsulePlaneContact",

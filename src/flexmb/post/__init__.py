@@ -23,11 +23,19 @@ The package sits below :mod:`flexmb.result` and :mod:`flexmb.export`: it
 reads results and never builds or imports them.
 """
 
-from .contact import ContactHistory, contact_history
-from .fields import LOAD_COMPONENTS, Envelope, JointLoads, SectionField
-from .joint_loads import constraint_loads, joint_loads
-from .motion import angular_velocity, point_motion
-from .sections import joint_stations, section_loads, section_strains, section_stresses
+from .._lazy import lazy_names as _lazy_names
+
+# every module of the package is imported where one of its names is first used: a run imports
+# flexmb.result, which imports the accessors (``result.post``) but none of these
+_LAZY = {
+    **dict.fromkeys(("ContactHistory", "contact_history"), ".contact"),
+    **dict.fromkeys(("LOAD_COMPONENTS", "Envelope", "JointLoads", "SectionField"), ".fields"),
+    **dict.fromkeys(("constraint_loads", "joint_loads"), ".joint_loads"),
+    **dict.fromkeys(("angular_velocity", "point_motion"), ".motion"),
+    **dict.fromkeys(("joint_stations", "section_loads", "section_strains", "section_stresses"), ".sections"),
+}
+
+__getattr__, __dir__ = _lazy_names(globals(), _LAZY)
 
 __all__ = ["SectionField", "Envelope", "JointLoads", "LOAD_COMPONENTS", "section_loads", "section_strains",
            "section_stresses", "joint_loads", "constraint_loads", "joint_stations", "point_motion",

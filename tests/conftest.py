@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import signal
+import sys
 
 import numpy as np
 import pytest
@@ -39,6 +40,50 @@ def answers_ctrl_c():
         signal.signal(signal.SIGINT, signal.SIG_IGN)
     else:
         yield
+
+
+#: the signals a test sends to a process of its own to see flexmb answer them
+ANSWERED = tuple(getattr(signal, s) for s in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, s))
+
+#: starts the command after it with SIGINT, SIGTERM and SIGHUP at their defaults (then ``exec``: the same pid)
+_DEFAULTS = ("import os, signal, sys\n"
+             "for s in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):\n"
+             "    signal.signal(s, signal.SIG_DFL)\n"
+             "os.execvp(sys.argv[1], sys.argv[1:])")
+
+
+def with_default_signals(argv) -> list:
+    """``argv`` run with SIGINT, SIGTERM and SIGHUP at their defaults, as from a terminal, however the suite started.
+
+    flexmb leaves a signal ignored at its start ignored (``nohup``'s SIGHUP,
+    a background command's SIGINT), and a child inherits an ignored signal:
+    a test that signals a child to see flexmb answer it would see nothing
+    in a suite started with ``nohup``. The command runs in the same process
+    (``exec``), so its pid is the one :class:`subprocess.Popen` gives.
+
+    Parameters
+    ----------
+    argv : sequence of str
+        The command line; ``argv[0]`` a program (looked up in PATH, as a shell does).
+
+    Returns
+    -------
+    list of str
+    """
+    return [sys.executable, "-c", _DEFAULTS, *argv]
+
+
+@pytest.fixture
+def signals_answered():
+    """SIGTERM and SIGHUP at their defaults for a test that sends them to the test process, where the suite
+    ignores them (started with ``nohup``); put back afterwards (Ctrl-C: :func:`answers_ctrl_c`)."""
+    saved = {s: signal.getsignal(s) for s in ANSWERED if s != signal.SIGINT}
+    for s, handler in saved.items():
+        if handler == signal.SIG_IGN:
+            signal.signal(s, signal.SIG_DFL)
+    yield
+    for s, handler in saved.items():
+        signal.signal(s, handler)
 
 
 def pytest_collection_modifyitems(config, items):

@@ -284,7 +284,7 @@ def test_an_interrupted_wait_kills_the_children_before_it_is_raised(tmp_path):
 
 @pytest.mark.skipif(not hasattr(signal, "SIGHUP"), reason="POSIX signals")
 @pytest.mark.parametrize("signame", ["SIGINT", "SIGTERM", "SIGHUP"])
-def test_held_signals_act_once_the_block_ends(signame):
+def test_held_signals_act_once_the_block_ends(signame, signals_answered):
     from flexmb._signals import Terminated, as_interrupts, held
 
     done = []

@@ -20,6 +20,7 @@ import time
 import pytest
 
 import flexmb as fm
+from conftest import with_default_signals
 
 TUTORIALS = pathlib.Path(__file__).resolve().parents[1] / "tutorials"
 PENDULUM = str(TUTORIALS / "01_pendulum.toml")
@@ -29,7 +30,7 @@ pytestmark = pytest.mark.skipif(not hasattr(signal, "SIGHUP"), reason="POSIX sig
 
 def _start(args, tmp_path):
     env = dict(os.environ, PYTHONUNBUFFERED="1")
-    return subprocess.Popen([sys.executable, "-m", "flexmb", *args], cwd=tmp_path, env=env,
+    return subprocess.Popen(with_default_signals([sys.executable, "-m", "flexmb", *args]), cwd=tmp_path, env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
 

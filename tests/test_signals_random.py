@@ -30,6 +30,7 @@ import numpy as np
 import pytest
 
 import flexmb as fm
+from conftest import with_default_signals
 
 TUTORIALS = pathlib.Path(__file__).resolve().parents[1] / "tutorials"
 PENDULUM = str(TUTORIALS / "01_pendulum.toml")
@@ -130,7 +131,7 @@ def _deliver_one(lane: int, i: int, root: pathlib.Path, rng: random.Random):
     out = root / f"lane{lane}" / kind
     delay = rng.uniform(0.0, 6.0)
     env = dict(os.environ, PYTHONFAULTHANDLER="1")  # a crash prints where each thread was
-    proc = subprocess.Popen(_script() + _command(kind, i // 2, out), stdout=subprocess.DEVNULL,
+    proc = subprocess.Popen(with_default_signals(_script() + _command(kind, i // 2, out)), stdout=subprocess.DEVNULL,
                             stderr=subprocess.PIPE, text=True, cwd=root, env=env)
     _wait_for_handlers(proc)
     try:

@@ -20,6 +20,8 @@ import textwrap
 
 import pytest
 
+from conftest import with_default_signals
+
 TUTORIALS = pathlib.Path(__file__).resolve().parents[1] / "tutorials"
 PENDULUM = str(TUTORIALS / "01_pendulum.toml")
 
@@ -62,7 +64,7 @@ DURING_KERNEL_LOAD = textwrap.dedent("""
 
 
 def _flexmb(code, tmp_path, *argv, **env):
-    return subprocess.run([sys.executable, "-c", code, *argv], capture_output=True, text=True, cwd=tmp_path,
+    return subprocess.run(with_default_signals([sys.executable, "-c", code, *argv]), capture_output=True, text=True, cwd=tmp_path,
                           env=dict(os.environ, **env), timeout=600)
 
 
@@ -83,8 +85,8 @@ def test_python_m_flexmb_answers_a_signal_while_it_imports(tmp_path, module):
     hook.mkdir()
     (hook / "sitecustomize.py").write_text(IMPORT_HOOK)
     path = os.pathsep.join([str(hook), *filter(None, [os.environ.get("PYTHONPATH")])])
-    proc = subprocess.run([sys.executable, "-m", "flexmb", "run", PENDULUM, "--out", "out", "--t-end", "0.1",
-                           "--quiet"], capture_output=True, text=True, cwd=tmp_path, timeout=600,
+    argv = [sys.executable, "-m", "flexmb", "run", PENDULUM, "--out", "out", "--t-end", "0.1", "--quiet"]
+    proc = subprocess.run(with_default_signals(argv), capture_output=True, text=True, cwd=tmp_path, timeout=600,
                           env=dict(os.environ, PYTHONPATH=path, AT_MODULE=module, SIGNAL=str(int(signal.SIGINT))))
     assert proc.returncode == 130, (proc.returncode, proc.stderr[-3000:])
     assert proc.stderr.strip() == "flexmb: interrupted"  # before: a KeyboardInterrupt traceback

@@ -17,6 +17,10 @@ callback has returned. An exception raised inside such a callback cannot
 propagate through the compiled caller: it was printed ("Exception ignored
 on calling ctypes callback function"), the Ctrl-C was lost (a study went on
 and exited 0), or the caller went on with a missing result (a segfault).
+
+A signal that is ignored (``SIG_IGN``, as ``nohup`` leaves SIGHUP and a
+shell's background command SIGINT) is left ignored by all of these
+(:func:`flexmb_command.answered`): the run goes on through it.
 """
 
 from __future__ import annotations
@@ -205,12 +209,16 @@ def as_interrupts():
 
     On the main thread; elsewhere nothing changes. A signal that arrives
     inside a callback of llvmlite is answered once the callback has
-    returned (see the module's docstring).
+    returned (see the module's docstring). A signal ignored here
+    (``SIG_IGN``: ``nohup``'s SIGHUP, a background command's SIGINT) stays
+    ignored (:func:`flexmb_command.answered`).
     """
+    from flexmb_command import answered
+
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    previous = {s: signal.signal(s, _raise) for s in (signal.SIGINT, *SIGNALS)}
+    previous = {s: signal.signal(s, _raise) for s in answered((signal.SIGINT, *SIGNALS))}
     try:
         yield
     finally:

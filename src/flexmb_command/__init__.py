@@ -13,6 +13,12 @@ Ctrl-C): nothing has been written yet, or all of it has. While the command
 runs, its own handlers answer them (:mod:`flexmb._signals`): the run stops
 where it is and writes what it computed.
 
+A signal the process started with ignored stays ignored, here and while
+the command runs (:func:`answered`): ``nohup flexmb run ...`` goes on
+through a hangup (SIGHUP), and a command a shell script started in the
+background (``flexmb run ... &``, SIGINT ignored) goes on through the
+terminal's Ctrl-C, as a Unix command does.
+
 ``python -m flexmb`` imports the package :mod:`flexmb` before it reaches
 ``flexmb/__main__.py``: the package calls :func:`install` first thing when
 :func:`module_run` says that it is being imported for ``-m flexmb``.
@@ -21,7 +27,7 @@ where it is and writes what it computed.
 import os
 import signal
 
-__all__ = ["SIGNALS", "console", "install", "leave_at_once", "module_run"]
+__all__ = ["SIGNALS", "answered", "console", "install", "leave_at_once", "module_run"]
 
 #: the signals answered, where the platform has them
 SIGNALS = tuple(getattr(signal, s) for s in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, s))
@@ -79,9 +85,35 @@ def module_run(orig_argv) -> str | None:
     return None
 
 
+def answered(signals) -> tuple:
+    """Those of ``signals`` that flexmb may answer: every one not ignored (``SIG_IGN``) in this process.
+
+    A signal ignored when the process started (``nohup`` ignores SIGHUP; a
+    shell without job control starts a background command with SIGINT and
+    SIGQUIT ignored) was ignored on purpose by whoever started it: flexmb
+    never installs a handler in its place, so it stays ignored for the
+    process's life, and in the processes it starts (an ignored signal
+    stays ignored across ``fork`` and ``exec``). flexmb itself ignores
+    signals only in processes it starts for its own work: the forked
+    writers of :mod:`flexmb._background` (all three; they end with their
+    parent) and a study's case processes (Ctrl-C, which the study answers).
+
+    Parameters
+    ----------
+    signals : iterable of int
+        Signal numbers.
+
+    Returns
+    -------
+    tuple of int
+        Those whose handler is not ``SIG_IGN``, in their order.
+    """
+    return tuple(s for s in signals if signal.getsignal(s) != signal.SIG_IGN)
+
+
 def install() -> None:
-    """Answer SIGINT, SIGTERM and SIGHUP by :func:`leave_at_once` (the main thread only)."""
-    for s in SIGNALS:
+    """Answer SIGINT, SIGTERM and SIGHUP by :func:`leave_at_once` (the main thread only), those not ignored."""
+    for s in answered(SIGNALS):
         signal.signal(s, leave_at_once)
 
 

@@ -260,3 +260,13 @@ def test_method_reason_is_saved_and_older_files_load(tmp_path, b6_damped):
     with np.load(tmp_path / "r.npz") as z:  # a file written before the field existed
         np.savez(tmp_path / "old.npz", **{k: z[k] for k in z.files if k != "method_reason"})
     assert fm.Result.load(tmp_path / "old.npz").method_reason == ""
+
+
+@pytest.mark.parametrize("count", [1, 2, 3, 100, 101, 400])
+def test_median_is_numpys_to_the_bit(count):
+    rng = np.random.default_rng(count)
+    steps = (rng.lognormal(-7.0, 1.0, count) * (1 + rng.normal(0.0, 1e-3, count))).tolist()
+    steps[: count // 3] = [steps[0]] * (count // 3)  # repeated values, as equal steps give
+    got = monitor.median(steps)
+    assert type(got) is float and got == float(np.median(steps))
+    assert monitor.median([0.1, 0.3]) == float(np.median([0.1, 0.3])) == 0.2

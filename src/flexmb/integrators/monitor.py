@@ -50,7 +50,7 @@ from ..genalpha.parameters import amplification_matrix, numerical_damping
 linalg = LazyModule("scipy.linalg")
 
 __all__ = ["Modes", "ringing_modes", "motion_frequency", "stiff_choice", "dissipative_choice",
-           "ResolutionMonitor", "FAR_ABOVE", "RINGING_ZETA", "AUTO_RHO_INF", "MODES_MAX_COORDS", "CHECK_STEPS",
+           "ResolutionMonitor", "median", "FAR_ABOVE", "RINGING_ZETA", "AUTO_RHO_INF", "MODES_MAX_COORDS", "CHECK_STEPS",
            "RESOLVING_HW", "RESOLVE_STEP_LIMIT", "STEPS_PER_PERIOD", "BDF_ZETA", "EXCITED"]
 
 logger = logging.getLogger("flexmb")
@@ -346,6 +346,27 @@ def dissipative_choice(modes: Modes):
     return cls, reason
 
 
+def median(values) -> float:
+    """``np.median`` of a list of finite floats, to the bit, without numpy's overhead per call.
+
+    An odd count gives the middle value, an even count the mean of the two
+    middle ones, ``(a + b) / 2`` as ``np.mean`` forms it.
+
+    Parameters
+    ----------
+    values : list of float
+        Finite values (at least one).
+
+    Returns
+    -------
+    float
+        Their median.
+    """
+    s = sorted(values)
+    k = len(s) // 2
+    return float(s[k]) if len(s) % 2 else float((s[k - 1] + s[k]) / 2)
+
+
 def _caller_stacklevel() -> int:
     """The stacklevel of the first frame outside the flexmb package (the user's call), for warnings.warn."""
     package = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -447,7 +468,7 @@ class ResolutionMonitor:
         if self.n_steps < self.next_check:
             return
         self.next_check *= 2
-        h = float(np.median(self.steps))
+        h = median(self.steps)
         self.steps = []
         # a run that stays short at this rate, or steps too long to resolve anything far above the
         # motion: nothing to analyse

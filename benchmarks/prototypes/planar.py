@@ -1,0 +1,472 @@
+"""Prototype: a planar articulated-body recursion (3-vectors, 3 x 3 inertias) for flexmb's planar models.
+
+Not part of flexmb: a benchmark prototype for issues 28 and 31 (the design
+is in docs/theory.md, "A planar path (design, 2026-11-28)"). It takes a
+built :class:`flexmb.System` whose joints all move in one plane (revolute
+coordinates about the plane's normal n, prismatic ones in the plane, no
+external joints, no Euler parameters, one coordinate at most per body), the
+loads B1 and B6 use (gravity, coordinate springs and dampers) and, for
+loops, direction rows in the plane (:class:`flexmb.PlanarRevolute` cuts)
+and driver rows, and evaluates the state rate in the plane:
+
+* motion vectors ``(w, vx, vy)`` and force vectors ``(tau, fx, fy)``,
+  Plucker about the inertial origin as flexmb's spatial kernels use (no
+  transforms between bodies), in an in-plane basis ``(e1, e2)``,
+  ``e1 x e2 = n``;
+* a body's vectors fixed in it are stored at the zero configuration, so
+  that at a state they are turned by the body's angle only (``theta_k =
+  theta_parent + s q`` for a revolute coordinate, ``s = +-1``);
+* the articulated-body recursion (Featherstone) with 3 x 3 articulated
+  inertias (6 numbers, symmetric), the loops' rows as two wrenches each,
+  ``Y = A^-1 psi^T`` by one backward and one forward pass over all m
+  columns at once, ``K = psi Y`` (m x m) by Cholesky, and ``xdd = a0 + Y
+  lambda``, ``K lambda = gamma - psi a0`` (the solve of flexmb's
+  ``complement="articulated"``, at regular positions: no rank filter).
+
+:func:`planar_model` reads the model from flexmb's packed arrays (the same
+data the spatial kernels take) and refuses what it does not cover.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from flexmb.kernels.packing import unpack
+from flexmb.kernels.tree import tree_state
+
+#: kinds of a body's joint in the planar model
+REVOLUTE, PRISMATIC, NONE = 0, 1, 2
+
+
+def _basis(axes):
+    """The plane's normal n (the first revolute axis) and an in-plane basis ``(e1, e2)`` with ``e1 x e2 = n``."""
+    n = axes[0] / np.linalg.norm(axes[0])
+    e1 = np.cross(n, np.eye(3)[int(np.argmin(abs(n)))])
+    e1 /= np.linalg.norm(e1)
+    return n, e1, np.cross(n, e1)
+
+
+def planar_model(system):
+    """The planar data of a built system whose motion lies in one plane.
+
+    Parameters
+    ----------
+    system : flexmb.System
+        A built model: revolute coordinates about one axis n, prismatic
+        ones normal to it, at most one coordinate per body, loads gravity
+        and coordinate springs / dampers only, cut joints with direction
+        rows in the plane only, drivers on coordinates.
+
+    Returns
+    -------
+    tuple
+        ``(ints, floats)`` of the planar model (:func:`_unpack_model`).
+
+    Raises
+    ------
+    ValueError
+        If the model is not of that kind.
+    """
+    tree, tables, cuts = unpack(system._packed)
+    nb, n = tree.parent.shape[0], tree.coord_start[-1]
+    if np.any(tree.external) or np.any(tree.coord_kind > 1) or np.any(np.diff(tree.coord_start) > 1):
+        raise ValueError("planar_model: external joints, Euler parameters or several coordinates on a body")
+    R0 = tree_state(tree, np.zeros(n), np.zeros(n))[0]  # body rotations at the zero configuration, ground last
+    parent = np.where(tree.parent < 0, nb, tree.parent)
+    axes = [R0[parent[tree.coord_body[c]]] @ tree.parent_frame[tree.coord_body[c]][:, tree.coord_axis[c]]
+            for c in range(n)]
+    rot = [a for a, kind in zip(axes, tree.coord_kind) if kind == 1]
+    if not rot:
+        raise ValueError("planar_model: no revolute coordinate")
+    nrm, e1, e2 = _basis(rot)
+    P2 = np.array([e1, e2])
+    kind, coord, axis = np.full(nb, NONE), np.full(nb, -1), np.zeros((nb, 2))
+    for c in range(n):
+        k = tree.coord_body[c]
+        kind[k], coord[k] = (REVOLUTE, PRISMATIC)[1 - tree.coord_kind[c]], c
+        if tree.coord_kind[c] == 1:
+            if abs(abs(axes[c] @ nrm) - 1.0) > 1e-12:
+                raise ValueError(f"planar_model: coordinate {c} turns about an axis off the plane's normal")
+            axis[k, 0] = np.sign(axes[c] @ nrm)
+        else:
+            if abs(axes[c] @ nrm) > 1e-12:
+                raise ValueError(f"planar_model: coordinate {c} slides off the plane")
+            axis[k] = P2 @ axes[c]
+    lever = np.array([P2 @ (R0[parent[k]] @ tree.lever[k]) for k in range(nb)])
+    u = np.array([P2 @ (R0[k] @ (tree.com[k] - tree.child_point[k])) for k in range(nb)])
+    J = np.array([nrm @ R0[k] @ tree.inertia[k] @ R0[k].T @ nrm for k in range(nb)])
+    _check_loads(tables)
+    pt_i, _, _, _, dr_i, dr_pi, dr_ai, dr_j, dr_pj, pp_i, _, _, _ = cuts
+    if pt_i.shape[0] or pp_i.shape[0]:
+        raise ValueError("planar_model: point or perpendicularity rows (only in-plane direction rows)")
+    nc = dr_i.shape[0]
+    ri, rj = np.where(dr_i < 0, nb, dr_i), np.where(dr_j < 0, nb, dr_j)
+    cp = np.vstack([tree.child_point, np.zeros((1, 3))])
+    wi = np.array([P2 @ (R0[ri[q]] @ (dr_pi[q] - cp[ri[q]])) for q in range(nc)]).reshape(nc, 2)
+    wj = np.array([P2 @ (R0[rj[q]] @ (dr_pj[q] - cp[rj[q]])) for q in range(nc)]).reshape(nc, 2)
+    d0 = np.array([R0[ri[q]] @ dr_ai[q] for q in range(nc)]).reshape(nc, 3)
+    if nc and np.max(abs(d0 @ nrm)) > 1e-12:
+        raise ValueError("planar_model: a direction row off the plane")
+    drivers = np.asarray(system._loop_layout.row_coord if system._loop_layout is not None else [], dtype=np.int64)
+    drivers = drivers[drivers >= 0]
+    ints = (parent.astype(np.int64), coord.astype(np.int64), kind.astype(np.int64),
+            np.asarray(tables.coord_cols, np.int64), ri.astype(np.int64), rj.astype(np.int64), drivers)
+    floats = (axis, lever, u, np.asarray(tree.mass, float), J, P2 @ np.asarray(tables.gravity, float),
+              np.asarray(tables.coord_k, float), np.asarray(tables.coord_c, float),
+              np.asarray(tables.coord_rest, float), wi, wj, d0 @ P2.T)
+    return ints, floats
+
+
+def _check_loads(tables):
+    """Refuse force elements other than gravity and coordinate springs / dampers."""
+    for name in ("pair_rows", "force_rows", "torque_rows", "contact_rows", "sweep_rows"):
+        if np.asarray(getattr(tables, name)).shape[0]:
+            raise ValueError(f"planar_model: the model has {name} (only gravity and coordinate springs)")
+
+
+def make_work(ints, n):
+    """The scratch arrays of :func:`planar_rhs_into` (allocated once per model)."""
+    nb, m = ints[0].shape[0], ints[4].shape[0] + ints[6].shape[0]
+    return (np.zeros((nb + 1, 20)), np.zeros((nb + 1, 3)), np.zeros((nb + 1, 6)), np.zeros((nb + 1, 4)),
+            np.zeros(n), np.zeros(nb + 1), np.zeros((nb + 1, 3)), np.zeros((m, 2, 3)), np.zeros(m),
+            np.zeros((nb + 1, m, 3)), np.zeros((n + 1, m)), np.zeros((nb + 1, m)), np.zeros((n, m)),
+            np.zeros((nb + 1, m, 3)), np.zeros((m, m)), np.zeros(m))
+
+
+@njit(cache=True, inline="always")
+def _rot(c, s, v0, v1):
+    return c * v0 - s * v1, s * v0 + c * v1
+
+
+@njit(cache=True)
+def kinematics(ints, floats, x, xd, K):
+    """Angles, joint points, mass centres, velocities, joint axes S and bias accelerations, ground last.
+
+    ``K`` (nb + 1, 20) receives per body: 0 theta, 1-2 cos / sin, 3-4 joint
+    point, 5-6 mass centre, 7-9 spatial velocity (w, vOx, vOy), 10-12 S,
+    13-15 the joint's bias acceleration c, 16-18 the spatial bias
+    acceleration (sum of c along the path), 19 unused.
+    """
+    parent, coord, kind = ints[0], ints[1], ints[2]
+    axis, lever, u = floats[0], floats[1], floats[2]
+    nb = parent.shape[0]
+    K[nb, :] = 0.0
+    K[nb, 1] = 1.0
+    for k in range(nb):
+        p = parent[k]
+        cp, sp = K[p, 1], K[p, 2]
+        c = coord[k]
+        q, qd = (x[c], xd[c]) if c >= 0 else (0.0, 0.0)
+        lx, ly = lever[k, 0], lever[k, 1]
+        if kind[k] == PRISMATIC:
+            lx += axis[k, 0] * q
+            ly += axis[k, 1] * q
+        sx, sy = _rot(cp, sp, lx, ly)
+        jx, jy = K[p, 3] + sx, K[p, 4] + sy
+        th = K[p, 0] + (axis[k, 0] * q if kind[k] == REVOLUTE else 0.0)
+        ct, st = (np.cos(th), np.sin(th)) if kind[k] == REVOLUTE else (cp, sp)
+        ux, uy = _rot(ct, st, u[k, 0], u[k, 1])
+        K[k, 0], K[k, 1], K[k, 2], K[k, 3], K[k, 4], K[k, 5], K[k, 6] = th, ct, st, jx, jy, jx + ux, jy + uy
+        if kind[k] == REVOLUTE:
+            s = axis[k, 0]
+            S0, S1, S2 = s, s * jy, -s * jx
+        elif kind[k] == PRISMATIC:
+            S0, (S1, S2) = 0.0, _rot(cp, sp, axis[k, 0], axis[k, 1])
+        else:
+            S0 = S1 = S2 = 0.0
+        w, vx, vy = K[p, 7], K[p, 8], K[p, 9]
+        m0, m1, m2 = S0 * qd, S1 * qd, S2 * qd
+        K[k, 7], K[k, 8], K[k, 9] = w + m0, vx + m1, vy + m2
+        K[k, 10], K[k, 11], K[k, 12] = S0, S1, S2
+        # c = v_parent x (S qd): the motion cross product in the plane
+        c0, c1, c2 = 0.0, -w * m2 + vy * m0, w * m1 - vx * m0
+        K[k, 13], K[k, 14], K[k, 15] = c0, c1, c2
+        K[k, 16], K[k, 17], K[k, 18] = K[p, 16] + c0, K[p, 17] + c1, K[p, 18] + c2
+
+
+@njit(cache=True)
+def loads(ints, floats, x, xd, K, pA, tau):
+    """Bias forces minus applied loads ``pA = v x* (I v) - f`` per body (ground last), joint forces ``tau``.
+
+    Gravity ``m g`` at the mass centres; coordinate springs and dampers
+    ``tau_c = -k (x - rest) - c xd``.
+    """
+    mass, J, g = floats[3], floats[4], floats[5]
+    nb = mass.shape[0]
+    for k in range(nb + 1):
+        pA[k, 0] = pA[k, 1] = pA[k, 2] = 0.0
+    for k in range(nb):
+        m = mass[k]
+        rx, ry = K[k, 5], K[k, 6]
+        w, vx, vy = K[k, 7], K[k, 8], K[k, 9]
+        # v x* (I v): the linear momentum h (the moment's own term w x h0 is zero in the plane)
+        hx, hy = m * (vx - w * ry), m * (vy + w * rx)
+        pA[k, 0] = vx * hy - vy * hx - m * (rx * g[1] - ry * g[0])
+        pA[k, 1] = -w * hy - m * g[0]
+        pA[k, 2] = w * hx - m * g[1]
+    tau[:] = 0.0
+    cols, kk, cc, rest = ints[3], floats[6], floats[7], floats[8]
+    for i in range(cols.shape[0]):
+        c = cols[i]
+        tau[c] -= kk[i] * (x[c] - rest[i]) + cc[i] * xd[c]
+
+
+@njit(cache=True)
+def inertias(floats, K, IA):
+    """Each body's spatial inertia about the origin, 6 entries of the symmetric 3 x 3: (00, 01, 02, 11, 12, 22)."""
+    mass, J = floats[3], floats[4]
+    for k in range(mass.shape[0]):
+        m, rx, ry = mass[k], K[k, 5], K[k, 6]
+        IA[k, 0], IA[k, 1], IA[k, 2] = J[k] + m * (rx * rx + ry * ry), -m * ry, m * rx
+        IA[k, 3], IA[k, 4], IA[k, 5] = m, 0.0, m
+
+
+@njit(cache=True, inline="always")
+def _sym_times(I, k, a0, a1, a2):
+    return (I[k, 0] * a0 + I[k, 1] * a1 + I[k, 2] * a2, I[k, 1] * a0 + I[k, 3] * a1 + I[k, 4] * a2,
+            I[k, 2] * a0 + I[k, 4] * a1 + I[k, 5] * a2)
+
+
+@njit(cache=True)
+def factor(ints, K, IA, UD):
+    """The articulated inertias, from the leaves in: ``UD[k] = (U = IA S, 1 / D)``, ``IA_P += IA - U U^T / D``."""
+    parent = ints[0]
+    nb = parent.shape[0]
+    for k in range(nb - 1, -1, -1):
+        S0, S1, S2 = K[k, 10], K[k, 11], K[k, 12]
+        U0, U1, U2 = _sym_times(IA, k, S0, S1, S2)
+        D = S0 * U0 + S1 * U1 + S2 * U2
+        Di = 1.0 / D if D != 0.0 else 0.0
+        UD[k, 0], UD[k, 1], UD[k, 2], UD[k, 3] = U0, U1, U2, Di
+        p = parent[k]
+        if p == nb:
+            continue
+        IA[p, 0] += IA[k, 0] - U0 * U0 * Di
+        IA[p, 1] += IA[k, 1] - U0 * U1 * Di
+        IA[p, 2] += IA[k, 2] - U0 * U2 * Di
+        IA[p, 3] += IA[k, 3] - U1 * U1 * Di
+        IA[p, 4] += IA[k, 4] - U1 * U2 * Di
+        IA[p, 5] += IA[k, 5] - U2 * U2 * Di
+
+
+@njit(cache=True)
+def backward(ints, K, IA, UD, pA, tau, uu, bias):
+    """From the leaves in: ``u = tau - S . pA``, ``pA_P += pA + Ia c + U u / D`` (``bias``: the ``Ia c`` term).
+
+    ``pA`` (nb + 1, 3) and ``tau`` are overwritten; ``uu`` (nb,) receives u.
+    """
+    parent, coord = ints[0], ints[1]
+    nb = parent.shape[0]
+    for k in range(nb - 1, -1, -1):
+        S0, S1, S2 = K[k, 10], K[k, 11], K[k, 12]
+        U0, U1, U2, Di = UD[k, 0], UD[k, 1], UD[k, 2], UD[k, 3]
+        c = coord[k]
+        u = (tau[c] if c >= 0 else 0.0) - (S0 * pA[k, 0] + S1 * pA[k, 1] + S2 * pA[k, 2])
+        uu[k] = u
+        p = parent[k]
+        if p == nb:
+            continue
+        f = u * Di
+        p0, p1, p2 = pA[k, 0] + U0 * f, pA[k, 1] + U1 * f, pA[k, 2] + U2 * f
+        if bias:
+            c0, c1, c2 = K[k, 13], K[k, 14], K[k, 15]
+            a0, a1, a2 = _sym_times(IA, k, c0, c1, c2)
+            g = (U0 * c0 + U1 * c1 + U2 * c2) * Di
+            p0 += a0 - U0 * g
+            p1 += a1 - U1 * g
+            p2 += a2 - U2 * g
+        pA[p, 0] += p0
+        pA[p, 1] += p1
+        pA[p, 2] += p2
+
+
+@njit(cache=True)
+def forward(ints, K, UD, uu, bias, acc, xdd):
+    """From the ground out: ``a = a_P (+ c)``, ``xdd = (u - U . a) / D``, ``a += S xdd``; ``acc`` (nb + 1, 3)."""
+    parent, coord = ints[0], ints[1]
+    nb = parent.shape[0]
+    acc[nb, 0] = acc[nb, 1] = acc[nb, 2] = 0.0
+    for k in range(nb):
+        p = parent[k]
+        a0, a1, a2 = acc[p, 0], acc[p, 1], acc[p, 2]
+        if bias:
+            a0 += K[k, 13]
+            a1 += K[k, 14]
+            a2 += K[k, 15]
+        c = coord[k]
+        q = (uu[k] - (UD[k, 0] * a0 + UD[k, 1] * a1 + UD[k, 2] * a2)) * UD[k, 3]
+        if c >= 0:
+            xdd[c] = q
+        acc[k, 0], acc[k, 1], acc[k, 2] = a0 + K[k, 10] * q, a1 + K[k, 11] * q, a2 + K[k, 12] * q
+
+
+@njit(cache=True)
+def rows(ints, floats, K, gamma_d, W, gamma):
+    """Direction rows ``d . (P_j - P_i) = 0`` (d turning with body i) as two wrenches each, then driver rows.
+
+    ``W`` (m, 2, 3): the wrenches on bodies i and j of each cut row (zero
+    for driver rows); ``gamma`` (m): minus the velocity-dependent part of
+    each row's second derivative (the drivers': ``gamma_d``).
+    """
+    ri, rj, drv = ints[4], ints[5], ints[6]
+    wi, wj, d0 = floats[9], floats[10], floats[11]
+    nc = ri.shape[0]
+    for a in range(nc):
+        i, j = ri[a], rj[a]
+        ci, si, cj, sj = K[i, 1], K[i, 2], K[j, 1], K[j, 2]
+        ax, ay = _rot(ci, si, wi[a, 0], wi[a, 1])
+        bx, by = _rot(cj, sj, wj[a, 0], wj[a, 1])
+        Pix, Piy, Pjx, Pjy = K[i, 3] + ax, K[i, 4] + ay, K[j, 3] + bx, K[j, 4] + by
+        dx, dy = _rot(ci, si, d0[a, 0], d0[a, 1])
+        ex, ey = Pjx - Pix, Pjy - Piy
+        # wrenches: on i the moment (d x e) and -d at P_i; on j +d at P_j
+        W[a, 0, 0] = dx * ey - dy * ex - (Pix * dy - Piy * dx)
+        W[a, 0, 1], W[a, 0, 2] = -dx, -dy
+        W[a, 1, 0], W[a, 1, 1], W[a, 1, 2] = Pjx * dy - Pjy * dx, dx, dy
+        wI, wJ = K[i, 7], K[j, 7]
+        vix, viy = K[i, 8] - wI * Piy, K[i, 9] + wI * Pix  # point velocities
+        vjx, vjy = K[j, 8] - wJ * Pjy, K[j, 9] + wJ * Pjx
+        # point bias accelerations: a_O,bias + w x v_P (the angular bias is zero in the plane)
+        aix, aiy = K[i, 17] - wI * viy, K[i, 18] + wI * vix
+        ajx, ajy = K[j, 17] - wJ * vjy, K[j, 18] + wJ * vjx
+        edx, edy = vjx - vix, vjy - viy
+        bias = -wI * wI * (dx * ex + dy * ey) + 2.0 * wI * (-dy * edx + dx * edy) + dx * (ajx - aix) + dy * (ajy - aiy)
+        gamma[a] = -bias
+    for a in range(drv.shape[0]):
+        W[nc + a, :, :] = 0.0
+        gamma[nc + a] = gamma_d[a]
+
+
+@njit(cache=True)
+def responses(ints, K, UD, W, pC, tauC, uC, Y, accC):
+    """``Y = A^-1 psi^T``: every row's two wrenches (or a driver's unit force) through the factors at once.
+
+    ``Y`` (n, m) the coordinates' responses, ``accC`` (nb + 1, m, 3) the
+    bodies' spatial accelerations (ground last), ``pC``, ``tauC``, ``uC``
+    scratch.
+    """
+    parent, coord, ri, rj, drv = ints[0], ints[1], ints[4], ints[5], ints[6]
+    nb, nc, m = parent.shape[0], ri.shape[0], W.shape[0]
+    pC[:, :, :] = 0.0
+    tauC[:, :] = 0.0
+    for a in range(nc):
+        for t in range(3):
+            pC[ri[a], a, t] -= W[a, 0, t]
+            pC[rj[a], a, t] -= W[a, 1, t]
+    for a in range(drv.shape[0]):
+        tauC[drv[a], nc + a] = 1.0
+    for k in range(nb - 1, -1, -1):
+        S0, S1, S2 = K[k, 10], K[k, 11], K[k, 12]
+        U0, U1, U2, Di = UD[k, 0], UD[k, 1], UD[k, 2], UD[k, 3]
+        c, p = coord[k], parent[k]
+        for b in range(m):
+            u = (tauC[c, b] if c >= 0 else 0.0) - (S0 * pC[k, b, 0] + S1 * pC[k, b, 1] + S2 * pC[k, b, 2])
+            uC[k, b] = u
+            if p < nb:
+                f = u * Di
+                pC[p, b, 0] += pC[k, b, 0] + U0 * f
+                pC[p, b, 1] += pC[k, b, 1] + U1 * f
+                pC[p, b, 2] += pC[k, b, 2] + U2 * f
+    accC[nb, :, :] = 0.0
+    for k in range(nb):
+        p, c = parent[k], coord[k]
+        for b in range(m):
+            a0, a1, a2 = accC[p, b, 0], accC[p, b, 1], accC[p, b, 2]
+            q = (uC[k, b] - (UD[k, 0] * a0 + UD[k, 1] * a1 + UD[k, 2] * a2)) * UD[k, 3]
+            if c >= 0:
+                Y[c, b] = q
+            accC[k, b, 0], accC[k, b, 1], accC[k, b, 2] = a0 + K[k, 10] * q, a1 + K[k, 11] * q, a2 + K[k, 12] * q
+
+
+@njit(cache=True)
+def _psi_times(ints, W, acc, K, a, xdd, bias):
+    """Row a of psi applied to accelerations: its wrenches . the bodies' (spatial accelerations - bias)."""
+    nc = ints[4].shape[0]
+    if a >= nc:
+        return xdd[ints[6][a - nc]]
+    i, j = ints[4][a], ints[5][a]
+    s = 0.0
+    for t in range(3):
+        s += W[a, 0, t] * (acc[i, t] - (K[i, 16 + t] if bias else 0.0))
+        s += W[a, 1, t] * (acc[j, t] - (K[j, 16 + t] if bias else 0.0))
+    return s
+
+
+@njit(cache=True)
+def cholesky(Km):
+    """``Km = L L^T`` in place, L in the lower triangle (``Km`` symmetric positive definite)."""
+    m = Km.shape[0]
+    for j in range(m):
+        s = Km[j, j]
+        for t in range(j):
+            s -= Km[j, t] * Km[j, t]
+        Km[j, j] = np.sqrt(s)
+        for i in range(j + 1, m):
+            s = Km[i, j]
+            for t in range(j):
+                s -= Km[i, t] * Km[j, t]
+            Km[i, j] = s / Km[j, j]
+
+
+@njit(cache=True)
+def cholesky_solve(L, r):
+    """Solve ``L L^T lam = r`` in place (L from :func:`cholesky`)."""
+    m = r.shape[0]
+    for i in range(m):
+        s = r[i]
+        for t in range(i):
+            s -= L[i, t] * r[t]
+        r[i] = s / L[i, i]
+    for i in range(m - 1, -1, -1):
+        s = r[i]
+        for t in range(i + 1, m):
+            s -= L[t, i] * r[t]
+        r[i] = s / L[i, i]
+
+
+@njit(cache=True)
+def planar_rhs_into(ints, floats, y, n, gamma_d, ydot, work, upto):
+    """The state rate ``ydot = (xd, xdd)`` at ``y = (x, xd)``; ``upto`` < 5 stops after a part (for timing).
+
+    Parts: 0 kinematics, 1 loads, 2 rows, 3 factors (articulated
+    inertias, ``Y``, ``K`` and its Cholesky factor), 4 the solve (``a0``
+    by the recursion, ``lambda``, ``xdd = a0 + Y lambda``).
+    """
+    Kin, pA, IA, UD, tau, uu, acc, W, gamma, pC, tauC, uC, Y, accC, Km, lam = work
+    x, xd = y[:n], y[n:2 * n]
+    kinematics(ints, floats, x, xd, Kin)
+    if upto == 0:
+        return
+    loads(ints, floats, x, xd, Kin, pA, tau)
+    if upto == 1:
+        return
+    m = W.shape[0]
+    if m:
+        rows(ints, floats, Kin, gamma_d, W, gamma)
+    if upto == 2:
+        return
+    inertias(floats, Kin, IA)
+    factor(ints, Kin, IA, UD)
+    if m:
+        responses(ints, Kin, UD, W, pC, tauC, uC, Y, accC)
+        for a in range(m):
+            for b in range(m):
+                Km[a, b] = _psi_times(ints, W, accC[:, b, :], Kin, a, Y[:, b], False)
+        cholesky(Km)
+    if upto == 3:
+        return
+    backward(ints, Kin, IA, UD, pA, tau, uu, True)
+    xdd = ydot[n:2 * n]
+    forward(ints, Kin, UD, uu, True, acc, xdd)
+    if m:
+        for a in range(m):
+            lam[a] = gamma[a] - _psi_times(ints, W, acc, Kin, a, xdd, True)
+        cholesky_solve(Km, lam)
+        for c in range(n):
+            s = 0.0
+            for b in range(m):
+                s += Y[c, b] * lam[b]
+            xdd[c] += s
+    ydot[:n] = xd
+

@@ -34,6 +34,7 @@ from numba import njit
 
 from flexmb.kernels.packing import unpack
 from flexmb.kernels.tree import tree_state
+from flexmb.kernels.views import view2, view3
 
 #: kinds of a body's joint in the planar model
 REVOLUTE, PRISMATIC, NONE = 0, 1, 2
@@ -470,3 +471,52 @@ def planar_rhs_into(ints, floats, y, n, gamma_d, ydot, work, upto):
             xdd[c] += s
     ydot[:n] = xd
 
+
+
+# ----------------------------------------------------------------------------- in place: flat buffers, as CVODE calls
+
+
+
+def pack_planar(ints, floats, n):
+    """The model in two flat buffers and the work in a third, with an index (offset and shape per array).
+
+    Returns ``(fbuf, ibuf, wbuf, index)``, for :func:`planar_rhs_packed`.
+    """
+    arrays = [*ints, *floats, *make_work(ints, n)]
+    index = np.zeros((len(arrays), 4), dtype=np.int64)
+    parts = {"i": [], "f": [], "w": []}
+    for k, a in enumerate(arrays):
+        kind = "i" if k < len(ints) else ("f" if k < len(ints) + len(floats) else "w")
+        index[k, 0] = sum(p.size for p in parts[kind])
+        index[k, 1:1 + a.ndim] = a.shape
+        parts[kind].append(np.ascontiguousarray(a).ravel())
+    fbuf, ibuf, wbuf = (np.concatenate(parts[c]) if parts[c] else np.zeros(0) for c in "fiw")
+    return fbuf.astype(np.float64), ibuf.astype(np.int64), wbuf.astype(np.float64), index
+
+
+@njit(cache=True, inline="always")
+def _v1(buf, ix, k):
+    return buf[ix[k, 0]:ix[k, 0] + ix[k, 1]]
+
+
+@njit(cache=True)
+def planar_rhs_packed(fbuf, ibuf, wbuf, ix, y, n, gamma_d, ydot, upto):
+    """:func:`planar_rhs_into` on :func:`pack_planar`'s buffers (views made here: no per-array arguments)."""
+    ints = (_v1(ibuf, ix, 0), _v1(ibuf, ix, 1), _v1(ibuf, ix, 2), _v1(ibuf, ix, 3), _v1(ibuf, ix, 4),
+            _v1(ibuf, ix, 5), _v1(ibuf, ix, 6))
+    floats = (view2(fbuf, ix[7, 0], ix[7, 1], ix[7, 2]), view2(fbuf, ix[8, 0], ix[8, 1], ix[8, 2]),
+              view2(fbuf, ix[9, 0], ix[9, 1], ix[9, 2]), _v1(fbuf, ix, 10), _v1(fbuf, ix, 11), _v1(fbuf, ix, 12),
+              _v1(fbuf, ix, 13), _v1(fbuf, ix, 14), _v1(fbuf, ix, 15), view2(fbuf, ix[16, 0], ix[16, 1], ix[16, 2]),
+              view2(fbuf, ix[17, 0], ix[17, 1], ix[17, 2]), view2(fbuf, ix[18, 0], ix[18, 1], ix[18, 2]))
+    o = 19
+    work = (view2(wbuf, ix[o, 0], ix[o, 1], ix[o, 2]), view2(wbuf, ix[o + 1, 0], ix[o + 1, 1], ix[o + 1, 2]),
+            view2(wbuf, ix[o + 2, 0], ix[o + 2, 1], ix[o + 2, 2]), view2(wbuf, ix[o + 3, 0], ix[o + 3, 1], ix[o + 3, 2]),
+            _v1(wbuf, ix, o + 4), _v1(wbuf, ix, o + 5), view2(wbuf, ix[o + 6, 0], ix[o + 6, 1], ix[o + 6, 2]),
+            view3(wbuf, ix[o + 7, 0], ix[o + 7, 1], ix[o + 7, 2], ix[o + 7, 3]), _v1(wbuf, ix, o + 8),
+            view3(wbuf, ix[o + 9, 0], ix[o + 9, 1], ix[o + 9, 2], ix[o + 9, 3]),
+            view2(wbuf, ix[o + 10, 0], ix[o + 10, 1], ix[o + 10, 2]),
+            view2(wbuf, ix[o + 11, 0], ix[o + 11, 1], ix[o + 11, 2]),
+            view2(wbuf, ix[o + 12, 0], ix[o + 12, 1], ix[o + 12, 2]),
+            view3(wbuf, ix[o + 13, 0], ix[o + 13, 1], ix[o + 13, 2], ix[o + 13, 3]),
+            view2(wbuf, ix[o + 14, 0], ix[o + 14, 1], ix[o + 14, 2]), _v1(wbuf, ix, o + 15))
+    planar_rhs_into(ints, floats, y, n, gamma_d, ydot, work, upto)

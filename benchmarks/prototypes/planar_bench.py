@@ -41,7 +41,7 @@ import sys
 import time
 
 import numpy as np
-from numba import njit
+from numba import carray, njit
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 BENCH = os.path.dirname(HERE)
@@ -49,8 +49,9 @@ sys.path[:0] = [HERE, BENCH]
 
 import scenes  # noqa: E402
 import probe_b6_step  # noqa: E402
-from planar import make_work, planar_model, planar_rhs_into  # noqa: E402
+from planar import make_work, pack_planar, planar_model, planar_rhs_into, planar_rhs_packed  # noqa: E402
 from flexmb.kernels.articulated import open_tree_rhs_into, rhs_work_size  # noqa: E402
+from flexmb.kernels.cvode_callbacks import _voidp  # noqa: E402
 from flexmb.kernels.loops import loop_rhs  # noqa: E402
 
 TOL = 1e-12
@@ -200,6 +201,30 @@ def _loop_planar(ints, floats, y, n, gamma_d, ydot, work, upto, reps):
 
 
 @njit
+def _loop_planar_inplace(a, n, upto, reps):
+    """As CVODE's callback would call it: the buffers seen through raw pointers (no reference counts)."""
+    k = 7
+    fbuf, ibuf = carray(_voidp(a[0]), (a[k],), np.float64), carray(_voidp(a[1]), (a[k + 1],), np.int64)
+    wbuf, ix = carray(_voidp(a[2]), (a[k + 2],), np.float64), carray(_voidp(a[3]), (a[k + 3], 4), np.int64)
+    y, ydot = carray(_voidp(a[4]), (a[k + 4],), np.float64), carray(_voidp(a[5]), (a[k + 5],), np.float64)
+    gamma_d = carray(_voidp(a[6]), (a[k + 6],), np.float64)
+    s = 0.0
+    for _ in range(reps):
+        planar_rhs_packed(fbuf, ibuf, wbuf, ix, y, n, gamma_d, ydot, upto)
+        s += ydot[-1]
+    return s
+
+
+def inplace_timer(ints, floats, y, n, gamma_d, upto=5):
+    """A timer ``f(reps)`` of :func:`_loop_planar_inplace`, and the buffers it reads (keep them alive)."""
+    fbuf, ibuf, wbuf, ix = pack_planar(ints, floats, n)
+    arrays = (fbuf, ibuf, wbuf, ix, np.ascontiguousarray(y), np.zeros(2 * n), np.append(gamma_d, 0.0))
+    addr = np.array([a.ctypes.data for a in arrays] + [a.shape[0] for a in arrays], dtype=np.int64)
+    addr[-1] -= 1  # gamma_d without the padding (an empty array's address is not always valid)
+    return (lambda r: _loop_planar_inplace(addr, n, upto, r)), arrays, addr
+
+
+@njit
 def _loop_open(packed, y, n, armature, ydot, work, reps):
     s = 0.0
     for _ in range(reps):
@@ -224,6 +249,7 @@ def per_call(scene, n_seg, rounds) -> dict:
     timers = {f"planar_upto{k}": (lambda r, k=k: _loop_planar(ints, floats, y, n, gamma_d, ydot, work, k, r))
               for k in range(5)}
     timers["planar"] = lambda r: _loop_planar(ints, floats, y, n, gamma_d, ydot, work, 5, r)
+    timers["planar_inplace"], keep, _ = inplace_timer(ints, floats, y, n, gamma_d)
     if system._loop_layout is None or system._loop_layout.row_coord.shape[0] == 0:  # an open tree (B1)
         nb = system.topology.n_bodies
         w, yd, arm = np.zeros(rhs_work_size(nb, n)), np.zeros(2 * n), np.zeros(n)
@@ -245,6 +271,7 @@ def per_call(scene, n_seg, rounds) -> dict:
     us = {k: v * 1e6 for k, v in best.items()}
     row = dict(kind="per_call", scene=scene, n_segments=n_seg, n=n, reps=reps, rounds=rounds,
                planar_us=us["planar"], flexmb_us=us["flexmb"], ratio=us["flexmb"] / us["planar"],
+               planar_inplace_us=us["planar_inplace"],
                planar_parts_us=dict(kinematics=us["planar_upto0"], loads=us["planar_upto1"] - us["planar_upto0"],
                                     rows=us["planar_upto2"] - us["planar_upto1"],
                                     factors=us["planar_upto3"] - us["planar_upto2"],
@@ -254,7 +281,7 @@ def per_call(scene, n_seg, rounds) -> dict:
 
         b1 = probe_b1.per_call(system, probe_b1.chain_data(system), reps=reps)
         row.update(flexmb_inplace_us=b1["rhs_flexmb_s"] * 1e6, probe_us=b1["rhs_probe_s"] * 1e6,
-                   ratio_inplace=b1["rhs_flexmb_s"] * 1e6 / us["planar"])
+                   ratio_inplace=b1["rhs_flexmb_s"] * 1e6 / us["planar_inplace"])
     if "flexmb_upto0" in us:
         row["flexmb_parts_us"] = dict(kinematics_loads=us["flexmb_upto0"], rows=us["flexmb_upto1"] - us["flexmb_upto0"],
                                       factors=us["flexmb_upto2"] - us["flexmb_upto1"],

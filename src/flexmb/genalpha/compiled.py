@@ -1,5 +1,8 @@
 """Generalized-alpha stepped in compiled code between output times: :func:`compiled_genalpha`.
 
+Looped models have their own class (:mod:`flexmb.genalpha.compiled_loops`),
+chosen here as well.
+
 For a run whose right-hand side is one compiled kernel (an open tree whose
 joints and force elements are all compiled, ``System._packed_open``, with
 ``qd = u``) and whose Newton systems are solved with the dense iteration
@@ -39,9 +42,11 @@ def compiled_genalpha(system, solver_cls, track_work: bool, events, matrix_free:
     """The compiled-loop class for a run of ``solver_cls`` on ``system``, or None where the Python step is kept.
 
     The Python step stays for: numba's JIT disabled (``NUMBA_DISABLE_JIT=1``,
-    :mod:`flexmb.kernels.interpreted`); loops and drivers, plugin joints, Python
-    force elements (their right-hand side is Python: ``System._packed_open``
-    is None); Euler parameters (the rotation chart of
+    :mod:`flexmb.kernels.interpreted`); plugin joints, Python force elements
+    (their right-hand side is Python: ``System._packed_open`` is None), and
+    loops that CVODE's compiled loops do not serve either (``loop_class``:
+    a dense complement strategy, drivers without a closed form; looped
+    models it serves get :class:`~flexmb.genalpha.compiled_loops.CompiledLoopGeneralizedAlpha`); Euler parameters (the rotation chart of
     :mod:`flexmb.genalpha.chart`); ``track_work`` (the work rates are
     computed in Python); contact events (the run cuts each step itself);
     the matrix-free Newton solves (GMRES with the O(n) preconditioner,
@@ -72,22 +77,36 @@ def compiled_genalpha(system, solver_cls, track_work: bool, events, matrix_free:
         return None
     if not (isinstance(solver_cls, type) and issubclass(solver_cls, GeneralizedAlpha)):
         return None
-    if not _serves(system) or track_work or events is not None or matrix_free:
+    loops = not _serves(system) and _serves_loops(system)
+    if not (_serves(system) or loops) or track_work or events is not None or matrix_free:
         return None
     if issubclass(solver_cls, CompiledGeneralizedAlpha):
-        return solver_cls
+        return solver_cls if solver_cls._serves(system) else None
     if any(getattr(solver_cls, name) is not getattr(GeneralizedAlpha, name) for name in _STEP_METHODS):
         return None
-    cls = _CLASSES.get(solver_cls)
+    if loops:  # (the loops' class imported only for a looped model)
+        from .compiled_loops import CompiledLoopGeneralizedAlpha as base
+    else:
+        base = CompiledGeneralizedAlpha
+    cls = _CLASSES.get((solver_cls, base))
     if cls is None:
-        cls = _CLASSES[solver_cls] = type(solver_cls.__name__, (CompiledGeneralizedAlpha, solver_cls),
-                                          {"__module__": solver_cls.__module__, "__doc__": solver_cls.__doc__})
+        cls = _CLASSES[solver_cls, base] = type(solver_cls.__name__, (base, solver_cls),
+                                                {"__module__": solver_cls.__module__, "__doc__": solver_cls.__doc__})
     return cls
 
 
 def _serves(system) -> bool:
     """Whether the compiled loop can step ``system``: an open tree with a compiled right-hand side and ``qd = u``."""
     return system._packed_open is not None and not system.n_constraints and system.layout.identity
+
+
+def _serves_loops(system) -> bool:
+    """Whether the loops' compiled loop can step ``system`` (CVODE's compiled loops can: ``loop_class``)."""
+    if not (system.n_constraints and system.layout.identity and system._loop_kernel):
+        return False
+    from ..integrators.cvode_direct_loops import loop_class
+
+    return loop_class(system, "BDF") is not None
 
 
 def _getrf() -> int:
@@ -135,6 +154,9 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
     """
 
     advances = steps_in_compiled_code = True
+    #: what the model must be (the error's words)
+    _needs = "an open tree whose joints and force elements are all compiled, with qd = u"
+    _serves = staticmethod(_serves)
 
     def __init__(self, fun, t0, y0, t_bound, *, system, offset=None, monitor=None, angles=(), bound=np.inf,
                  gimbal=None, counters=None, budget=1000, feed=None, **options):
@@ -143,9 +165,8 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         interpreted.require_jit(f"{type(self).__name__}'s compiled step loop")
         from ..kernels import genalpha_loop as kernel
 
-        if not _serves(system):
-            raise ValueError("CompiledGeneralizedAlpha needs an open tree whose joints and force elements are all "
-                             "compiled, with qd = u")
+        if not self._serves(system):
+            raise ValueError(f"{type(self).__name__} needs {self._needs}")
         super().__init__(fun, t0, y0, t_bound, **options)
         self._kernel, self.system, self.monitor, self.gimbal, self._counters = kernel, system, monitor, gimbal, counters
         self.n_steps, self._budget, self._feed = 0, int(budget), feed

@@ -52,6 +52,8 @@ class CompiledLoopGeneralizedAlpha(CompiledGeneralizedAlpha):
     _needs = ("loops closed by the articulated strategy, force elements all compiled, drivers with a closed form "
               "(Driver.law), and qd = u")
     _serves = staticmethod(_serves_loops)
+    #: the loop forms the Jacobian itself where the compiled one is the model's (``compiled_jacobian``)
+    jacobian_in_loop = True
 
     def __init__(self, fun, t0, y0, t_bound, *, state_tol=1e-10, projection_tol=1e-10, **options):
         super().__init__(fun, t0, y0, t_bound, **options)
@@ -64,6 +66,13 @@ class CompiledLoopGeneralizedAlpha(CompiledGeneralizedAlpha):
         self._st, self._ct = np.zeros(genalpha_loops.N_LOOP_ST), np.zeros(genalpha_loops.N_LOOP_CT, dtype=np.int64)
         self._state_tol, self._newton_tol = float(state_tol), min(1e-12, float(projection_tol))
         self._checked = False
+        n = self.n_pos
+        self._Jx, self._Jv = np.zeros((n, n)), np.zeros((n, n))  # the Jacobian's blocks, formed in the loop
+        self._jac_in_loop = self.jacobian_in_loop and self._jac_fun is not None and self.f_max is None
+        if self._jac_in_loop:
+            from ..integrators.cvode_direct import compiled_jacobian
+
+            self._jac_in_loop = compiled_jacobian(self.system)
 
     def advance(self, t_stop: float, on_step=None):
         """Refused: a looped model's steps need the run's checks (see :meth:`step_on`).
@@ -140,8 +149,10 @@ class CompiledLoopGeneralizedAlpha(CompiledGeneralizedAlpha):
         self._enter()
         st[L.MIN_STEP] = self.min_step or 0.0
         ct[L.N_PROJ] = ct[L.N_MADE] = 0
-        ct[L.K_OUT] = out.k
-        Jx, Jv = (np.ascontiguousarray(b) for b in self.J) if self.J is not None else (_NO_LOW_PASS, _NO_LOW_PASS)
+        ct[L.K_OUT], ct[L.JAC_IN_LOOP], ct[L.N_JAC] = out.k, self._jac_in_loop, 0
+        Jx, Jv = self._Jx, self._Jv
+        if self.J is not None and self.J[0] is not Jx:  # formed in Python
+            Jx[:], Jv[:] = self.J
         try:
             code, k = L.advance(self._ud, self._offset, *self._arrays, self._getrf, Jx, Jv, self._lu, self._piv,
                                 _NO_LOW_PASS if self.low_pass is None else self.low_pass, self._par, self.atol, st,
@@ -152,6 +163,12 @@ class CompiledLoopGeneralizedAlpha(CompiledGeneralizedAlpha):
             out.k = int(ct[L.K_OUT])
             out.made += int(ct[L.N_MADE])
             out.moved += int(ct[L.N_PROJ])
+        jacobians = int(ct[L.N_JAC])
+        if jacobians:  # formed by the loop (GeneralizedAlpha._new_jacobian's, no low-pass projector)
+            self.J, self.low_pass = (Jx, Jv), None
+            self.njev += jacobians
+            if self._counters is not None:
+                self._counters["jac"] = self._counters.get("jac", 0) + jacobians
         self._leave(k)
         act_on_deferred()  # a Ctrl-C recorded meanwhile
         if live and k:

@@ -39,21 +39,25 @@ from numba.extending import overload
 
 from .cache import njit
 from .cvode_callbacks import _watched
-from .cvode_loop_callbacks import _residuals, _step_projection, rate_into
+from .cvode_loop_callbacks import (A_C, A_K, A_REAL, N_DRV, N_REAL, R_TOL, R_WINDOW, RANK_LIMIT, _drivers, _f1,
+                                   _layout, _packed, _residuals, _step_projection, driver, rate_into)
 from .genalpha import restart_accelerations
-from .genalpha_loop import (CHECKPOINT, H_ABS, HAS_J, HAS_OFFSET, MAX_STEP, N_CT, N_POS, N_RHS, NONFINITE_STATE,
-                            PAUSED, REACHED, T, T_BOUND, T_OLD, WATCH, _TAKEN, _model_rate, _rhs, _step)
+from .genalpha_loop import (CHECKPOINT, FAIL_T, H_ABS, HAS_J, HAS_LU, HAS_OFFSET, JAC_CURRENT, MAX_STEP, N_CT,
+                            N_POS, NEED_JACOBIAN, NONFINITE_STATE, PAUSED, REACHED, RHS_FAILED, T, T_BOUND, T_OLD,
+                            WATCH, _TAKEN, _model_rate, _rhs, _step)
+from .loop_jacobian import loop_state_jacobian
 from .loop_outputs import REFUSED, output_projected
 from .step_projection import MOVED
 
-__all__ = ["advance", "DRIFTED", "OUTPUT_LEFT", "N_LOOP_CT", "N_PROJ", "N_MADE", "K_OUT", "MIN_STEP", "N_LOOP_ST"]
+__all__ = ["advance", "DRIFTED", "OUTPUT_LEFT", "N_LOOP_CT", "N_PROJ", "N_MADE", "K_OUT", "JAC_IN_LOOP", "N_JAC",
+           "MIN_STEP", "N_LOOP_ST"]
 
 #: return codes besides genalpha_loop's (0-9): a drifted state whose projection did not close, an output left
 DRIFTED, OUTPUT_LEFT = 10, 11
 #: further slots of ``ct`` (after genalpha_loop's): the projections of the state, the outputs' projections, the
-#: next output's index
-N_PROJ, N_MADE, K_OUT = N_CT, N_CT + 1, N_CT + 2
-N_LOOP_CT = N_CT + 3
+#: next output's index, whether the loop forms the Jacobian itself, the Jacobians it formed
+N_PROJ, N_MADE, K_OUT, JAC_IN_LOOP, N_JAC = range(N_CT, N_CT + 5)
+N_LOOP_CT = N_CT + 5
 #: a further slot of ``st`` (after genalpha_loop's 14): the smallest step (0: none)
 MIN_STEP = 14
 N_LOOP_ST = 15
@@ -69,6 +73,27 @@ def _loop_rate(model, t, y, n, f):
         status, kept = rate_into(model, t, y, f)
         return status == 0
     return impl
+
+
+@njit(cache=True)
+def _jacobian(ud, offset, z, t, Jx, Jv, ct):
+    """``Jx``, ``Jv`` at the step start by loop_state_jacobian (``System.state_jacobian``'s); False if it fails."""
+    n, m = ct[N_POS], z.shape[0]
+    y = z + offset if ct[HAS_OFFSET] else z
+    real = _f1(ud[A_REAL], N_REAL)
+    drv, gamma_d = _drivers(ud), np.empty(ud[N_DRV])
+    for k in range(ud[N_DRV]):
+        gamma_d[k] = driver(drv, k, t)[2]
+    full = np.empty((m, m))
+    status, _ = loop_state_jacobian(_packed(ud), _layout(ud), y, n, _f1(ud[A_K], n), _f1(ud[A_C], n), gamma_d,
+                                    real[R_TOL], real[R_WINDOW], ud[RANK_LIMIT], full)
+    if status:
+        return False
+    Jx[:, :] = full[n : 2 * n, :n]
+    Jv[:, :] = full[n : 2 * n, n : 2 * n]
+    ct[HAS_J], ct[JAC_CURRENT], ct[HAS_LU] = 1, 1, 0
+    ct[N_JAC] += 1
+    return True
 
 
 @njit(cache=True)
@@ -114,8 +139,8 @@ def _hold_on_constraints(ud, offset, z, a, abar, Jx, Jv, st, ct, state_tol, newt
     """Run._restart_if_drifted for a method that moves: the state projected and continued if it drifted.
 
     Returns -1 (kept or moved), DRIFTED (the projection did not close:
-    left to the run) or RHS_FAILED-like status of the right-hand side
-    (where no Jacobian is there to correct the accelerations).
+    left to the run) or RHS_FAILED (the right-hand side at the moved
+    state, where no Jacobian is there to correct the accelerations).
     """
     n, m, t = ct[N_POS], z.shape[0], st[T]
     y = z + offset if ct[HAS_OFFSET] else z.copy()
@@ -136,7 +161,8 @@ def _hold_on_constraints(ud, offset, z, a, abar, Jx, Jv, st, ct, state_tol, newt
     else:
         f, status = _rhs(ud, offset, t, moved, n, ct, fail_y)
         if status != -1:
-            return status
+            st[FAIL_T] = t
+            return RHS_FAILED
         a1 = f[n : 2 * n].copy()
         abar1 = a1 + lag
     a[:], abar[:], z[:] = a1, abar1, moved
@@ -156,7 +182,12 @@ def advance(ud, offset, z, a, abar, g, z_old, abar_old, g_old, getrf, Jx, Jv, lu
     ----------
     ud : ndarray of int64
         The loops' user data (:func:`flexmb.loop_user_data.loop_user_data`).
-    offset, z, a, abar, g, z_old, abar_old, g_old, getrf, Jx, Jv, lu, piv, low_pass, par, atol, st, ct
+    Jx, Jv : ndarray, shape (n, n)
+        The Jacobian's blocks; where ``ct[JAC_IN_LOOP]`` the loop forms them
+        itself when one is due (``System.state_jacobian``'s, compiled:
+        :func:`~flexmb.kernels.loop_jacobian.loop_state_jacobian`), else it
+        returns NEED_JACOBIAN.
+    offset, z, a, abar, g, z_old, abar_old, g_old, getrf, lu, piv, low_pass, par, atol, st, ct
         As for :func:`flexmb.kernels.genalpha_loop.advance` (``st`` and
         ``ct`` with the further slots above).
     t_stop : float
@@ -190,6 +221,8 @@ def advance(ud, offset, z, a, abar, g, z_old, abar_old, g_old, getrf, Jx, Jv, lu
     while st[T] < t_bound:
         code = _step(ud, offset, z, a, abar, g, z_old, abar_old, g_old, getrf, Jx, Jv, lu, piv, fwork, iwork,
                      low_pass, par, atol, st, ct, work, fail_y)
+        if code == NEED_JACOBIAN and ct[JAC_IN_LOOP] and _jacobian(ud, offset, z, st[T], Jx, Jv, ct):
+            continue  # the step resumed with it (GeneralizedAlpha._new_jacobian, no low-pass projector)
         if code != _TAKEN:
             return code, k
         tn = st[T]

@@ -1,4 +1,4 @@
-"""Generalized-alpha stepped in compiled code on looped models (flexmb.genalpha.compiled_loops) as the Python step.
+"""Generalized-alpha stepped in compiled code on looped models (CompiledLoopGeneralizedAlpha) as the Python step.
 
 ``simulate(..., method="GeneralizedAlpha")`` on a model whose loops CVODE's
 compiled loops serve (articulated complement, compiled loads, drivers with
@@ -23,7 +23,7 @@ import pytest
 
 import flexmb as fm
 from flexmb.genalpha import GeneralizedAlpha, compiled
-from flexmb.genalpha.compiled_loops import CompiledLoopGeneralizedAlpha
+from flexmb.genalpha.compiled import CompiledLoopGeneralizedAlpha
 from flexmb.integrators import cvode_direct
 from flexmb.scenes.fourbar import fourbar
 

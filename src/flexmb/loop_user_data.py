@@ -3,7 +3,7 @@
 One builder for both step loops of looped models that run in compiled code:
 CVODE's (:class:`flexmb.integrators.cvode_direct_loops.DirectLoopCVODE`,
 whose C callbacks get it as CVODE's ``user_data``) and generalized-alpha's
-(:class:`flexmb.genalpha.compiled_loops.CompiledLoopGeneralizedAlpha`, which
+(:class:`flexmb.genalpha.compiled.CompiledLoopGeneralizedAlpha`, which
 hands it to :func:`flexmb.kernels.genalpha_loops.advance`). The slots are
 those of :mod:`flexmb.kernels.cvode_loop_callbacks`: the addresses and sizes
 of the packed model, of the loop layout's arrays, of the Newton
@@ -15,7 +15,28 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["loop_user_data", "driver_row"]
+__all__ = ["loop_user_data", "driver_row", "compiled_loops_serve"]
+
+
+def compiled_loops_serve(system) -> bool:
+    """Whether the compiled loops' kernels can evaluate ``system`` (CVODE's and generalized-alpha's compiled loops).
+
+    Parameters
+    ----------
+    system : System
+        The model.
+
+    Returns
+    -------
+    bool
+        True for loops closed by the articulated strategy (``System._loop_kernel``),
+        force elements all compiled, and drivers with a closed form (``Driver.law``).
+    """
+    if not system._loop_kernel:  # loops closed by a dense strategy, plugin joints, constraint elements
+        return False
+    if system._python_groups:  # force elements evaluated in Python
+        return False
+    return all(d.law is not None for d in system.constraints.drivers)  # (else a motion known only to Python)
 
 
 def driver_row(driver, column) -> tuple:

@@ -187,5 +187,6 @@ class LoopOutputs:
         run.k_out = self.k
         # one mass-orthogonal speed projection each (System._loop_speeds')
         run.system.n_complements += self.made + self.moved
-        run.n_proj += self.moved
+        if self.moved:
+            run.n_proj += self.moved
         self.made = self.moved = 0

@@ -84,11 +84,9 @@ def loop_class(system, family: str) -> type | None:
     type or None
         :class:`DirectLoopCVODEBDF` or :class:`DirectLoopCVODEAdams`.
     """
-    if not system._loop_kernel:  # loops closed by a dense strategy, plugin joints, constraint elements
-        return None
-    if system._python_groups:  # force elements evaluated in Python
-        return None
-    if any(d.law is None for d in system.constraints.drivers):  # a motion known only to its Python callables
+    from ..loop_user_data import compiled_loops_serve
+
+    if not compiled_loops_serve(system):
         return None
     return {"BDF": DirectLoopCVODEBDF, "Adams": DirectLoopCVODEAdams}[family]
 

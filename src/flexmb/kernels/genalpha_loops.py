@@ -1,6 +1,6 @@
 """The generalized-alpha step loop on looped models, compiled: the steps, the outputs and the projections.
 
-:class:`flexmb.genalpha.compiled_loops.CompiledLoopGeneralizedAlpha` hands
+:class:`flexmb.genalpha.compiled.CompiledLoopGeneralizedAlpha` hands
 its steps to :func:`advance`: the steps of
 :func:`flexmb.kernels.genalpha_loop._step` (those of
 :class:`flexmb.genalpha.GeneralizedAlpha`) with the loops' right-hand side

@@ -90,7 +90,7 @@ def test_chosen_where_the_rhs_is_compiled():
     assert compiled.compiled_genalpha(b1, fm.registry.get("integrators", "Radau"), False, None, False) is None
     from flexmb.scenes.fourbar import fourbar
 
-    assert compiled.compiled_genalpha(fourbar()[0].build(), ga, False, None, False) is None  # loops
+    assert compiled.compiled_genalpha(fourbar()[0].build(), ga, False, None, False) is None  # loops, dense
     import rotations
 
     top = rotations.flexmb_model("top").build()  # Euler parameters: the rotation chart steps in Python

@@ -7,7 +7,9 @@ On a machine shared with other jobs a run's wall time is mostly waiting
 for a core (at a load of 15 on 2 cores a 0.8 s run took 10 s of wall
 time), so this script measures the CPU time of the process while it
 simulates (``time.process_time`` around ``fm.simulate`` and Exudyn's
-``SolveSystem``; building the model is not counted). Every configuration
+``SolveSystem``; building the model is not counted, nor a warm-up run of
+the same settings over ``--warmup`` s, 0.05 by default, whose counts each row
+keeps under ``warmup``). Every configuration
 runs in its own process (``--src`` puts another flexmb source tree first
 on ``PYTHONPATH``, to compare versions), in ``--repeat`` alternating rounds
 (each round every flexmb configuration of every source, then every Exudyn
@@ -46,6 +48,11 @@ import time
 HERE = os.path.dirname(os.path.abspath(__file__))
 BENCH = os.path.dirname(HERE)
 REFS = os.path.join(BENCH, "results", "refs")
+#: the span of each flexmb process's warm-up run (the timed run's settings), s: on B6 at N = 8 and 32 it takes
+#: Jacobians, stores outputs and projects (generalized-alpha at rtol 1e-3: 2 and 8 projections; CVODE_BDF at
+#: 3e-3: ~470 of its own), so every kernel and first call of the timed run is made before it (0.01 s did not
+#: project: some were loaded inside the timed run)
+WARMUP = 0.05
 
 FLEXMB_CHILD = """
 import json, sys, time
@@ -57,7 +64,9 @@ model, positions = scenes.b6(damped=True, n_segments=n)
 system = model.build()
 kw = dict(positions=positions, complement="articulated", method=method, rtol=rtol, atol=rtol / 100, n_out=101,
           progress=False)
-fm.simulate(system, 0.01, **kw)  # kernels loaded
+# the kernels loaded, and the first calls made, by a run of the same settings over {warm} s: it takes a
+# Jacobian, stores outputs and projects (generalized-alpha's drift, CVODE's own), as the timed run does
+warm = fm.simulate(system, {warm}, **kw)
 c0, w0 = time.process_time(), time.perf_counter()
 res = fm.simulate(system, 0.5, **kw)
 cpu, wall = time.process_time() - c0, time.perf_counter() - w0
@@ -66,7 +75,9 @@ err = float(np.max(np.abs(np.asarray(res.coordinate("rail"), float)[1:] - ref)))
 print(json.dumps(dict(cpu_s=cpu, wall_s=wall, error=err, steps=int(res.n_steps), rhs_evals=int(res.n_rhs),
                       jac_evals=int(res.n_jac), projections=int(res.n_projections),
                       cvode_projections=getattr(res, "n_cvode_projections", None), method_used=res.method,
-                      flexmb=fm.__file__)))
+                      flexmb=fm.__file__, warmup=dict(span=float({warm}), steps=int(warm.n_steps),
+                      jac_evals=int(warm.n_jac), projections=int(warm.n_projections),
+                      cvode_projections=getattr(warm, "n_cvode_projections", None)))))
 """
 
 EXUDYN_CHILD = """
@@ -113,6 +124,7 @@ def main(argv=None):
     ap.add_argument("--exudyn", nargs="+", default=["4000:1e-4"], help="STEPS:NEWTON_RTOL[:MAX_N]")
     ap.add_argument("--peers-python", default="/work/venv-peers/bin/python")
     ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--warmup", type=float, default=WARMUP, help="span of the warm-up run of the same settings, s")
     ap.add_argument("--out", default=os.path.join(BENCH, "results", "cpu_b6.jsonl"))
     args = ap.parse_args(argv)
     env = dict(os.environ, OPENBLAS_NUM_THREADS=os.environ.get("OPENBLAS_NUM_THREADS", "1"))
@@ -129,7 +141,8 @@ def main(argv=None):
                 cenv = dict(env, PYTHONPATH=os.path.abspath(path)) if path else env
                 for spec in _upto(args.flexmb, n):
                     method, rtol = spec.split(":")[:2]
-                    code = FLEXMB_CHILD.format(bench=BENCH, n=n, method=method, rtol=float(rtol), ref=ref_npz)
+                    code = FLEXMB_CHILD.format(bench=BENCH, n=n, method=method, rtol=float(rtol), ref=ref_npz,
+                                               warm=args.warmup)
                     runs.append((("flexmb", label, method, float(rtol)), sys.executable, code, cenv))
             for spec in _upto(args.exudyn, n):
                 steps, newton = spec.split(":")[:2]

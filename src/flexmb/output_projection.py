@@ -172,6 +172,7 @@ class LoopOutputs:
         self.tol, self.newton_tol, self.gain = float(tol), min(1e-12, float(tol)), OUTPUT_PROJECTION_GAIN
         self.once = bool(once)
         self.made = 0  # the projections made since the last hand_over
+        self.moved = 0  # the integrator's own state projected since then (generalized-alpha's compiled loops)
 
     def hand_over(self, run) -> None:
         """Give ``run`` the outputs stored since the last call (``out_y``, ``k_out``) and count the projections.
@@ -184,5 +185,8 @@ class LoopOutputs:
         for i in range(run.k_out, self.k):
             run.out_y.append(self.Y[i])
         run.k_out = self.k
-        run.system.n_complements += self.made  # one mass-orthogonal speed projection each (System._loop_speeds')
-        self.made = 0
+        # one mass-orthogonal speed projection each (System._loop_speeds')
+        run.system.n_complements += self.made + self.moved
+        if self.moved:
+            run.n_proj += self.moved
+        self.made = self.moved = 0

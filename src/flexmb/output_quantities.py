@@ -6,7 +6,8 @@ and whose loads are all compiled, one compiled call evaluates all but the
 potential energy at all states
 (:func:`flexmb.kernels.loop_states.loop_state_quantities`, the same
 kernels on the same numbers), the potential energy of each state is the
-force elements' own (``ForceSet.potential_energy``), and the reactions of
+force elements' own (``potential_states`` of all states at once where
+every class has it, else ``ForceSet.potential_energy`` state by state), and the reactions of
 a state with redundant rows are the system's (its minimum-norm ones).
 """
 
@@ -103,6 +104,11 @@ def _evaluate_loops(system, t, X, XD, out) -> dict:
     for i in np.flatnonzero(redundant):  # the minimum-norm reactions, as the system's route gives them
         system.n_complements -= 1
         out["xdd"][i], out["reactions"][i] = system._with_reactions(t[i], system.layout.join(X[i], XD[i]))
+    parts = [cls.potential_states(elements, topo, X) for cls, elements in system.forces.groups]
+    if all(p is not None for p in parts):  # from the coordinates alone, in one call per class
+        for p in parts:
+            out["potential"] += p
+        return out
     for i in range(nt):
         out["potential"][i] = system.forces.potential_energy(system._kinematics(t[i], X[i], XD[i]))
     return out

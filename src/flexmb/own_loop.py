@@ -82,8 +82,11 @@ def compiled_options(run, x, xd, krylov_min: int, bound: float) -> dict:
     """
     system = run.system
     if run.caps.second_order:  # generalized-alpha (flexmb.genalpha.compiled)
-        return dict(system=system, monitor=run.monitor, angles=run.angles, bound=bound, gimbal=run.gimbal,
-                    counters=run.counters)
+        options = dict(system=system, monitor=run.monitor, angles=run.angles, bound=bound, gimbal=run.gimbal,
+                       counters=run.counters)
+        if system.n_constraints:  # its loops' drift check and projection (CompiledLoopGeneralizedAlpha)
+            options.update(state_tol=run.state_tol, projection_tol=run.projection_tol)
+        return options
     krylov = run.solver_cls.family == "BDF" and run.n >= krylov_min
     run.counters["jac"] = 0
     options = dict(system=system, krylov=krylov, monitor=run.monitor, angles=run.angles,

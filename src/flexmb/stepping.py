@@ -192,8 +192,7 @@ class Run:
         self._fun = self._stage_rate if self.caps.explicit else self.rhs
         self.stage_failure: Exception | None = None  # why a stage of the step being taken could not be evaluated
         self.options: dict = {}
-        self.out_y: list = []
-        self.k_out = 0
+        self.out_y, self.k_out = [], 0
         self.n_steps = self.n_proj = self.n_steps_refused = 0
         self.last_restart = -RESTART_MIN_STEPS  # the step count at the last projection and restart
         self.t_now = t0
@@ -288,10 +287,11 @@ class Run:
                     self.options["max_order"] = OSCILLATION_MAX_ORDER
                     self.options["project"] = bool(system.n_constraints)  # loops: CVODE projects (DirectLoopCVODE)
                 return
-            from .integrators.cvode_direct import STEPS_PER_CALL, DirectCVODE
+            from .integrators.cvode_direct import STEPS_PER_CALL, DirectCVODE, compiled_jacobian
 
-            # generalized-alpha: CVODE's loop's budget of steps per call and its feed of the monitor
-            self.options.update(budget=STEPS_PER_CALL, feed=DirectCVODE._feed)
+            # generalized-alpha: CVODE's loop's budget of steps and its feed of the monitor; loops: the Jacobian's kind
+            self.options.update(budget=STEPS_PER_CALL, feed=DirectCVODE._feed,
+                                **({"compiled_jacobian": compiled_jacobian(system)} if system.n_constraints else {}))
         if caps.needs_n_second:  # written for y = (x, xd, ...): given the layout when qd = W(q) u (GeneralizedAlpha)
             self.options["n_second"] = n
             if not system.layout.identity:

@@ -232,6 +232,27 @@ class ForceElement:
         return float(sum(e.potential(state) for e in elements))
 
     @classmethod
+    def potential_states(cls, elements, topology, X):
+        """The potential energy of all elements of this class at many states at once, where it needs only ``x``.
+
+        Parameters
+        ----------
+        elements : sequence of ForceElement
+            The model's elements of this class.
+        topology : Topology
+            The model's tree.
+        X : ndarray, shape (nt, nq)
+            The states' coordinates.
+
+        Returns
+        -------
+        ndarray, shape (nt,), or None
+            The energies, J; None (here) where only :meth:`potential_all`
+            of each state's kinematics gives them.
+        """
+        return None
+
+    @classmethod
     def tangent_all(cls, elements, state):
         """Diagonal stiffness and damping the elements put on coordinates, if any.
 

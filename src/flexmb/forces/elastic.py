@@ -75,6 +75,27 @@ class BeamElasticity(ForceElement):
         return float(0.5 * np.sum(k * state.x[cols] ** 2))
 
     @classmethod
+    def potential_states(cls, elements, topology, X):
+        """:meth:`potential_all` at the states ``X`` at once (``eta K eta / 2`` needs the coordinates only).
+
+        Parameters
+        ----------
+        elements : sequence of BeamElasticity
+            The model's elements of this class.
+        topology : Topology
+            The model's tree.
+        X : ndarray, shape (nt, nq)
+            The states' coordinates.
+
+        Returns
+        -------
+        ndarray, shape (nt,)
+            Potential energies, J.
+        """
+        t = class_tables(cls, elements, topology)
+        return np.array([0.5 * np.sum(t.coord_k * x[t.coord_cols] ** 2) for x in X], dtype=float).reshape(len(X))
+
+    @classmethod
     def tangent_all(cls, elements, state):
         """Diagonal K and C on the elastic coordinates.
 

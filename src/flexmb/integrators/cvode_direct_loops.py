@@ -84,11 +84,9 @@ def loop_class(system, family: str) -> type | None:
     type or None
         :class:`DirectLoopCVODEBDF` or :class:`DirectLoopCVODEAdams`.
     """
-    if not system._loop_kernel:  # loops closed by a dense strategy, plugin joints, constraint elements
-        return None
-    if system._python_groups:  # force elements evaluated in Python
-        return None
-    if any(d.law is None for d in system.constraints.drivers):  # a motion known only to its Python callables
+    from ..loop_user_data import compiled_loops_serve
+
+    if not compiled_loops_serve(system):
         return None
     return {"BDF": DirectLoopCVODEBDF, "Adams": DirectLoopCVODEAdams}[family]
 
@@ -99,12 +97,6 @@ def _with_projection(init) -> inspect.Signature:
     extra = [inspect.Parameter(name, inspect.Parameter.KEYWORD_ONLY, default=default)
              for name, default in (("projection_tol", 1e-10), ("project", False))]
     return inspect.Signature(params[:-1] + extra + params[-1:])
-
-
-def _driver_row(driver, column) -> tuple:
-    """The row ``(column, kind, p1, p2, p3)`` of :func:`flexmb.kernels.cvode_loop_callbacks.driver`."""
-    kind, *p = driver.law
-    return (column, 0.0, *p, 0.0) if kind == "constant_speed" else (column, 1.0, *p)
 
 
 class DirectLoopCVODE(DirectCVODE):
@@ -193,46 +185,12 @@ class DirectLoopCVODE(DirectCVODE):
                              "compiled, drivers with a closed form (Driver.law), and qd = u")
 
     def _user_data(self, system, nonfinite_flag):
-        from ..system.tangent import NewtonPreconditioner
+        from ..loop_user_data import loop_user_data
 
-        from ..kernels.constraint_matrix import DENSE_K  # K's eigenvectors V (m x m) only where it is factored densely
-
-        cb, S, n, m = self._cb, self._S, self.n, self.m
-        fl, it, fg, ix = system._packed
-        lay = system._loop_layout
-        K, C = NewtonPreconditioner.diagonal_terms(system)
-        nb, mr, band = system.topology.n_bodies, lay.row_coord.shape[0], int(lay.band)
-        drivers = system.constraints.drivers
-        drv = np.array([_driver_row(d, c) for d, c in zip(drivers, system.constraints.driver_cols)] or [(0.0,) * 5],
-                       float)
-        offset = np.zeros(m) if self._offset is None else np.array(self._offset, dtype=float)
-        self._offset = None if self._offset is None else offset  # the array the callbacks read
-        a = self._arrays = {
-            "fl": fl, "it": it, "fg": fg, "ix": ix, "K": np.ascontiguousarray(K, float),
-            "C": np.ascontiguousarray(C, float), "x": np.zeros(n), "drv": np.ascontiguousarray(drv.reshape(-1)),
-            "real": np.zeros(cb.N_REAL), "Sw": np.zeros(n * 3), "Sv": np.zeros(n * 3), "W": np.zeros(mr * 12),
-            "body": np.zeros(mr * 2, np.int64), "U": np.zeros(n * 6), "DUT": np.zeros(n * 6), "Dinv": np.zeros(n * 6),
-            "lift": np.zeros(n), "Kb": np.zeros(mr * (band + 1)), "d": np.zeros(mr), "df": np.zeros(mr),
-            "V": np.zeros(mr * mr if mr <= DENSE_K or 2 * band >= mr else 0), "fail_t": np.zeros(1), "fail_y": np.zeros(m), "offset": offset,
-            "work": np.zeros(cb.work_size(nb, n, mr, len(drivers)))}
-        for f in lay._fields[:-1]:
-            a[f] = np.ascontiguousarray(getattr(lay, f), dtype=np.int64)
-        ud = np.zeros(cb.UD_SIZE, dtype=np.int64)
-        ud[cb.A_GETPTR], ud[cb.A_MATDATA] = _addr(S.N_VGetArrayPointer), _addr(S.SUNDenseMatrix_Data)
-        ud[cb.N], ud[cb.M], ud[cb.NB], ud[cb.MROWS], ud[cb.BAND] = n, m, nb, mr, band
-        for slot, size, key in ((cb.A_FL, cb.N_FL, "fl"), (cb.A_IT, cb.N_IT, "it"), (cb.A_FG, cb.N_FG, "fg")):
-            ud[slot], ud[size] = a[key].ctypes.data, a[key].size
-        ud[cb.A_IX], ud[cb.N_IX] = ix.ctypes.data, ix.shape[0]
-        ud[cb.N_VISIT], ud[cb.N_ROOTS], ud[cb.N_ROOT_ROWS] = a["visit"].size, a["root_ptr"].size - 1, a["root_rows"].size
-        for key in ("row_body", "row_coord", "root_of", "row_roots", "visit_ptr", "visit", "root_ptr", "root_rows",
-                    "order", "position", "K", "C", "x", "drv", "real", "Sw", "Sv", "W", "body", "U", "DUT", "Dinv",
-                    "lift", "Kb", "d", "df", "V", "fail_t", "fail_y", "offset", "work"):
-            ud[getattr(cb, "A_" + key.upper())] = a[key].ctypes.data
-        ud[cb.N_DRV] = len(drivers)
-        ud[cb.RANK_LIMIT] = -1 if system.rank_limit is None else system.rank_limit
-        a["real"][cb.R_TOL], a["real"][cb.R_WINDOW] = system._loop_tol, system.singular_window()
-        ud[cb.HAS_OFFSET] = self._offset is not None
-        ud[cb.STATUS], ud[cb.NONFINITE_FLAG] = -1, nonfinite_flag
+        S = self._S
+        ud, self._arrays = loop_user_data(system, self.m, self._offset, nonfinite_flag, _addr(S.N_VGetArrayPointer),
+                                          _addr(S.SUNDenseMatrix_Data))
+        self._offset = None if self._offset is None else self._arrays["offset"]  # the array the callbacks read
         return ud
 
     def restart(self, z, offset=None) -> None:

@@ -46,7 +46,7 @@ from .loops import loop_newton_factor, loop_newton_solve, loop_rhs_into, loop_rh
 from .step_projection import KEPT, MOVED, REFUSED, step_projection
 from .views import view2
 
-__all__ = ["rhs", "work_size", "jac", "psetup", "psolve", "project", "advance", "drift", "driver", "UD_SIZE", "REACHED", "CHECKPOINT", "PAUSED", "WATCH",
+__all__ = ["rhs", "rate_into", "work_size", "jac", "psetup", "psolve", "project", "advance", "drift", "driver", "UD_SIZE", "REACHED", "CHECKPOINT", "PAUSED", "WATCH",
            "DRIFTED", "NOT_FINITE"]
 
 #: slots of the user_data array (int64): addresses (A_*), sizes, counters, the failure's status
@@ -176,13 +176,22 @@ def work_size(nb, n, m, n_drv):
     return 6 * (nb + 1) + n + m + n_drv + loop_rhs_work_size(nb, n, m)
 
 
-@_cfunc(types.int32(types.float64, types.voidptr, types.voidptr, types.voidptr))
-def rhs(t, y, ydot, user_data):
-    """CVRhsFn: ``ydot = (xd, xdd)`` by loop_rhs_into, work in ``A_WORK``; NONFINITE_FLAG if not finite, -1 if massless."""
-    ud = _ud(user_data)
+@njit(cache=True)
+def rate_into(ud, t, yv, out):
+    """The state rate ``(xd, xdd, 0)`` at the true state ``yv`` into ``out`` by loop_rhs_into, work in ``A_WORK``.
+
+    The one right-hand side of the compiled loops: CVODE's :func:`rhs` and
+    the generalized-alpha loop (:mod:`flexmb.kernels.genalpha_loops`) call it.
+
+    Returns
+    -------
+    status : int
+        0, 2 (not finite), or another (a freedom that moves no mass and
+        that no loop fixes: ``kept`` names its joint).
+    kept : int
+        loop_rhs_into's ``kept``.
+    """
     n, m, nb = ud[N], ud[M], ud[NB]
-    yv = _state(ud, y, m)
-    out = _vector(ud, ydot, m)
     real = _f1(ud[A_REAL], N_REAL)
     ud[RHS] += 1
     mr, n_drv = ud[MROWS], ud[N_DRV]
@@ -203,6 +212,16 @@ def rhs(t, y, ydot, user_data):
         out[i] = yv[n + i]
     for i in range(2 * n, m):  # states nothing depends on
         out[i] = 0.0
+    return status, kept
+
+
+@_cfunc(types.int32(types.float64, types.voidptr, types.voidptr, types.voidptr))
+def rhs(t, y, ydot, user_data):
+    """CVRhsFn: ``ydot = (xd, xdd)`` by :func:`rate_into`; NONFINITE_FLAG if not finite, -1 if massless."""
+    ud = _ud(user_data)
+    m = ud[M]
+    yv = _state(ud, y, m)
+    status, kept = rate_into(ud, t, yv, _vector(ud, ydot, m))
     if status == 0:
         return 0
     if status == 2:

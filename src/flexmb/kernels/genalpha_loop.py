@@ -42,7 +42,7 @@ import numpy as np
 from llvmlite import ir
 from numba import types
 from numba.core import cgutils
-from numba.extending import intrinsic
+from numba.extending import intrinsic, overload
 
 from .articulated import open_tree_rhs
 from .cache import njit
@@ -106,18 +106,40 @@ def _factor(getrf, Jx, Jv, h, par, lu, piv, fwork, iwork):
     return True
 
 
+def _model_rate(model, t, y, n, f):
+    """The state rate of ``model`` at the true state ``(t, y)`` into ``f`` (True if it is sound): compiled only.
+
+    An overload per kind of model: the open tree's packed arrays (a tuple,
+    :func:`~flexmb.kernels.articulated.open_tree_rhs`) here, the loops'
+    user data (an int64 array) in :mod:`flexmb.kernels.genalpha_loops`.
+    """
+    raise NotImplementedError("_model_rate is compiled only")
+
+
+@overload(_model_rate)
+def _open_tree_rate(model, t, y, n, f):
+    """:func:`_model_rate` of an open tree (``System._packed_open``)."""
+    if not isinstance(model, types.BaseTuple):
+        return None
+
+    def impl(model, t, y, n, f):
+        rate, status = open_tree_rhs(model, y, n, np.zeros(n))
+        f[: 2 * n] = rate[: 2 * n]
+        return status == -1
+    return impl
+
+
 @njit(cache=True)
-def _rhs(packed, offset, y, n, ct, fail_y):
-    """The state rate at the integrator's ``y`` (``y + offset`` the true state); None-like status != -1 on failure."""
+def _rhs(model, offset, t, y, n, ct, fail_y):
+    """The state rate at the integrator's ``y`` (``y + offset`` the true state); status != -1 on failure."""
     m = y.shape[0]
     yt = y + offset if ct[HAS_OFFSET] else y.copy()
     ct[N_RHS] += 1
-    rate, status = open_tree_rhs(packed, yt, n, np.zeros(n))
     f = np.zeros(m)
-    f[: 2 * n] = rate[: 2 * n]
-    if status != -1:
-        fail_y[:] = yt
-    return f, status
+    if _model_rate(model, t, yt, n, f):
+        return f, -1
+    fail_y[:] = yt
+    return f, 0
 
 
 @njit(cache=True)
@@ -129,7 +151,7 @@ def _newton(packed, offset, z, a, abar, g, lu, piv, t1, h, par, atol, ct, st, wo
     d = -1.0
     f = np.zeros(z.shape[0])
     for k in range(NEWTON_MAXITER):
-        f, status = _rhs(packed, offset, y1, n, ct, fail_y)
+        f, status = _rhs(packed, offset, t1, y1, n, ct, fail_y)
         if status != -1:
             st[FAIL_T] = t1
             return RHS_FAILED, f

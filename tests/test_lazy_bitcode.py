@@ -92,3 +92,48 @@ def test_a_kernel_compiled_after_loading_links_the_loaded_one():
                          timeout=600)
     assert out.returncode == 0, out.stderr[-3000:]
     assert out.stdout.split("LOADED ", 1)[1].strip() == str(list(expected))
+
+
+def test_an_environment_is_rebuilt_without_importing_its_module():
+    """numba's ``_rebuild_env`` less the import: an imported module's dict, else the name alone; memoized."""
+    from numba.core import environment
+
+    env = lazy_bitcode._rebuild_env("flexmb.kernels.cache", [1.5], "flexmb_test_env_imported")
+    assert env.globals is cache.__dict__ and list(env.consts) == [1.5]
+    assert environment.lookup_environment("flexmb_test_env_imported") is env
+    env2 = lazy_bitcode._rebuild_env("flexmb_no_such_module", [], "flexmb_test_env_absent")
+    assert env2.globals == {"__name__": "flexmb_no_such_module"} and "flexmb_no_such_module" not in sys.modules
+    assert env2.can_cache() and env2.__reduce__()[1][0] == "flexmb_no_such_module"
+    assert lazy_bitcode._rebuild_env("flexmb_no_such_module", [], "flexmb_test_env_absent") is env2
+
+
+#: in a new process: B1 N = 8 simulated; which of numba's modules its loaded kernels' environments name it imported
+ENV_MODULES = r"""
+import json, sys
+sys.path.insert(0, {bench!r})
+import flexmb as fm
+from flexmb.kernels import compiling
+from scenes import b1
+res = fm.simulate(b1(8).build(), 0.01, method="CVODE_BDF", n_out=2, progress=False)
+assert res.status == "finished", res.status
+print(json.dumps({{"compiled": compiling.compile_seconds() > 0, "tip": res.shape("beam")[-1, -1].tolist(),
+                  "imported": [m for m in {modules!r} if m in sys.modules]}}))
+"""
+
+
+def test_a_run_with_a_warm_cache_imports_none_of_the_environments_modules():
+    """Loading the kernels imports no numba module only for its environments (numba.np.arrayobj, linalg, npyimpl)."""
+    import json
+
+    bench = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "benchmarks")
+    modules = ["numba.np.arrayobj", "numba.np.linalg", "numba.np.npyimpl", "numba.cpython.unicode"]
+    env = {k: val for k, val in os.environ.items() if k != "NUMBA_DISABLE_JIT"}
+    runs = []
+    for _ in range(2):  # the first may compile (kernels edited on a branch): the second loads
+        out = subprocess.run([sys.executable, "-c", ENV_MODULES.format(bench=bench, modules=modules)],
+                             capture_output=True, text=True, env=dict(env, OPENBLAS_NUM_THREADS="1"), timeout=900)
+        assert out.returncode == 0, out.stderr[-3000:]
+        runs.append(json.loads(out.stdout.strip().splitlines()[-1]))
+    assert not runs[1]["compiled"]
+    assert runs[1]["imported"] == []
+    assert runs[0]["tip"] == runs[1]["tip"]

@@ -280,6 +280,13 @@ class KernelCache(FunctionCache):
             self._discard()
             return None
 
+    def _load_overload(self, sig, target_context):
+        """numba's load from the locator's folder, the entry read by :func:`.lazy_bitcode.load_entry`."""
+        if not self._enabled:
+            return None
+        data = lazy_bitcode.load_entry(self._cache_file, self._index_key(sig, target_context.codegen()))
+        return None if data is None else self._impl.rebuild(target_context, data)
+
     def _load_shipped(self, sig, target_context):
         """This signature's machine code from the shipped entries (:mod:`flexmb.kernels.prebuilt`), or None."""
         if not self._enabled:
@@ -294,7 +301,7 @@ class KernelCache(FunctionCache):
                 target_context.refresh()
             else:
                 _ready_to_load(target_context)
-            data = entry.load(self._index_key(sig, _Baseline(magic)))
+            data = lazy_bitcode.load_entry(entry, self._index_key(sig, _Baseline(magic)))
             return None if data is None else self._impl.rebuild(target_context, data)
         except Exception:  # noqa: BLE001 - a shipped entry that cannot be read is a miss, never an error
             return None

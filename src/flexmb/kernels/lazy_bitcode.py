@@ -20,17 +20,33 @@ the cost of loading the kernels (``benchmarks/startup.py --breakdown``,
 
 Entries it cannot treat so (not object code, object code that is not ELF,
 another codegen's library class) are loaded by numba's own code.
+
+:func:`load_entry` reads an entry's payload as numba does (``pickle``), with
+one difference: the environments of the numba functions linked into the
+kernel (numba's ``np.empty``, array and math implementations, ...) are
+rebuilt without importing the modules that define them
+(``numba.np.arrayobj``, ``numba.np.linalg``, ``numba.np.npyimpl``, ...: a
+large part of a short run's first load). numba's loader imports each module
+only to keep its dictionary as the environment's ``globals``, which only
+object-mode code reads; flexmb's kernels and the numba functions they call
+are nopython code, which reads an environment's constants only. Where the
+module is imported already its dictionary is used, as numba does; else the
+environment's globals hold the module's name alone (what numba's
+``Environment.__reduce__`` and ``can_cache`` read).
 """
 
 from __future__ import annotations
 
+import io
+import pickle
 import struct
+import sys
 
 from llvmlite import binding as ll
-from numba.core import compiler
+from numba.core import compiler, environment
 from numba.core.codegen import JITCodeLibrary
 
-__all__ = ["LazyLinkLibrary", "rebuild", "elf_defined_symbols"]
+__all__ = ["LazyLinkLibrary", "rebuild", "elf_defined_symbols", "load_entry"]
 
 #: ELF symbol types that name no function or variable (STT_SECTION, STT_FILE)
 _NO_SYMBOL_TYPES = (3, 4)
@@ -146,3 +162,52 @@ def rebuild(target_context, libdata, fndesc, env, signature, objectmode, lifted,
     for referenced in referenced_envs:
         codegen.set_env(referenced.env_name, referenced)
     return cres
+
+
+def _rebuild_env(modname, consts, env_name):
+    """numba's ``environment._rebuild_env`` without importing ``modname`` where it is not imported yet."""
+    env = environment.lookup_environment(env_name)
+    if env is not None:
+        return env
+    module = sys.modules.get(modname)
+    env = environment.Environment(module.__dict__ if module is not None else {"__name__": modname})
+    env.consts[:] = consts
+    env.env_name = env_name
+    environment.Environment._memo[env_name] = env
+    return env
+
+
+class _EntryUnpickler(pickle.Unpickler):
+    """numba's cache payload, its environments rebuilt by :func:`_rebuild_env`."""
+
+    def find_class(self, module, name):
+        if module == "numba.core.environment" and name == "_rebuild_env":
+            return _rebuild_env
+        return super().find_class(module, name)
+
+
+def load_entry(cache_file, key):
+    """The payload of ``key`` in a numba index-and-data file (``IndexDataCacheFile.load``), its environments lazy.
+
+    Parameters
+    ----------
+    cache_file : IndexDataCacheFile
+        numba's index and data files of one kernel.
+    key : tuple
+        The index key (signature, codegen key, code hashes).
+
+    Returns
+    -------
+    tuple or None
+        The payload for :func:`rebuild`, None where the index has no such
+        entry or its data file is gone.
+    """
+    data_name = cache_file._load_index().get(key)
+    if data_name is None:
+        return None
+    try:
+        with open(cache_file._data_path(data_name), "rb") as f:
+            data = f.read()
+    except OSError:  # removed while the index still names it (numba's loader: a miss)
+        return None
+    return _EntryUnpickler(io.BytesIO(data)).load()

@@ -219,16 +219,14 @@ def _ready_to_load(target_context) -> None:
     loading all the kernels of a run (``benchmarks/startup.py --breakdown``).
     Machine code read from the cache needs only the symbols it may call:
     numba's C helpers and the C math functions (installed when the context
-    is created), the runtime's allocation functions (``rtsys.initialize``)
-    and the hash secrets (installed by ``numba.cpython.hashing`` on import).
-    A compilation in the same process (a miss) still refreshes the context
-    fully, as numba's compiler does before every compilation.
+    is created) and the runtime's C functions
+    (:func:`.lazy_bitcode.runtime_symbols`); an entry that also uses the
+    runtime's compiled functions or the hash secrets gets them at its load
+    (:func:`.lazy_bitcode.rebuild`). A compilation in the same process (a
+    miss) still refreshes the context fully, as numba's compiler does before
+    every compilation.
     """
-    from numba.core.runtime import rtsys
-
-    import numba.cpython.hashing  # noqa: F401 - installs the hash secrets' symbols
-
-    rtsys.initialize(target_context)
+    lazy_bitcode.runtime_symbols()
 
 
 class _Baseline:

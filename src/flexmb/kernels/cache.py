@@ -244,7 +244,8 @@ class KernelCache(FunctionCache):
 
     A load tries the shipped entries first (:mod:`flexmb.kernels.prebuilt`,
     keyed by the baseline CPU's codegen key instead of this process's), then
-    the locator's folder; a save goes to the locator's folder only.
+    the locator's folder; a save goes to the locator's folder only. The
+    locator is chosen at the cache's first use (:meth:`__getattr__`).
 
     Parameters
     ----------
@@ -259,8 +260,21 @@ class KernelCache(FunctionCache):
     _impl_class = _KernelCacheImpl
 
     def __init__(self, py_func, full_refresh: bool = False):
-        super().__init__(py_func)
+        self._lazy_py_func = py_func  # located at the first use: most kernels are never loaded in a run
         self._full_refresh = full_refresh
+
+    def __getattr__(self, name):
+        """numba's attributes (``_impl``, ``_cache_file``, ``_enabled``, ...): the cache located at the first read.
+
+        numba's ``Cache.__init__`` chooses the locator and checks its folder
+        by writing a temporary file there: done per kernel at the first load
+        or save, not for every kernel at import.
+        """
+        py_func = self.__dict__.pop("_lazy_py_func", None)
+        if py_func is None or name.startswith("__"):
+            raise AttributeError(name)
+        super().__init__(py_func)
+        return getattr(self, name)
 
     def load_overload(self, sig, target_context):
         shipped = self._load_shipped(sig, target_context)

@@ -226,3 +226,28 @@ def test_an_entry_using_the_runtimes_compiled_functions_or_hash_secrets_gets_the
     env = {k: val for k, val in os.environ.items() if k != "NUMBA_DISABLE_JIT"}
     out = subprocess.run([sys.executable, "-c", READY_FOR], capture_output=True, text=True, env=env, timeout=300)
     assert out.returncode == 0 and out.stdout.strip() == "OK", out.stderr[-3000:]
+
+
+#: in a new process: a kernel loaded from the cache; each environment its entry names is at its global's address
+ENVS_SET = r"""
+import ctypes
+import numpy as np
+from flexmb.kernels.genalpha import _matvec
+
+_matvec(np.eye(2), np.ones(2))
+assert _matvec.stats.cache_hits, ("compiled, not loaded", _matvec.stats)
+cres = _matvec.overloads[_matvec.signatures[0]]
+engine = cres.target_context.codegen()._engine
+assert cres.referenced_envs
+for env in cres.referenced_envs:
+    assert ctypes.c_void_p.from_address(engine.get_global_value_address(env.env_name)).value == id(env)
+print("ENVS", len(cres.referenced_envs))
+"""
+
+
+def test_a_loaded_kernels_environments_are_at_their_globals():
+    M = np.array([[1.0, 2.0], [3.0, 4.0]])
+    _matvec(M, np.ones(2))  # the entry in a cache the new process reads
+    env = {k: val for k, val in os.environ.items() if k != "NUMBA_DISABLE_JIT"}
+    out = subprocess.run([sys.executable, "-c", ENVS_SET], capture_output=True, text=True, env=env, timeout=600)
+    assert out.returncode == 0 and out.stdout.startswith("ENVS"), out.stderr[-3000:]

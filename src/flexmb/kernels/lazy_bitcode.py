@@ -37,6 +37,7 @@ environment's globals hold the module's name alone (what numba's
 
 from __future__ import annotations
 
+import ctypes
 import io
 import pickle
 import struct
@@ -228,9 +229,33 @@ def rebuild(target_context, libdata, fndesc, env, signature, objectmode, lifted,
         environment=env, entry_point=target_context.get_executable(library, fndesc, env), fndesc=fndesc,
         type_annotation=typeann, signature=signature, objectmode=objectmode, lifted=lifted, typing_error=None,
         call_helper=None, metadata=None, reload_init=reload_init, referenced_envs=referenced_envs)
-    for referenced in referenced_envs:
-        codegen.set_env(referenced.env_name, referenced)
+    _set_envs(codegen, referenced_envs)
     return cres
+
+
+def _set_envs(codegen, envs) -> None:
+    """numba's ``codegen.set_env`` for each environment, LLVM's lock taken once for all of them.
+
+    An entry names the environments of all the numba functions linked into
+    it (a hundred or more for the right-hand side); numba looks each one's
+    address up by its own call into LLVM, and every such call takes and
+    releases llvmlite's lock, whose callbacks broadcast numba's
+    ``numba:llvm_lock`` events (timed during a compilation or load). Here
+    the lookups run inside one hold of the lock; where this llvmlite's
+    binding does not have the expected shape, numba's own ``set_env`` does
+    them.
+    """
+    try:
+        lookup = ll.ffi.lib.LLVMPY_GetGlobalValueAddress._cfn
+        lock, engine = ll.ffi.lib._lock, codegen._engine._ee
+    except AttributeError:
+        for env in envs:
+            codegen.set_env(env.env_name, env)
+        return
+    with lock:
+        for env in envs:
+            address = lookup(engine, env.env_name.encode("ascii"))
+            (ctypes.c_void_p * 1).from_address(address)[0] = id(env)
 
 
 def _rebuild_env(modname, consts, env_name):

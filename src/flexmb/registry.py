@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import importlib
 import importlib.metadata
+import itertools
 import re
 import threading
 from collections.abc import Mapping
@@ -194,8 +195,12 @@ def _read(kind: str) -> dict[str, list[_Entry]]:
     table: dict[str, list[_Entry]] = {}
     flexmb_seen = False
     if not _scanned:  # every kind's group in one read (each read parses every distribution's entry points)
+        _scanned.update({f"flexmb.{k}": [] for k in KINDS})
         found = importlib.metadata.entry_points()
-        _scanned.update({f"flexmb.{k}": list(found.select(group=f"flexmb.{k}")) for k in KINDS})
+        # Python 3.11 gives a dict of groups (its dict interface otherwise warns), later versions the entry points
+        for ep in itertools.chain.from_iterable(dict.values(found)) if isinstance(found, dict) else found:
+            if ep.group in _scanned:
+                _scanned[ep.group].append(ep)
     for ep in _scanned[f"flexmb.{kind}"]:
         dist_name, dist_version = _name_version(getattr(ep, "dist", None))
         origin = f"{dist_name} {dist_version or '?'}" if dist_name else _UNKNOWN

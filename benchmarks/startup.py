@@ -58,8 +58,13 @@ ones: how many, and their CPU split into the index lookup (reading the
 kernel's index and finding the signature), reading and unpickling the entry,
 rebuilding the machine code (LLVM: parsing the bitcode kept for linking into
 later compilations, of it ``of_it_parse_bitcode_s``, loading the object code,
-resolving its symbols), and numba's target refresh (numba loads its
-compiler's registries before a cache load). Written to ``--breakdown-out``
+resolving its symbols), numba's target refresh (numba loads its
+compiler's registries before a cache load) and numba's runtime compiled
+(``runtime_s``: ``rtsys.initialize``, which flexmb's loader called before
+its first load until session 10). ``n`` counts the loads asked of flexmb's
+kernel cache (shipped entries included); where flexmb reads an entry itself
+(``lazy_bitcode.load_entry``, session 10) its read and unpickling includes
+the index lookup. Written to ``--breakdown-out``
 (default ``benchmarks/results/startup_breakdown.jsonl``, appended).
 """
 
@@ -159,7 +164,7 @@ out["modules_at_import"] = len(sys.modules)
 from numba.core import caching
 from numba.core.base import BaseContext
 loads = {{"n": 0, "index_s": 0.0, "read_unpickle_s": 0.0, "rebuild_s": 0.0, "of_it_parse_bitcode_s": 0.0,
-          "refresh_s": 0.0}}
+          "refresh_s": 0.0, "runtime_s": 0.0}}
 def timed(key, f):
     def wrapper(*a, **k):
         t = time.process_time()
@@ -171,17 +176,21 @@ def timed(key, f):
 caching.IndexDataCacheFile._load_index = timed("index_s", caching.IndexDataCacheFile._load_index)
 caching.IndexDataCacheFile._load_data = timed("read_unpickle_s", caching.IndexDataCacheFile._load_data)
 caching.CompileResultCacheImpl.rebuild = timed("rebuild_s", caching.CompileResultCacheImpl.rebuild)
-from flexmb.kernels import cache as flexmb_cache
+from flexmb.kernels import cache as flexmb_cache, lazy_bitcode
 if "rebuild" in vars(flexmb_cache._KernelCacheImpl):  # flexmb's own rebuild (the bitcode parsed lazily)
     flexmb_cache._KernelCacheImpl.rebuild = timed("rebuild_s", flexmb_cache._KernelCacheImpl.rebuild)
+if hasattr(lazy_bitcode, "load_entry"):  # flexmb's own read of an entry (session 10)
+    lazy_bitcode.load_entry = timed("read_unpickle_s", lazy_bitcode.load_entry)
 BaseContext.refresh = timed("refresh_s", BaseContext.refresh)
+from numba.core.runtime import rtsys
+type(rtsys).initialize = timed("runtime_s", type(rtsys).initialize)  # numba's runtime compiled
 from llvmlite import binding as ll
 ll.parse_bitcode = timed("of_it_parse_bitcode_s", ll.parse_bitcode)
-count = caching.Cache._load_overload
+count = flexmb_cache.KernelCache.load_overload
 def counted(self, *a, **k):
     loads["n"] += 1
     return count(self, *a, **k)
-caching.Cache._load_overload = counted
+flexmb_cache.KernelCache.load_overload = counted
 
 from scenes import b1
 def run():

@@ -236,3 +236,16 @@ def test_two_processes_compiling_into_one_cold_cache_both_finish(shared_tmp):
     assert again.returncode == 0 and "RESULT 10.0" in again.stdout, again.stderr[-2000:]
     saved = [f for _, _, files in os.walk(cache_dir) for f in files]
     assert sum(f.endswith(".nbi") for f in saved) == 2 and not any(".tmp." in f for f in saved), saved
+
+
+def test_a_kernels_cache_is_located_at_its_first_use():
+    """Making a kernel's cache chooses no folder (numba writes a probe file there): its first use does."""
+    def probe(x):
+        return x
+
+    kc = cache.KernelCache(probe)
+    assert "_impl" not in vars(kc) and "_cache_file" not in vars(kc)
+    assert kc._impl.locator.get_cache_path() == kc._cache_path  # the first read locates it
+    assert kc._enabled and "_lazy_py_func" not in vars(kc)
+    with pytest.raises(AttributeError):
+        kc.no_such_attribute

@@ -41,9 +41,16 @@ CONTACT_CONSTRAINT_POST = ["flexmb.forces.contact_base", "flexmb.forces.contact"
                            "flexmb.post.joint_loads", "flexmb.post.motion", "flexmb.post.sections"]
 NOT_AT_IMPORT += CONTACT_CONSTRAINT_POST
 
+#: the kernels of closed loops (and of cut joints' rows): imported by neither ``import flexmb`` nor a run of an open
+#: tree (``flexmb.system`` and ``flexmb.constraints`` name them through ``flexmb._lazy.LazyModule``)
+LOOP_KERNELS = ["flexmb.kernels.loops", "flexmb.kernels.constrained", "flexmb.kernels.constraint_matrix",
+                "flexmb.kernels.loop_projection", "flexmb.kernels.loop_statics", "flexmb.kernels.loop_layout",
+                "flexmb.kernels.equations", "flexmb.kernels.constraints"]
+NOT_AT_IMPORT += LOOP_KERNELS
+
 #: never imported by building and simulating a model (the integrators are)
 NOT_IN_A_RUN = ["matplotlib", "meshio", "dask", "pyvista", "flexmb.analysis", "flexmb.study", "flexmb.scene",
-                "flexmb.viz", "flexmb.export", *CONTACT_CONSTRAINT_POST]
+                "flexmb.viz", "flexmb.export", *CONTACT_CONSTRAINT_POST, *LOOP_KERNELS]
 
 BENCH = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "benchmarks")
 

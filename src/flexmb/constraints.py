@@ -16,7 +16,10 @@ from typing import NamedTuple
 import numpy as np
 
 from .errors import ModelError
-from .kernels.constraints import cut_rows
+from ._lazy import LazyModule
+
+#: the cut joints' rows, compiled, imported at a model with loops' first evaluation
+_constraints = LazyModule("flexmb.kernels.constraints")
 
 __all__ = ["Constraints", "ConstraintRows"]
 
@@ -261,9 +264,9 @@ class Constraints:
         """
         n = kin.xd.shape[0]
         topo = self.topology
-        phi_c, psi_c, gamma_c = cut_rows(level, n, kin.R, kin.origin, kin.r, kin.omega, kin.v, kin.alpha_bias,
-                                         kin.a_bias, kin.Sw, kin.Sv, topo.parent, topo.coord_start, *self.pt,
-                                         *self.dr, *self.pp)
+        phi_c, psi_c, gamma_c = _constraints.cut_rows(level, n, kin.R, kin.origin, kin.r, kin.omega, kin.v,
+                                                      kin.alpha_bias, kin.a_bias, kin.Sw, kin.Sv, topo.parent,
+                                                      topo.coord_start, *self.pt, *self.dr, *self.pp)
         phis, psis, bs, gammas = [phi_c], [psi_c], [np.zeros(phi_c.shape[0])], [gamma_c]
         if self.elements:
             e = self.element_rows(kin)

@@ -7,9 +7,9 @@ an entry-point group ``flexmb.<kind>``: ``flexmb.bodies``, ``flexmb.joints``, ``
 party adds a plugin by declaring an entry point in its own ``pyproject.toml``;
 a script adds one for the current session with :func:`register`.
 
-The groups are read lazily, once per session and kind, on the first lookup
-(:func:`refresh` re-reads them), and a plugin is imported only when it is
-looked up or listed. A plugin that fails to import, or that is not a subclass
+The groups are read lazily, all of them in one pass over the installed
+distributions per session, on the first lookup (:func:`refresh` re-reads
+them), and a plugin is imported only when it is looked up or listed. A plugin that fails to import, or that is not a subclass
 of its kind's base class, is reported by a :class:`~flexmb.errors.PluginError`
 naming it, its distribution and the cause, without disturbing the other
 plugins. A name claimed by two distributions is an error too: looking it up
@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import importlib
 import importlib.metadata
+import itertools
 import re
 import threading
 from collections.abc import Mapping
@@ -114,6 +115,7 @@ class _Entry:
 
 _lock = threading.RLock()
 _groups: dict[str, dict[str, list[_Entry]]] = {}
+_scanned: dict[str, list] = {}  # entry-point group -> its entry points, from the session's one read
 _session: dict[str, dict[str, _Entry]] = {}
 
 
@@ -192,7 +194,14 @@ def _read(kind: str) -> dict[str, list[_Entry]]:
     """
     table: dict[str, list[_Entry]] = {}
     flexmb_seen = False
-    for ep in importlib.metadata.entry_points(group=f"flexmb.{kind}"):
+    if not _scanned:  # every kind's group in one read (each read parses every distribution's entry points)
+        _scanned.update({f"flexmb.{k}": [] for k in KINDS})
+        found = importlib.metadata.entry_points()
+        # Python 3.11 gives a dict of groups (its dict interface otherwise warns), later versions the entry points
+        for ep in itertools.chain.from_iterable(dict.values(found)) if isinstance(found, dict) else found:
+            if ep.group in _scanned:
+                _scanned[ep.group].append(ep)
+    for ep in _scanned[f"flexmb.{kind}"]:
         dist_name, dist_version = _name_version(getattr(ep, "dist", None))
         origin = f"{dist_name} {dist_version or '?'}" if dist_name else _UNKNOWN
         flexmb_seen |= _normalize(dist_name) == "flexmb"
@@ -460,6 +469,7 @@ def refresh() -> None:
     """
     with _lock:
         _groups.clear()
+        _scanned.clear()
         _dists.clear()
 
 

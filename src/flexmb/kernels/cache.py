@@ -219,16 +219,14 @@ def _ready_to_load(target_context) -> None:
     loading all the kernels of a run (``benchmarks/startup.py --breakdown``).
     Machine code read from the cache needs only the symbols it may call:
     numba's C helpers and the C math functions (installed when the context
-    is created), the runtime's allocation functions (``rtsys.initialize``)
-    and the hash secrets (installed by ``numba.cpython.hashing`` on import).
-    A compilation in the same process (a miss) still refreshes the context
-    fully, as numba's compiler does before every compilation.
+    is created) and the runtime's C functions
+    (:func:`.lazy_bitcode.runtime_symbols`); an entry that also uses the
+    runtime's compiled functions or the hash secrets gets them at its load
+    (:func:`.lazy_bitcode.rebuild`). A compilation in the same process (a
+    miss) still refreshes the context fully, as numba's compiler does before
+    every compilation.
     """
-    from numba.core.runtime import rtsys
-
-    import numba.cpython.hashing  # noqa: F401 - installs the hash secrets' symbols
-
-    rtsys.initialize(target_context)
+    lazy_bitcode.runtime_symbols()
 
 
 class _Baseline:
@@ -246,7 +244,8 @@ class KernelCache(FunctionCache):
 
     A load tries the shipped entries first (:mod:`flexmb.kernels.prebuilt`,
     keyed by the baseline CPU's codegen key instead of this process's), then
-    the locator's folder; a save goes to the locator's folder only.
+    the locator's folder; a save goes to the locator's folder only. The
+    locator is chosen at the cache's first use (:meth:`__getattr__`).
 
     Parameters
     ----------
@@ -261,8 +260,21 @@ class KernelCache(FunctionCache):
     _impl_class = _KernelCacheImpl
 
     def __init__(self, py_func, full_refresh: bool = False):
-        super().__init__(py_func)
+        self._lazy_py_func = py_func  # located at the first use: most kernels are never loaded in a run
         self._full_refresh = full_refresh
+
+    def __getattr__(self, name):
+        """numba's attributes (``_impl``, ``_cache_file``, ``_enabled``, ...): the cache located at the first read.
+
+        numba's ``Cache.__init__`` chooses the locator and checks its folder
+        by writing a temporary file there: done per kernel at the first load
+        or save, not for every kernel at import.
+        """
+        py_func = self.__dict__.pop("_lazy_py_func", None)
+        if py_func is None or name.startswith("__"):
+            raise AttributeError(name)
+        super().__init__(py_func)
+        return getattr(self, name)
 
     def load_overload(self, sig, target_context):
         shipped = self._load_shipped(sig, target_context)
@@ -280,6 +292,13 @@ class KernelCache(FunctionCache):
             self._discard()
             return None
 
+    def _load_overload(self, sig, target_context):
+        """numba's load from the locator's folder, the entry read by :func:`.lazy_bitcode.load_entry`."""
+        if not self._enabled:
+            return None
+        data = lazy_bitcode.load_entry(self._cache_file, self._index_key(sig, target_context.codegen()))
+        return None if data is None else self._impl.rebuild(target_context, data)
+
     def _load_shipped(self, sig, target_context):
         """This signature's machine code from the shipped entries (:mod:`flexmb.kernels.prebuilt`), or None."""
         if not self._enabled:
@@ -294,7 +313,7 @@ class KernelCache(FunctionCache):
                 target_context.refresh()
             else:
                 _ready_to_load(target_context)
-            data = entry.load(self._index_key(sig, _Baseline(magic)))
+            data = lazy_bitcode.load_entry(entry, self._index_key(sig, _Baseline(magic)))
             return None if data is None else self._impl.rebuild(target_context, data)
         except Exception:  # noqa: BLE001 - a shipped entry that cannot be read is a miss, never an error
             return None

@@ -18,12 +18,11 @@ from ..kinematics import Kinematics
 from ..state_layout import StateLayout
 from ..topology import Topology
 from ..forces.tables import class_tables, merge
-from ..kernels.equations import EQUATIONS, ROWS, tree_equations
 from ..kernels.packing import pack
 from .checks import StateChecks
 from .equations import Equations
 from .projection import Projection
-from .quantities import StateQuantities
+from .quantities import StateQuantities, _equations  # the equations' kernels, imported at first use
 from .rates import Rates
 from .loops import LoopSolve
 from .solve import ReducedSolve, _plain
@@ -420,7 +419,8 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         else:
             powers[:] = 0.0
         loads = self._python_loads(t, y, powers)
-        A, f, _, psi, gamma = tree_equations(self._packed, y, self.n_coords, EQUATIONS, powers, *loads)
+        eq = _equations
+        A, f, _, psi, gamma = eq.tree_equations(self._packed, y, self.n_coords, eq.EQUATIONS, powers, *loads)
         if self.constraints.elements:
             rows = self.constraints.element_rows(self._kinematics(t, *self.layout.split(y)))
             psi, gamma = np.vstack((psi, rows.psi)), np.concatenate((gamma, rows.gamma))
@@ -451,8 +451,8 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         """phi, psi and b at a state (all rows: cut joints, elements, then drivers), compiled where it can be."""
         if self._packed is None:
             return self.constraints.evaluate(self._kinematics(t, x, xd), level=1)
-        _, _, phi, psi, _ = tree_equations(self._packed, self.layout.join(x, xd), self.n_coords, ROWS,
-                                           self._no_powers, *self._no_loads)
+        _, _, phi, psi, _ = _equations.tree_equations(self._packed, self.layout.join(x, xd), self.n_coords,
+                                                      _equations.ROWS, self._no_powers, *self._no_loads)
         b = np.zeros(phi.shape[0])
         if self.constraints.elements:
             rows = self.constraints.element_rows(self._kinematics(t, x, xd))

@@ -7,10 +7,13 @@ import numpy as np
 from ..complements.articulated import ArticulatedComplement
 from ..complements.auto import AutoComplement
 from ..errors import AssemblyError
-from ..kernels.loop_layout import loop_layout
-from ..kernels.loop_statics import loop_reactions
-from ..kernels.loops import loop_rhs, loop_speeds
+from .._lazy import LazyModule
 from .solve import _plain
+
+#: the loops' kernels, imported at a model with loops' first use (an open tree needs none of them)
+_layout = LazyModule("flexmb.kernels.loop_layout")
+_statics = LazyModule("flexmb.kernels.loop_statics")
+_loops = LazyModule("flexmb.kernels.loops")
 
 
 class LoopSolve:
@@ -49,7 +52,7 @@ class LoopSolve:
             pp_i, _, pp_j, _ = c.pp
             pairs = [np.repeat(np.stack([pt_i, pt_j], axis=1).reshape(-1, 2), 3, axis=0),
                      np.stack([dr_i, dr_j], axis=1).reshape(-1, 2), np.stack([pp_i, pp_j], axis=1).reshape(-1, 2)]
-            layout = loop_layout(self.topology.arrays.parent, self.topology.arrays.coord_body,
+            layout = _layout.loop_layout(self.topology.arrays.parent, self.topology.arrays.coord_body,
                                  np.concatenate(pairs).astype(np.int64), c.driver_cols)
             self._shared["loop_layout"] = layout
         return layout
@@ -70,9 +73,9 @@ class LoopSolve:
             powers[:] = 0.0
         force, torque, generalized = self._python_loads(t, y, powers)
         gamma_d = np.array([d.acceleration(t) for d in self.constraints.drivers], dtype=float)
-        xdd, lam, kept, _, status = loop_rhs(self._packed, self._loop_layout, y, n, powers, force, torque, generalized,
-                                             gamma_d, self._loop_tol, self.singular_window(),
-                                             -1 if self._rank_limit is None else self._rank_limit)
+        xdd, lam, kept, _, status = _loops.loop_rhs(self._packed, self._loop_layout, y, n, powers, force, torque,
+                                                    generalized, gamma_d, self._loop_tol, self.singular_window(),
+                                                    -1 if self._rank_limit is None else self._rank_limit)
         self.n_complements += 1
         if status:
             x, xd = self.layout.split(y)
@@ -103,9 +106,9 @@ class LoopSolve:
         if xdd is None:
             xdd = self._loop_solve(t, y)
         force, torque, generalized = self._python_loads(t, y, self._no_powers)
-        lam, kept, status = loop_reactions(self._packed, self._loop_layout, y, self.layout.nq, _plain(xdd), force,
-                                           torque, generalized, self._loop_tol,
-                                           -1 if self._rank_limit is None else self._rank_limit)
+        lam, kept, status = _statics.loop_reactions(self._packed, self._loop_layout, y, self.layout.nq, _plain(xdd),
+                                                    force, torque, generalized, self._loop_tol,
+                                                    -1 if self._rank_limit is None else self._rank_limit)
         self.n_complements += 1
         if status in (1, 3):
             raise AssemblyError(self._massless_message(kept, f"at t = {t:.6g} s"))
@@ -126,7 +129,7 @@ class LoopSolve:
 
     def _loop_speeds(self, t, x, xd, b):
         """The mass-orthogonal projection of ``xd`` onto ``psi xd = b`` by the loop kernel (None if A is singular)."""
-        v, _, status = loop_speeds(self._packed, self._loop_layout, _plain(x), _plain(xd), _plain(b),
+        v, _, status = _loops.loop_speeds(self._packed, self._loop_layout, _plain(x), _plain(xd), _plain(b),
                                    self._loop_tol, self.singular_window(),
                                    -1 if self._rank_limit is None else self._rank_limit)
         self.n_complements += 1
@@ -161,10 +164,10 @@ class LoopSolve:
         layout = self._loop_layout
         if not drivers and len(self.constraints.drivers):
             m_cut = self.n_constraints - len(self.constraints.drivers)
-            layout = loop_layout(self.topology.arrays.parent, self.topology.arrays.coord_body, layout.row_body[:m_cut],
-                             np.zeros(0, dtype=np.int64))
+            layout = _layout.loop_layout(self.topology.arrays.parent, self.topology.arrays.coord_body,
+                                         layout.row_body[:m_cut], np.zeros(0, dtype=np.int64))
             gamma_d = np.zeros(0)
-        _, _, kept, smallest, status = loop_rhs(self._packed, layout, y, n, powers, force, torque, generalized,
+        _, _, kept, smallest, status = _loops.loop_rhs(self._packed, layout, y, n, powers, force, torque, generalized,
                                                 gamma_d, self._loop_tol, 0.0, -1)
         if status == 1 and not drivers:  # the cut rows leave a massless freedom free: rank below n
             return None, None

@@ -7,9 +7,12 @@ import numpy as np
 from ..assembly import mass_matrix
 from ..complements.base import PSI_ZERO
 from ..errors import AssemblyError, ModelError
-from ..kernels.loop_projection import loop_min_norm, loop_phi
 from ..kernels.reduced import svd_reduced_solve
+from .._lazy import LazyModule
 from .solve import _plain
+
+#: the loops' projection kernels, imported at a model with loops' first projection
+_projection = LazyModule("flexmb.kernels.loop_projection")
 
 
 class Projection:
@@ -127,10 +130,11 @@ class Projection:
         free = np.ascontiguousarray(free)
         zeros = np.zeros(self.n_speeds)
         for _ in range(max_iter):
-            phi = np.concatenate([loop_phi(packed, layout, x), [x[c] - d.position(t) for d, c in zip(drivers, cols)]])
+            phi = np.concatenate([_projection.loop_phi(packed, layout, x),
+                                  [x[c] - d.position(t) for d, c in zip(drivers, cols)]])
             if np.max(np.abs(phi)) <= tol:
                 break
-            step, _ = loop_min_norm(packed, layout, x, zeros, -phi, free, self._loop_tol, limit)
+            step, _ = _projection.loop_min_norm(packed, layout, x, zeros, -phi, free, self._loop_tol, limit)
             big = np.max(np.abs(step))
             x = self.layout.displace(x, -step * min(1.0, max_step / big) if big > 0 else -step)
         else:
@@ -141,7 +145,7 @@ class Projection:
             v = self._loop_speeds(t, x, xd, b)
             if v is not None:
                 return x, v
-        step, _ = loop_min_norm(packed, layout, x, _plain(xd), b, free, self._loop_tol, limit)
+        step, _ = _projection.loop_min_norm(packed, layout, x, _plain(xd), b, free, self._loop_tol, limit)
         return x, xd - step
 
     def _mass_orthogonal_speeds(self, kin, psi, b, xd, c=None):

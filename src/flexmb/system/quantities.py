@@ -6,8 +6,11 @@ import numpy as np
 
 from ..errors import ModelError
 from ..flexible import FlexibleBody
-from ..kernels.equations import RESIDUALS, tree_equations
+from .._lazy import LazyModule
 from .solve import _plain
+
+#: the compiled equations (a model with loops' residuals), imported at first use
+_equations = LazyModule("flexmb.kernels.equations")
 
 
 class StateQuantities:
@@ -149,8 +152,8 @@ class StateQuantities:
             if not rows.phi.size:
                 return 0.0, 0.0
             return float(np.max(np.abs(rows.phi))), float(np.max(np.abs(rows.psi @ xd - rows.b)))
-        position, velocity = tree_equations(self._packed, self.layout.join(x, xd), self.n_coords, RESIDUALS,
-                                            self._no_powers, *self._no_loads)[2]
+        position, velocity = _equations.tree_equations(self._packed, self.layout.join(x, xd), self.n_coords,
+                                                       _equations.RESIDUALS, self._no_powers, *self._no_loads)[2]
         if self.constraints.elements:
             rows = self.constraints.element_rows(self._kinematics(t, x, xd))
             position = max(position, float(np.max(np.abs(rows.phi), initial=0.0)))

@@ -6,8 +6,11 @@ import numpy as np
 
 from .tangent import NewtonPreconditioner
 from ..kernels.articulated import articulated_accelerations
-from ..kernels.loops import loop_newton_factor, loop_newton_solve
+from .._lazy import LazyModule
 from .solve import _plain
+
+#: the loops' Newton kernels, imported at a model with loops' first use
+_loops = LazyModule("flexmb.kernels.loops")
 
 
 #: open trees (and loops closed by the articulated strategy) with more coordinates estimate their fastest
@@ -140,8 +143,8 @@ class Rates:
         spatial, Sw, Sv, r = pre._state
         zeros = np.zeros((topo.n_bodies + 1, 3))
         limit = -1 if self.rank_limit is None else self.rank_limit
-        factored = loop_newton_factor(self._packed, self._loop_layout, _plain(np.array(x, dtype=float)),
-                                      self._no_armature, self._loop_tol, limit) if self._loop_kernel else None
+        factored = _loops.loop_newton_factor(self._packed, self._loop_layout, _plain(np.array(x, dtype=float)),
+                                             self._no_armature, self._loop_tol, limit) if self._loop_kernel else None
 
         def largest(diag):
             if not np.any(diag):
@@ -149,7 +152,8 @@ class Rates:
 
             def apply(v):
                 if self._loop_kernel:
-                    z, *_ = loop_newton_solve(factored, self._packed, self._loop_layout, _plain(diag * np.ravel(v)))
+                    z, *_ = _loops.loop_newton_solve(factored, self._packed, self._loop_layout,
+                                                     _plain(diag * np.ravel(v)))
                     return z
                 z, _ = articulated_accelerations(topo.parent, topo.coord_start, spatial, Sw, Sv, r, zeros, zeros,
                                                  diag * np.ravel(v), self._no_armature)

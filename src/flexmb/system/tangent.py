@@ -10,7 +10,10 @@ from ..errors import AssemblyError, ModelError
 from ..forces import BodyTorque, Loads, PointForce
 from .solve import _plain
 from ..kernels.articulated import articulated_accelerations, mass_times
-from ..kernels.loops import loop_newton_factor, loop_newton_solve
+from .._lazy import LazyModule
+
+#: the loops' Newton kernels, imported at a model with loops' first use
+_loops = LazyModule("flexmb.kernels.loops")
 
 #: scipy.linalg, imported by the first Newton preconditioner or Jacobian that factors a matrix
 sla = LazyModule("scipy.linalg")
@@ -469,11 +472,11 @@ class LoopNewtonPreconditioner(NewtonPreconditioner):
         system = self.system
         E = gamma * self.stiffness + self.damping
         if self._factored is None or self._factored[0] != gamma:
-            self._factored = (gamma, loop_newton_factor(system._packed, system._loop_layout, self._state, gamma * E,
-                                                        system._loop_tol,
-                                                        -1 if system.rank_limit is None else system.rank_limit))
+            self._factored = (gamma, _loops.loop_newton_factor(system._packed, system._loop_layout, self._state,
+                                                               gamma * E, system._loop_tol,
+                                                               -1 if system.rank_limit is None else system.rank_limit))
         load = _plain(self.stiffness * self._displaced(r1) + E * r2)
-        v, _, _, status = loop_newton_solve(self._factored[1], system._packed, system._loop_layout, load)
+        v, _, _, status = _loops.loop_newton_solve(self._factored[1], system._packed, system._loop_layout, load)
         if status:
             raise AssemblyError("the Newton preconditioner of the loops is singular (a freedom without mass, "
                                 "stiffness or damping that no loop fixes)")
@@ -506,10 +509,11 @@ class LoopNewtonPreconditioner(NewtonPreconditioner):
         system = self.system
         D = c1 * self.damping + c2 * self.stiffness
         if self._factored is None or self._factored[0] != (c1, c2):  # made once per set-up and coefficients
-            self._factored = ((c1, c2), loop_newton_factor(system._packed, system._loop_layout, self._state, D,
-                                                           system._loop_tol,
-                                                           -1 if system.rank_limit is None else system.rank_limit))
-        v, _, _, status = loop_newton_solve(self._factored[1], system._packed, system._loop_layout, _plain(D * r))
+            limit = -1 if system.rank_limit is None else system.rank_limit
+            self._factored = ((c1, c2), _loops.loop_newton_factor(system._packed, system._loop_layout, self._state, D,
+                                                                  system._loop_tol, limit))
+        v, _, _, status = _loops.loop_newton_solve(self._factored[1], system._packed, system._loop_layout,
+                                                   _plain(D * r))
         if status:
             raise AssemblyError("the Newton preconditioner of the loops is singular (a freedom without mass, "
                                 "stiffness or damping that no loop fixes)")

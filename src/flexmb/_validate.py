@@ -9,6 +9,8 @@ functions, where no attrs validator runs (:func:`positive_value`,
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .errors import ModelError
@@ -68,6 +70,10 @@ def positive_value(where: str, what: str, value) -> float:
     return f
 
 
+#: the types :func:`number` takes without asking numpy (Python's own numbers, not bool)
+_PLAIN = (float, int)
+
+
 def number(where: str, what: str, value, *, finite: bool = True, minimum: float | None = None,
            maximum: float | None = None, strict: bool = True) -> float:
     """``float(value)`` for a number argument within bounds, else a :class:`ModelError` naming it.
@@ -101,12 +107,13 @@ def number(where: str, what: str, value, *, finite: bool = True, minimum: float 
         ``where: what must be ..., got value``.
     """
     try:
-        if isinstance(value, (str, bytes, complex, np.complexfloating)) or np.ndim(value) != 0:
+        if type(value) not in _PLAIN and (isinstance(value, (str, bytes, complex, np.complexfloating))
+                                          or np.ndim(value) != 0):
             raise TypeError
         f = float(value)
     except (TypeError, ValueError, OverflowError):
         raise ModelError(f"{where}: {what} must be a number, got {_short(value)}") from None
-    if isinstance(value, (bool, np.bool_)) or np.isnan(f) or (finite and not np.isfinite(f)):
+    if isinstance(value, (bool, np.bool_)) or math.isnan(f) or (finite and not math.isfinite(f)):
         raise ModelError(f"{where}: {what} must be a finite number, got {_short(value)}")
     low = minimum is not None and not (f > minimum if strict else f >= minimum)
     high = maximum is not None and not (f < maximum if strict else f <= maximum)

@@ -73,8 +73,15 @@ def compiled_jacobian(system) -> bool:
     -------
     bool
         True if the run's CVODE takes the compiled Jacobian (a C callback)
-        instead of the Python one.
+        instead of the Python one (worked out once per System: :mod:`flexmb.run_memo`).
     """
+    from ..run_memo import once
+
+    return once(system, "compiled_jacobian", lambda: _tangent_compiled(system))
+
+
+def _tangent_compiled(system) -> bool:
+    """:func:`compiled_jacobian`, worked out."""
     from ..forces import BodyTorque, PointForce
 
     kin = system.kinematics(0.0, system.layout.reference(), np.zeros(system.n_speeds))
@@ -217,30 +224,42 @@ class DirectCVODE:
                              "with qd = u")
 
     def _user_data(self, system, nonfinite_flag):
-        from ..system.tangent import NewtonPreconditioner
+        from ..run_memo import once
 
-        cb, S, n, nb = self._cb, self._S, self.n, system.topology.n_bodies
+        cb, n, nb = self._cb, self.n, system.topology.n_bodies
+        ud, K, C = once(system, ("direct_cvode_ud", self.m), lambda: self._shared_user_data(system))
+        ud = ud.copy()
+        sizes = ((cb.A_SPATIAL, "spatial", nb * 36), (cb.A_SW, "Sw", n * 3), (cb.A_SV, "Sv", n * 3),
+                 (cb.A_R, "r", (nb + 1) * 3), (cb.A_FAIL_T, "fail_t", 1), (cb.A_FAIL_Y, "fail_y", self.m),
+                 (cb.A_WORK, "work", cb.work_size(nb, n, self.m)))
+        buffer = np.zeros(sum(size for _, _, size in sizes))  # one allocation, seen as the callbacks' arrays
+        base, start, arrays = buffer.ctypes.data, 0, {}
+        for slot, key, size in sizes:
+            arrays[key], ud[slot], start = buffer[start:start + size], base + 8 * start, start + size
         fl, it, fg, ix = system._packed_open
-        K, C = NewtonPreconditioner.diagonal_terms(system)
-        self._arrays = arrays = dict(fl=fl, it=it, fg=fg, ix=ix, K=np.ascontiguousarray(K, float),
-                                     C=np.ascontiguousarray(C, float), spatial=np.zeros(nb * 36),
-                                     Sw=np.zeros(n * 3), Sv=np.zeros(n * 3), r=np.zeros((nb + 1) * 3),
-                                     fail_t=np.zeros(1), fail_y=np.zeros(self.m), offset=self._offset,
-                                     work=np.zeros(cb.work_size(nb, n, self.m)))
-        ud = np.zeros(cb.UD_SIZE, dtype=np.int64)
-        ud[cb.A_GETPTR], ud[cb.N], ud[cb.M], ud[cb.NB] = _addr(S.N_VGetArrayPointer), n, self.m, nb
-        ud[cb.A_MATDATA] = _addr(S.SUNDenseMatrix_Data)
-        for slot, size, key in ((cb.A_FL, cb.N_FL, "fl"), (cb.A_IT, cb.N_IT, "it"), (cb.A_FG, cb.N_FG, "fg")):
-            ud[slot], ud[size] = arrays[key].ctypes.data, arrays[key].size
-        ud[cb.A_IX], ud[cb.N_IX] = ix.ctypes.data, ix.shape[0]
-        for slot, key in ((cb.A_K, "K"), (cb.A_C, "C"), (cb.A_SPATIAL, "spatial"), (cb.A_SW, "Sw"), (cb.A_SV, "Sv"),
-                          (cb.A_R, "r"), (cb.A_FAIL_T, "fail_t"), (cb.A_FAIL_Y, "fail_y")):
-            ud[slot] = arrays[key].ctypes.data
-        ud[cb.A_WORK], ud[cb.N_WORK] = arrays["work"].ctypes.data, arrays["work"].size
+        self._arrays = dict(fl=fl, it=it, fg=fg, ix=ix, K=K, C=C, offset=self._offset, **arrays)
+        ud[cb.N_WORK] = arrays["work"].size
         if self._offset is not None:
             ud[cb.A_OFFSET], ud[cb.HAS_OFFSET] = self._offset.ctypes.data, 1
         ud[cb.STATUS], ud[cb.NONFINITE_FLAG] = -1, nonfinite_flag
         return ud
+
+    def _shared_user_data(self, system):
+        """The callbacks' user data that depends on the System alone, with the K and C it points to (read-only)."""
+        from ..system.tangent import NewtonPreconditioner
+
+        cb, S, n, nb = self._cb, self._S, self.n, system.topology.n_bodies
+        fl, it, fg, ix = system._packed_open
+        K, C = (np.array(v, dtype=float) for v in NewtonPreconditioner.diagonal_terms(system))
+        K.flags.writeable = C.flags.writeable = False
+        ud = np.zeros(cb.UD_SIZE, dtype=np.int64)
+        ud[cb.A_GETPTR], ud[cb.N], ud[cb.M], ud[cb.NB] = _addr(S.N_VGetArrayPointer), n, self.m, nb
+        ud[cb.A_MATDATA] = _addr(S.SUNDenseMatrix_Data)
+        for slot, size, array in ((cb.A_FL, cb.N_FL, fl), (cb.A_IT, cb.N_IT, it), (cb.A_FG, cb.N_FG, fg)):
+            ud[slot], ud[size] = array.ctypes.data, array.size
+        ud[cb.A_IX], ud[cb.N_IX] = ix.ctypes.data, ix.shape[0]
+        ud[cb.A_K], ud[cb.A_C] = K.ctypes.data, C.ctypes.data
+        return ud, K, C
 
     def _setup(self, rtol, atol, krylov, max_step, first_step):
         """CVODE's options in scikit-sundae's order, as flexmb's CVODE_BDF gives them."""

@@ -1,0 +1,104 @@
+"""What a run works out from its System and settings alone, kept for the next run on the same System.
+
+A :func:`flexmb.simulate` call on a small model spends much of its time
+on work that depends only on the System (the diagonal coordinate springs
+the Newton preconditioner reads, whether the compiled Jacobian covers the
+model's tangent) or on the System and the run's settings and initial
+state (which integrator ``method='auto'`` takes, whether the model has a
+Jacobian to give CVODE). :func:`once` keeps the first kind for the
+System's lifetime; :func:`last` keeps the latest value of the second kind
+with the arguments it was worked out from, and works it out again when
+they differ (a new initial state, other tolerances). Either returns the
+very value the work would give: force elements are frozen and a System
+keeps its tables, so the same arguments give the same result.
+
+The values are held per System object (a weak reference: a System that
+is dropped takes its values with it); a copy of a System (another
+complement strategy, a calibrated copy) starts without any.
+"""
+
+from __future__ import annotations
+
+import weakref
+
+import numpy as np
+
+__all__ = ["once", "last", "state_key"]
+
+_MEMO: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+
+
+def _table(system) -> dict:
+    table = _MEMO.get(system)
+    if table is None:
+        table = _MEMO[system] = {}
+    return table
+
+
+def once(system, what, make):
+    """``make()`` the first time ``what`` is asked of ``system``; the same value after.
+
+    Parameters
+    ----------
+    system : System
+        The model the value depends on (and nothing else).
+    what : hashable
+        The value's name.
+    make : callable
+        ``make()`` works it out.
+
+    Returns
+    -------
+    object
+        The value (the same object on every call: treat it as read-only).
+    """
+    table = _table(system)
+    try:
+        return table[what]
+    except KeyError:
+        value = table[what] = make()
+        return value
+
+
+def last(system, what, key, make):
+    """``make()``, unless the last call for ``what`` on ``system`` had an equal ``key``: then its value.
+
+    Parameters
+    ----------
+    system : System
+        The model.
+    what : hashable
+        The value's name.
+    key : hashable
+        Everything else the value depends on (:func:`state_key` for arrays).
+    make : callable
+        ``make()`` works it out.
+
+    Returns
+    -------
+    object
+        The value.
+    """
+    table = _table(system)
+    held = table.get(("last", what))
+    if held is not None and held[0] == key:
+        return held[1]
+    value = make()
+    table[("last", what)] = (key, value)
+    return value
+
+
+def state_key(*values) -> tuple:
+    """A hashable key of floats and float arrays, equal exactly when their values are (to the bit).
+
+    Parameters
+    ----------
+    *values : float or ndarray
+        The arguments a value depends on.
+
+    Returns
+    -------
+    tuple
+    """
+    return tuple((v.dtype.str, v.shape, v.tobytes()) if isinstance(v, np.ndarray)
+                 else float(v).hex() if isinstance(v, (float, np.floating)) else (type(v), v) for v in values)

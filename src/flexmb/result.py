@@ -250,7 +250,8 @@ class Result(ResultPost):
             what = f"{n} finite coordinates" if nq == n else f"{nq} finite coordinates and {n} speeds"
             raise FlexmbError(f"x and xd must hold {what} per state, got shapes {X.shape}, {XD.shape}")
         nt = len(X)
-        at = np.broadcast_to(np.asarray(t, dtype=float), (nt,)).copy()
+        at = (np.array(t, dtype=float) if isinstance(t, np.ndarray) and t.shape == (nt,)  # (the same, quicker)
+              else np.broadcast_to(np.asarray(t, dtype=float), (nt,)).copy())
         if not np.all(np.isfinite(at)):
             raise ModelError(f"Result.from_states: the times must be finite, got {t!r}")
         times = at + np.arange(nt) if np.ndim(t) == 0 else at

@@ -99,6 +99,7 @@ def state_key(*values) -> tuple:
     Returns
     -------
     tuple
+        One entry per value: an array's dtype, shape and bytes, a float's hex form, else the value with its type.
     """
     return tuple((v.dtype.str, v.shape, v.tobytes()) if isinstance(v, np.ndarray)
                  else float(v).hex() if isinstance(v, (float, np.floating)) else (type(v), v) for v in values)

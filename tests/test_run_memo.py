@@ -62,7 +62,7 @@ def test_other_settings_are_worked_out_again():
     _same(moved, fm.simulate(scenes.b1(8).build(), 1.0, positions={system.coordinate_names[0]: 0.2}, **kw))
 
 
-def test_last_keeps_one_value_per_name_and_state_keys_tell_bits_apart():
+def test_last_keeps_the_latest_values_and_state_keys_tell_bits_apart():
     system = type("Holder", (), {})()  # any object a weak reference can point to
     calls = []
 
@@ -70,10 +70,15 @@ def test_last_keeps_one_value_per_name_and_state_keys_tell_bits_apart():
         calls.append(v)
         return v
 
-    assert run_memo.last(system, "a", run_memo.state_key(0.0), lambda: make(1)) == 1
-    assert run_memo.last(system, "a", run_memo.state_key(0.0), lambda: make(2)) == 1
-    assert run_memo.last(system, "a", run_memo.state_key(-0.0), lambda: make(3)) == 3
-    assert run_memo.last(system, "a", run_memo.state_key(np.zeros(2)), lambda: make(4)) == 4
-    assert run_memo.last(system, "a", run_memo.state_key(np.zeros(3)), lambda: make(5)) == 5
-    assert run_memo.once(system, "b", lambda: make(6)) == 6 and run_memo.once(system, "b", lambda: make(7)) == 6
-    assert calls == [1, 3, 4, 5, 6]
+    key = run_memo.state_key
+    assert run_memo.last(system, "a", key(0.0), lambda: make(1)) == 1
+    assert run_memo.last(system, "a", key(0.0), lambda: make(2)) == 1
+    assert run_memo.last(system, "a", key(-0.0), lambda: make(3)) == 3
+    assert run_memo.last(system, "a", key(np.zeros(2)), lambda: make(4)) == 4
+    assert run_memo.last(system, "a", key(np.zeros(3)), lambda: make(5)) == 5
+    assert run_memo.last(system, "a", key(0.0), lambda: make(6)) == 1
+    for k in range(run_memo.KEPT):  # pushes the first ones out
+        run_memo.last(system, "a", key(float(k + 1)), lambda: make(None))
+    assert run_memo.last(system, "a", key(0.0), lambda: make(7)) == 7
+    assert run_memo.once(system, "b", lambda: make(8)) == 8 and run_memo.once(system, "b", lambda: make(9)) == 8
+    assert calls == [1, 3, 4, 5] + [None] * run_memo.KEPT + [7, 8]

@@ -313,7 +313,11 @@ def simulate_arguments(t0, t_end, n_out, t_eval, rtol, atol, max_step, projectio
     if rtol < RTOL_MIN:
         raise ModelError(f"{where}: rtol = {rtol:g} is below what double precision can meet; the smallest is "
                          f"100 machine epsilons, {RTOL_MIN:.2g}")
-    if atol is not None:
+    if type(atol) is float:  # a plain float: the checks below, without numpy's arrays
+        if not (math.isfinite(atol) and atol >= 0):
+            raise ModelError(f"{where}: atol must be finite and >= 0, got {atol!r}")
+        atol = float(atol)
+    elif atol is not None:
         try:
             a = np.array(atol, dtype=float)
         except (TypeError, ValueError, OverflowError):

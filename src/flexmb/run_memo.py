@@ -6,9 +6,9 @@ the Newton preconditioner reads, whether the compiled Jacobian covers the
 model's tangent) or on the System and the run's settings and initial
 state (which integrator ``method='auto'`` takes, whether the model has a
 Jacobian to give CVODE). :func:`once` keeps the first kind for the
-System's lifetime; :func:`last` keeps the latest value of the second kind
-with the arguments it was worked out from, and works it out again when
-they differ (a new initial state, other tolerances). Either returns the
+System's lifetime; :func:`last` keeps the latest values of the second kind
+(``KEPT`` of them) with the arguments each was worked out from, and works
+it out again for other arguments (a new initial state, other tolerances). Either returns the
 very value the work would give: force elements are frozen and a System
 keeps its tables, so the same arguments give the same result.
 
@@ -23,9 +23,12 @@ import weakref
 
 import numpy as np
 
-__all__ = ["once", "last", "state_key"]
+__all__ = ["once", "last", "state_key", "KEPT"]
 
 _MEMO: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+
+#: the values :func:`last` keeps per System and name (different initial states or settings, the latest ones)
+KEPT = 8
 
 
 def _table(system) -> dict:
@@ -61,7 +64,7 @@ def once(system, what, make):
 
 
 def last(system, what, key, make):
-    """``make()``, unless the last call for ``what`` on ``system`` had an equal ``key``: then its value.
+    """``make()``, unless one of the last ``KEPT`` calls for ``what`` on ``system`` had an equal ``key``: its value.
 
     Parameters
     ----------
@@ -81,11 +84,15 @@ def last(system, what, key, make):
     """
     table = _table(system)
     held = table.get(("last", what))
-    if held is not None and held[0] == key:
-        return held[1]
-    value = make()
-    table[("last", what)] = (key, value)
-    return value
+    if held is None:
+        held = table[("last", what)] = {}
+    try:
+        return held[key]
+    except KeyError:
+        value = held[key] = make()
+        while len(held) > KEPT:  # the oldest first (dicts keep their order)
+            del held[next(iter(held))]
+        return value
 
 
 def state_key(*values) -> tuple:

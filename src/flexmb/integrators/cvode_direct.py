@@ -49,6 +49,18 @@ def _addr(f) -> int:
     return ctypes.cast(f, c_void_p).value
 
 
+_FUNCTIONS: dict = {}
+
+
+def _functions(S) -> tuple:
+    """The addresses of ``CVode``, ``CVodeGetDky`` and ``N_VGetArrayPointer`` in the library ``S`` (read once)."""
+    try:
+        return _FUNCTIONS[id(S)][1]
+    except KeyError:
+        _FUNCTIONS[id(S)] = (S, (_addr(S.CVode), _addr(S.CVodeGetDky), _addr(S.N_VGetArrayPointer)))
+        return _FUNCTIONS[id(S)][1]
+
+
 def compiled_jacobian(system) -> bool:
     """Whether the compiled state Jacobian gives this model's ``System.state_jacobian``.
 
@@ -206,8 +218,9 @@ class DirectCVODE:
             raise MemoryError("CVodeCreate returned NULL")
         self._setup(rtol, atol, krylov, max_step, first_step)
         self._tret = np.array([self.t])
-        self._lp = np.array([_addr(S.CVode), _addr(S.CVodeGetDky), self._mem, self._y, self.y.ctypes.data, self._out,
-                             self._tret.ctypes.data, self.m, _addr(S.N_VGetArrayPointer)], dtype=np.int64)
+        cvode, dky, getptr = _functions(S)
+        self._lp = np.array([cvode, dky, self._mem, self._y, self.y.ctypes.data, self._out, self._tret.ctypes.data,
+                             self.m, getptr], dtype=np.int64)
 
     @staticmethod
     def _callbacks():

@@ -108,5 +108,5 @@ def state_key(*values) -> tuple:
     tuple
         One entry per value: an array's dtype, shape and bytes, a float's hex form, else the value with its type.
     """
-    return tuple((v.dtype.str, v.shape, v.tobytes()) if isinstance(v, np.ndarray)
-                 else float(v).hex() if isinstance(v, (float, np.floating)) else (type(v), v) for v in values)
+    return tuple([v.hex() if type(v) is float else (v.dtype.str, v.shape, v.tobytes()) if type(v) is np.ndarray
+                  else float(v).hex() if isinstance(v, (float, np.floating)) else (type(v), v) for v in values])

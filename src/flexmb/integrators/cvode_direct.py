@@ -211,7 +211,7 @@ class DirectCVODE:
         self._y, self._out = S.N_VNew_Serial(self.m, self._ctx), S.N_VNew_Serial(self.m, self._ctx)
         if not (self._y and self._out):
             raise MemoryError("N_VNew_Serial returned NULL")
-        self.y = self._data(self._y)
+        self.y, self._out_data = self._data(self._y), self._data(self._out)  # views of the vectors' data
         self.y[:] = y0
         self._mem = S.CVodeCreate(CV_BDF if self.family == "BDF" else CV_ADAMS, self._ctx)
         if not self._mem:
@@ -424,7 +424,7 @@ class DirectCVODE:
             if code == cb.REACHED:
                 if self.t >= self.t_bound:
                     self.status = "finished"
-                return self._data(self._out).copy()
+                return self._out_data.copy()
 
     def _callback_counts(self) -> dict:
         """The callbacks' counters since the start, by the name of the run's counter they feed."""
@@ -441,10 +441,10 @@ class DirectCVODE:
 
     def _feed(self, mon, times):
         """Give the monitor the steps between ``times`` as its ``step`` takes them one by one."""
-        h = np.diff(times)
-        mon.steps.extend(h[:-1].tolist())
-        mon.n_steps += len(h) - 1
-        mon.step(_Step(times[-1], times[-2], self.y))
+        ts = times.tolist()  # (the differences of np.diff, in floats)
+        mon.steps.extend([b - a for a, b in zip(ts[:-2], ts[1:-1])])
+        mon.n_steps += len(ts) - 2
+        mon.step(_Step(ts[-1], ts[-2], self.y))
 
     def _diagnose(self) -> None:
         """Raise flexmb's own diagnosis (AssemblyError) of the state at which a callback failed, if it gives one.
@@ -492,7 +492,7 @@ class DirectCVODE:
             if self.t != t_now or self._mem is None:
                 raise RuntimeError("a CVODE dense output is valid only until the solver's next step")
             self._check(self._S.CVodeGetDky(self._mem, float(t), 0, self._out), "CVodeGetDky")
-            return self._data(self._out).copy()
+            return self._out_data.copy()
 
         return interpolate
 
@@ -536,7 +536,7 @@ class DirectCVODE:
         if self._ctx:
             S.SUNContext_Free(byref(self._ctx))
         self._mem = self._ls = self._A = self._y = self._out = self._atol = None
-        self.y = None
+        self.y = self._out_data = None
         self._S = None
 
     def __enter__(self):

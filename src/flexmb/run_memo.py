@@ -19,6 +19,7 @@ complement strategy, a calibrated copy) starts without any.
 
 from __future__ import annotations
 
+import threading
 import weakref
 
 import numpy as np
@@ -27,6 +28,8 @@ __all__ = ["once", "last", "state_key", "KEPT"]
 
 _MEMO: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 
+_LOCK = threading.Lock()
+
 #: the values :func:`last` keeps per System and name (different initial states or settings, the latest ones)
 KEPT = 8
 
@@ -34,7 +37,8 @@ KEPT = 8
 def _table(system) -> dict:
     table = _MEMO.get(system)
     if table is None:
-        table = _MEMO[system] = {}
+        with _LOCK:
+            table = _MEMO.setdefault(system, {})
     return table
 
 
@@ -59,8 +63,9 @@ def once(system, what, make):
     try:
         return table[what]
     except KeyError:
-        value = table[what] = make()
-        return value
+        value = make()
+        with _LOCK:
+            return table.setdefault(what, value)
 
 
 def last(system, what, key, make):
@@ -85,13 +90,16 @@ def last(system, what, key, make):
     table = _table(system)
     held = table.get(("last", what))
     if held is None:
-        held = table[("last", what)] = {}
+        with _LOCK:
+            held = table.setdefault(("last", what), {})
     try:
         return held[key]
     except KeyError:
-        value = held[key] = make()
-        while len(held) > KEPT:  # the oldest first (dicts keep their order)
-            del held[next(iter(held))]
+        value = make()
+        with _LOCK:  # (runs on other threads may add and drop values meanwhile)
+            held[key] = value
+            while len(held) > KEPT:  # the oldest first (dicts keep their order)
+                del held[next(iter(held))]
         return value
 
 

@@ -34,6 +34,7 @@ from ctypes import byref, c_double, c_int, c_long, c_void_p
 import numpy as np
 
 from .._signals import act_on_deferred, deferred
+from ..run_memo import once
 from .cvode_library import FLAGS, CVODEError, sundials
 from .cvode_options import KRYLOV_DIM, MAX_STEPS
 
@@ -87,8 +88,6 @@ def compiled_jacobian(system) -> bool:
         True if the run's CVODE takes the compiled Jacobian (a C callback)
         instead of the Python one (worked out once per System: :mod:`flexmb.run_memo`).
     """
-    from ..run_memo import once
-
     return once(system, "compiled_jacobian", lambda: _tangent_compiled(system))
 
 
@@ -237,8 +236,6 @@ class DirectCVODE:
                              "with qd = u")
 
     def _user_data(self, system, nonfinite_flag):
-        from ..run_memo import once
-
         cb, n, nb = self._cb, self.n, system.topology.n_bodies
         ud, K, C = once(system, ("direct_cvode_ud", self.m), lambda: self._shared_user_data(system))
         ud = ud.copy()

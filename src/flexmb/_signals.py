@@ -25,6 +25,7 @@ shell's background command SIGINT) is left ignored by all of these
 
 from __future__ import annotations
 
+import _signal
 import contextlib
 import signal
 import threading
@@ -91,7 +92,7 @@ def _restore(previous: dict) -> None:
     for signum, handler in previous.items():
         while True:
             try:
-                signal.signal(signum, handler)
+                _signal.signal(signum, handler)  # (signal's C function: its wrapper's enum is not needed)
                 break
             except KeyboardInterrupt as exc:  # a handler ran between two lines: set this one again
                 pending = pending or exc
@@ -159,8 +160,9 @@ class deferred:
         self._owner = deferred.caught is None and threading.current_thread() is threading.main_thread()
         if self._owner:
             caught = []
-            deferred.previous = {s: signal.signal(s, lambda signum, frame: caught.append(signum))
-                                 for s in HELD if callable(signal.getsignal(s))}
+            record = lambda signum, frame: caught.append(signum)  # noqa: E731
+            # signal's C functions, without the wrappers that turn their numbers into enums (a callable stays one)
+            deferred.previous = {s: _signal.signal(s, record) for s in HELD if callable(_signal.getsignal(s))}
             deferred.caught = caught
         return self
 

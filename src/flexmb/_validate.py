@@ -9,6 +9,8 @@ functions, where no attrs validator runs (:func:`positive_value`,
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .errors import ModelError
@@ -68,6 +70,10 @@ def positive_value(where: str, what: str, value) -> float:
     return f
 
 
+#: the types :func:`number` takes without asking numpy (Python's own numbers, not bool)
+_PLAIN = (float, int)
+
+
 def number(where: str, what: str, value, *, finite: bool = True, minimum: float | None = None,
            maximum: float | None = None, strict: bool = True) -> float:
     """``float(value)`` for a number argument within bounds, else a :class:`ModelError` naming it.
@@ -101,12 +107,13 @@ def number(where: str, what: str, value, *, finite: bool = True, minimum: float 
         ``where: what must be ..., got value``.
     """
     try:
-        if isinstance(value, (str, bytes, complex, np.complexfloating)) or np.ndim(value) != 0:
+        if type(value) not in _PLAIN and (isinstance(value, (str, bytes, complex, np.complexfloating))
+                                          or np.ndim(value) != 0):
             raise TypeError
         f = float(value)
     except (TypeError, ValueError, OverflowError):
         raise ModelError(f"{where}: {what} must be a number, got {_short(value)}") from None
-    if isinstance(value, (bool, np.bool_)) or np.isnan(f) or (finite and not np.isfinite(f)):
+    if isinstance(value, (bool, np.bool_)) or math.isnan(f) or (finite and not math.isfinite(f)):
         raise ModelError(f"{where}: {what} must be a finite number, got {_short(value)}")
     low = minimum is not None and not (f > minimum if strict else f >= minimum)
     high = maximum is not None and not (f < maximum if strict else f <= maximum)
@@ -306,7 +313,11 @@ def simulate_arguments(t0, t_end, n_out, t_eval, rtol, atol, max_step, projectio
     if rtol < RTOL_MIN:
         raise ModelError(f"{where}: rtol = {rtol:g} is below what double precision can meet; the smallest is "
                          f"100 machine epsilons, {RTOL_MIN:.2g}")
-    if atol is not None:
+    if type(atol) is float:  # a plain float: the checks below, without numpy's arrays
+        if not (math.isfinite(atol) and atol >= 0):
+            raise ModelError(f"{where}: atol must be finite and >= 0, got {atol!r}")
+        atol = float(atol)
+    elif atol is not None:
         try:
             a = np.array(atol, dtype=float)
         except (TypeError, ValueError, OverflowError):

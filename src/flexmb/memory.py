@@ -35,7 +35,9 @@ solver), formed when a run starts.
 The limit is the memory available now (``MemAvailable`` of
 ``/proc/meminfo``, else ``os.sysconf`` free pages), capped by the
 environment variable ``FLEXMB_MEMORY_LIMIT`` (bytes, or with a suffix
-``K``, ``M``, ``G``, ``T``) when it is set.
+``K``, ``M``, ``G``, ``T``) when it is set. Without that variable a need of
+at most ``ALWAYS_FITS`` bytes (the outputs of a small model's run) is taken
+to fit without reading the memory available.
 """
 
 from __future__ import annotations
@@ -47,7 +49,7 @@ from attrs import frozen
 
 from .errors import ModelError
 
-__all__ = ["Counts", "counts", "estimate", "available", "limit", "check", "DENSE_NN", "DENSE_MN", "LOOP_MN", "PER_BODY", "PER_COORD", "OUTPUT_N", "OUTPUT_B", "OUTPUT_FIXED"]
+__all__ = ["Counts", "counts", "estimate", "available", "limit", "check", "DENSE_NN", "DENSE_MN", "LOOP_MN", "PER_BODY", "PER_COORD", "OUTPUT_N", "OUTPUT_B", "OUTPUT_FIXED", "ALWAYS_FITS"]
 
 #: floats per n^2 of a model with loops: the mass matrix and its factor, the reduced mass
 #: matrix and the products with the complement
@@ -56,6 +58,9 @@ DENSE_NN = 4
 DENSE_MN = 4
 #: words per m * n, loops closed by the articulated strategy: the visited subtrees and the sparse rows (worst case)
 LOOP_MN = 2
+#: bytes that fit whatever the machine has left (a process that cannot find them fails anyway): a need this small
+#: is not compared with the memory available (``/proc/meminfo`` is not read), unless ``FLEXMB_MEMORY_LIMIT`` is set
+ALWAYS_FITS = 2**20
 #: bytes per body: the Segment and joint objects, names, per-body arrays and tree tables
 PER_BODY = 4096
 #: bytes per coordinate: names, index arrays, state vectors
@@ -267,7 +272,10 @@ def check(obj, n_out: int = 0, what: str = "", model: bool = True, loops: str = 
     dense, rest, outputs = _parts(obj, n_out, loops)
     if not model:
         dense = rest = 0
-    need, room = dense + rest + outputs, limit()
+    need = dense + rest + outputs
+    if need <= ALWAYS_FITS and not os.environ.get("FLEXMB_MEMORY_LIMIT", "").strip():
+        return need
+    room = limit()
     if need <= room:
         return need
     c = counts(obj)

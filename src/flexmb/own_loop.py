@@ -34,6 +34,7 @@ import numpy as np
 
 from ._signals import deferred
 from .output_projection import LoopOutputs
+from .run_memo import last, state_key
 
 __all__ = ["advance_between_stops", "advance_checking", "compiled_options", "NonFinite"]
 
@@ -94,7 +95,8 @@ def compiled_options(run, x, xd, krylov_min: int, bound: float) -> dict:
     if system.n_constraints:  # for CVODE's projection of a looped model's state (DirectLoopCVODE)
         options["projection_tol"] = run.projection_tol
     # flexmb's Jacobian, from Python (a few calls), where it exists: where an element gives coordinate terms
-    if not krylov and system.coordinate_terms(system.kinematics(run.t0, x, xd)) is not None:
+    if not krylov and last(system, "has_coordinate_terms", state_key(run.t0, x, xd),
+                           lambda: system.coordinate_terms(system.kinematics(run.t0, x, xd)) is not None):
         layout = run.layout
         options["jacobian"] = lambda t, y: system.state_jacobian(t, *layout.split(y))
     return options

@@ -246,12 +246,13 @@ class Result(ResultPost):
         X = np.atleast_2d(np.asarray(x, dtype=float))
         XD = np.zeros((len(X), n)) if xd is None else np.atleast_2d(np.asarray(xd, dtype=float))
         if (X.shape[1:] != (nq,) or XD.shape != (len(X), n)
-                or not (np.all(np.isfinite(X)) and np.all(np.isfinite(XD)))):
+                or not (np.isfinite(X).all() and np.isfinite(XD).all())):
             what = f"{n} finite coordinates" if nq == n else f"{nq} finite coordinates and {n} speeds"
             raise FlexmbError(f"x and xd must hold {what} per state, got shapes {X.shape}, {XD.shape}")
         nt = len(X)
-        at = np.broadcast_to(np.asarray(t, dtype=float), (nt,)).copy()
-        if not np.all(np.isfinite(at)):
+        at = (np.array(t, dtype=float) if isinstance(t, np.ndarray) and t.shape == (nt,)  # (the same, quicker)
+              else np.broadcast_to(np.asarray(t, dtype=float), (nt,)).copy())
+        if not np.isfinite(at).all():
             raise ModelError(f"Result.from_states: the times must be finite, got {t!r}")
         times = at + np.arange(nt) if np.ndim(t) == 0 else at
         XDD = None if xdd is None else np.atleast_2d(np.asarray(xdd, dtype=float)).reshape(XD.shape)

@@ -15,6 +15,7 @@ from .initial_speeds import held_speeds, split_speeds
 from .joints import Joint
 from .model import as_system
 from .result import Result
+from .run_memo import last, state_key
 from .stepping import Run
 from .progress import shown
 from .threads import limited_blas
@@ -216,6 +217,15 @@ def _choose_method(system, t0, t1, x, xd, rtol=DEFAULT_RTOL, atol=DEFAULT_RTOL /
     reason : str
         The statement of the choice (also logged to the ``flexmb`` logger if ``log``).
     """
+    method, reason = last(system, "auto", state_key(t0, t1, x, xd, rtol, atol),
+                          lambda: _method_for(system, t0, t1, x, xd, rtol, atol))
+    if log:  # a choice that removes energy on purpose (a step floor) is logged as a warning
+        logging.getLogger("flexmb").log(logging.WARNING if getattr(method, "min_step", None) else logging.INFO, reason)
+    return method, reason
+
+
+def _method_for(system, t0, t1, x, xd, rtol, atol):
+    """:func:`_choose_method`'s choice, worked out (kept for the next run of the same arguments: :mod:`.run_memo`)."""
     from .integrators.monitor import stiff_choice
     w = system.fastest_rate(t0, x, xd)
     steps = (t1 - t0) * w / 3.0 + 0.0  # + 0.0: a rate of -0.0 (no motion to integrate) reads 0
@@ -227,8 +237,6 @@ def _choose_method(system, t0, t1, x, xd, rtol=DEFAULT_RTOL, atol=DEFAULT_RTOL /
                                     f"{t1 - t0:.4g} s to stay stable (at most {AUTO_IMPLICIT_STEPS})")
     else:
         method, reason = stiff_choice(system, t0, t1, x, xd, rtol, atol, steps)
-    if log:  # a choice that removes energy on purpose (a step floor) is logged as a warning
-        logging.getLogger("flexmb").log(logging.WARNING if getattr(method, "min_step", None) else logging.INFO, reason)
     return method, reason
 
 

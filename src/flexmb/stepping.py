@@ -41,6 +41,7 @@ from .output_projection import project_output
 from .own_loop import NonFinite, advance_between_stops, advance_checking, compiled_options
 from .progress import Progress
 from .result import Result
+from .run_memo import last, state_key
 
 __all__ = ["Run"]
 
@@ -184,9 +185,7 @@ class Run:
         # an event needs the step that crossed it: the run steps the integrator itself then
         self.own_loop = self.caps.advances and not system.n_constraints and self.events is None
         self.angles = np.flatnonzero(system.topology.coord_angle)
-        self.offset = None
-        self.n_rebases = 0
-        self.preconditioner = None
+        self.offset, self.n_rebases, self.preconditioner = None, 0, None
         # one function object for every solver of the run: an integrator may remember its state across
         # restarts by its right-hand side (GeneralizedAlpha)
         self._fun = self._stage_rate if self.caps.explicit else self.rhs
@@ -592,7 +591,8 @@ class Run:
         return Result.from_states(
             system, *layout.split(Y), t=self.times[: len(self.out_y)],
             work={name: works[:, i].copy() for i, name in enumerate(self.work_names)},
-            n_dof=system.dof(self.t0, x), n_rhs=self.counters["rhs"],
+            n_dof=last(system, "dof", state_key(self.t0, x), lambda: system.dof(self.t0, x)),
+            n_rhs=self.counters["rhs"],
             n_jac=self.counters.get("jac", 0) if preconditioner is None else preconditioner.n_setups,
             n_steps=self.n_steps, n_complements=system.n_complements - self.start_complements, n_rebases=self.n_rebases,
             n_projections=self.n_proj, n_cvode_projections=self.counters.get("cvode_projections", 0), wall_time=self.wall,

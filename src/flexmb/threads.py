@@ -68,6 +68,25 @@ def _get_controller(refresh: bool = False):
     return _controller
 
 
+class _BlasLimits:
+    """``controller.limit(limits=n, user_api="blas")`` of threadpoolctl, without the full ``info()`` it reads.
+
+    Each BLAS library's thread count is read, set to ``n``, and put back by
+    :meth:`restore_original_limits` (the libraries of other kinds are left
+    alone, as threadpoolctl leaves them).
+    """
+
+    def __init__(self, controller, n: int):
+        self._original = [(lib, lib.num_threads) for lib in controller.lib_controllers if lib.user_api == "blas"]
+        for lib, _ in self._original:
+            lib.set_num_threads(n)
+
+    def restore_original_limits(self) -> None:
+        """Put each BLAS library's thread count back."""
+        for lib, n in self._original:
+            lib.set_num_threads(n)
+
+
 @contextlib.contextmanager
 def blas_threads(n: int | None = None):
     """Run a block with at most ``n`` BLAS threads, then restore the previous limits.
@@ -96,8 +115,7 @@ def blas_threads(n: int | None = None):
         if _active == 0:
             # a controller of the libraries loaded now (an import since the last run may have
             # brought another BLAS, e.g. SUNDIALS')
-            _limiter = _get_controller(refresh=True).limit(limits=BLAS_THREADS if n is None else n,
-                                                           user_api="blas")
+            _limiter = _BlasLimits(_get_controller(refresh=True), BLAS_THREADS if n is None else n)
         _active += 1
     try:
         yield

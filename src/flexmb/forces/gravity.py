@@ -95,4 +95,4 @@ class Gravity(ForceElement):
         float
             Potential energy, J.
         """
-        return float(-np.sum(state.mass * (state.r[:-1] @ self.g)))
+        return float(-np.add.reduce(state.mass * (state.r[:-1] @ self.g)))  # (np.sum's reduction, unwrapped)

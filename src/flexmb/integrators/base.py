@@ -89,7 +89,9 @@ it) to look its own integrator up.
 
 from __future__ import annotations
 
+import contextlib
 import importlib
+import weakref
 
 import attrs
 from attrs import frozen
@@ -202,7 +204,7 @@ def scipy_name(solver_cls: type) -> str | None:
 
 
 def capabilities(solver_cls: type) -> Capabilities:
-    """What ``solver_cls`` can use: its class attributes, else scipy's table, else the defaults.
+    """What ``solver_cls`` can use: its class attributes, else scipy's table, else the defaults (read once per class).
 
     Parameters
     ----------
@@ -223,11 +225,22 @@ def capabilities(solver_cls: type) -> Capabilities:
     >>> capabilities(DOP853).explicit
     True
     """
+    try:
+        return _CAPABILITIES[solver_cls]
+    except (KeyError, TypeError):  # (TypeError: not weakly referable, worked out every time)
+        pass
     found = next((SCIPY_CAPABILITIES[name] for name in map(scipy_name, getattr(solver_cls, "__mro__", ()))
                   if name in SCIPY_CAPABILITIES), Capabilities())
     declared = {a.name: bool(getattr(solver_cls, a.name)) for a in attrs.fields(Capabilities)
                 if hasattr(solver_cls, a.name)}
-    return attrs.evolve(found, **declared)
+    caps = attrs.evolve(found, **declared)
+    with contextlib.suppress(TypeError):
+        _CAPABILITIES[solver_cls] = caps
+    return caps
+
+
+#: :func:`capabilities` of the classes asked about so far (a class's declarations are read once)
+_CAPABILITIES: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 
 
 def adapt(solver_cls: type) -> type:

@@ -34,6 +34,7 @@ from ctypes import byref, c_double, c_int, c_long, c_void_p
 import numpy as np
 
 from .._signals import act_on_deferred, deferred
+from ..run_memo import once
 from .cvode_library import FLAGS, CVODEError, sundials
 from .cvode_options import KRYLOV_DIM, MAX_STEPS
 
@@ -47,6 +48,18 @@ STEPS_PER_CALL = 1000
 
 def _addr(f) -> int:
     return ctypes.cast(f, c_void_p).value
+
+
+_FUNCTIONS: dict = {}
+
+
+def _functions(S) -> tuple:
+    """The addresses of ``CVode``, ``CVodeGetDky`` and ``N_VGetArrayPointer`` in the library ``S`` (read once)."""
+    try:
+        return _FUNCTIONS[id(S)][1]
+    except KeyError:
+        _FUNCTIONS[id(S)] = (S, (_addr(S.CVode), _addr(S.CVodeGetDky), _addr(S.N_VGetArrayPointer)))
+        return _FUNCTIONS[id(S)][1]
 
 
 def compiled_jacobian(system) -> bool:
@@ -73,8 +86,13 @@ def compiled_jacobian(system) -> bool:
     -------
     bool
         True if the run's CVODE takes the compiled Jacobian (a C callback)
-        instead of the Python one.
+        instead of the Python one (worked out once per System: :mod:`flexmb.run_memo`).
     """
+    return once(system, "compiled_jacobian", lambda: _tangent_compiled(system))
+
+
+def _tangent_compiled(system) -> bool:
+    """:func:`compiled_jacobian`, worked out."""
     from ..forces import BodyTorque, PointForce
 
     kin = system.kinematics(0.0, system.layout.reference(), np.zeros(system.n_speeds))
@@ -192,15 +210,16 @@ class DirectCVODE:
         self._y, self._out = S.N_VNew_Serial(self.m, self._ctx), S.N_VNew_Serial(self.m, self._ctx)
         if not (self._y and self._out):
             raise MemoryError("N_VNew_Serial returned NULL")
-        self.y = self._data(self._y)
+        self.y, self._out_data = self._data(self._y), self._data(self._out)  # views of the vectors' data
         self.y[:] = y0
         self._mem = S.CVodeCreate(CV_BDF if self.family == "BDF" else CV_ADAMS, self._ctx)
         if not self._mem:
             raise MemoryError("CVodeCreate returned NULL")
         self._setup(rtol, atol, krylov, max_step, first_step)
         self._tret = np.array([self.t])
-        self._lp = np.array([_addr(S.CVode), _addr(S.CVodeGetDky), self._mem, self._y, self.y.ctypes.data, self._out,
-                             self._tret.ctypes.data, self.m, _addr(S.N_VGetArrayPointer)], dtype=np.int64)
+        cvode, dky, getptr = _functions(S)
+        self._lp = np.array([cvode, dky, self._mem, self._y, self.y.ctypes.data, self._out, self._tret.ctypes.data,
+                             self.m, getptr], dtype=np.int64)
 
     @staticmethod
     def _callbacks():
@@ -217,30 +236,40 @@ class DirectCVODE:
                              "with qd = u")
 
     def _user_data(self, system, nonfinite_flag):
-        from ..system.tangent import NewtonPreconditioner
-
-        cb, S, n, nb = self._cb, self._S, self.n, system.topology.n_bodies
+        cb, n, nb = self._cb, self.n, system.topology.n_bodies
+        ud, K, C = once(system, ("direct_cvode_ud", self.m), lambda: self._shared_user_data(system))
+        ud = ud.copy()
+        sizes = ((cb.A_SPATIAL, "spatial", nb * 36), (cb.A_SW, "Sw", n * 3), (cb.A_SV, "Sv", n * 3),
+                 (cb.A_R, "r", (nb + 1) * 3), (cb.A_FAIL_T, "fail_t", 1), (cb.A_FAIL_Y, "fail_y", self.m),
+                 (cb.A_WORK, "work", cb.work_size(nb, n, self.m)))
+        buffer = np.zeros(sum(size for _, _, size in sizes))  # one allocation, seen as the callbacks' arrays
+        base, start, arrays = buffer.ctypes.data, 0, {}
+        for slot, key, size in sizes:
+            arrays[key], ud[slot], start = buffer[start:start + size], base + 8 * start, start + size
         fl, it, fg, ix = system._packed_open
-        K, C = NewtonPreconditioner.diagonal_terms(system)
-        self._arrays = arrays = dict(fl=fl, it=it, fg=fg, ix=ix, K=np.ascontiguousarray(K, float),
-                                     C=np.ascontiguousarray(C, float), spatial=np.zeros(nb * 36),
-                                     Sw=np.zeros(n * 3), Sv=np.zeros(n * 3), r=np.zeros((nb + 1) * 3),
-                                     fail_t=np.zeros(1), fail_y=np.zeros(self.m), offset=self._offset,
-                                     work=np.zeros(cb.work_size(nb, n, self.m)))
-        ud = np.zeros(cb.UD_SIZE, dtype=np.int64)
-        ud[cb.A_GETPTR], ud[cb.N], ud[cb.M], ud[cb.NB] = _addr(S.N_VGetArrayPointer), n, self.m, nb
-        ud[cb.A_MATDATA] = _addr(S.SUNDenseMatrix_Data)
-        for slot, size, key in ((cb.A_FL, cb.N_FL, "fl"), (cb.A_IT, cb.N_IT, "it"), (cb.A_FG, cb.N_FG, "fg")):
-            ud[slot], ud[size] = arrays[key].ctypes.data, arrays[key].size
-        ud[cb.A_IX], ud[cb.N_IX] = ix.ctypes.data, ix.shape[0]
-        for slot, key in ((cb.A_K, "K"), (cb.A_C, "C"), (cb.A_SPATIAL, "spatial"), (cb.A_SW, "Sw"), (cb.A_SV, "Sv"),
-                          (cb.A_R, "r"), (cb.A_FAIL_T, "fail_t"), (cb.A_FAIL_Y, "fail_y")):
-            ud[slot] = arrays[key].ctypes.data
-        ud[cb.A_WORK], ud[cb.N_WORK] = arrays["work"].ctypes.data, arrays["work"].size
+        self._arrays = dict(fl=fl, it=it, fg=fg, ix=ix, K=K, C=C, offset=self._offset, **arrays)
+        ud[cb.N_WORK] = arrays["work"].size
         if self._offset is not None:
             ud[cb.A_OFFSET], ud[cb.HAS_OFFSET] = self._offset.ctypes.data, 1
         ud[cb.STATUS], ud[cb.NONFINITE_FLAG] = -1, nonfinite_flag
         return ud
+
+    def _shared_user_data(self, system):
+        """The callbacks' user data that depends on the System alone, with the K and C it points to (read-only)."""
+        from ..system.tangent import NewtonPreconditioner
+
+        cb, S, n, nb = self._cb, self._S, self.n, system.topology.n_bodies
+        fl, it, fg, ix = system._packed_open
+        K, C = (np.array(v, dtype=float) for v in NewtonPreconditioner.diagonal_terms(system))
+        K.flags.writeable = C.flags.writeable = False
+        ud = np.zeros(cb.UD_SIZE, dtype=np.int64)
+        ud[cb.A_GETPTR], ud[cb.N], ud[cb.M], ud[cb.NB] = _addr(S.N_VGetArrayPointer), n, self.m, nb
+        ud[cb.A_MATDATA] = _addr(S.SUNDenseMatrix_Data)
+        for slot, size, array in ((cb.A_FL, cb.N_FL, fl), (cb.A_IT, cb.N_IT, it), (cb.A_FG, cb.N_FG, fg)):
+            ud[slot], ud[size] = array.ctypes.data, array.size
+        ud[cb.A_IX], ud[cb.N_IX] = ix.ctypes.data, ix.shape[0]
+        ud[cb.A_K], ud[cb.A_C] = K.ctypes.data, C.ctypes.data
+        return ud, K, C
 
     def _setup(self, rtol, atol, krylov, max_step, first_step):
         """CVODE's options in scikit-sundae's order, as flexmb's CVODE_BDF gives them."""
@@ -392,7 +421,7 @@ class DirectCVODE:
             if code == cb.REACHED:
                 if self.t >= self.t_bound:
                     self.status = "finished"
-                return self._data(self._out).copy()
+                return self._out_data.copy()
 
     def _callback_counts(self) -> dict:
         """The callbacks' counters since the start, by the name of the run's counter they feed."""
@@ -409,10 +438,10 @@ class DirectCVODE:
 
     def _feed(self, mon, times):
         """Give the monitor the steps between ``times`` as its ``step`` takes them one by one."""
-        h = np.diff(times)
-        mon.steps.extend(h[:-1].tolist())
-        mon.n_steps += len(h) - 1
-        mon.step(_Step(times[-1], times[-2], self.y))
+        ts = times.tolist()  # (the differences of np.diff, in floats)
+        mon.steps.extend([b - a for a, b in zip(ts[:-2], ts[1:-1])])
+        mon.n_steps += len(ts) - 2
+        mon.step(_Step(ts[-1], ts[-2], self.y))
 
     def _diagnose(self) -> None:
         """Raise flexmb's own diagnosis (AssemblyError) of the state at which a callback failed, if it gives one.
@@ -460,7 +489,7 @@ class DirectCVODE:
             if self.t != t_now or self._mem is None:
                 raise RuntimeError("a CVODE dense output is valid only until the solver's next step")
             self._check(self._S.CVodeGetDky(self._mem, float(t), 0, self._out), "CVodeGetDky")
-            return self._data(self._out).copy()
+            return self._out_data.copy()
 
         return interpolate
 
@@ -504,7 +533,7 @@ class DirectCVODE:
         if self._ctx:
             S.SUNContext_Free(byref(self._ctx))
         self._mem = self._ls = self._A = self._y = self._out = self._atol = None
-        self.y = None
+        self.y = self._out_data = None
         self._S = None
 
     def __enter__(self):

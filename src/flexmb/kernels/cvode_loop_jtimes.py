@@ -1,0 +1,115 @@
+"""CVODE's Jacobian-times-vector for the loops' GMRES as C callbacks: ``J v`` without a right-hand side.
+
+With the Krylov solver (from ``KRYLOV_MIN_COORDS`` coordinates), CVODE's
+GMRES needs ``J v`` once per iteration; its own difference quotient
+costs a right-hand side each. Where the compiled Jacobian gives the
+model's tangent (:func:`flexmb.integrators.cvode_direct.compiled_jacobian`),
+:class:`~flexmb.integrators.cvode_direct_loops.DirectLoopCVODE` gives
+CVODE these two instead (``CVodeSetJacTimes``): :func:`jtsetup`, at the
+start of each linear solve, and :func:`jtimes`, the product of
+:mod:`flexmb.kernels.loop_jtimes` on the factors of the right-hand side
+CVODE has just evaluated at the same state (the Newton residual's:
+:func:`~flexmb.kernels.cvode_loop_callbacks.evaluate` keeps them in the
+buffer at ``A_JT``). Where the buffer holds another state (a right-hand
+side at another state since), the right-hand side is evaluated again
+there, counted apart (``H_RHS``).
+
+J is the state Jacobian of the dense path (``System.state_jacobian``:
+springs, dampers, the loads' and inertia forces' geometric stiffness, the
+constraint forces' not), not the difference quotient's exact derivative:
+CVODE's Newton iteration is then the modified Newton of the dense path.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import types
+
+from .cache import njit
+from .cvode_callbacks import _cfunc
+from .cvode_loop_callbacks import (A_C, A_JT, A_K, BAND, M, MROWS, N, N_JT, N_V, NB, NONFINITE, NONFINITE_FLAG, RHS,
+                                   SETUPS, _f1, _fail, _layout, _packed, _state, _ud, _vector, _work, evaluate)
+from .loop_jtimes import (H_AT, H_LAG, H_RHS, H_SETUPS, H_TERMS, H_TIMES, holds, jtimes_size, prepare,
+                          state_jacobian_times)
+
+__all__ = ["jtsetup", "jtimes"]
+
+
+@njit(cache=True)
+def _buffers(ud):
+    """The buffer of the current state's factors, that of the lagged copy, and the copy of the work (lagged)."""
+    n, m, nb, mr, band = ud[N], ud[M], ud[NB], ud[MROWS], ud[BAND]
+    size = jtimes_size(n, m, mr, band, ud[N_V])
+    whole = _f1(ud[A_JT], ud[N_JT])
+    return whole[:size], whole[size : 2 * size], whole[2 * size :]
+
+
+@njit(cache=True)
+def _ready(ud, t, yv):
+    """Make the buffers hold the factors and terms the products take at the true state ``yv``; (kept, status).
+
+    The current state's (``H_LAG`` 0: made at every linear solve), or a
+    copy of them made at the first linear solve after each set-up of the
+    preconditioner, kept until the next (``H_LAG`` 1: J lagged as the
+    dense solver's).
+    """
+    n, m = ud[N], ud[M]
+    jt, lag, lag_work = _buffers(ud)
+    lagged = jt[H_LAG] == 1.0
+    if lagged and lag[H_AT] == ud[SETUPS] and lag[H_TERMS] == 1.0:
+        return 0, 0
+    if not holds(jt, yv, m):  # (counted with the right-hand sides, and apart)
+        ud[RHS] += 1
+        jt[H_RHS] += 1
+        kept, status = evaluate(ud, t, yv, np.empty(m))
+        if status:
+            return kept, status
+    work, o = _work(ud)
+    if lagged:
+        lag[:] = jt
+        lag_work[:] = work[o:]
+        lag[H_AT] = ud[SETUPS]
+        prepare(_packed(ud), lag, lag_work, n, m, ud[MROWS], ud[BAND])
+    elif jt[H_TERMS] != 1.0:
+        prepare(_packed(ud), jt, work[o:], n, m, ud[MROWS], ud[BAND])
+    return 0, 0
+
+
+@njit(cache=True)
+def _failed(ud, t, yv, kept, status):
+    """CVODE's flag for a failed evaluation (as :func:`~flexmb.kernels.cvode_loop_callbacks.rhs` returns it)."""
+    if status == 2:
+        return _fail(ud, NONFINITE, t, yv, ud[NONFINITE_FLAG])
+    return _fail(ud, kept, t, yv, -1)
+
+
+@_cfunc(types.int32(types.float64, types.voidptr, types.voidptr, types.voidptr))
+def jtsetup(t, y, fy, user_data):
+    """CVLsJacTimesSetupFn: the terms of G at ``y`` (the factors: those its right-hand side kept)."""
+    ud = _ud(user_data)
+    yv = _state(ud, y, ud[M])
+    _buffers(ud)[0][H_SETUPS] += 1
+    kept, status = _ready(ud, t, yv)
+    return _failed(ud, t, yv, kept, status) if status else 0
+
+
+@_cfunc(types.int32(types.voidptr, types.voidptr, types.float64, types.voidptr, types.voidptr, types.voidptr,
+                    types.voidptr))
+def jtimes(v, Jv, t, y, fy, user_data, tmp):
+    """CVLsJacTimesVecFn: ``Jv = J v`` at ``y`` (:func:`~flexmb.kernels.loop_jtimes.state_jacobian_times`)."""
+    ud = _ud(user_data)
+    n, m = ud[N], ud[M]
+    yv = _state(ud, y, m)
+    jt, lag, lag_work = _buffers(ud)
+    jt[H_TIMES] += 1
+    kept, status = _ready(ud, t, yv)
+    if status:
+        return _failed(ud, t, yv, kept, status)
+    if jt[H_LAG] == 1.0:
+        jt, work = lag, lag_work
+    else:
+        work, o = _work(ud)
+        work = work[o:]
+    kept, status = state_jacobian_times(_packed(ud), _layout(ud), jt, work, n, m, _f1(ud[A_K], n), _f1(ud[A_C], n),
+                                        _vector(ud, v, m), _vector(ud, Jv, m))
+    return _failed(ud, t, yv, kept, status) if status else 0

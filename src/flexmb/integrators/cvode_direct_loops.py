@@ -63,8 +63,8 @@ PROJECTION_ATOL_FRACTION = 0.1
 #: GMRES takes the compiled J v (flexmb.kernels.cvode_loop_jtimes) where compiled_jacobian allows (False: CVODE's
 #: difference quotient, a right-hand side per product)
 COMPILED_JTIMES = True
-#: its J is that of the first linear solve after each set-up of the preconditioner (as the dense solver's), not
-#: the current state's
+#: its G (the geometric stiffness) is that of the first linear solve after each set-up of the preconditioner (as
+#: the dense solver's J), not the current state's; P (the constrained solve) is always the current state's
 LAGGED_JTIMES = True
 
 __all__ = ["DirectLoopCVODE", "DirectLoopCVODEBDF", "DirectLoopCVODEAdams", "loop_class"]
@@ -183,14 +183,11 @@ class DirectLoopCVODE(DirectCVODE):
         from ..kernels import cvode_loop_jtimes
         from ..kernels.loop_jtimes import H_AT, H_LAG, H_VALID, jtimes_size
 
-        from ..kernels.loops import loop_rhs_work_size
-
         cb, a, ud = self._cb, self._arrays, self._ud
         if "jt" not in a:
             lay = self.system._loop_layout
-            mr, nb = lay.row_coord.shape[0], self.system.topology.n_bodies
-            size = jtimes_size(self.n, self.m, mr, int(lay.band), a["V"].size)
-            a["jt"] = np.zeros(2 * size + loop_rhs_work_size(nb, self.n, mr))
+            size = jtimes_size(self.n, self.m, lay.row_coord.shape[0], int(lay.band), a["V"].size)
+            a["jt"] = np.zeros(2 * size)
             ud[cb.A_JT], ud[cb.N_JT], ud[cb.N_V] = a["jt"].ctypes.data, a["jt"].size, a["V"].size
             a["jt"][H_LAG] = float(LAGGED_JTIMES)
             a["jt"][size + H_AT] = -1.0

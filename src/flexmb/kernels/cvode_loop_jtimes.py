@@ -29,7 +29,7 @@ from .cache import njit
 from .cvode_callbacks import _cfunc
 from .cvode_loop_callbacks import (A_C, A_JT, A_K, BAND, M, MROWS, N, N_JT, N_V, NB, NONFINITE, NONFINITE_FLAG, RHS,
                                    SETUPS, _f1, _fail, _layout, _packed, _state, _ud, _vector, _work, evaluate)
-from .loop_jtimes import (H_AT, H_LAG, H_RHS, H_SETUPS, H_TERMS, H_TIMES, holds, jtimes_size, prepare,
+from .loop_jtimes import (H_AT, H_LAG, H_RHS, H_SETUPS, H_TERMS, H_TIMES, HEADER, holds, jtimes_size, prepare,
                           state_jacobian_times)
 
 __all__ = ["jtsetup", "jtimes"]
@@ -37,42 +37,41 @@ __all__ = ["jtsetup", "jtimes"]
 
 @njit(cache=True)
 def _buffers(ud):
-    """The buffer of the current state's factors, that of the lagged copy, and the copy of the work (lagged)."""
-    n, m, nb, mr, band = ud[N], ud[M], ud[NB], ud[MROWS], ud[BAND]
+    """The buffer of the current state's factors and that of G's lagged terms."""
+    n, m, mr, band = ud[N], ud[M], ud[MROWS], ud[BAND]
     size = jtimes_size(n, m, mr, band, ud[N_V])
     whole = _f1(ud[A_JT], ud[N_JT])
-    return whole[:size], whole[size : 2 * size], whole[2 * size :]
+    return whole[:size], whole[size : 2 * size]
 
 
 @njit(cache=True)
 def _ready(ud, t, yv):
-    """Make the buffers hold the factors and terms the products take at the true state ``yv``; (kept, status).
+    """Make the buffers hold the factors at the true state ``yv`` and the terms of G; (kept, status).
 
-    The current state's (``H_LAG`` 0: made at every linear solve), or a
-    copy of them made at the first linear solve after each set-up of the
-    preconditioner, kept until the next (``H_LAG`` 1: J lagged as the
-    dense solver's).
+    The factors (P) are always the current state's (those of the right-hand
+    side just evaluated there); G's terms too where ``H_LAG`` is 0, else
+    (``H_LAG`` 1) those made at the first linear solve after each set-up of
+    the preconditioner, kept until the next (G lagged as the dense
+    solver's whole J is). Returns the buffer of the terms too.
     """
     n, m = ud[N], ud[M]
-    jt, lag, lag_work = _buffers(ud)
-    lagged = jt[H_LAG] == 1.0
-    if lagged and lag[H_AT] == ud[SETUPS] and lag[H_TERMS] == 1.0:
-        return 0, 0
+    jt, lag = _buffers(ud)
     if not holds(jt, yv, m):  # (counted with the right-hand sides, and apart)
         ud[RHS] += 1
         jt[H_RHS] += 1
         kept, status = evaluate(ud, t, yv, np.empty(m))
         if status:
-            return kept, status
+            return kept, status, jt
+    lagged = jt[H_LAG] == 1.0
+    terms = lag if lagged else jt
+    if terms[H_TERMS] == 1.0 and (not lagged or lag[H_AT] == ud[SETUPS]):
+        return 0, 0, terms
     work, o = _work(ud)
     if lagged:
-        lag[:] = jt
-        lag_work[:] = work[o:]
+        lag[: HEADER + m + n] = jt[: HEADER + m + n]  # the header, state and accelerations the terms are made of
         lag[H_AT] = ud[SETUPS]
-        prepare(_packed(ud), lag, lag_work, n, m, ud[MROWS], ud[BAND])
-    elif jt[H_TERMS] != 1.0:
-        prepare(_packed(ud), jt, work[o:], n, m, ud[MROWS], ud[BAND])
-    return 0, 0
+    prepare(_packed(ud), terms, work[o:], n, m, ud[MROWS], ud[BAND])
+    return 0, 0, terms
 
 
 @njit(cache=True)
@@ -89,7 +88,7 @@ def jtsetup(t, y, fy, user_data):
     ud = _ud(user_data)
     yv = _state(ud, y, ud[M])
     _buffers(ud)[0][H_SETUPS] += 1
-    kept, status = _ready(ud, t, yv)
+    kept, status, _ = _ready(ud, t, yv)
     return _failed(ud, t, yv, kept, status) if status else 0
 
 
@@ -100,16 +99,12 @@ def jtimes(v, Jv, t, y, fy, user_data, tmp):
     ud = _ud(user_data)
     n, m = ud[N], ud[M]
     yv = _state(ud, y, m)
-    jt, lag, lag_work = _buffers(ud)
+    jt = _buffers(ud)[0]
     jt[H_TIMES] += 1
-    kept, status = _ready(ud, t, yv)
+    kept, status, terms = _ready(ud, t, yv)
     if status:
         return _failed(ud, t, yv, kept, status)
-    if jt[H_LAG] == 1.0:
-        jt, work = lag, lag_work
-    else:
-        work, o = _work(ud)
-        work = work[o:]
-    kept, status = state_jacobian_times(_packed(ud), _layout(ud), jt, work, n, m, _f1(ud[A_K], n), _f1(ud[A_C], n),
-                                        _vector(ud, v, m), _vector(ud, Jv, m))
+    work, o = _work(ud)
+    kept, status = state_jacobian_times(_packed(ud), _layout(ud), jt, terms, work[o:], n, m, _f1(ud[A_K], n),
+                                        _f1(ud[A_C], n), _vector(ud, v, m), _vector(ud, Jv, m))
     return _failed(ud, t, yv, kept, status) if status else 0

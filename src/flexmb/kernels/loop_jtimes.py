@@ -167,8 +167,8 @@ def prepare(packed, jt, work, n, m, mr, band):
 
 
 @njit(cache=True)
-def state_jacobian_times(packed, layout, jt, work, n, m, stiffness, damping, v, Jv):
-    """``Jv = J v`` at the state whose factors and terms ``jt`` holds (:func:`keep_factors`, :func:`prepare`).
+def state_jacobian_times(packed, layout, jt, terms, work, n, m, stiffness, damping, v, Jv):
+    """``Jv = J v`` at the state whose factors ``jt`` holds (:func:`keep_factors`), with the terms of G of ``terms``.
 
     Parameters
     ----------
@@ -176,6 +176,8 @@ def state_jacobian_times(packed, layout, jt, work, n, m, stiffness, damping, v, 
         The model and its rows' layout.
     jt, work : ndarray
         The buffer and the right-hand side's work at that state.
+    terms : ndarray
+        A buffer holding the terms of G (:func:`prepare`): ``jt``, or one made at another state (J's G lagged).
     n, m : int
         Speeds and states (entries of ``v`` and ``Jv`` from 2 n on: states nothing depends on).
     stiffness, damping : ndarray, shape (n,)
@@ -201,7 +203,7 @@ def state_jacobian_times(packed, layout, jt, work, n, m, stiffness, damping, v, 
     k = int(jt[H_VROWS])
     factors = (U, DinvUT, Dinv, lift, view2(jt, o_kb, mr, band + 1), jt[o_d : o_d + mr], jt[o_df : o_df + mr],
                int(jt[H_KEPT]), jt[H_SMALLEST], view2(jt, o_v, k, k), int(jt[H_STATUS]))
-    u, hs, qs, y = _terms(jt, n, m, mr, band)
+    u, hs, qs, y = _terms(terms, n, m, mr, band)
     g = np.empty(n)
     geometric_times(tree.parent, tree.coord_start, tree.coord_kind, Sw, Sv, u, hs, qs, y, v[:n], g,
                     np.empty((nb, 6)), np.empty((nb + 1, 9)))
@@ -251,4 +253,4 @@ def loop_state_jtimes(packed, layout, y, n, stiffness, damping, gamma_d, tol, wi
     jt = np.zeros(jtimes_size(n, m, mr, band, factors[9].size))
     keep_factors(jt, y, xdd, n, m, mr, band, factors)
     prepare(packed, jt, work, n, m, mr, band)
-    return state_jacobian_times(packed, layout, jt, work, n, m, stiffness, damping, v, Jv)[1]
+    return state_jacobian_times(packed, layout, jt, jt, work, n, m, stiffness, damping, v, Jv)[1]

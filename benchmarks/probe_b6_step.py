@@ -149,18 +149,17 @@ def _time_jtimes(packed, layout, y, n, K, C, gamma_d, tol, window, rank_limit, r
     zeros = np.zeros((nb + 1, 3))
     factors = loop_rhs_factors_into(packed, layout, y, n, np.zeros(0), zeros, zeros, np.zeros(n), gamma_d, tol, window,
                                     rank_limit, xdd, lam, work)[3]
-    size = jtimes_size(n, m, mr, band, mr * mr)
-    jt, lag = np.zeros(size), np.zeros(size)
+    jt, terms = np.zeros(jtimes_size(n, m, mr, band, mr * mr)), np.zeros(21 * n)
     keep_factors(jt, y, xdd, n, m, mr, band, factors)
+    prepare(packed, jt, terms, work, n, m)
     v, Jv = np.linspace(-1.0, 1.0, m), np.empty(m)
     s = 0.0
     for _ in range(reps):
         if product:
-            s += state_jacobian_times(packed, layout, jt, lag, work, n, m, K, C, v, Jv)[1] + Jv[n]
+            s += state_jacobian_times(packed, layout, jt, terms, work, n, m, K, C, v, Jv)[1] + Jv[n]
         else:
-            lag[:] = jt
-            prepare(packed, lag, work, n, m, mr, band)
-            s += lag[-1]
+            prepare(packed, jt, terms, work, n, m)
+            s += terms[-1]
     return s
 
 

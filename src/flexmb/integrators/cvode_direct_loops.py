@@ -13,6 +13,10 @@ and the dense Jacobian of a small model (below ``KRYLOV_MIN_COORDS``)
 (:func:`~flexmb.kernels.loop_jacobian.loop_state_jacobian`, a C callback)
 where the model's tangent is what that kernel forms
 (:func:`~flexmb.integrators.cvode_direct.compiled_jacobian`), else called from Python.
+With GMRES (from ``KRYLOV_MIN_COORDS``) on such a model, GMRES's products
+``J v`` of that Jacobian are compiled too (:mod:`flexmb.kernels.cvode_loop_jtimes`,
+``CVodeSetJacTimes``: no right-hand side per product), else CVODE's
+difference quotients.
 
 What ``flexmb.stepping.Run`` does after each step of a looped model is done
 by the run itself, on the very steps it would do it on
@@ -177,8 +181,9 @@ class DirectLoopCVODE(DirectCVODE):
         """GMRES's ``J v`` by the C callbacks of :mod:`flexmb.kernels.cvode_loop_jtimes` (``CVodeSetJacTimes``).
 
         The right-hand side keeps its factors for them in the buffer at
-        ``A_JT`` (:func:`flexmb.kernels.loop_jtimes.jtimes_size`), made with
-        the first memory and kept over the restarts (its counters too).
+        ``A_JT`` (:func:`flexmb.kernels.loop_jtimes.jtimes_size`), followed
+        by G's terms (21 per coordinate; lagged: :data:`LAGGED_JTIMES`);
+        made with the first memory and kept over the restarts (its counters too).
         """
         from ..kernels import cvode_loop_jtimes
         from ..kernels.loop_jtimes import H_AT, H_LAG, H_VALID, jtimes_size
@@ -187,10 +192,9 @@ class DirectLoopCVODE(DirectCVODE):
         if "jt" not in a:
             lay = self.system._loop_layout
             size = jtimes_size(self.n, self.m, lay.row_coord.shape[0], int(lay.band), a["V"].size)
-            a["jt"] = np.zeros(2 * size)
+            a["jt"] = np.zeros(size + 21 * self.n)  # the factors' buffer, then G's terms
             ud[cb.A_JT], ud[cb.N_JT], ud[cb.N_V] = a["jt"].ctypes.data, a["jt"].size, a["V"].size
-            a["jt"][H_LAG] = float(LAGGED_JTIMES)
-            a["jt"][size + H_AT] = -1.0
+            a["jt"][H_LAG], a["jt"][H_AT] = float(LAGGED_JTIMES), -1.0
         a["jt"][H_VALID] = 0.0  # no factors kept yet
         self._check(self._S.CVodeSetJacTimes(self._mem, cvode_loop_jtimes.jtsetup.address,
                                              cvode_loop_jtimes.jtimes.address), "CVodeSetJacTimes")

@@ -105,7 +105,7 @@ def _declare(libs, index) -> dict:
     }
     for stat in ("NumSteps", "NumRhsEvals", "NumLinRhsEvals", "NumJacEvals", "NumPrecEvals", "NumPrecSolves",
                  "NumLinIters", "NumNonlinSolvIters", "NumErrTestFails", "NumNonlinSolvConvFails", "NumLinSolvSetups",
-                 "NumProjEvals", "NumProjFails", "NumStabLimOrderReds", "NumJtimesEvals"):
+                 "NumProjEvals", "NumProjFails", "NumStabLimOrderReds"):
         protos[f"CVodeGet{stat}"] = (i, [vp, POINTER(L)])
     out = {}
     for name, (res, args) in protos.items():

@@ -12,7 +12,10 @@ CVODE has just evaluated at the same state (the Newton residual's:
 :func:`~flexmb.kernels.cvode_loop_callbacks.evaluate` keeps them in the
 buffer at ``A_JT``). Where the buffer holds another state (a right-hand
 side at another state since), the right-hand side is evaluated again
-there, counted apart (``H_RHS``).
+there, counted apart (``H_RHS``). G's terms are made at the first linear
+solve after each set-up of the preconditioner and kept until the next
+(``H_LAG``, from ``LAGGED_JTIMES``: G lagged as the dense solver's J is),
+or at every linear solve; P is always the current state's.
 
 J is the state Jacobian of the dense path (``System.state_jacobian``:
 springs, dampers, the loads' and inertia forces' geometric stiffness, the
@@ -27,9 +30,9 @@ from numba import types
 
 from .cache import njit
 from .cvode_callbacks import _cfunc
-from .cvode_loop_callbacks import (A_C, A_JT, A_K, BAND, M, MROWS, N, N_JT, N_V, NB, NONFINITE, NONFINITE_FLAG, RHS,
+from .cvode_loop_callbacks import (A_C, A_JT, A_K, BAND, M, MROWS, N, N_JT, N_V, NONFINITE, NONFINITE_FLAG, RHS,
                                    SETUPS, _f1, _fail, _layout, _packed, _state, _ud, _vector, _work, evaluate)
-from .loop_jtimes import (H_AT, H_LAG, H_RHS, H_SETUPS, H_TERMS, H_TIMES, HEADER, holds, jtimes_size, prepare,
+from .loop_jtimes import (H_AT, H_LAG, H_RHS, H_SETUPS, H_TERMS, H_TIMES, holds, jtimes_size, prepare,
                           state_jacobian_times)
 
 __all__ = ["jtsetup", "jtimes"]
@@ -37,11 +40,11 @@ __all__ = ["jtsetup", "jtimes"]
 
 @njit(cache=True)
 def _buffers(ud):
-    """The buffer of the current state's factors and that of G's lagged terms."""
+    """The buffer of the current state's factors and the terms of G (21 n)."""
     n, m, mr, band = ud[N], ud[M], ud[MROWS], ud[BAND]
     size = jtimes_size(n, m, mr, band, ud[N_V])
     whole = _f1(ud[A_JT], ud[N_JT])
-    return whole[:size], whole[size : 2 * size]
+    return whole[:size], whole[size : size + 21 * n]
 
 
 @njit(cache=True)
@@ -52,26 +55,25 @@ def _ready(ud, t, yv):
     side just evaluated there); G's terms too where ``H_LAG`` is 0, else
     (``H_LAG`` 1) those made at the first linear solve after each set-up of
     the preconditioner, kept until the next (G lagged as the dense
-    solver's whole J is). Returns the buffer of the terms too.
+    solver's whole J is).
     """
     n, m = ud[N], ud[M]
-    jt, lag = _buffers(ud)
+    jt, terms = _buffers(ud)
     if not holds(jt, yv, m):  # (counted with the right-hand sides, and apart)
         ud[RHS] += 1
         jt[H_RHS] += 1
         kept, status = evaluate(ud, t, yv, np.empty(m))
         if status:
-            return kept, status, jt
-    lagged = jt[H_LAG] == 1.0
-    terms = lag if lagged else jt
-    if terms[H_TERMS] == 1.0 and (not lagged or lag[H_AT] == ud[SETUPS]):
-        return 0, 0, terms
+            return kept, status
+    if jt[H_LAG] == 1.0:
+        if jt[H_AT] == ud[SETUPS]:
+            return 0, 0
+        jt[H_AT] = ud[SETUPS]
+    elif jt[H_TERMS] == 1.0:
+        return 0, 0
     work, o = _work(ud)
-    if lagged:
-        lag[: HEADER + m + n] = jt[: HEADER + m + n]  # the header, state and accelerations the terms are made of
-        lag[H_AT] = ud[SETUPS]
-    prepare(_packed(ud), terms, work[o:], n, m, ud[MROWS], ud[BAND])
-    return 0, 0, terms
+    prepare(_packed(ud), jt, terms, work[o:], n, m)
+    return 0, 0
 
 
 @njit(cache=True)
@@ -88,7 +90,7 @@ def jtsetup(t, y, fy, user_data):
     ud = _ud(user_data)
     yv = _state(ud, y, ud[M])
     _buffers(ud)[0][H_SETUPS] += 1
-    kept, status, _ = _ready(ud, t, yv)
+    kept, status = _ready(ud, t, yv)
     return _failed(ud, t, yv, kept, status) if status else 0
 
 
@@ -99,9 +101,9 @@ def jtimes(v, Jv, t, y, fy, user_data, tmp):
     ud = _ud(user_data)
     n, m = ud[N], ud[M]
     yv = _state(ud, y, m)
-    jt = _buffers(ud)[0]
+    jt, terms = _buffers(ud)
     jt[H_TIMES] += 1
-    kept, status, terms = _ready(ud, t, yv)
+    kept, status = _ready(ud, t, yv)
     if status:
         return _failed(ud, t, yv, kept, status)
     work, o = _work(ud)

@@ -16,12 +16,14 @@ factors of the right-hand side at the same state
 kinematics, loads and articulated factors are read from that evaluation's
 work array (:func:`~flexmb.kernels.loops.loop_rhs_views`), K's factors
 from a buffer it is copied into (:func:`keep_factors`). A product then
-costs the terms (once per state, :func:`prepare`), two O(n) passes and a
-constrained solve, instead of the right-hand side a difference quotient
-costs.
+costs two O(n) passes and a constrained solve, instead of the right-hand
+side a difference quotient costs; the terms (:func:`prepare`) are made at
+the state (tests) or, in the loops' CVODE, once per new Jacobian (G
+lagged, :data:`flexmb.integrators.cvode_direct_loops.LAGGED_JTIMES`).
 
 The buffer ``jt`` (:func:`jtimes_size`): a header (:data:`H_VALID` ...),
-the state whose factors it holds, K's factors, and the terms. The loops'
+the state whose factors it holds and its accelerations, K's factors; the
+terms (21 per coordinate) in another. The loops'
 CVODE fills it through the C callbacks of
 :mod:`flexmb.kernels.cvode_loop_jtimes`; :func:`loop_state_jtimes` is the
 same product from a state alone (tests, benchmarks).
@@ -51,20 +53,19 @@ __all__ = ["jtimes_size", "keep_factors", "holds", "prepare", "state_jacobian_ti
 #: the header of the buffer: the factors are those of the state that follows (1.0) or none (0.0); kept,
 #: smallest, status and V's rows of K's factors; the terms are those of the factors (1.0); counters: set-ups,
 #: products, right-hand sides evaluated for a state whose factors were not kept; the preconditioner's set-up
-#: the lagged copy was made at; whether the products are those of the lagged copy (1.0)
+#: the terms were made at where they are lagged; whether they are (1.0)
 H_VALID, H_KEPT, H_SMALLEST, H_STATUS, H_VROWS, H_TERMS, H_SETUPS, H_TIMES, H_RHS, H_AT, H_LAG = range(11)
 HEADER = 11
 
 
 @register_jitable
 def _offsets(n, m, mr, band):
-    """Where the state, Kb, d, dfilt, the terms and V start in the buffer (the accelerations follow the state)."""
+    """Where the state, Kb, d, dfilt and V start in the buffer (the accelerations follow the state)."""
     o_state = HEADER
     o_kb = o_state + m + n
     o_d = o_kb + mr * (band + 1)
     o_df = o_d + mr
-    o_terms = o_df + mr
-    return o_state, o_kb, o_d, o_df, o_terms, o_terms + 21 * n
+    return o_state, o_kb, o_d, o_df, o_df + mr
 
 
 @register_jitable
@@ -85,7 +86,7 @@ def jtimes_size(n, m, mr, band, nv):
     int
         The length.
     """
-    return _offsets(n, m, mr, band)[5] + nv
+    return _offsets(n, m, mr, band)[4] + nv
 
 
 @njit(cache=True)
@@ -106,7 +107,7 @@ def keep_factors(jt, y, xdd, n, m, mr, band, factors):
         :func:`~flexmb.kernels.loops.loop_rhs_factors_into`'s.
     """
     Kb, d, dfilt, kept, smallest, V, status = factors[4:]
-    o_state, o_kb, o_d, o_df, o_terms, o_v = _offsets(n, m, mr, band)
+    o_state, o_kb, o_d, o_df, o_v = _offsets(n, m, mr, band)
     k = V.shape[0]
     jt[o_state : o_state + m] = y[:m]
     jt[o_state + m : o_state + m + n] = xdd
@@ -130,26 +131,28 @@ def holds(jt, y, m):
 
 
 @njit(cache=True)
-def _terms(jt, n, m, mr, band):
-    """The views of the terms u, hs, y (n, 6) and qs (n, 3) in ``jt``."""
-    o = _offsets(n, m, mr, band)[4]
-    return view2(jt, o, n, 6), view2(jt, o + 6 * n, n, 6), view2(jt, o + 12 * n, n, 3), view2(jt, o + 15 * n, n, 6)
+def _terms(terms, n):
+    """The views of the terms u, hs, y (n, 6) and qs (n, 3) in ``terms`` (21 n)."""
+    return view2(terms, 0, n, 6), view2(terms, 6 * n, n, 6), view2(terms, 12 * n, n, 3), view2(terms, 15 * n, n, 6)
 
 
 @njit(cache=True)
-def prepare(packed, jt, work, n, m, mr, band):
-    """Make the terms of G in ``jt`` from the right-hand side's work (kinematics, loads) and its accelerations (kept).
+def prepare(packed, jt, terms, work, n, m):
+    """Make the terms of G in ``terms`` from the right-hand side's work (kinematics, loads) and its accelerations.
 
     Parameters
     ----------
     packed : tuple
         The model's constant arrays.
     jt : ndarray
-        The buffer, holding the factors of that right-hand side (:func:`keep_factors`).
+        The buffer, holding the factors of that right-hand side and its
+        accelerations (:func:`keep_factors`); ``H_TERMS`` set.
+    terms : ndarray, shape (21 n,)
+        Output: the terms.
     work : ndarray
         The right-hand side's work (:func:`~flexmb.kernels.loops.loop_rhs_factors_into`'s).
-    n, m, mr, band : int
-        Speeds, states, rows, K's band.
+    n, m : int
+        Speeds and states.
     """
     tree = unpack(packed)[0]
     xdd = jt[HEADER + m : HEADER + m + n]
@@ -158,7 +161,7 @@ def prepare(packed, jt, work, n, m, mr, band):
     u, hs, qs, y = geometric_terms(tree.parent, tree.coord_start, tree.coord_kind, Sw, Sv, xdd, kin[1], kin[2],
                                    kin[3], kin[4], kin[5], Iw, tree.mass, composite_inertias(tree.parent, spatial),
                                    force, torque)
-    tu, ths, tqs, ty = _terms(jt, n, m, mr, band)
+    tu, ths, tqs, ty = _terms(terms, n)
     tu[:, :] = u
     ths[:, :] = hs
     tqs[:, :] = qs
@@ -176,8 +179,8 @@ def state_jacobian_times(packed, layout, jt, terms, work, n, m, stiffness, dampi
         The model and its rows' layout.
     jt, work : ndarray
         The buffer and the right-hand side's work at that state.
-    terms : ndarray
-        A buffer holding the terms of G (:func:`prepare`): ``jt``, or one made at another state (J's G lagged).
+    terms : ndarray, shape (21 n,)
+        The terms of G (:func:`prepare`): of that state, or of another (J's G lagged).
     n, m : int
         Speeds and states (entries of ``v`` and ``Jv`` from 2 n on: states nothing depends on).
     stiffness, damping : ndarray, shape (n,)
@@ -199,11 +202,11 @@ def state_jacobian_times(packed, layout, jt, terms, work, n, m, stiffness, dampi
     Sw, Sv = loaded_state_views(nb, n, work[: loaded_state_work_size(nb, n)])[2:4]
     W, gamma, phi, rows_scratch, pA0, IA, U, DinvUT, Dinv, armature0, armature, lift, scratch = loop_rhs_views(
         nb, n, mr, work)
-    o_state, o_kb, o_d, o_df, o_terms, o_v = _offsets(n, m, mr, band)
+    o_state, o_kb, o_d, o_df, o_v = _offsets(n, m, mr, band)
     k = int(jt[H_VROWS])
     factors = (U, DinvUT, Dinv, lift, view2(jt, o_kb, mr, band + 1), jt[o_d : o_d + mr], jt[o_df : o_df + mr],
                int(jt[H_KEPT]), jt[H_SMALLEST], view2(jt, o_v, k, k), int(jt[H_STATUS]))
-    u, hs, qs, y = _terms(terms, n, m, mr, band)
+    u, hs, qs, y = _terms(terms, n)
     g = np.empty(n)
     geometric_times(tree.parent, tree.coord_start, tree.coord_kind, Sw, Sv, u, hs, qs, y, v[:n], g,
                     np.empty((nb, 6)), np.empty((nb + 1, 9)))
@@ -252,5 +255,6 @@ def loop_state_jtimes(packed, layout, y, n, stiffness, damping, gamma_d, tol, wi
         return status
     jt = np.zeros(jtimes_size(n, m, mr, band, factors[9].size))
     keep_factors(jt, y, xdd, n, m, mr, band, factors)
-    prepare(packed, jt, work, n, m, mr, band)
-    return state_jacobian_times(packed, layout, jt, jt, work, n, m, stiffness, damping, v, Jv)[1]
+    terms = np.empty(21 * n)
+    prepare(packed, jt, terms, work, n, m)
+    return state_jacobian_times(packed, layout, jt, terms, work, n, m, stiffness, damping, v, Jv)[1]

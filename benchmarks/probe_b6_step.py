@@ -23,7 +23,10 @@ CPU of the rounds, at the run's initial state:
   :func:`~flexmb.kernels.loop_jacobian.loop_state_jacobian` (what its C
   callback calls now, where ``compiled_jacobian`` says it applies);
 * with GMRES (from ``KRYLOV_MIN_COORDS``), the preconditioner's
-  factorisation (``loop_newton_factor``) and solve (``loop_newton_solve``);
+  factorisation (``loop_newton_factor``) and solve (``loop_newton_solve``),
+  and the compiled ``J v`` (:mod:`flexmb.kernels.loop_jtimes`, where the run
+  takes it: ``jtimes`` counted): the terms of G (made once per new Jacobian
+  where G is lagged) and the product;
 * the step loop's drift check after every step (the cut joints'
   residuals, ``tree_equations(..., RESIDUALS)``); where CVODE projects
   (``project=True``: the loop's drift check is skipped after a step the
@@ -69,10 +72,11 @@ from flexmb.kernels.cache import njit  # noqa: E402
 from flexmb.kernels.constraints import ROWS_SCRATCH  # noqa: E402
 from flexmb.kernels.equations import RESIDUALS, loaded_state, tree_equations  # noqa: E402
 from flexmb.kernels.loop_jacobian import loop_state_jacobian  # noqa: E402
+from flexmb.kernels.loop_jtimes import jtimes_size, keep_factors, prepare, state_jacobian_times  # noqa: E402
 from flexmb.kernels.step_projection import step_projection  # noqa: E402
 from flexmb.kernels.loops import (_arrays, _constrained_apply, _constrained_factor, _minus_bias_wrenches,  # noqa: E402
-                                  _rows_into, loop_newton_factor, loop_newton_solve, loop_rhs_into,
-                                  loop_rhs_work_size)
+                                  _rows_into, loop_newton_factor, loop_newton_solve, loop_rhs_factors_into,
+                                  loop_rhs_into, loop_rhs_work_size)
 
 SPAN, RTOL = 0.5, 3e-3
 
@@ -134,6 +138,28 @@ def _time_newton(packed, layout, x, armature, tol, rank_limit, load, reps, solve
             s += loop_newton_solve(factored, packed, layout, load)[0][0]
         else:
             s += loop_newton_factor(packed, layout, x.copy(), armature, tol, rank_limit)[0][0, 0]
+    return s
+
+
+@njit
+def _time_jtimes(packed, layout, y, n, K, C, gamma_d, tol, window, rank_limit, reps, product):
+    """``reps`` makings of the compiled J v's terms of G (product False) or products (with G's terms lagged)."""
+    nb, mr, band, m = layout.root_of.shape[0], layout.row_coord.shape[0], layout.band, y.shape[0]
+    work, xdd, lam = np.empty(loop_rhs_work_size(nb, n, mr)), np.empty(n), np.empty(mr)
+    zeros = np.zeros((nb + 1, 3))
+    factors = loop_rhs_factors_into(packed, layout, y, n, np.zeros(0), zeros, zeros, np.zeros(n), gamma_d, tol, window,
+                                    rank_limit, xdd, lam, work)[3]
+    jt, terms = np.zeros(jtimes_size(n, m, mr, band, mr * mr)), np.zeros(21 * n)
+    keep_factors(jt, y, xdd, n, m, mr, band, factors)
+    prepare(packed, jt, terms, work, n, m)
+    v, Jv = np.linspace(-1.0, 1.0, m), np.empty(m)
+    s = 0.0
+    for _ in range(reps):
+        if product:
+            s += state_jacobian_times(packed, layout, jt, terms, work, n, m, K, C, v, Jv)[1] + Jv[n]
+        else:
+            prepare(packed, jt, terms, work, n, m)
+            s += terms[-1]
     return s
 
 
@@ -253,7 +279,8 @@ def probe(n_seg: int, rounds: int) -> dict:
     out = dict(n_segments=n_seg, n=n, rtol=RTOL, cpu_s=cpu, **counts,
                solver={k: solver.get(k) for k in ("steps", "rhs_cvode", "rhs_ls", "newton_iters", "lin_iters",
                                                   "lin_setups", "psolves", "factors", "err_test_fails",
-                                                  "projections", "projections_refused")},
+                                                  "projections", "projections_refused", "jtimes", "jtimes_setups",
+                                                  "jtimes_rhs")},
                **parts)
     nb = system.topology.n_bodies
     _time_drift(packed, y, n, nb, 1)
@@ -290,6 +317,12 @@ def probe(n_seg: int, rounds: int) -> dict:
                     max(50, 4000 // n), rounds) for s in (False, True)]
         out.update(newton_factor_us=f[0] * 1e6, newton_solve_us=f[1] * 1e6)
         spent += solver.get("factors", 0) * f[0] + solver.get("psolves", 0) * f[1]
+        if solver.get("jtimes"):  # the compiled J v (G lagged: its terms made once per new Jacobian, ``jac``)
+            _time_jtimes(packed, layout, y, n, K, C, gamma_d, tol, window, rank_limit, 1, True)
+            j = [_least(lambda r, p=p: _time_jtimes(packed, layout, y, n, K, C, gamma_d, tol, window, rank_limit, r, p),
+                        max(50, 4000 // n), rounds) for p in (False, True)]
+            out.update(jtimes_setup_us=j[0] * 1e6, jtimes_us=j[1] * 1e6)
+            spent += counts["jac"] * j[0] + solver["jtimes"] * j[1]
     out["cvode_own_s"] = inside - spent  # CVODE's own work: inside the compiled loop, less the callbacks' parts
     out["rest_s"] = cpu - spent
     return out

@@ -13,6 +13,10 @@ and the dense Jacobian of a small model (below ``KRYLOV_MIN_COORDS``)
 (:func:`~flexmb.kernels.loop_jacobian.loop_state_jacobian`, a C callback)
 where the model's tangent is what that kernel forms
 (:func:`~flexmb.integrators.cvode_direct.compiled_jacobian`), else called from Python.
+With GMRES (from ``KRYLOV_MIN_COORDS``) on such a model, GMRES's products
+``J v`` of that Jacobian are compiled too (:mod:`flexmb.kernels.cvode_loop_jtimes`,
+``CVodeSetJacTimes``: no right-hand side per product), else CVODE's
+difference quotients.
 
 What ``flexmb.stepping.Run`` does after each step of a looped model is done
 by the run itself, on the very steps it would do it on
@@ -59,6 +63,13 @@ from .cvode_direct import CV_ADAMS, CV_BDF, STEPS_PER_CALL, DirectCVODE, _addr
 #: and the outputs' projection (a correction of several atol upsets BDF's history: the four-bar at rtol 1e-9)
 PROJECTION_BOUND_FRACTION = 0.5
 PROJECTION_ATOL_FRACTION = 0.1
+
+#: GMRES takes the compiled J v (flexmb.kernels.cvode_loop_jtimes) where compiled_jacobian allows (False: CVODE's
+#: difference quotient, a right-hand side per product)
+COMPILED_JTIMES = True
+#: its G (the geometric stiffness) is that of the first linear solve after each set-up of the preconditioner (as
+#: the dense solver's J), not the current state's; P (the constrained solve) is always the current state's
+LAGGED_JTIMES = True
 
 __all__ = ["DirectLoopCVODE", "DirectLoopCVODEBDF", "DirectLoopCVODEAdams", "loop_class"]
 
@@ -144,9 +155,41 @@ class DirectLoopCVODE(DirectCVODE):
         if not hasattr(self, "_carried"):  # the first memory: CVODE's counters of the restarted ones start at 0
             self._options, self._carried = (rtol, atol, krylov, max_step), {key: 0 for key, _ in _CVODE_COUNTS}
         super()._setup(rtol, atol, krylov, max_step, first_step)
+        if krylov and self._jtimes_applies():
+            self._compiled_jtimes()
         self._projects = self._projects and self.family == "BDF"  # (CVODE projects BDF steps only)
         if self._projects:
             self._project_in_cvode()
+
+    def _jtimes_applies(self) -> bool:
+        """Whether GMRES takes the compiled ``J v`` (:func:`~flexmb.integrators.cvode_direct.compiled_jacobian`)."""
+        if not hasattr(self, "_jtimes"):
+            from .cvode_direct import compiled_jacobian
+
+            self._jtimes = COMPILED_JTIMES and compiled_jacobian(self.system)
+        return self._jtimes
+
+    def _compiled_jtimes(self) -> None:
+        """GMRES's ``J v`` by the C callbacks of :mod:`flexmb.kernels.cvode_loop_jtimes` (``CVodeSetJacTimes``).
+
+        The right-hand side keeps its factors for them in the buffer at
+        ``A_JT`` (:func:`flexmb.kernels.loop_jtimes.jtimes_size`), followed
+        by G's terms (21 per coordinate; lagged: :data:`LAGGED_JTIMES`);
+        made with the first memory and kept over the restarts (its counters too).
+        """
+        from ..kernels import cvode_loop_jtimes
+        from ..kernels.loop_jtimes import H_AT, H_LAG, H_VALID, jtimes_size
+
+        cb, a, ud = self._cb, self._arrays, self._ud
+        if "jt" not in a:
+            lay = self.system._loop_layout
+            size = jtimes_size(self.n, self.m, lay.row_coord.shape[0], int(lay.band), a["V"].size)
+            a["jt"] = np.zeros(size + 21 * self.n)  # the factors' buffer, then G's terms
+            ud[cb.A_JT], ud[cb.N_JT], ud[cb.N_V] = a["jt"].ctypes.data, a["jt"].size, a["V"].size
+            a["jt"][H_LAG], a["jt"][H_AT] = float(LAGGED_JTIMES), -1.0
+        a["jt"][H_VALID] = 0.0  # no factors kept yet
+        self._check(self._S.CVodeSetJacTimes(self._mem, cvode_loop_jtimes.jtsetup.address,
+                                             cvode_loop_jtimes.jtimes.address), "CVodeSetJacTimes")
 
     def _project_in_cvode(self) -> None:
         """CVODE's own projection onto the constraints after each step (``CVodeSetProjFn``), its error not projected.
@@ -358,13 +401,21 @@ class DirectLoopCVODE(DirectCVODE):
             As :meth:`DirectCVODE.stats`, and ``psolves`` and ``factors``
             (the preconditioner's solves, and its factorisations: one per
             set-up and gamma), ``projections`` and ``projections_refused``
-            (CVODE's projections that moved the state, and those refused).
+            (CVODE's projections that moved the state, and those refused);
+            with the compiled ``J v``, ``jtimes``, ``jtimes_setups`` and
+            ``jtimes_rhs`` (its products, set-ups, and the right-hand sides
+            it evaluated again, included in ``rhs``).
         """
         cb, ud = self._cb, self._ud
         out = {k: v + self._carried[k] for k, v in self._cvode_counts().items()}
         out.update(rhs=int(ud[cb.RHS]), jac=int(ud[cb.SETUPS] + ud[cb.JACS]), psolves=int(ud[cb.PSOLVES]),
                    factors=int(ud[cb.FACTORS]), projections=int(ud[cb.PROJECTIONS]),
                    projections_refused=int(ud[cb.PROJ_REFUSED]))
+        if "jt" in self._arrays:
+            from ..kernels import loop_jtimes as lj
+
+            jt = self._arrays["jt"]
+            out.update(jtimes=int(jt[lj.H_TIMES]), jtimes_setups=int(jt[lj.H_SETUPS]), jtimes_rhs=int(jt[lj.H_RHS]))
         return out
 
 

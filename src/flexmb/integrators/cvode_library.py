@@ -101,6 +101,7 @@ def _declare(libs, index) -> dict:
         "CVodeGetLastStep": (i, [vp, POINTER(d)]), "CVodeGetLastOrder": (i, [vp, POINTER(i)]),
         "CVodeGetEstLocalErrors": (i, [vp, vp]), "CVodeGetErrWeights": (i, [vp, vp]),
         "CVodeSetStabLimDet": (i, [vp, i]), "CVodeSetProjFn": (i, [vp, vp]), "CVodeSetProjErrEst": (i, [vp, i]),
+        "CVodeSetJacTimes": (i, [vp, vp, vp]),
     }
     for stat in ("NumSteps", "NumRhsEvals", "NumLinRhsEvals", "NumJacEvals", "NumPrecEvals", "NumPrecSolves",
                  "NumLinIters", "NumNonlinSolvIters", "NumErrTestFails", "NumNonlinSolvConvFails", "NumLinSolvSetups",

@@ -42,11 +42,12 @@ from .cvode_callbacks import _call_cvode, _call_p_p, _cfunc, _voidp, _watched
 from .equations import RESIDUALS, tree_equations
 from .loop_layout import LoopLayout
 from .loop_jacobian import loop_state_jacobian
-from .loops import loop_newton_factor, loop_newton_solve, loop_rhs_into, loop_rhs_work_size
+from .loop_jtimes import H_VALID, jtimes_size, keep_factors
+from .loops import loop_newton_factor, loop_newton_solve, loop_rhs_factors_into, loop_rhs_work_size
 from .step_projection import KEPT, MOVED, REFUSED, step_projection
 from .views import view2
 
-__all__ = ["rhs", "rate_into", "work_size", "jac", "psetup", "psolve", "project", "advance", "drift", "driver", "UD_SIZE", "REACHED", "CHECKPOINT", "PAUSED", "WATCH",
+__all__ = ["rhs", "rate_into", "evaluate", "work_size", "jac", "psetup", "psolve", "project", "advance", "drift", "driver", "UD_SIZE", "REACHED", "CHECKPOINT", "PAUSED", "WATCH",
            "DRIFTED", "NOT_FINITE"]
 
 #: slots of the user_data array (int64): addresses (A_*), sizes, counters, the failure's status
@@ -58,7 +59,9 @@ __all__ = ["rhs", "rate_into", "work_size", "jac", "psetup", "psolve", "project"
  PROJECTIONS, PROJ_REFUSED, PROJ_OK) = range(64)
 A_MATDATA = 64  # SUNDenseMatrix_Data, for jac
 A_WORK = 65  # the work array of rhs (work_size)
-UD_SIZE = 66
+#: the buffer of the compiled J v (flexmb.kernels.cvode_loop_jtimes; A_JT 0: none), its length, K's eigenvectors' room
+A_JT, N_JT, N_V = 66, 67, 68
+UD_SIZE = 69
 #: the float parameters (A_REAL): the rank tolerance, the singular window, the factors' gamma and smallest pivot;
 #: for :func:`project`, the residual below which a state is kept, the Newton tolerance, the largest correction
 #: per unit residual, and the time of the last state it left on the constraints
@@ -178,7 +181,7 @@ def work_size(nb, n, m, n_drv):
 
 @njit(cache=True)
 def rate_into(ud, t, yv, out):
-    """The state rate ``(xd, xdd, 0)`` at the true state ``yv`` into ``out`` by loop_rhs_into, work in ``A_WORK``.
+    """The state rate ``(xd, xdd, 0)`` at the true state ``yv`` into ``out`` by :func:`evaluate`, counted.
 
     The one right-hand side of the compiled loops: CVODE's :func:`rhs` and
     the generalized-alpha loop (:mod:`flexmb.kernels.genalpha_loops`) call it.
@@ -191,27 +194,8 @@ def rate_into(ud, t, yv, out):
     kept : int
         loop_rhs_into's ``kept``.
     """
-    n, m, nb = ud[N], ud[M], ud[NB]
-    real = _f1(ud[A_REAL], N_REAL)
     ud[RHS] += 1
-    mr, n_drv = ud[MROWS], ud[N_DRV]
-    work = _f1(ud[A_WORK], work_size(nb, n, mr, n_drv))
-    zeros = view2(work, 0, 2 * (nb + 1), 3)  # the Python loads (none): force0, torque0 and generalized0
-    zeros[:, :] = 0.0
-    o = 6 * (nb + 1)
-    generalized0, lam, gamma_d = work[o : o + n], work[o + n : o + n + mr], work[o + n + mr : o + n + mr + n_drv]
-    generalized0[:] = 0.0
-    o += n + mr + n_drv
-    drv = _drivers(ud)
-    for k in range(n_drv):
-        gamma_d[k] = driver(drv, k, t)[2]
-    kept, smallest, status = loop_rhs_into(_packed(ud), _layout(ud), yv, n, work[:0], zeros[: nb + 1],
-                                           zeros[nb + 1 :], generalized0, gamma_d, real[R_TOL], real[R_WINDOW],
-                                           ud[RANK_LIMIT], out[n : 2 * n], lam, work[o:])
-    for i in range(n):
-        out[i] = yv[n + i]
-    for i in range(2 * n, m):  # states nothing depends on
-        out[i] = 0.0
+    kept, status = evaluate(ud, t, yv, out)
     return status, kept
 
 
@@ -227,6 +211,48 @@ def rhs(t, y, ydot, user_data):
     if status == 2:
         return _fail(ud, NONFINITE, t, yv, ud[NONFINITE_FLAG])
     return _fail(ud, kept, t, yv, -1)  # a freedom that moves no mass and that no loop fixes
+
+
+@njit(cache=True)
+def _work(ud):
+    """:func:`rhs`'s work array, and where loop_rhs_factors_into's part of it starts."""
+    n, nb, mr, n_drv = ud[N], ud[NB], ud[MROWS], ud[N_DRV]
+    return _f1(ud[A_WORK], work_size(nb, n, mr, n_drv)), 6 * (nb + 1) + n + mr + n_drv
+
+
+@njit(cache=True)
+def evaluate(ud, t, yv, out):
+    """``out = (xd, xdd)`` at the true state ``yv`` by loop_rhs_factors_into, work in ``A_WORK``; (kept, status).
+
+    Where the loops' GMRES takes the compiled ``J v`` (``A_JT`` set), K's
+    factors are kept for it (:func:`~flexmb.kernels.loop_jtimes.keep_factors`).
+    """
+    n, m, nb = ud[N], ud[M], ud[NB]
+    real = _f1(ud[A_REAL], N_REAL)
+    mr, n_drv = ud[MROWS], ud[N_DRV]
+    work, o = _work(ud)
+    zeros = view2(work, 0, 2 * (nb + 1), 3)  # the Python loads (none): force0, torque0 and generalized0
+    zeros[:, :] = 0.0
+    p = o - n - mr - n_drv
+    generalized0, lam, gamma_d = work[p : p + n], work[p + n : p + n + mr], work[p + n + mr : o]
+    generalized0[:] = 0.0
+    drv = _drivers(ud)
+    for k in range(n_drv):
+        gamma_d[k] = driver(drv, k, t)[2]
+    kept, smallest, status, factors = loop_rhs_factors_into(_packed(ud), _layout(ud), yv, n, work[:0],
+                                                            zeros[: nb + 1], zeros[nb + 1 :], generalized0, gamma_d,
+                                                            real[R_TOL], real[R_WINDOW], ud[RANK_LIMIT], out[n : 2 * n],
+                                                            lam, work[o:])
+    for i in range(n):
+        out[i] = yv[n + i]
+    for i in range(2 * n, m):  # states nothing depends on
+        out[i] = 0.0
+    if ud[A_JT]:
+        jt = _f1(ud[A_JT], jtimes_size(n, m, mr, ud[BAND], ud[N_V]))
+        jt[H_VALID] = 0.0
+        if status == 0:
+            keep_factors(jt, yv, out[n : 2 * n], n, m, mr, ud[BAND], factors)
+    return kept, status
 
 
 @_cfunc(types.int32(types.float64, types.voidptr, types.voidptr, types.voidptr, types.voidptr, types.voidptr,

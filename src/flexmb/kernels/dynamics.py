@@ -111,7 +111,9 @@ def composite_inertias(parent, spatial):
     for k in range(parent.shape[0] - 1, -1, -1):
         p = parent[k]
         if p >= 0:
-            IC[p] += IC[k]
+            for i in range(6):
+                for j in range(6):
+                    IC[p, i, j] += IC[k, i, j]
     return IC
 
 

@@ -25,7 +25,7 @@ from .packing import unpack
 from .tree import kinematics_work_size, tree_kinematics_into, tree_state
 from .views import view2, view3
 
-__all__ = ["loaded_state", "loaded_state_into", "loaded_state_work_size", "tree_equations", "RESIDUALS", "ROWS", "EQUATIONS"]
+__all__ = ["loaded_state", "loaded_state_into", "loaded_state_views", "loaded_state_work_size", "tree_equations", "RESIDUALS", "ROWS", "EQUATIONS"]
 
 
 @njit(cache=True)
@@ -87,6 +87,42 @@ def loaded_state_work_size(nb, n):
     return 36 * (nb + 1) + 51 * nb + 7 * n + kinematics_work_size(nb, n)
 
 
+@njit(cache=True, inline="always")
+def loaded_state_views(nb, n, work):
+    """The arrays :func:`loaded_state_into` fills, as views of its work array (one layout for both).
+
+    Parameters
+    ----------
+    nb, n : int
+        Numbers of bodies and of speeds.
+    work : ndarray, shape (>= loaded_state_work_size(nb, n),)
+        The work array.
+
+    Returns
+    -------
+    tuple
+        ``R`` (nb + 1, 3, 3); ``kin`` (7, nb + 1, 3): origin, r, omega, v,
+        alpha, acc, jp; ``Sw``, ``Sv`` (n, 3); the kinematics' scratch;
+        ``force``, ``torque`` (nb + 1, 3); ``generalized`` (n); ``Iw`` (nb,
+        3, 3); ``spatial`` (nb, 6, 6); ``fw``, ``tw`` (nb, 3).
+    """
+    R = view3(work, 0, nb + 1, 3, 3)
+    o = 9 * (nb + 1)
+    kin = view3(work, o, 7, nb + 1, 3)
+    o += 21 * (nb + 1)
+    Sw, Sv = view2(work, o, n, 3), view2(work, o + 3 * n, n, 3)
+    o += 6 * n
+    k = kinematics_work_size(nb, n)
+    scratch = work[o : o + k]
+    o += k
+    force, torque = view2(work, o, nb + 1, 3), view2(work, o + 3 * (nb + 1), nb + 1, 3)
+    generalized = work[o + 6 * (nb + 1) : o + 6 * (nb + 1) + n]
+    o += 6 * (nb + 1) + n
+    Iw, spatial = view3(work, o, nb, 3, 3), view3(work, o + 9 * nb, nb, 6, 6)
+    fw, tw = view2(work, o + 45 * nb, nb, 3), view2(work, o + 48 * nb, nb, 3)
+    return R, kin, Sw, Sv, scratch, force, torque, generalized, Iw, spatial, fw, tw
+
+
 @njit(cache=True)
 def loaded_state_into(packed, y, nq, powers, force0, torque0, generalized0, work):
     """:func:`loaded_state` with every array a view of ``work``: nothing allocated (the loops' CVODE callback).
@@ -109,29 +145,17 @@ def loaded_state_into(packed, y, nq, powers, force0, torque0, generalized0, work
     nb = tree.parent.shape[0]
     x = y[:nq]
     xd = y[nq : nq + n]
-    R = view3(work, 0, nb + 1, 3, 3)
-    o = 9 * (nb + 1)
-    kin = view3(work, o, 7, nb + 1, 3)  # origin, r, omega, v, alpha, acc, jp
-    o += 21 * (nb + 1)
-    Sw, Sv = view2(work, o, n, 3), view2(work, o + 3 * n, n, 3)
-    o += 6 * n
-    k = kinematics_work_size(nb, n)
+    R, kin, Sw, Sv, scratch, force, torque, generalized, Iw, spatial, fw, tw = loaded_state_views(nb, n, work)
     empty3 = view2(work, 0, 0, 3)
     tree_kinematics_into(tree.parent, tree.coord_start, tree.coord_kind, tree.coord_axis, tree.external,
                          tree.parent_frame, tree.child_frame, tree.lever, tree.child_point, tree.com, x, xd,
                          view3(work, 0, 0, 3, 3), empty3, empty3, empty3, empty3, empty3, R, kin[0], kin[1],
-                         kin[2], kin[3], kin[4], kin[5], kin[6], Sw, Sv, work[o : o + k])
-    o += k
+                         kin[2], kin[3], kin[4], kin[5], kin[6], Sw, Sv, scratch)
     origin, r, omega, v, alpha, acc = kin[0], kin[1], kin[2], kin[3], kin[4], kin[5]
-    force, torque = view2(work, o, nb + 1, 3), view2(work, o + 3 * (nb + 1), nb + 1, 3)
-    generalized = work[o + 6 * (nb + 1) : o + 6 * (nb + 1) + n]
-    o += 6 * (nb + 1) + n
     force[:] = force0
     torque[:] = torque0
     generalized[:] = generalized0
     apply_load_tables(tables, tree.mass, R, origin, r, omega, v, x, xd, force, torque, generalized, powers)
-    Iw, spatial = view3(work, o, nb, 3, 3), view3(work, o + 9 * nb, nb, 6, 6)
-    fw, tw = view2(work, o + 45 * nb, nb, 3), view2(work, o + 48 * nb, nb, 3)
     spatial_inertias_into(R, r, tree.mass, tree.inertia, Iw, spatial)
     bias_wrenches_into(tree.mass, Iw, omega, alpha, acc, force, torque, fw, tw)
     kin = (R, origin, r, omega, v, alpha, acc, kin[6][:nb], Sw, Sv)

@@ -38,7 +38,8 @@ from .packing import unpack
 from .tree import tree_state
 from .views import view2, view3
 
-__all__ = ["MASSLESS", "LIFT", "loop_rhs", "loop_rhs_into", "loop_rhs_work_size", "loop_speeds", "loop_newton_factor", "loop_newton_solve",
+__all__ = ["MASSLESS", "LIFT", "loop_rhs", "loop_rhs_into", "loop_rhs_work_size", "loop_rhs_factors_into",
+           "loop_rhs_views", "loop_speeds", "loop_newton_factor", "loop_newton_solve",
            "rows_at_positions", "row_spatial_accelerations"]
 
 
@@ -165,16 +166,33 @@ def loop_rhs_into(packed, layout, y, nq, powers, force0, torque0, generalized0, 
     kept, smallest, status
         As :func:`loop_rhs`.
     """
-    n, m = generalized0.shape[0], lam.shape[0]
-    o = loaded_state_work_size(packed[3][0, 1], n)
-    tree, cuts, kin, spatial, fw, tw, generalized = loaded_state_into(packed, y, nq, powers, force0, torque0,
-                                                                      generalized0, work[:o])
-    R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = kin
-    nb = tree.parent.shape[0]
-    W, gamma = view3(work, o, m, 2, 6), work[o + 12 * m : o + 13 * m]
-    _rows_into(tree, cuts, R, origin, r, omega, v, alpha, acc, gamma_d, W, gamma, work[o + 13 * m : o + 14 * m],
-               work[o + 14 * m : o + 14 * m + ROWS_SCRATCH], layout.row_body[:0])
-    body = layout.row_body
+    kept, smallest, status, _ = loop_rhs_factors_into(packed, layout, y, nq, powers, force0, torque0, generalized0,
+                                                      gamma_d, tol, window, rank_limit, xdd, lam, work)
+    return kept, smallest, status
+
+
+@njit(cache=True, inline="always")
+def loop_rhs_views(nb, n, m, work):
+    """The arrays :func:`loop_rhs_factors_into` leaves in its work after :func:`~flexmb.kernels.equations.loaded_state_into`'s.
+
+    Parameters
+    ----------
+    nb, n, m : int
+        Numbers of bodies, speeds and rows.
+    work : ndarray, shape (>= loop_rhs_work_size(nb, n, m),)
+        The work array.
+
+    Returns
+    -------
+    tuple
+        The rows' wrenches ``W`` (m, 2, 6), ``gamma``, ``phi`` (m) and
+        their scratch; the bias loads ``pA0`` (nb + 1, 6); ``IA`` (nb, 6,
+        6); the articulated factors ``U``, ``DinvUT``, ``Dinv`` (n, 6);
+        ``armature0``, ``armature``, ``lift`` (n); the solve's scratch.
+    """
+    o = loaded_state_work_size(nb, n)
+    W, gamma, phi = view3(work, o, m, 2, 6), work[o + 12 * m : o + 13 * m], work[o + 13 * m : o + 14 * m]
+    rows_scratch = work[o + 14 * m : o + 14 * m + ROWS_SCRATCH]
     o += 14 * m + ROWS_SCRATCH
     pA0 = view2(work, o, nb + 1, 6)
     IA = view3(work, o + 6 * (nb + 1), nb, 6, 6)
@@ -183,6 +201,38 @@ def loop_rhs_into(packed, layout, y, nq, powers, force0, torque0, generalized0, 
     armature0, armature = work[o + 18 * n : o + 19 * n], work[o + 19 * n : o + 20 * n]
     lift = work[o + 20 * n : o + 21 * n]
     scratch = work[o + 21 * n : o + 21 * n + apply_work_size(nb, n, m)]
+    return W, gamma, phi, rows_scratch, pA0, IA, U, DinvUT, Dinv, armature0, armature, lift, scratch
+
+
+@njit(cache=True)
+def loop_rhs_factors_into(packed, layout, y, nq, powers, force0, torque0, generalized0, gamma_d, tol, window,
+                          rank_limit, xdd, lam, work):
+    """:func:`loop_rhs_into`, and the constrained solve's factors (those not in ``work``: the state Jacobian's).
+
+    Parameters
+    ----------
+    packed, layout, y, nq, powers, force0, torque0, generalized0, gamma_d, tol, window, rank_limit, xdd, lam, work
+        As :func:`loop_rhs_into`.
+
+    Returns
+    -------
+    kept, smallest, status
+        As :func:`loop_rhs`.
+    factors : tuple
+        ``(U, DinvUT, Dinv, lift, Kb, d, dfilt, kept, smallest, V,
+        status)`` of :func:`~flexmb.kernels.constrained._constrained_factor`
+        (the first four: views of ``work``, :func:`loop_rhs_views`).
+    """
+    n, m = generalized0.shape[0], lam.shape[0]
+    tree, cuts, kin, spatial, fw, tw, generalized = loaded_state_into(
+        packed, y, nq, powers, force0, torque0, generalized0, work[: loaded_state_work_size(packed[3][0, 1], n)])
+    R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = kin
+    nb = tree.parent.shape[0]
+    W, gamma, phi, rows_scratch, pA0, IA, U, DinvUT, Dinv, armature0, armature, lift, scratch = loop_rhs_views(
+        nb, n, m, work)
+    _rows_into(tree, cuts, R, origin, r, omega, v, alpha, acc, gamma_d, W, gamma, phi, rows_scratch,
+               layout.row_body[:0])
+    body = layout.row_body
     _minus_bias_wrenches_into(nb, r, fw, tw, pA0)
     armature0[:] = 0.0
     dA = view2(scratch, 0, nb + 1, 6)  # the apply's scratch, lent to the factors' check of massless freedoms
@@ -191,8 +241,10 @@ def loop_rhs_into(packed, layout, y, nq, powers, force0, torque0, generalized0, 
         tree.parent, tree.coord_start, Sw, Sv, spatial, W, body, layout.row_coord, _arrays(layout), layout.band, tol,
         window, rank_limit, armature0, armature, lift, IA, U, DinvUT, Dinv, dA, xdd)
     factors = (U, DinvUT, Dinv, lift, Kb, d, dfilt, kept, smallest, V, status)
-    return _constrained_apply_into(tree.parent, tree.coord_start, Sw, Sv, W, body, layout.row_coord, layout.order,
-                                   layout.band, factors, pA0, generalized, gamma, xdd, lam, scratch)
+    kept, smallest, status = _constrained_apply_into(tree.parent, tree.coord_start, Sw, Sv, W, body, layout.row_coord,
+                                                     layout.order, layout.band, factors, pA0, generalized, gamma, xdd,
+                                                     lam, scratch)
+    return kept, smallest, status, factors
 
 
 @njit(cache=True)

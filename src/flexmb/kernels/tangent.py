@@ -23,23 +23,11 @@ from __future__ import annotations
 import numpy as np
 from .cache import njit
 
-from .tree import _cross, _mv
+from .tree import _cross_to, _mv_to
 
 _QUATERNION = 3  # flexmb.kernels.QUATERNION
 
-__all__ = ["geometric_stiffness"]
-
-
-@njit(cache=True, inline="always")
-def _skew(a):
-    out = np.zeros((3, 3))
-    out[0, 1] = -a[2]
-    out[0, 2] = a[1]
-    out[1, 0] = a[2]
-    out[1, 2] = -a[0]
-    out[2, 0] = -a[1]
-    out[2, 1] = a[0]
-    return out
+__all__ = ["geometric_stiffness", "geometric_terms", "geometric_times"]
 
 
 @njit(cache=True)
@@ -48,7 +36,8 @@ def _net_wrenches(parent, coord_start, Sx, r, omega, v, alpha_bias, a_bias, iner
 
     Returns the accelerations ``acc`` (one row per body and the ground),
     the net wrenches ``W`` and the applied loads ``Fe``, ``Te`` and
-    ``Ge = [r]x [F]x`` of each body, not yet summed over subtrees.
+    ``Ge = [r]x [F]x = F r^T - (r . F) I`` of each body, not yet summed
+    over subtrees (scalar loops: no small temporaries).
     """
     nb = parent.shape[0]
     acc = np.zeros((nb + 1, 6))
@@ -57,25 +46,45 @@ def _net_wrenches(parent, coord_start, Sx, r, omega, v, alpha_bias, a_bias, iner
     Fe = np.empty((nb, 3))
     Te = np.empty((nb, 3))
     Ge = np.empty((nb, 3, 3))
+    t1, t2, net_f, Iw_w = np.empty(3), np.empty(3), np.empty(3), np.empty(3)
     for k in range(nb):
         p = parent[k]
         if p < 0:
             p = nb
-        up[k] = up[p]
+        for i in range(6):
+            up[k, i] = up[p, i]
         for c in range(coord_start[k], coord_start[k + 1]):
-            up[k] += Sx[c]
-        acc[k, :3] = alpha_bias[k] + up[k, :3]
-        acc[k, 3:] = a_bias[k] - _cross(alpha_bias[k], r[k]) - _cross(omega[k], v[k]) + up[k, 3:]
-        alpha = acc[k, :3]
-        a_r = acc[k, 3:] + _cross(alpha, r[k]) + _cross(omega[k], v[k])
-        net_f = force[k] - mass[k] * a_r
-        net_t = (torque[k] - _mv(inertia_world[k], alpha)
-                 - _cross(omega[k], _mv(inertia_world[k], omega[k])))
-        W[k, :3] = net_t + _cross(r[k], net_f)
-        W[k, 3:] = net_f
-        Fe[k] = force[k]
-        Te[k] = torque[k]
-        Ge[k] = _skew(r[k]) @ _skew(force[k])
+            for i in range(6):
+                up[k, i] += Sx[c, i]
+        rx, ry, rz = r[k, 0], r[k, 1], r[k, 2]
+        wx, wy, wz = omega[k, 0], omega[k, 1], omega[k, 2]
+        vx, vy, vz = v[k, 0], v[k, 1], v[k, 2]
+        bx, by, bz = alpha_bias[k, 0], alpha_bias[k, 1], alpha_bias[k, 2]
+        t2[0], t2[1], t2[2] = wy * vz - wz * vy, wz * vx - wx * vz, wx * vy - wy * vx  # omega x v
+        t1[0], t1[1], t1[2] = by * rz - bz * ry, bz * rx - bx * rz, bx * ry - by * rx  # alpha_bias x r
+        for i in range(3):
+            acc[k, i] = alpha_bias[k, i] + up[k, i]
+            acc[k, 3 + i] = a_bias[k, i] - t1[i] - t2[i] + up[k, 3 + i]
+        ax, ay, az = acc[k, 0], acc[k, 1], acc[k, 2]
+        t1[0], t1[1], t1[2] = ay * rz - az * ry, az * rx - ax * rz, ax * ry - ay * rx  # alpha x r
+        for i in range(3):
+            net_f[i] = force[k, i] - mass[k] * (acc[k, 3 + i] + t1[i] + t2[i])
+        I = inertia_world[k]
+        for i in range(3):
+            Iw_w[i] = I[i, 0] * wx + I[i, 1] * wy + I[i, 2] * wz
+            t1[i] = I[i, 0] * ax + I[i, 1] * ay + I[i, 2] * az
+        t2[0], t2[1], t2[2] = wy * Iw_w[2] - wz * Iw_w[1], wz * Iw_w[0] - wx * Iw_w[2], wx * Iw_w[1] - wy * Iw_w[0]
+        fx, fy, fz = net_f[0], net_f[1], net_f[2]
+        W[k, 0] = torque[k, 0] - t1[0] - t2[0] + (ry * fz - rz * fy)
+        W[k, 1] = torque[k, 1] - t1[1] - t2[1] + (rz * fx - rx * fz)
+        W[k, 2] = torque[k, 2] - t1[2] - t2[2] + (rx * fy - ry * fx)
+        rf = rx * force[k, 0] + ry * force[k, 1] + rz * force[k, 2]
+        for i in range(3):
+            W[k, 3 + i] = net_f[i]
+            Fe[k, i] = force[k, i]
+            Te[k, i] = torque[k, i]
+            for j in range(3):
+                Ge[k, i, j] = force[k, i] * r[k, j] - (rf if i == j else 0.0)
     return acc, W, Fe, Te, Ge
 
 
@@ -85,10 +94,13 @@ def _subtree_sums(parent, W, Fe, Te, Ge):
     for k in range(parent.shape[0] - 1, -1, -1):
         p = parent[k]
         if p >= 0:
-            W[p] += W[k]
-            Fe[p] += Fe[k]
-            Te[p] += Te[k]
-            Ge[p] += Ge[k]
+            for i in range(6):
+                W[p, i] += W[k, i]
+            for i in range(3):
+                Fe[p, i] += Fe[k, i]
+                Te[p, i] += Te[k, i]
+                for j in range(3):
+                    Ge[p, i, j] += Ge[k, i, j]
 
 
 @njit(cache=True)
@@ -96,7 +108,8 @@ def _coordinate_terms(parent, coord_start, coord_kind, Sw, Sv, Sx, IC, acc, W, F
     """Per coordinate: ``u = S x a_pre``, ``hs = H S``, ``qs = Q^T S`` and ``y = S x* W + H u - Q S_w``.
 
     ``a_pre``: the acceleration that does not turn with the coordinate (for a
-    set of Euler parameters, the one before the set).
+    set of Euler parameters, the one before the set); ``Q = [[-Ge - [Te]x],
+    [-[Fe]x]]`` (6 x 3). Scalar loops: no small temporaries.
     """
     nb = parent.shape[0]
     n = Sw.shape[0]
@@ -107,36 +120,79 @@ def _coordinate_terms(parent, coord_start, coord_kind, Sw, Sv, Sx, IC, acc, W, F
     S = np.empty(6)
     a_pre = np.empty(6)
     a_set = np.empty(6)
+    Q = np.empty((6, 3))
+    t = np.empty(3)
     for k in range(nb):
         p = parent[k]
         if p < 0:
             p = nb
-        Q = np.empty((6, 3))
-        Q[:3] = -Ge[k] - _skew(Te[k])
-        Q[3:] = -_skew(Fe[k])
-        a_pre[:] = acc[p]
+        for i in range(3):
+            for j in range(3):
+                Q[i, j] = -Ge[k, i, j]
+                Q[3 + i, j] = 0.0
+        _skew_add(Q, 0, Te[k], -1.0)
+        _skew_add(Q, 3, Fe[k], -1.0)
+        for i in range(6):
+            a_pre[i] = acc[p, i]
         H = IC[k]
         c0 = coord_start[k]
         for c in range(c0, coord_start[k + 1]):
             a = a_pre
             if coord_kind[c] != _QUATERNION:
-                a_pre += Sx[c]
+                for i in range(6):
+                    a_pre[i] += Sx[c, i]
             else:
                 if c == c0 or coord_kind[c - 1] != _QUATERNION:  # the set's first speed
-                    a_set[:] = a_pre
-                    a_pre += Sx[c] + Sx[c + 1] + Sx[c + 2]
+                    for i in range(6):
+                        a_set[i] = a_pre[i]
+                        a_pre[i] += Sx[c, i] + Sx[c + 1, i] + Sx[c + 2, i]
                 a = a_set
-            S[:3] = Sw[c]
-            S[3:] = Sv[c]
-            u[c, :3] = _cross(Sw[c], a[:3])
-            u[c, 3:] = _cross(Sw[c], a[3:]) + _cross(Sv[c], a[:3])
-            hs[c] = H @ S
-            qs[c] = Q.T @ S
-            Hu = H @ u[c]
-            QS = Q @ Sw[c]
-            y[c, :3] = _cross(Sw[c], W[k, :3]) + _cross(Sv[c], W[k, 3:]) + Hu[:3] - QS[:3]
-            y[c, 3:] = _cross(Sw[c], W[k, 3:]) + Hu[3:] - QS[3:]
+            for i in range(3):
+                S[i] = Sw[c, i]
+                S[3 + i] = Sv[c, i]
+            _cross_to(t, Sw[c], a[:3])
+            u[c, :3] = t
+            _cross_to(t, Sw[c], a[3:])
+            u[c, 3:] = t
+            _cross_to(t, Sv[c], a[:3])
+            for i in range(3):
+                u[c, 3 + i] += t[i]
+            for i in range(6):
+                hi = 0.0
+                ui = 0.0
+                for j in range(6):
+                    hi += H[i, j] * S[j]
+                    ui += H[i, j] * u[c, j]
+                hs[c, i] = hi
+                y[c, i] = ui  # H u, completed below
+            for j in range(3):
+                q = 0.0
+                for i in range(6):
+                    q += Q[i, j] * S[i]
+                qs[c, j] = q
+            for i in range(6):
+                y[c, i] -= Q[i, 0] * Sw[c, 0] + Q[i, 1] * Sw[c, 1] + Q[i, 2] * Sw[c, 2]
+            _cross_to(t, Sw[c], W[k, :3])
+            for i in range(3):
+                y[c, i] += t[i]
+            _cross_to(t, Sv[c], W[k, 3:])
+            for i in range(3):
+                y[c, i] += t[i]
+            _cross_to(t, Sw[c], W[k, 3:])
+            for i in range(3):
+                y[c, 3 + i] += t[i]
     return u, hs, qs, y
+
+
+@njit(cache=True, inline="always")
+def _skew_add(Q, row, a, scale):
+    """``Q[row : row + 3] += scale [a]x``."""
+    Q[row, 1] -= scale * a[2]
+    Q[row, 2] += scale * a[1]
+    Q[row + 1, 0] += scale * a[2]
+    Q[row + 1, 2] -= scale * a[0]
+    Q[row + 2, 0] -= scale * a[1]
+    Q[row + 2, 1] += scale * a[0]
 
 
 @njit(cache=True)
@@ -203,13 +259,106 @@ def geometric_stiffness(parent, coord_start, coord_body, coord_kind, Sw, Sv, xdd
     ndarray, shape (n, n)
         G (see :func:`flexmb.assembly.geometric_stiffness`).
     """
+    u, hs, qs, y = geometric_terms(parent, coord_start, coord_kind, Sw, Sv, xdd, r, omega, v, alpha_bias, a_bias,
+                                   inertia_world, mass, IC, force, torque)
+    return _assemble(parent, coord_start, coord_body, coord_kind, Sw, Sv, u, hs, qs, y)
+
+
+@njit(cache=True)
+def geometric_terms(parent, coord_start, coord_kind, Sw, Sv, xdd, r, omega, v, alpha_bias, a_bias, inertia_world,
+                    mass, IC, force, torque):
+    """The per-coordinate terms G is made of: ``u = S x a_pre``, ``hs = H S``, ``qs = Q^T S``, ``y = S x* W + H u - Q S_w``.
+
+    Parameters
+    ----------
+    parent, coord_start, coord_kind, Sw, Sv, xdd, r, omega, v, alpha_bias, a_bias, inertia_world, mass, IC, force, torque
+        As :func:`geometric_stiffness`.
+
+    Returns
+    -------
+    u, hs, y : ndarray, shape (n, 6)
+    qs : ndarray, shape (n, 3)
+        In the order ``u, hs, qs, y``: what :func:`geometric_stiffness`
+        assembles G from and :func:`geometric_times` multiplies with.
+    """
     n = Sw.shape[0]
     Sx = np.empty((n, 6))
     for c in range(n):
-        Sx[c, :3] = Sw[c] * xdd[c]
-        Sx[c, 3:] = Sv[c] * xdd[c]
+        for i in range(3):
+            Sx[c, i] = Sw[c, i] * xdd[c]
+            Sx[c, 3 + i] = Sv[c, i] * xdd[c]
     acc, W, Fe, Te, Ge = _net_wrenches(parent, coord_start, Sx, r, omega, v, alpha_bias, a_bias, inertia_world, mass,
                                        force, torque)
     _subtree_sums(parent, W, Fe, Te, Ge)
-    u, hs, qs, y = _coordinate_terms(parent, coord_start, coord_kind, Sw, Sv, Sx, IC, acc, W, Fe, Te, Ge)
-    return _assemble(parent, coord_start, coord_body, coord_kind, Sw, Sv, u, hs, qs, y)
+    return _coordinate_terms(parent, coord_start, coord_kind, Sw, Sv, Sx, IC, acc, W, Fe, Te, Ge)
+
+
+@njit(cache=True, inline="always")
+def _after(coord_kind, c, d):
+    """Whether, in one joint, row c takes the ``hs . u - qs . S_w`` form against d: d not after c, or one set."""
+    return d <= c or coord_kind[c] == coord_kind[d] == _QUATERNION
+
+
+@njit(cache=True)
+def geometric_times(parent, coord_start, coord_kind, Sw, Sv, u, hs, qs, y, x, out, down, up):
+    """``out = G x`` in O(n), G as :func:`geometric_stiffness` assembles it, without forming it.
+
+    Row c of G is ``hs_c . u_d - qs_c . S_wd`` against the coordinates d
+    before it on its path from the ground (and itself, and its set of Euler
+    parameters), ``S_c . y_d`` against those after it in its subtree: the
+    first sums run from the ground out (``up``), the second from the
+    leaves in (``down``).
+
+    Parameters
+    ----------
+    parent, coord_start, coord_kind, Sw, Sv
+        As :func:`geometric_stiffness`.
+    u, hs, qs, y : ndarray
+        :func:`geometric_terms`.
+    x : ndarray, shape (n,)
+        The vector.
+    out : ndarray, shape (n,)
+        Output: ``G x``.
+    down : ndarray, shape (n_bodies, 6)
+        Scratch.
+    up : ndarray, shape (n_bodies + 1, 9)
+        Scratch.
+    """
+    nb = parent.shape[0]
+    down[:, :] = 0.0
+    for k in range(nb - 1, -1, -1):  # the leaves in: down[k] is the sum of y_d x_d over k's subtree
+        for c in range(coord_start[k], coord_start[k + 1]):
+            s = 0.0
+            for i in range(6):
+                t = down[k, i]  # (its children's, so far)
+                for d in range(coord_start[k], coord_start[k + 1]):
+                    if not _after(coord_kind, c, d):
+                        t += y[d, i] * x[d]
+                s += (Sw[c, i] if i < 3 else Sv[c, i - 3]) * t
+            out[c] = s
+        for d in range(coord_start[k], coord_start[k + 1]):
+            for i in range(6):
+                down[k, i] += y[d, i] * x[d]
+        p = parent[k]
+        if p >= 0:
+            for i in range(6):
+                down[p, i] += down[k, i]
+    up[nb, :] = 0.0
+    for k in range(nb):  # the ground out: up[k] sums u_d x_d and S_wd x_d over k's path, k's joint included
+        p = parent[k]
+        if p < 0:
+            p = nb
+        for c in range(coord_start[k], coord_start[k + 1]):
+            s = 0.0
+            for i in range(9):
+                t = up[p, i]
+                for d in range(coord_start[k], coord_start[k + 1]):
+                    if _after(coord_kind, c, d):
+                        t += (u[d, i] if i < 6 else Sw[d, i - 6]) * x[d]
+                s += (hs[c, i] if i < 6 else -qs[c, i - 6]) * t
+            out[c] += s
+        for i in range(9):
+            t = up[p, i]
+            for d in range(coord_start[k], coord_start[k + 1]):
+                t += (u[d, i] if i < 6 else Sw[d, i - 6]) * x[d]
+            up[k, i] = t

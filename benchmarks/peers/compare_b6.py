@@ -21,6 +21,11 @@ every flexmb configuration once and then every Exudyn configuration once;
 a configuration's time is its least wall time over the rounds.
 OPENBLAS_NUM_THREADS is 1 unless the caller set it, on both sides.
 
+The default grids are those of docs/benchmarks.md, "B6 side by side after
+session 10's merges": a finer step ladder than the earlier 2,000 / 2,800 /
+4,000 / 5,600 (settings between 2,800 and 4,000 pass at every N) and
+Exudyn's Newton tolerance 1e-3 where it converges (N <= 32).
+
 Robust choice (issue 31): per tool and family (flexmb: the method; Exudyn:
 the Newton tolerance) a setting is robust when its error is <= ``--target``
 *and* every tighter one of the grid (smaller rtol or step) also passes; the
@@ -149,6 +154,11 @@ def flexmb_configs(specs, n: int) -> list:
     return out
 
 
+def newton_rtols(specs, n: int) -> list:
+    """The Newton tolerances of the ``--newton-rtols`` specs ``TOL[:MAX_N]`` that apply at N, as strings."""
+    return [s.split(":")[0] for s in specs if ":" not in s or n <= int(s.split(":")[1])]
+
+
 def robust_pick(rows, target):
     """The fastest robust setting and the fastest passing one: (row or None, row or None).
 
@@ -236,12 +246,15 @@ def main(argv=None):
     ap.add_argument("--n", type=int, nargs="+", default=[8, 32, 128, 512])
     ap.add_argument("--t-end", type=float, default=0.5)
     ap.add_argument("--n-out", type=int, default=100)
-    ap.add_argument("--flexmb", nargs="+", default=["CVODE_BDF:1e-4,3e-5,1e-5", "GeneralizedAlpha:3e-4,1e-4,3e-5:32"],
+    ap.add_argument("--flexmb", nargs="+", default=["CVODE_BDF:1e-2,5e-3,3e-3,2e-3,1e-3,1e-4",
+                                                    "GeneralizedAlpha:1e-3,5e-4,3e-4,1e-4:32"],
                     help="flexmb configurations METHOD:RTOL,RTOL,...[:MAX_N] (the method at these rtols, for "
                          "N <= MAX_N only if given; 'auto' picks CVODE_BDF for B6 damped)")
-    ap.add_argument("--exudyn-steps", type=int, nargs="+", default=[2000, 2800, 4000, 5600],
+    ap.add_argument("--exudyn-steps", type=int, nargs="+", default=[2800, 3000, 3400, 3700, 4000, 5600],
                     help="numbers of steps over t_end (multiples of --n-out)")
-    ap.add_argument("--newton-rtols", type=float, nargs="+", default=[1e-5, 1e-4])
+    ap.add_argument("--newton-rtols", nargs="+", default=["1e-5", "1e-4", "1e-3:32"],
+                    help="Exudyn's Newton relative tolerances TOL[:MAX_N] (for N <= MAX_N only if given: 1e-3 "
+                         "converges at N <= 32 only, and where it does not, Exudyn's step control runs for minutes)")
     ap.add_argument("--peers-python", default="/work/venv-peers/bin/python")
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--ref-rtol", type=float, default=1e-11)
@@ -286,7 +299,7 @@ def main(argv=None):
         else:
             print(f"  Exudyn verification failed: {ver}", flush=True)
         peer = Peer([py, os.path.join(HERE, "exudyn_b6.py"), *common, "--steps", *args.exudyn_steps,
-                     "--newton-rtol", *args.newton_rtols], 7200, env)
+                     "--newton-rtol", *newton_rtols(args.newton_rtols, n)], 7200, env)
         configs = flexmb_configs(args.flexmb, n)
         failed = set()
         try:

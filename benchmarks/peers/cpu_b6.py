@@ -70,7 +70,7 @@ warm = fm.simulate(system, {warm}, **kw)
 c0, w0 = time.process_time(), time.perf_counter()
 res = fm.simulate(system, 0.5, **kw)
 cpu, wall = time.process_time() - c0, time.perf_counter() - w0
-ref = np.load({ref!r})["output"]
+ref = np.asarray(json.load(open({ref!r})), float)
 err = float(np.max(np.abs(np.asarray(res.coordinate("rail"), float)[1:] - ref)))
 print(json.dumps(dict(cpu_s=cpu, wall_s=wall, error=err, steps=int(res.n_steps), rhs_evals=int(res.n_rhs),
                       jac_evals=int(res.n_jac), projections=int(res.n_projections),
@@ -130,7 +130,6 @@ def main(argv=None):
     env = dict(os.environ, OPENBLAS_NUM_THREADS=os.environ.get("OPENBLAS_NUM_THREADS", "1"))
     rows = []
     for n in args.n:
-        ref_npz = os.path.join(REFS, f"B6damped_N{n}_T0.5_out100_rtol1e-11.npz")
         ref_json = os.path.join(REFS, f"B6damped_N{n}_T0.5_out100_ref.json")
         data = os.path.join(REFS, f"B6damped_N{n}_data.json")
         best = {}
@@ -141,7 +140,7 @@ def main(argv=None):
                 cenv = dict(env, PYTHONPATH=os.path.abspath(path)) if path else env
                 for spec in _upto(args.flexmb, n):
                     method, rtol = spec.split(":")[:2]
-                    code = FLEXMB_CHILD.format(bench=BENCH, n=n, method=method, rtol=float(rtol), ref=ref_npz,
+                    code = FLEXMB_CHILD.format(bench=BENCH, n=n, method=method, rtol=float(rtol), ref=ref_json,
                                                warm=args.warmup)
                     runs.append((("flexmb", label, method, float(rtol)), sys.executable, code, cenv))
             for spec in _upto(args.exudyn, n):

@@ -28,6 +28,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._signals import act_on_deferred, deferred
+from ..stepped_by_run import SteppedByRun
 from .solver import _NO_LOW_PASS, NEWTON_REGROWTH, GeneralizedAlpha
 
 __all__ = ["compiled_genalpha", "CompiledGeneralizedAlpha", "CompiledLoopGeneralizedAlpha"]
@@ -320,7 +321,7 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         self._remember()
 
 
-class CompiledLoopGeneralizedAlpha(CompiledGeneralizedAlpha):
+class CompiledLoopGeneralizedAlpha(SteppedByRun, CompiledGeneralizedAlpha):
     """:class:`CompiledGeneralizedAlpha` for looped models, stepped by the run's checking loop.
     For a model whose loops CVODE's compiled loops serve (the articulated
     strategy closes them, force elements compiled, drivers with a closed form,
@@ -362,7 +363,6 @@ class CompiledLoopGeneralizedAlpha(CompiledGeneralizedAlpha):
     """
 
     checks_constraints = True
-    advances = False  # stepped by step_on (flexmb.own_loop.advance_checking)
     _needs = ("loops closed by the articulated strategy, force elements all compiled, drivers with a closed form "
               "(Driver.law), and qd = u")
     _serves = staticmethod(_serves_loops)
@@ -385,23 +385,6 @@ class CompiledLoopGeneralizedAlpha(CompiledGeneralizedAlpha):
         self._Jx, self._Jv = np.zeros((n, n)), np.zeros((n, n))  # the Jacobian's blocks, formed in the loop
         self._jac_in_loop = (self.jacobian_in_loop and compiled_jacobian and self._jac_fun is not None
                              and self.f_max is None)
-
-    def advance(self, t_stop: float, on_step=None):
-        """Refused: a looped model's steps need the run's checks (see :meth:`step_on`).
-
-        Parameters
-        ----------
-        t_stop : float
-            Time to reach.
-        on_step : callable, optional
-            Not used.
-
-        Raises
-        ------
-        TypeError
-            Always.
-        """
-        raise TypeError(f"{type(self).__name__} is stepped by step_on (flexmb.own_loop.advance_checking)")
 
     def step_on(self, t_stop: float, bound: float, outputs=None) -> int:
         """Step until a step needs the run's attention, or to ``t_stop`` (``outputs.once``) or the run's end.

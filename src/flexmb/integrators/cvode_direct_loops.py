@@ -56,6 +56,7 @@ import numpy as np
 
 from .._signals import act_on_deferred
 from ..output_projection import OUTPUT_PROJECTION_GAIN, LoopOutputs
+from ..stepped_by_run import SteppedByRun
 from .cvode_direct import CV_ADAMS, CV_BDF, STEPS_PER_CALL, DirectCVODE, _addr
 
 #: CVODE's projection moves a state whose constraint residual exceeds this fraction of the run's drift bound or
@@ -110,7 +111,7 @@ def _with_projection(init) -> inspect.Signature:
     return inspect.Signature(params[:-1] + extra + params[-1:])
 
 
-class DirectLoopCVODE(DirectCVODE):
+class DirectLoopCVODE(SteppedByRun, DirectCVODE):
     """CVODE on a model with loops with compiled callbacks, stepped until a step needs the run's attention.
 
     Built by :class:`flexmb.stepping.Run` with the options of
@@ -120,7 +121,6 @@ class DirectLoopCVODE(DirectCVODE):
     """
 
     checks_constraints = restarts_in_place = True
-    advances = False  # stepped by step_on, the run's checks acting after its steps (DirectCVODE.advance's are not)
 
     def __init__(self, *args, projection_tol=1e-10, project=False, **kwargs):
         self._projection_tol, self._projects = float(projection_tol), bool(project)
@@ -131,24 +131,6 @@ class DirectLoopCVODE(DirectCVODE):
         self._advance = advance_storing  # the step loop storing the outputs
 
     __init__.__signature__ = _with_projection(DirectCVODE.__init__)
-
-    def advance(self, t_stop: float, on_step=None):
-        """Refused: a looped model's steps need the run's checks (see :meth:`step_on`).
-
-        Parameters
-        ----------
-        t_stop : float
-            Time to reach.
-        on_step : callable, optional
-            Not used.
-
-        Raises
-        ------
-        TypeError
-            Always.
-        """
-        raise TypeError("DirectLoopCVODE is stepped by step_on (flexmb.own_loop.advance_checking): the constraint "
-                        "checks and restarts of the run act after its steps")
 
     def _setup(self, rtol, atol, krylov, max_step, first_step):
         """CVODE's options (:meth:`DirectCVODE._setup`), kept for :meth:`restart`."""

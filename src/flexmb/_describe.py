@@ -76,7 +76,8 @@ def describe(system, x0, xd0, *, types=None, where="the initial state") -> list[
     Returns
     -------
     list of str
-        One line per body, joint, force list and driver, then the counts.
+        One line per body, joint, force list and driver, then the counts
+        and the evaluation path (planar or spatial, with the reason).
     """
     from .flexible import FlexibleBody
 
@@ -119,6 +120,9 @@ def describe(system, x0, xd0, *, types=None, where="the initial state") -> list[
         + (f" (drivers prescribe {len(model.drivers)})" if model.drivers else "")
         + (f" independent speeds ({system.constraints.n_velocity} velocity rows: the configuration has more "
            "freedoms than speeds)" if system.constraints.n_velocity else ""),
+        "evaluation: " + ("planar (every joint moves in one plane: flexmb.kernels.planar)"
+                          if getattr(system, "planar", False)
+                          else f"spatial (not planar: {getattr(system, 'planar_reason', '') or 'not judged'})"),
     ]
     return lines
 

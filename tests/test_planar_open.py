@@ -23,6 +23,7 @@ import sys
 
 import numpy as np
 import pytest
+from attrs import frozen
 
 import flexmb as fm
 from flexmb.errors import AssemblyError, ModelError
@@ -212,6 +213,43 @@ def test_a_point_force_or_python_force_is_not_planar():
         model.build(planar=True)
     with pytest.raises(ModelError, match="planar must be True, False or None"):
         _pendulum().build(planar="yes")
+
+
+def _with(*items):
+    """The README pendulum with ``items`` added."""
+    model = _pendulum()
+    model.add(*items)
+    return model
+
+
+def _bar2():
+    return fm.RigidBody("bar2", 0.5, (0.01, 0.02, 0.03), (0.4, 0.0, 0.0))
+
+
+@frozen(eq=False)
+class _Drag(fm.ForceElement):
+    """A force element written in Python (no compiled table)."""
+
+    body: fm.Body = fm.reference(fm.Body)
+
+    def apply(self, state, loads):
+        i = state.index(self.body)
+        loads.add_point_force(i, state.r[i], -0.1 * state.v[i])
+
+
+@pytest.mark.parametrize("items, why", [
+    (lambda: [fm.Revolute("pin2", "bar", _bar2(), axis=(1, 0, 0), parent_point=(1, 0, 0))], "off the plane's normal"),
+    (lambda: [fm.Prismatic("rail", "bar", _bar2(), axis=(0, 0, 1))], "slides off the plane"),
+    (lambda: [fm.Universal("u", "bar", _bar2(), parent_point=(1, 0, 0))], "several coordinates"),
+    (lambda: [fm.Spherical("s", "bar", _bar2(), parent_point=(1, 0, 0))], "several coordinates"),
+    (lambda: [fm.Spherical("s", "bar", _bar2(), parent_point=(1, 0, 0), rotation="quaternion")], "Euler parameters"),
+    (lambda: [fm.BodyTorque("t", "bar", (0.0, 0.0, 1.0))], "torques"),
+    (lambda: [fm.SpringDamper("k", "ground", (0, 1, 0), "bar", (1, 0, 0), 10.0, 0.1, 0.5)], "springs between points"),
+    (lambda: [_Drag("drag", "bar")], "force elements evaluated in Python"),
+])
+def test_open_trees_outside_the_plane_are_not_planar(items, why):
+    system = _with(*items()).build()
+    assert not system.planar and why in system.planar_reason
 
 
 def test_a_singular_joint_reports_the_same_body():

@@ -23,7 +23,8 @@ from .cache import njit
 
 from .dynamics import axis_projections, bias_wrenches, bias_wrenches_into, spatial_inertias, spatial_inertias_into
 from .loads import apply_load_tables
-from .packing import unpack
+from .packing import is_planar, unpack
+from .planar import planar_open_rhs_into
 from .tree import euler_parameter_rates, kinematics_work_size, tree_kinematics_into
 from .views import view2, view3
 
@@ -493,6 +494,8 @@ def open_tree_rhs_into(packed, y, nq, armature, ydot, work):
     int
         The status of :func:`open_tree_rhs`.
     """
+    if is_planar(packed):  # the model moves in one plane: 3-vectors (flexmb.kernels.planar)
+        return planar_open_rhs_into(packed, y, nq, armature, ydot, work)
     tree, tables, _ = unpack(packed)
     n = armature.shape[0]
     nb = tree.parent.shape[0]

@@ -11,7 +11,10 @@ buffers with the original dtypes and shapes.
 
 The fields and their kinds are listed once, in :data:`LAYOUT`: the kernel
 side (:func:`unpack`) reads them in that order, and :func:`pack` checks each
-array against its entry.
+array against its entry. A 4th part follows, :data:`PLANAR_LAYOUT`: the
+planar data of a model that moves in one plane (:mod:`flexmb.planar_data`,
+empty arrays for any other model), read by :func:`unpack_planar`;
+:func:`is_planar` tells which, from the index alone.
 """
 
 from __future__ import annotations
@@ -23,7 +26,8 @@ from .loads import LoadTables
 from .tree import TreeArrays
 from .views import view2, view3
 
-__all__ = ["LAYOUT", "N_TREE", "N_TABLES", "N_CUTS", "pack", "unpack"]
+__all__ = ["LAYOUT", "PLANAR_LAYOUT", "N_TREE", "N_TABLES", "N_CUTS", "N_PLANAR", "pack", "unpack", "unpack_planar",
+           "is_planar", "no_planar"]
 
 #: the kind of each packed field: its buffer ('f' float, 'i' integer, 'b' flag) and its number of
 #: dimensions; first the fields of TreeArrays, then of LoadTables, then the cut joints' rows
@@ -42,13 +46,31 @@ LAYOUT = (
     # cut rows: points (i, pi, j, pj), directions (i, pi, ai, j, pj), perpendiculars (i, ai, j, bj)
     "i1", "f2", "i1", "f2", "i1", "f2", "f2", "i1", "f2", "i1", "f2", "i1", "f2",
 )
+#: the planar data's fields (:func:`flexmb.planar_data.planar_data`), a 4th part after :data:`LAYOUT`'s
+#: (empty arrays for a model that is not planar): ints parent, coord, kind, coord_cols, ri, rj, drivers;
+#: floats axis, lever, u, mass, J, g, coord_k, coord_c, coord_rest, wi, wj, d0
+PLANAR_LAYOUT = ("i1",) * 7 + ("f2", "f2", "f2", "f1", "f1", "f1", "f1", "f1", "f1", "f2", "f2", "f2")
 #: number of fields of each part
-N_TREE, N_TABLES, N_CUTS = len(TreeArrays._fields), len(LoadTables._fields), 13
+N_TREE, N_TABLES, N_CUTS, N_PLANAR = len(TreeArrays._fields), len(LoadTables._fields), 13, len(PLANAR_LAYOUT)
+#: index of the planar part's first field
+_P0 = N_TREE + N_TABLES + N_CUTS
 
 _DTYPES = {"f": np.float64, "i": np.int64, "b": np.bool_}
 
 
-def pack(tree, tables, cuts) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def no_planar() -> tuple[tuple, tuple]:
+    """The planar part of a model that is not planar: every field an empty array of its kind.
+
+    Returns
+    -------
+    ints, floats : tuple of ndarray
+        7 and 12 empty arrays (:data:`PLANAR_LAYOUT`).
+    """
+    arrays = [np.zeros((0,) * int(kind[1]), dtype=_DTYPES[kind[0]]) for kind in PLANAR_LAYOUT]
+    return tuple(arrays[:7]), tuple(arrays[7:])
+
+
+def pack(tree, tables, cuts, planar=None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Copy a model's constant arrays into one buffer per kind and an index.
 
     Parameters
@@ -60,6 +82,10 @@ def pack(tree, tables, cuts) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.nda
     cuts : sequence of ndarray
         The cut joints' rows, in the order of
         :attr:`flexmb.constraints.Constraints.cut_arrays`.
+    planar : tuple, optional
+        ``(ints, floats)``, the model's planar data
+        (:func:`flexmb.planar_data.planar_data`); None (default): the model
+        is not planar (:func:`no_planar`).
 
     Returns
     -------
@@ -76,16 +102,19 @@ def pack(tree, tables, cuts) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.nda
     ------
     ValueError
         If the numbers of fields, or a field's dtype or dimensions, differ
-        from :data:`LAYOUT`.
+        from :data:`LAYOUT` (and :data:`PLANAR_LAYOUT`).
     """
-    arrays = [*tree, *tables, *cuts]
+    ints, floats = no_planar() if planar is None else planar
+    arrays = [*tree, *tables, *cuts, *ints, *floats]
     if (len(tree), len(tables), len(cuts)) != (N_TREE, N_TABLES, N_CUTS):
         raise ValueError(f"pack: expected {N_TREE}, {N_TABLES} and {N_CUTS} fields, "
                          f"got {len(tree)}, {len(tables)} and {len(cuts)}")
+    if len(ints) + len(floats) != N_PLANAR or len(ints) != 7:
+        raise ValueError(f"pack: expected 7 + 12 planar fields, got {len(ints)} + {len(floats)}")
     parts = {kind: [] for kind in _DTYPES}
     sizes = dict.fromkeys(_DTYPES, 0)
     index = np.ones((len(arrays), 4), dtype=np.int64)
-    for k, (a, kind) in enumerate(zip(arrays, LAYOUT)):
+    for k, (a, kind) in enumerate(zip(arrays, LAYOUT + PLANAR_LAYOUT)):
         a = np.asarray(a)
         dtype, ndim = _DTYPES[kind[0]], int(kind[1])
         if a.ndim != ndim or a.dtype != dtype:
@@ -150,3 +179,47 @@ def unpack(packed):
             _view1(it, ix, 49), _view2(fl, ix, 50), _view2(fl, ix, 51), _view1(it, ix, 52), _view2(fl, ix, 53),
             _view1(it, ix, 54), _view2(fl, ix, 55), _view1(it, ix, 56), _view2(fl, ix, 57))
     return tree, tables, cuts
+
+
+@njit(cache=True, inline="always")
+def is_planar(packed):
+    """Whether the packed model is planar (its planar part is not empty).
+
+    Parameters
+    ----------
+    packed : tuple
+        ``(floats, ints, flags, index)`` from :func:`pack`.
+
+    Returns
+    -------
+    bool
+        True if :func:`unpack_planar` gives a planar model.
+    """
+    return packed[3][_P0, 1] > 0
+
+
+@njit(cache=True)
+def unpack_planar(packed):
+    """The planar data (:func:`flexmb.planar_data.planar_data`) as views of :func:`pack`'s buffers.
+
+    Parameters
+    ----------
+    packed : tuple
+        ``(floats, ints, flags, index)`` from :func:`pack`.
+
+    Returns
+    -------
+    ints : tuple of ndarray
+        parent, coord, kind, coord_cols, ri, rj, drivers.
+    floats : tuple of ndarray
+        axis, lever, u, mass, J, g, coord_k, coord_c, coord_rest, wi, wj, d0
+        (empty arrays, all of them, for a model that is not planar).
+    """
+    fl, it, _, ix = packed
+    o = _P0
+    ints = (_view1(it, ix, o), _view1(it, ix, o + 1), _view1(it, ix, o + 2), _view1(it, ix, o + 3),
+            _view1(it, ix, o + 4), _view1(it, ix, o + 5), _view1(it, ix, o + 6))
+    floats = (_view2(fl, ix, o + 7), _view2(fl, ix, o + 8), _view2(fl, ix, o + 9), _view1(fl, ix, o + 10),
+              _view1(fl, ix, o + 11), _view1(fl, ix, o + 12), _view1(fl, ix, o + 13), _view1(fl, ix, o + 14),
+              _view1(fl, ix, o + 15), _view2(fl, ix, o + 16), _view2(fl, ix, o + 17), _view2(fl, ix, o + 18))
+    return ints, floats

@@ -1,8 +1,10 @@
-"""The check of every state a public function hands to the compiled kernels (issue: memory safety)."""
+"""The check of every state a public function hands to the compiled kernels (issue: memory safety), and of a strategy."""
 
 from __future__ import annotations
 
 from .._validate import state_time, state_vector
+from ..complements import ArticulatedComplement
+from ..errors import ModelError
 
 
 class StateChecks:
@@ -13,6 +15,15 @@ class StateChecks:
     ``_state_rate``, ...), which the integrators call directly with the
     states they step.
     """
+
+    def _refuse_articulated(self, strategy):
+        """Refuse the 'articulated' strategy for a model with constraint elements, naming them."""
+        if self.constraints.elements and isinstance(strategy, ArticulatedComplement):
+            names = ", ".join(repr(e.name) for e in self.constraints.elements)
+            raise ModelError(
+                f"complement='articulated' cannot take constraint elements ({names}): the loop kernel closes "
+                "only cut-joint and driver rows; use 'auto' (which takes the dense complement for such a model) "
+                "or 'svd'")
 
     def _state(self, where, t, **vectors):
         """``t`` and the named vectors checked for the compiled kernels (:func:`~flexmb._validate.state_vector`).

@@ -19,6 +19,7 @@ from ..state_layout import StateLayout
 from ..topology import Topology
 from ..forces.tables import class_tables, merge
 from ..kernels.packing import pack
+from ..planar_data import planar_choice
 from .checks import StateChecks
 from .equations import Equations
 from .projection import Projection
@@ -50,6 +51,11 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         (False). None (default): the recursion for every open tree. Models
         with loops use their strategy (``"articulated"``: O(n m), A never
         formed).
+    planar : bool or None
+        None (default): the planar evaluation path (3-vectors,
+        :mod:`flexmb.kernels.planar`) where the model moves in one plane
+        (:mod:`flexmb.planar_data`); False: the spatial path for every
+        model; True: as None, but a model that is not planar is refused.
     _topology : Topology, optional
         The model's tree, if already built (:meth:`flexmb.Model.build`
         passes the one its validation built); private.
@@ -76,6 +82,10 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         Count of complement computations so far.
     articulated : bool
         Whether the accelerations come from the articulated-body recursion.
+    planar : bool
+        Whether the planar path evaluates the model.
+    planar_reason : str
+        Why it does not ('' if it does).
     """
 
     def __repr__(self) -> str:
@@ -88,7 +98,7 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
 
         return "\n".join([repr(self)[1:-1], *describe(self, *generic_state(self), where=GENERIC)])
 
-    def __init__(self, model, complement="svd", sparse=None, *, _topology=None):
+    def __init__(self, model, complement="svd", sparse=None, *, planar=None, _topology=None):
         if model.resolve():  # an element names one the model lacks: raise every problem
             model.validate()
         self.model = model
@@ -131,22 +141,14 @@ class System(ReducedSolve, LoopSolve, Tangent, Rates, StateQuantities, Projectio
         # the constant arrays packed once (four buffers: what the kernels' dispatch reads fastest);
         # _packed_open: the same, for open trees whose right-hand side is one kernel call
         self._packed = self._packed_open = None
+        data = planar_choice(self, merged, planar)  # sets planar and planar_reason
         if not self.topology.external_groups:
-            self._packed = pack(self.topology.arrays, merged, self.constraints.cut_arrays)
+            self._packed = pack(self.topology.arrays, merged, self.constraints.cut_arrays, data)
             if self.articulated and not self._python_groups:
                 self._packed_open = self._packed
         nb1 = self.topology.n_bodies + 1
         self._no_loads = (np.zeros((nb1, 3)), np.zeros((nb1, 3)), np.zeros(self.n_speeds))
         self._no_powers = np.zeros(0)
-
-    def _refuse_articulated(self, strategy):
-        """Refuse the 'articulated' strategy for a model with constraint elements, naming them."""
-        if self.constraints.elements and isinstance(strategy, ArticulatedComplement):
-            names = ", ".join(repr(e.name) for e in self.constraints.elements)
-            raise ModelError(
-                f"complement='articulated' cannot take constraint elements ({names}): the loop kernel closes "
-                "only cut-joint and driver rows; use 'auto' (which takes the dense complement for such a model) "
-                "or 'svd'")
 
     def _trial(self):
         """Evaluate every force and constraint element once so bad input fails at build time."""

@@ -63,7 +63,7 @@ def planar_loop_work_size(nb, n, m):
     int
         The length (at most :func:`~flexmb.kernels.loops.loop_rhs_work_size`'s).
     """
-    return (37 + 8 * COLUMNS) * (nb + 1) + n + 8 * m
+    return (37 + 8 * COLUMNS) * (nb + 1) + 2 * n + 8 * m
 
 
 @njit(cache=True, inline="always")
@@ -75,15 +75,15 @@ def _views(nb, n, m, work):
     o += 9 * (nb + 1)
     UD, acc = view2(work, o, nb + 1, 4), view2(work, o + 4 * (nb + 1), nb + 1, 3)
     o += 7 * (nb + 1)
-    uu, tau = work[o : o + nb + 1], work[o + nb + 1 : o + nb + 1 + n]
-    o += nb + 1 + n
+    uu, tau, arm = work[o : o + nb + 1], work[o + nb + 1 : o + nb + 1 + n], work[o + nb + 1 + n : o + nb + 1 + 2 * n]
+    o += nb + 1 + 2 * n
     W = view3(work, o, m, 2, 3)
     gamma, residual = work[o + 6 * m : o + 7 * m], work[o + 7 * m : o + 8 * m]
     o += 8 * m
     P, dA = view3(work, o, nb + 1, COLUMNS, 3), view3(work, o + 3 * COLUMNS * (nb + 1), nb + 1, COLUMNS, 3)
     o += 6 * COLUMNS * (nb + 1)
     X, G = view2(work, o, nb + 1, COLUMNS), view2(work, o + COLUMNS * (nb + 1), nb + 1, COLUMNS)
-    return Kin, pA, IA, UD, acc, uu, tau, W, gamma, residual, P, dA, X, G
+    return Kin, pA, IA, UD, acc, uu, tau, arm, W, gamma, residual, P, dA, X, G
 
 
 @njit(cache=True)
@@ -105,7 +105,7 @@ def rows(ints, floats, K, gamma_d, W, gamma):
         Output: minus the velocity-dependent part of each row's second
         derivative (the drivers': ``gamma_d``).
     """
-    ri, rj, drv = ints[4], ints[5], ints[6]
+    ri, rj = ints[4], ints[5]
     wi, wj, d0 = floats[9], floats[10], floats[11]
     nc = ri.shape[0]
     for a in range(nc):
@@ -129,27 +129,9 @@ def rows(ints, floats, K, gamma_d, W, gamma):
         edx, edy = vjx - vix, vjy - viy
         gamma[a] = (wI * wI * (dx * ex + dy * ey) - 2.0 * wI * (-dy * edx + dx * edy) - dx * (ajx - aix)
                     - dy * (ajy - aiy))
-    for a in range(drv.shape[0]):
+    for a in range(W.shape[0] - nc):  # (none where the layout leaves the drivers out: a calibration's)
         W[nc + a, :, :] = 0.0
         gamma[nc + a] = gamma_d[a]
-
-
-@njit(cache=True)
-def _massless(ints, K, IA, UD):
-    """Whether a coordinate's joint inertia ``S . IA S`` is at or below :data:`MASSLESS` of its body's largest.
-
-    The spatial path's test (:func:`~flexmb.kernels.articulated.articulated_factor_into`),
-    on the planar articulated inertias that :func:`~flexmb.kernels.planar.factor` leaves.
-    """
-    coord = ints[1]
-    for k in range(coord.shape[0]):
-        if coord[k] < 0:
-            continue
-        d = K[k, 10] * UD[k, 0] + K[k, 11] * UD[k, 1] + K[k, 12] * UD[k, 2]
-        tiny = MASSLESS * max(abs(IA[k, 0]), abs(IA[k, 3]), abs(IA[k, 5]))
-        if not d > tiny:
-            return True
-    return False
 
 
 @njit(cache=True)
@@ -311,7 +293,7 @@ def planar_loop_rhs_into(ints, floats, coord_body, layout, y, nq, generalized0, 
         where a freedom moves no mass (the spatial path lifts or names it).
     """
     n, m, nb = generalized0.shape[0], lam.shape[0], ints[0].shape[0]
-    Kin, pA, IA, UD, acc, uu, tau, W, gamma, residual, P, dA, X, G = _views(nb, n, m, work)
+    Kin, pA, IA, UD, acc, uu, tau, arm, W, gamma, residual, P, dA, X, G = _views(nb, n, m, work)
     x, xd = y[:nq], y[nq : nq + n]
     kinematics(ints, floats, x, xd, Kin)
     loads(ints, floats, x, xd, Kin, pA, tau)
@@ -319,8 +301,8 @@ def planar_loop_rhs_into(ints, floats, coord_body, layout, y, nq, generalized0, 
         tau[c] += generalized0[c]
     rows(ints, floats, Kin, gamma_d, W, gamma)
     inertias(floats, Kin, IA)
-    factor(ints, Kin, IA, UD)
-    if _massless(ints, Kin, IA, UD):
+    arm[:] = 0.0
+    if factor(ints, Kin, IA, UD, arm, MASSLESS, 0.0) >= 0:  # a freedom that moves no mass
         return 0, 0.0, HANDOFF
     body, coord = layout.row_body, layout.row_coord
     coord_of = np.full(m, -1, dtype=np.int64)  # a driver row's body

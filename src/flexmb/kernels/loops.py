@@ -34,14 +34,17 @@ from .constrained import (LIFT, MASSLESS, _constrained_apply, _constrained_apply
 from .constraints import ROWS_SCRATCH, cut_row_wrenches, cut_row_wrenches_into
 from .dynamics import spatial_inertias
 from .equations import loaded_state_into, loaded_state_work_size
-from .packing import is_planar, unpack, unpack_planar
+from .packing import _view1, is_planar, unpack, unpack_planar
 from .planar_loops import HANDOFF, planar_loop_rhs_into
-from .tree import tree_state
+from .tree import TreeArrays, tree_state
 from .views import view2, view3
 
 __all__ = ["MASSLESS", "LIFT", "loop_rhs", "loop_rhs_into", "loop_rhs_work_size", "loop_rhs_factors_into",
            "loop_rhs_views", "loop_speeds", "loop_newton_factor", "loop_newton_solve",
            "rows_at_positions", "row_spatial_accelerations"]
+
+#: the packed tree's field ``coord_body`` (the planar path reads it alone: unpacking the whole model costs more)
+_COORD_BODY = TreeArrays._fields.index("coord_body")
 
 
 @njit(cache=True)
@@ -177,8 +180,9 @@ def loop_rhs_into(packed, layout, y, nq, powers, force0, torque0, generalized0, 
     """
     if is_planar(packed) and powers.shape[0] == 0:
         ints, floats = unpack_planar(packed)
-        kept, smallest, status = planar_loop_rhs_into(ints, floats, unpack(packed)[0].coord_body, layout, y, nq,
-                                                      generalized0, gamma_d, tol, window, rank_limit, xdd, lam, work)
+        coord_body = _view1(packed[1], packed[3], _COORD_BODY)
+        kept, smallest, status = planar_loop_rhs_into(ints, floats, coord_body, layout, y, nq, generalized0, gamma_d,
+                                                      tol, window, rank_limit, xdd, lam, work)
         if status != HANDOFF:
             return kept, smallest, status
     kept, smallest, status, _ = loop_rhs_factors_into(packed, layout, y, nq, powers, force0, torque0, generalized0,

@@ -43,7 +43,7 @@ from .equations import RESIDUALS, tree_equations
 from .loop_layout import LoopLayout
 from .loop_jacobian import loop_state_jacobian
 from .loop_jtimes import H_VALID, jtimes_size, keep_factors
-from .loops import loop_newton_factor, loop_newton_solve, loop_rhs_factors_into, loop_rhs_work_size
+from .loops import loop_newton_factor, loop_newton_solve, loop_rhs_factors_into, loop_rhs_into, loop_rhs_work_size
 from .step_projection import KEPT, MOVED, REFUSED, step_projection
 from .views import view2
 
@@ -224,8 +224,12 @@ def _work(ud):
 def evaluate(ud, t, yv, out):
     """``out = (xd, xdd)`` at the true state ``yv`` by loop_rhs_factors_into, work in ``A_WORK``; (kept, status).
 
-    Where the loops' GMRES takes the compiled ``J v`` (``A_JT`` set), K's
-    factors are kept for it (:func:`~flexmb.kernels.loop_jtimes.keep_factors`).
+    Where the loops' GMRES takes the compiled ``J v`` (``A_JT`` set), the
+    spatial path (:func:`~flexmb.kernels.loops.loop_rhs_factors_into`)
+    evaluates, its kinematics and factors left in the work and K's factors
+    kept for the product (:func:`~flexmb.kernels.loop_jtimes.keep_factors`),
+    which reads them; otherwise :func:`~flexmb.kernels.loops.loop_rhs_into`,
+    which takes the planar path for a planar model.
     """
     n, m, nb = ud[N], ud[M], ud[NB]
     real = _f1(ud[A_REAL], N_REAL)
@@ -239,19 +243,23 @@ def evaluate(ud, t, yv, out):
     drv = _drivers(ud)
     for k in range(n_drv):
         gamma_d[k] = driver(drv, k, t)[2]
-    kept, smallest, status, factors = loop_rhs_factors_into(_packed(ud), _layout(ud), yv, n, work[:0],
-                                                            zeros[: nb + 1], zeros[nb + 1 :], generalized0, gamma_d,
-                                                            real[R_TOL], real[R_WINDOW], ud[RANK_LIMIT], out[n : 2 * n],
-                                                            lam, work[o:])
     for i in range(n):
         out[i] = yv[n + i]
     for i in range(2 * n, m):  # states nothing depends on
         out[i] = 0.0
-    if ud[A_JT]:
-        jt = _f1(ud[A_JT], jtimes_size(n, m, mr, ud[BAND], ud[N_V]))
-        jt[H_VALID] = 0.0
-        if status == 0:
-            keep_factors(jt, yv, out[n : 2 * n], n, m, mr, ud[BAND], factors)
+    if not ud[A_JT]:  # (a planar model: the planar path)
+        kept, smallest, status = loop_rhs_into(_packed(ud), _layout(ud), yv, n, work[:0], zeros[: nb + 1],
+                                               zeros[nb + 1 :], generalized0, gamma_d, real[R_TOL], real[R_WINDOW],
+                                               ud[RANK_LIMIT], out[n : 2 * n], lam, work[o:])
+        return kept, status
+    kept, smallest, status, factors = loop_rhs_factors_into(_packed(ud), _layout(ud), yv, n, work[:0],
+                                                            zeros[: nb + 1], zeros[nb + 1 :], generalized0, gamma_d,
+                                                            real[R_TOL], real[R_WINDOW], ud[RANK_LIMIT], out[n : 2 * n],
+                                                            lam, work[o:])
+    jt = _f1(ud[A_JT], jtimes_size(n, m, mr, ud[BAND], ud[N_V]))
+    jt[H_VALID] = 0.0
+    if status == 0:
+        keep_factors(jt, yv, out[n : 2 * n], n, m, mr, ud[BAND], factors)
     return kept, status
 
 

@@ -34,13 +34,17 @@ from .constrained import (LIFT, MASSLESS, _constrained_apply, _constrained_apply
 from .constraints import ROWS_SCRATCH, cut_row_wrenches, cut_row_wrenches_into
 from .dynamics import spatial_inertias
 from .equations import loaded_state_into, loaded_state_work_size
-from .packing import unpack
-from .tree import tree_state
+from .packing import _view1, is_planar, unpack, unpack_planar
+from .planar_loops import HANDOFF, planar_loop_rhs_into
+from .tree import TreeArrays, tree_state
 from .views import view2, view3
 
 __all__ = ["MASSLESS", "LIFT", "loop_rhs", "loop_rhs_into", "loop_rhs_work_size", "loop_rhs_factors_into",
            "loop_rhs_views", "loop_speeds", "loop_newton_factor", "loop_newton_solve",
            "rows_at_positions", "row_spatial_accelerations"]
+
+#: the packed tree's field ``coord_body`` (the planar path reads it alone: unpacking the whole model costs more)
+_COORD_BODY = TreeArrays._fields.index("coord_body")
 
 
 @njit(cache=True)
@@ -148,7 +152,15 @@ def loop_rhs_work_size(nb, n, m):
 @njit(cache=True)
 def loop_rhs_into(packed, layout, y, nq, powers, force0, torque0, generalized0, gamma_d, tol, window, rank_limit, xdd,
                   lam, work):
-    """:func:`loop_rhs` into ``xdd`` and ``lam``, the tree's arrays and factors in ``work`` (the CVODE callback's).
+    """:func:`loop_rhs` into ``xdd`` and ``lam``, scratch in ``work`` (the CVODE callback's): the one dispatch.
+
+    A planar model (:func:`~flexmb.kernels.packing.is_planar`) takes the
+    planar path (:func:`~flexmb.kernels.planar_loops.planar_loop_rhs_into`),
+    except a run that integrates the force elements' powers (``powers`` not
+    empty) and a state where a freedom moves no mass (handed back): those,
+    and every other model, take :func:`loop_rhs_factors_into`, which alone
+    leaves the spatial arrays and factors in ``work`` (the loops' compiled
+    ``J v`` calls it directly, :mod:`flexmb.kernels.loop_jtimes`).
 
     Parameters
     ----------
@@ -166,6 +178,13 @@ def loop_rhs_into(packed, layout, y, nq, powers, force0, torque0, generalized0, 
     kept, smallest, status
         As :func:`loop_rhs`.
     """
+    if is_planar(packed) and powers.shape[0] == 0:
+        ints, floats = unpack_planar(packed)
+        coord_body = _view1(packed[1], packed[3], _COORD_BODY)
+        kept, smallest, status = planar_loop_rhs_into(ints, floats, coord_body, layout, y, nq, generalized0, gamma_d,
+                                                      tol, window, rank_limit, xdd, lam, work)
+        if status != HANDOFF:
+            return kept, smallest, status
     kept, smallest, status, _ = loop_rhs_factors_into(packed, layout, y, nq, powers, force0, torque0, generalized0,
                                                       gamma_d, tol, window, rank_limit, xdd, lam, work)
     return kept, smallest, status
@@ -207,7 +226,12 @@ def loop_rhs_views(nb, n, m, work):
 @njit(cache=True)
 def loop_rhs_factors_into(packed, layout, y, nq, powers, force0, torque0, generalized0, gamma_d, tol, window,
                           rank_limit, xdd, lam, work):
-    """:func:`loop_rhs_into`, and the constrained solve's factors (those not in ``work``: the state Jacobian's).
+    """:func:`loop_rhs_into` by the spatial path always, and the constrained solve's factors (the state Jacobian's).
+
+    The spatial kinematics, loads, rows and articulated factors stay in
+    ``work`` (:func:`loop_rhs_views`) for the consumers that read them (the
+    loops' compiled ``J v``); a planar model's right-hand side alone goes
+    through :func:`loop_rhs_into`.
 
     Parameters
     ----------

@@ -184,3 +184,18 @@ def test_a_planar_freedom_without_mass_is_reported():
     floats[4][:] = 0.0
     J = np.zeros((2, 2))
     assert tree_state_jacobian(packed, np.zeros(2), 1, np.zeros(1), np.zeros(1), J) == (1, 0)
+
+
+def test_the_planar_G_at_the_loops_accelerations():
+    # what loop_state_jacobian passes the spatial G: the constrained solve's accelerations, the applied loads only
+    planar, spatial = MODELS["b6_8"]().build(), MODELS["b6_8"]().build(planar=False)
+    res = fm.simulate(spatial, 0.02, method="CVODE_BDF", rtol=1e-7, n_out=3, progress=False,
+                      positions=scenes.b6(damped=True, n_segments=8)[1])
+    n = spatial.n_speeds
+    ints, floats = unpack_planar(planar._packed)
+    for k in range(1, len(res.t)):
+        x, xd = res.x[k], res.xd[k]
+        xdd = spatial.state_rate(res.t[k], np.concatenate([x, xd]))[n:]
+        old, new = _spatial_G(spatial, x, xd, xdd), _planar_G(ints, floats, x, xd, xdd)
+        assert np.max(np.abs(old)) > 0
+        assert np.max(np.abs(new - old)) <= 1e-12 * np.max(np.abs(old))

@@ -95,7 +95,7 @@ class BeamElasticity(ForceElement):
             Potential energies, J.
         """
         t = class_tables(cls, elements, topology)
-        return np.array([0.5 * np.sum(t.coord_k * x[t.coord_cols] ** 2) for x in X], dtype=float).reshape(len(X))
+        return 0.5 * np.add.reduce(t.coord_k * np.asarray(X, dtype=float)[:, t.coord_cols] ** 2, axis=1)
 
     @classmethod
     def tangent_all(cls, elements, state):

@@ -454,11 +454,13 @@ class DirectCVODE:
         return {"rhs": int(ud[cb.RHS]), "jac": int(ud[cb.SETUPS] + ud[cb.JACS])}
 
     def _count(self):
-        """Add the callbacks' counts since the last call to the run's counters."""
-        now = self._callback_counts()
+        """Add the callbacks' counts since the last call to the run's counters (with loops, ``n_complements``)."""
+        now, was = self._callback_counts(), self._counted
         if self._counters is not None:
             for key, value in now.items():
-                self._counters[key] = self._counters.get(key, 0) + value - self._counted.get(key, 0)
+                self._counters[key] = self._counters.get(key, 0) + value - was.get(key, 0)
+        if self.system.n_constraints:  # each right-hand side one loop solve (System._loop_solve's count)
+            self.system.n_complements += now["rhs"] - was.get("rhs", 0)
         self._counted = now
 
     def _feed(self, mon, times):

@@ -126,13 +126,9 @@ def _evaluate_tree(system, t, X, XD, XDD, out) -> dict:
     """
     from .kernels.tree_states import tree_state_quantities
 
-    topo, nt = system.topology, len(t)
     X, XD = np.ascontiguousarray(X, dtype=float), np.ascontiguousarray(XD, dtype=float)
-    tree = (topo.parent, topo.coord_start, topo.coord_kind, topo.coord_axis, topo.external, topo.parent_frame,
-            topo.child_frame, topo.lever, topo.child_point, topo.com)
-    status = np.full(nt, -1, dtype=np.int64)
-    tree_state_quantities(system._packed_open, tree, topo.mass, topo.inertia, X, XD, system._no_armature,
-                          XDD is None, (out["positions"], out["origins"], out["rotations"], out["xdd"]),
+    status = np.full(len(t), -1, dtype=np.int64)
+    tree_state_quantities(system._packed_open, X, XD, system._no_armature, XDD is None, (out["positions"], out["origins"], out["rotations"], out["xdd"]),
                           out["kinetic"], status)
     for i in np.flatnonzero(status != -1):
         try:

@@ -159,7 +159,8 @@ def _through_stops(run, solver, bar, stops, step, done) -> None:
     outputs it reached are stored as :func:`_between_stops` stores them.
     """
     cb, t0 = solver._cb, run.t0
-    outputs = np.isin(stops, run.times[run.k_out:])  # (the times increase: each output once)
+    # every stop an output, but the progress marks (the times increase: each output once)
+    outputs = np.isin(stops, run.times[run.k_out:]) if run.progress else np.ones(len(stops), dtype=np.bool_)
     marks, Y, j = ~outputs, np.empty((len(stops), solver.m)), 0
     while True:
         while j < len(stops) and stops[j] <= run.t_now:  # passed by the step after which the offsets moved

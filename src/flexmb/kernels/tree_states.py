@@ -5,7 +5,7 @@
 (``flexmb.output_quantities``): the bodies' positions, frame origins and
 rotations, the kinetic energy and the accelerations, with the kernels the
 system's own routes call at one state (``tree_kinematics`` as
-``Kinematics``, :func:`~flexmb.kernels.articulated.open_tree_rhs_into` as
+``Kinematics``, on the packed model's tree arrays, :func:`~flexmb.kernels.articulated.open_tree_rhs_into` as
 ``System._accelerations``), one work array for all states.
 """
 
@@ -17,24 +17,20 @@ from .articulated import open_tree_rhs_into, rhs_work_size
 from .cache import njit
 from .dynamics import spatial_inertias
 from .loop_states import _kinetic
-from .tree import tree_kinematics
+from .packing import unpack
+from .tree import tree_state
 
 __all__ = ["tree_state_quantities"]
 
 
 @njit(cache=True)
-def tree_state_quantities(packed, tree, mass, inertia, X, XD, armature, solve, out, kinetic, status):
+def tree_state_quantities(packed, X, XD, armature, solve, out, kinetic, status):
     """The Result's quantities at the states ``(X[i], XD[i])`` of an open tree.
 
     Parameters
     ----------
     packed : tuple
-        The system's packed model (``System._packed_open``).
-    tree : tuple
-        ``Kinematics``' arguments of :func:`~flexmb.kernels.tree.tree_kinematics`
-        before ``x`` (the topology's ten arrays).
-    mass, inertia : ndarray
-        The bodies' masses and central inertias (body frames).
+        The system's packed model (``System._packed_open``: the tree, its bodies' data, the loads).
     X, XD : ndarray, shape (nt, nq) and (nt, n)
         Coordinates and speeds.
     armature : ndarray, shape (n,)
@@ -49,15 +45,15 @@ def tree_state_quantities(packed, tree, mass, inertia, X, XD, armature, solve, o
         the system's route, which names it).
     """
     positions, origins, rotations, xdd = out
+    tree = unpack(packed)[0]
+    mass, inertia = tree.mass, tree.inertia
     nt, nq = X.shape
     n = XD.shape[1]
     nb = mass.shape[0]
-    ext = (np.empty((0, 3, 3)), np.empty((0, 3)), np.empty((0, 3)), np.empty((0, 3)), np.empty((0, 3)),
-           np.empty((0, 3)))
     y, ydot, work = np.empty(nq + n), np.empty(nq + n), np.empty(rhs_work_size(nb, n))
     for i in range(nt):
         x, xd = X[i], XD[i]
-        R, origin, r, omega, v = tree_kinematics(*tree, x, xd, *ext)[:5]
+        R, origin, r, omega, v = tree_state(tree, x, xd)[:5]
         positions[i] = r[:-1]
         origins[i] = origin[:-1]
         rotations[i] = R[:-1]

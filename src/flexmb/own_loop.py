@@ -15,7 +15,10 @@ model, the monitor and what to watch: the steps run without Python, the
 monitor receives their sizes at its checkpoints, and the loop returns to
 call the callback only after a step that an angle's winding bound or the
 gimbal watch flags, so the run acts on the very step it would act on when
-stepping in Python.
+stepping in Python. DirectCVODE steps through all the stops in one call
+(:meth:`~flexmb.integrators.cvode_direct.DirectCVODE.step_through`,
+:func:`_through_stops`), storing the outputs and passing the monitor's
+quiet checkpoints in compiled code.
 
 A model with loops has more to do after a step (the outputs projected, the
 state projected and CVODE restarted when the constraints drift): for CVODE

@@ -17,7 +17,8 @@ N = 8 (benchmarks/scenes.py), warms it up and takes the least CPU time
   benchmarks/probe_b1_rest.py defines it;
 * ``short_auto``: as ``short_bdf`` with ``method="auto"`` (DOP853 over so
   short a span);
-* ``whole_bdf``, ``whole_auto``: the whole run to 1 s (721 steps).
+* ``whole_bdf``, ``whole_auto``: the whole run to 1 s (721 steps);
+* ``whole_bdf_201``: ``whole_bdf`` at simulate's default ``n_out=201``.
 
 One JSON line per process goes to stdout and, with ``--out``, is appended
 there (with ``--label``'s and ``--base-label``'s labels).
@@ -34,8 +35,8 @@ import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
-CASES = (("short_bdf", 1e-9, "CVODE_BDF"), ("short_auto", 1e-9, "auto"), ("whole_bdf", 1.0, "CVODE_BDF"),
-         ("whole_auto", 1.0, "auto"), ("integrator_short", 1e-9, None))
+CASES = (("short_bdf", 1e-9, "CVODE_BDF", 2), ("short_auto", 1e-9, "auto", 2), ("whole_bdf", 1.0, "CVODE_BDF", 2),
+         ("whole_auto", 1.0, "auto", 2), ("integrator_short", 1e-9, None, 2), ("whole_bdf_201", 1.0, "CVODE_BDF", 201))
 
 
 def measure(rounds: int) -> dict:
@@ -47,8 +48,8 @@ def measure(rounds: int) -> dict:
 
     system = b1(8).build()
 
-    def simulate(t, method):
-        return fm.simulate(system, t, method=method, rtol=2e-5, atol=2e-7, n_out=2, progress=False)
+    def simulate(t, method, n_out=2):
+        return fm.simulate(system, t, method=method, rtol=2e-5, atol=2e-7, n_out=n_out, progress=False)
 
     captured, init = {}, cd.DirectCVODE.__init__
 
@@ -69,19 +70,19 @@ def measure(rounds: int) -> dict:
         finally:
             solver.close()
 
-    def run(t, method):
-        return integrator_short() if method is None else simulate(t, method)
+    def run(t, method, n_out):
+        return integrator_short() if method is None else simulate(t, method, n_out)
 
     for _ in range(3):
-        for _, t, method in CASES:
-            run(t, method)
-    best = {name: float("inf") for name, _, _ in CASES}
+        for _, t, method, n_out in CASES:
+            run(t, method, n_out)
+    best = {name: float("inf") for name, _, _, _ in CASES}
     for _ in range(rounds):
-        for name, t, method in CASES:
+        for name, t, method, n_out in CASES:
             inner = 5 if t < 1e-3 else 1
             c0 = time.process_time()
             for _ in range(inner):
-                run(t, method)
+                run(t, method, n_out)
             best[name] = min(best[name], (time.process_time() - c0) / inner)
     best["fixed"] = best["short_bdf"] - best["integrator_short"]
     return {"flexmb": os.path.dirname(fm.__file__), **{k: round(v * 1e3, 4) for k, v in best.items()}}

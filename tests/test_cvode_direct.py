@@ -236,3 +236,66 @@ def test_callbacks_go_through_flexmbs_kernel_cache():
         assert callback.address
         assert isinstance(callback._cf._cache, KernelCache)
         assert callback._cf._cache._impl.locator.get_source_stamp() == sources_stamp()
+
+
+def _monitors(monkeypatch):
+    """The resolution monitors the runs make, in order."""
+    from flexmb.integrators import monitor
+
+    made, original = [], monitor.ResolutionMonitor.for_run.__func__
+
+    def keep(cls, *args, **kwargs):
+        made.append(original(cls, *args, **kwargs))
+        return made[-1]
+
+    monkeypatch.setattr(monitor.ResolutionMonitor, "for_run", classmethod(keep))
+    return made
+
+
+def test_quiet_checkpoints_pass_in_the_compiled_loop(monkeypatch, python_jacobian):
+    """The checkpoints at which the monitor finds nothing to analyse pass in the compiled loop, which steps through
+    all the outputs in one call: the monitor ends as the one scikit-sundae's path feeds step by step."""
+    made, calls = _monitors(monkeypatch), []
+    step_through = cvode_direct.DirectCVODE.step_through
+
+    def counted(self, *args):
+        calls.append(args[2])
+        return step_through(self, *args)
+
+    monkeypatch.setattr(cvode_direct.DirectCVODE, "step_through", counted)
+    system = scenes.b1(8).build()
+    kw = dict(method="CVODE_BDF", rtol=2e-5, atol=2e-7, n_out=201, progress=False)
+    with monkeypatch.context() as m:
+        _sksundae(m)
+        old = fm.simulate(system, 1.0, **kw)
+    new = fm.simulate(system, 1.0, **kw)
+    assert made[1].n_steps == made[0].n_steps == new.n_steps == old.n_steps > 4 * 100
+    assert made[1].next_check == made[0].next_check > 400 and made[1].steps == made[0].steps
+    assert calls == [0]  # one call for the 200 outputs and the checkpoints at 100, 200, 400 steps
+    assert np.array_equal(new.x, old.x) and np.array_equal(new.xd, old.xd)
+
+
+def test_progress_marks_and_outputs_between_them(monkeypatch):
+    """With a progress bar the loop returns at each mark; the outputs are those of a run without one."""
+    system = scenes.b1(8).build()
+    kw = dict(method="CVODE_BDF", rtol=1e-6, n_out=7, t_eval=None)
+    quiet = fm.simulate(system, 0.5, progress=False, **kw)
+    shown = fm.simulate(system, 0.5, progress=True, **kw)
+    assert np.array_equal(quiet.t, shown.t) and np.array_equal(quiet.x, shown.x) and quiet.n_steps == shown.n_steps
+
+
+def test_a_checkpoint_with_something_to_judge_returns(monkeypatch):
+    """With the monitor's step limit lowered, every checkpoint is judged in Python (the loop returns there)."""
+    from flexmb.integrators import monitor
+
+    monkeypatch.setattr(monitor, "RESOLVE_STEP_LIMIT", 10)
+    judged = []
+    step = monitor.ResolutionMonitor.step
+
+    def counted(self, solver):
+        judged.append(self.n_steps + 1)
+        return step(self, solver)
+
+    monkeypatch.setattr(monitor.ResolutionMonitor, "step", counted)
+    res = fm.simulate(scenes.b1(8).build(), 1.0, method="CVODE_BDF", rtol=2e-5, atol=2e-7, n_out=3, progress=False)
+    assert res.status == "finished" and judged == [100, 200, 400]

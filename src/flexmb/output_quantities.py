@@ -5,10 +5,14 @@ system's routes; for a model whose loops the articulated strategy closes
 and whose loads are all compiled, one compiled call evaluates all but the
 potential energy at all states
 (:func:`flexmb.kernels.loop_states.loop_state_quantities`, the same
-kernels on the same numbers), the potential energy of each state is the
-force elements' own (``potential_states`` of all states at once where
-every class has it, else ``ForceSet.potential_energy`` state by state), and the reactions of
-a state with redundant rows are the system's (its minimum-norm ones).
+kernels on the same numbers); for an open tree whose loads are all
+compiled (``System._packed_open``), one compiled call
+(:func:`flexmb.kernels.tree_states.tree_state_quantities`) does the same.
+There, the potential energy of each state is the force elements' own
+(``potential_states`` of all states at once, from the coordinates and the
+mass centres, where every class has it, else ``ForceSet.potential_energy``
+state by state), and the reactions of a state with redundant rows are the
+system's (its minimum-norm ones).
 """
 
 from __future__ import annotations
@@ -51,6 +55,8 @@ def evaluate_states(system, t, X, XD, XDD, events=None) -> dict:
            "reactions": np.zeros((nt, m))}
     if m and XDD is None and not events and _compiled(system):
         return _evaluate_loops(system, t, X, XD, out)
+    if m == 0 and not events and _tree_compiled(system):
+        return _evaluate_tree(system, t, X, XD, XDD, out)
     with replaying(system, events, t) as hold:  # what the run held (flexmb.impact_speeds)
         for i in range(nt):
             hold(i)
@@ -104,11 +110,43 @@ def _evaluate_loops(system, t, X, XD, out) -> dict:
     for i in np.flatnonzero(redundant):  # the minimum-norm reactions, as the system's route gives them
         system.n_complements -= 1
         out["xdd"][i], out["reactions"][i] = system._with_reactions(t[i], system.layout.join(X[i], XD[i]))
-    parts = [cls.potential_states(elements, topo, X) for cls, elements in system.forces.groups]
-    if all(p is not None for p in parts):  # from the coordinates alone, in one call per class
+    return _potential(system, t, X, XD, out)
+
+
+def _tree_compiled(system) -> bool:
+    """Whether :func:`_evaluate_tree` applies: an open tree whose joints and loads are all compiled."""
+    return system._packed_open is not None
+
+
+def _evaluate_tree(system, t, X, XD, XDD, out) -> dict:
+    """:func:`evaluate_states` of an open tree by :func:`~flexmb.kernels.tree_states.tree_state_quantities`.
+
+    A state whose accelerations fail is evaluated again by the system's
+    route (which names the failure: its accelerations then NaN).
+    """
+    from .kernels.tree_states import tree_state_quantities
+
+    X, XD = np.ascontiguousarray(X, dtype=float), np.ascontiguousarray(XD, dtype=float)
+    status = np.full(len(t), -1, dtype=np.int64)
+    tree_state_quantities(system._packed_open, X, XD, system._no_armature, XDD is None, (out["positions"], out["origins"], out["rotations"], out["xdd"]),
+                          out["kinetic"], status)
+    for i in np.flatnonzero(status != -1):
+        try:
+            out["xdd"][i] = system._accelerations(t[i], X[i], XD[i])
+        except FlexmbError:
+            out["xdd"][i] = np.nan
+    return _potential(system, t, X, XD, out)
+
+
+def _potential(system, t, X, XD, out) -> dict:
+    """``out["potential"]``: each class's ``potential_states`` where all have it, else state by state."""
+    topo = system.topology
+    parts = [cls.potential_states(elements, topo, X, positions=out["positions"])
+             for cls, elements in system.forces.groups]
+    if all(p is not None for p in parts):  # in one call per class
         for p in parts:
             out["potential"] += p
         return out
-    for i in range(nt):
+    for i in range(len(t)):
         out["potential"][i] = system.forces.potential_energy(system._kinematics(t[i], X[i], XD[i]))
     return out

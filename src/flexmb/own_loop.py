@@ -15,7 +15,10 @@ model, the monitor and what to watch: the steps run without Python, the
 monitor receives their sizes at its checkpoints, and the loop returns to
 call the callback only after a step that an angle's winding bound or the
 gimbal watch flags, so the run acts on the very step it would act on when
-stepping in Python.
+stepping in Python. DirectCVODE steps through all the stops in one call
+(:meth:`~flexmb.integrators.cvode_direct.DirectCVODE.step_through`,
+:func:`_through_stops`), storing the outputs and passing the monitor's
+quiet checkpoints in compiled code.
 
 A model with loops has more to do after a step (the outputs projected, the
 state projected and CVODE restarted when the constraints drift): for CVODE
@@ -144,7 +147,68 @@ def advance_between_stops(run, solver, bar, bound: float) -> None:
     done = 0  # steps of the solvers restarted before this one
     # a compiled loop checks for Ctrl-C after each return (the handlers swapped once for the run, not per call)
     with deferred() if getattr(solver, "steps_in_compiled_code", False) else contextlib.nullcontext():
-        _between_stops(run, solver, bar, stops, step, done)
+        if hasattr(solver, "step_through"):  # DirectCVODE: through all the stops in one compiled loop
+            _through_stops(run, solver, bar, stops, step, done)
+        else:
+            _between_stops(run, solver, bar, stops, step, done)
+
+
+def _through_stops(run, solver, bar, stops, step, done) -> None:
+    """:func:`_between_stops` for a solver stepping through many stops per call (``step_through``).
+
+    It returns after the progress marks, at the watches (``step`` is then
+    called, as the solver's ``advance`` calls it), at the monitor's
+    checkpoints with something to judge and every so many steps; the
+    outputs it reached are stored as :func:`_between_stops` stores them.
+    """
+    cb, t0 = solver._cb, run.t0
+    # every stop an output, but the progress marks (the times increase: each output once)
+    outputs = np.isin(stops, run.times[run.k_out:]) if run.progress else np.ones(len(stops), dtype=np.bool_)
+    marks, Y, j = ~outputs, np.empty((len(stops), solver.m)), 0
+    while True:
+        while j < len(stops) and stops[j] <= run.t_now:  # passed by the step after which the offsets moved
+            j += 1
+            bar.update_to(run.t_now - t0)
+        if j == len(stops):
+            return
+        j0 = j
+        try:
+            code, j = solver.step_through(stops, marks, j, Y)
+        except RuntimeError as exc:
+            raise NonFinite(getattr(exc, "t", solver.t), f"the integrator failed: {exc}") from exc
+        finally:
+            run.n_steps = done + solver.n_steps
+        _keep(run, Y, stops, outputs, j0, j + (code == cb.NOT_FINITE), bar)
+        if code == cb.WATCH and step is not None:
+            try:
+                step(solver)
+            except _Wound:  # at the end of a step: the outputs it passed, then the offsets move
+                run.t_now = solver.t
+                run._store(solver)
+                moved = run._unwound(solver)
+                if moved is not solver:
+                    done += solver.n_steps
+                    solver = moved
+            finally:
+                run.n_steps = done + solver.n_steps
+
+
+def _keep(run, Y, stops, outputs, j0, j, bar) -> None:
+    """Store the states ``Y[j0:j]`` reached at ``stops[j0:j]`` (the outputs among them), as :func:`_between_stops`."""
+    if j == j0:
+        return
+    rows = Y[j0:j] if run.offset is None else Y[j0:j] + run.offset
+    finite = np.isfinite(rows).all(axis=1)
+    if not finite.all():
+        bad = int(np.argmin(finite))
+        _keep(run, Y, stops, outputs, j0, j0 + bad, bar)
+        run.t_now = stops[j0 + bad]
+        raise NonFinite(run.t_now, "the state became non-finite")
+    kept = outputs[j0:j]
+    run.out_y.extend(rows[kept])
+    run.k_out += int(np.count_nonzero(kept))
+    run.t_now = stops[j - 1]
+    bar.update_to(run.t_now - run.t0)
 
 
 def _between_stops(run, solver, bar, stops, step, done) -> None:

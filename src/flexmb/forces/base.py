@@ -232,7 +232,7 @@ class ForceElement:
         return float(sum(e.potential(state) for e in elements))
 
     @classmethod
-    def potential_states(cls, elements, topology, X):
+    def potential_states(cls, elements, topology, X, positions=None):
         """The potential energy of all elements of this class at many states at once, where it needs only ``x``.
 
         Parameters
@@ -243,6 +243,9 @@ class ForceElement:
             The model's tree.
         X : ndarray, shape (nt, nq)
             The states' coordinates.
+        positions : ndarray, shape (nt, n_bodies, 3), optional
+            The bodies' mass centres at the states, where the caller has
+            them (:class:`~flexmb.forces.Gravity`'s energy needs them).
 
         Returns
         -------

@@ -75,7 +75,7 @@ class BeamElasticity(ForceElement):
         return float(0.5 * np.add.reduce(k * state.x[cols] ** 2))  # (np.sum's reduction, unwrapped)
 
     @classmethod
-    def potential_states(cls, elements, topology, X):
+    def potential_states(cls, elements, topology, X, positions=None):
         """:meth:`potential_all` at the states ``X`` at once (``eta K eta / 2`` needs the coordinates only).
 
         Parameters
@@ -86,6 +86,8 @@ class BeamElasticity(ForceElement):
             The model's tree.
         X : ndarray, shape (nt, nq)
             The states' coordinates.
+        positions : ndarray, optional
+            The mass centres (not needed here).
 
         Returns
         -------
@@ -93,7 +95,7 @@ class BeamElasticity(ForceElement):
             Potential energies, J.
         """
         t = class_tables(cls, elements, topology)
-        return np.array([0.5 * np.sum(t.coord_k * x[t.coord_cols] ** 2) for x in X], dtype=float).reshape(len(X))
+        return 0.5 * np.add.reduce(t.coord_k * np.asarray(X, dtype=float)[:, t.coord_cols] ** 2, axis=1)
 
     @classmethod
     def tangent_all(cls, elements, state):

@@ -96,3 +96,32 @@ class Gravity(ForceElement):
             Potential energy, J.
         """
         return float(-np.add.reduce(state.mass * (state.r[:-1] @ self.g)))  # (np.sum's reduction, unwrapped)
+
+    @classmethod
+    def potential_states(cls, elements, topology, X, positions=None):
+        """:meth:`potential` of all elements at many states at once, from the mass centres ``positions``.
+
+        Parameters
+        ----------
+        elements : sequence of Gravity
+            The model's gravity elements.
+        topology : Topology
+            The model's tree (its masses).
+        X : ndarray, shape (nt, nq)
+            The states' coordinates (not read).
+        positions : ndarray, shape (nt, n_bodies, 3), optional
+            The bodies' mass centres at the states.
+
+        Returns
+        -------
+        ndarray, shape (nt,), or None
+            Potential energies, J (the sum over the elements, in their
+            order, as :meth:`~flexmb.forces.ForceElement.potential_all`
+            adds them); None without ``positions``.
+        """
+        if positions is None:
+            return None
+        total = np.zeros(len(positions))
+        for e in elements:
+            total += -np.add.reduce(topology.mass * (positions @ e.g), axis=1)
+        return total

@@ -302,6 +302,8 @@ class CompiledGeneralizedAlpha(GeneralizedAlpha):
         self.nfev += rhs
         if self._counters is not None:
             self._counters["rhs"] = self._counters.get("rhs", 0) + rhs
+        if self.system.n_constraints:  # each one loop solve (System._loop_solve's count)
+            self.system.n_complements += rhs
         self.n_newton, self.n_rejected = int(ct[K.N_NEWTON]), int(ct[K.N_REJECTED])
         self.h_abs, self.h_newton = float(st[K.H_ABS]), float(st[K.H_NEWTON])
         self.jac_current = bool(ct[K.JAC_CURRENT])

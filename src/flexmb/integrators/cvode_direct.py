@@ -9,7 +9,7 @@ by :class:`DirectCVODE`: CVODE called directly through ctypes
 O(n) Newton preconditioner as compiled C callbacks
 (:mod:`flexmb.kernels.cvode_callbacks`), and CVODE's step loop between two
 output times compiled (:func:`~flexmb.kernels.cvode_callbacks.advance`):
-one Python call per output time instead of one per step and per
+one Python call per run instead of one per step and per
 evaluation. A dense Jacobian (below ``KRYLOV_MIN_COORDS`` coordinates) is
 flexmb's ``System.state_jacobian``: compiled as a C callback
 (:func:`~flexmb.kernels.cvode_callbacks.jac`) where the model's tangent is
@@ -18,12 +18,12 @@ Python through a ctypes callback. CVODE is given the
 options scikit-sundae gives it for flexmb: the runs take scikit-sundae's
 very steps and end in its states (tests/test_cvode_direct.py).
 
-What flexmb's step loop does after every step is done where the compiled
-loop returns: the resolution monitor receives the steps' sizes at its
-checkpoints (the loop returns there), and the winding angles and the
-gimbal watch are checked in the loop itself, which returns to Python when
-one needs acting on. The loop also returns every :data:`STEPS_PER_CALL`
-steps, so that Ctrl-C and other signals are handled within a long interval.
+What flexmb's step loop does after every step is done in the compiled
+loop, which steps through all the output times (:meth:`DirectCVODE.step_through`)
+and returns to Python only where something needs acting on: the resolution
+monitor's checkpoints that have something to judge (the quiet ones pass in
+the loop), a winding angle or the gimbal watch, a progress mark, and every
+:data:`STEPS_PER_CALL` steps (Ctrl-C and other signals).
 """
 
 from __future__ import annotations
@@ -37,6 +37,7 @@ from .._signals import act_on_deferred, deferred
 from ..run_memo import once
 from .cvode_library import FLAGS, CVODEError, sundials
 from .cvode_options import KRYLOV_DIM, MAX_STEPS
+from .monitor import CompiledSteps, _Step
 
 __all__ = ["DirectCVODE", "DirectCVODEBDF", "DirectCVODEAdams", "REPLACES", "CVODEError",
            "STEPS_PER_CALL", "compiled_jacobian"]
@@ -55,11 +56,9 @@ _FUNCTIONS: dict = {}
 
 def _functions(S) -> tuple:
     """The addresses of ``CVode``, ``CVodeGetDky`` and ``N_VGetArrayPointer`` in the library ``S`` (read once)."""
-    try:
-        return _FUNCTIONS[id(S)][1]
-    except KeyError:
+    if id(S) not in _FUNCTIONS:
         _FUNCTIONS[id(S)] = (S, (_addr(S.CVode), _addr(S.CVodeGetDky), _addr(S.N_VGetArrayPointer)))
-        return _FUNCTIONS[id(S)][1]
+    return _FUNCTIONS[id(S)][1]
 
 
 def compiled_jacobian(system) -> bool:
@@ -108,7 +107,7 @@ def _tangent_compiled(system) -> bool:
 
 
 class DirectCVODE:
-    """CVODE on an open tree with compiled callbacks: one Python call per output time.
+    """CVODE on an open tree with compiled callbacks: one Python call per run (and per thing to act on).
 
     Built by :class:`flexmb.stepping.Run` with the arguments of the
     integrators it makes; it offers what the run's loop uses of them
@@ -204,6 +203,7 @@ class DirectCVODE:
         self._gimbal = np.zeros(0, np.int64) if gimbal is None else np.asarray(gimbal.index, dtype=np.int64)
         self._limit = 0.0 if gimbal is None else float(gimbal.limit)
         self._counters, self._counted = counters, {}
+        self._steps = CompiledSteps(monitor)
         self._ud = self._user_data(system, nonfinite_flag)
         self._check(S.SUNContext_Create(0, byref(self._ctx)), "SUNContext_Create")
         S.SUNContext_ClearErrHandlers(self._ctx)  # failures become CVODEError, not lines on stderr
@@ -377,27 +377,54 @@ class DirectCVODE:
         CVODEError
             If CVODE fails (its flag, the time, the callback's cause).
         KeyboardInterrupt
-            Ctrl-C (or SIGTERM, SIGHUP) while it stepped: recorded meanwhile
-            (:class:`flexmb._signals.deferred`, here or around the whole run)
-            and raised once the compiled loop returns, so that none is lost
-            in a Python callback.
+            Ctrl-C (or SIGTERM, SIGHUP) while it stepped: recorded meanwhile (:class:`flexmb._signals.deferred`,
+            here or around the whole run) and raised once the compiled loop returns.
         """
+        stops, Y, j, cb = np.array([min(float(t_stop), self.t_bound)]), np.empty((1, self.m)), 0, self._cb
         with deferred():
-            return self._advance(t_stop, on_step)
+            while j == 0:
+                code, j = self.step_through(stops, np.zeros(1, dtype=np.bool_), 0, Y)
+                if code == cb.NOT_FINITE:
+                    break
+                if code == cb.WATCH and on_step is not None:
+                    on_step(self)
+        return Y[0].copy()
 
-    def _advance(self, t_stop, on_step):
+    def step_through(self, stops, marks, j, Y) -> tuple:
+        """Step through ``stops[j:]`` in one compiled call (:func:`flexmb.kernels.cvode_callbacks.advance`).
+
+        A checkpoint of the monitor with something to judge is judged here
+        (:class:`~flexmb.integrators.monitor.CompiledSteps`; the quiet ones pass in the loop).
+
+        Parameters
+        ----------
+        stops, marks, j, Y
+            Increasing stops (at most ``t_bound``), those after which to return (progress marks: bool), the
+            next one, and the states at the stops reached (filled, shape (len(stops), m)).
+
+        Returns
+        -------
+        code : int
+            The loop's code (``REACHED``, ``CHECKPOINT``, ``PAUSED``, ``WATCH``, ``NOT_FINITE`` of
+            :mod:`flexmb.kernels.cvode_callbacks`).
+        j : int
+            The next stop to reach (the stops before it are in ``Y``).
+
+        Raises
+        ------
+        CVODEError
+            If CVODE fails.
+        """
         if self._mem is None:
             raise CVODEError("this DirectCVODE is closed")
-        t_stop = min(float(t_stop), self.t_bound)
-        mon, cb = self.monitor, self._cb
-        while True:
-            live = mon is not None and not mon.warned
-            times = np.empty(max(mon.next_check - mon.n_steps, 1) if live else 0)
-            t_entry = self._tret[0]
+        cb, steps = self._cb, self._steps
+        code = cb_grow = cb.GROW
+        while code == cb_grow:
+            steps.load()
             gimbal = self._gimbal if self.gimbal is not None and not self.gimbal.warned else self._gimbal[:0]
             try:
-                code, k = cb.advance(self._lp, t_stop, self.t_bound, times, STEPS_PER_CALL, self._angles,
-                                     self._bound, gimbal, self._limit)
+                code, j, k = cb.advance(self._lp, stops, marks, j, self.t_bound, Y, STEPS_PER_CALL, self._angles,
+                                        self._bound, gimbal, self._limit, steps.mi, steps.hs, steps.mf)
             finally:
                 self._count()
             act_on_deferred()  # a Ctrl-C recorded meanwhile (see advance's docstring)
@@ -407,21 +434,19 @@ class DirectCVODE:
                 h = c_double()
                 self._S.CVodeGetLastStep(self._mem, byref(h))
                 self.t_old = self.t - h.value
-            if live and k:
-                self._feed(mon, np.concatenate(([t_entry], times[: min(k, len(times))])))
-            if code < 0:
-                self.status = "failed"
-                if self._raised is not None:
-                    raised, self._raised = self._raised, None
-                    raise raised
-                self._diagnose()
-                raise self._error(code)
-            if code == cb.WATCH and on_step is not None:
-                on_step(self)
-            if code == cb.REACHED:
-                if self.t >= self.t_bound:
-                    self.status = "finished"
-                return self._out_data.copy()
+            steps.judge(self.t, self.y) if code == cb.CHECKPOINT else steps.save()
+            if code == cb_grow:
+                steps.grow()
+        if code < 0:
+            self.status = "failed"
+            if self._raised is not None:
+                raised, self._raised = self._raised, None
+                raise raised
+            self._diagnose()
+            raise self._error(code)
+        if code == cb.REACHED and self.t >= self.t_bound:
+            self.status = "finished"
+        return code, j
 
     def _callback_counts(self) -> dict:
         """The callbacks' counters since the start, by the name of the run's counter they feed."""
@@ -429,11 +454,13 @@ class DirectCVODE:
         return {"rhs": int(ud[cb.RHS]), "jac": int(ud[cb.SETUPS] + ud[cb.JACS])}
 
     def _count(self):
-        """Add the callbacks' counts since the last call to the run's counters."""
-        now = self._callback_counts()
+        """Add the callbacks' counts since the last call to the run's counters (with loops, ``n_complements``)."""
+        now, was = self._callback_counts(), self._counted
         if self._counters is not None:
             for key, value in now.items():
-                self._counters[key] = self._counters.get(key, 0) + value - self._counted.get(key, 0)
+                self._counters[key] = self._counters.get(key, 0) + value - was.get(key, 0)
+        if self.system.n_constraints:  # each right-hand side one loop solve (System._loop_solve's count)
+            self.system.n_complements += now["rhs"] - was.get("rhs", 0)
         self._counted = now
 
     def _feed(self, mon, times):
@@ -568,14 +595,6 @@ DirectCVODEAdams.__doc__ = (":class:`DirectCVODE` with CVODE's Adams-Moulton (or
 
 def _nonfinite(t, names):
     from ..errors import AssemblyError
-
     err = AssemblyError(f"at t = {t:.9g} s: the state rates became non-finite ({', '.join(names)})")
     err.t = t
     return err
-
-
-class _Step:
-    """What the monitor reads of a solver after a step."""
-
-    def __init__(self, t, t_old, y):
-        self.t, self.t_old, self.y = float(t), float(t_old), y

@@ -420,6 +420,7 @@ class ResolutionMonitor:
         self.next_check = CHECK_STEPS
         self.n_steps = 0
         self.warned = self.system.n_coords > MODES_MAX_COORDS
+        self._motion = None
 
     @classmethod
     def for_run(cls, system, solver_cls, caps, t0, t1, rtol, atol, name, auto=False):
@@ -453,6 +454,18 @@ class ResolutionMonitor:
             return None
         return cls(system, t0, t1, rtol, atol, name, auto)
 
+    def motion(self) -> float:
+        """:func:`motion_frequency` over the run's span (worked out once per monitor).
+
+        Returns
+        -------
+        float
+            Frequency, Hz.
+        """
+        if self._motion is None:
+            self._motion = motion_frequency(self.system, self.t0, self.t1)
+        return self._motion
+
     def step(self, solver) -> None:
         """Record one step of ``solver`` (its ``t`` and ``t_old``) and judge the run at the checkpoints.
 
@@ -473,7 +486,7 @@ class ResolutionMonitor:
         # a run that stays short at this rate, or steps too long to resolve anything far above the
         # motion: nothing to analyse
         if ((self.t1 - self.t0) / h <= RESOLVE_STEP_LIMIT
-                or h * 2 * np.pi * FAR_ABOVE * motion_frequency(self.system, self.t0, self.t1) >= RESOLVING_HW):
+                or h * 2 * np.pi * FAR_ABOVE * self.motion() >= RESOLVING_HW):
             return
         modes = ringing_modes(self.system, solver.t, self.t1, *self.system.layout.split(solver.y), self.rtol,
                               self.atol, t_start=self.t0)
@@ -503,3 +516,71 @@ class ResolutionMonitor:
             f"scene's motion (about {modes.motion:.3g} Hz): its steps are about {h:.3g} s at t = {solver.t:.4g} s, "
             f"some {remaining:.3g} more to t = {self.t1:.4g} s. {remedy}"
         ), stacklevel=_caller_stacklevel())
+
+
+class CompiledSteps:
+    """A monitor's state as a compiled step loop keeps it (:func:`flexmb.kernels.cvode_callbacks.advance`).
+
+    The loop records the steps in ``hs`` and passes the checkpoints at which
+    :meth:`ResolutionMonitor.step` would find nothing to analyse, with its
+    very arithmetic (``mi``, ``mf``: the slots of
+    :mod:`flexmb.kernels.cvode_callbacks`); :meth:`load` copies the
+    monitor's state in before a call, :meth:`save` back after it, and
+    :meth:`judge` hands a checkpoint with something to judge to the monitor.
+
+    Parameters
+    ----------
+    monitor : ResolutionMonitor or None
+        The run's monitor (None: nothing recorded).
+    """
+
+    def __init__(self, monitor):
+        self.monitor = monitor
+        self.mi, self.mf, self.hs = np.zeros(4, dtype=np.int64), np.zeros(7), np.zeros(0)
+        if monitor is not None:
+            self.mf[:] = (monitor.t0, monitor.t1, np.nan, 0.0, RESOLVE_STEP_LIMIT, FAR_ABOVE, RESOLVING_HW)
+
+    def load(self) -> None:
+        """Copy the monitor's state in (``hs`` holding at least the steps to two checkpoints on)."""
+        mon, mi = self.monitor, self.mi
+        mi[0] = live = mon is not None and not mon.warned
+        if not live:
+            return
+        count = len(mon.steps)
+        if self.hs.shape[0] < count + 2 * (mon.next_check - mon.n_steps):
+            self.hs = np.empty(count + 4 * mon.next_check)
+        self.hs[:count] = mon.steps
+        mi[1:], self.mf[2] = (count, mon.n_steps, mon.next_check), mon.motion()
+
+    def grow(self) -> None:
+        """Twice the room for the steps (the loop found ``hs`` full)."""
+        self.hs = np.concatenate([self.hs, np.empty(max(self.hs.shape[0], 1))])
+
+    def save(self) -> None:
+        """Copy the loop's state back to the monitor."""
+        mon, mi = self.monitor, self.mi
+        if mi[0]:
+            mon.steps, mon.n_steps, mon.next_check = self.hs[: mi[1]].tolist(), int(mi[2]), int(mi[3])
+
+    def judge(self, t: float, y) -> None:
+        """Give the monitor the step that reached its checkpoint (ending at ``t`` in ``y``), as a step of its own.
+
+        Parameters
+        ----------
+        t : float
+            The step's end.
+        y : ndarray
+            The solver's state there.
+        """
+        mon, mi = self.monitor, self.mi
+        mi[1] -= 1
+        mi[2] -= 1
+        self.save()
+        mon.step(_Step(t, float(self.mf[3]), y))
+
+
+class _Step:
+    """What the monitor reads of a solver after a step."""
+
+    def __init__(self, t, t_old, y):
+        self.t, self.t_old, self.y = float(t), float(t_old), y

@@ -16,11 +16,13 @@ compile once per installation, and their machine code goes through
 flexmb's kernel cache (:class:`~flexmb.kernels.cache.KernelCache`: the
 shipped entries first, the whole-source stamp).
 
-:func:`advance` is CVODE's step loop between two output times:
-``CVode(..., CV_ONE_STEP)`` called through its address until the output
-time is passed, then ``CVodeGetDky`` there. It returns to Python only at
-the output time, at a checkpoint of the resolution monitor (the steps'
-times recorded in between), when a watched angle leaves its winding bound
+:func:`advance` is CVODE's step loop through the output times:
+``CVode(..., CV_ONE_STEP)`` called through its address until an output
+time is passed, then ``CVodeGetDky`` there, the state stored, and on to the
+next. It returns to Python only at the end, at a progress mark, at a
+checkpoint of the resolution monitor that has something to judge (the
+steps are recorded, and the checkpoints where the monitor would find
+nothing to analyse passed, in compiled code), when a watched angle leaves its winding bound
 or a joint in Bryant angles nears gimbal lock (the checks flexmb's step
 loop makes after every step, made here in compiled code), after a budget of
 steps (so that Ctrl-C and other signals are handled while a long interval
@@ -43,7 +45,8 @@ from .packing import unpack
 from .tree import tree_state
 from .tree_jacobian import tree_state_jacobian
 
-__all__ = ["rhs", "jac", "psetup", "psolve", "advance", "work_size", "UD_SIZE", "REACHED", "CHECKPOINT", "PAUSED", "WATCH"]
+__all__ = ["rhs", "jac", "psetup", "psolve", "advance", "work_size", "UD_SIZE", "REACHED", "CHECKPOINT", "PAUSED", "WATCH",
+           "GROW", "NOT_FINITE"]
 
 #: slots of the user_data array (int64): addresses (A_*), sizes, counters, the failure's status
 (A_GETPTR, N, M, A_FL, N_FL, A_IT, N_IT, A_FG, N_FG, A_IX, N_IX, A_K, A_C, A_SPATIAL, A_SW, A_SV, A_R, NB,
@@ -51,7 +54,7 @@ __all__ = ["rhs", "jac", "psetup", "psolve", "advance", "work_size", "UD_SIZE", 
  A_MATDATA) = range(30)
 UD_SIZE = 30
 #: the loop's return codes (CVODE's negative flags pass through)
-REACHED, CHECKPOINT, PAUSED, WATCH = 0, 1, 2, 3
+REACHED, CHECKPOINT, PAUSED, WATCH, GROW, NOT_FINITE = 0, 1, 2, 3, 4, 5
 #: the status of a failed callback when it is not a joint's index
 NONFINITE = -2
 
@@ -319,20 +322,63 @@ def _watched(y, angles, bound, gimbal, limit):
     return False
 
 
+#: slots of the resolution monitor's state the step loop keeps (int64 ``mi``; float ``mf``): whether it
+#: watches, the steps recorded since its last check (in ``hs``), its step count and next checkpoint; the run's
+#: span, the scene's motion frequency (NaN: not known, every checkpoint returns), the start of the last step,
+#: and the monitor's RESOLVE_STEP_LIMIT, FAR_ABOVE, RESOLVING_HW
+LIVE, COUNT, N_STEPS, NEXT_CHECK = range(4)
+T0, T1, F_MOTION, T_PREV, STEP_LIMIT, FAR, HW = range(7)
+
+
 @njit(cache=True)
-def advance(lp, t_stop, t_bound, steps, budget, angles, bound, gimbal, limit):
-    """Step CVODE (``CV_ONE_STEP``) until ``t_stop``; the state there in the output vector.
+def _median(hs, count):
+    """``flexmb.integrators.monitor.median`` of ``hs[:count]`` (the same arithmetic)."""
+    s = np.sort(hs[:count])
+    k = count // 2
+    return s[k] if count % 2 else (s[k - 1] + s[k]) / 2
+
+
+@njit(cache=True)
+def _record(mi, hs, mf, t_old, t_new):
+    """Record a step for the resolution monitor; True at a checkpoint where it has something to judge.
+
+    A checkpoint at which ``ResolutionMonitor.step`` would find nothing to analyse (the run stays short at
+    the median step's rate, or the steps are too long to resolve anything far above the motion) is passed
+    here, as it passes it: the next checkpoint twice as far, the recorded steps cleared.
+    """
+    c = mi[COUNT]
+    hs[c] = t_new - t_old
+    mi[COUNT], mf[T_PREV] = c + 1, t_old
+    mi[N_STEPS] += 1
+    if mi[N_STEPS] < mi[NEXT_CHECK]:
+        return False
+    h = _median(hs, c + 1)
+    if (mf[T1] - mf[T0]) / h <= mf[STEP_LIMIT] or h * 2 * np.pi * mf[FAR] * mf[F_MOTION] >= mf[HW]:
+        mi[NEXT_CHECK] *= 2
+        mi[COUNT] = 0
+        return False
+    return True
+
+
+@njit(cache=True)
+def advance(lp, stops, marks, j, t_bound, Y, budget, angles, bound, gimbal, limit, mi, hs, mf):
+    """Step CVODE (``CV_ONE_STEP``) through the stops ``stops[j:]``, the state at each in a row of ``Y``.
 
     Parameters
     ----------
     lp : ndarray of int64
         ``[CVode, CVodeGetDky, mem, y N_Vector, y data, output N_Vector, tret (double*), m,
         N_VGetArrayPointer]``: addresses and the state's length.
-    t_stop, t_bound : float
-        The output time and the end of the run (CVODE's ``tout`` in one-step mode, as flexmb gives it).
-    steps : ndarray of float
-        The times reached by the steps, recorded for the monitor; the loop returns CHECKPOINT when it is
-        full (length 0: none recorded).
+    stops : ndarray of float
+        The stops (output times, progress marks), increasing.
+    marks : ndarray of bool
+        The stops after which the loop returns PAUSED (progress marks: Python updates the bar there).
+    j : int
+        The first stop to reach.
+    t_bound : float
+        The end of the run (CVODE's ``tout`` in one-step mode, as flexmb gives it).
+    Y : ndarray, shape (len(stops), m)
+        Filled: the state at each stop reached (CVODE's interpolant where a step passed it).
     budget : int
         Steps after which the loop returns PAUSED, so that Python handles signals (Ctrl-C) meanwhile.
     angles : ndarray of int64
@@ -345,43 +391,58 @@ def advance(lp, t_stop, t_bound, steps, budget, angles, bound, gimbal, limit):
         ``|cos ry| < limit`` for one of them (flexmb.gimbal).
     limit : float
         Their limit.
+    mi, hs, mf : ndarray
+        The resolution monitor's state (slots LIVE ... above, the steps since its last check in ``hs``):
+        the loop records the steps, passes the quiet checkpoints (:func:`_record`), returns CHECKPOINT at
+        the others and GROW when ``hs`` is full.
 
     Returns
     -------
     code : int
-        REACHED (the state at ``t_stop`` is in the output vector), CHECKPOINT, PAUSED, WATCH, or CVODE's
-        flag (< 0).
+        REACHED (every stop reached), CHECKPOINT, PAUSED, WATCH, GROW, NOT_FINITE (the state at stop ``j``
+        is not finite), or CVODE's flag (< 0).
+    j : int
+        The next stop to reach.
     n_steps : int
         Steps taken in this call.
     """
     tret = carray(_voidp(lp[6]), (1,), np.float64)
     y = carray(_voidp(lp[4]), (lp[7],), np.float64)
-    tn = tret[0]
-    k = 0
-    cap = steps.shape[0]
-    while tn < t_stop:
-        flag = _call_cvode(lp[0], lp[2], t_bound, lp[3], lp[6], 2)
-        if flag < 0:
-            return flag, k
-        t_new = tret[0]
-        if t_new == tn:  # after an interpolated output behind its time, one-step mode returns that time again
-            continue
-        if k < cap:
-            steps[k] = t_new
-        k += 1
-        tn = t_new
-        if (len(angles) and tn < t_bound or len(gimbal)) and _watched(y, angles if tn < t_bound else angles[:0],
-                                                                      bound, gimbal, limit):
-            return WATCH, k
-        if k == cap and tn < t_stop:
-            return CHECKPOINT, k
-        if k == budget and tn < t_stop:
-            return PAUSED, k
-    if tn > t_stop:
-        flag = _call_dky(lp[1], lp[2], t_stop, 0, lp[5])
-        if flag < 0:
-            return flag, k
-        return REACHED, k
     out = carray(_call_p_p(lp[8], _voidp(lp[5])), (lp[7],), np.float64)
-    out[:] = y
-    return REACHED, k
+    tn, k, checkpoint = tret[0], 0, False
+    while j < stops.shape[0]:
+        t_stop = stops[j]
+        while tn < t_stop:
+            if mi[LIVE] and mi[COUNT] == hs.shape[0]:
+                return GROW, j, k
+            flag = _call_cvode(lp[0], lp[2], t_bound, lp[3], lp[6], 2)
+            if flag < 0:
+                return flag, j, k
+            t_new = tret[0]
+            if t_new == tn:  # after an interpolated output behind its time, one-step mode returns that time again
+                continue
+            k += 1
+            checkpoint = mi[LIVE] != 0 and _record(mi, hs, mf, tn, t_new)
+            tn = t_new
+            if (len(angles) and tn < t_bound or len(gimbal)) and _watched(y, angles if tn < t_bound else angles[:0],
+                                                                          bound, gimbal, limit):
+                return WATCH, j, k
+            if checkpoint and tn < t_stop:
+                return CHECKPOINT, j, k
+            if k >= budget and tn < t_stop:
+                return PAUSED, j, k
+        if tn > t_stop:
+            flag = _call_dky(lp[1], lp[2], t_stop, 0, lp[5])
+            if flag < 0:
+                return flag, j, k
+        else:
+            out[:] = y
+        Y[j] = out
+        if not np.all(np.isfinite(out)):
+            return NOT_FINITE, j, k
+        j += 1
+        if checkpoint:
+            return CHECKPOINT, j, k
+        if k >= budget or marks[j - 1]:
+            return PAUSED, j, k
+    return REACHED, j, k

@@ -255,3 +255,12 @@ def test_a_b6_run_equals_its_spatial_twin(method, rtol, b6_reference):
     for field in ("x", "xd"):
         error = np.max(abs(getattr(b, field) - getattr(b6_reference, field)))
         assert np.max(abs(getattr(a, field) - getattr(b, field))) <= 2 * error
+
+
+def test_cvode_with_the_compiled_jtimes_keeps_the_spatial_rhs():
+    """B7 N = 40 (81 coordinates: GMRES with the compiled J v, which reads the spatial factors): the same steps."""
+    model, initial = scenes.b7(40)
+    runs = [fm.simulate(model.build(complement="articulated", planar=planar), 0.2, method="CVODE_BDF", rtol=1e-6,
+                        n_out=5, progress=False, **initial) for planar in (None, False)]
+    assert runs[0].n_steps == runs[1].n_steps and runs[0].n_rhs == runs[1].n_rhs
+    np.testing.assert_array_equal(runs[0].x, runs[1].x)

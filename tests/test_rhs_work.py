@@ -32,7 +32,8 @@ DATA = np.load(HERE / "data" / "rhs_work.npz")
 
 @pytest.mark.parametrize("name", list(make_rhs_work.MODELS))
 def test_rates_into_a_reused_work_array_are_mains(name):
-    system = make_rhs_work.MODELS[name]().build()
+    # the spatial route, which made the stored rates (the planar route is held to it by tests/test_planar_open.py)
+    system = make_rhs_work.MODELS[name]().build(planar=False)
     assert system._packed_open is not None
     nq, n = system.layout.nq, system.n_speeds
     work = np.full(rhs_work_size(system.topology.n_bodies, n), np.nan)
@@ -43,6 +44,25 @@ def test_rates_into_a_reused_work_array_are_mains(name):
         np.testing.assert_allclose(out[: nq + n], ref, rtol=1e-10, atol=1e-10)
         assert np.isnan(out[nq + n :]).all()
         np.testing.assert_allclose(system.state_rate(0.0, y), ref, rtol=1e-10, atol=1e-10)
+
+
+@pytest.mark.parametrize("name", list(make_rhs_work.MODELS))
+def test_planar_rates_into_a_reused_work_array_are_a_fresh_calls(name):
+    """The planar route reads nothing a previous call left in the work array, and writes nothing past the rates."""
+    system = make_rhs_work.MODELS[name]().build()
+    if not system.planar:
+        pytest.skip(f"{name} is not planar: {system.planar_reason}")
+    nq, n = system.layout.nq, system.n_speeds
+    size = rhs_work_size(system.topology.n_bodies, n)
+    reused, armature = np.full(size, np.nan), np.zeros(n)
+    for y in DATA[f"{name}_y"]:
+        out = np.full(nq + n + 2, np.nan)
+        assert open_tree_rhs_into(system._packed_open, y, nq, armature, out, reused) == -1
+        fresh = np.full(nq + n, np.nan)
+        assert open_tree_rhs_into(system._packed_open, y, nq, armature, fresh, np.zeros(size)) == -1
+        np.testing.assert_array_equal(out[: nq + n], fresh)
+        assert np.isnan(out[nq + n :]).all()
+        np.testing.assert_array_equal(system.state_rate(0.0, y), fresh)
 
 
 @pytest.mark.parametrize("name", make_rhs_work.JACOBIANS)

@@ -46,7 +46,7 @@ MODELS = {
 def case(name):
     """The articulated system and its states ``{'rest': (x, xd), 'moving': (x, xd)}``."""
     model, initial, speeds = MODELS[name]()
-    system = model.build(complement="articulated")
+    system = model.build(complement="articulated", planar=False)
     x, xd = fm.initial_state(system, 0.0, **initial, speeds=speeds)
     system = _calibrated(system, 0.0, x, xd)
     return system, {"rest": (x, np.zeros_like(xd)), "moving": (x, xd)}

@@ -65,7 +65,7 @@ def run(name):
     if gain is not None:
         output_projection.OUTPUT_PROJECTION_GAIN = gain
     try:
-        return fm.simulate(model.build(complement=kw.pop("complement", "auto")), span, **kw)
+        return fm.simulate(model.build(complement=kw.pop("complement", "auto"), planar=False), span, **kw)
     finally:
         output_projection.OUTPUT_PROJECTION_GAIN = saved
 

@@ -38,18 +38,18 @@ STATS = ("steps", "rhs", "jac", "err_test_fails", "newton_iters", "lin_setups", 
 
 def b6(n, rtol):
     model, positions = scenes.b6(True, n)
-    return model.build(complement="articulated"), dict(positions=positions, rtol=rtol, atol=rtol / 100)
+    return model.build(complement="articulated", planar=False), dict(positions=positions, rtol=rtol, atol=rtol / 100)
 
 
 def spinning_fourbar():
     """The four-bar's crank turning over and over (restarts and offset moves; CVODE does not project)."""
-    return fourbar().build(complement="articulated"), dict(positions=fourbar_initial(), speeds={"A": 30.0},
+    return fourbar().build(complement="articulated", planar=False), dict(positions=fourbar_initial(), speeds={"A": 30.0},
                                                           rtol=1e-8, atol=1e-10)
 
 
 def b7(n):
     model, initial = scenes.b7(n)
-    return model.build(complement="articulated"), dict(initial, rtol=1e-6, atol=1e-8)
+    return model.build(complement="articulated", planar=False), dict(initial, rtol=1e-6, atol=1e-8)
 
 
 #: name -> (system and options, span s, outputs)
@@ -58,7 +58,7 @@ RUNS = {"b6_8_3e-3": (lambda: b6(8, 3e-3), 0.2, 41), "b6_8_1e-4": (lambda: b6(8,
         "b7_4": (lambda: b7(4), 2.0, 21)}
 #: the stored projections (``cvode_loop_callbacks.project`` at perturbed states): models, perturbations,
 #: the residual from which the state is projected
-PROJECTION_MODELS = {"b6_8": lambda: b6(8, 3e-3), "fourbar": lambda: (fourbar().build(complement="articulated"),
+PROJECTION_MODELS = {"b6_8": lambda: b6(8, 3e-3), "fourbar": lambda: (fourbar().build(complement="articulated", planar=False),
                                                                   dict(positions=fourbar_initial(), rtol=1e-6,
                                                                        atol=1e-8))}
 PERTURB = (1e-7, 3e-6, 1e-4)

@@ -16,11 +16,22 @@ import numpy as np
 from .articulated import open_tree_rhs_into, rhs_work_size
 from .cache import njit
 from .dynamics import spatial_inertias
-from .loop_states import _kinetic
 from .packing import unpack
 from .tree import tree_state
 
 __all__ = ["tree_state_quantities"]
+
+
+@njit(cache=True)
+def _kinetic(mass, v, omega, Iw):
+    """``sum m v^2 / 2 + omega . I omega / 2`` of the bodies (``Kinematics.kinetic_energy``)."""
+    translation = rotation = 0.0
+    for k in range(mass.shape[0]):
+        translation += mass[k] * (v[k, 0] ** 2 + v[k, 1] ** 2 + v[k, 2] ** 2)
+        for j in range(3):
+            rotation += omega[k, j] * (Iw[k, j, 0] * omega[k, 0] + Iw[k, j, 1] * omega[k, 1]
+                                       + Iw[k, j, 2] * omega[k, 2])
+    return 0.5 * translation + 0.5 * rotation
 
 
 @njit(cache=True)

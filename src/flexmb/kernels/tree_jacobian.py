@@ -14,6 +14,10 @@ says which), called by CVODE's dense linear solver through the C callback
 n solves of O(n) each and an n x n product). :func:`fill_state_jacobian`
 assembles J from ``A^-1`` (or, with loops, the constrained solve's P) and
 G here and in :func:`flexmb.kernels.loop_jacobian.loop_state_jacobian`.
+A planar model (:func:`~flexmb.kernels.packing.is_planar`) takes the
+planar route, ``A^-1`` and G on 3-vectors
+(:func:`~flexmb.kernels.planar_tangent.planar_tree_jacobian_parts`), the
+same J.
 """
 
 from __future__ import annotations
@@ -24,7 +28,8 @@ from .articulated import _minus_bias_wrenches, articulated_factor, articulated_s
 from .cache import njit
 from .dynamics import bias_wrenches, composite_inertias, spatial_inertias
 from .loads import apply_load_tables
-from .packing import unpack
+from .packing import is_planar, unpack, unpack_planar
+from .planar_tangent import planar_tree_jacobian_parts
 from .tangent import geometric_stiffness
 from .tree import tree_state
 
@@ -96,6 +101,12 @@ def tree_state_jacobian(packed, y, n, stiffness, damping, J):
     body : int
         With status 1, the body of that joint (else -1).
     """
+    if is_planar(packed):  # the model moves in one plane: 3-vectors (flexmb.kernels.planar_tangent)
+        ints, floats = unpack_planar(packed)
+        P, G, bad = planar_tree_jacobian_parts(ints, floats, y, n)
+        if bad >= 0:
+            return 1, bad
+        return (0, -1) if fill_state_jacobian(P, G, stiffness, damping, n, J) else (2, -1)
     tree, tables, _ = unpack(packed)
     x = y[:n]
     xd = y[n : 2 * n]

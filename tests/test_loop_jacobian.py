@@ -39,9 +39,9 @@ def _sprung_fourbar():
     return model.build(complement="articulated"), dict(positions=fourbar_initial())
 
 
-def _b6(n):
+def _b6(n, planar=None):
     model, positions = scenes.b6(True, n)
-    return model.build(complement="articulated"), dict(positions=positions)
+    return model.build(complement="articulated", planar=planar), dict(positions=positions)
 
 
 def _compiled(system, t, x, xd):

@@ -15,7 +15,8 @@ torques turning with their bodies: :func:`flexmb.integrators.cvode_direct.compil
 says which; J assembled by :func:`~flexmb.kernels.tree_jacobian.fill_state_jacobian`, as the open
 tree's), called by CVODE's dense linear solver through the C callback
 :func:`flexmb.kernels.cvode_loop_callbacks.jac` (n below ``KRYLOV_MIN_COORDS``: n
-solves of O(n m) each and an n x n product).
+solves of O(n m) each and an n x n product). A planar packed model takes
+the same J on 3-vectors (:func:`~flexmb.kernels.planar_loop_jacobian.planar_loop_state_jacobian`).
 """
 
 from __future__ import annotations
@@ -26,7 +27,9 @@ from .cache import njit
 from .dynamics import bias_wrenches, composite_inertias, spatial_inertias
 from .loads import apply_load_tables
 from .loops import _arrays, _constrained_apply, _constrained_factor, _minus_bias_wrenches, _rows
-from .packing import unpack
+from .packing import is_planar, unpack, unpack_planar
+from .planar_loop_jacobian import planar_loop_state_jacobian
+from .planar_loops import HANDOFF
 from .tangent import geometric_stiffness
 from .tree import tree_state
 from .tree_jacobian import fill_state_jacobian
@@ -69,6 +72,12 @@ def loop_state_jacobian(packed, layout, y, n, stiffness, damping, gamma_d, tol, 
         With status 1 or 3, the body whose joint moves no mass (else -1).
     """
     tree, tables, cuts = unpack(packed)
+    if is_planar(packed):  # 3-vectors (flexmb.kernels.planar_loop_jacobian); HANDOFF: decided here
+        ints, floats = unpack_planar(packed)
+        status, body = planar_loop_state_jacobian(ints, floats, tree.coord_body, layout, y, n, stiffness, damping,
+                                                  gamma_d, tol, window, rank_limit, J)
+        if status != HANDOFF:
+            return status, body
     x = y[:n]
     xd = y[n : 2 * n]
     R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = tree_state(tree, x, xd)

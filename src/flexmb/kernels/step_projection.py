@@ -24,7 +24,9 @@ from .constraints import cut_row_wrenches
 from .equations import _cut_residuals
 from .loop_projection import loop_min_norm, min_norm_at_rows
 from .loops import rows_at_kinematics, speeds_at_rows
-from .packing import unpack
+from .packing import is_planar, unpack, unpack_planar
+from .planar_loops import HANDOFF
+from .planar_projection import planar_step_projection
 from .tree import tree_state
 
 __all__ = ["step_projection", "KEPT", "MOVED", "REFUSED", "UNCHECKED", "PROJ_MAX_ITER", "PROJ_MAX_STEP"]
@@ -87,8 +89,19 @@ def step_projection(packed, layout, y, n, cols, p_d, v_d, tol, newton_tol, gain,
         The state's largest position and velocity residuals (``System._constraint_residuals``').
     x, xd : ndarray, shape (n,)
         The projected positions and speeds (MOVED; else the state's).
+
+    Notes
+    -----
+    A planar packed model takes :func:`~flexmb.kernels.planar_projection.planar_step_projection`
+    (the same steps on 3-vectors), unless it hands the state back.
     """
     tree, _, cuts = unpack(packed)
+    if is_planar(packed):  # the planar twin (flexmb.kernels.planar_projection); HANDOFF: decided here
+        ints, floats = unpack_planar(packed)
+        out = planar_step_projection(tree, ints, floats, tree.coord_body, layout, y, n, cols, p_d, v_d, tol,
+                                     newton_tol, gain, rank_tol, window, rank_limit)
+        if out[0] != HANDOFF:
+            return out
     x, xd = y[:n].copy(), y[n:2 * n].copy()
     kin = tree_state(tree, x, xd)
     R, origin, r, omega, v, alpha, acc, jp, Sw, Sv = kin

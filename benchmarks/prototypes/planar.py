@@ -33,6 +33,7 @@ import numpy as np
 from numba import njit
 
 from flexmb.kernels.packing import unpack
+from flexmb.kernels.planar import _rot, backward, factor, forward, inertias, kinematics, loads
 from flexmb.kernels.tree import tree_state
 from flexmb.kernels.views import view2, view3
 
@@ -133,173 +134,6 @@ def make_work(ints, n):
             np.zeros(n), np.zeros(nb + 1), np.zeros((nb + 1, 3)), np.zeros((m, 2, 3)), np.zeros(m),
             np.zeros((nb + 1, m, 3)), np.zeros((n + 1, m)), np.zeros((nb + 1, m)), np.zeros((n, m)),
             np.zeros((nb + 1, m, 3)), np.zeros((m, m)), np.zeros(m))
-
-
-@njit(cache=True, inline="always")
-def _rot(c, s, v0, v1):
-    return c * v0 - s * v1, s * v0 + c * v1
-
-
-@njit(cache=True)
-def kinematics(ints, floats, x, xd, K):
-    """Angles, joint points, mass centres, velocities, joint axes S and bias accelerations, ground last.
-
-    ``K`` (nb + 1, 20) receives per body: 0 theta, 1-2 cos / sin, 3-4 joint
-    point, 5-6 mass centre, 7-9 spatial velocity (w, vOx, vOy), 10-12 S,
-    13-15 the joint's bias acceleration c, 16-18 the spatial bias
-    acceleration (sum of c along the path), 19 unused.
-    """
-    parent, coord, kind = ints[0], ints[1], ints[2]
-    axis, lever, u = floats[0], floats[1], floats[2]
-    nb = parent.shape[0]
-    K[nb, :] = 0.0
-    K[nb, 1] = 1.0
-    for k in range(nb):
-        p = parent[k]
-        cp, sp = K[p, 1], K[p, 2]
-        c = coord[k]
-        q, qd = (x[c], xd[c]) if c >= 0 else (0.0, 0.0)
-        lx, ly = lever[k, 0], lever[k, 1]
-        if kind[k] == PRISMATIC:
-            lx += axis[k, 0] * q
-            ly += axis[k, 1] * q
-        sx, sy = _rot(cp, sp, lx, ly)
-        jx, jy = K[p, 3] + sx, K[p, 4] + sy
-        th = K[p, 0] + (axis[k, 0] * q if kind[k] == REVOLUTE else 0.0)
-        ct, st = (np.cos(th), np.sin(th)) if kind[k] == REVOLUTE else (cp, sp)
-        ux, uy = _rot(ct, st, u[k, 0], u[k, 1])
-        K[k, 0], K[k, 1], K[k, 2], K[k, 3], K[k, 4], K[k, 5], K[k, 6] = th, ct, st, jx, jy, jx + ux, jy + uy
-        if kind[k] == REVOLUTE:
-            s = axis[k, 0]
-            S0, S1, S2 = s, s * jy, -s * jx
-        elif kind[k] == PRISMATIC:
-            S0, (S1, S2) = 0.0, _rot(cp, sp, axis[k, 0], axis[k, 1])
-        else:
-            S0 = S1 = S2 = 0.0
-        w, vx, vy = K[p, 7], K[p, 8], K[p, 9]
-        m0, m1, m2 = S0 * qd, S1 * qd, S2 * qd
-        K[k, 7], K[k, 8], K[k, 9] = w + m0, vx + m1, vy + m2
-        K[k, 10], K[k, 11], K[k, 12] = S0, S1, S2
-        # c = v_parent x (S qd): the motion cross product in the plane
-        c0, c1, c2 = 0.0, -w * m2 + vy * m0, w * m1 - vx * m0
-        K[k, 13], K[k, 14], K[k, 15] = c0, c1, c2
-        K[k, 16], K[k, 17], K[k, 18] = K[p, 16] + c0, K[p, 17] + c1, K[p, 18] + c2
-
-
-@njit(cache=True)
-def loads(ints, floats, x, xd, K, pA, tau):
-    """Bias forces minus applied loads ``pA = v x* (I v) - f`` per body (ground last), joint forces ``tau``.
-
-    Gravity ``m g`` at the mass centres; coordinate springs and dampers
-    ``tau_c = -k (x - rest) - c xd``.
-    """
-    mass, J, g = floats[3], floats[4], floats[5]
-    nb = mass.shape[0]
-    for k in range(nb + 1):
-        pA[k, 0] = pA[k, 1] = pA[k, 2] = 0.0
-    for k in range(nb):
-        m = mass[k]
-        rx, ry = K[k, 5], K[k, 6]
-        w, vx, vy = K[k, 7], K[k, 8], K[k, 9]
-        # v x* (I v): the linear momentum h (the moment's own term w x h0 is zero in the plane)
-        hx, hy = m * (vx - w * ry), m * (vy + w * rx)
-        pA[k, 0] = vx * hy - vy * hx - m * (rx * g[1] - ry * g[0])
-        pA[k, 1] = -w * hy - m * g[0]
-        pA[k, 2] = w * hx - m * g[1]
-    tau[:] = 0.0
-    cols, kk, cc, rest = ints[3], floats[6], floats[7], floats[8]
-    for i in range(cols.shape[0]):
-        c = cols[i]
-        tau[c] -= kk[i] * (x[c] - rest[i]) + cc[i] * xd[c]
-
-
-@njit(cache=True)
-def inertias(floats, K, IA):
-    """Each body's spatial inertia about the origin, 6 entries of the symmetric 3 x 3: (00, 01, 02, 11, 12, 22)."""
-    mass, J = floats[3], floats[4]
-    for k in range(mass.shape[0]):
-        m, rx, ry = mass[k], K[k, 5], K[k, 6]
-        IA[k, 0], IA[k, 1], IA[k, 2] = J[k] + m * (rx * rx + ry * ry), -m * ry, m * rx
-        IA[k, 3], IA[k, 4], IA[k, 5] = m, 0.0, m
-
-
-@njit(cache=True, inline="always")
-def _sym_times(I, k, a0, a1, a2):
-    return (I[k, 0] * a0 + I[k, 1] * a1 + I[k, 2] * a2, I[k, 1] * a0 + I[k, 3] * a1 + I[k, 4] * a2,
-            I[k, 2] * a0 + I[k, 4] * a1 + I[k, 5] * a2)
-
-
-@njit(cache=True)
-def factor(ints, K, IA, UD):
-    """The articulated inertias, from the leaves in: ``UD[k] = (U = IA S, 1 / D)``, ``IA_P += IA - U U^T / D``."""
-    parent = ints[0]
-    nb = parent.shape[0]
-    for k in range(nb - 1, -1, -1):
-        S0, S1, S2 = K[k, 10], K[k, 11], K[k, 12]
-        U0, U1, U2 = _sym_times(IA, k, S0, S1, S2)
-        D = S0 * U0 + S1 * U1 + S2 * U2
-        Di = 1.0 / D if D != 0.0 else 0.0
-        UD[k, 0], UD[k, 1], UD[k, 2], UD[k, 3] = U0, U1, U2, Di
-        p = parent[k]
-        if p == nb:
-            continue
-        IA[p, 0] += IA[k, 0] - U0 * U0 * Di
-        IA[p, 1] += IA[k, 1] - U0 * U1 * Di
-        IA[p, 2] += IA[k, 2] - U0 * U2 * Di
-        IA[p, 3] += IA[k, 3] - U1 * U1 * Di
-        IA[p, 4] += IA[k, 4] - U1 * U2 * Di
-        IA[p, 5] += IA[k, 5] - U2 * U2 * Di
-
-
-@njit(cache=True)
-def backward(ints, K, IA, UD, pA, tau, uu, bias):
-    """From the leaves in: ``u = tau - S . pA``, ``pA_P += pA + Ia c + U u / D`` (``bias``: the ``Ia c`` term).
-
-    ``pA`` (nb + 1, 3) and ``tau`` are overwritten; ``uu`` (nb,) receives u.
-    """
-    parent, coord = ints[0], ints[1]
-    nb = parent.shape[0]
-    for k in range(nb - 1, -1, -1):
-        S0, S1, S2 = K[k, 10], K[k, 11], K[k, 12]
-        U0, U1, U2, Di = UD[k, 0], UD[k, 1], UD[k, 2], UD[k, 3]
-        c = coord[k]
-        u = (tau[c] if c >= 0 else 0.0) - (S0 * pA[k, 0] + S1 * pA[k, 1] + S2 * pA[k, 2])
-        uu[k] = u
-        p = parent[k]
-        if p == nb:
-            continue
-        f = u * Di
-        p0, p1, p2 = pA[k, 0] + U0 * f, pA[k, 1] + U1 * f, pA[k, 2] + U2 * f
-        if bias:
-            c0, c1, c2 = K[k, 13], K[k, 14], K[k, 15]
-            a0, a1, a2 = _sym_times(IA, k, c0, c1, c2)
-            g = (U0 * c0 + U1 * c1 + U2 * c2) * Di
-            p0 += a0 - U0 * g
-            p1 += a1 - U1 * g
-            p2 += a2 - U2 * g
-        pA[p, 0] += p0
-        pA[p, 1] += p1
-        pA[p, 2] += p2
-
-
-@njit(cache=True)
-def forward(ints, K, UD, uu, bias, acc, xdd):
-    """From the ground out: ``a = a_P (+ c)``, ``xdd = (u - U . a) / D``, ``a += S xdd``; ``acc`` (nb + 1, 3)."""
-    parent, coord = ints[0], ints[1]
-    nb = parent.shape[0]
-    acc[nb, 0] = acc[nb, 1] = acc[nb, 2] = 0.0
-    for k in range(nb):
-        p = parent[k]
-        a0, a1, a2 = acc[p, 0], acc[p, 1], acc[p, 2]
-        if bias:
-            a0 += K[k, 13]
-            a1 += K[k, 14]
-            a2 += K[k, 15]
-        c = coord[k]
-        q = (uu[k] - (UD[k, 0] * a0 + UD[k, 1] * a1 + UD[k, 2] * a2)) * UD[k, 3]
-        if c >= 0:
-            xdd[c] = q
-        acc[k, 0], acc[k, 1], acc[k, 2] = a0 + K[k, 10] * q, a1 + K[k, 11] * q, a2 + K[k, 12] * q
 
 
 @njit(cache=True)
@@ -448,7 +282,7 @@ def planar_rhs_into(ints, floats, y, n, gamma_d, ydot, work, upto):
     if upto == 2:
         return
     inertias(floats, Kin, IA)
-    factor(ints, Kin, IA, UD)
+    factor(ints, Kin, IA, UD, np.zeros(n))
     if m:
         responses(ints, Kin, UD, W, pC, tauC, uC, Y, accC)
         for a in range(m):

@@ -128,14 +128,25 @@ def term_scale(ints, floats, y, n, gamma_d, work):
 
 
 def _extended_kernels():
-    """planar.py's kernels run as Python (numba's ``njit`` made the identity), for np.longdouble arrays."""
+    """planar.py's kernels and flexmb.kernels.planar's, which it imports, run as Python (numba's ``njit`` made
+    the identity), for np.longdouble arrays."""
     import planar
+    from flexmb.kernels import planar as core
 
-    src = open(planar.__file__).read().replace(
-        "from numba import njit", "def njit(*a, **k):\n    return a[0] if a and callable(a[0]) else (lambda f: f)")
-    space = {"__name__": "planar_extended"}
-    exec(compile(src, "planar_extended", "exec"), space)
-    return space["planar_rhs_into"]
+    ident = "def njit(*a, **k):\n    return a[0] if a and callable(a[0]) else (lambda f: f)\n"
+    core_src = (open(core.__file__).read()
+                .replace("from numba.extending import register_jitable\n", "")
+                .replace("from .cache import njit\n", ident + "register_jitable = njit\n")
+                .replace("from .packing import", "from flexmb.kernels.packing import")
+                .replace("from .views import", "from flexmb.kernels.views import"))
+    space = {"__name__": "planar_core_extended"}
+    exec(compile(core_src, "planar_core_extended", "exec"), space)
+    names = ("_rot", "backward", "factor", "forward", "inertias", "kinematics", "loads")
+    src = open(planar.__file__).read().replace("from numba import njit\n", ident).replace(
+        f"from flexmb.kernels.planar import {', '.join(names)}\n", "")
+    proto = {"__name__": "planar_extended", **{k: space[k] for k in names}}
+    exec(compile(src, "planar_extended", "exec"), proto)
+    return proto["planar_rhs_into"]
 
 
 def extended_rate(rhs, ints, floats, y, n, gamma_d):
